@@ -1,0 +1,165 @@
+"""The parallel DE engine: explicit state, `init`, `step` and `run`, on CPU or GPU.
+
+State is immutable from the caller's side: `run` works in fresh ping-pong buffers and returns
+a new EvolutionState; the one passed in is never changed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.problem import Problem
+
+STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
+LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
+DEVICES = ("cpu", "gpu")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """DE settings. The defaults converge on IK problems (current-to-best/1/bin, F 0.5, CR 0.9);
+    `Settings.paper()` is the paper's rand/1/bin for reproducing its figures. `patience`:
+    generations without improvement before a problem stops. `stop_on_converged`: stop a
+    problem once every goal with a tolerance is met; None (default) stops then unless a goal
+    without tolerance (comfort) is left to improve, which runs on until stagnation."""
+
+    population: int = 256
+    generations: int = 2000
+    strategy: str = "current-to-best/1/bin"
+    F: float = 0.5
+    CR: float = 0.9
+    seed: int = 0
+    patience: int = 300
+    stop_on_converged: bool | None = None
+    device: str = "cpu"
+    dtype: str = "float32"
+
+    @classmethod
+    def paper(cls, **changes) -> "Settings":
+        """Algorithm 1's settings: rand/1/bin, CR 0.5 (its FW = 2 diverges; F 0.5 is used)."""
+        return cls(**{"strategy": "rand/1/bin", "F": 0.5, "CR": 0.5, "population": 500, **changes})
+
+    def __post_init__(self):
+        if self.strategy not in STRATEGIES:
+            raise ValueError(f"strategy must be one of {list(STRATEGIES)}, got {self.strategy!r}")
+        if not (isinstance(self.population, int) and self.population >= 4):
+            raise ValueError(f"population must be an integer >= 4 (DE needs 3 donors), got {self.population!r}")
+        if not (isinstance(self.generations, int) and self.generations >= 1):
+            raise ValueError(f"generations must be a positive integer, got {self.generations!r}")
+        if not (0 < self.F <= 2 and math.isfinite(self.F)):
+            raise ValueError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
+        if not 0 <= self.CR <= 1:
+            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
+        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**64):
+            raise ValueError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
+        if not (isinstance(self.patience, int) and self.patience >= 1):
+            raise ValueError(f"patience must be a positive integer, got {self.patience!r}")
+        if self.device not in DEVICES:
+            raise ValueError(f"device must be 'cpu' or 'gpu', got {self.device!r}")
+        if self.dtype not in ("float32", "float64"):
+            raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class EvolutionState:
+    """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T); per problem: best
+    index, active, generations used, converged, best total seen, generation of last
+    improvement; history (B, G, 2) of best and mean total fitness; `generation` counter."""
+
+    pop: np.ndarray
+    levels: np.ndarray
+    total: np.ndarray
+    raw: np.ndarray
+    best: np.ndarray
+    active: np.ndarray
+    generations: np.ndarray
+    converged: np.ndarray
+    best_seen: np.ndarray
+    last_improved: np.ndarray
+    history: np.ndarray
+    generation: int
+
+    @property
+    def buffers(self):
+        return self.pop, self.levels, self.total, self.raw
+
+    @property
+    def status(self):
+        return self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved
+
+
+class Engine:
+    """Binds a Problem and Settings to a backend; `init` -> state, `step`/`run` -> new state."""
+
+    def __init__(self, problem: Problem, settings: Settings = Settings()):
+        self.problem, self.settings = problem, settings
+        dtype = np.dtype(settings.dtype)
+        self.skel = pack_skeleton(problem.skeleton, dtype)
+        self.terms = pack_terms(problem.table, problem.reference, dtype)
+        self.kernel_settings = (
+            np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
+            dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed),
+        )
+        stop = settings.stop_on_converged
+        if stop is None:
+            weight, tolerance = problem.table.term_float[:, 0], problem.table.term_float[:, 3]
+            stop = not bool(((weight > 0) & (tolerance < 0)).any())
+        self.control = (np.int64(settings.patience), 1e-7, stop)
+        if settings.device == "gpu":
+            from deik.kernels.cuda import CudaBackend
+
+            self.backend = CudaBackend()
+        else:
+            from deik.kernels.cpu_backend import CpuBackend
+
+            self.backend = CpuBackend()
+
+    def _initial(self, initial, B, D, dtype):
+        if initial is None:
+            return np.zeros((B, 1, D), dtype), 0
+        init = self.problem.skeleton.check_angles(initial, "initial poses")
+        init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
+        if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
+            raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
+        init = np.broadcast_to(init, (B,) + init.shape[1:])
+        return np.ascontiguousarray(init, dtype), init.shape[1]
+
+    def init(self, initial=None) -> EvolutionState:
+        """Random first population inside the limits (seeded with `initial` poses), evaluated."""
+        B, P, D = self.problem.batch_size, self.settings.population, self.problem.skeleton.n_dofs
+        T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
+        init, n_init = self._initial(initial, B, D, dtype)
+        pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
+        total, raw = np.empty((B, P), dtype), np.empty((B, P, T), dtype)
+        self.backend.initialise((pop, levels, total, raw), self.skel, self.terms, self.kernel_settings[4], init, n_init)
+        best = np.array([int(np.lexsort(levels[b].T[::-1])[0]) for b in range(B)], np.int64)
+        return EvolutionState(
+            pop, levels, total, raw, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
+            total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros((B, 0, 2)), 0,
+        )
+
+    def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
+        """Run up to n_generations more (each problem stops on convergence or stagnation)."""
+        B = state.pop.shape[0]
+        cur = tuple(a.copy() for a in state.buffers)
+        nxt = tuple(np.empty_like(a) for a in state.buffers)
+        status = tuple(a.copy() for a in state.status)
+        used = int(state.generations.max()) if B else 0
+        history = np.zeros((B, state.history.shape[1] + n_generations, 2))
+        history[:, : state.history.shape[1]] = state.history
+        swaps = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, status,
+                                 self.control, history, state.generation, n_generations)
+        final = cur if swaps % 2 == 0 else nxt
+        used = int(status[2].max()) if B else 0
+        return EvolutionState(*final, *status, history[:, :used], state.generation + swaps)
+
+    def step(self, state: EvolutionState) -> EvolutionState:
+        """One generation."""
+        return self.run(state, 1)
+
+    def with_settings(self, **changes) -> "Engine":
+        return Engine(self.problem, replace(self.settings, **changes))

@@ -1,0 +1,44 @@
+"""Pack a Skeleton and a TermTable into the array tuples the kernels read (see device.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.objectives.table import TermTable
+from deik.skeleton import Skeleton
+
+
+def ground_frame(up: np.ndarray) -> np.ndarray:
+    """(3, 3): two horizontal unit axes, then `up`."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(up, helper)
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(up, e1), up])
+
+
+def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> tuple:
+    """The `skel` tuple; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi)."""
+    s = skeleton
+    f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
+    joint_int = np.stack([s.parents, s.joint_dof_start[:-1], s.joint_dof_start[1:]], axis=1)
+    site_frame = np.concatenate([s.site_offset, s.site_rotation.reshape(-1, 9)], axis=1)
+    total = s.mass_value.sum()
+    fraction = s.mass_value / total if total > 0 else s.mass_value
+    mass_data = np.concatenate([s.mass_offset, fraction[:, None]], axis=1)
+    if limits is None:
+        limits = np.stack([s.lower, s.upper], axis=1)
+    return (
+        np.ascontiguousarray(joint_int, np.int32), f(s.offsets), np.ascontiguousarray(s.dof_kind, np.int32),
+        f(s.dof_axis), np.ascontiguousarray(s.site_joint, np.int32), f(site_frame.reshape(-1, 12)),
+        np.ascontiguousarray(s.mass_joint, np.int32), f(mass_data.reshape(-1, 4)), f(limits),
+        f(ground_frame(s.up)),
+    )
+
+
+def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> tuple:
+    """The `terms` tuple: term_int, term_float, params (B, T, 12), dof_weight, reference (B, D)."""
+    f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
+    return (
+        np.ascontiguousarray(table.term_int, np.int32), f(table.term_float), f(table.params),
+        f(table.dof_weight), f(reference),
+    )

@@ -1,0 +1,83 @@
+"""Compile the one-source device maths (deik.kernels.device) for each target.
+
+`cpu` is the device module compiled with numba.njit(cache=True); `cuda_device()` compiles the
+same source with numba.cuda.jit(device=True) on first use. Each compile execs the source into
+a fresh module, so calls between device functions stay on one target.
+
+Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
+device.py, so kernel files get a locator whose stamp hashes every source in this folder: an
+edit to any of them recompiles all of them instead of loading a stale kernel.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import sys
+import types
+from functools import lru_cache
+from pathlib import Path
+
+from numba import njit
+from numba.core import caching
+
+KERNEL_DIR = Path(__file__).resolve().parent
+
+
+def _kernel_sources_stamp() -> bytes:
+    digest = hashlib.sha256()
+    for path in sorted(KERNEL_DIR.glob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.digest()
+
+
+class _KernelStampMixin:
+    """Use the hash of all kernel sources as the cache stamp; only for files in KERNEL_DIR."""
+
+    def get_source_stamp(self):
+        return _kernel_sources_stamp()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if Path(py_file).resolve().parent != KERNEL_DIR:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+class _InTreeKernelLocator(_KernelStampMixin, caching.InTreeCacheLocator):
+    pass
+
+
+class _UserWideKernelLocator(_KernelStampMixin, caching.UserWideCacheLocator):
+    pass
+
+
+for _locator in (_UserWideKernelLocator, _InTreeKernelLocator):
+    if _locator not in caching.CacheImpl._locator_classes:
+        caching.CacheImpl._locator_classes.insert(0, _locator)
+
+
+def compile_namespace(source_module: types.ModuleType, name: str, decorate) -> types.ModuleType:
+    """Exec `source_module`'s file into a new module `name`, wrapping its functions in `decorate`."""
+    path = source_module.__file__
+    module = types.ModuleType(name)
+    module.__file__ = path
+    exec(compile(Path(path).read_text(), path, "exec"), module.__dict__)
+    for key, value in list(module.__dict__.items()):
+        if inspect.isfunction(value) and value.__module__ == name:
+            setattr(module, key, decorate(value))
+    sys.modules[name] = module
+    return module
+
+
+from deik.kernels import device as _device_source  # noqa: E402
+
+cpu = compile_namespace(_device_source, "deik.kernels._device_cpu", njit(cache=True, nogil=True))
+
+
+@lru_cache(maxsize=1)
+def cuda_device() -> types.ModuleType:
+    """The device maths compiled for numba-cuda (or its simulator); imports numba.cuda lazily."""
+    from numba import cuda
+
+    return compile_namespace(_device_source, "deik.kernels._device_cuda", cuda.jit(device=True))

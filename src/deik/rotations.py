@@ -1,0 +1,59 @@
+"""Rotation helpers in NumPy: axis-angle matrices, Euler orders, angles between rotations.
+
+Conventions: angles in radians; rotation matrices act on column vectors; an Euler order such as
+"ZXY" is intrinsic, R = Rz(a) @ Rx(b) @ Ry(c), the convention BVH files use. All functions
+accept any leading batch shape.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+
+
+def axis_angle_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotation matrices about unit `axis` (3,) by `angle` (*batch,) radians -> (*batch, 3, 3)."""
+    axis = np.asarray(axis, dtype=np.float64)
+    angle = np.asarray(angle, dtype=np.float64)
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    t = 1.0 - c
+    rows = [
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+    ]
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def euler_matrix(order: str, angles: np.ndarray) -> np.ndarray:
+    """Intrinsic Euler rotation: `order` like "ZXY", `angles` (*batch, len(order)) -> (*batch, 3, 3)."""
+    angles = np.asarray(angles, dtype=np.float64)
+    if angles.shape[-1] != len(order):
+        raise ValueError(f"euler order {order!r} needs {len(order)} angles, got {angles.shape[-1]}")
+    R = np.broadcast_to(np.eye(3), angles.shape[:-1] + (3, 3))
+    for k, letter in enumerate(order.upper()):
+        R = R @ axis_angle_matrix(np.array(AXES[letter]), angles[..., k])
+    return R
+
+
+def rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
+    """Angle (radians, in [0, pi]) of the rotation R_a^T R_b; (*batch, 3, 3) each -> (*batch,).
+
+    Uses atan2 of the skew and trace parts, which stays accurate near 0 where acos does not.
+    """
+    R = np.swapaxes(R_a, -1, -2) @ R_b
+    skew = np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+        axis=-1,
+    )
+    sin_part = 0.5 * np.linalg.norm(skew, axis=-1)
+    cos_part = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    return np.arctan2(sin_part, cos_part)
+
+
+def direction_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle (radians) between vectors a and b, (*batch, 3) each -> (*batch,)."""
+    cross = np.linalg.norm(np.cross(a, b), axis=-1)
+    return np.arctan2(cross, np.sum(a * b, axis=-1))

@@ -1,0 +1,204 @@
+"""The Skeleton: a frozen tree of joints, their degrees of freedom, sites and masses as arrays.
+
+Joints are in topological order (parent index < child index, root -1). Frames are the joints
+followed by the sites: frame f < n_joints is joint f, otherwise site f - n_joints. Built with
+`deik.joints.build_skeleton` or a builder (`chain`, `humanoid`); validated on construction.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+
+def _fail(message: str) -> None:
+    raise ValueError(message)
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """Arrays read by forward kinematics and the kernels. J joints, D DOFs, S sites, M masses.
+
+    parents (J,) int32; offsets (J, 3) joint origin in parent frame; joint_dof_start (J+1,)
+    CSR pointer into the DOF arrays; dof_joint (D,), dof_kind (D,) ROTATE/TRANSLATE,
+    dof_axis (D, 3) in the joint frame; lower/upper/reference (D,) radians or length units;
+    site_joint (S,), site_offset (S, 3), site_rotation (S, 3, 3); mass_joint (M,),
+    mass_offset (M, 3) in the joint frame, mass_value (M,) kg; up (3,) world up direction.
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    joint_dof_start: np.ndarray
+    dof_names: tuple[str, ...]
+    dof_joint: np.ndarray
+    dof_kind: np.ndarray
+    dof_axis: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    reference: np.ndarray
+    site_names: tuple[str, ...]
+    site_joint: np.ndarray
+    site_offset: np.ndarray
+    site_rotation: np.ndarray
+    mass_joint: np.ndarray
+    mass_offset: np.ndarray
+    mass_value: np.ndarray
+    up: np.ndarray
+
+    def __post_init__(self):
+        for key, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                value = np.ascontiguousarray(value)
+                value.setflags(write=False)
+                object.__setattr__(self, key, value)
+        self._validate()
+
+    def _validate(self) -> None:
+        J, D = len(self.joint_names), len(self.dof_names)
+        if J == 0:
+            _fail("a skeleton needs at least one joint")
+        names = list(self.joint_names) + list(self.site_names)
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            _fail(f"duplicate joint/site names {dupes}; joints and sites share one namespace")
+        if self.parents.shape != (J,) or self.offsets.shape != (J, 3):
+            _fail(f"parents must be ({J},) and offsets ({J}, 3)")
+        for k, p in enumerate(self.parents):
+            if k == 0 and p != -1:
+                _fail(f"joint 0 ({self.joint_names[0]!r}) must be the root with parent -1, got {p}")
+            if k > 0 and not 0 <= p < k:
+                _fail(
+                    f"joint {k} ({self.joint_names[k]!r}) has parent index {p}: parents must be "
+                    f"earlier joints (0 <= parent < {k}); a later or missing parent means a cycle "
+                    "or a bad index; build with deik.joints.build_skeleton to sort joints"
+                )
+        for label, arr in (("offsets", self.offsets), ("site_offset", self.site_offset),
+                           ("mass_offset", self.mass_offset), ("dof_axis", self.dof_axis)):
+            bad = ~np.isfinite(arr).all(axis=-1) if arr.size else np.zeros(0, bool)
+            if bad.any():
+                _fail(f"{label} row {int(np.argmax(bad))} is not finite (NaN or infinite): {arr[bad][0]}")
+        if self.joint_dof_start.shape != (J + 1,) or self.joint_dof_start[-1] != D:
+            _fail(f"joint_dof_start must be ({J + 1},) ending at the DOF count {D}")
+        if D and (np.abs(np.linalg.norm(self.dof_axis, axis=1) - 1.0) > 1e-6).any():
+            _fail("every DOF axis must be a unit vector")
+        if np.isnan(self.lower).any() or np.isnan(self.upper).any():
+            _fail("joint limits must not be NaN")
+        inverted = np.flatnonzero(self.lower > self.upper)
+        if inverted.size:
+            k = inverted[0]
+            _fail(
+                f"DOF {self.dof_names[k]!r} has inverted limits: lower {self.lower[k]:.6g} > "
+                f"upper {self.upper[k]:.6g}; swap them"
+            )
+        if not np.isfinite(self.reference).all():
+            _fail("the reference (comfort) pose must be finite")
+        if (self.mass_value < 0).any() or not np.isfinite(self.mass_value).all():
+            k = int(np.argmax(~(self.mass_value >= 0)))
+            joint = self.joint_names[self.mass_joint[k]]
+            _fail(f"mass {self.mass_value[k]!r} kg on joint {joint!r} is negative or not finite")
+        if self.site_rotation.shape != (len(self.site_names), 3, 3):
+            _fail("site_rotation must be (S, 3, 3)")
+        for k, R in enumerate(self.site_rotation):
+            if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+                _fail(f"site {self.site_names[k]!r} rotation is not a proper rotation matrix")
+        if not np.isfinite(self.up).all() or abs(np.linalg.norm(self.up) - 1.0) > 1e-6:
+            _fail(f"up must be a unit vector, got {self.up}")
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def n_dofs(self) -> int:
+        return len(self.dof_names)
+
+    @property
+    def n_frames(self) -> int:
+        """Joints plus sites."""
+        return len(self.joint_names) + len(self.site_names)
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        return self.joint_names + self.site_names
+
+    @property
+    def total_mass(self) -> float:
+        return float(self.mass_value.sum())
+
+    @cached_property
+    def _frame_path_length(self) -> np.ndarray:
+        """(F,) bone length from the root to each frame, non-root slides at full range."""
+        from deik.joints import TRANSLATE
+
+        slide = np.where(self.dof_kind == TRANSLATE, np.maximum(abs(self.lower), abs(self.upper)), 0.0)
+        depth = np.zeros(self.n_joints)
+        for k in range(1, self.n_joints):
+            dofs = slice(self.joint_dof_start[k], self.joint_dof_start[k + 1])
+            depth[k] = depth[self.parents[k]] + np.linalg.norm(self.offsets[k]) + slide[dofs].sum()
+        site = depth[self.site_joint] + np.linalg.norm(self.site_offset, axis=1)
+        return np.concatenate([depth, site])
+
+    def path_length(self, frame: int) -> float:
+        """Longest distance frame `frame` can lie from the root joint's origin."""
+        return float(self._frame_path_length[frame])
+
+    @cached_property
+    def reach(self) -> float:
+        """Longest root-to-frame path length (sum of bone lengths); the scale of the problem."""
+        longest = float(self._frame_path_length.max())
+        return longest if longest > 0 else 1.0
+
+    def root_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (3,) of where the root joint's origin can be."""
+        from deik.joints import TRANSLATE
+
+        lo, hi = self.offsets[0].copy(), self.offsets[0].copy()
+        for d in range(self.joint_dof_start[0], self.joint_dof_start[1]):
+            if self.dof_kind[d] == TRANSLATE:
+                ends = np.stack([self.dof_axis[d] * self.lower[d], self.dof_axis[d] * self.upper[d]])
+                with np.errstate(invalid="ignore"):
+                    ends = np.nan_to_num(ends, nan=0.0)
+                lo, hi = lo + ends.min(axis=0), hi + ends.max(axis=0)
+        return lo, hi
+
+    def frame_index(self, name: str) -> int:
+        """Index of joint or site `name`; unknown names raise with close matches suggested."""
+        frames = self.frame_names
+        if name in frames:
+            return frames.index(name)
+        close = difflib.get_close_matches(name, frames, n=3)
+        hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+        raise KeyError(f"joint or site {name!r} not found in skeleton {self.name!r}{hint}")
+
+    def joint_dofs(self, name: str) -> slice:
+        """The slice of the angle vector that belongs to joint `name`."""
+        k = self.frame_index(name)
+        if k >= self.n_joints:
+            raise KeyError(f"{name!r} is a site, not a joint: sites have no degrees of freedom")
+        return slice(int(self.joint_dof_start[k]), int(self.joint_dof_start[k + 1]))
+
+    def angles_by_joint(self, angles: np.ndarray) -> dict[str, np.ndarray]:
+        """Split a pose (D,) into {joint name: its DOF values}, joints without DOFs left out."""
+        angles = np.asarray(angles)
+        return {
+            n: angles[self.joint_dofs(n)].copy()
+            for n in self.joint_names
+            if self.joint_dofs(n).stop > self.joint_dofs(n).start
+        }
+
+    def check_angles(self, angles, name: str = "angles") -> np.ndarray:
+        """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""
+        a = np.asarray(angles, dtype=np.float64)
+        if a.ndim == 0 or a.shape[-1] != self.n_dofs:
+            raise ValueError(
+                f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, "
+                f"got {a.shape}"
+            )
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name} contain NaN or infinite values")
+        return a

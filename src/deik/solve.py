@@ -1,0 +1,72 @@
+"""solve(): pose one problem (or a batch of them) with the parallel DE engine."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import fields
+
+import numpy as np
+
+from deik.evolution.engine import Engine, Settings
+from deik.objectives.reference import raw_errors
+from deik.problem import Problem
+from deik.result import GoalReport, Result
+
+PROGRESS_CHUNK = 100
+
+
+def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
+    """Solve `problem`; settings from `settings` and/or keyword overrides (population,
+    generations, strategy, F, CR, seed, patience, device, dtype). `initial`: poses (n, D) or
+    (B, n, D) seeding the population. `progress(generation, best_fitness)` is called every
+    PROGRESS_CHUNK generations when given. Returns an immutable Result."""
+    if not isinstance(problem, Problem):
+        raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
+    names = {f.name for f in fields(Settings)}
+    unknown = sorted(set(overrides) - names)
+    if unknown:
+        raise TypeError(f"unknown solve() settings {unknown}; choose from {sorted(names)}")
+    settings = Settings(**{**(vars(settings) if settings else {}), **overrides})
+    engine = Engine(problem, settings)
+    start = time.perf_counter()
+    state = engine.init(initial)
+    chunk = PROGRESS_CHUNK if progress else settings.generations
+    while state.generation < settings.generations and state.active.any():
+        state = engine.run(state, min(chunk, settings.generations - state.generation))
+        if progress:
+            progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
+    wall = time.perf_counter() - start
+    return make_result(problem, engine.settings, state, wall)
+
+
+def make_result(problem: Problem, settings: Settings, state, wall_time: float) -> Result:
+    """Result from a final EvolutionState; errors are recomputed in float64."""
+    B = problem.batch_size
+    best = state.pop[np.arange(B), state.best].astype(np.float64)
+    raw = raw_errors(problem, best, np.arange(B))
+    table = problem.table
+    norm = table.normalise(raw)
+    squeeze = (lambda a: a[0]) if not _is_batched(problem) else (lambda a: a)
+    goals = tuple(
+        GoalReport(label, squeeze(raw[:, t]), squeeze(norm[:, t]), float(table.term_float[t, 0]),
+                   float(table.term_float[t, 3]), int(table.term_int[t, 1]))
+        for t, label in enumerate(table.labels)
+    )
+    converged = np.all([np.asarray(g.met) | (g.weight <= 0) for g in goals], axis=0) if goals else np.ones(B, bool)
+    return Result(
+        skeleton=problem.skeleton,
+        angles=squeeze(best),
+        fitness=np.asarray(squeeze((norm * table.term_float[:, 0]).sum(axis=1))),
+        goals=goals,
+        generations=np.asarray(squeeze(state.generations)),
+        converged=np.asarray(converged if _is_batched(problem) else np.asarray(converged).reshape(-1)[0]),
+        history=np.asarray(squeeze(state.history)),
+        wall_time=wall_time,
+        device=settings.device,
+        settings=settings,
+    )
+
+
+def _is_batched(problem: Problem) -> bool:
+    """Results keep a batch axis only when the problem poses more than one target set."""
+    return problem.batch_size > 1
