@@ -148,14 +148,12 @@ class Engine:
         cur = tuple(a.copy() for a in state.buffers)
         nxt = tuple(np.empty_like(a) for a in state.buffers)
         status = tuple(a.copy() for a in state.status)
-        used = int(state.generations.max()) if B else 0
         history = np.zeros((B, state.history.shape[1] + n_generations, 2))
         history[:, : state.history.shape[1]] = state.history
-        swaps = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, status,
-                                 self.control, history, state.generation, n_generations)
-        final = cur if swaps % 2 == 0 else nxt
+        final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, status,
+                                           self.control, history, state.generation, n_generations)
         used = int(status[2].max()) if B else 0
-        return EvolutionState(*final, *status, history[:, :used], state.generation + swaps)
+        return EvolutionState(*final, *status, history[:, :used], state.generation + advanced)
 
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""

@@ -48,38 +48,6 @@ def initialise(pop, levels, total, raw, skel, terms, seed, initial, n_initial, n
             total[b, i] = dev.evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
 
 
-@njit(cache=True)
-def update_status(b, gen, pop_state, terms, status, control, history):
-    """After a generation: best index, history, convergence and stagnation of problem b."""
-    pop, levels, total, raw = pop_state
-    best, active, generations, converged, best_seen, last_improved = status
-    patience, rel_improvement, stop_on_converged = control
-    term_float = terms[1]
-    P = pop.shape[1]
-    k = 0
-    mean = 0.0
-    for i in range(P):
-        mean += total[b, i]
-        if i > 0 and not dev.not_worse(levels[b, k], levels[b, i]):
-            k = i
-    best[b] = k
-    history[b, generations[b], 0] = total[b, k]
-    history[b, generations[b], 1] = mean / P
-    generations[b] += 1
-    met = True
-    for t in range(raw.shape[2]):
-        if term_float[t, 3] >= 0 and term_float[t, 0] > 0 and raw[b, k, t] > term_float[t, 3]:
-            met = False
-    converged[b] = met
-    if met and stop_on_converged:
-        active[b] = False
-    if total[b, k] < best_seen[b] - rel_improvement * abs(best_seen[b]) - 1e-30:
-        best_seen[b] = total[b, k]
-        last_improved[b] = gen
-    elif gen - last_improved[b] >= patience:
-        active[b] = False
-
-
 @njit(parallel=True, cache=True)
 def run_generations(cur, nxt, skel, terms, settings, status, control, history, gen_start, n_gens, n_chunks):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
@@ -123,7 +91,7 @@ def run_generations(cur, nxt, skel, terms, settings, status, control, history, g
         swaps += 1
         for b in range(B):
             if active[b]:
-                update_status(b, gen, cur, terms, status, control, history)
+                dev.update_status(b, gen, cur, terms, status, control, history)
     return swaps
 
 

@@ -20,6 +20,8 @@ class CpuBackend:
     def initialise(self, buffers, skel, terms, seed, initial, n_initial):
         cpu.initialise(*buffers, skel, terms, seed, initial, np.int64(n_initial), self._chunks())
 
-    def run(self, cur, nxt, skel, terms, settings, status, control, history, gen_start, n_gens) -> int:
-        return int(cpu.run_generations(cur, nxt, skel, terms, settings, status, control, history,
-                                       np.int64(gen_start), np.int64(n_gens), self._chunks()))
+    def run(self, cur, nxt, skel, terms, settings, status, control, history, gen_start, n_gens):
+        """Returns (final buffers, generations advanced); status and history are updated."""
+        swaps = int(cpu.run_generations(cur, nxt, skel, terms, settings, status, control, history,
+                                        np.int64(gen_start), np.int64(n_gens), self._chunks()))
+        return (cur if swaps % 2 == 0 else nxt), swaps

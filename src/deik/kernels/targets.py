@@ -1,8 +1,8 @@
-"""Compile the one-source device maths (deik.kernels.device) for each target.
+"""Compile the one-source device maths (deik.kernels.device_*.py) for each target.
 
-`cpu` is the device module compiled with numba.njit(cache=True); `cuda_device()` compiles the
-same source with numba.cuda.jit(device=True) on first use. Each compile execs the source into
-a fresh module, so calls between device functions stay on one target.
+`cpu` is the device maths compiled with numba.njit(cache=True); `cuda_device()` compiles the
+same sources with numba.cuda.jit(device=True) on first use. Each compile execs the sources into
+one fresh module, so calls between device functions stay on one target.
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
 device.py, so kernel files get a locator whose stamp hashes every source in this folder: an
@@ -57,12 +57,13 @@ for _locator in (_UserWideKernelLocator, _InTreeKernelLocator):
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
 
-def compile_namespace(source_module: types.ModuleType, name: str, decorate) -> types.ModuleType:
-    """Exec `source_module`'s file into a new module `name`, wrapping its functions in `decorate`."""
-    path = source_module.__file__
+def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
+    """Exec the source files of modules `sources` into one new module `name`, wrapping every
+    function they define in `decorate`."""
     module = types.ModuleType(name)
-    module.__file__ = path
-    exec(compile(Path(path).read_text(), path, "exec"), module.__dict__)
+    for source in sources:
+        path = source.__file__
+        exec(compile(Path(path).read_text(), path, "exec"), module.__dict__)
     for key, value in list(module.__dict__.items()):
         if inspect.isfunction(value) and value.__module__ == name:
             setattr(module, key, decorate(value))
@@ -70,9 +71,10 @@ def compile_namespace(source_module: types.ModuleType, name: str, decorate) -> t
     return module
 
 
-from deik.kernels import device as _device_source  # noqa: E402
+from deik.kernels import device_evolution, device_maths, device_terms  # noqa: E402
 
-cpu = compile_namespace(_device_source, "deik.kernels._device_cpu", njit(cache=True, nogil=True))
+DEVICE_SOURCES = (device_maths, device_terms, device_evolution)
+cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True))
 
 
 @lru_cache(maxsize=1)
@@ -80,4 +82,4 @@ def cuda_device() -> types.ModuleType:
     """The device maths compiled for numba-cuda (or its simulator); imports numba.cuda lazily."""
     from numba import cuda
 
-    return compile_namespace(_device_source, "deik.kernels._device_cuda", cuda.jit(device=True))
+    return compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cuda", cuda.jit(device=True))

@@ -1,0 +1,103 @@
+"""Device maths, part 3: DE trial vectors, strict-priority comparison, per-problem bookkeeping.
+
+Compiled together with device_maths.py and device_terms.py (see deik.kernels.targets).
+"""
+
+import math
+
+import numpy as np
+
+_TWO_PI = 2.0 * math.pi
+
+
+def not_worse(candidate, incumbent):
+    """Strict priority: are the candidate's levels at least as good as the incumbent's
+    (lexicographic)? The incumbent's length is the level count (GPU scratch is padded)."""
+    for lv in range(incumbent.shape[0]):
+        if candidate[lv] < incumbent[lv]:
+            return True
+        if candidate[lv] > incumbent[lv]:
+            return False
+    return True
+
+
+def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, seed, b, gen, i, draw):
+    """A population index in [0, n) that avoids the first n_exclude of the excluded indices."""
+    r = randint(n - n_exclude, seed, b, gen, i, draw)
+    lo, mid, hi = exclude_a, exclude_b if n_exclude > 1 else n, exclude_c if n_exclude > 2 else n
+    if lo > mid:
+        lo, mid = mid, lo
+    if mid > hi:
+        mid, hi = hi, mid
+    if lo > mid:
+        lo, mid = mid, lo
+    for e in (lo, mid, hi):
+        if r >= e:
+            r += 1
+    return r
+
+
+def make_trial(pop, b, i, best, gen, settings, limits, trial):
+    """DE trial vector for individual i of problem b (Figure 1: reads only the current
+    population). settings = (strategy, limit_mode, F, CR, seed). Strategies: 0 rand/1/bin,
+    1 best/1/bin, 2 current-to-best/1/bin. Limit modes: 0 reflect, 1 clip, 2 penalty (genes
+    may leave their limits; a top-priority term penalises it), 3 the paper's Algorithm 2."""
+    strategy, limit_mode, F, CR, seed = settings
+    P, D = pop.shape[1], pop.shape[2]
+    r1 = donor(P, i, 0, 0, 1, seed, b, gen, i, 0)
+    r2 = donor(P, i, r1, 0, 2, seed, b, gen, i, 1)
+    r3 = donor(P, i, r1, r2, 3, seed, b, gen, i, 2)
+    forced = randint(D, seed, b, gen, i, 3)
+    for d in range(D):
+        if d == forced or uniform(seed, b, gen, i, 4 + d) < CR:
+            if strategy == 0:
+                v = pop[b, r1, d] + F * (pop[b, r2, d] - pop[b, r3, d])
+            elif strategy == 1:
+                v = pop[b, best, d] + F * (pop[b, r1, d] - pop[b, r2, d])
+            else:
+                v = pop[b, i, d] + F * (pop[b, best, d] - pop[b, i, d]) + F * (pop[b, r1, d] - pop[b, r2, d])
+        else:
+            v = pop[b, i, d]
+        lo, hi = limits[d, 0], limits[d, 1]
+        if limit_mode == 0:
+            if v < lo:
+                v = lo + (lo - v)
+            elif v > hi:
+                v = hi - (v - hi)
+            v = min(max(v, lo), hi)
+        elif limit_mode == 1:
+            v = min(max(v, lo), hi)
+        elif limit_mode == 3 and abs(v) > _TWO_PI:
+            v = v * (1.0 / (abs(v) - _TWO_PI))
+        trial[d] = v
+
+
+def update_status(b, gen, pop_state, terms, status, control, history):
+    """After a generation: best index, history, convergence and stagnation of problem b."""
+    pop, levels, total, raw = pop_state
+    best, active, generations, converged, best_seen, last_improved = status
+    patience, rel_improvement, stop_on_converged = control
+    term_float = terms[1]
+    P = pop.shape[1]
+    k = 0
+    mean = 0.0
+    for i in range(P):
+        mean += total[b, i]
+        if i > 0 and not not_worse(levels[b, k], levels[b, i]):
+            k = i
+    best[b] = k
+    history[b, generations[b], 0] = total[b, k]
+    history[b, generations[b], 1] = mean / P
+    generations[b] += 1
+    met = True
+    for t in range(raw.shape[2]):
+        if term_float[t, 3] >= 0 and term_float[t, 0] > 0 and raw[b, k, t] > term_float[t, 3]:
+            met = False
+    converged[b] = met
+    if met and stop_on_converged:
+        active[b] = False
+    if total[b, k] < best_seen[b] - rel_improvement * abs(best_seen[b]) - 1e-30:
+        best_seen[b] = total[b, k]
+        last_improved[b] = gen
+    elif gen - last_improved[b] >= patience:
+        active[b] = False

@@ -1,0 +1,119 @@
+"""Device maths, part 1: counter-based random numbers, 3x3 algebra, forward kinematics, COM.
+
+The device_*.py files are written once and compiled for the CPU (numba.njit) and the GPU
+(numba-cuda): `deik.kernels.targets` execs all three into one namespace per target, so their
+functions call each other by name on the same target (they are not meant to be called as
+plain Python). Nothing here may allocate; callers pass scratch arrays. Matrices are flat,
+row-major, 9 floats per frame.
+Tuples group the arrays: skel = (joint_int (J, 3): parent, dof start, dof end; joint_offset
+(J, 3); dof_kind (D,); dof_axis (D, 3); site_joint (S,); site_frame (S, 12): offset then
+rotation; mass_joint (M,); mass_data (M, 4): offset then mass fraction; limits (D, 2);
+ground (3, 3): two horizontal axes then up), terms = (term_int, term_float, params,
+dof_weight, reference (B, D)), scratch = (R (F*9,), p (F*3,), work (32,)).
+"""
+
+import math
+
+import numpy as np
+
+_K1 = np.uint64(0x9E3779B97F4A7C15)
+_K2 = np.uint64(0xBF58476D1CE4E5B9)
+_K3 = np.uint64(0x94D049BB133111EB)
+_K4 = np.uint64(0xD6E8FEB86659FD93)
+_S30, _S27, _S31, _S33, _S40 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(33), np.uint64(40)
+_INV24 = 1.0 / 16777216.0
+
+
+def mix64(z):
+    """splitmix64 finaliser: a bijective 64-bit hash."""
+    z = (z ^ (z >> _S30)) * _K2
+    z = (z ^ (z >> _S27)) * _K3
+    return z ^ (z >> _S31)
+
+
+def random_bits(seed, problem, generation, individual, draw):
+    """64 random bits from the counter (seed, problem, generation, individual, draw)."""
+    z = mix64(np.uint64(seed) + _K1 * np.uint64(problem + 1))
+    z = mix64(z ^ (_K4 * np.uint64(generation + 2)))
+    return mix64(z ^ (_K1 * np.uint64(individual + 1) + np.uint64(draw)))
+
+
+def uniform(seed, problem, generation, individual, draw):
+    """A float64 in [0, 1) with 24 random bits (exact in float32 too)."""
+    return float(random_bits(seed, problem, generation, individual, draw) >> _S40) * _INV24
+
+
+def randint(n, seed, problem, generation, individual, draw):
+    """An integer in [0, n)."""
+    return np.int64((random_bits(seed, problem, generation, individual, draw) >> _S33) % np.uint64(n))
+
+
+def matmul3(A, a, B, b, C, c):
+    """C[c:c+9] = A[a:a+9] @ B[b:b+9] for flat row-major 3x3 matrices (C must not alias)."""
+    for r in range(3):
+        for k in range(3):
+            C[c + 3 * r + k] = A[a + 3 * r] * B[b + k] + A[a + 3 * r + 1] * B[b + 3 + k] + A[a + 3 * r + 2] * B[b + 6 + k]
+
+
+def rotate_point(A, a, x, y, z):
+    """A[a:a+9] @ (x, y, z)."""
+    return (A[a] * x + A[a + 1] * y + A[a + 2] * z,
+            A[a + 3] * x + A[a + 4] * y + A[a + 5] * z,
+            A[a + 6] * x + A[a + 7] * y + A[a + 8] * z)
+
+
+def axis_angle_into(ax, ay, az, angle, M, m):
+    """M[m:m+9] = rotation about unit axis (ax, ay, az) by `angle` radians (Rodrigues)."""
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    M[m], M[m + 1], M[m + 2] = t * ax * ax + c, t * ax * ay - s * az, t * ax * az + s * ay
+    M[m + 3], M[m + 4], M[m + 5] = t * ax * ay + s * az, t * ay * ay + c, t * ay * az - s * ax
+    M[m + 6], M[m + 7], M[m + 8] = t * ax * az - s * ay, t * ay * az + s * ax, t * az * az + c
+
+
+def forward_kinematics(q, skel, R, p, work):
+    """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q."""
+    joint_int, joint_offset, dof_kind, dof_axis, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
+    J = joint_int.shape[0]
+    for k in range(J):
+        for e in range(9):
+            work[e] = 1.0 if e % 4 == 0 else 0.0
+        tx, ty, tz = joint_offset[k, 0], joint_offset[k, 1], joint_offset[k, 2]
+        for d in range(joint_int[k, 1], joint_int[k, 2]):
+            ax, ay, az = dof_axis[d, 0], dof_axis[d, 1], dof_axis[d, 2]
+            if dof_kind[d] == 0:
+                axis_angle_into(ax, ay, az, q[d], work, 9)
+                matmul3(work, 0, work, 9, work, 18)
+                for e in range(9):
+                    work[e] = work[18 + e]
+            else:
+                dx, dy, dz = rotate_point(work, 0, ax * q[d], ay * q[d], az * q[d])
+                tx, ty, tz = tx + dx, ty + dy, tz + dz
+        parent = joint_int[k, 0]
+        if parent < 0:
+            for e in range(9):
+                R[9 * k + e] = work[e]
+            p[3 * k], p[3 * k + 1], p[3 * k + 2] = tx, ty, tz
+        else:
+            matmul3(R, 9 * parent, work, 0, R, 9 * k)
+            dx, dy, dz = rotate_point(R, 9 * parent, tx, ty, tz)
+            p[3 * k], p[3 * k + 1], p[3 * k + 2] = p[3 * parent] + dx, p[3 * parent + 1] + dy, p[3 * parent + 2] + dz
+    for s in range(site_joint.shape[0]):
+        j, f = site_joint[s], J + s
+        matmul3(R, 9 * j, site_frame[s], 3, R, 9 * f)
+        dx, dy, dz = rotate_point(R, 9 * j, site_frame[s, 0], site_frame[s, 1], site_frame[s, 2])
+        p[3 * f], p[3 * f + 1], p[3 * f + 2] = p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz
+
+
+def centre_of_mass(skel, R, p):
+    """Whole-body centre of mass (Eq. 3) from joint frames; mass_data holds mass fractions."""
+    mass_joint, mass_data = skel[6], skel[7]
+    cx, cy, cz = 0.0, 0.0, 0.0
+    for m in range(mass_joint.shape[0]):
+        j = mass_joint[m]
+        dx, dy, dz = rotate_point(R, 9 * j, mass_data[m, 0], mass_data[m, 1], mass_data[m, 2])
+        w = mass_data[m, 3]
+        cx += w * (p[3 * j] + dx)
+        cy += w * (p[3 * j + 1] + dy)
+        cz += w * (p[3 * j + 2] + dz)
+    return cx, cy, cz

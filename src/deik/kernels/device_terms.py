@@ -1,0 +1,130 @@
+"""Device maths, part 2: every objective term's raw error and the weighted fitness (Eqs. 1-7).
+
+Compiled together with device_maths.py and device_evolution.py (see deik.kernels.targets);
+term kinds are the constants of deik.objectives.table.
+"""
+
+import math
+
+
+def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
+    """Distance from point P to segment AB."""
+    ux, uy, uz = bx - ax, by - ay, bz - az
+    length2 = ux * ux + uy * uy + uz * uz
+    t = 0.0
+    if length2 > 0.0:
+        t = min(max(((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / length2, 0.0), 1.0)
+    dx, dy, dz = px - ax - t * ux, py - ay - t * uy, pz - az - t * uz
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+def polygon_distance(cx, cy, cz, frames, n, ground, p, work):
+    """Distance of the COM's ground projection outside the hull of frames' projections."""
+    qx = cx * ground[0, 0] + cy * ground[0, 1] + cz * ground[0, 2]
+    qy = cx * ground[1, 0] + cy * ground[1, 1] + cz * ground[1, 2]
+    for k in range(n):
+        f = frames[k]
+        work[2 * k] = p[3 * f] * ground[0, 0] + p[3 * f + 1] * ground[0, 1] + p[3 * f + 2] * ground[0, 2]
+        work[2 * k + 1] = p[3 * f] * ground[1, 0] + p[3 * f + 1] * ground[1, 1] + p[3 * f + 2] * ground[1, 2]
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                d1 = (work[2 * b] - work[2 * a]) * (qy - work[2 * a + 1]) - (work[2 * b + 1] - work[2 * a + 1]) * (qx - work[2 * a])
+                d2 = (work[2 * c] - work[2 * b]) * (qy - work[2 * b + 1]) - (work[2 * c + 1] - work[2 * b + 1]) * (qx - work[2 * b])
+                d3 = (work[2 * a] - work[2 * c]) * (qy - work[2 * c + 1]) - (work[2 * a + 1] - work[2 * c + 1]) * (qx - work[2 * c])
+                if (d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0) or (d1 <= 0.0 and d2 <= 0.0 and d3 <= 0.0):
+                    return 0.0
+    best = 1e30
+    for a in range(n):
+        for b in range(a, n):
+            d = segment_distance(qx, qy, 0.0, work[2 * a], work[2 * a + 1], 0.0, work[2 * b], work[2 * b + 1], 0.0)
+            best = min(best, d)
+    return best
+
+
+def orientation_error(R, f, target):
+    """Angle (radians) between frame f's rotation and the row-major target rotation target[0:9]."""
+    tr, sx, sy, sz = 0.0, 0.0, 0.0, 0.0
+    for i in range(3):
+        for j in range(3):
+            e = target[i] * R[9 * f + j] + target[3 + i] * R[9 * f + 3 + j] + target[6 + i] * R[9 * f + 6 + j]
+            if i == j:
+                tr += e
+            elif i == 2 and j == 1:
+                sx += e
+            elif i == 1 and j == 2:
+                sx -= e
+            elif i == 0 and j == 2:
+                sy += e
+            elif i == 2 and j == 0:
+                sy -= e
+            elif i == 1 and j == 0:
+                sz += e
+            else:
+                sz -= e
+    return math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (tr - 1.0))
+
+
+def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
+    """Raw error of term t (metres or radians) for pose q of problem b."""
+    term_int, params, dof_weight, reference = terms[0], terms[2], terms[3], terms[4]
+    limits, ground, joint_int, site_joint = skel[8], skel[9], skel[0], skel[4]
+    kind, f = term_int[t, 0], term_int[t, 3]
+    g = params[b, t]
+    if kind == 0:
+        dx, dy, dz = p[3 * f] - g[0], p[3 * f + 1] - g[1], p[3 * f + 2] - g[2]
+        return math.sqrt(dx * dx + dy * dy + dz * dz)
+    if kind == 1:
+        return orientation_error(R, f, g)
+    if kind == 2:
+        ax, ay, az = rotate_point(R, 9 * f, g[0], g[1], g[2])
+        vx, vy, vz = g[3] - p[3 * f], g[4] - p[3 * f + 1], g[5] - p[3 * f + 2]
+        kx, ky, kz = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
+        return math.atan2(math.sqrt(kx * kx + ky * ky + kz * kz), ax * vx + ay * vy + az * vz)
+    if kind == 3 or kind == 4:
+        dx, dy, dz = cx - g[0], cy - g[1], cz - g[2]
+        if kind == 4:
+            h = dx * ground[2, 0] + dy * ground[2, 1] + dz * ground[2, 2]
+            dx, dy, dz = dx - h * ground[2, 0], dy - h * ground[2, 1], dz - h * ground[2, 2]
+        return math.sqrt(dx * dx + dy * dy + dz * dz)
+    if kind == 5:
+        return polygon_distance(cx, cy, cz, term_int[t, 3:], term_int[t, 2], ground, p, work)
+    if kind == 6 or kind == 7:
+        total = 0.0
+        for d in range(dof_weight.shape[1]):
+            e = dof_weight[t, d] * abs(q[d] - reference[b, d])
+            total = total + e if kind == 6 else max(total, e)
+        return total
+    if kind == 8:
+        total = 0.0
+        for d in range(limits.shape[0]):
+            total += max(limits[d, 0] - q[d], 0.0) + max(q[d] - limits[d, 1], 0.0)
+        return total
+    total = 0.0
+    J = joint_int.shape[0]
+    for k in range(1, J + site_joint.shape[0]):
+        a = joint_int[k, 0] if k < J else site_joint[k - J]
+        d = segment_distance(g[0], g[1], g[2], p[3 * a], p[3 * a + 1], p[3 * a + 2], p[3 * k], p[3 * k + 1], p[3 * k + 2])
+        total += max(g[3] + g[4] - d, 0.0)
+    return total
+
+
+def evaluate(q, b, skel, terms, scratch, levels, raw):
+    """Fitness of pose q for problem b: fills levels (L,) and raw (T,); returns the total
+    weighted sum of normalised terms (Eqs. 1, 2)."""
+    R, p, work = scratch
+    term_int, term_float = terms[0], terms[1]
+    forward_kinematics(q, skel, R, p, work)
+    cx, cy, cz = centre_of_mass(skel, R, p)
+    for lv in range(levels.shape[0]):
+        levels[lv] = 0.0
+    total = 0.0
+    for t in range(term_int.shape[0]):
+        e = term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz)
+        raw[t] = e
+        f = -math.expm1(-term_float[t, 1] * e / term_float[t, 2])
+        total += term_float[t, 0] * f
+        if term_float[t, 4] >= 0.0:
+            f = max(f - term_float[t, 4], 0.0)
+        levels[term_int[t, 1]] += term_float[t, 0] * f
+    return total

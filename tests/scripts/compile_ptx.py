@@ -1,0 +1,42 @@
+"""Compile deik's CUDA kernels to PTX for sm_90 without a GPU; prints one line per kernel.
+
+numba-cuda asks the driver for the compute capability when it compiles device functions;
+with no driver here, that query is answered with (9, 0) so the real CUDA typing and lowering
+path (not the simulator) runs. Needs NVVM (pip install "numba-cuda[cu13]").
+"""
+
+from types import SimpleNamespace
+
+import numba.cuda.dispatcher as dispatcher
+
+dispatcher.get_current_device = lambda: SimpleNamespace(compute_capability=(9, 0))
+
+import numpy as np  # noqa: E402
+from numba import cuda, typeof  # noqa: E402
+
+import deik  # noqa: E402
+from deik.kernels import cuda as kernels  # noqa: E402
+
+human = deik.humanoid()
+rest = deik.forward_kinematics(human, human.reference)
+problem = deik.Problem(human, [deik.Position("left_hand", rest.position("left_hand")), deik.Comfort(level=1)])
+engine = deik.Engine(problem, deik.Settings(population=64))
+B, P, D, T, L = 1, 64, human.n_dofs, problem.table.n_terms, problem.table.n_levels
+buffers = (np.zeros((B, P, D), np.float32), np.zeros((B, P, L), np.float32), np.zeros((B, P), np.float32),
+           np.zeros((B, P, T), np.float32))
+status = (np.zeros(B, np.int64), np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_), np.zeros(B),
+          np.zeros(B, np.int64))
+initialise, run = kernels.make_kernels(kernels._bucket(human.n_frames), kernels._bucket(D), kernels._bucket(T),
+                                       kernels._bucket(L), "float32")
+
+
+def signature(*args):
+    return tuple(typeof(a) for a in args)
+
+
+run_args = (buffers, buffers, engine.skel, engine.terms, engine.kernel_settings, status, engine.control,
+            np.zeros((B, 10, 2)), np.int64(0), np.int64(5), np.zeros(B, np.int64))
+init_args = (*buffers, engine.skel, engine.terms, engine.kernel_settings[4], np.zeros((B, 1, D), np.float32), np.int64(0))
+for name, kernel, args in (("run", run, run_args), ("initialise", initialise, init_args)):
+    ptx, _ = cuda.compile_ptx(kernel.py_func, signature(*args), cc=(9, 0))
+    print(name, "entry" if ".entry" in ptx else "missing", len(ptx))

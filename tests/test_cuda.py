@@ -1,0 +1,86 @@
+"""The GPU path: the CUDA kernels against the CPU kernels (simulator), PTX compilation, and a
+real-GPU check that is skipped, with its reason shown, on machines without one."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import deik
+
+SCRIPTS = Path(__file__).parent / "scripts"
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+def _run(script, *args, simulator=False):
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    env.pop("NUMBA_ENABLE_CUDASIM", None)
+    if simulator:
+        env["NUMBA_ENABLE_CUDASIM"] = "1"
+    out = subprocess.run([sys.executable, "-W", "ignore", str(SCRIPTS / script), *args], env=env,
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out.stdout
+
+
+def _gpu_available():
+    try:
+        from numba import cuda
+
+        return cuda.is_available()
+    except Exception:
+        return False
+
+
+def test_simulated_cuda_kernel_equals_cpu_kernel_bit_for_bit_in_float64():
+    cpu = json.loads(_run("small_run.py", "cpu", "float64"))
+    sim = json.loads(_run("small_run.py", "gpu", "float64", simulator=True))
+    assert cpu["generations"] == sim["generations"]
+    assert cpu["best"] == sim["best"]
+    assert cpu["generation"] == sim["generation"]
+    np.testing.assert_array_equal(np.array(cpu["pop"]), np.array(sim["pop"]))
+    np.testing.assert_array_equal(np.array(cpu["history"]), np.array(sim["history"]))
+    np.testing.assert_array_equal(np.array(cpu["raw"]), np.array(sim["raw"]))
+
+
+def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
+    cpu = json.loads(_run("small_run.py", "cpu", "float32"))
+    sim = json.loads(_run("small_run.py", "gpu", "float32", simulator=True))
+    assert cpu["generations"] == sim["generations"]
+    np.testing.assert_allclose(np.array(cpu["pop"]), np.array(sim["pop"]), atol=1e-5)
+
+
+def test_cuda_kernels_compile_to_ptx_for_hopper():
+    pytest.importorskip("cuda.bindings", reason="numba-cuda's CUDA bindings are not installed")
+    try:
+        from cuda.pathfinder import load_nvidia_dynamic_lib
+
+        load_nvidia_dynamic_lib("nvvm")
+    except Exception as error:  # noqa: BLE001 - any failure to find NVVM means: skip, and say why
+        pytest.skip(f"NVVM not found ({error}); pip install 'numba-cuda[cu13]' to compile PTX")
+    lines = _run("compile_ptx.py").split("\n")
+    assert [line.split()[:2] for line in lines if line] == [["run", "entry"], ["initialise", "entry"]]
+
+
+@pytest.mark.skipif(not _gpu_available(), reason="no CUDA GPU on this machine: the real-GPU run is checked on a lent GPU")
+def test_real_gpu_solves_like_the_cpu():
+    chain = deik.chain(12, dims=3)
+    rng = np.random.default_rng(3)
+    target = deik.forward_kinematics(chain, rng.uniform(-1, 1, chain.n_dofs)).position("tip")
+    problem = deik.Problem(chain, [deik.Position("tip", target)])
+    gpu = deik.solve(problem, population=128, seed=5, device="gpu", dtype="float64")
+    cpu = deik.solve(problem, population=128, seed=5, device="cpu", dtype="float64")
+    assert gpu.converged and cpu.converged
+    assert gpu.device == "gpu"
+    assert abs(int(gpu.generations) - int(cpu.generations)) <= max(5, int(cpu.generations) // 5)
+
+
+@pytest.mark.skipif(_gpu_available(), reason="this machine has a GPU")
+def test_gpu_device_without_a_gpu_says_how_to_fix():
+    problem = deik.Problem(deik.chain(3), [deik.Position("tip", (1.0, 1.0, 0.0))])
+    with pytest.raises(RuntimeError, match="needs an NVIDIA GPU.*device='cpu'"):
+        deik.solve(problem, device="gpu")
