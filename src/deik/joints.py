@@ -86,6 +86,8 @@ def hinge(axis, lower=-math.pi, upper=math.pi, reference=0.0, label="hinge") -> 
 
 def translation(axes: str = "XYZ", lower=-math.inf, upper=math.inf) -> tuple[Dof, ...]:
     """Translation DOFs along the named axes, e.g. a free-floating root: translation("XYZ")."""
+    if not axes or any(c not in AXES for c in axes.upper()):
+        raise ValueError(f"translation axes {axes!r} must use only the letters X, Y and Z")
     return tuple(
         Dof(TRANSLATE, AXES[c], float(lower), float(upper), 0.0, f"{c}position")
         for c in axes.upper()

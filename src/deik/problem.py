@@ -68,10 +68,13 @@ class Problem:
 
     @cached_property
     def reference(self) -> np.ndarray:
-        """Comfort reference pose per problem (B, D)."""
-        refs = [r for r in self._references if r is not None]
-        ref = refs[0] if refs else self.skeleton.reference[None]
-        return np.broadcast_to(ref, (self.batch_size, self.skeleton.n_dofs)).copy()
+        """Reference pose of each comfort term, per problem: (B, T, D); zeros for other terms."""
+        out = np.zeros((self.batch_size, len(self.rows), self.skeleton.n_dofs))
+        for t, goal in enumerate(self.goals):
+            if isinstance(goal, Comfort):
+                ref = goal.reference_pose(self.skeleton)
+                out[:, t] = self.skeleton.reference if ref is None else ref
+        return out
 
     @cached_property
     def table(self) -> tt.TermTable:

@@ -100,7 +100,7 @@ class Skeleton:
         if (self.mass_value < 0).any() or not np.isfinite(self.mass_value).all():
             k = int(np.argmax(~(self.mass_value >= 0)))
             joint = self.joint_names[self.mass_joint[k]]
-            _fail(f"mass {self.mass_value[k]!r} kg on joint {joint!r} is negative or not finite")
+            _fail(f"mass {float(self.mass_value[k])} kg on joint {joint!r} is negative or not finite")
         if self.site_rotation.shape != (len(self.site_names), 3, 3):
             _fail("site_rotation must be (S, 3, 3)")
         for k, R in enumerate(self.site_rotation):
@@ -158,12 +158,19 @@ class Skeleton:
         from deik.joints import TRANSLATE
 
         lo, hi = self.offsets[0].copy(), self.offsets[0].copy()
+        rotated = False
         for d in range(self.joint_dof_start[0], self.joint_dof_start[1]):
-            if self.dof_kind[d] == TRANSLATE:
-                ends = np.stack([self.dof_axis[d] * self.lower[d], self.dof_axis[d] * self.upper[d]])
+            if self.dof_kind[d] != TRANSLATE:
+                rotated = True
+                continue
+            if rotated:  # a rotation first turns this slide: it may point anywhere
+                span = max(abs(self.lower[d]), abs(self.upper[d]))
+                ends = np.array([[-span] * 3, [span] * 3])
+            else:
                 with np.errstate(invalid="ignore"):
-                    ends = np.nan_to_num(ends, nan=0.0)
-                lo, hi = lo + ends.min(axis=0), hi + ends.max(axis=0)
+                    ends = np.stack([self.dof_axis[d] * self.lower[d], self.dof_axis[d] * self.upper[d]])
+                ends = np.nan_to_num(ends, nan=0.0)
+            lo, hi = lo + ends.min(axis=0), hi + ends.max(axis=0)
         return lo, hi
 
     def frame_index(self, name: str) -> int:

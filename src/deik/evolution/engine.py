@@ -68,7 +68,8 @@ class Settings:
 class EvolutionState:
     """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T); per problem: best
     index, active, generations used, converged, best total seen, generation of last
-    improvement; history (B, G, 2) of best and mean total fitness; `generation` counter."""
+    improvement; history (B, G, 2) of best and mean total fitness (NaN once a problem of a
+    batch has stopped while others run on); `generation` counter."""
 
     pop: np.ndarray
     levels: np.ndarray
@@ -122,6 +123,8 @@ class Engine:
         if initial is None:
             return np.zeros((B, 1, D), dtype), 0
         init = self.problem.skeleton.check_angles(initial, "initial poses")
+        if init.ndim > 3:
+            raise ValueError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
         if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
             raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
@@ -148,7 +151,7 @@ class Engine:
         cur = tuple(a.copy() for a in state.buffers)
         nxt = tuple(np.empty_like(a) for a in state.buffers)
         status = tuple(a.copy() for a in state.status)
-        history = np.zeros((B, state.history.shape[1] + n_generations, 2))
+        history = np.full((B, state.history.shape[1] + n_generations, 2), np.nan)
         history[:, : state.history.shape[1]] = state.history
         final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, status,
                                            self.control, history, state.generation, n_generations)

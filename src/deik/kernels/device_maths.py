@@ -9,7 +9,7 @@ Tuples group the arrays: skel = (joint_int (J, 3): parent, dof start, dof end; j
 (J, 3); dof_kind (D,); dof_axis (D, 3); site_joint (S,); site_frame (S, 12): offset then
 rotation; mass_joint (M,); mass_data (M, 4): offset then mass fraction; limits (D, 2);
 ground (3, 3): two horizontal axes then up), terms = (term_int, term_float, params,
-dof_weight, reference (B, D)), scratch = (R (F*9,), p (F*3,), work (32,)).
+dof_weight, reference (B, T, D)), scratch = (R (F*9,), p (F*3,), work (32,)).
 """
 
 import math

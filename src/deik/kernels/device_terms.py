@@ -19,7 +19,8 @@ def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
 
 
 def polygon_distance(cx, cy, cz, frames, n, ground, p, work):
-    """Distance of the COM's ground projection outside the hull of frames' projections."""
+    """Distance of the COM's ground projection outside the hull of frames' projections: zero
+    inside some non-degenerate triangle of the points, else the nearest point-pair segment."""
     qx = cx * ground[0, 0] + cy * ground[0, 1] + cz * ground[0, 2]
     qy = cx * ground[1, 0] + cy * ground[1, 1] + cz * ground[1, 2]
     for k in range(n):
@@ -29,6 +30,9 @@ def polygon_distance(cx, cy, cz, frames, n, ground, p, work):
     for a in range(n):
         for b in range(a + 1, n):
             for c in range(b + 1, n):
+                area = (work[2 * b] - work[2 * a]) * (work[2 * c + 1] - work[2 * a + 1]) - (work[2 * b + 1] - work[2 * a + 1]) * (work[2 * c] - work[2 * a])
+                if area == 0.0:
+                    continue
                 d1 = (work[2 * b] - work[2 * a]) * (qy - work[2 * a + 1]) - (work[2 * b + 1] - work[2 * a + 1]) * (qx - work[2 * a])
                 d2 = (work[2 * c] - work[2 * b]) * (qy - work[2 * b + 1]) - (work[2 * c + 1] - work[2 * b + 1]) * (qx - work[2 * b])
                 d3 = (work[2 * a] - work[2 * c]) * (qy - work[2 * c + 1]) - (work[2 * a + 1] - work[2 * c + 1]) * (qx - work[2 * c])
@@ -92,7 +96,7 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     if kind == 6 or kind == 7:
         total = 0.0
         for d in range(dof_weight.shape[1]):
-            e = dof_weight[t, d] * abs(q[d] - reference[b, d])
+            e = dof_weight[t, d] * abs(q[d] - reference[b, t, d])
             total = total + e if kind == 6 else max(total, e)
         return total
     if kind == 8:

@@ -36,7 +36,8 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
 
 
 def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> tuple:
-    """The `terms` tuple: term_int, term_float, params (B, T, 12), dof_weight, reference (B, D)."""
+    """The `terms` tuple: term_int, term_float, params (B, T, 12), dof_weight (T, D), and
+    reference (B, T, D), each comfort term's reference pose."""
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
     return (
         np.ascontiguousarray(table.term_int, np.int32), f(table.term_float), f(table.params),

@@ -56,9 +56,11 @@ class Goal:
 
 
 def _pack(*parts: np.ndarray) -> np.ndarray:
-    flat = np.concatenate([p.reshape(p.shape[0], -1) for p in np.broadcast_arrays(*parts)], axis=1) \
-        if len(parts) > 1 else parts[0].reshape(parts[0].shape[0], -1)
-    out = np.zeros((flat.shape[0], tt.N_PARAMS))
+    """Concatenate parts (B_k, ...) along their flattened trailing axes -> (B, N_PARAMS);
+    only the leading batch axis broadcasts."""
+    B = max(p.shape[0] for p in parts)
+    flat = np.concatenate([np.broadcast_to(p.reshape(p.shape[0], -1), (B, p[0].size)) for p in parts], axis=1)
+    out = np.zeros((B, tt.N_PARAMS))
     out[:, : flat.shape[1]] = flat
     return out
 
@@ -125,6 +127,8 @@ class Aim(Goal):
 
     def params(self, skeleton):
         axis = np.asarray(self.axis, float)
+        if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
+            raise ValueError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
         return _pack((axis / np.linalg.norm(axis))[None], _vector(self.target, (3,), "aim target"))
 
 
@@ -237,6 +241,8 @@ def _dof_weights(skeleton: Skeleton, spec) -> np.ndarray:
     if isinstance(spec, dict):
         w = np.zeros(D)
         for name, value in spec.items():
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"joint_weights[{name!r}] = {value!r} must be finite and >= 0")
             w[skeleton.joint_dofs(name)] = value
         return w
     w = np.asarray(spec, dtype=np.float64)

@@ -21,15 +21,18 @@ def _segment_distance(point, a, b):
 
 
 def _polygon_distance(q, pts):
-    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2)."""
+    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
+    non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
     n = pts.shape[1]
     inside = np.zeros(len(q), bool)
     cross = lambda o, a: (a[:, 0] - o[:, 0]) * (q[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (q[:, 0] - o[:, 0])  # noqa: E731
     for a in range(n):
         for b in range(a + 1, n):
             for c in range(b + 1, n):
+                u, v = pts[:, b] - pts[:, a], pts[:, c] - pts[:, a]
+                proper = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] != 0
                 d = np.stack([cross(pts[:, a], pts[:, b]), cross(pts[:, b], pts[:, c]), cross(pts[:, c], pts[:, a])])
-                inside |= (d >= 0).all(axis=0) | (d <= 0).all(axis=0)
+                inside |= proper & ((d >= 0).all(axis=0) | (d <= 0).all(axis=0))
     best = np.full(len(q), np.inf)
     for a in range(n):
         for b in range(a, n):
@@ -67,7 +70,7 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
         elif kind == tt.SUPPORT_POLYGON:
             out[:, t] = _polygon_distance(com @ ground[:2].T, p[:, frames] @ ground[:2].T)
         elif kind in (tt.COMFORT_SUM, tt.COMFORT_MAX):
-            e = table.dof_weight[t] * np.abs(poses - problem.reference[idx])
+            e = table.dof_weight[t] * np.abs(poses - problem.reference[idx, t])
             out[:, t] = e.sum(axis=1) if kind == tt.COMFORT_SUM else e.max(axis=1)
         elif kind == tt.LIMITS:
             out[:, t] = (np.maximum(sk.lower - poses, 0) + np.maximum(poses - sk.upper, 0)).sum(axis=1)
