@@ -261,7 +261,7 @@ def test_kernel_fk_on_chain_with_sites_rotations_and_translations():
 @pytest.mark.parametrize("shape", [(4,), (2, 7), ()])
 def test_wrong_shape_angles(shape):
     sk = deik.chain(3, dims=3)
-    with pytest.raises(ValueError, match=r"angles must have shape \(\.\.\., 6\) for skeleton 'chain:3'"):
+    with pytest.raises(ValueError, match=r"angles must have shape \(\.\.\., 6\) for skeleton 'chain3d:3'"):
         deik.forward_kinematics(sk, np.zeros(shape))
 
 

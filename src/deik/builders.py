@@ -21,6 +21,7 @@ def chain(
     dims=2: one hinge about Z per joint (a planar chain in XY); dims=3: two rotations per joint
     (Euler "ZY", a ball joint without twist). Joints are `link0..link{n-1}` with a point mass
     `mass` (kg) at each; the site `tip` is the end effector. Reach is n_links * link_length.
+    Named "chain:N" (planar) or "chain3d:N", as the CLI spells them.
     """
     if not isinstance(n_links, int) or n_links < 1:
         raise ValueError(f"n_links must be a positive integer, got {n_links!r}")
@@ -35,4 +36,5 @@ def chain(
         parent = None if k == 0 else f"link{k - 1}"
         joints.append(Joint(f"link{k}", parent, offset, dofs, mass=mass))
     tip = Site("tip", f"link{n_links - 1}", (link_length, 0.0, 0.0))
-    return build_skeleton(joints, sites=[tip], up=(0.0, 1.0, 0.0), name=f"chain:{n_links}")
+    name = f"chain:{n_links}" if dims == 2 else f"chain3d:{n_links}"
+    return build_skeleton(joints, sites=[tip], up=(0.0, 1.0, 0.0), name=name)

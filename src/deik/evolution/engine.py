@@ -111,8 +111,13 @@ class Engine:
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
         self.control = (np.int64(settings.patience), 1e-7, stop)
         if settings.device == "gpu":
-            from deik.kernels.cuda import CudaBackend
-
+            try:
+                from deik.kernels.cuda import CudaBackend
+            except ImportError as error:
+                raise RuntimeError(
+                    f"device='gpu' needs numba-cuda ({error}): pip install \"deik[gpu]\" "
+                    "(or run on the CPU with device='cpu')"
+                ) from error
             self.backend = CudaBackend()
         else:
             from deik.kernels.cpu_backend import CpuBackend

@@ -35,11 +35,26 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
     )
 
 
+TOLERANCE_MARGIN = {np.dtype(np.float32): 1e-3, np.dtype(np.float64): 1e-12}
+
+
+def _kernel_term_float(table: TermTable, dtype) -> np.ndarray:
+    """term_float with tolerances tightened by a relative margin for the dtype, so a pose the
+    kernels accept as within tolerance is also within it when re-measured in float64."""
+    term_float = table.term_float.copy()
+    tightened = term_float[:, 3] > 0
+    term_float[tightened, 3] *= 1.0 - TOLERANCE_MARGIN[np.dtype(dtype)]
+    prioritised = term_float[:, 4] >= 0
+    weight_mu, scale = term_float[prioritised, 1], term_float[prioritised, 2]
+    term_float[prioritised, 4] = -np.expm1(-weight_mu * term_float[prioritised, 3] / scale)
+    return term_float
+
+
 def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> tuple:
     """The `terms` tuple: term_int, term_float, params (B, T, 12), dof_weight (T, D), and
     reference (B, T, D), each comfort term's reference pose."""
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
     return (
-        np.ascontiguousarray(table.term_int, np.int32), f(table.term_float), f(table.params),
+        np.ascontiguousarray(table.term_int, np.int32), f(_kernel_term_float(table, dtype)), f(table.params),
         f(table.dof_weight), f(reference),
     )

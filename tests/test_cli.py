@@ -1,0 +1,265 @@
+"""The command line, TOML problem files, pose pictures and the demo's helpers, on tiny problems."""
+
+import dataclasses
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import deik
+from deik import plot
+from deik.cli import main
+from deik.demo import chain_scenarios, run_demo
+from deik.problem_file import load_problem, skeleton_from_spec
+from deik.rotations import euler_matrix
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+TINY = ["--population", "24", "--generations", "40", "--seed", "0"]
+
+
+def write(tmp_path, text, name="problem.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_solve_writes_json_whose_angles_reproduce_the_error(tmp_path, capsys):
+    out = tmp_path / "pose.json"
+    assert main(["solve", "chain:5", "--reach", "tip", "3", "2", "0", *TINY, "--out", str(out)]) == 0
+    data = json.loads(out.read_text())
+    tip = deik.forward_kinematics(deik.chain(5), data["angles"]).position("tip")
+    assert data["goals"][0]["label"] == "position tip"
+    assert np.linalg.norm(tip - [3, 2, 0]) == pytest.approx(data["goals"][0]["error"], rel=1e-9)
+    printed = capsys.readouterr().out
+    assert "position tip" in printed and "generations" in printed and "device cpu" in printed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"]
+
+
+def test_plot_writes_a_png_and_progress_goes_to_stderr(tmp_path, capsys):
+    png = tmp_path / "pose.png"
+    argv = ["solve", "chain:4", "--reach", "tip", "2", "1", "0", "--comfort", "0.5", "--progress",
+            "--population", "24", "--generations", "120", "--plot", str(png)]
+    assert main(argv) == 0
+    assert png.read_bytes()[:8] == PNG_MAGIC
+    assert "generation 100/120" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.png"]
+
+
+def test_plot_pose_draws_3d_skeletons_in_two_views(tmp_path):
+    skeleton = deik.chain(3, dims=3)
+    assert not plot.is_planar(skeleton) and plot.is_planar(deik.chain(3))
+    path = tmp_path / "pose.png"
+    plot.plot_pose(skeleton, np.full(skeleton.n_dofs, 0.3), path, targets=[(1, 1, 1)], com=(0.5, 0.2, 0.1),
+                   support=(0, 0, 0), title="3-D", obstacles=[((1, 0, 0), 0.2)])
+    assert path.read_bytes()[:8] == PNG_MAGIC
+
+
+def test_missing_matplotlib_names_the_extra(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    with pytest.raises(ImportError, match=r'pip install "deik\[viz\]"'):
+        plot.require_matplotlib()
+    argv = ["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--out", str(tmp_path / "p.json"),
+            "--plot", str(tmp_path / "p.png")]
+    assert main(argv) == 2
+    assert 'deik[viz]' in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+TOML = """
+skeleton = "chain3d:4"
+limits = "clip"
+
+[settings]
+population = 24
+generations = 30
+seed = 2
+
+[[goal]]
+type = "position"
+frame = "tip"
+target = [2.0, 1.0, 0.5]
+tolerance = 0.01
+
+[[goal]]
+type = "orientation"
+frame = "link3"
+euler = "XYZ"
+degrees = [0, 30, 45]
+level = 1
+
+[[goal]]
+type = "aim"
+frame = "link2"
+target = [0, 3, 0]
+axis = [1, 0, 0]
+weight = 0.5
+
+[[goal]]
+type = "com_over_support"
+point = [0.5, 0, 0]
+mu = 2.0
+
+[[goal]]
+type = "com"
+target = [1.0, 0.5, 0.0]
+
+[[goal]]
+type = "com_in_polygon"
+frames = ["link0", "link1", "tip"]
+
+[[goal]]
+type = "obstacle"
+centre = [1, 1, 1]
+radius = 0.3
+bone_radius = 0.05
+
+[[goal]]
+type = "comfort"
+mode = "max"
+joint_weights = { link0 = 1.0, link3 = 0.5 }
+level = 2
+"""
+
+
+def test_toml_problem_matches_the_python_api(tmp_path):
+    problem, settings = load_problem(write(tmp_path, TOML))
+    skeleton = deik.chain(4, dims=3)
+    expected = deik.Problem(skeleton, [
+        deik.Position("tip", (2, 1, 0.5), tolerance=0.01),
+        deik.Orientation("link3", euler_matrix("XYZ", np.radians([0, 30, 45])), level=1),
+        deik.Aim("link2", (0, 3, 0), axis=(1, 0, 0), weight=0.5),
+        deik.ComOverSupport((0.5, 0, 0), mu=2.0),
+        deik.CentreOfMass((1, 0.5, 0)),
+        deik.ComInPolygon(("link0", "link1", "tip")),
+        deik.Obstacle((1, 1, 1), 0.3, bone_radius=0.05),
+        deik.Comfort(mode="max", joint_weights={"link0": 1.0, "link3": 0.5}, level=2),
+    ], limits="clip")
+    assert settings == {"population": 24, "generations": 30, "seed": 2}
+    assert problem.limits == "clip" and problem.skeleton.n_dofs == skeleton.n_dofs
+    got, want = problem.table, expected.table
+    assert got.labels == want.labels and got.n_levels == want.n_levels
+    for name in ("term_int", "term_float", "params", "dof_weight"):
+        np.testing.assert_allclose(getattr(got, name), getattr(want, name), err_msg=name)
+
+
+def test_cli_solves_a_toml_problem_with_setting_overrides(tmp_path, capsys):
+    out = tmp_path / "pose.json"
+    path = write(tmp_path, 'skeleton = "chain:3"\n[settings]\npopulation = 24\n'
+                           '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\n')
+    assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["skeleton"] == "chain:3"
+
+
+GOAL = '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\n'
+
+
+@pytest.mark.parametrize("text, fragments", [
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "positon"\n', ["goal 1", "unknown type 'positon'", "'position'"]),
+    ('skeleton = "chain:3"\n[[goal]]\nframe = "tip"\n', ["goal 1", "missing field 'type'"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\n',
+     ["goal 1 (position)", "missing field 'target'"]),
+    ('skeleton = "chain:3"\n' + GOAL + '[[goal]]\ntype = "comfort"\njoint_wieghts = "start"\n',
+     ["goal 2 (comfort)", "unknown field 'joint_wieghts'", "did you mean 'joint_weights'"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1]\n',
+     ["goal 1 (position)", "field 'target' must be [x, y, z]"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [nan, 1, 0]\n',
+     ["field 'target'", "NaN"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tipp"\ntarget = [1, 1, 0]\n',
+     ["goal 1 (position)", "field 'frame'", "did you mean 'tip'"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [9, 1, 0]\n',
+     ["goal 1 (position)", "unreachable"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\nlevel = 0.5\n',
+     ["field 'level' must be an integer"]),
+    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\neuler = "XYW"\ndegrees = [0, 0, 0]\n',
+     ["goal 1 (orientation)", "field 'euler'"]),
+    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\neuler = "XY"\ndegrees = [0, 0, 0]\n',
+     ["field 'degrees' must be a list of 2 numbers"]),
+    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\ntarget = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n',
+     ["goal 1 (orientation)", "not a rotation matrix"]),
+    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n', ["missing field 'euler'"]),
+    ('skeleton = "chian:3"\n' + GOAL, ["field 'skeleton'", "chain:N"]),
+    ('skelton = "chain:3"\n' + GOAL, ["unknown top-level key 'skelton'", "did you mean 'skeleton'"]),
+    ('skeleton = "chain:3"\nlimits = "bounce"\n' + GOAL, ["field 'limits'", "reflect"]),
+    ('skeleton = "chain:3"\n[settings]\npopulaton = 50\n' + GOAL, ["[settings]", "did you mean 'population'"]),
+    ('skeleton = "chain:3"\n[settings]\npopulation = 2\n' + GOAL, ["[settings]", "population must be"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = { link1 = -1 }\n',
+     ["goal 1 (comfort)", "weight of 'link1' must be a finite number >= 0"]),
+    ('skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = [1, 1]\n',
+     ["field 'joint_weights' must be a list of 3 numbers"]),
+    ('skeleton = "chain:3"\n', ["no goals", "[[goal]]"]),
+    ('skeleton = "chain:3"\n[goal]\ntype = "com"\ntarget = [0, 1, 0]\n', ["double brackets"]),
+    ('skeleton = "chain:3"\n[[goal]\n', ["not valid TOML"]),
+])
+def test_bad_toml_names_file_goal_and_field(tmp_path, text, fragments):
+    path = write(tmp_path, text)
+    with pytest.raises(ValueError) as caught:
+        load_problem(path)
+    message = str(caught.value)
+    assert message.startswith(str(path))
+    for fragment in fragments:
+        assert fragment in message
+
+
+def test_skeleton_specs():
+    assert skeleton_from_spec("chain:7").n_joints == 7
+    assert skeleton_from_spec("chain3d:2").n_dofs == 4
+    assert skeleton_from_spec("humanoid").name == "humanoid"
+    for bad in ("chain", "chain:0", "chain:x", "humanoid:3", "robot"):
+        with pytest.raises(ValueError, match="chain:N"):
+            skeleton_from_spec(bad)
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["solve", "chain:3", "--reach", "tipp", "1", "1", "0"], "did you mean 'tip'"),
+    (["solve", "chian:3", "--reach", "tip", "1", "1", "0"], "unknown skeleton 'chian:3'"),
+    (["solve", "chain:3", "--reach", "tip", "9", "1", "0"], "unreachable"),
+    (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "not a finite number"),
+    (["solve", "chain:3", "--reach", "tip", "1", "one", "0"], "'one' is not a number"),
+    (["solve", "chain:3", "--reach", "tip", "1", "1"], "expected 4 arguments"),
+    (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--population", "2"], "population must be"),
+    (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--strategy", "fast"], "invalid choice"),
+    (["solve", "chain:3"], "no goals"),
+    (["solve"], "give a SKELETON"),
+    (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
+    (["solve", "--problem", "missing.toml"], "cannot read the problem file"),
+    (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
+])
+def test_bad_cli_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, monkeypatch, argv, fragment):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "pose.json"
+    assert main(argv + ["--out", str(out), "--plot", str(tmp_path / "pose.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_returns_0(capsys):
+    assert main(["solve", "--help"]) == 0
+    assert "--reach FRAME X Y Z" in capsys.readouterr().out
+
+
+def test_output_folder_must_exist(tmp_path, capsys):
+    argv = ["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--out", str(tmp_path / "no" / "p.json")]
+    assert main(argv) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_run_demo_on_tiny_chains_writes_pictures_and_summary(tmp_path, capsys):
+    rows = run_demo(tmp_path, chain_scenarios(n_links=3, seed=1))
+    assert {row["scenario"] for row in rows} == {"a_chain_reach", "b_chain_straight_start", "c_chain_straight_end"}
+    assert all(row["passed"] for row in rows)
+    tip = [row for row in rows if row["goal"] == "position tip"]
+    assert all(row["met"] and row["percent_of_reach"] <= 1.0 for row in tip)
+    for key in ("a_chain_reach", "b_chain_straight_start", "c_chain_straight_end"):
+        assert (tmp_path / f"{key}.png").read_bytes()[:8] == PNG_MAGIC
+    summary = json.loads((tmp_path / "demo.json").read_text())
+    assert [s["passed"] for s in summary["scenarios"]] == [True, True, True]
+    assert "every scenario met its targets" in capsys.readouterr().out
+
+
+def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
+    scenario = dataclasses.replace(chain_scenarios(n_links=3)[0], bounds={"position tip": 1e-12})
+    rows = run_demo(tmp_path, [scenario])
+    assert rows[0]["met"] is False and rows[0]["passed"] is False
+    assert "MISSED: a_chain_reach" in capsys.readouterr().out
