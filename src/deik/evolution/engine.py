@@ -7,7 +7,7 @@ a new EvolutionState; the one passed in is never changed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -166,6 +166,3 @@ class Engine:
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
-
-    def with_settings(self, **changes) -> "Engine":
-        return Engine(self.problem, replace(self.settings, **changes))
