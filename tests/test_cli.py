@@ -259,7 +259,10 @@ def test_run_demo_on_tiny_chains_writes_pictures_and_summary(tmp_path, capsys):
 
 
 def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
-    scenario = dataclasses.replace(chain_scenarios(n_links=3)[0], bounds={"position tip": 1e-12})
+    plain = chain_scenarios(n_links=3)[0]
+    tip = plain.problem.goals[0]
+    impossible = deik.Problem(plain.problem.skeleton, [dataclasses.replace(tip, tolerance=1e-12)])
+    scenario = dataclasses.replace(plain, problem=impossible, settings={**plain.settings, "generations": 3})
     rows = run_demo(tmp_path, [scenario])
     assert rows[0]["met"] is False and rows[0]["passed"] is False
     assert "MISSED: a_chain_reach" in capsys.readouterr().out

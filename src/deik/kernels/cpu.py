@@ -65,7 +65,7 @@ def run_generations(cur, nxt, skel, terms, settings, status, control, history, g
             any_active = any_active or active[b]
         if not any_active:
             break
-        pop, levels, total, raw = cur
+        pop, levels, raw = cur[0], cur[1], cur[3]
         npop, nlevels, ntotal, nraw = nxt
         for c in prange(n_chunks):
             scratch, trial, lv, rw = _scratch(skel, pop, raw.shape[2], levels.shape[2], D)
@@ -83,10 +83,7 @@ def run_generations(cur, nxt, skel, terms, settings, status, control, history, g
                     nraw[b, i, :] = rw
                     ntotal[b, i] = tot
                 else:
-                    npop[b, i, :] = pop[b, i]
-                    nlevels[b, i, :] = levels[b, i]
-                    nraw[b, i, :] = raw[b, i]
-                    ntotal[b, i] = total[b, i]
+                    dev.copy_individual(cur, nxt, b, i)
         cur, nxt = nxt, cur
         swaps += 1
         for b in range(B):

@@ -30,7 +30,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
     """Compile (initialise, run) for local arrays of these (bucketed) sizes and dtype."""
     dev = cuda_device()
     evaluate, make_trial, not_worse = dev.evaluate, dev.make_trial, dev.not_worse
-    update_status, uniform = dev.update_status, dev.uniform
+    update_status, uniform, copy_individual = dev.update_status, dev.uniform, dev.copy_individual
     ftype = float32 if dtype_name == "float32" else float64
     n_r, n_p, n_d, n_t, n_l = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels
 
@@ -62,7 +62,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
             cuda.syncthreads()
             if not active[b]:
                 break
-            pop, levels, total, raw = cur
+            pop, levels = cur[0], cur[1]
             npop, nlevels, ntotal, nraw = nxt
             for i in range(tid, P, stride):
                 make_trial(pop, b, i, best[b], gen_start + g, settings, limits, trial)
@@ -76,13 +76,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
                         nlevels[b, i, lvl] = lv[lvl]
                     ntotal[b, i] = tot
                 else:
-                    for d in range(D):
-                        npop[b, i, d] = pop[b, i, d]
-                    for t in range(T):
-                        nraw[b, i, t] = raw[b, i, t]
-                    for lvl in range(L):
-                        nlevels[b, i, lvl] = levels[b, i, lvl]
-                    ntotal[b, i] = total[b, i]
+                    copy_individual(cur, nxt, b, i)
             cur, nxt = nxt, cur
             swaps += 1
             cuda.syncthreads()
@@ -90,13 +84,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
                 update_status(b, gen_start + g, cur, terms, status, control, history)
         if swaps % 2 == 1:
             for i in range(tid, P, stride):
-                for d in range(D):
-                    nxt[0][b, i, d] = cur[0][b, i, d]
-                for t in range(T):
-                    nxt[3][b, i, t] = cur[3][b, i, t]
-                for lvl in range(L):
-                    nxt[1][b, i, lvl] = cur[1][b, i, lvl]
-                nxt[2][b, i] = cur[2][b, i]
+                copy_individual(cur, nxt, b, i)
         if tid == 0:
             advanced[b] = swaps
 

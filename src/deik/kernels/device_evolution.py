@@ -72,6 +72,17 @@ def make_trial(pop, b, i, best, gen, settings, limits, trial):
         trial[d] = v
 
 
+def copy_individual(source, target, b, i):
+    """Copy individual i of problem b from one (pop, levels, total, raw) buffer set to another."""
+    for d in range(source[0].shape[2]):
+        target[0][b, i, d] = source[0][b, i, d]
+    for lv in range(source[1].shape[2]):
+        target[1][b, i, lv] = source[1][b, i, lv]
+    target[2][b, i] = source[2][b, i]
+    for t in range(source[3].shape[2]):
+        target[3][b, i, t] = source[3][b, i, t]
+
+
 def update_status(b, gen, pop_state, terms, status, control, history):
     """After a generation: best index, history, convergence and stagnation of problem b."""
     pop, levels, total, raw = pop_state

@@ -196,9 +196,6 @@ class Comfort(Goal):
         kind = tt.COMFORT_SUM if self.mode == "sum" else tt.COMFORT_MAX
         return self._row(kind, f"comfort ({self.mode})", (), 1.0, -1.0, _dof_weights(skeleton, self.joint_weights))
 
-    def params(self, skeleton):
-        return np.zeros((1, tt.N_PARAMS))
-
     def reference_pose(self, skeleton) -> np.ndarray | None:
         if self.reference is None:
             return None
