@@ -11,7 +11,6 @@ Mistakes in the input print one line `deik: error: ...` on stderr and exit with 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -19,6 +18,7 @@ import sys
 import numpy as np
 
 from deik import plot
+from deik.io.atomic import write_json_atomically
 from deik.evolution.engine import STRATEGIES, Settings
 from deik.objectives import goals as g
 from deik.problem import Problem
@@ -51,16 +51,6 @@ def format_table(header: list[str], rows: list[list]) -> str:
 def unit(label: str) -> str:
     """Unit of a goal report's error from its label: "rad" for angles, "m" for lengths."""
     return "rad" if label.split()[0] in RADIAN_WORDS else "m"
-
-
-def write_json(path, data) -> None:
-    """Write `data` as indented JSON to `path` atomically (see plot.save_atomically)."""
-    def write(temporary):
-        with open(temporary, "w", encoding="utf-8") as file:
-            json.dump(data, file, indent=2)
-            file.write("\n")
-
-    plot.save_atomically(path, write)
 
 
 def _numbers(flag: str, words) -> list[float]:
@@ -153,7 +143,7 @@ def run_solve(args) -> int:
     print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
           f"converged {'yes' if result.converged else 'no'}")
     if args.out:
-        write_json(args.out, result.to_dict())
+        write_json_atomically(args.out, result.to_dict())
     if args.plot:
         plot.plot_result(problem, result, args.plot, title=f"deik solve {args.skeleton or args.problem}")
     return 0

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.builders import chain
-from deik.cli import format_table, unit, write_json
+from deik.cli import format_table, unit
+from deik.io.atomic import write_json_atomically
 from deik.humanoid import humanoid
 from deik.kinematics import forward_kinematics
 from deik.objectives.goals import Comfort, ComOverSupport, Position
@@ -139,7 +140,7 @@ def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
                         "settings": scenario.settings, "passed": rows[-1]["passed"],
                         "result": result.to_dict()})
     total = time.perf_counter() - start
-    write_json(os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total})
+    write_json_atomically(os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total})
     _print_table(rows)
     missed = [s["key"] for s in summary if not s["passed"]]
     verdict = f"MISSED: {', '.join(missed)}" if missed else "every scenario met its targets"

@@ -7,11 +7,9 @@ the complete new one, never a half-written one.
 
 from __future__ import annotations
 
-import os
-import uuid
-
 import numpy as np
 
+from deik.io.atomic import save_atomically
 from deik.joints import ROTATE
 from deik.kinematics import forward_kinematics
 from deik.objectives import goals as g
@@ -30,21 +28,6 @@ def require_matplotlib():
     import matplotlib.pyplot as plt
 
     return plt
-
-
-def save_atomically(path, write) -> None:
-    """Call write(temporary_path) to create a file beside `path`, then move it onto `path`;
-    on failure the temporary file is removed and `path` is left as it was."""
-    folder, name = os.path.split(os.path.abspath(path))
-    stem, extension = os.path.splitext(name)
-    temporary = os.path.join(folder, f".{stem}.{uuid.uuid4().hex}.tmp{extension}")
-    try:
-        write(temporary)
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
 
 
 def is_planar(skeleton: Skeleton) -> bool:
