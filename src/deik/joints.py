@@ -1,8 +1,9 @@
 """Joint, site and segment specifications, and `build_skeleton`, which turns them into a Skeleton.
 
-A joint's local transform is T(offset) followed by its degrees of freedom in order, each a
-rotation about or a translation along an axis of the joint's own frame. Euler channels "ZXY"
-are three rotation DOFs (Z, then X, then Y: R = Rz Rx Ry), as in BVH files.
+A joint's local transform is T(offset) R(rotation) followed by its degrees of freedom in order,
+each a rotation about or a translation along an axis of the joint's own frame. A DOF may mimic
+another (URDF `<mimic>`): its value is multiplier * source + offset, and it is not a variable.
+Euler channels "ZXY" are three rotation DOFs (Z, then X, then Y: R = Rz Rx Ry), as in BVH files.
 Units: metres (or the file's length unit) and radians.
 """
 
@@ -20,7 +21,9 @@ ROTATE, TRANSLATE = 0, 1
 
 @dataclass(frozen=True)
 class Dof:
-    """One degree of freedom: `kind` ROTATE (radians) or TRANSLATE (length units) along `axis`."""
+    """One degree of freedom: `kind` ROTATE (radians) or TRANSLATE (length units) along `axis`.
+    Its name is `name` when given, else "joint.label". `mimic` = (source DOF name, multiplier,
+    offset) makes it follow another DOF instead of being a variable (limits then unused)."""
 
     kind: int
     axis: tuple[float, float, float]
@@ -28,18 +31,22 @@ class Dof:
     upper: float = math.pi
     reference: float = 0.0
     label: str = ""
+    name: str = ""
+    mimic: tuple[str, float, float] | None = None
 
 
 @dataclass(frozen=True)
 class Joint:
-    """A joint: `parent` name (None for the root), `offset` (3,) in the parent frame, its DOFs,
-    and an optional point mass (kg) at its origin (the paper's Eq. 3)."""
+    """A joint: `parent` name (None for the root), `offset` (3,) and fixed `rotation` (3, 3) of
+    its rest frame in the parent frame, its DOFs, and an optional point mass (kg) at its origin
+    (the paper's Eq. 3)."""
 
     name: str
     parent: str | None
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     dofs: tuple[Dof, ...] = ()
     mass: float = 0.0
+    rotation: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 @dataclass(frozen=True)
@@ -135,8 +142,14 @@ def build_skeleton(joints, sites=(), segments=(), up=(0.0, 1.0, 0.0), name="skel
     order = _topological_order(joints)
     joints = [joints[k] for k in order]
     index = {j.name: k for k, j in enumerate(joints)}
-    dofs = [(k, d) for k, j in enumerate(joints) for d in j.dofs]
-    dof_start = np.cumsum([0] + [len(j.dofs) for j in joints])
+    for j in joints:
+        free = [d.mimic is None for d in j.dofs]
+        if free != sorted(free, reverse=True):
+            raise ValueError(f"joint {j.name!r}: mimic DOFs must come after its free DOFs")
+    dofs = [(k, d) for k, j in enumerate(joints) for d in j.dofs if d.mimic is None]
+    mimics = [(k, d) for k, j in enumerate(joints) for d in j.dofs if d.mimic is not None]
+    dof_names = tuple(_dof_name(joints[k], d) for k, d in dofs)
+    dof_start = np.cumsum([0] + [sum(d.mimic is None for d in j.dofs) for j in joints])
     masses = [(index[j.name], (0.0, 0.0, 0.0), j.mass) for j in joints if j.mass != 0.0]
     for s in segments:
         if s.joint not in index:
@@ -151,7 +164,7 @@ def build_skeleton(joints, sites=(), segments=(), up=(0.0, 1.0, 0.0), name="skel
         parents=np.array([index[j.parent] if j.parent else -1 for j in joints], np.int32),
         offsets=np.array([j.offset for j in joints], np.float64).reshape(-1, 3),
         joint_dof_start=dof_start.astype(np.int32),
-        dof_names=tuple(f"{joints[k].name}.{d.label or 'dof'}" for k, d in dofs),
+        dof_names=dof_names,
         dof_joint=np.array([k for k, _ in dofs], np.int32),
         dof_kind=np.array([d.kind for _, d in dofs], np.int32),
         dof_axis=np.array([d.axis for _, d in dofs], np.float64).reshape(-1, 3),
@@ -166,4 +179,32 @@ def build_skeleton(joints, sites=(), segments=(), up=(0.0, 1.0, 0.0), name="skel
         mass_offset=np.array([m[1] for m in masses], np.float64).reshape(-1, 3),
         mass_value=np.array([m[2] for m in masses], np.float64),
         up=np.asarray(up, np.float64),
+        joint_rotation=np.array([j.rotation for j in joints], np.float64).reshape(-1, 3, 3),
+        **_mimic_arrays(joints, mimics, dof_names),
+    )
+
+
+def _dof_name(joint: Joint, dof: Dof) -> str:
+    return dof.name or f"{joint.name}.{dof.label or 'dof'}"
+
+
+def _mimic_arrays(joints, mimics, dof_names) -> dict:
+    """Skeleton mimic fields from [(joint index, Dof)]; sources are resolved to DOF indices."""
+    sources = []
+    for k, d in mimics:
+        source = d.mimic[0]
+        if source not in dof_names:
+            raise ValueError(
+                f"DOF {_dof_name(joints[k], d)!r} mimics unknown DOF {source!r}; "
+                "a mimic source must be a free DOF of the same skeleton"
+            )
+        sources.append(dof_names.index(source))
+    return dict(
+        mimic_names=tuple(_dof_name(joints[k], d) for k, d in mimics),
+        mimic_joint=np.array([k for k, _ in mimics], np.int32),
+        mimic_kind=np.array([d.kind for _, d in mimics], np.int32),
+        mimic_axis=np.array([d.axis for _, d in mimics], np.float64).reshape(-1, 3),
+        mimic_source=np.array(sources, np.int32),
+        mimic_scale=np.array([d.mimic[1] for _, d in mimics], np.float64),
+        mimic_bias=np.array([d.mimic[2] for _, d in mimics], np.float64),
     )

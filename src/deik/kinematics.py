@@ -45,15 +45,16 @@ def forward_kinematics(skeleton: Skeleton, angles) -> Kinematics:
     N, J = q.shape[0], skeleton.n_joints
     R = np.empty((N, J, 3, 3))
     p = np.empty((N, J, 3))
+    m = skeleton.motions
+    value = q[:, m.source] * m.scale + m.bias
     for k in range(J):
-        R_local = np.broadcast_to(np.eye(3), (N, 3, 3))
+        R_local = np.broadcast_to(skeleton.joint_rotation[k], (N, 3, 3))
         p_local = np.broadcast_to(skeleton.offsets[k], (N, 3))
-        for d in range(skeleton.joint_dof_start[k], skeleton.joint_dof_start[k + 1]):
-            axis = skeleton.dof_axis[d]
-            if skeleton.dof_kind[d] == ROTATE:
-                R_local = R_local @ axis_angle_matrix(axis, q[:, d])
+        for n in range(m.joint_start[k], m.joint_start[k + 1]):
+            if m.kind[n] == ROTATE:
+                R_local = R_local @ axis_angle_matrix(m.axis[n], value[:, n])
             else:
-                p_local = p_local + (R_local @ axis) * q[:, d, None]
+                p_local = p_local + (R_local @ m.axis[n]) * value[:, n, None]
         parent = skeleton.parents[k]
         if parent < 0:
             R[:, k], p[:, k] = R_local, p_local

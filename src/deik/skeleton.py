@@ -26,7 +26,11 @@ class Skeleton:
     CSR pointer into the DOF arrays; dof_joint (D,), dof_kind (D,) ROTATE/TRANSLATE,
     dof_axis (D, 3) in the joint frame; lower/upper/reference (D,) radians or length units;
     site_joint (S,), site_offset (S, 3), site_rotation (S, 3, 3); mass_joint (M,),
-    mass_offset (M, 3) in the joint frame, mass_value (M,) kg; up (3,) world up direction.
+    mass_offset (M, 3) in the joint frame, mass_value (M,) kg; up (3,) world up direction;
+    joint_rotation (J, 3, 3) fixed rotation of each joint's rest frame in its parent (identity
+    by default). K mimic DOFs (not variables; applied after their joint's free DOFs), value =
+    mimic_scale * q[mimic_source] + mimic_bias: mimic_names, mimic_joint (K,), mimic_kind (K,),
+    mimic_axis (K, 3), mimic_source (K,) DOF index, mimic_scale (K,), mimic_bias (K,).
     """
 
     name: str
@@ -49,8 +53,25 @@ class Skeleton:
     mass_offset: np.ndarray
     mass_value: np.ndarray
     up: np.ndarray
+    joint_rotation: np.ndarray | None = None
+    mimic_names: tuple[str, ...] = ()
+    mimic_joint: np.ndarray | None = None
+    mimic_kind: np.ndarray | None = None
+    mimic_axis: np.ndarray | None = None
+    mimic_source: np.ndarray | None = None
+    mimic_scale: np.ndarray | None = None
+    mimic_bias: np.ndarray | None = None
 
     def __post_init__(self):
+        defaults = dict(
+            joint_rotation=np.tile(np.eye(3), (len(self.joint_names), 1, 1)),
+            mimic_joint=np.zeros(0, np.int32), mimic_kind=np.zeros(0, np.int32),
+            mimic_axis=np.zeros((0, 3)), mimic_source=np.zeros(0, np.int32),
+            mimic_scale=np.zeros(0), mimic_bias=np.zeros(0),
+        )
+        for key, value in defaults.items():
+            if getattr(self, key) is None:
+                object.__setattr__(self, key, value)
         for key, value in vars(self).items():
             if isinstance(value, np.ndarray):
                 value = np.ascontiguousarray(value)
@@ -108,6 +129,26 @@ class Skeleton:
                 _fail(f"site {self.site_names[k]!r} rotation is not a proper rotation matrix")
         if not np.isfinite(self.up).all() or abs(np.linalg.norm(self.up) - 1.0) > 1e-6:
             _fail(f"up must be a unit vector, got {self.up}")
+        if self.joint_rotation.shape != (J, 3, 3):
+            _fail(f"joint_rotation must be ({J}, 3, 3)")
+        for k, R in enumerate(self.joint_rotation):
+            if not np.isfinite(R).all() or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+                _fail(f"joint {self.joint_names[k]!r} rotation is not a proper rotation matrix")
+        self._validate_mimics(J, D)
+
+    def _validate_mimics(self, J: int, D: int) -> None:
+        K = len(self.mimic_names)
+        arrays = (self.mimic_joint, self.mimic_kind, self.mimic_source, self.mimic_scale, self.mimic_bias)
+        if any(a.shape != (K,) for a in arrays) or self.mimic_axis.shape != (K, 3):
+            _fail(f"every mimic array must have {K} rows (one per mimic name)")
+        if K and (np.diff(self.mimic_joint) < 0).any():
+            _fail("mimic DOFs must be sorted by joint")
+        for k in range(K):
+            if not (0 <= self.mimic_joint[k] < J and 0 <= self.mimic_source[k] < D):
+                _fail(f"mimic DOF {self.mimic_names[k]!r} names a joint or source DOF that does not exist")
+            values = (*self.mimic_axis[k], self.mimic_scale[k], self.mimic_bias[k])
+            if not np.isfinite(values).all() or abs(np.linalg.norm(self.mimic_axis[k]) - 1.0) > 1e-6:
+                _fail(f"mimic DOF {self.mimic_names[k]!r} needs a finite unit axis, multiplier and offset")
 
     @property
     def n_joints(self) -> int:
@@ -131,15 +172,22 @@ class Skeleton:
         return float(self.mass_value.sum())
 
     @cached_property
+    def motions(self) -> Motions:
+        """Free and mimic DOFs merged per joint, in the order forward kinematics applies them."""
+        return Motions.of(self)
+
+    @cached_property
     def _frame_path_length(self) -> np.ndarray:
         """(F,) bone length from the root to each frame, non-root slides at full range."""
         from deik.joints import TRANSLATE
 
-        slide = np.where(self.dof_kind == TRANSLATE, np.maximum(abs(self.lower), abs(self.upper)), 0.0)
+        m = self.motions
+        source_span = np.maximum(abs(self.lower), abs(self.upper))[m.source]
+        slide = np.where(m.kind == TRANSLATE, abs(m.scale) * source_span + abs(m.bias), 0.0)
         depth = np.zeros(self.n_joints)
         for k in range(1, self.n_joints):
-            dofs = slice(self.joint_dof_start[k], self.joint_dof_start[k + 1])
-            depth[k] = depth[self.parents[k]] + np.linalg.norm(self.offsets[k]) + slide[dofs].sum()
+            moves = slice(m.joint_start[k], m.joint_start[k + 1])
+            depth[k] = depth[self.parents[k]] + np.linalg.norm(self.offsets[k]) + slide[moves].sum()
         site = depth[self.site_joint] + np.linalg.norm(self.site_offset, axis=1)
         return np.concatenate([depth, site])
 
@@ -167,8 +215,9 @@ class Skeleton:
                 span = max(abs(self.lower[d]), abs(self.upper[d]))
                 ends = np.array([[-span] * 3, [span] * 3])
             else:
+                axis = self.joint_rotation[0] @ self.dof_axis[d]
                 with np.errstate(invalid="ignore"):
-                    ends = np.stack([self.dof_axis[d] * self.lower[d], self.dof_axis[d] * self.upper[d]])
+                    ends = np.stack([axis * self.lower[d], axis * self.upper[d]])
                 ends = np.nan_to_num(ends, nan=0.0)
             lo, hi = lo + ends.min(axis=0), hi + ends.max(axis=0)
         return lo, hi
@@ -209,3 +258,31 @@ class Skeleton:
         if not np.isfinite(a).all():
             raise ValueError(f"{name} contain NaN or infinite values")
         return a
+
+
+@dataclass(frozen=True, eq=False)
+class Motions:
+    """Every motion (free DOF or mimic) of a skeleton, joint by joint: joint_start (J+1,) CSR
+    pointer; kind (N,); axis (N, 3); source (N,) DOF index; value = scale * q[source] + bias."""
+
+    joint_start: np.ndarray
+    kind: np.ndarray
+    axis: np.ndarray
+    source: np.ndarray
+    scale: np.ndarray
+    bias: np.ndarray
+
+    @classmethod
+    def of(cls, s: Skeleton) -> Motions:
+        D = s.n_dofs
+        owner = np.concatenate([s.dof_joint, s.mimic_joint])
+        order = np.argsort(owner, kind="stable")  # per joint: free DOFs, then its mimics
+        counts = np.bincount(owner, minlength=s.n_joints)
+        return cls(
+            joint_start=np.concatenate([[0], np.cumsum(counts)]).astype(np.int32),
+            kind=np.concatenate([s.dof_kind, s.mimic_kind])[order].astype(np.int32),
+            axis=np.concatenate([s.dof_axis, s.mimic_axis]).reshape(-1, 3)[order],
+            source=np.concatenate([np.arange(D), s.mimic_source])[order].astype(np.int32),
+            scale=np.concatenate([np.ones(D), s.mimic_scale])[order],
+            bias=np.concatenate([np.zeros(D), s.mimic_bias])[order],
+        )

@@ -5,8 +5,9 @@ The device_*.py files are written once and compiled for the CPU (numba.njit) and
 functions call each other by name on the same target (they are not meant to be called as
 plain Python). Nothing here may allocate; callers pass scratch arrays. Matrices are flat,
 row-major, 9 floats per frame.
-Tuples group the arrays: skel = (joint_int (J, 3): parent, dof start, dof end; joint_offset
-(J, 3); dof_kind (D,); dof_axis (D, 3); site_joint (S,); site_frame (S, 12): offset then
+Tuples group the arrays: skel = (joint_int (J, 3): parent, motion start, motion end;
+joint_frame (J, 12): offset then rest rotation; motion_int (N, 2): kind, source DOF;
+motion_float (N, 5): axis, scale, bias (value = scale * q[source] + bias); site_joint (S,); site_frame (S, 12): offset then
 rotation; mass_joint (M,); mass_data (M, 4): offset then mass fraction; limits (D, 2);
 ground (3, 3): two horizontal axes then up), terms = (term_int, term_float, params,
 dof_weight, reference (B, T, D)), scratch = (R (F*9,), p (F*3,), work (32,)).
@@ -73,21 +74,22 @@ def axis_angle_into(ax, ay, az, angle, M, m):
 
 def forward_kinematics(q, skel, R, p, work):
     """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q."""
-    joint_int, joint_offset, dof_kind, dof_axis, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
+    joint_int, joint_frame, motion_int, motion_float, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
     J = joint_int.shape[0]
     for k in range(J):
         for e in range(9):
-            work[e] = 1.0 if e % 4 == 0 else 0.0
-        tx, ty, tz = joint_offset[k, 0], joint_offset[k, 1], joint_offset[k, 2]
-        for d in range(joint_int[k, 1], joint_int[k, 2]):
-            ax, ay, az = dof_axis[d, 0], dof_axis[d, 1], dof_axis[d, 2]
-            if dof_kind[d] == 0:
-                axis_angle_into(ax, ay, az, q[d], work, 9)
+            work[e] = joint_frame[k, 3 + e]
+        tx, ty, tz = joint_frame[k, 0], joint_frame[k, 1], joint_frame[k, 2]
+        for n in range(joint_int[k, 1], joint_int[k, 2]):
+            ax, ay, az = motion_float[n, 0], motion_float[n, 1], motion_float[n, 2]
+            value = motion_float[n, 3] * q[motion_int[n, 1]] + motion_float[n, 4]
+            if motion_int[n, 0] == 0:
+                axis_angle_into(ax, ay, az, value, work, 9)
                 matmul3(work, 0, work, 9, work, 18)
                 for e in range(9):
                     work[e] = work[18 + e]
             else:
-                dx, dy, dz = rotate_point(work, 0, ax * q[d], ay * q[d], az * q[d])
+                dx, dy, dz = rotate_point(work, 0, ax * value, ay * value, az * value)
                 tx, ty, tz = tx + dx, ty + dy, tz + dz
         parent = joint_int[k, 0]
         if parent < 0:

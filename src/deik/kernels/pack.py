@@ -20,7 +20,11 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
     """The `skel` tuple; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi)."""
     s = skeleton
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
-    joint_int = np.stack([s.parents, s.joint_dof_start[:-1], s.joint_dof_start[1:]], axis=1)
+    m = s.motions
+    joint_int = np.stack([s.parents, m.joint_start[:-1], m.joint_start[1:]], axis=1)
+    joint_frame = np.concatenate([s.offsets, s.joint_rotation.reshape(-1, 9)], axis=1)
+    motion_int = np.stack([m.kind, m.source], axis=1).reshape(-1, 2)
+    motion_float = np.concatenate([m.axis, m.scale[:, None], m.bias[:, None]], axis=1).reshape(-1, 5)
     site_frame = np.concatenate([s.site_offset, s.site_rotation.reshape(-1, 9)], axis=1)
     total = s.mass_value.sum()
     fraction = s.mass_value / total if total > 0 else s.mass_value
@@ -28,8 +32,9 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
     if limits is None:
         limits = np.stack([s.lower, s.upper], axis=1)
     return (
-        np.ascontiguousarray(joint_int, np.int32), f(s.offsets), np.ascontiguousarray(s.dof_kind, np.int32),
-        f(s.dof_axis), np.ascontiguousarray(s.site_joint, np.int32), f(site_frame.reshape(-1, 12)),
+        np.ascontiguousarray(joint_int, np.int32), f(joint_frame.reshape(-1, 12)),
+        np.ascontiguousarray(motion_int, np.int32), f(motion_float),
+        np.ascontiguousarray(s.site_joint, np.int32), f(site_frame.reshape(-1, 12)),
         np.ascontiguousarray(s.mass_joint, np.int32), f(mass_data.reshape(-1, 4)), f(limits),
         f(ground_frame(s.up)),
     )
