@@ -1,0 +1,126 @@
+"""The URDF file as XML (with line numbers for errors) and its link tree: the root, who is
+whose parent, and the sub-tree or chain a user picks by base and tip link names."""
+
+from __future__ import annotations
+
+import difflib
+import os
+
+from deik.io.errors import FileFormatError
+
+
+def read_xml(path):
+    """The `<robot>` element of the XML file at `path` (lxml, comments dropped, line numbers
+    kept). Unreadable, empty, binary or non-URDF files raise FileFormatError."""
+    from lxml import etree
+
+    source = str(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{source}: no such URDF file")
+    with open(path, "rb") as file:
+        data = file.read()
+    if not data.strip():
+        raise FileFormatError(source, "the file is empty; a URDF file holds a <robot> element")
+    if b"\0" in data:
+        raise FileFormatError(source, "not a text URDF (XML) file: it holds NUL bytes")
+    parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
+    try:
+        root = etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as error:
+        line = error.position[0] if error.position else None
+        raise FileFormatError(source, f"not well-formed XML: {error.msg}", line=line) from None
+    if root.tag != "robot":
+        raise FileFormatError(source, f"the top element is <{root.tag}>, a URDF needs <robot>", line=root.sourceline)
+    for tag in ("link", "joint"):
+        for element in root.findall(tag):
+            if not element.get("name"):
+                raise FileFormatError(source, f"a <{tag}> without a name attribute", line=element.sourceline)
+    for element in root.findall("joint"):
+        for part in ("parent", "child"):
+            child = element.find(part)
+            if child is None or not child.get("link"):
+                raise FileFormatError(source, f"needs <{part} link=\"...\"/>", line=element.sourceline,
+                                      element=f"joint {element.get('name')!r}")
+    return root
+
+
+class LinkTree:
+    """Links and joints of a parsed robot by name, checked to form one tree."""
+
+    def __init__(self, robot, root_element, source: str):
+        self.source = source
+        self._lines = {(e.tag, e.get("name")): e.sourceline for e in root_element if e.tag in ("link", "joint")}
+        self.links = {}
+        for link in robot.links:
+            if link.name in self.links:
+                self.failure(link.name, "link")("duplicate link name; every link needs its own name")
+            self.links[link.name] = link
+        if not self.links:
+            raise FileFormatError(source, "the robot has no <link>")
+        self.joints, self.joint_of, self.children = {}, {}, {name: [] for name in self.links}
+        for joint in robot.joints:
+            fail = self.failure(joint.name)
+            if joint.name in self.joints:
+                fail("duplicate joint name; every joint needs its own name")
+            for end in (joint.parent, joint.child):
+                if end not in self.links:
+                    fail(f"names unknown link {end!r}{suggest(end, self.links)}")
+            if joint.child in self.joint_of:
+                fail(f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; a URDF is a tree")
+            self.joints[joint.name] = joint
+            self.joint_of[joint.child] = joint
+            self.children[joint.parent].append(joint.child)
+        roots = [name for name in self.links if name not in self.joint_of]
+        if len(roots) != 1:
+            raise FileFormatError(source, f"the links must form one tree with one root, found roots {roots}")
+        self.root = roots[0]
+        if len(self.below(self.root)) != len(self.links):
+            cut = sorted(set(self.links) - set(self.below(self.root)))
+            raise FileFormatError(source, f"links {cut[:5]} are not connected to the root {self.root!r} (a cycle?)")
+
+    def failure(self, name: str, tag: str = "joint"):
+        """A function that raises FileFormatError about element `name` at its line."""
+        def fail(problem: str):
+            raise FileFormatError(self.source, problem, line=self._lines.get((tag, name)), element=f"{tag} {name!r}")
+
+        return fail
+
+    def joint_child(self, joint_name: str) -> str:
+        return self.joints[joint_name].child
+
+    def below(self, link: str) -> list[str]:
+        """`link` and every link under it, parents before children."""
+        order, stack = [], [link]
+        while stack:
+            name = stack.pop()
+            order.append(name)
+            stack.extend(reversed(self.children[name]))
+        return order
+
+    def _link(self, name: str, role: str) -> str:
+        if name not in self.links:
+            raise KeyError(f"{role} link {name!r} is not in {self.source}{suggest(name, self.links)}")
+        return name
+
+    def select(self, base: str | None, tip) -> list[str]:
+        """Links of the sub-tree under `base`, or of the paths from `base` to each `tip`,
+        parents before children (the base first)."""
+        base = self.root if base is None else self._link(base, "base")
+        subtree = self.below(base)
+        if tip is None:
+            return subtree
+        keep = {base}
+        for name in [tip] if isinstance(tip, str) else list(tip):
+            link = self._link(name, "tip")
+            if link not in subtree:
+                raise KeyError(f"tip link {name!r} is not below base link {base!r}; pick a base on its path from {self.root!r}")
+            while link != base:
+                keep.add(link)
+                link = self.joint_of[link].parent
+        return [name for name in subtree if name in keep]
+
+
+def suggest(name, names) -> str:
+    """'; did you mean ...?' with up to three close names, or ''."""
+    close = difflib.get_close_matches(str(name), list(names), n=3)
+    return f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""

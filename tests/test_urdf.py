@@ -1,0 +1,161 @@
+"""URDF import: forward kinematics and centre of mass against yourdfpy on the real robots,
+chain and sub-tree selection, and every malformed file reported with its file and line."""
+
+import numpy as np
+import pytest
+import yourdfpy
+
+import deik
+from deik.io.errors import FileFormatError
+from deik.io.urdf import read_urdf
+
+ROBOTS = {"panda": (0, 0, 1), "kuka_iiwa": (0, 0, 1), "human": (0, 1, 0)}
+
+
+def _yourdfpy(path):
+    return yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False,
+                              load_collision_meshes=False)
+
+
+@pytest.mark.parametrize("robot", sorted(ROBOTS))
+def test_fk_of_random_in_limit_poses_matches_yourdfpy(shared_data, robot):
+    path = shared_data / "robots" / f"{robot}.urdf"
+    sk = read_urdf(path, up=ROBOTS[robot])
+    reference = _yourdfpy(path)
+    assert len(sk.dof_names) + len(sk.mimic_names) == len(reference.actuated_joint_names) + len(
+        [j for j in reference.robot.joints if j.mimic is not None])
+    poses = np.random.default_rng(len(robot)).uniform(sk.lower, sk.upper, (25, sk.n_dofs))
+    kin = deik.forward_kinematics(sk, poses)
+    for q, R, p in zip(poses, kin.R_world_frame, kin.p_world_frame):
+        reference.update_cfg(dict(zip(sk.dof_names, q)))
+        for link in reference.link_map:
+            T = reference.get_transform(link, reference.base_link)
+            k = sk.frame_index(link)
+            np.testing.assert_allclose(p[k], T[:3, 3], atol=1e-6, err_msg=link)
+            np.testing.assert_allclose(R[k], T[:3, :3], atol=1e-6, err_msg=link)
+
+
+@pytest.mark.parametrize("robot", sorted(ROBOTS))
+def test_centre_of_mass_matches_link_inertials(shared_data, robot):
+    path = shared_data / "robots" / f"{robot}.urdf"
+    sk = read_urdf(path)
+    reference = _yourdfpy(path)
+    masses = {l.name: l.inertial for l in reference.robot.links if l.inertial is not None and l.inertial.mass}
+    assert sk.total_mass == pytest.approx(sum(i.mass for i in masses.values()))
+    q = np.random.default_rng(3).uniform(sk.lower, sk.upper)
+    reference.update_cfg(dict(zip(sk.dof_names, q)))
+    points = [(reference.get_transform(name, reference.base_link) @ inertial.origin)[:3, 3] * inertial.mass
+              for name, inertial in masses.items()]
+    expected = np.sum(points, axis=0) / sk.total_mass
+    np.testing.assert_allclose(deik.forward_kinematics(sk, q).p_world_com, expected, atol=1e-9)
+
+
+def test_panda_chain_from_base_to_tool_frame(shared_data):
+    sk = read_urdf(shared_data / "robots" / "panda.urdf", base="panda_link0", tip="panda_hand_tcp")
+    assert sk.dof_names == tuple(f"panda_joint{k}" for k in range(1, 8))
+    assert sk.site_names == ("panda_link8", "panda_hand", "panda_hand_tcp")
+    assert sk.mimic_names == ()
+    np.testing.assert_allclose(sk.lower[3], -3.0718)
+    np.testing.assert_allclose(sk.upper[5], 3.7525)
+
+
+def test_panda_whole_tree_keeps_the_finger_mimic(shared_data):
+    sk = read_urdf(shared_data / "robots" / "panda.urdf")
+    assert "panda_finger_joint1" in sk.dof_names
+    assert sk.mimic_names == ("panda_finger_joint2",)
+    assert sk.dof_names[sk.mimic_source[0]] == "panda_finger_joint1"
+
+
+def test_sub_tree_below_a_base_and_several_tips(shared_data):
+    path = shared_data / "robots" / "panda.urdf"
+    below = read_urdf(path, base="panda_link5")
+    assert below.joint_names[0] == "panda_link5"
+    assert below.dof_names[:2] == ("panda_joint6", "panda_joint7")
+    both = read_urdf(path, tip=["panda_leftfinger", "panda_link3"])
+    assert "panda_rightfinger" not in both.frame_names
+    assert "panda_finger_joint1" in both.dof_names
+
+
+def test_human_leaf_links_are_frames(shared_data):
+    sk = read_urdf(shared_data / "robots" / "human.urdf", up=(0, 1, 0))
+    assert sk.n_dofs == 36
+    for link in ("left_hand", "right_hand", "left_foot", "right_foot", "middle_head"):
+        sk.frame_index(link)
+
+
+def test_tip_not_below_base(shared_data):
+    with pytest.raises(KeyError, match="tip link 'panda_link1' is not below base link 'panda_link3'"):
+        read_urdf(shared_data / "robots" / "panda.urdf", base="panda_link3", tip="panda_link1")
+
+
+def test_unknown_base_suggests_close_names(shared_data):
+    with pytest.raises(KeyError, match="did you mean 'panda_link3'"):
+        read_urdf(shared_data / "robots" / "panda.urdf", base="panda_lnk3")
+
+
+def test_pybullet_only_source_is_refused_with_the_joint_and_line(shared_data):
+    path = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"
+    with pytest.raises(FileFormatError, match=r"humanoid_deepmimic_source\.urdf:\d+: joint 'chest': joint type 'spherical'"):
+        read_urdf(path)
+
+
+def _robot(joint_xml: str, links: str = '<link name="a"/><link name="b"/>') -> str:
+    return f'<?xml version="1.0"?>\n<robot name="r">\n{links}\n{joint_xml}\n</robot>\n'
+
+
+GOOD_JOINT = ('<joint name="j" type="revolute">\n<parent link="a"/><child link="b"/>'
+              '<origin xyz="0 0 1" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>')
+
+BAD_FILES = {
+    "empty": ("", r"bad\.urdf: the file is empty"),
+    "binary": (b"\x89PNG\r\n\x1a\n\0\0\0IHDR", r"bad\.urdf: not a text URDF \(XML\) file"),
+    "truncated": (_robot(GOOD_JOINT)[:-20], r"bad\.urdf:\d+: not well-formed XML"),
+    "not a robot": ('<?xml version="1.0"?>\n<scene/>\n', r"bad\.urdf:2: the top element is <scene>"),
+    "unknown type": (_robot(GOOD_JOINT.replace("revolute", "ball")), r"bad\.urdf:4: joint 'j': joint type 'ball'"),
+    "floating": (_robot(GOOD_JOINT.replace("revolute", "floating")), r"joint 'j': joint type 'floating' is not supported"),
+    "missing limits": (_robot(GOOD_JOINT.replace('<limit lower="-1" upper="1"/>', "")),
+                       r"bad\.urdf:4: joint 'j': a revolute joint needs <limit lower=\.\.\. upper=\.\.\.>"),
+    "missing upper": (_robot(GOOD_JOINT.replace(' upper="1"', "")), r"joint 'j': a revolute joint needs <limit"),
+    "inverted limits": (_robot(GOOD_JOINT.replace('lower="-1" upper="1"', 'lower="1" upper="-1"')),
+                        r"joint 'j': lower limit 1\.0 is above upper limit -1\.0"),
+    "nan origin": (_robot(GOOD_JOINT.replace('rpy="0 0 0"', 'rpy="0 nan 0"')), r"bad\.urdf:4: joint 'j': origin or axis holds NaN"),
+    "zero axis": (_robot(GOOD_JOINT.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')), r"joint 'j': axis .* must be a finite non-zero"),
+    "unknown link": (_robot(GOOD_JOINT.replace('child link="b"', 'child link="bb"')), r"joint 'j': names unknown link 'bb'; did you mean 'b'"),
+    "no parent": (_robot(GOOD_JOINT.replace('<parent link="a"/>', "")), r"bad\.urdf:4: joint 'j': needs <parent link"),
+    "two roots": (_robot(GOOD_JOINT, '<link name="a"/><link name="b"/><link name="c"/>'), r"one tree with one root, found roots \['a', 'c'\]"),
+    "unknown mimic": (_robot(GOOD_JOINT.replace("</joint>", '<mimic joint="zz"/></joint>')), r"joint 'j': mimics unknown joint 'zz'"),
+    "negative mass": (_robot(GOOD_JOINT, '<link name="a"><inertial><mass value="-2"/></inertial></link><link name="b"/>'),
+                      r"bad\.urdf:3: link 'a': mass -2\.0 must be a positive"),
+    "nameless link": (_robot(GOOD_JOINT, '<link/><link name="b"/>'), r"bad\.urdf:3: a <link> without a name"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_bad_urdf_names_the_file_and_line(tmp_path, case):
+    content, message = BAD_FILES[case]
+    path = tmp_path / "bad.urdf"
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    with pytest.raises(FileFormatError, match=message):
+        read_urdf(path)
+
+
+def test_good_toy_robot_reads(tmp_path):
+    path = tmp_path / "good.urdf"
+    path.write_text(_robot(GOOD_JOINT))
+    sk = read_urdf(path)
+    kin = deik.forward_kinematics(sk, [0.5])
+    np.testing.assert_allclose(kin.position("b"), [0, 0, 1])
+    np.testing.assert_allclose(kin.rotation("b")[:2, 0], [np.cos(0.5), np.sin(0.5)])
+
+
+def test_missing_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nothere.urdf: no such URDF file"):
+        read_urdf(tmp_path / "nothere.urdf")
+
+
+def test_meshes_are_never_loaded(tmp_path):
+    """A visual mesh that does not exist must not matter: geometry is stripped before parsing."""
+    links = '<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link><link name="b"/>'
+    path = tmp_path / "mesh.urdf"
+    path.write_text(_robot(GOOD_JOINT, links))
+    assert read_urdf(path).n_dofs == 1
