@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.builders import chain
-from deik.cli import format_table, unit
+from deik.cli_format import format_table, unit
 from deik.io.atomic import write_json_atomically
 from deik.humanoid import humanoid
 from deik.kinematics import forward_kinematics

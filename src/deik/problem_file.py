@@ -46,7 +46,7 @@ from deik.problem import LIMIT_MODES, Problem
 from deik.rotations import euler_matrix
 from deik.skeleton import Skeleton
 
-SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain) or 'humanoid'"
+SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain), 'humanoid', or a .bvh or .urdf file"
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
 # type -> (goal class, required fields, optional fields besides COMMON_FIELDS)
 GOAL_TYPES = {

@@ -31,6 +31,7 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
     mass_data = np.concatenate([s.mass_offset, fraction[:, None]], axis=1)
     if limits is None:
         limits = np.stack([s.lower, s.upper], axis=1)
+    limits = inward(np.asarray(limits, np.float64), dtype)
     return (
         np.ascontiguousarray(joint_int, np.int32), f(joint_frame.reshape(-1, 12)),
         np.ascontiguousarray(motion_int, np.int32), f(motion_float),
@@ -38,6 +39,17 @@ def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | Non
         np.ascontiguousarray(s.mass_joint, np.int32), f(mass_data.reshape(-1, 4)), f(limits),
         f(ground_frame(s.up)),
     )
+
+
+def inward(limits: np.ndarray, dtype) -> np.ndarray:
+    """Limits (D, 2) rounded to `dtype` towards the inside, so that every pose the kernels keep
+    within them is also within the float64 limits."""
+    rounded = limits.astype(dtype)
+    wide = rounded.astype(np.float64)
+    up, down = np.array(np.inf, dtype), np.array(-np.inf, dtype)
+    rounded[:, 0] = np.where(wide[:, 0] < limits[:, 0], np.nextafter(rounded[:, 0], up), rounded[:, 0])
+    rounded[:, 1] = np.where(wide[:, 1] > limits[:, 1], np.nextafter(rounded[:, 1], down), rounded[:, 1])
+    return rounded
 
 
 TOLERANCE_MARGIN = {np.dtype(np.float32): 1e-3, np.dtype(np.float64): 1e-12}

@@ -1,0 +1,202 @@
+"""`deik solve`: pose one problem from flags or a TOML file, on a built-in skeleton, a BVH
+clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG atomically.
+
+    deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
+    deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
+    deik solve --skeleton panda.urdf --base panda_link0 --tip panda_hand_tcp \\
+        --reach panda_hand_tcp 0.4 0.2 0.5 --orient panda_hand_tcp 180 0 0 --out pose.json
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+
+from deik import plot
+from deik.cli_format import UsageError, format_table, numbers, unit
+from deik.evolution.engine import STRATEGIES, Settings
+from deik.io.atomic import write_json_atomically
+from deik.io.load import load_skeleton
+from deik.objectives import goals as g
+from deik.problem import Problem
+from deik.problem_file import load_problem
+from deik.rotations import euler_matrix
+from deik.seeding import poses_around
+from deik.solve import solve
+
+SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype")
+FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame" when posing a BVH frame
+SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
+
+
+def add_arguments(s) -> None:
+    """The `deik solve` flags on subparser `s`."""
+    s.add_argument("skeleton", nargs="?", help="chain:N (planar), chain3d:N, humanoid, or a .bvh/.urdf file")
+    s.add_argument("--skeleton", dest="skeleton_flag", metavar="FILE", help="same as SKELETON: a .bvh or .urdf file")
+    s.add_argument("--problem", metavar="FILE.toml", help="read skeleton, goals and settings from a TOML file")
+    s.add_argument("--frame", type=int, metavar="N", help="BVH: pose frame N (0-based) of the clip")
+    s.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated from bone lengths)")
+    s.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world (default: the root link)")
+    s.add_argument("--tip", action="append", default=[], metavar="LINK",
+                   help="URDF: keep only the chain from --base to LINK (repeatable; default: every link)")
+    s.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    s.add_argument("--reach", nargs=4, action="append", default=[], metavar=("FRAME", "X", "Y", "Z"),
+                   help="put joint or site FRAME at X Y Z (repeatable)")
+    s.add_argument("--orient", nargs=4, action="append", default=[], metavar=("FRAME", "RX", "RY", "RZ"),
+                   help="turn FRAME to intrinsic XYZ Euler angles in degrees (repeatable)")
+    s.add_argument("--tolerance", type=float, metavar="LENGTH",
+                   help="--reach goals are met within this distance (default 1%% of the reach)")
+    s.add_argument("--angle-tolerance", type=float, metavar="DEGREES",
+                   help="--orient goals are met within this angle (default 0.57 degrees = 0.01 rad)")
+    s.add_argument("--com-over", nargs=3, metavar=("X", "Y", "Z"),
+                   help="keep the centre of mass over this support point (horizontally)")
+    s.add_argument("--obstacle", nargs=4, action="append", default=[], metavar=("X", "Y", "Z", "RADIUS"),
+                   help="keep every bone out of this sphere (repeatable)")
+    s.add_argument("--comfort", type=float, metavar="WEIGHT",
+                   help="stay near the rest pose (BVH: near the frame's pose, default weight 1) with this "
+                        "weight in [-1, 1], below the other goals in priority; 0 turns it off")
+    s.add_argument("--seed", type=int, help="random seed (same seed, same answer)")
+    s.add_argument("--population", type=int, help="DE population per problem (default 256)")
+    s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
+    s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
+    s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
+    s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
+    s.add_argument("--out", metavar="pose.json|pose.bvh",
+                   help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
+    s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
+    s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
+
+
+def _goals(args, frame_pose) -> list:
+    """Goals from the goal flags: targets on priority level 0, comfort below them on level 1."""
+    angle_tolerance = None if args.angle_tolerance is None else float(np.radians(args.angle_tolerance))
+    goals = [g.Position(frame, numbers("--reach", xyz), tolerance=args.tolerance) for frame, *xyz in args.reach]
+    for frame, *angles in args.orient:
+        rotation = euler_matrix("XYZ", np.radians(numbers("--orient", angles)))
+        goals.append(g.Orientation(frame, rotation, tolerance=angle_tolerance))
+    if args.com_over:
+        goals.append(g.ComOverSupport(numbers("--com-over", args.com_over)))
+    for values in args.obstacle:
+        *centre, radius = numbers("--obstacle", values)
+        goals.append(g.Obstacle(centre, radius))
+    weight = args.comfort if args.comfort is not None else (FRAME_COMFORT if frame_pose is not None else None)
+    if weight:
+        goals.append(g.Comfort(weight=weight, level=1, reference=frame_pose))
+    return goals
+
+
+def _file_flags_used(args) -> bool:
+    return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up))
+
+
+def _problem(args):
+    """(problem, settings dict, loaded skeleton or None, frame pose or None) from the flags."""
+    has_goals = bool(args.reach or args.orient or args.com_over or args.obstacle) or args.comfort is not None
+    spec = args.skeleton_flag or args.skeleton
+    if args.skeleton_flag and args.skeleton:
+        raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
+    if args.problem:
+        if spec or has_goals or _file_flags_used(args):
+            raise UsageError("--problem FILE already names the skeleton and goals; "
+                             "drop the SKELETON argument, skeleton options and goal flags or put them in the file")
+        problem, settings = load_problem(args.problem)
+        return problem, settings, None, None
+    if not spec:
+        raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
+    up = numbers("--up", args.up) if args.up else None
+    loaded = load_skeleton(spec, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    frame_pose = None
+    if loaded.kind == "bvh":
+        if args.frame is None:
+            raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
+        frame_pose = loaded.clip.pose(args.frame)
+    elif args.frame is not None:
+        raise UsageError("--frame only applies to a BVH clip")
+    if not has_goals:
+        raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
+    return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose
+
+
+def _check_output(flag: str, path, suffixes=None) -> None:
+    if path is None:
+        return
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise UsageError(f"{flag}: folder {os.path.dirname(os.path.abspath(path))!r} does not exist")
+    if suffixes and os.path.splitext(path)[1].lower() not in suffixes:
+        raise UsageError(f"{flag}: {path!r} must end in {' or '.join(suffixes)}")
+
+
+def _check_device(device: str) -> None:
+    if device != "gpu":
+        return
+    try:
+        from numba import cuda
+    except ImportError:
+        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
+    if not cuda.is_available():
+        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
+
+
+def _progress(generations: int, terminal: bool):
+    """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
+    def report(generation, best):
+        line = f"generation {generation}/{generations}  best fitness {best:.6g}"
+        print(f"\r{line}" if terminal else line, end="" if terminal else "\n", file=sys.stderr, flush=True)
+    return report
+
+
+def _write_pose(path, result, loaded, frame) -> None:
+    """JSON summary, or BVH: the input clip with `frame` replaced, else a one-frame clip."""
+    if os.path.splitext(path)[1].lower() != ".bvh":
+        data = result.to_dict()
+        if frame is not None:
+            data["frame"] = frame
+        write_json_atomically(path, data)
+        return
+    from deik.io.bvh import write_bvh
+    from deik.io.clip import Clip
+
+    if loaded is not None and loaded.clip is not None:
+        clip = loaded.clip.with_pose(frame, result.angles)
+    else:
+        clip = Clip.from_poses(result.skeleton, result.angles[None], frame_time=1.0 / 30.0)
+    write_bvh(path, clip)
+
+
+def run_solve(args) -> int:
+    """`deik solve`: build the problem, solve, print the report, write the requested files."""
+    _check_output("--out", args.out, (".json", ".bvh"))
+    _check_output("--plot", args.plot)
+    if args.plot:
+        plot.require_matplotlib()
+    problem, settings, loaded, frame_pose = _problem(args)
+    settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
+    settings = Settings(**settings)
+    _check_device(settings.device)
+    initial = None
+    if frame_pose is not None:
+        initial = poses_around(problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed)
+        if args.comfort is None:
+            print(f"note: comfort keeps the pose near frame {args.frame} (weight {FRAME_COMFORT}, below the "
+                  "targets); --comfort 0 turns it off", file=sys.stderr)
+    if loaded is not None and loaded.kind == "bvh" and "estimated" in loaded.mass_source:
+        print(f"note: masses {loaded.mass_source}", file=sys.stderr)
+    terminal = sys.stderr.isatty()
+    progress = _progress(settings.generations, terminal) if args.progress or terminal else None
+    result = solve(problem, settings, initial=initial, progress=progress)
+    if progress and terminal:
+        print(file=sys.stderr)
+    rows = [[r.label, f"{float(r.error):.6g} {unit(r.label)}",
+             f"{r.tolerance:.6g} {unit(r.label)}" if r.tolerance >= 0 else "-",
+             "yes" if r.met else "NO"] for r in result.goals]
+    print(format_table(["goal", "error", "tolerance", "met"], rows))
+    print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
+          f"converged {'yes' if result.converged else 'no'}")
+    if args.out:
+        _write_pose(args.out, result, loaded, args.frame)
+    if args.plot:
+        spec = args.skeleton_flag or args.skeleton or args.problem
+        plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
+    return 0

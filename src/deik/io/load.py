@@ -1,0 +1,48 @@
+"""One entry point for every skeleton a user can name: a BVH file, a URDF file or a built-in."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from deik.skeleton import Skeleton
+
+URDF_UP = (0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """A skeleton, the clip it came with (BVH only, else None), where it came from (`kind`:
+    "bvh", "urdf" or "builtin") and where its masses came from."""
+
+    skeleton: Skeleton
+    kind: str
+    clip: object = None
+    mass_source: str = ""
+
+
+def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> Loaded:
+    """Load `spec`: a path ending in .bvh or .urdf, or "chain:N", "chain3d:N", "humanoid".
+    `base`/`tip` (link names) and `up` (3,) apply to URDF only; `segments` (a segment table
+    path) to BVH only; giving one for another kind is a ValueError."""
+    from deik.problem_file import skeleton_from_spec
+
+    suffix = Path(str(spec)).suffix.lower()
+    urdf_only = {"--base": base, "--tip": tip, "--up": up}
+    misplaced = [flag for flag, value in urdf_only.items() if value not in (None, [], ())]
+    if suffix != ".urdf" and misplaced:
+        raise ValueError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
+    if suffix != ".bvh" and segments is not None:
+        raise ValueError(f"--segments only applies to a BVH character, not {spec!r}")
+    if suffix == ".bvh":
+        from deik.io.bvh import read_bvh
+
+        clip = read_bvh(spec, segments=segments)
+        return Loaded(clip.skeleton, "bvh", clip, clip.mass_source)
+    if suffix == ".urdf":
+        from deik.io.urdf import read_urdf
+
+        skeleton = read_urdf(spec, base=base, tip=tip or None, up=URDF_UP if up is None else up)
+        return Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)")
+    skeleton = skeleton_from_spec(spec)
+    return Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)")
