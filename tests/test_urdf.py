@@ -159,3 +159,14 @@ def test_meshes_are_never_loaded(tmp_path):
     path = tmp_path / "mesh.urdf"
     path.write_text(_robot(GOOD_JOINT, links))
     assert read_urdf(path).n_dofs == 1
+
+
+def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
+    """Panda limits like -2.8973 have no float32 twin; rounding outward once let a float32
+    solution sit 5e-9 rad outside its joint limit."""
+    from deik.kernels.pack import pack_skeleton
+
+    sk = read_urdf(shared_data / "robots" / "panda.urdf")
+    limits = pack_skeleton(sk, np.float32)[8].astype(np.float64)
+    assert np.all(limits[:, 0] >= sk.lower) and np.all(limits[:, 1] <= sk.upper)
+    assert np.all(limits[:, 0] - sk.lower < 1e-6) and np.all(sk.upper - limits[:, 1] < 1e-6)
