@@ -87,3 +87,94 @@ def test_file_cli_mistakes_exit_2_with_one_line(shared_data, tmp_path, monkeypat
     err = capsys.readouterr().err
     assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def _clip_target(path, frame, seed):
+    """Left-hand position after moving the left arm of `frame` by up to 0.4 rad per DOF."""
+    from deik.io.bvh import read_bvh
+
+    clip = read_bvh(path)
+    sk = clip.skeleton
+    pose = clip.pose(frame)
+    arm = [d for d, name in enumerate(sk.dof_names) if name.startswith(("LeftShoulder.", "LeftElbow.Z"))]
+    pose[arm] += np.random.default_rng(seed).uniform(-0.4, 0.4, len(arm))
+    return clip, deik.forward_kinematics(sk, pose).position("LeftElbow_end")
+
+
+def test_cli_poses_a_bvh_frame_and_writes_the_clip_with_only_that_frame_changed(shared_data, tmp_path, capsys):
+    from deik.io.bvh import read_bvh
+
+    path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
+    clip, target = _clip_target(path, 12, seed=1)
+    out = tmp_path / "fixed.bvh"
+    argv = ["solve", "--skeleton", str(path), "--frame", "12", "--reach", "LeftElbow_end", *map(str, target),
+            "--tolerance", "0.005", "--comfort", "0.3", "--generations", "500", "--seed", "0", "--out", str(out)]
+    assert main(argv) == 0, capsys.readouterr().err
+    assert "comfort keeps the pose near frame" not in capsys.readouterr().err  # --comfort was given
+    original, fixed = path.read_text().splitlines(), out.read_text().splitlines()
+    motion = original.index("MOTION") + 3
+    assert fixed[:motion] == original[:motion]  # hierarchy, frame count and time unchanged
+    changed = [k for k, (a, b) in enumerate(zip(original[motion:], fixed[motion:])) if a != b]
+    assert changed == [12]
+    solved = read_bvh(out)
+    kin = deik.forward_kinematics(solved.skeleton, solved.frames[12])
+    assert np.linalg.norm(kin.position("LeftElbow_end") - target) <= 0.005
+    # Euler channels stay continuous: no channel jumps by a half turn against the original frame
+    assert np.abs(solved.frames[12] - clip.frames[12]).max() < np.pi
+
+
+def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys):
+    path = shared_data / "humanoid" / "humanoid3d_run.bvh"
+    clip, target = _clip_target(path, 3, seed=2)
+    out = tmp_path / "pose.json"
+    argv = ["solve", str(path), "--frame", "3", "--reach", "LeftElbow_end", *map(str, target),
+            "--segments", str(path.with_suffix(".segments.json")), "--generations", "300", "--out", str(out)]
+    assert main(argv) == 0
+    assert "comfort keeps the pose near frame 3" in capsys.readouterr().err
+    data = json.loads(out.read_text())
+    assert data["frame"] == 3 and len(data["angles"]) == clip.skeleton.n_dofs
+
+
+@pytest.mark.parametrize("extra,fragment", [
+    ([], "choose one with --frame N"),
+    (["--frame", "39"], "frame 39 is out of range; valid frames: 0..38"),
+    (["--frame", "2", "--base", "Hips"], "--base only apply to a URDF robot"),
+    (["--frame", "2", "--segments", "{data}/robots/panda.urdf"], "panda.urdf"),
+])
+def test_bvh_cli_mistakes_exit_2_and_write_nothing(shared_data, tmp_path, capsys, extra, fragment):
+    argv = ["solve", "--skeleton", str(shared_data / "humanoid" / "humanoid3d_walk.bvh"),
+            "--reach", "LeftElbow_end", "0.3", "0.9", "0", "--out", str(tmp_path / "x.bvh")]
+    assert main(argv + [e.format(data=shared_data) for e in extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_urdf_pose_cannot_be_written_as_bvh(shared_data, tmp_path, capsys):
+    path = shared_data / "robots" / "kuka_iiwa.urdf"
+    out = tmp_path / "pose.bvh"
+    argv = ["solve", str(path), "--reach", "lbr_iiwa_link_7", "0.3", "0.2", "0.8", "--generations", "50", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "has a fixed rest rotation, which BVH cannot carry" in err or "not a coordinate axis" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_builtin_humanoid_pose_written_as_bvh_reads_back(tmp_path, capsys):
+    from deik.io.bvh import read_bvh
+
+    out = tmp_path / "pose.bvh"
+    assert main(["solve", "humanoid", "--reach", "left_hand", "0.4", "1.2", "0.35", "--generations", "60",
+                 "--seed", "2", "--out", str(out)]) == 0
+    clip = read_bvh(out)
+    assert clip.n_frames == 1
+    assert "position left_hand" in capsys.readouterr().out
+    sk = deik.humanoid()
+    assert set(clip.skeleton.joint_names) == set(sk.joint_names)
+    # the written frame puts the hand where the solve did: within the default 1 % of reach
+    joint = sk.joint_names[sk.site_joint[sk.site_names.index("left_hand")]]
+    siblings = [n for n, j in zip(sk.site_names, sk.site_joint) if sk.joint_names[j] == joint]
+    k = siblings.index("left_hand")
+    end_site = f"{joint}_end" + (str(k + 1) if k else "")  # BVH End Sites have no names of their own
+    hand = deik.forward_kinematics(clip.skeleton, clip.frames[0]).position(end_site)
+    assert np.linalg.norm(hand - [0.4, 1.2, 0.35]) <= 0.01 * sk.reach

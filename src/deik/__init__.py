@@ -3,6 +3,10 @@
 from deik.builders import chain
 from deik.evolution.engine import Engine, EvolutionState, Settings
 from deik.humanoid import humanoid
+from deik.io.bvh import read_bvh, write_bvh
+from deik.io.clip import Clip
+from deik.io.load import load_skeleton
+from deik.io.urdf import read_urdf
 from deik.joints import Dof, Joint, Segment, Site, build_skeleton, euler, hinge, translation
 from deik.kinematics import Kinematics, forward_kinematics
 from deik.objectives.goals import (
@@ -21,9 +25,10 @@ from deik.skeleton import Skeleton
 from deik.solve import solve
 
 __all__ = [
-    "Aim", "CentreOfMass", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
+    "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
     "EvolutionState", "GoalReport", "Joint", "Kinematics", "Obstacle", "Orientation", "Position",
     "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "build_skeleton", "chain",
-    "euler", "forward_kinematics", "hinge", "humanoid", "solve", "translation",
+    "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "read_bvh", "read_urdf",
+    "solve", "translation", "write_bvh",
 ]
 __version__ = "0.1.0"
