@@ -213,7 +213,7 @@ def test_reflect_and_clip_keep_every_individual_within_limits(mode):
     at_limit = 0
     for _ in range(30):
         state = engine.step(state)
-        assert ((state.pop >= -0.5) & (state.pop <= 0.5)).all()
+        assert ((state.pop >= sk.lower) & (state.pop <= sk.upper)).all()
         at_limit = max(at_limit, int((np.abs(state.pop) > 0.49).sum()))
     assert at_limit > 0  # the population really pushes against the limits
 

@@ -10,7 +10,7 @@ Units: metres (or the file's length unit) and radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

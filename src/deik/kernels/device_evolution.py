@@ -5,8 +5,6 @@ Compiled together with device_maths.py and device_terms.py (see deik.kernels.tar
 
 import math
 
-import numpy as np
-
 _TWO_PI = 2.0 * math.pi
 
 
