@@ -123,8 +123,9 @@ def test_cli_poses_a_bvh_frame_and_writes_the_clip_with_only_that_frame_changed(
     assert np.abs(solved.frames[12] - clip.frames[12]).max() < np.pi
 
 
-def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys):
-    path = shared_data / "humanoid" / "humanoid3d_run.bvh"
+@pytest.mark.parametrize("clip_name", ["walk", "run", "jump"])
+def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys, clip_name):
+    path = shared_data / "humanoid" / f"humanoid3d_{clip_name}.bvh"
     clip, target = _clip_target(path, 3, seed=2)
     out = tmp_path / "pose.json"
     argv = ["solve", str(path), "--frame", "3", "--reach", "LeftElbow_end", *map(str, target),
@@ -133,6 +134,8 @@ def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys):
     assert "comfort keeps the pose near frame 3" in capsys.readouterr().err
     data = json.loads(out.read_text())
     assert data["frame"] == 3 and len(data["angles"]) == clip.skeleton.n_dofs
+    hand = deik.forward_kinematics(clip.skeleton, np.array(data["angles"])).position("LeftElbow_end")
+    assert np.linalg.norm(hand - target) <= 0.01 * clip.skeleton.reach  # the default tolerance
 
 
 @pytest.mark.parametrize("extra,fragment", [
