@@ -55,7 +55,7 @@ class Problem:
 
     @cached_property
     def batch_size(self) -> int:
-        sizes = {g.params(self.skeleton).shape[0] for g in self.goals}
+        sizes = {g.params(self.skeleton).shape[0] for g in self.goals} | {g.gain().shape[0] for g in self.goals}
         sizes |= {r.shape[0] for r in self._references if r is not None}
         sizes.discard(1)
         if len(sizes) > 1:
@@ -79,7 +79,12 @@ class Problem:
     @cached_property
     def table(self) -> tt.TermTable:
         B = self.batch_size
-        params = [np.broadcast_to(g.params(self.skeleton), (B, tt.N_PARAMS)) for g in self.goals]
+        params = []
+        for g in self.goals:
+            rows = np.broadcast_to(g.params(self.skeleton), (B, tt.N_PARAMS)).copy()
+            rows[:, tt.GAIN] = np.broadcast_to(g.gain(), (B,))
+            params.append(rows)
         if self.limits == "penalty":
             params.append(np.zeros((B, tt.N_PARAMS)))
+            params[-1][:, tt.GAIN] = 1.0
         return tt.compile_rows(self.rows, np.stack(params, axis=1), self.skeleton.n_dofs)

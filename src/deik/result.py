@@ -12,7 +12,8 @@ from deik.skeleton import Skeleton
 @dataclass(frozen=True, eq=False)
 class GoalReport:
     """One term of the best pose: raw error (metres / radians / length units), normalised
-    value 1 - exp(-mu x / scale), weight, tolerance (-1 = none), met."""
+    value 1 - exp(-mu x / scale), weight, tolerance (-1 = none), level, active (whether the
+    goal applies to the problem; see Goal.active), met (within tolerance, or not active)."""
 
     label: str
     error: float | np.ndarray
@@ -20,10 +21,12 @@ class GoalReport:
     weight: float
     tolerance: float
     level: int
+    active: bool | np.ndarray = True
 
     @property
     def met(self):
-        return np.asarray(self.error) <= self.tolerance if self.tolerance >= 0 else np.full(np.shape(self.error), True)
+        within = np.asarray(self.error) <= self.tolerance if self.tolerance >= 0 else np.full(np.shape(self.error), True)
+        return within | ~np.asarray(self.active)
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +74,7 @@ class Result:
             "fitness": self.fitness.tolist(),
             "goals": [
                 {"label": g.label, "error": np.asarray(g.error).tolist(), "normalised": np.asarray(g.normalised).tolist(),
-                 "weight": g.weight, "tolerance": g.tolerance, "level": g.level, "met": np.asarray(g.met).tolist()}
+                 "weight": g.weight, "tolerance": g.tolerance, "level": g.level, "active": np.asarray(g.active).tolist(), "met": np.asarray(g.met).tolist()}
                 for g in self.goals
             ],
             "generations": self.generations.tolist(),

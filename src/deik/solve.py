@@ -8,6 +8,7 @@ from dataclasses import fields
 import numpy as np
 
 from deik.evolution.engine import Engine, Settings
+from deik.objectives import table as tt
 from deik.objectives.reference import raw_errors
 from deik.problem import Problem
 from deik.result import GoalReport, Result
@@ -46,17 +47,18 @@ def make_result(problem: Problem, settings: Settings, state, wall_time: float) -
     raw = raw_errors(problem, best, np.arange(B))
     table = problem.table
     norm = table.normalise(raw)
+    gain = table.params[:, :, tt.GAIN]
     squeeze = (lambda a: a[0]) if not _is_batched(problem) else (lambda a: a)
     goals = tuple(
         GoalReport(label, squeeze(raw[:, t]), squeeze(norm[:, t]), float(table.term_float[t, 0]),
-                   float(table.term_float[t, 3]), int(table.term_int[t, 1]))
+                   float(table.term_float[t, 3]), int(table.term_int[t, 1]), squeeze(gain[:, t] > 0))
         for t, label in enumerate(table.labels)
     )
     converged = np.all([np.asarray(g.met) | (g.weight <= 0) for g in goals], axis=0) if goals else np.ones(B, bool)
     return Result(
         skeleton=problem.skeleton,
         angles=squeeze(best),
-        fitness=np.asarray(squeeze((norm * table.term_float[:, 0]).sum(axis=1))),
+        fitness=np.asarray(squeeze((norm * table.term_float[:, 0] * gain).sum(axis=1))),
         goals=goals,
         generations=np.asarray(squeeze(state.generations)),
         converged=np.asarray(converged if _is_batched(problem) else np.asarray(converged).reshape(-1)[0]),

@@ -86,7 +86,7 @@ def update_status(b, gen, pop_state, terms, status, control, history):
     pop, levels, total, raw = pop_state
     best, active, generations, converged, best_seen, last_improved = status
     patience, rel_improvement, stop_on_converged = control
-    term_float = terms[1]
+    term_float, params = terms[1], terms[2]
     P = pop.shape[1]
     k = 0
     mean = 0.0
@@ -100,7 +100,7 @@ def update_status(b, gen, pop_state, terms, status, control, history):
     generations[b] += 1
     met = True
     for t in range(raw.shape[2]):
-        if term_float[t, 3] >= 0 and term_float[t, 0] > 0 and raw[b, k, t] > term_float[t, 3]:
+        if term_float[t, 3] >= 0 and term_float[t, 0] * params[b, t, 11] > 0 and raw[b, k, t] > term_float[t, 3]:
             met = False
     converged[b] = met
     if met and stop_on_converged:

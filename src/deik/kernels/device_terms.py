@@ -117,7 +117,7 @@ def evaluate(q, b, skel, terms, scratch, levels, raw):
     """Fitness of pose q for problem b: fills levels (L,) and raw (T,); returns the total
     weighted sum of normalised terms (Eqs. 1, 2)."""
     R, p, work = scratch
-    term_int, term_float = terms[0], terms[1]
+    term_int, term_float, params = terms[0], terms[1], terms[2]
     forward_kinematics(q, skel, R, p, work)
     cx, cy, cz = centre_of_mass(skel, R, p)
     for lv in range(levels.shape[0]):
@@ -127,8 +127,9 @@ def evaluate(q, b, skel, terms, scratch, levels, raw):
         e = term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz)
         raw[t] = e
         f = -math.expm1(-term_float[t, 1] * e / term_float[t, 2])
-        total += term_float[t, 0] * f
+        w = term_float[t, 0] * params[b, t, 11]
+        total += w * f
         if term_float[t, 4] >= 0.0:
             f = max(f - term_float[t, 4], 0.0)
-        levels[term_int[t, 1]] += term_float[t, 0] * f
+        levels[term_int[t, 1]] += w * f
     return total

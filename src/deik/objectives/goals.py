@@ -33,6 +33,17 @@ class Goal:
     mu: float = field(default=1.0, kw_only=True)
     level: int = field(default=0, kw_only=True)
     tolerance: float | None = field(default=None, kw_only=True)
+    active: object = field(default=None, kw_only=True)
+
+    def gain(self) -> np.ndarray:
+        """Per-problem weight multiplier (B,) or (1,): 1 where the goal applies, 0 where `active`
+        (a bool per problem of a batch, e.g. the frames of a contact) switches it off."""
+        if self.active is None:
+            return np.ones(1)
+        active = np.asarray(self.active)
+        if active.dtype != np.bool_ or active.ndim != 1 or active.size == 0:
+            raise ValueError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
+        return active.astype(np.float64)
 
     def _check_settings(self, label: str) -> None:
         if not (-1.0 <= self.weight <= 1.0):

@@ -87,9 +87,11 @@ def fitness(problem, poses, problem_index=None):
     table = problem.table
     raw = raw_errors(problem, poses, problem_index)
     f = table.normalise(raw)
-    weight, f_tolerance = table.term_float[:, 0], table.term_float[:, 4]
+    idx = np.zeros(len(raw), int) if problem_index is None else np.asarray(problem_index)
+    weight = table.term_float[:, 0] * table.params[idx, :, tt.GAIN]
+    f_tolerance = table.term_float[:, 4]
     prioritised = np.where(f_tolerance >= 0, np.maximum(f - f_tolerance, 0), f)
     levels = np.zeros((len(raw), table.n_levels))
     for t in range(table.n_terms):
-        levels[:, table.term_int[t, 1]] += weight[t] * prioritised[:, t]
+        levels[:, table.term_int[t, 1]] += weight[:, t] * prioritised[:, t]
     return levels, (weight * f).sum(axis=1), raw

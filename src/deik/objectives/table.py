@@ -21,6 +21,7 @@ KIND_NAMES = (
 )
 MAX_TERM_FRAMES = 8
 N_PARAMS = 12
+GAIN = N_PARAMS - 1  # params[b, t, GAIN]: the term's weight multiplier in problem b (0 = off)
 MAX_LEVELS = 4
 
 

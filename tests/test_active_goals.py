@@ -1,0 +1,56 @@
+"""Goals active in only some problems of a batch (`active=`): the kernels, the NumPy oracle
+and the Result agree, and an inactive goal neither pulls the pose nor blocks convergence."""
+
+import numpy as np
+import pytest
+
+import deik
+from deik.objectives import reference
+from test_objectives import kernel_fitness
+
+
+def _problem(active):
+    sk = deik.chain(6, dims=3)
+    q = np.random.default_rng(0).uniform(sk.lower, sk.upper, (2, sk.n_dofs))
+    kin = deik.forward_kinematics(sk, q)
+    return deik.Problem(sk, [
+        deik.Position("tip", kin.position("tip"), level=0),
+        deik.Position("link3", kin.position("link3") + [0.0, 0.0, 0.5], active=active, level=0),
+        deik.Comfort(level=1),
+    ])
+
+
+def test_kernel_fitness_with_gains_matches_the_oracle():
+    problem = _problem(np.array([True, False]))
+    sk = problem.skeleton
+    poses = np.random.default_rng(1).uniform(sk.lower, sk.upper, (40, sk.n_dofs))
+    idx = np.arange(40) % 2
+    k_levels, k_total, k_raw = kernel_fitness(problem, poses, idx)
+    r_levels, r_total, r_raw = reference.fitness(problem, poses, idx)
+    np.testing.assert_allclose(k_raw, r_raw, atol=1e-12)
+    np.testing.assert_allclose(k_levels, r_levels, atol=1e-12)
+    np.testing.assert_allclose(k_total, r_total, atol=1e-12)
+    # problem 1 ignores the second goal entirely: the same as a problem without it
+    without = deik.Problem(sk, [problem.goals[0], problem.goals[2]])
+    odd = idx == 1
+    np.testing.assert_allclose(r_total[odd], reference.fitness(without, poses[odd], idx[odd])[1], atol=1e-12)
+
+
+def test_inactive_goal_does_not_block_convergence():
+    result = deik.solve(_problem(np.array([True, False])), population=128, seed=3, generations=400)
+    extra = result.goals[1]
+    assert extra.active.tolist() == [True, False]
+    assert bool(extra.met[1])  # not active: met whatever its error
+    # the tip target of problem 1 is a real pose, so it is reached
+    assert result.goals[0].met[1]
+    assert result.to_dict()["goals"][1]["active"] == [True, False]
+
+
+@pytest.mark.parametrize("active,message", [
+    ([1, 0], "active must be a non-empty 1-D bool array"),
+    (np.array([], bool), "active must be a non-empty 1-D bool array"),
+    (np.array([True, False, True]), "different batch sizes"),
+])
+def test_bad_active(active, message):
+    with pytest.raises(ValueError, match=message):
+        _problem(active).table
