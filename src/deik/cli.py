@@ -5,6 +5,7 @@ paper's scenarios, `experiments` reproduces the paper's figures.
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
     deik solve --skeleton panda.urdf --base panda_link0 --tip panda_hand_tcp --reach panda_hand_tcp 0.4 0.2 0.5
     deik info panda.urdf
+    deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
     deik demo --out demo_output
 
 Mistakes in the input print one line `deik: error: ...` on stderr and exit with status 2.
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 import sys
 
-from deik import cli_solve
+from deik import cli_clip, cli_solve
 from deik.cli_format import Parser, UsageError, numbers
 from deik.io.load import load_skeleton
 
@@ -52,6 +53,9 @@ def build_parser() -> Parser:
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
     i.set_defaults(run=run_info)
+    c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
+    cli_clip.add_arguments(c)
+    c.set_defaults(run=cli_clip.run_clip)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
     d.set_defaults(run=run_demo)

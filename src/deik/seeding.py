@@ -10,9 +10,10 @@ from deik.joints import ROTATE
 from deik.skeleton import Skeleton
 
 
-def poses_around(skeleton: Skeleton, pose, count: int, spread: float = 0.05, seed: int = 0) -> np.ndarray:
+def poses_around(skeleton: Skeleton, pose, count: int, spread=0.05, seed: int = 0) -> np.ndarray:
     """(count, D) poses: `pose` (D,) itself, then copies perturbed by Gaussian noise of `spread`
-    radians on rotations and `spread` x reach on translations. A DOF whose limits span a full
+    radians on rotations and `spread` x reach on translations (`spread`: a scalar, or one value
+    per perturbed copy (count - 1,) to mix fine and wide starts). A DOF whose limits span a full
     turn wraps around; any other is folded back inside its limits. `pose` must lie within the
     limits (ValueError naming the first DOF outside)."""
     pose = skeleton.check_angles(pose, "seed pose")
@@ -26,7 +27,8 @@ def poses_around(skeleton: Skeleton, pose, count: int, spread: float = 0.05, see
     if count < 1:
         raise ValueError(f"count must be at least 1, got {count}")
     rotation = skeleton.dof_kind == ROTATE
-    sigma = np.where(rotation, spread, spread * skeleton.reach)
+    spread = np.broadcast_to(np.asarray(spread, np.float64).reshape(-1, 1), (count - 1, 1))
+    sigma = spread * np.where(rotation, 1.0, skeleton.reach)
     noise = np.random.default_rng(seed).normal(size=(count - 1, skeleton.n_dofs)) * sigma
     poses = np.concatenate([pose[None], pose + noise])
     lower, upper = skeleton.lower, skeleton.upper

@@ -1,0 +1,148 @@
+"""The clip problem: one IK problem per frame, all in one batch, with goals over frame ranges.
+
+Level 0 (strict priority, each within its tolerance): planted contacts (a site pinned where the
+original clip put it during each contact), reach tracks (a site follows targets over a frame
+range), balance (the centre of mass over the support polygon of the sites in contact).
+Level 1: fidelity (stay near the original frame's pose) and coherence (move like the
+neighbouring frames do, so the displacement from the original is smooth: no pops, no jitter).
+Angles work as displacements `d` (N, D) from the original frames, so clips whose Euler channels
+leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.clips.contacts import Contacts, planted_targets
+from deik.joints import ROTATE
+from deik.objectives import goals as g
+from deik.problem import Problem
+
+CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
+REACH_TOLERANCE = 0.005
+BALANCE_TOLERANCE = 0.01
+BLEND = 8  # frames over which a reach eases in and out
+
+
+@dataclass(frozen=True)
+class Reach:
+    """A site following `targets` (N, 3) in the frames where `mask` (N,) is True, eased in and
+    out over `blend` frames on each side of every run of frames (from the original motion)."""
+
+    site: str
+    mask: np.ndarray
+    targets: np.ndarray
+    tolerance: float = REACH_TOLERANCE
+    blend: int = BLEND
+
+
+def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
+    """(mask (N,), targets (N, 3)): the reach track widened by `blend` frames on each side of
+    each run, where the target eases (smoothstep) from the site's original path to the track."""
+    from deik.kinematics import forward_kinematics
+
+    mask = np.asarray(reach.mask, bool).copy()
+    targets = np.where(mask[:, None], reach.targets, np.nan)
+    if reach.blend <= 0:
+        return mask, targets
+    path = forward_kinematics(clip.skeleton, np.stack([clip.pose(n) for n in range(clip.n_frames)])).position(reach.site)
+    active = np.flatnonzero(reach.mask)
+    starts = active[np.r_[True, np.diff(active) > 1]]
+    stops = active[np.r_[np.diff(active) > 1, True]]
+    for start, stop in zip(starts, stops):
+        for k in range(1, reach.blend + 1):
+            weight = 1.0 - k / (reach.blend + 1)
+            ease = weight * weight * (3 - 2 * weight)
+            for n, edge in ((start - k, start), (stop + k, stop)):
+                if 0 <= n < clip.n_frames and not reach.mask[n]:
+                    targets[n] = path[n] + ease * (reach.targets[edge] - path[n])
+                    mask[n] = True
+    return mask, targets
+
+
+@dataclass(frozen=True)
+class ClipGoals:
+    """What to fix in a clip. `contacts`: sites to plant (None: none); `reach`: tracks;
+    `balance`: keep the centre of mass over the support of the contacts; `fidelity` and
+    `coherence`: weights in [0, 1] of staying near the original pose and moving like the
+    neighbouring frames; tolerances in length units."""
+
+    contacts: Contacts | None = None
+    reach: tuple[Reach, ...] = ()
+    balance: bool = False
+    fidelity: float = 1.0
+    coherence: float = 0.5
+    contact_tolerance: float = CONTACT_TOLERANCE
+    balance_tolerance: float = BALANCE_TOLERANCE
+
+    def __post_init__(self):
+        object.__setattr__(self, "reach", tuple(self.reach))
+        for name in ("fidelity", "coherence"):
+            value = getattr(self, name)
+            if not (0.0 <= value <= 1.0):
+                raise ValueError(f"{name} weight must lie in [0, 1], got {value}")
+        if self.balance and self.contacts is None:
+            raise ValueError("balance needs contacts: the support polygon is made of the sites in contact")
+        if not (self.contacts or self.reach or self.balance):
+            raise ValueError("nothing to fix: plant contacts, add a reach track or ask for balance")
+
+
+def wrap(values: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """`values` (..., D) with rotation DOFs wrapped into [-pi, pi)."""
+    out = np.array(values, dtype=np.float64)
+    out[..., rotation] = (out[..., rotation] + math.pi) % (2 * math.pi) - math.pi
+    return out
+
+
+def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
+    """(N, D) mean displacement of each frame's neighbours (one neighbour at the ends)."""
+    d = np.asarray(displacement)
+    if len(d) < 2:
+        return d.copy()
+    padded = np.concatenate([d[1:2], d, d[-2:-1]])
+    return 0.5 * (padded[:-2] + padded[2:])
+
+
+def _level0_goals(clip, goals: ClipGoals) -> list:
+    out = []
+    contacts = goals.contacts
+    if contacts is not None:
+        targets = planted_targets(clip, contacts)
+        for s, site in enumerate(contacts.sites):
+            mask = contacts.mask[:, s]
+            if mask.any():
+                track = np.where(mask[:, None], targets[:, s], 0.0)
+                out.append(g.Position(site, track, active=mask, tolerance=goals.contact_tolerance))
+    for reach in goals.reach:
+        mask, targets = blended_track(clip, reach)
+        track = np.where(mask[:, None], targets, 0.0)
+        out.append(g.Position(reach.site, track, active=mask, tolerance=reach.tolerance))
+    if goals.balance:
+        supports = {}
+        for n, row in enumerate(contacts.mask):
+            if row.any():
+                supports.setdefault(tuple(np.array(contacts.sites)[row]), []).append(n)
+        for sites, frames in supports.items():
+            active = np.zeros(clip.n_frames, bool)
+            active[frames] = True
+            out.append(g.ComInPolygon(sites, active=active, tolerance=goals.balance_tolerance))
+    return out
+
+
+def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray) -> Problem:
+    """The batch of N frame problems for `clip` given the current displacement (N, D) of every
+    frame from the original (coherence pulls each frame towards its neighbours' displacement)."""
+    sk = clip.skeleton
+    rotation = sk.dof_kind == ROTATE
+    original = np.stack([clip.pose(n) for n in range(clip.n_frames)])
+    level0 = _level0_goals(clip, goals)
+    level1 = []
+    if goals.fidelity > 0:
+        level1.append(g.Comfort(weight=goals.fidelity, level=1, reference=original))
+    if goals.coherence > 0:
+        smooth = wrap(original + neighbour_displacement(displacement), rotation)
+        level1.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth))
+    return Problem(sk, level0 + level1)

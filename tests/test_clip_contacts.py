@@ -1,0 +1,150 @@
+"""Contact detection on the real humanoid clips, user contact ranges and planted targets."""
+
+import numpy as np
+import pytest
+
+from conftest import shared_path
+from deik.clips.contacts import (
+    HEIGHT_FRACTION, SPEED_FRACTION, Contacts, contacts_from_ranges, detect_contacts, foot_sites,
+    planted_targets,
+)
+from deik.io.bvh import Clip, read_bvh
+from deik.joints import Joint, Site, build_skeleton, translation
+from deik.kinematics import forward_kinematics
+
+FEET = {"Right": ("RightAnkle", "RightAnkle_end"), "Left": ("LeftAnkle", "LeftAnkle_end")}
+
+
+def humanoid(name: str) -> Clip:
+    return read_bvh(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
+
+
+def foot_intervals(contacts: Contacts) -> list[tuple[int, int, str]]:
+    """(start, stop, foot) of every run of frames where any site of a foot is in contact."""
+    out = []
+    for foot, sites in FEET.items():
+        planted = contacts.mask[:, [contacts.sites.index(s) for s in sites]].any(axis=1)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], planted.astype(int), [0]])))
+        out += [(int(a), int(b), foot) for a, b in zip(edges[::2], edges[1::2])]
+    return sorted(out)
+
+
+def point_clip(heights, frame_time=0.1) -> Clip:
+    """A free-floating point named 'toe' (the root of a skeleton with reach 1) at these heights."""
+    skeleton = build_skeleton([Joint("root", None, dofs=translation("XYZ"))], [Site("toe", "root")])
+    poses = np.zeros((len(heights), 3))
+    poses[:, 1] = heights
+    return Clip.from_poses(skeleton, poses, frame_time)
+
+
+def test_foot_sites_of_the_humanoid_group_each_ankle_with_its_toe():
+    assert foot_sites(humanoid("walk").skeleton) == (
+        "RightAnkle", "RightAnkle_end", "LeftAnkle", "LeftAnkle_end")
+
+
+def test_a_skeleton_without_feet_asks_for_contact_sites():
+    skeleton = build_skeleton([Joint("root", None, dofs=translation("XYZ"))], [Site("hand", "root")])
+    with pytest.raises(ValueError, match="--contact"):
+        foot_sites(skeleton)
+
+
+@pytest.mark.parametrize("name", ["walk", "run"])
+def test_walk_and_run_contacts_alternate_between_the_feet(name):
+    clip = humanoid(name)
+    contacts = detect_contacts(clip)
+    assert contacts.detected
+    assert contacts.height == pytest.approx(HEIGHT_FRACTION * clip.skeleton.reach)
+    assert contacts.speed == pytest.approx(SPEED_FRACTION * clip.skeleton.reach)
+    spans = foot_intervals(contacts)
+    feet = [foot for _, _, foot in spans]
+    assert all(a != b for a, b in zip(feet, feet[1:])), spans
+    for foot in FEET:
+        assert max(b - a for a, b, f in spans if f == foot) >= 3, spans
+        planted = sum(b - a for a, b, f in spans if f == foot) / clip.n_frames
+        assert 0.15 <= planted <= 0.75, (foot, planted)
+
+
+def test_jump_has_a_flight_phase_with_no_contact_between_two_stances():
+    contacts = detect_contacts(humanoid("jump"))
+    airborne = np.flatnonzero(~contacts.mask.any(axis=1))
+    assert len(airborne) >= 10
+    assert contacts.mask[:airborne[0]].any(axis=1).all()  # standing until take-off
+    assert contacts.mask[-1].all()  # both feet flat at the end
+    toes = [contacts.sites.index("RightAnkle_end"), contacts.sites.index("LeftAnkle_end")]
+    assert contacts.mask[0, toes].all()
+
+
+def test_ground_ignores_a_fast_foot_that_dips_through_the_floor():
+    clip = humanoid("run")  # its last frame drops the moving right toe about 5 cm down
+    contacts = detect_contacts(clip)
+    kin = forward_kinematics(clip.skeleton, clip.frames)
+    lowest = min((kin.position(s) @ clip.skeleton.up).min() for s in contacts.sites)
+    assert contacts.ground > lowest + 0.03
+    assert not contacts.mask[-1].any()
+
+
+def test_height_threshold_and_single_frame_runs():
+    heights = [1.0, 0.0, 1.0, 1.0, 0.02, 0.0, 0.01, 1.0, 1.0, 0.0]
+    contacts = detect_contacts(point_clip(heights), sites=["toe"], height=0.05, speed=100.0)
+    assert contacts.ground == 0.0
+    expected = np.zeros((10, 1), bool)
+    expected[4:7] = True  # frames 1 and 9 touch the floor alone: runs under 2 frames are dropped
+    np.testing.assert_array_equal(contacts.mask, expected)
+    assert contacts.intervals(0) == contacts.intervals("toe") == [(4, 7)]
+
+
+def test_speed_threshold():
+    still = point_clip(np.zeros(6))  # 1 unit per frame along the floor is 10 units/s
+    moving = still.with_frames(still.frames + np.arange(6)[:, None] * [1.0, 0.0, 0.0])
+    assert not detect_contacts(moving, ["toe"], height=0.05, speed=9.9).mask.any()
+    assert detect_contacts(moving, ["toe"], height=0.05, speed=10.0).mask.all()
+
+
+def test_unknown_sites_and_bad_thresholds():
+    clip = humanoid("walk")
+    with pytest.raises(KeyError, match="did you mean 'RightAnkle'"):
+        detect_contacts(clip, sites=["RightAnkel"])
+    with pytest.raises(ValueError, match="height threshold"):
+        detect_contacts(clip, height=-1.0)
+    with pytest.raises(ValueError, match="speed threshold"):
+        detect_contacts(clip, speed=float("nan"))
+
+
+def test_user_ranges_and_describe():
+    clip = humanoid("walk")
+    contacts = contacts_from_ranges(clip, {"RightAnkle_end": [(0, 8), (27, 39)], "LeftAnkle": []})
+    assert not contacts.detected and contacts.height is None and contacts.speed is None
+    assert contacts.mask[:, 0].sum() == 20 and not contacts.mask[:, 1].any()
+    assert contacts.intervals("RightAnkle_end") == [(0, 8), (27, 39)]
+    assert contacts.describe().splitlines() == [
+        "RightAnkle_end: 20 frames in 2 contacts (0-7, 27-38)", "LeftAnkle: no contact"]
+    with pytest.raises(ValueError):
+        contacts.mask[0, 0] = False
+    with pytest.raises(KeyError, match="not a contact site"):
+        contacts.intervals("Neck_end")
+
+
+@pytest.mark.parametrize("span", [(30, 40), (-1, 3), (5, 5)])
+def test_user_ranges_outside_the_clip(span):
+    with pytest.raises(ValueError, match=rf"\({span[0]}, {span[1]}\) of site 'LeftAnkle_end'.*0\.\.38"):
+        contacts_from_ranges(humanoid("walk"), {"LeftAnkle_end": [span]})
+
+
+def test_user_ranges_name_unknown_sites():
+    with pytest.raises(KeyError, match="did you mean 'LeftAnkle_end'"):
+        contacts_from_ranges(humanoid("walk"), {"LeftAnkle_ned": [(0, 3)]})
+
+
+def test_planted_targets_are_the_mean_position_at_the_lowest_height():
+    clip = humanoid("walk")
+    contacts = detect_contacts(clip)
+    s = contacts.sites.index("RightAnkle_end")
+    start, stop = contacts.intervals(s)[0]
+    targets = planted_targets(clip, contacts)
+    assert targets.shape == (clip.n_frames, len(contacts.sites), 3)
+    kin = forward_kinematics(clip.skeleton, clip.frames)
+    x, y, z = kin.position("RightAnkle_end")[start:stop].T
+    expected = [x.mean(), y.min(), z.mean()]  # Y is up
+    np.testing.assert_allclose(targets[start:stop, s], np.tile(expected, (stop - start, 1)), atol=1e-12)
+    outside = ~contacts.mask[:, s]
+    assert outside.any() and np.isnan(targets[outside, s]).all()
