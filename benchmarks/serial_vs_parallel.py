@@ -19,79 +19,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numba
-import numpy as np
 
-import deik
-from deik.evolution.serial import SerialDE
-from deik.kinematics import forward_kinematics
+from deik.experiments.timing import environment, make_problem, time_parallel, time_serial
 
 RESULTS = Path(__file__).resolve().parent / "results"
 TARGET_LINKS, TARGET_SPEEDUP = 100, 50.0
-
-
-def make_problem(n_links: int, seed: int) -> deik.Problem:
-    sk = deik.chain(n_links)
-    # its own stream: SerialDE(seed) draws its first population from default_rng(seed), which
-    # would otherwise start with the target pose itself
-    pose = np.random.default_rng((seed, n_links, 1)).uniform(sk.lower, sk.upper)
-    return deik.Problem(sk, [deik.Position("tip", forward_kinematics(sk, pose).position("tip"))])
-
-
-def time_serial(problem, population: int, epochs: int, seed: int) -> dict:
-    de = SerialDE(problem, population=population, F=0.5, CR=0.5, seed=seed).init()
-    de.iterate()  # touch every code path once before timing
-    start = time.perf_counter()
-    for _ in range(epochs):
-        de.epoch()
-    seconds = (time.perf_counter() - start) / epochs
-    return {"seconds_per_generation": seconds, "epochs_timed": epochs,
-            "best_tip_error": float(de.best_errors[0])}
-
-
-def time_parallel(problem, population: int, generations: int, repeats: int, seed: int, dtype: str) -> dict:
-    settings = deik.Settings.paper(population=population, stop_on_converged=False, patience=10**9,
-                                   generations=max(generations, 1), seed=seed, dtype=dtype)
-    engine = deik.Engine(problem, settings)
-    state = engine.init()
-    state = engine.run(state, 2)  # warm-up: compilation (or cache load) excluded from timing
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = engine.run(state, generations)
-        times.append(time.perf_counter() - start)
-        if out.generation != state.generation + generations:
-            raise RuntimeError(f"engine stopped early at {out.generation - state.generation} generations")
-    best = out.raw[0, out.best[0], 0]
-    return {"seconds_per_generation": min(times) / generations, "generations_timed": generations,
-            "repeats": repeats, "all_seconds_per_generation": [t / generations for t in times],
-            "best_tip_error": float(best), "strategy": settings.strategy, "F": settings.F,
-            "CR": settings.CR, "dtype": settings.dtype}
-
-
-def environment() -> dict:
-    return {
-        "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-        "cpu_count": os.cpu_count(),
-        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "numba_threads": numba.get_num_threads(), "numba_threading_layer": _threading_layer(),
-        "load_average_1_5_15": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-        "python": sys.version.split()[0], "numpy": np.__version__, "numba": numba.__version__,
-        "deik": deik.__version__,
-    }
-
-
-def _threading_layer():
-    try:
-        return numba.threading_layer()
-    except ValueError:  # no parallel region has run yet
-        return None
 
 
 def write_atomic(path: Path, write) -> None:

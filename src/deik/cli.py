@@ -7,12 +7,14 @@ paper's scenarios, `experiments` reproduces the paper's figures.
     deik info panda.urdf
     deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
     deik demo --out demo_output
+    deik experiments all --quick --out figures
 
 Mistakes in the input print one line `deik: error: ...` on stderr and exit with status 2.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from deik import cli_clip, cli_solve
@@ -40,6 +42,14 @@ def run_info(args) -> int:
     return 0
 
 
+def run_experiments(argv: list[str]) -> int:
+    """`deik experiments NAME|all [--quick] --out DIR`: the paper's figures (deik.experiments
+    parses its own flags, --help included)."""
+    from deik.experiments.runner import main as experiments_main
+
+    return experiments_main(argv)
+
+
 def build_parser() -> Parser:
     parser = Parser(prog="deik", description="Inverse kinematics by parallel Differential Evolution.")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -56,6 +66,9 @@ def build_parser() -> Parser:
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
     c.set_defaults(run=cli_clip.run_clip)
+    e = commands.add_parser("experiments", add_help=False,
+                             help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)")
+    e.add_argument("rest", nargs=argparse.REMAINDER)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
     d.set_defaults(run=run_demo)
@@ -64,6 +77,9 @@ def build_parser() -> Parser:
 
 def main(argv=None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["experiments"]:
+        return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
         return args.run(args)

@@ -1,0 +1,166 @@
+"""`deik experiments NAME|all [--quick] --out DIR`: regenerate the paper's figures.
+
+Each experiment writes NAME.png, NAME.csv (one row per seed or run) and NAME.md (its report
+section) into DIR; running more than one also writes DIR/report.md, every section behind a
+side-by-side table of the paper's claims and our measurements. `--doc PATH` (with `all`)
+writes that report to PATH too, its pictures copied to figures/ beside it: this is how
+docs/paper-reproduction.md and docs/figures/ are made. Bad input gets one line on stderr,
+`deik experiments: error: ...`, and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import time
+
+from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
+from deik.experiments.fig45_humanoid import run_fig4, run_fig5
+from deik.experiments.common import Section, markdown_table
+from deik.experiments.timing import GPU_COMMAND, machine_line
+from deik.io.atomic import save_atomically, write_text_atomically
+
+PROG = "deik experiments"
+USAGE_ERROR = 2
+EXPERIMENTS = {
+    "fig2": fig2_chain.run, "fig3": fig3_population.run, "fig4": run_fig4, "fig5": run_fig5,
+    "fig6": fig6_comfort.run, "fig7": fig7_selection.run, "fig8": fig8_timing.run, "fig9": fig9_speedup.run,
+}
+DEVICES = {"cpu": "cpu", "gpu": "gpu", "cuda": "gpu", "auto": "auto"}
+
+INTRO = """\
+This document is generated: `{command}` ran every experiment of
+Kenwright's paper with deik, wrote each figure's picture and raw numbers, and assembled this page.
+Each section gives the paper's claim in our words, our measurement, where and why the two differ,
+and the command for that figure alone (`deik experiments NAME --out DIR` once deik is installed).
+
+Conventions for every figure. Seeds are fixed (0, 1, ..., n - 1), so a rerun gives the same
+numbers except timings. Where seeds are solved together as one batch, each batch member draws its
+own random stream (deik's counter-based generator is keyed on the problem's index). A chain has
+converged when its tip is within 1 % of its reach (the paper's criterion). We give medians with
+quartiles (or min/max) and the number of seeds, and count runs that never converged within the
+budget as "never" instead of dropping them. DE uses F = 0.5 throughout: the paper's printed FW = 2
+makes DE diverge. "rand/1/bin" with CR 0.5 is the paper's Algorithm 1 (`deik.Settings.paper()`);
+deik's default is current-to-best/1/bin with F 0.5, CR 0.9.
+
+Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f} s ({mode}).
+"""
+
+
+class UsageError(Exception):
+    """Bad command-line input: reported in one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of `deik experiments`."""
+    parser = _Parser(prog=PROG, description="Reproduce the paper's figures: PNG, CSV and a report section each.")
+    parser.add_argument("names", nargs="+", metavar="NAME|all",
+                        help=f"experiments to run: {', '.join(EXPERIMENTS)}, or all")
+    parser.add_argument("--out", required=True, metavar="DIR", help="folder for the outputs (created if missing)")
+    parser.add_argument("--quick", action="store_true", help="few seeds, small sizes (seconds, for tests)")
+    parser.add_argument("--device", choices=list(DEVICES), default="auto",
+                        help="GPU parts of fig8/fig9: auto (when a GPU is present), gpu/cuda, or cpu only")
+    parser.add_argument("--doc", metavar="PATH.md",
+                        help="with all: also write the report to PATH, its pictures in figures/ beside it")
+    return parser
+
+
+def resolve(names: list[str]) -> list[str]:
+    """Experiment names in run order; "all" means every one. UsageError on an unknown name."""
+    unknown = [n for n in names if n != "all" and n not in EXPERIMENTS]
+    if unknown:
+        raise UsageError(f"unknown experiment {unknown[0]!r}; choose from {', '.join(EXPERIMENTS)} or all")
+    return list(EXPERIMENTS) if "all" in names else [n for n in EXPERIMENTS if n in names]
+
+
+def _check_paths(args, names: list[str]) -> None:
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise UsageError(f"--out {args.out!r} is a file, not a folder")
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as error:
+        raise UsageError(f"--out {args.out!r}: cannot create the folder ({error.strerror or error})") from None
+    if not os.access(out, os.W_OK):
+        raise UsageError(f"--out {args.out!r}: the folder is not writable")
+    if args.doc is not None:
+        if names != list(EXPERIMENTS):
+            raise UsageError("--doc needs all experiments (NAME all), so the document holds every figure")
+        if os.path.isdir(args.doc) or not os.path.isdir(os.path.dirname(os.path.abspath(args.doc))):
+            raise UsageError(f"--doc {args.doc!r} must be a file in an existing folder")
+
+
+def report(sections: list[Section], command: str, total: float, quick: bool, load: str,
+           image_prefix: str = "") -> str:
+    """The combined markdown report: intro, side-by-side table, every section. Image links
+    are `image_prefix` + NAME.png."""
+    rows = [[s.title.split(":")[0], s.claim, s.headline] for s in sections]
+    parts = ["# Reproducing the paper's evaluation", "",
+             INTRO.format(command=command, machine=machine_line(), load=load, total=total,
+                          mode="quick sizes" if quick else "full sizes"),
+             "## Claims and measurements side by side", "",
+             markdown_table(["figure", "paper", "deik"], rows), ""]
+    pending = [s.name for s in sections if s.notes]
+    if pending:
+        parts += [f"GPU columns of {', '.join(pending)} are pending: they need a run on a machine with a CUDA GPU: "
+                  f"`{GPU_COMMAND}`.", ""]
+    parts += [s.markdown(f"{image_prefix}{s.name}.png") for s in sections]
+    return "\n".join(parts)
+
+
+def _copy(source: str, target: str) -> None:
+    if os.path.exists(target) and os.path.samefile(source, target):
+        return
+    save_atomically(target, lambda temporary: shutil.copyfile(source, temporary))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `deik experiments` with `argv` (default sys.argv[1:]); returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args = build_parser().parse_args(argv)
+        names = resolve(args.names)
+        _check_paths(args, names)
+        from deik.plot import require_matplotlib
+
+        require_matplotlib()
+    except SystemExit as done:  # --help
+        return int(done.code or 0)
+    except (UsageError, ImportError) as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return USAGE_ERROR
+
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
+    device, sections, start = DEVICES[args.device], [], time.perf_counter()
+    for name in names:
+        began = time.perf_counter()
+        section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
+        section.seconds = time.perf_counter() - began
+        section.write(args.out)
+        sections.append(section)
+        print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
+        for note in section.notes:
+            print(f"{name}: note: {note}", flush=True)
+    total = time.perf_counter() - start
+    quick = " --quick" if args.quick else ""
+    command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"
+    if args.doc:
+        command += f" --doc {os.path.relpath(args.doc)}"
+    if len(sections) > 1:
+        write_text_atomically(os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load))
+        print(f"report: {os.path.join(args.out, 'report.md')} ({total:.0f} s in all)")
+    if args.doc:
+        figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures")
+        os.makedirs(figures, exist_ok=True)
+        for section in sections:
+            _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
+        write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
+        print(f"document: {args.doc}, pictures in {figures}")
+    return 0
