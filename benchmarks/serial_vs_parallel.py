@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numba
 
+from deik.experiments.common import log_time_axes
 from deik.experiments.timing import environment, make_problem, time_parallel, time_serial
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -62,14 +63,7 @@ def plot(rows: list[dict], population: int, path: Path) -> None:
     for r in rows:  # speed-up written halfway (geometrically) between the two curves
         mid = (r["serial"]["seconds_per_generation"] * r["parallel"]["seconds_per_generation"]) ** 0.5
         ax.annotate(f"{r['speedup']:.0f}x", (r["links"], mid), ha="center", va="center", fontsize=8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xticks(links, [str(n) for n in links])
-    ax.minorticks_off()
-    ax.set_xlabel("links (DOFs)")
-    ax.set_ylabel("seconds per generation")
-    ax.set_title(f"DE time per generation, population {population}")
-    ax.grid(True, which="both", alpha=0.3)
+    log_time_axes(ax, links, f"DE time per generation, population {population}")
     ax.legend()
     fig.tight_layout()
     write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))

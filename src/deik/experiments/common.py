@@ -142,3 +142,16 @@ class Section:
     def write(self, out_dir: str) -> None:
         """Write NAME.md into `out_dir`."""
         write_text_atomically(os.path.join(out_dir, f"{self.name}.md"), self.markdown())
+
+
+def log_time_axes(ax, links, title: str) -> None:
+    """Log-log axes of seconds per generation against chain length, as Figs. 8-9 and the
+    serial-vs-parallel benchmark draw them."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xticks(links, [str(n) for n in links])
+    ax.minorticks_off()
+    ax.set_xlabel("links (DOFs)")
+    ax.set_ylabel("seconds per generation")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)

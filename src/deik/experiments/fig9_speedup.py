@@ -13,7 +13,7 @@ import os
 
 import numba
 
-from deik.experiments.common import Section, command, markdown_table, save_figure, write_csv
+from deik.experiments.common import Section, command, log_time_axes, markdown_table, save_figure, write_csv
 from deik.experiments.timing import (cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel,
                                      time_serial)
 from deik.plot import require_matplotlib
@@ -114,15 +114,8 @@ def _plot(out_dir: str, cfg: dict, med: dict, implementations: list[str]) -> Non
     for n in links:
         ax.annotate(f"{med[(n, serial)] / med[(n, parallel)]:.0f}x", (n, med[(n, parallel)]),
                     textcoords="offset points", xytext=(0, -14), ha="center", fontsize=8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xticks(links, [str(n) for n in links])
-    ax.minorticks_off()
-    ax.set_xlabel("links (DOFs)")
-    ax.set_ylabel("seconds per generation")
     gpu = "" if any("GPU" in i for i in implementations) else " (GPU pending)"
-    ax.set_title(f"Fig. 9: population {cfg['population']}; labels: serial / parallel CPU{gpu}")
-    ax.grid(True, which="both", alpha=0.3)
+    log_time_axes(ax, links, f"Fig. 9: population {cfg['population']}; labels: serial / parallel CPU{gpu}")
     ax.legend(fontsize="small")
     figure.tight_layout()
     save_figure(figure, os.path.join(out_dir, f"{NAME}.png"))
