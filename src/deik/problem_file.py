@@ -32,7 +32,6 @@ ValueError naming the file, the goal and the field; nothing is guessed or defaul
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 
@@ -45,6 +44,7 @@ from deik.objectives import goals as g
 from deik.problem import LIMIT_MODES, Problem
 from deik.rotations import euler_matrix
 from deik.skeleton import Skeleton
+from deik.suggest import did_you_mean
 
 SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain), 'humanoid', or a .bvh or .urdf file"
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
@@ -70,11 +70,6 @@ def skeleton_from_spec(spec: str) -> Skeleton:
     if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
         return chain(int(count), dims=2 if kind == "chain" else 3)
     raise ValueError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")
-
-
-def _suggest(name: str, choices) -> str:
-    close = difflib.get_close_matches(name, list(choices), n=1)
-    return f"; did you mean {close[0]!r}?" if close else ""
 
 
 def _is_number(value) -> bool:
@@ -175,14 +170,14 @@ def _goal(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
     if kind is None:
         raise ValueError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
     if not isinstance(kind, str) or kind not in GOAL_TYPES:
-        raise ValueError(f"{where}: unknown type {kind!r}{_suggest(str(kind), GOAL_TYPES)} "
+        raise ValueError(f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} "
                          f"(types: {', '.join(GOAL_TYPES)})")
     where = f"{where} ({kind})"
     cls, required, optional = GOAL_TYPES[kind]
     allowed = ("type",) + required + optional + COMMON_FIELDS
     for field in table:
         if field not in allowed:
-            raise ValueError(f"{where}: unknown field {field!r}{_suggest(field, allowed)} "
+            raise ValueError(f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} "
                              f"(fields: {', '.join(allowed[1:])})")
     for field in required:
         if field not in table:
@@ -232,7 +227,7 @@ def load_problem(path) -> tuple[Problem, dict]:
         raise ValueError(f"{path}: not valid TOML: {error}") from None
     for key in data:
         if key not in TOP_LEVEL:
-            raise ValueError(f"{path}: unknown top-level key {key!r}{_suggest(key, TOP_LEVEL)} "
+            raise ValueError(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} "
                              f"(keys: {', '.join(TOP_LEVEL)})")
     if "skeleton" not in data:
         raise ValueError(f"{path}: missing field 'skeleton'; set skeleton = {SKELETON_FORMS}")
@@ -249,7 +244,7 @@ def load_problem(path) -> tuple[Problem, dict]:
         raise ValueError(f"{path}: 'settings' must be a [settings] table")
     for key in settings:
         if key not in names:
-            raise ValueError(f"{path}: [settings]: unknown setting {key!r}{_suggest(key, names)} "
+            raise ValueError(f"{path}: [settings]: unknown setting {key!r}{did_you_mean(key, names, 1)} "
                              f"(settings: {', '.join(names)})")
     try:
         Settings(**settings)

@@ -7,11 +7,12 @@ followed by the sites: frame f < n_joints is joint f, otherwise site f - n_joint
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+
+from deik.suggest import did_you_mean
 
 
 def _fail(message: str) -> None:
@@ -227,9 +228,7 @@ class Skeleton:
         frames = self.frame_names
         if name in frames:
             return frames.index(name)
-        close = difflib.get_close_matches(name, frames, n=3)
-        hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-        raise KeyError(f"joint or site {name!r} not found in skeleton {self.name!r}{hint}")
+        raise KeyError(f"joint or site {name!r} not found in skeleton {self.name!r}{did_you_mean(name, frames)}")
 
     def joint_dofs(self, name: str) -> slice:
         """The slice of the angle vector that belongs to joint `name`."""

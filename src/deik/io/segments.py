@@ -9,7 +9,6 @@ unit.
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import re
@@ -21,6 +20,7 @@ from deik.humanoid import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPP
 from deik.io.errors import FileFormatError
 from deik.joints import Segment
 from deik.skeleton import Skeleton
+from deik.suggest import did_you_mean
 
 NOMINAL_MASS = 70.0  # kg; only mass fractions matter for the centre of mass
 
@@ -204,8 +204,7 @@ def read_segment_table(path, joint_names) -> tuple[tuple[Segment, ...], str]:
             _fail(source, where, 'needs one joint name (a string), as "bvh_frame" or "joint"')
         joint = joints[0]
         if joint not in known:
-            close = difflib.get_close_matches(str(joint), known, n=3)
-            hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+            hint = did_you_mean(joint, known)
             key = "joint" if "joint" in item else "bvh_frame"
             _fail(source, f"{where}.{key}", f"unknown joint {joint!r:.60}{hint}")
         if "mass_kg" not in item or "com_offset_m" not in item:

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.urdf_tree import LinkTree, suggest, read_xml
+from deik.io.urdf_tree import LinkTree, read_xml
 from deik.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site, build_skeleton
+from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
@@ -81,7 +82,7 @@ def _check_joint(tree: LinkTree, joint) -> None:
         fail("origin or axis holds NaN or infinite numbers")
     if joint.mimic is not None:
         if joint.mimic.joint not in tree.joints:
-            fail(f"mimics unknown joint {joint.mimic.joint!r}{suggest(joint.mimic.joint, tree.joints)}")
+            fail(f"mimics unknown joint {joint.mimic.joint!r}{did_you_mean(joint.mimic.joint, tree.joints)}")
         values = (joint.mimic.multiplier, joint.mimic.offset)
         if not all(v is not None and math.isfinite(v) for v in values):
             fail("mimic multiplier and offset must be finite numbers")

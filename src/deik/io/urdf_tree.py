@@ -3,10 +3,10 @@ whose parent, and the sub-tree or chain a user picks by base and tip link names.
 
 from __future__ import annotations
 
-import difflib
 import os
 
 from deik.io.errors import FileFormatError
+from deik.suggest import did_you_mean
 
 
 def read_xml(path):
@@ -64,7 +64,7 @@ class LinkTree:
                 fail("duplicate joint name; every joint needs its own name")
             for end in (joint.parent, joint.child):
                 if end not in self.links:
-                    fail(f"names unknown link {end!r}{suggest(end, self.links)}")
+                    fail(f"names unknown link {end!r}{did_you_mean(end, self.links)}")
             if joint.child in self.joint_of:
                 fail(f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; a URDF is a tree")
             self.joints[joint.name] = joint
@@ -99,7 +99,7 @@ class LinkTree:
 
     def _link(self, name: str, role: str) -> str:
         if name not in self.links:
-            raise KeyError(f"{role} link {name!r} is not in {self.source}{suggest(name, self.links)}")
+            raise KeyError(f"{role} link {name!r} is not in {self.source}{did_you_mean(name, self.links)}")
         return name
 
     def select(self, base: str | None, tip) -> list[str]:
@@ -118,9 +118,3 @@ class LinkTree:
                 keep.add(link)
                 link = self.joint_of[link].parent
         return [name for name in subtree if name in keep]
-
-
-def suggest(name, names) -> str:
-    """'; did you mean ...?' with up to three close names, or ''."""
-    close = difflib.get_close_matches(str(name), list(names), n=3)
-    return f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
