@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from deik.cli_format import UsageError, format_table
+from deik.cli_format import UsageError, check_device, check_output, format_table
 from deik.io.atomic import write_json_atomically
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
@@ -76,16 +76,6 @@ def _reaches(args, clip):
     return tuple(out)
 
 
-def _check_output(flag: str, path, suffix: str) -> None:
-    if path is None:
-        return
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise UsageError(f"{flag}: folder {folder!r} does not exist")
-    if os.path.splitext(path)[1].lower() != suffix:
-        raise UsageError(f"{flag}: {path!r} must end in {suffix}")
-
-
 def run_clip(args) -> int:
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
     from deik.clips.metrics import clip_report, per_frame_errors
@@ -93,9 +83,10 @@ def run_clip(args) -> int:
     from deik.clips.solver import fix_clip
     from deik.io.bvh import read_bvh, write_bvh
 
-    _check_output("--out", args.out, ".bvh")
-    _check_output("--report", args.report, ".png")
-    _check_output("--json", args.json, ".json")
+    check_output("--out", args.out, (".bvh",))
+    check_output("--report", args.report, (".png",))
+    check_output("--json", args.json, (".json",))
+    check_device(args.device)
     if args.report:
         from deik.plot import require_matplotlib
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 
 RADIAN_WORDS = ("orientation", "aim", "comfort")
 
@@ -44,3 +45,26 @@ def format_table(header: list[str], rows: list[list]) -> str:
 def unit(label: str) -> str:
     """Unit of a goal report's error from its label: "rad" for angles, "m" for lengths."""
     return "rad" if label.split()[0] in RADIAN_WORDS else "m"
+
+
+def check_output(flag: str, path, suffixes=None) -> None:
+    """UsageError unless `path` (when given) is in an existing folder and ends in one of
+    `suffixes` (when given)."""
+    if path is None:
+        return
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise UsageError(f"{flag}: folder {os.path.dirname(os.path.abspath(path))!r} does not exist")
+    if suffixes and os.path.splitext(path)[1].lower() not in suffixes:
+        raise UsageError(f"{flag}: {path!r} must end in {' or '.join(suffixes)}")
+
+
+def check_device(device: str) -> None:
+    """UsageError when `device` is "gpu" and no usable CUDA GPU is here."""
+    if device != "gpu":
+        return
+    try:
+        from numba import cuda
+    except ImportError:
+        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
+    if not cuda.is_available():
+        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from deik import plot
-from deik.cli_format import UsageError, format_table, numbers, unit
+from deik.cli_format import UsageError, check_device, check_output, format_table, numbers, unit
 from deik.evolution.engine import STRATEGIES, Settings
 from deik.io.atomic import write_json_atomically
 from deik.io.load import load_skeleton
@@ -119,26 +119,6 @@ def _problem(args):
     return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose
 
 
-def _check_output(flag: str, path, suffixes=None) -> None:
-    if path is None:
-        return
-    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
-        raise UsageError(f"{flag}: folder {os.path.dirname(os.path.abspath(path))!r} does not exist")
-    if suffixes and os.path.splitext(path)[1].lower() not in suffixes:
-        raise UsageError(f"{flag}: {path!r} must end in {' or '.join(suffixes)}")
-
-
-def _check_device(device: str) -> None:
-    if device != "gpu":
-        return
-    try:
-        from numba import cuda
-    except ImportError:
-        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
-    if not cuda.is_available():
-        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
-
-
 def _progress(generations: int, terminal: bool):
     """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
     def report(generation, best):
@@ -167,14 +147,14 @@ def _write_pose(path, result, loaded, frame) -> None:
 
 def run_solve(args) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
-    _check_output("--out", args.out, (".json", ".bvh"))
-    _check_output("--plot", args.plot)
+    check_output("--out", args.out, (".json", ".bvh"))
+    check_output("--plot", args.plot)
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose = _problem(args)
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
     settings = Settings(**settings)
-    _check_device(settings.device)
+    check_device(settings.device)
     initial = None
     if frame_pose is not None:
         initial = poses_around(problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed)

@@ -12,6 +12,14 @@ import numpy as np
 AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
+def wrap_rotations(values, rotation: np.ndarray) -> np.ndarray:
+    """A copy of `values` (..., D) with the DOFs where `rotation` (D,) is True wrapped into
+    [-pi, pi) radians (the same rotations); the others unchanged."""
+    out = np.array(values, dtype=np.float64)
+    out[..., rotation] = (out[..., rotation] + np.pi) % (2 * np.pi) - np.pi
+    return out
+
+
 def axis_angle_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rotation matrices about unit `axis` (3,) by `angle` (*batch,) radians -> (*batch, 3, 3)."""
     axis = np.asarray(axis, dtype=np.float64)

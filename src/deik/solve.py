@@ -23,11 +23,7 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
     PROGRESS_CHUNK generations when given. Returns an immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
-    names = {f.name for f in fields(Settings)}
-    unknown = sorted(set(overrides) - names)
-    if unknown:
-        raise TypeError(f"unknown solve() settings {unknown}; choose from {sorted(names)}")
-    settings = Settings(**{**(vars(settings) if settings else {}), **overrides})
+    settings = merge_settings("solve()", settings, overrides)
     engine = Engine(problem, settings)
     start = time.perf_counter()
     state = engine.init(initial)
@@ -38,6 +34,16 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
             progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
     wall = time.perf_counter() - start
     return make_result(problem, engine.settings, state, wall)
+
+
+def merge_settings(caller: str, settings: Settings | None, overrides: dict, defaults: dict | None = None) -> Settings:
+    """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
+    raise a TypeError naming `caller` and the valid names."""
+    names = {f.name for f in fields(Settings)}
+    unknown = sorted(set(overrides) - names)
+    if unknown:
+        raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(names)}")
+    return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
 def make_result(problem: Problem, settings: Settings, state, wall_time: float) -> Result:

@@ -11,7 +11,6 @@ leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +19,7 @@ from deik.clips.contacts import Contacts, planted_targets
 from deik.joints import ROTATE
 from deik.objectives import goals as g
 from deik.problem import Problem
+from deik.rotations import wrap_rotations
 
 CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
 REACH_TOLERANCE = 0.005
@@ -48,7 +48,7 @@ def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
     targets = np.where(mask[:, None], reach.targets, np.nan)
     if reach.blend <= 0:
         return mask, targets
-    path = forward_kinematics(clip.skeleton, np.stack([clip.pose(n) for n in range(clip.n_frames)])).position(reach.site)
+    path = forward_kinematics(clip.skeleton, clip.poses()).position(reach.site)
     active = np.flatnonzero(reach.mask)
     starts = active[np.r_[True, np.diff(active) > 1]]
     stops = active[np.r_[np.diff(active) > 1, True]]
@@ -90,13 +90,6 @@ class ClipGoals:
             raise ValueError("nothing to fix: plant contacts, add a reach track or ask for balance")
 
 
-def wrap(values: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """`values` (..., D) with rotation DOFs wrapped into [-pi, pi)."""
-    out = np.array(values, dtype=np.float64)
-    out[..., rotation] = (out[..., rotation] + math.pi) % (2 * math.pi) - math.pi
-    return out
-
-
 def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
     """(N, D) mean displacement of each frame's neighbours (one neighbour at the ends)."""
     d = np.asarray(displacement)
@@ -132,17 +125,21 @@ def _level0_goals(clip, goals: ClipGoals) -> list:
     return out
 
 
-def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray) -> Problem:
-    """The batch of N frame problems for `clip` given the current displacement (N, D) of every
-    frame from the original (coherence pulls each frame towards its neighbours' displacement)."""
-    sk = clip.skeleton
-    rotation = sk.dof_kind == ROTATE
-    original = np.stack([clip.pose(n) for n in range(clip.n_frames)])
-    level0 = _level0_goals(clip, goals)
-    level1 = []
+def fixed_goals(clip, goals: ClipGoals) -> list:
+    """The goals that stay the same from pass to pass: level 0 and fidelity."""
+    out = _level0_goals(clip, goals)
     if goals.fidelity > 0:
-        level1.append(g.Comfort(weight=goals.fidelity, level=1, reference=original))
+        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses()))
+    return out
+
+
+def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray, fixed: list | None = None) -> Problem:
+    """The batch of N frame problems for `clip` given the current displacement (N, D) of every
+    frame from the original (coherence pulls each frame towards its neighbours' displacement);
+    `fixed`: fixed_goals(clip, goals) when already computed."""
+    sk = clip.skeleton
+    goal_list = list(fixed_goals(clip, goals) if fixed is None else fixed)
     if goals.coherence > 0:
-        smooth = wrap(original + neighbour_displacement(displacement), rotation)
-        level1.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth))
-    return Problem(sk, level0 + level1)
+        smooth = wrap_rotations(clip.poses() + neighbour_displacement(displacement), sk.dof_kind == ROTATE)
+        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth))
+    return Problem(sk, goal_list)

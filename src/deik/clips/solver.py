@@ -8,22 +8,22 @@ mean displacement of its neighbours, so frames agree with each other without a s
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
-from deik.clips.problem import ClipGoals, clip_problem, wrap
+from deik.clips.problem import ClipGoals, clip_problem, fixed_goals
 from deik.evolution.engine import Settings
 from deik.joints import ROTATE
 from deik.objectives.reference import raw_errors
 from deik.objectives.table import GAIN
+from deik.rotations import wrap_rotations
 from deik.seeding import poses_around
-from deik.solve import solve
+from deik.solve import merge_settings, solve
 
 CLIP_SETTINGS = {"population": 48, "generations": 300, "patience": 60}
 PASSES = 3
 SPREAD = (0.003, 0.3)  # radians (x reach for translations): the finest and widest seed
-SEED_SHARE = 1  # every individual starts around the previous solution: a clip fix is a local search
 
 
 @dataclass(frozen=True)
@@ -61,10 +61,10 @@ def _errors(problem, poses) -> np.ndarray:
 
 
 def _seeds(skeleton, poses: np.ndarray, count: int, seed: int) -> np.ndarray:
-    """(N, count, D) populations around each frame's pose, spreads from fine to wide so DE can
-    both polish and travel (a reach far from the performance)."""
+    """(N, count, D) whole populations around each frame's pose (a clip fix is a local
+    search), spreads from fine to wide so DE can both polish and travel."""
     spreads = np.geomspace(SPREAD[0], SPREAD[1], max(count - 1, 1))[: count - 1]
-    return np.stack([poses_around(skeleton, q, count, spreads, seed=seed + n) for n, q in enumerate(poses)])
+    return poses_around(skeleton, poses, count, spreads, seed=seed)
 
 
 def fix_clip(clip, goals: ClipGoals, passes: int = PASSES, settings: Settings | None = None, **overrides) -> ClipFix:
@@ -77,25 +77,22 @@ def fix_clip(clip, goals: ClipGoals, passes: int = PASSES, settings: Settings | 
         raise ValueError(f"passes must be an integer >= 1, got {passes!r}")
     if clip.n_frames == 0:
         raise ValueError("the clip has no frames to fix")
-    names = {f.name for f in fields(Settings)}
-    unknown = sorted(set(overrides) - names)
-    if unknown:
-        raise TypeError(f"unknown fix_clip() settings {unknown}; choose from {sorted(names)}")
-    settings = Settings(**{**CLIP_SETTINGS, **(vars(settings) if settings else {}), **overrides})
+    settings = merge_settings("fix_clip()", settings, overrides, CLIP_SETTINGS)
     sk = clip.skeleton
     rotation = sk.dof_kind == ROTATE
-    original = np.stack([clip.pose(n) for n in range(clip.n_frames)])
+    original = clip.poses()
     displacement = np.zeros_like(original)
+    fixed_part = fixed_goals(clip, goals)
     start = time.perf_counter()
     for k in range(passes):
-        problem = clip_problem(clip, goals, displacement)
-        current = wrap(original + displacement, rotation)
-        initial = _seeds(sk, current, max(1, settings.population // SEED_SHARE), settings.seed + 7919 * k)
+        problem = clip_problem(clip, goals, displacement, fixed_part)
+        current = wrap_rotations(original + displacement, rotation)
+        initial = _seeds(sk, current, settings.population, settings.seed + 7919 * k)
         result = solve(problem, settings, initial=initial)
-        displacement = wrap(np.atleast_2d(result.angles) - original, rotation)
+        displacement = wrap_rotations(np.atleast_2d(result.angles) - original, rotation)
     wall = time.perf_counter() - start
     fixed = clip.with_frames(clip.frames + displacement)
-    solved = wrap(original + displacement, rotation)
+    solved = wrap_rotations(original + displacement, rotation)
     level0 = np.array([gl.level == 0 for gl in problem.goals])
     after = _errors(problem, solved)
     tolerance = problem.table.term_float[:, 3]

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from deik.joints import ROTATE, TRANSLATE
+from deik.rotations import wrap_rotations
 from deik.skeleton import Skeleton
 
 TWO_PI = 2.0 * math.pi
@@ -95,10 +96,11 @@ class Clip:
     def pose(self, n: int) -> np.ndarray:
         """Frame n as a (D,) pose with rotation DOFs wrapped into [-pi, pi) radians (inside the
         limits of a skeleton read from BVH); translations unchanged."""
-        pose = self.frames[self._frame_index(n)].copy()
-        rotation = self.skeleton.dof_kind == ROTATE
-        pose[rotation] = (pose[rotation] + math.pi) % TWO_PI - math.pi
-        return pose
+        return wrap_rotations(self.frames[self._frame_index(n)], self.skeleton.dof_kind == ROTATE)
+
+    def poses(self) -> np.ndarray:
+        """Every frame (N, D) wrapped as in `pose`."""
+        return wrap_rotations(self.frames, self.skeleton.dof_kind == ROTATE)
 
     def with_pose(self, n: int, pose) -> Clip:
         """A new clip with frame n replaced by `pose` (D,), radians / length units, its Euler
