@@ -161,7 +161,7 @@ def run_solve(args) -> int:
         if args.comfort is None:
             print(f"note: comfort keeps the pose near frame {args.frame} (weight {FRAME_COMFORT}, below the "
                   "targets); --comfort 0 turns it off", file=sys.stderr)
-    if loaded is not None and loaded.kind == "bvh" and "estimated" in loaded.mass_source:
+    if loaded is not None and loaded.kind == "bvh":
         print(f"note: masses {loaded.mass_source}", file=sys.stderr)
     terminal = sys.stderr.isatty()
     progress = _progress(settings.generations, terminal) if args.progress or terminal else None
