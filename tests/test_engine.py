@@ -83,7 +83,7 @@ def test_same_seed_same_result_and_different_seed_different_result():
     sk = deik.chain(6, dims=3)
     target, _ = fk_target(sk, 11)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=0.001)])
-    kw = dict(population=64, generations=80)
+    kw = dict(population=64, generations=80, stop_on_converged=False, patience=1000)
     a, b = deik.solve(problem, seed=5, **kw), deik.solve(problem, seed=5, **kw)
     np.testing.assert_array_equal(a.angles, b.angles)
     np.testing.assert_array_equal(a.history, b.history)
@@ -305,7 +305,7 @@ def test_exact_initial_pose_converges_in_one_generation():
     r = deik.solve(problem, initial=q, seed=0)
     assert r.converged and r.generations == 1
     assert tip_error(sk, r.angles, target) < 1e-4
-    cold = deik.solve(problem, seed=0)  # without the hint the tight tolerance takes a while
+    cold = deik.solve(problem, seed=0, polish=0)  # without the hint, DE alone takes a while
     assert cold.generations > 1
 
 

@@ -26,7 +26,8 @@ from deik.rotations import euler_matrix
 from deik.seeding import poses_around
 from deik.solve import solve
 
-SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype")
+SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype", "time_limit", "polish",
+                 "restarts")
 FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame" when posing a BVH frame
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
 
@@ -61,6 +62,10 @@ def add_arguments(s) -> None:
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
     s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
+    s.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop after this wall time (default: none)")
+    s.add_argument("--polish", type=int, metavar="N",
+                   help="Levenberg-Marquardt steps per polish of the best individuals (default 10; 0: DE only)")
+    s.add_argument("--restarts", type=int, metavar="N", help="restarts of a stagnating unconverged search (default 20)")
     s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
     s.add_argument("--out", metavar="pose.json|pose.bvh",

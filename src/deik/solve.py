@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import fields
 
@@ -9,31 +10,46 @@ import numpy as np
 
 from deik.evolution.engine import Engine, Settings
 from deik.objectives import table as tt
-from deik.objectives.reference import raw_errors
 from deik.problem import Problem
 from deik.result import GoalReport, Result
 
 PROGRESS_CHUNK = 100
+TIME_PROBE = 4  # generations of the first launch under a time limit
 
 
 def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
     """Solve `problem`; settings from `settings` and/or keyword overrides (population,
-    generations, strategy, F, CR, seed, patience, device, dtype). `initial`: poses (n, D) or
-    (B, n, D) seeding the population. `progress(generation, best_fitness)` is called every
-    PROGRESS_CHUNK generations when given. Returns an immutable Result."""
+    generations, time_limit, strategy, F, CR, adaptive, polish, restarts, seed, patience,
+    device, dtype). `initial`: poses (n, D) or (B, n, D) seeding the population.
+    `progress(generation, best_fitness)` is called every PROGRESS_CHUNK generations when
+    given. Returns an immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
     settings = merge_settings("solve()", settings, overrides)
     engine = Engine(problem, settings)
     start = time.perf_counter()
+    deadline = start + settings.time_limit if settings.time_limit else math.inf
     state = engine.init(initial)
     chunk = PROGRESS_CHUNK if progress else settings.generations
-    while state.generation < settings.generations and state.active.any():
-        state = engine.run(state, min(chunk, settings.generations - state.generation))
+    while state.generation < settings.generations and state.active.any() and time.perf_counter() < deadline:
+        count = min(chunk, settings.generations - state.generation)
+        if settings.time_limit:
+            count = _generations_within(deadline, start, state.generation, count)
+        state = engine.run(state, count)
         if progress:
             progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
     wall = time.perf_counter() - start
-    return make_result(problem, engine.settings, state, wall)
+    return make_result(problem, engine, state, wall)
+
+
+def _generations_within(deadline: float, start: float, done: int, most: int) -> int:
+    """How many generations to launch next so the run ends near `deadline`: a quarter of the
+    time left at the pace so far (a few to start with)."""
+    now = time.perf_counter()
+    if done == 0:
+        return min(most, TIME_PROBE)
+    pace = (now - start) / done
+    return max(1, min(most, int(0.25 * (deadline - now) / pace)))
 
 
 def merge_settings(caller: str, settings: Settings | None, overrides: dict, defaults: dict | None = None) -> Settings:
@@ -46,11 +62,11 @@ def merge_settings(caller: str, settings: Settings | None, overrides: dict, defa
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
-def make_result(problem: Problem, settings: Settings, state, wall_time: float) -> Result:
+def make_result(problem: Problem, engine: Engine, state, wall_time: float) -> Result:
     """Result from a final EvolutionState; errors are recomputed in float64."""
-    B = problem.batch_size
+    B, settings = problem.batch_size, engine.settings
     best = state.pop[np.arange(B), state.best].astype(np.float64)
-    raw = raw_errors(problem, best, np.arange(B))
+    raw = engine.raw_errors(best)
     table = problem.table
     norm = table.normalise(raw)
     gain = table.params[:, :, tt.GAIN]

@@ -21,22 +21,19 @@ human = deik.humanoid()
 rest = deik.forward_kinematics(human, human.reference)
 problem = deik.Problem(human, [deik.Position("left_hand", rest.position("left_hand")), deik.Comfort(level=1)])
 engine = deik.Engine(problem, deik.Settings(population=64))
-B, P, D, T, L = 1, 64, human.n_dofs, problem.table.n_terms, problem.table.n_levels
-buffers = (np.zeros((B, P, D), np.float32), np.zeros((B, P, L), np.float32), np.zeros((B, P), np.float32),
-           np.zeros((B, P, T), np.float32))
-status = (np.zeros(B, np.int64), np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_), np.zeros(B),
-          np.zeros(B, np.int64))
-initialise, run = kernels.make_kernels(kernels._bucket(human.n_frames), kernels._bucket(D), kernels._bucket(T),
-                                       kernels._bucket(L), "float32")
+state = engine.init()
+B, D = 1, human.n_dofs
+buffers, status = state.buffers, state.status
+initialise, run = kernels.kernels_for(engine.skel, buffers)
 
 
 def signature(*args):
     return tuple(typeof(a) for a in args)
 
 
-run_args = (buffers, buffers, engine.skel, engine.terms, engine.kernel_settings, status, engine.control,
+run_args = (buffers, buffers, engine.skel, engine.terms, engine.kernel_settings, engine.memetic, status, engine.control,
             np.zeros((B, 10, 2)), np.int64(0), np.int64(5), np.zeros(B, np.int64))
-init_args = (*buffers, engine.skel, engine.terms, engine.kernel_settings[4], np.zeros((B, 1, D), np.float32), np.int64(0))
+init_args = (*buffers, engine.skel, engine.terms, engine.kernel_settings, np.zeros((B, 1, D), np.float32), np.int64(0))
 for name, kernel, args in (("run", run, run_args), ("initialise", initialise, init_args)):
     ptx, _ = cuda.compile_ptx(kernel.py_func, signature(*args), cc=(9, 0))
     print(name, "entry" if ".entry" in ptx else "missing", len(ptx))

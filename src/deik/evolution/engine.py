@@ -17,31 +17,46 @@ from deik.problem import Problem
 STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
 LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
 DEVICES = ("cpu", "gpu")
+STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
 
 
 @dataclass(frozen=True)
 class Settings:
-    """DE settings. The defaults converge on IK problems (current-to-best/1/bin, F 0.5, CR 0.9);
-    `Settings.paper()` is the paper's rand/1/bin for reproducing its figures. `patience`:
-    generations without improvement before a problem stops. `stop_on_converged`: stop a
-    problem once every goal with a tolerance is met; None (default) stops then unless a goal
-    without tolerance (comfort) is left to improve, which runs on until stagnation."""
+    """DE settings. The defaults converge on IK problems: current-to-best/1/bin with jDE
+    self-adaptive F and CR (`adaptive`; F and CR are then only the starting values), an LM
+    polish of `polish_count` individuals per problem (the best first) with `polish` steps
+    every `polish_every` generations (0 turns it off), and up to `restarts` restarts of a
+    search that stagnates unconverged. `Settings.paper()` is the paper's plain rand/1/bin for
+    reproducing its figures. `patience`: generations without improvement that count as
+    stagnation. `stop_on_converged`: stop a problem once every goal with a tolerance is met;
+    None (default) stops then unless a goal without tolerance (comfort) is left to improve,
+    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
+    between kernel launches, so it may overrun by about a quarter of the time left or one
+    generation; the first call in a fresh environment also compiles)."""
 
     population: int = 256
     generations: int = 2000
     strategy: str = "current-to-best/1/bin"
     F: float = 0.5
     CR: float = 0.9
+    adaptive: bool = True
+    polish: int = 10
+    polish_every: int = 10
+    polish_count: int = 4
+    restarts: int = 20
     seed: int = 0
     patience: int = 300
     stop_on_converged: bool | None = None
+    time_limit: float | None = None
     device: str = "cpu"
     dtype: str = "float32"
 
     @classmethod
     def paper(cls, **changes) -> "Settings":
-        """Algorithm 1's settings: rand/1/bin, CR 0.5 (its FW = 2 diverges; F 0.5 is used)."""
-        return cls(**{"strategy": "rand/1/bin", "F": 0.5, "CR": 0.5, "population": 500, **changes})
+        """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
+        CR, no polish, no restarts."""
+        return cls(**{"strategy": "rand/1/bin", "F": 0.5, "CR": 0.5, "population": 500, "adaptive": False,
+                      "polish": 0, "restarts": 0, **changes})
 
     def __post_init__(self):
         if self.strategy not in STRATEGIES:
@@ -58,6 +73,16 @@ class Settings:
             raise ValueError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
         if not (isinstance(self.patience, int) and self.patience >= 1):
             raise ValueError(f"patience must be a positive integer, got {self.patience!r}")
+        for name in ("polish", "restarts"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 0):
+                raise ValueError(f"{name} must be an integer >= 0 (0 turns it off), got {value!r}")
+        for name in ("polish_every", "polish_count"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.time_limit is not None and not (math.isfinite(self.time_limit) and self.time_limit > 0):
+            raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
         if self.device not in DEVICES:
             raise ValueError(f"device must be 'cpu' or 'gpu', got {self.device!r}")
         if self.dtype not in ("float32", "float64"):
@@ -66,31 +91,39 @@ class Settings:
 
 @dataclass(frozen=True, eq=False)
 class EvolutionState:
-    """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T); per problem: best
-    index, active, generations used, converged, best total seen, generation of last
-    improvement; history (B, G, 2) of best and mean total fitness (NaN once a problem of a
-    batch has stopped while others run on); `generation` counter."""
+    """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T), rates (B, P, 2)
+    (each individual's F and CR); per problem: best index, active, generations used,
+    converged, best total seen, generation of last improvement, restarts used, restart due,
+    the elite kept through the last restart (-1: none), the leader (best but the elite);
+    history (B, G, 2) of best and mean total fitness (NaN once a problem of a batch has
+    stopped while others run on); `generation` counter."""
 
     pop: np.ndarray
     levels: np.ndarray
     total: np.ndarray
     raw: np.ndarray
+    rates: np.ndarray
     best: np.ndarray
     active: np.ndarray
     generations: np.ndarray
     converged: np.ndarray
     best_seen: np.ndarray
     last_improved: np.ndarray
+    restarts: np.ndarray
+    restarting: np.ndarray
+    elite: np.ndarray
+    leader: np.ndarray
     history: np.ndarray
     generation: int
 
     @property
     def buffers(self):
-        return self.pop, self.levels, self.total, self.raw
+        return self.pop, self.levels, self.total, self.raw, self.rates
 
     @property
     def status(self):
-        return self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved
+        return (self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved,
+                self.restarts, self.restarting, self.elite, self.leader)
 
 
 class Engine:
@@ -103,13 +136,15 @@ class Engine:
         self.terms = pack_terms(problem.table, problem.reference, dtype)
         self.kernel_settings = (
             np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
-            dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed),
+            dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed), settings.adaptive,
         )
+        self.memetic = (np.int64(settings.polish), np.int64(settings.polish_every),
+                        np.int64(min(settings.polish_count, settings.population)))
         stop = settings.stop_on_converged
         if stop is None:
             weight, tolerance = problem.table.term_float[:, 0], problem.table.term_float[:, 3]
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
-        self.control = (np.int64(settings.patience), 1e-7, stop)
+        self.control = (np.int64(settings.patience), STAGNATION, stop, np.int64(settings.restarts))
         if settings.device == "gpu":
             try:
                 from deik.kernels.cuda import CudaBackend
@@ -142,12 +177,14 @@ class Engine:
         T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
         init, n_init = self._initial(initial, B, D, dtype)
         pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
-        total, raw = np.empty((B, P), dtype), np.empty((B, P, T), dtype)
-        self.backend.initialise((pop, levels, total, raw), self.skel, self.terms, self.kernel_settings[4], init, n_init)
+        total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
+        self.backend.initialise((pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings,
+                                init, n_init)
         best = np.array([int(np.lexsort(levels[b].T[::-1])[0]) for b in range(B)], np.int64)
         return EvolutionState(
-            pop, levels, total, raw, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
-            total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros((B, 0, 2)), 0,
+            pop, levels, total, raw, rates, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
+            total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros(B, np.int64),
+            np.zeros(B, np.bool_), np.full(B, -1, np.int64), best.copy(), np.zeros((B, 0, 2)), 0,
         )
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
@@ -158,10 +195,21 @@ class Engine:
         status = tuple(a.copy() for a in state.status)
         history = np.full((B, state.history.shape[1] + n_generations, 2), np.nan)
         history[:, : state.history.shape[1]] = state.history
-        final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, status,
-                                           self.control, history, state.generation, n_generations)
+        final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, self.memetic,
+                                           status, self.control, history, state.generation, n_generations)
         used = int(status[2].max()) if B else 0
         return EvolutionState(*final, *status, history[:, :used], state.generation + advanced)
+
+    def raw_errors(self, poses: np.ndarray) -> np.ndarray:
+        """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
+        measured against problem b by the CPU kernel's own maths in float64."""
+        from deik.kernels.cpu_backend import evaluate_poses
+
+        skel, terms = self.skel, self.terms
+        if skel[1].dtype != np.float64:
+            skel = pack_skeleton(self.problem.skeleton, np.float64)
+            terms = pack_terms(self.problem.table, self.problem.reference, np.float64)
+        return evaluate_poses(poses, np.arange(len(poses)), skel, terms, self.problem.table.n_levels)[2]
 
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""

@@ -70,7 +70,7 @@ def generations_to_converge(n_links: int, population: int, strategy: str, seeds:
     state0 = engine.init()
     index = np.arange(len(seeds))
     at_start = state0.raw[index, state0.best, 0] <= tol  # (S,)
-    result = make_result(problem, settings, engine.run(state0, budget), time.perf_counter() - start)
+    result = make_result(problem, engine, engine.run(state0, budget), time.perf_counter() - start)
     error = np.atleast_1d(result.goals[0].error)
     converged = np.atleast_1d(result.converged)
     used = np.atleast_1d(result.generations)

@@ -26,19 +26,21 @@ def _bucket(n: int) -> int:
 
 
 @lru_cache(maxsize=16)
-def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_name: str):
+def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_motions: int, dtype_name: str):
     """Compile (initialise, run) for local arrays of these (bucketed) sizes and dtype."""
     dev = cuda_device()
-    evaluate, make_trial, not_worse = dev.evaluate, dev.make_trial, dev.not_worse
+    evaluate, make_trial, not_worse, keep_trial = dev.evaluate, dev.make_trial, dev.not_worse, dev.keep_trial
     update_status, uniform, copy_individual = dev.update_status, dev.uniform, dev.copy_individual
+    polish, polish_target = dev.polish, dev.polish_target
     ftype = float32 if dtype_name == "float32" else float64
-    n_r, n_p, n_d, n_t, n_l = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels
+    n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
+    n_dd, n_jac = n_dofs * n_dofs, 3 * n_dofs
 
     @cuda.jit
-    def initialise(pop, levels, total, raw, skel, terms, seed, initial, n_initial):
+    def initialise(pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial):
         b = cuda.blockIdx.x
         scratch = (cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(32, ftype))
-        limits = skel[8]
+        limits, seed = skel[8], settings[4]
         P, D = pop.shape[1], pop.shape[2]
         for i in range(cuda.threadIdx.x, P, cuda.blockDim.x):
             for d in range(D):
@@ -47,39 +49,42 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
                 else:
                     u = uniform(seed, b, INIT_GENERATION, i, d)
                     pop[b, i, d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * u
+            rates[b, i, 0], rates[b, i, 1] = settings[2], settings[3]
             total[b, i] = evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
 
     @cuda.jit
-    def run(cur, nxt, skel, terms, settings, status, control, history, gen_start, n_gens, advanced):
+    def run(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, advanced):
         b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
         scratch = (cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(32, ftype))
         trial, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
-        best, active = status[0], status[1]
+        trial_rates, axes = cuda.local.array(2, ftype), cuda.local.array(n_a, ftype)
+        lm = (cuda.local.array(n_dd, ftype), cuda.local.array(n_d, ftype), cuda.local.array(n_jac, ftype),
+              cuda.local.array(n_d, ftype))
+        best, active, restarting, leader = status[0], status[1], status[7], status[9]
+        iterations, every, count = memetic
         limits = skel[8]
-        P, D, T, L = cur[0].shape[1], cur[0].shape[2], cur[3].shape[2], cur[1].shape[2]
+        P = cur[0].shape[1]
         swaps = 0
         for g in range(n_gens):
             cuda.syncthreads()
             if not active[b]:
                 break
-            pop, levels = cur[0], cur[1]
-            npop, nlevels, ntotal, nraw = nxt
+            pop, levels, rates = cur[0], cur[1], cur[4]
             for i in range(tid, P, stride):
-                make_trial(pop, b, i, best[b], gen_start + g, settings, limits, trial)
+                make_trial(pop, rates, b, i, leader[b], gen_start + g, settings, limits, trial, trial_rates, restarting[b])
                 tot = evaluate(trial, b, skel, terms, scratch, lv, rw)
-                if not_worse(lv, levels[b, i]):
-                    for d in range(D):
-                        npop[b, i, d] = trial[d]
-                    for t in range(T):
-                        nraw[b, i, t] = rw[t]
-                    for lvl in range(L):
-                        nlevels[b, i, lvl] = lv[lvl]
-                    ntotal[b, i] = tot
+                if (i != best[b]) if restarting[b] else not_worse(lv, levels[b, i]):
+                    keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
                 else:
                     copy_individual(cur, nxt, b, i)
             cur, nxt = nxt, cur
             swaps += 1
             cuda.syncthreads()
+            if iterations > 0 and (gen_start + g) % every == 0:
+                if tid < count:
+                    polish(b, polish_target(leader[b], tid, count, P), cur, iterations, skel, terms, scratch, axes, lm,
+                           trial, lv, rw)
+                cuda.syncthreads()
             if tid == 0:
                 update_status(b, gen_start + g, cur, terms, status, control, history)
         if swaps % 2 == 1:
@@ -89,6 +94,14 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, dtype_
             advanced[b] = swaps
 
     return initialise, run
+
+
+def kernels_for(skel, buffers):
+    """(initialise, run) compiled for this skeleton's and these buffers' bucketed sizes."""
+    pop, levels, raw = buffers[0], buffers[1], buffers[3]
+    frames = skel[0].shape[0] + skel[4].shape[0]
+    return make_kernels(_bucket(frames), _bucket(pop.shape[2]), _bucket(raw.shape[2]),
+                        _bucket(levels.shape[2]), _bucket(skel[2].shape[0]), pop.dtype.name)
 
 
 class CudaBackend:
@@ -103,35 +116,29 @@ class CudaBackend:
                 "(or run on the CPU with device='cpu')"
             )
 
-    def _kernels(self, skel, buffers):
-        pop, levels, _, raw = buffers
-        frames = skel[0].shape[0] + skel[4].shape[0]
-        return make_kernels(_bucket(frames), _bucket(pop.shape[2]), _bucket(raw.shape[2]),
-                            _bucket(levels.shape[2]), pop.dtype.name)
-
     def _to_device(self, arrays):
         return tuple(cuda.to_device(np.ascontiguousarray(a)) for a in arrays)
 
     def _threads(self, population: int) -> int:
         return min(THREADS_PER_BLOCK, 32 * -(-population // 32))
 
-    def initialise(self, buffers, skel, terms, seed, initial, n_initial):
-        initialise, _ = self._kernels(skel, buffers)
+    def initialise(self, buffers, skel, terms, settings, initial, n_initial):
+        initialise, _ = kernels_for(skel, buffers)
         d_buf = self._to_device(buffers)
         B, P = buffers[0].shape[:2]
-        initialise[B, self._threads(P)](*d_buf, self._to_device(skel), self._to_device(terms), seed,
+        initialise[B, self._threads(P)](*d_buf, self._to_device(skel), self._to_device(terms), settings,
                                         cuda.to_device(initial), np.int64(n_initial))
         for host, device in zip(buffers, d_buf):
             device.copy_to_host(host)
 
-    def run(self, cur, nxt, skel, terms, settings, status, control, history, gen_start, n_gens):
+    def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and history are updated."""
-        _, run = self._kernels(skel, cur)
+        _, run = kernels_for(skel, cur)
         d_cur, d_nxt, d_status = self._to_device(cur), self._to_device(nxt), self._to_device(status)
         d_history = cuda.to_device(history)
         B, P = cur[0].shape[:2]
         advanced = cuda.to_device(np.zeros(B, np.int64))
-        run[B, self._threads(P)](d_cur, d_nxt, self._to_device(skel), self._to_device(terms), settings,
+        run[B, self._threads(P)](d_cur, d_nxt, self._to_device(skel), self._to_device(terms), settings, memetic,
                                  d_status, control, d_history, np.int64(gen_start), np.int64(n_gens), advanced)
         for host, device in zip(cur + status + (history,), d_cur + d_status + (d_history,)):
             device.copy_to_host(host)

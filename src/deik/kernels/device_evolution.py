@@ -6,6 +6,8 @@ Compiled together with device_maths.py and device_terms.py (see deik.kernels.tar
 import math
 
 _TWO_PI = 2.0 * math.pi
+_JDE_REDRAW = 0.1
+_JDE_F_MIN = 0.1
 
 
 def not_worse(candidate, incumbent):
@@ -35,25 +37,41 @@ def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, seed, b, gen, i, draw):
     return r
 
 
-def make_trial(pop, b, i, best, gen, settings, limits, trial):
+def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates, restart):
     """DE trial vector for individual i of problem b (Figure 1: reads only the current
-    population). settings = (strategy, limit_mode, F, CR, seed). Strategies: 0 rand/1/bin,
-    1 best/1/bin, 2 current-to-best/1/bin. Limit modes: 0 reflect, 1 clip, 2 penalty (genes
-    may leave their limits; a top-priority term penalises it), 3 the paper's Algorithm 2."""
-    strategy, limit_mode, F, CR, seed = settings
+    population) and the F, CR it used (trial_rates). settings = (strategy, limit_mode, F, CR,
+    seed, adaptive). Strategies: 0 rand/1/bin, 1 best/1/bin, 2 current-to-best/1/bin. Limit
+    modes: 0 reflect, 1 clip, 2 penalty (genes may leave their limits; a top-priority term
+    penalises it), 3 the paper's Algorithm 2. adaptive (jDE): each individual carries its own
+    F and CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
+    inherited by the trial when it is accepted. restart: a uniform random pose instead."""
+    strategy, limit_mode, F, CR, seed, adaptive = settings
     P, D = pop.shape[1], pop.shape[2]
+    if restart:
+        for d in range(D):
+            trial[d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * uniform(seed, b, gen, i, 4 + d)
+        trial_rates[0], trial_rates[1] = F, CR
+        return
+    f, cr = F, CR
+    if adaptive:
+        f, cr = rates[b, i, 0], rates[b, i, 1]
+        if uniform(seed, b, gen, i, 4 + D) < _JDE_REDRAW:
+            f = _JDE_F_MIN + (1.0 - _JDE_F_MIN) * uniform(seed, b, gen, i, 5 + D)
+        if uniform(seed, b, gen, i, 6 + D) < _JDE_REDRAW:
+            cr = uniform(seed, b, gen, i, 7 + D)
+    trial_rates[0], trial_rates[1] = f, cr
     r1 = donor(P, i, 0, 0, 1, seed, b, gen, i, 0)
     r2 = donor(P, i, r1, 0, 2, seed, b, gen, i, 1)
     r3 = donor(P, i, r1, r2, 3, seed, b, gen, i, 2)
     forced = randint(D, seed, b, gen, i, 3)
     for d in range(D):
-        if d == forced or uniform(seed, b, gen, i, 4 + d) < CR:
+        if d == forced or uniform(seed, b, gen, i, 4 + d) < cr:
             if strategy == 0:
-                v = pop[b, r1, d] + F * (pop[b, r2, d] - pop[b, r3, d])
+                v = pop[b, r1, d] + f * (pop[b, r2, d] - pop[b, r3, d])
             elif strategy == 1:
-                v = pop[b, best, d] + F * (pop[b, r1, d] - pop[b, r2, d])
+                v = pop[b, best, d] + f * (pop[b, r1, d] - pop[b, r2, d])
             else:
-                v = pop[b, i, d] + F * (pop[b, best, d] - pop[b, i, d]) + F * (pop[b, r1, d] - pop[b, r2, d])
+                v = pop[b, i, d] + f * (pop[b, best, d] - pop[b, i, d]) + f * (pop[b, r1, d] - pop[b, r2, d])
         else:
             v = pop[b, i, d]
         lo, hi = limits[d, 0], limits[d, 1]
@@ -70,8 +88,15 @@ def make_trial(pop, b, i, best, gen, settings, limits, trial):
         trial[d] = v
 
 
+def polish_target(best, k, count, P):
+    """The k-th of `count` distinct individuals a polish round refines: the best first, then
+    individuals spread evenly around the population from it."""
+    return (best + k * P // count) % P
+
+
 def copy_individual(source, target, b, i):
-    """Copy individual i of problem b from one (pop, levels, total, raw) buffer set to another."""
+    """Copy individual i of problem b from one (pop, levels, total, raw, rates) buffer set to
+    another."""
     for d in range(source[0].shape[2]):
         target[0][b, i, d] = source[0][b, i, d]
     for lv in range(source[1].shape[2]):
@@ -79,22 +104,46 @@ def copy_individual(source, target, b, i):
     target[2][b, i] = source[2][b, i]
     for t in range(source[3].shape[2]):
         target[3][b, i, t] = source[3][b, i, t]
+    target[4][b, i, 0] = source[4][b, i, 0]
+    target[4][b, i, 1] = source[4][b, i, 1]
+
+
+def keep_trial(target, b, i, trial, lv, rw, tot, trial_rates):
+    """Write an accepted trial (and its levels, raw errors, total, F and CR) into target."""
+    for d in range(target[0].shape[2]):
+        target[0][b, i, d] = trial[d]
+    for lvl in range(target[1].shape[2]):
+        target[1][b, i, lvl] = lv[lvl]
+    target[2][b, i] = tot
+    for t in range(target[3].shape[2]):
+        target[3][b, i, t] = rw[t]
+    target[4][b, i, 0] = trial_rates[0]
+    target[4][b, i, 1] = trial_rates[1]
 
 
 def update_status(b, gen, pop_state, terms, status, control, history):
-    """After a generation: best index, history, convergence and stagnation of problem b."""
-    pop, levels, total, raw = pop_state
-    best, active, generations, converged, best_seen, last_improved = status
-    patience, rel_improvement, stop_on_converged = control
+    """After a generation: best index, leader, history, convergence, stagnation and restarts
+    of problem b. A problem that stagnates unconverged with restarts left is flagged to
+    restart: its next generation replaces every individual but the best by a random pose, and
+    that best stays on as the elite, never worse, while the leader that guides mutation and
+    polish is the best of the others."""
+    pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
+    best, active, generations, converged, best_seen, last_improved, restarts, restarting, elite, leader = status
+    patience, rel_improvement, stop_on_converged, max_restarts = control
     term_float, params = terms[1], terms[2]
     P = pop.shape[1]
+    restarting[b] = False
     k = 0
+    lead = 1 if elite[b] == 0 else 0
     mean = 0.0
     for i in range(P):
         mean += total[b, i]
         if i > 0 and not not_worse(levels[b, k], levels[b, i]):
             k = i
+        if i != elite[b] and not not_worse(levels[b, lead], levels[b, i]):
+            lead = i
     best[b] = k
+    leader[b] = lead
     history[b, generations[b], 0] = total[b, k]
     history[b, generations[b], 1] = mean / P
     generations[b] += 1
@@ -109,4 +158,10 @@ def update_status(b, gen, pop_state, terms, status, control, history):
         best_seen[b] = total[b, k]
         last_improved[b] = gen
     elif gen - last_improved[b] >= patience:
-        active[b] = False
+        if not met and restarts[b] < max_restarts:
+            restarts[b] += 1
+            restarting[b] = True
+            elite[b] = k
+            last_improved[b] = gen
+        else:
+            active[b] = False

@@ -72,17 +72,22 @@ def axis_angle_into(ax, ay, az, angle, M, m):
     M[m + 6], M[m + 7], M[m + 8] = t * ax * az - s * ay, t * ay * az + s * ax, t * az * az + c
 
 
-def forward_kinematics(q, skel, R, p, work):
-    """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q."""
+def forward_kinematics(q, skel, R, p, work, axes, record):
+    """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q.
+    With `record`, axes (N*6,) also receives each motion's world axis and pivot (the point a
+    rotation turns about), what the analytic Jacobians need (device_polish.py)."""
     joint_int, joint_frame, motion_int, motion_float, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
     J = joint_int.shape[0]
     for k in range(J):
         for e in range(9):
             work[e] = joint_frame[k, 3 + e]
         tx, ty, tz = joint_frame[k, 0], joint_frame[k, 1], joint_frame[k, 2]
+        parent = joint_int[k, 0]
         for n in range(joint_int[k, 1], joint_int[k, 2]):
             ax, ay, az = motion_float[n, 0], motion_float[n, 1], motion_float[n, 2]
             value = motion_float[n, 3] * q[motion_int[n, 1]] + motion_float[n, 4]
+            if record:
+                record_axis(R, p, parent, work, ax, ay, az, tx, ty, tz, axes, 6 * n)
             if motion_int[n, 0] == 0:
                 axis_angle_into(ax, ay, az, value, work, 9)
                 matmul3(work, 0, work, 9, work, 18)
@@ -91,7 +96,6 @@ def forward_kinematics(q, skel, R, p, work):
             else:
                 dx, dy, dz = rotate_point(work, 0, ax * value, ay * value, az * value)
                 tx, ty, tz = tx + dx, ty + dy, tz + dz
-        parent = joint_int[k, 0]
         if parent < 0:
             for e in range(9):
                 R[9 * k + e] = work[e]
@@ -105,6 +109,19 @@ def forward_kinematics(q, skel, R, p, work):
         matmul3(R, 9 * j, site_frame[s], 3, R, 9 * f)
         dx, dy, dz = rotate_point(R, 9 * j, site_frame[s, 0], site_frame[s, 1], site_frame[s, 2])
         p[3 * f], p[3 * f + 1], p[3 * f + 2] = p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz
+
+
+def record_axis(R, p, parent, work, ax, ay, az, tx, ty, tz, axes, a):
+    """axes[a:a+3] = the world direction of local axis (ax, ay, az) after the joint's partial
+    rotation work[0:9]; axes[a+3:a+6] = the world point of its partial translation (tx, ty, tz)."""
+    wx, wy, wz = rotate_point(work, 0, ax, ay, az)
+    if parent < 0:
+        axes[a], axes[a + 1], axes[a + 2] = wx, wy, wz
+        axes[a + 3], axes[a + 4], axes[a + 5] = tx, ty, tz
+    else:
+        axes[a], axes[a + 1], axes[a + 2] = rotate_point(R, 9 * parent, wx, wy, wz)
+        cx, cy, cz = rotate_point(R, 9 * parent, tx, ty, tz)
+        axes[a + 3], axes[a + 4], axes[a + 5] = p[3 * parent] + cx, p[3 * parent + 1] + cy, p[3 * parent + 2] + cz
 
 
 def centre_of_mass(skel, R, p):

@@ -118,7 +118,7 @@ def evaluate(q, b, skel, terms, scratch, levels, raw):
     weighted sum of normalised terms (Eqs. 1, 2)."""
     R, p, work = scratch
     term_int, term_float, params = terms[0], terms[1], terms[2]
-    forward_kinematics(q, skel, R, p, work)
+    forward_kinematics(q, skel, R, p, work, work, False)
     cx, cy, cz = centre_of_mass(skel, R, p)
     for lv in range(levels.shape[0]):
         levels[lv] = 0.0

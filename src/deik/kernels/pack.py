@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from deik.objectives.table import TermTable
@@ -17,7 +19,20 @@ def ground_frame(up: np.ndarray) -> np.ndarray:
 
 
 def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> tuple:
-    """The `skel` tuple; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi)."""
+    """The `skel` tuple; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi).
+    Without an override the tuple is cached per (frozen) skeleton and dtype: callers must not
+    write into it."""
+    if limits is None:
+        return _packed(skeleton, np.dtype(dtype))
+    return _pack(skeleton, dtype, limits)
+
+
+@lru_cache(maxsize=32)
+def _packed(skeleton: Skeleton, dtype: np.dtype) -> tuple:
+    return _pack(skeleton, dtype, None)
+
+
+def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> tuple:
     s = skeleton
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
     m = s.motions

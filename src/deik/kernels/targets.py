@@ -71,9 +71,9 @@ def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
     return module
 
 
-from deik.kernels import device_evolution, device_maths, device_terms  # noqa: E402
+from deik.kernels import device_evolution, device_lm, device_maths, device_polish, device_terms  # noqa: E402
 
-DEVICE_SOURCES = (device_maths, device_terms, device_evolution)
+DEVICE_SOURCES = (device_maths, device_terms, device_evolution, device_polish, device_lm)
 cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True))
 
 

@@ -1,0 +1,153 @@
+"""Device maths, part 5: the Levenberg-Marquardt polish of one individual (memetic step).
+
+Compiled together with the other device_*.py files (see deik.kernels.targets). The polish
+minimises the scaled residuals of device_polish.py over the terms on the levels up to the
+individual's first unmet one, with steps clamped into the joint limits (a DOF at a limit that
+the gradient pushes outwards is held fixed). A step is kept only if the full strict-priority
+fitness improves, so the polish never trades a higher level for a lower one and never leaves
+the limits. lm = (A (D*D,), gradient (D,), jac (3*D,), delta (D,)).
+"""
+
+import math
+
+_MAX_DAMPING = 1e8
+_DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
+
+
+def improves(lv, tot, levels, total):
+    """Are levels lv strictly better than `levels` (lexicographic), or equal with a lower total?"""
+    for lvl in range(levels.shape[0]):
+        if lv[lvl] < levels[lvl]:
+            return True
+        if lv[lvl] > levels[lvl]:
+            return False
+    return tot < total
+
+
+def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D):
+    """A = J^T J and gradient = J^T r at pose q of the smooth terms on levels <= top and of
+    every comfort term (a weak pull towards its reference on any level, so that steps for a
+    higher level take the smallest move); returns the cost r^T r."""
+    R, p, work = scratch
+    A, gradient, jac = lm[0], lm[1], lm[2]
+    forward_kinematics(q, skel, R, p, work, axes, True)
+    cx, cy, cz = centre_of_mass(skel, R, p)
+    for e in range(D * D):
+        A[e] = 0.0
+    for d in range(D):
+        gradient[d] = 0.0
+    cost = 0.0
+    for t in range(terms[0].shape[0]):
+        if terms[0][t, 0] == 6 or terms[0][t, 0] == 7:
+            cost += add_comfort(t, b, q, terms, A, gradient, D)
+            continue
+        if terms[0][t, 1] > top:
+            continue
+        r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D)
+        cost += r0 * r0 + r1 * r1 + r2 * r2
+        for row in range(3):
+            r = r0 if row == 0 else (r1 if row == 1 else r2)
+            for a in range(D):
+                ja = jac[row * D + a]
+                if ja != 0.0:
+                    gradient[a] += ja * r
+                    for c in range(D):
+                        A[a * D + c] += ja * jac[row * D + c]
+    return cost
+
+
+def add_comfort(t, b, q, terms, A, gradient, D):
+    """Comfort term t as quadratic rows sqrt(weight * dof weight) * mu / scale * (q - reference)
+    added to A's diagonal and the gradient: the polish then prefers the smallest move from the
+    reference among poses that meet the other goals (the comfort's own L1/max form is left to
+    DE and to the acceptance test). Returns their cost."""
+    term_float, dof_weight, reference = terms[1], terms[3], terms[4]
+    w = term_float[t, 0] * terms[2][b, t, 11]
+    if w <= 0.0:
+        return 0.0
+    unit = term_float[t, 1] / term_float[t, 2]
+    cost = 0.0
+    for d in range(D):
+        c2 = w * dof_weight[t, d] * unit * unit
+        e = q[d] - reference[b, t, d]
+        A[d * D + d] += c2
+        gradient[d] += c2 * e
+        cost += c2 * e * e
+    return cost
+
+
+def damped_step(lm, D, damping, q, limits):
+    """delta = -(A + damping * diag(A))^-1 gradient by an in-place Cholesky factorisation of A,
+    DOFs held at their limits where the gradient pushes outwards; False if the matrix is not
+    positive definite."""
+    A, gradient, delta = lm[0], lm[1], lm[3]
+    peak = 0.0
+    for a in range(D):
+        peak = max(peak, A[a * D + a])
+    for a in range(D):
+        A[a * D + a] += damping * max(A[a * D + a], _DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30
+        delta[a] = -gradient[a]
+        if (q[a] <= limits[a, 0] and gradient[a] > 0.0) or (q[a] >= limits[a, 1] and gradient[a] < 0.0):
+            for c in range(D):
+                A[a * D + c] = 0.0
+                A[c * D + a] = 0.0
+            A[a * D + a] = 1.0
+            delta[a] = 0.0
+    for j in range(D):
+        s = A[j * D + j]
+        for k in range(j):
+            s -= A[j * D + k] * A[j * D + k]
+        if not s > 0.0:
+            return False
+        s = math.sqrt(s)
+        A[j * D + j] = s
+        for i in range(j + 1, D):
+            v = A[i * D + j]
+            for k in range(j):
+                v -= A[i * D + k] * A[j * D + k]
+            A[i * D + j] = v / s
+    for i in range(D):
+        v = delta[i]
+        for k in range(i):
+            v -= A[i * D + k] * delta[k]
+        delta[i] = v / A[i * D + i]
+    for i in range(D - 1, -1, -1):
+        v = delta[i]
+        for k in range(i + 1, D):
+            v -= A[k * D + i] * delta[k]
+        delta[i] = v / A[i * D + i]
+    return True
+
+
+def polish(b, i, pop_state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+    """Up to `iterations` LM steps on individual i of problem b, in place in pop_state =
+    (pop, levels, total, raw, rates); q (D,), lv (L,), rw (T,) are scratch."""
+    pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
+    D, L, T = pop.shape[2], levels.shape[2], raw.shape[2]
+    limits = skel[8]
+    top = L - 1
+    for lvl in range(L - 1, -1, -1):
+        if levels[b, i, lvl] > 0.0:
+            top = lvl
+    damping = 1e-3
+    for _ in range(iterations):
+        if normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D) == 0.0:
+            return
+        if damped_step(lm, D, damping, pop[b, i], limits):
+            delta = lm[3]
+            for d in range(D):
+                q[d] = min(max(pop[b, i, d] + delta[d], limits[d, 0]), limits[d, 1])
+            tot = evaluate(q, b, skel, terms, scratch, lv, rw)
+            if improves(lv, tot, levels[b, i], total[b, i]):
+                for d in range(D):
+                    pop[b, i, d] = q[d]
+                for lvl in range(L):
+                    levels[b, i, lvl] = lv[lvl]
+                for t in range(T):
+                    raw[b, i, t] = rw[t]
+                total[b, i] = tot
+                damping = max(damping * 0.3, 1e-7)
+                continue
+        damping *= 10.0
+        if damping > _MAX_DAMPING:
+            return

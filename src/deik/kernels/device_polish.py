@@ -1,0 +1,136 @@
+"""Device maths, part 4: residuals and analytic Jacobians for the Levenberg-Marquardt polish.
+
+Compiled together with the other device_*.py files (see deik.kernels.targets). Smooth goals
+have residual vectors: position (3 rows, p - target, metres), orientation (3 rows, the
+rotation vector of R R_target^T, radians), centre of mass (3 rows) and COM over support (the
+same, projected on the ground). Each row is scaled by sqrt(weight * gain) / unit, where unit
+is the goal's tolerance (or its distance scale when it has none), so LM minimises errors
+counted in tolerances. Jacobians are geometric: a rotation motion turns every frame below its
+joint about its world axis through its pivot, a translation motion moves them along its
+world axis; mimic motions add scale times that to their source DOF's column.
+"""
+
+import math
+
+
+def is_ancestor(k, j, joint_int):
+    """Is joint k joint j or one of its ancestors? (Parents come before children.)"""
+    while j > k:
+        j = joint_int[j, 0]
+    return j == k
+
+
+def frame_joint(f, skel):
+    """The joint that carries frame f (a joint, or a site's joint)."""
+    J = skel[0].shape[0]
+    return f if f < J else skel[4][f - J]
+
+
+def point_rows(x, y, z, j, skel, axes, weight, jac, D):
+    """jac[0:3*D] += weight * d(point)/dq for a world point (x, y, z) carried by joint j."""
+    joint_int, motion_int, motion_float = skel[0], skel[2], skel[3]
+    for k in range(j + 1):
+        if not is_ancestor(k, j, joint_int):
+            continue
+        for n in range(joint_int[k, 1], joint_int[k, 2]):
+            d, s = motion_int[n, 1], weight * motion_float[n, 3]
+            ax, ay, az = axes[6 * n], axes[6 * n + 1], axes[6 * n + 2]
+            if motion_int[n, 0] == 0:
+                vx, vy, vz = x - axes[6 * n + 3], y - axes[6 * n + 4], z - axes[6 * n + 5]
+                ax, ay, az = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
+            jac[d] += s * ax
+            jac[D + d] += s * ay
+            jac[2 * D + d] += s * az
+
+
+def rotation_rows(j, skel, axes, weight, jac, D):
+    """jac[0:3*D] += weight * (angular velocity of joint j's frame per unit dq)."""
+    joint_int, motion_int, motion_float = skel[0], skel[2], skel[3]
+    for k in range(j + 1):
+        if not is_ancestor(k, j, joint_int):
+            continue
+        for n in range(joint_int[k, 1], joint_int[k, 2]):
+            if motion_int[n, 0] == 0:
+                d, s = motion_int[n, 1], weight * motion_float[n, 3]
+                jac[d] += s * axes[6 * n]
+                jac[D + d] += s * axes[6 * n + 1]
+                jac[2 * D + d] += s * axes[6 * n + 2]
+
+
+def rotation_vector(R, f, target):
+    """Rotation vector (radians) of R_f R_target^T, the world-frame orientation error."""
+    e01 = R[9 * f] * target[3] + R[9 * f + 1] * target[4] + R[9 * f + 2] * target[5]
+    e10 = R[9 * f + 3] * target[0] + R[9 * f + 4] * target[1] + R[9 * f + 5] * target[2]
+    e02 = R[9 * f] * target[6] + R[9 * f + 1] * target[7] + R[9 * f + 2] * target[8]
+    e20 = R[9 * f + 6] * target[0] + R[9 * f + 7] * target[1] + R[9 * f + 8] * target[2]
+    e12 = R[9 * f + 3] * target[6] + R[9 * f + 4] * target[7] + R[9 * f + 5] * target[8]
+    e21 = R[9 * f + 6] * target[3] + R[9 * f + 7] * target[4] + R[9 * f + 8] * target[5]
+    trace = 0.0
+    for i in range(3):
+        trace += R[9 * f + 3 * i] * target[3 * i] + R[9 * f + 3 * i + 1] * target[3 * i + 1] + R[9 * f + 3 * i + 2] * target[3 * i + 2]
+    vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
+    sine = math.sqrt(vx * vx + vy * vy + vz * vz)
+    angle = math.atan2(sine, 0.5 * (trace - 1.0))
+    ratio = angle / sine if sine > 1e-12 else 1.0
+    return vx * ratio, vy * ratio, vz * ratio
+
+
+def log_derivative(rx, ry, rz, jac, D):
+    """Map angular-velocity columns jac (3 rows of D) to derivatives of the rotation vector
+    r = (rx, ry, rz): multiply by the inverse left Jacobian of SO(3),
+    I - [r]/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) [r]^2 with t = |r|."""
+    t = math.sqrt(rx * rx + ry * ry + rz * rz)
+    c = 1.0 / 12.0
+    if t >= 1e-4:
+        c = 1.0 / (t * t) - (1.0 + math.cos(t)) / max(2.0 * t * math.sin(t), 1e-12)
+    for d in range(D):
+        wx, wy, wz = jac[d], jac[D + d], jac[2 * D + d]
+        ux, uy, uz = ry * wz - rz * wy, rz * wx - rx * wz, rx * wy - ry * wx
+        vx, vy, vz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux
+        jac[d] = wx - 0.5 * ux + c * vx
+        jac[D + d] = wy - 0.5 * uy + c * vy
+        jac[2 * D + d] = wz - 0.5 * uz + c * vz
+
+
+def com_rows(skel, R, p, axes, weight, jac, D):
+    """jac[0:3*D] += weight * d(centre of mass)/dq (mass fractions in mass_data[:, 3])."""
+    mass_joint, mass_data = skel[6], skel[7]
+    for m in range(mass_joint.shape[0]):
+        j = mass_joint[m]
+        dx, dy, dz = rotate_point(R, 9 * j, mass_data[m, 0], mass_data[m, 1], mass_data[m, 2])
+        point_rows(p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz, j, skel, axes, weight * mass_data[m, 3], jac, D)
+
+
+def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
+    """Scaled residual (3,) of smooth term t, its Jacobian rows in jac[0:3*D]; (0, 0, 0) and
+    zero rows for terms the polish leaves to DE."""
+    term_int, term_float, params = terms[0], terms[1], terms[2]
+    for e in range(3 * D):
+        jac[e] = 0.0
+    kind, f = term_int[t, 0], term_int[t, 3]
+    g = params[b, t]
+    w = term_float[t, 0] * g[11]
+    if w <= 0.0 or kind == 2 or kind > 4:
+        return 0.0, 0.0, 0.0
+    unit = term_float[t, 3] if term_float[t, 3] > 0.0 else term_float[t, 2]
+    s = math.sqrt(w) / unit
+    if kind == 0:
+        point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], frame_joint(f, skel), skel, axes, s, jac, D)
+        return s * (p[3 * f] - g[0]), s * (p[3 * f + 1] - g[1]), s * (p[3 * f + 2] - g[2])
+    if kind == 1:
+        rotation_rows(frame_joint(f, skel), skel, axes, s, jac, D)
+        rx, ry, rz = rotation_vector(R, f, g)
+        log_derivative(rx, ry, rz, jac, D)
+        return s * rx, s * ry, s * rz
+    com_rows(skel, R, p, axes, s, jac, D)
+    rx, ry, rz = s * (cx - g[0]), s * (cy - g[1]), s * (cz - g[2])
+    if kind == 4:
+        up = skel[9][2]
+        h = rx * up[0] + ry * up[1] + rz * up[2]
+        rx, ry, rz = rx - h * up[0], ry - h * up[1], rz - h * up[2]
+        for d in range(D):
+            h = jac[d] * up[0] + jac[D + d] * up[1] + jac[2 * D + d] * up[2]
+            jac[d] -= h * up[0]
+            jac[D + d] -= h * up[1]
+            jac[2 * D + d] -= h * up[2]
+    return rx, ry, rz
