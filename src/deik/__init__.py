@@ -22,13 +22,13 @@ from deik.objectives.goals import (
 from deik.problem import Problem
 from deik.result import GoalReport, Result
 from deik.skeleton import Skeleton
-from deik.solve import solve
+from deik.solve import solve, solve_batch
 
 __all__ = [
     "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
     "EvolutionState", "GoalReport", "Joint", "Kinematics", "Obstacle", "Orientation", "Position",
     "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "build_skeleton", "chain",
     "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "read_bvh", "read_urdf",
-    "solve", "translation", "write_bvh",
+    "solve", "solve_batch", "translation", "write_bvh",
 ]
 __version__ = "0.1.0"

@@ -27,7 +27,7 @@ from deik.seeding import poses_around
 from deik.solve import solve
 
 SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype", "time_limit", "polish",
-                 "restarts")
+                 "restarts", "islands")
 FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame" when posing a BVH frame
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
 
@@ -66,6 +66,7 @@ def add_arguments(s) -> None:
     s.add_argument("--polish", type=int, metavar="N",
                    help="Levenberg-Marquardt steps per polish of the best individuals (default 10; 0: DE only)")
     s.add_argument("--restarts", type=int, metavar="N", help="restarts of a stagnating unconverged search (default 20)")
+    s.add_argument("--islands", type=int, metavar="N", help="split the population into N islands that migrate (default 1)")
     s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
     s.add_argument("--out", metavar="pose.json|pose.bvh",

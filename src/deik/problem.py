@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -44,6 +44,40 @@ class Problem:
                 "first population inside the limits, so give every DOF finite limits"
             )
         self.table  # compile now so that bad goals fail here, not inside a solve
+
+    @classmethod
+    def stack(cls, problems) -> "Problem":
+        """One batched problem from `problems` (a sequence of Problems) that share a skeleton
+        and limit mode and have the same goals in the same order, differing only in targets,
+        weights, comfort reference poses and `active` masks; a problem with a batch of B
+        contributes B problems. Weights that differ are carried as per-problem gains, so they
+        must share a sign. solve(Problem.stack(ps)) solves them all in one launch."""
+        problems = list(problems)
+        if not problems or not all(isinstance(p, Problem) for p in problems):
+            raise TypeError("Problem.stack takes a non-empty sequence of deik.Problem")
+        first = problems[0]
+        for k, p in enumerate(problems[1:], 1):
+            _check_stackable(first, p, k)
+        weights = np.array([[r.weight for r in p.rows] for p in problems])  # (N, T)
+        magnitude = np.abs(weights).max(axis=0)
+        if ((weights > 0).any(axis=0) & (weights < 0).any(axis=0)).any():
+            raise ValueError("Problem.stack: a goal has positive weights in some problems and negative in others")
+        sign = np.where((weights < 0).any(axis=0), -1.0, 1.0)
+        rows = [replace(r, weight=float(s * m)) for r, s, m in zip(first.rows, sign, magnitude)]
+        params = []
+        for p, w in zip(problems, weights):
+            part = p.table.params.copy()
+            part[:, :, tt.GAIN] *= np.divide(np.abs(w), magnitude, out=np.zeros_like(w), where=magnitude > 0)
+            params.append(part)
+        stacked = cls(first.skeleton, first.goals, first.limits)
+        params = np.concatenate(params)
+        # the merged table and references replace the ones compiled from the first problem's goals
+        stacked.__dict__.update(
+            rows=rows, batch_size=len(params), table=tt.compile_rows(rows, params, first.skeleton.n_dofs),
+            reference=np.concatenate([np.broadcast_to(p.reference, (p.batch_size,) + p.reference.shape[1:])
+                                      for p in problems]),
+        )
+        return stacked
 
     @cached_property
     def rows(self) -> list[tt.TermRow]:
@@ -88,3 +122,20 @@ class Problem:
             params.append(np.zeros((B, tt.N_PARAMS)))
             params[-1][:, tt.GAIN] = 1.0
         return tt.compile_rows(self.rows, np.stack(params, axis=1), self.skeleton.n_dofs)
+
+
+def _check_stackable(first: Problem, other: Problem, k: int) -> None:
+    """Raise unless problem k can share a term table with the first one."""
+    if other.skeleton is not first.skeleton:
+        raise ValueError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
+    if other.limits != first.limits:
+        raise ValueError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
+    if len(other.rows) != len(first.rows):
+        raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
+    for t, (a, b) in enumerate(zip(first.rows, other.rows)):
+        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == \
+            (b.kind, b.label, b.frames, b.mu, b.scale, b.tolerance, b.level)
+        if not same or (a.dof_weight is None) != (b.dof_weight is None) or \
+                (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight)):
+            raise ValueError(f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
+                             f"({a.label}) in more than its target, weight, reference or active mask")

@@ -52,6 +52,13 @@ def _generations_within(deadline: float, start: float, done: int, most: int) -> 
     return max(1, min(most, int(0.25 * (deadline - now) / pace)))
 
 
+def solve_batch(problems, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
+    """Solve several problems on one skeleton in one launch: `problems` differ only in
+    targets, weights, reference poses and active masks (see Problem.stack). The Result is
+    batched in the order given, one row per problem (a problem with a batch of B gives B)."""
+    return solve(Problem.stack(problems), settings, initial=initial, progress=progress, **overrides)
+
+
 def merge_settings(caller: str, settings: Settings | None, overrides: dict, defaults: dict | None = None) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""

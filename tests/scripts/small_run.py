@@ -20,7 +20,8 @@ tips, elbows = kin.position("tip"), kin.position("link2")
 elbows[2] = -0.5 * tips[2]  # problem 2 cannot put the elbow there and the tip at its target
 problem = deik.Problem(chain, [deik.Position("tip", tips, tolerance=1e-3), deik.Position("link2", elbows, tolerance=1e-3),
                                deik.Comfort(weight=0.1, level=1)])
-settings = deik.Settings(population=8, dtype=dtype, device=device, patience=3, polish=polish, polish_every=3)
+settings = deik.Settings(population=8, dtype=dtype, device=device, patience=3, polish=polish, polish_every=3,
+                         islands=2, migration=2)
 engine = deik.Engine(problem, settings)
 state = engine.run(engine.init(), 12)
 print(json.dumps({

@@ -26,7 +26,9 @@ class Settings:
     self-adaptive F and CR (`adaptive`; F and CR are then only the starting values), an LM
     polish of `polish_count` individuals per problem (the best first) with `polish` steps
     every `polish_every` generations (0 turns it off), and up to `restarts` restarts of a
-    search that stagnates unconverged. `Settings.paper()` is the paper's plain rand/1/bin for
+    search that stagnates unconverged. `islands` > 1 splits each population into that many
+    groups that breed apart and pass their leader to the next group every `migration`
+    generations. `Settings.paper()` is the paper's plain rand/1/bin for
     reproducing its figures. `patience`: generations without improvement that count as
     stagnation. `stop_on_converged`: stop a problem once every goal with a tolerance is met;
     None (default) stops then unless a goal without tolerance (comfort) is left to improve,
@@ -44,6 +46,8 @@ class Settings:
     polish_every: int = 10
     polish_count: int = 4
     restarts: int = 20
+    islands: int = 1
+    migration: int = 25
     seed: int = 0
     patience: int = 300
     stop_on_converged: bool | None = None
@@ -81,6 +85,12 @@ class Settings:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if not (isinstance(self.islands, int) and self.islands >= 1 and self.population % self.islands == 0
+                and self.population // self.islands >= 4):
+            raise ValueError(f"islands must divide the population into groups of at least 4 individuals, "
+                             f"got {self.islands!r} islands for population {self.population}")
+        if not (isinstance(self.migration, int) and self.migration >= 1):
+            raise ValueError(f"migration must be a positive number of generations, got {self.migration!r}")
         if self.time_limit is not None and not (math.isfinite(self.time_limit) and self.time_limit > 0):
             raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
         if self.device not in DEVICES:
@@ -94,7 +104,8 @@ class EvolutionState:
     """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T), rates (B, P, 2)
     (each individual's F and CR); per problem: best index, active, generations used,
     converged, best total seen, generation of last improvement, restarts used, restart due,
-    the elite kept through the last restart (-1: none), the leader (best but the elite);
+    the elite kept through the last restart (-1: none), leaders (B, islands): the best of each
+    island but the elite;
     history (B, G, 2) of best and mean total fitness (NaN once a problem of a batch has
     stopped while others run on); `generation` counter."""
 
@@ -112,7 +123,7 @@ class EvolutionState:
     restarts: np.ndarray
     restarting: np.ndarray
     elite: np.ndarray
-    leader: np.ndarray
+    leaders: np.ndarray
     history: np.ndarray
     generation: int
 
@@ -123,7 +134,7 @@ class EvolutionState:
     @property
     def status(self):
         return (self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved,
-                self.restarts, self.restarting, self.elite, self.leader)
+                self.restarts, self.restarting, self.elite, self.leaders)
 
 
 class Engine:
@@ -137,6 +148,7 @@ class Engine:
         self.kernel_settings = (
             np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
             dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed), settings.adaptive,
+            np.int64(settings.islands),
         )
         self.memetic = (np.int64(settings.polish), np.int64(settings.polish_every),
                         np.int64(min(settings.polish_count, settings.population)))
@@ -144,7 +156,8 @@ class Engine:
         if stop is None:
             weight, tolerance = problem.table.term_float[:, 0], problem.table.term_float[:, 3]
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
-        self.control = (np.int64(settings.patience), STAGNATION, stop, np.int64(settings.restarts))
+        self.control = (np.int64(settings.patience), STAGNATION, stop, np.int64(settings.restarts),
+                        np.int64(settings.migration))
         if settings.device == "gpu":
             try:
                 from deik.kernels.cuda import CudaBackend
@@ -184,8 +197,16 @@ class Engine:
         return EvolutionState(
             pop, levels, total, raw, rates, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
             total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros(B, np.int64),
-            np.zeros(B, np.bool_), np.full(B, -1, np.int64), best.copy(), np.zeros((B, 0, 2)), 0,
+            np.zeros(B, np.bool_), np.full(B, -1, np.int64), self._leaders(levels), np.zeros((B, 0, 2)), 0,
         )
+
+    def _leaders(self, levels: np.ndarray) -> np.ndarray:
+        """(B, islands) index of the best individual of each island (levels (B, P, L))."""
+        B, P, _ = levels.shape
+        size = P // self.settings.islands
+        order = [np.lexsort(levels[b].reshape(self.settings.islands, size, -1)[j].T[::-1])[0] + j * size
+                 for b in range(B) for j in range(self.settings.islands)]
+        return np.array(order, np.int64).reshape(B, self.settings.islands)
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""

@@ -66,6 +66,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     B, P, D = cur[0].shape
     limits = skel[8]
     best, active, restarting, leader = status[0], status[1], status[7], status[9]
+    island_size = P // settings[6]
     iterations, every, count = memetic
     n = B * P
     n_chunks = max(1, min(n, n_chunks))
@@ -86,7 +87,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
                 accept = False
                 tot = 0.0
                 if active[b]:
-                    dev.make_trial(pop, rates, b, i, leader[b], gen, settings, limits, trial, trial_rates, restarting[b])
+                    dev.make_trial(pop, rates, b, i, leader[b, i // island_size], gen, settings, limits, trial, trial_rates, restarting[b])
                     tot = dev.evaluate(trial, b, skel, terms, scratch, lv, rw)
                     accept = i != best[b] if restarting[b] else dev.not_worse(lv, levels[b, i])
                 if accept:

@@ -64,6 +64,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         iterations, every, count = memetic
         limits = skel[8]
         P = cur[0].shape[1]
+        island_size = P // settings[6]
         swaps = 0
         for g in range(n_gens):
             cuda.syncthreads()
@@ -71,7 +72,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                 break
             pop, levels, rates = cur[0], cur[1], cur[4]
             for i in range(tid, P, stride):
-                make_trial(pop, rates, b, i, leader[b], gen_start + g, settings, limits, trial, trial_rates, restarting[b])
+                make_trial(pop, rates, b, i, leader[b, i // island_size], gen_start + g, settings, limits, trial, trial_rates, restarting[b])
                 tot = evaluate(trial, b, skel, terms, scratch, lv, rw)
                 if (i != best[b]) if restarting[b] else not_worse(lv, levels[b, i]):
                     keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)

@@ -39,14 +39,17 @@ def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, seed, b, gen, i, draw):
 
 def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates, restart):
     """DE trial vector for individual i of problem b (Figure 1: reads only the current
-    population) and the F, CR it used (trial_rates). settings = (strategy, limit_mode, F, CR,
-    seed, adaptive). Strategies: 0 rand/1/bin, 1 best/1/bin, 2 current-to-best/1/bin. Limit
+    population) and the F, CR it used (trial_rates); `best` is the leader of i's island, whose
+    members are its only donors. settings = (strategy, limit_mode, F, CR, seed, adaptive,
+    islands). Strategies: 0 rand/1/bin, 1 best/1/bin, 2 current-to-best/1/bin. Limit
     modes: 0 reflect, 1 clip, 2 penalty (genes may leave their limits; a top-priority term
     penalises it), 3 the paper's Algorithm 2. adaptive (jDE): each individual carries its own
     F and CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
     inherited by the trial when it is accepted. restart: a uniform random pose instead."""
-    strategy, limit_mode, F, CR, seed, adaptive = settings
+    strategy, limit_mode, F, CR, seed, adaptive, islands = settings
     P, D = pop.shape[1], pop.shape[2]
+    size = P // islands
+    base = (i // size) * size
     if restart:
         for d in range(D):
             trial[d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * uniform(seed, b, gen, i, 4 + d)
@@ -60,9 +63,10 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
         if uniform(seed, b, gen, i, 6 + D) < _JDE_REDRAW:
             cr = uniform(seed, b, gen, i, 7 + D)
     trial_rates[0], trial_rates[1] = f, cr
-    r1 = donor(P, i, 0, 0, 1, seed, b, gen, i, 0)
-    r2 = donor(P, i, r1, 0, 2, seed, b, gen, i, 1)
-    r3 = donor(P, i, r1, r2, 3, seed, b, gen, i, 2)
+    r1 = donor(size, i - base, 0, 0, 1, seed, b, gen, i, 0)
+    r2 = donor(size, i - base, r1, 0, 2, seed, b, gen, i, 1)
+    r3 = donor(size, i - base, r1, r2, 3, seed, b, gen, i, 2)
+    r1, r2, r3 = r1 + base, r2 + base, r3 + base
     forced = randint(D, seed, b, gen, i, 3)
     for d in range(D):
         if d == forced or uniform(seed, b, gen, i, 4 + d) < cr:
@@ -88,10 +92,14 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
         trial[d] = v
 
 
-def polish_target(best, k, count, P):
-    """The k-th of `count` distinct individuals a polish round refines: the best first, then
-    individuals spread evenly around the population from it."""
-    return (best + k * P // count) % P
+def polish_target(leaders, k, count, P):
+    """The k-th of `count` distinct individuals a polish round refines: each island's leader
+    first (leaders (islands,)), then individuals spread evenly around each island from it."""
+    islands = leaders.shape[0]
+    island, size = k % islands, P // islands
+    per_island = (count + islands - 1) // islands
+    base = island * size
+    return base + (leaders[island] - base + (k // islands) * size // per_island) % size
 
 
 def copy_individual(source, target, b, i):
@@ -121,29 +129,64 @@ def keep_trial(target, b, i, trial, lv, rw, tot, trial_rates):
     target[4][b, i, 1] = trial_rates[1]
 
 
+def better_of(levels, b, a, c):
+    """Index a or c, whichever individual of problem b has the better levels (a on ties)."""
+    return a if not_worse(levels[b, a], levels[b, c]) else c
+
+
+def migrate(b, pop_state, elite, leader, islands):
+    """Ring migration: each island's leader replaces the worst individual (never the elite)
+    of the next island."""
+    size = pop_state[0].shape[1] // islands
+    for j in range(islands):
+        base = ((j + 1) % islands) * size
+        worst = -1
+        for i in range(base, base + size):
+            if i != elite and (worst < 0 or better_of(pop_state[1], b, i, worst) == worst):
+                worst = i
+        copy_within(pop_state, b, leader[b, j], worst)
+
+
+def copy_within(pop_state, b, source, target):
+    """Copy individual `source` of problem b over individual `target` in the same buffers."""
+    for d in range(pop_state[0].shape[2]):
+        pop_state[0][b, target, d] = pop_state[0][b, source, d]
+    for lvl in range(pop_state[1].shape[2]):
+        pop_state[1][b, target, lvl] = pop_state[1][b, source, lvl]
+    pop_state[2][b, target] = pop_state[2][b, source]
+    for t in range(pop_state[3].shape[2]):
+        pop_state[3][b, target, t] = pop_state[3][b, source, t]
+    pop_state[4][b, target, 0] = pop_state[4][b, source, 0]
+    pop_state[4][b, target, 1] = pop_state[4][b, source, 1]
+
+
 def update_status(b, gen, pop_state, terms, status, control, history):
-    """After a generation: best index, leader, history, convergence, stagnation and restarts
-    of problem b. A problem that stagnates unconverged with restarts left is flagged to
-    restart: its next generation replaces every individual but the best by a random pose, and
-    that best stays on as the elite, never worse, while the leader that guides mutation and
-    polish is the best of the others."""
+    """After a generation: best index, island leaders, migration, history, convergence,
+    stagnation and restarts of problem b. A problem that stagnates unconverged with restarts
+    left is flagged to restart: its next generation replaces every individual but the best by
+    a random pose, and that best stays on as the elite, never worse, while the leaders that
+    guide mutation and polish are the best of the others in each island."""
     pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
     best, active, generations, converged, best_seen, last_improved, restarts, restarting, elite, leader = status
-    patience, rel_improvement, stop_on_converged, max_restarts = control
+    patience, rel_improvement, stop_on_converged, max_restarts, migration = control
     term_float, params = terms[1], terms[2]
-    P = pop.shape[1]
+    P, islands = pop.shape[1], leader.shape[1]
+    size = P // islands
     restarting[b] = False
     k = 0
-    lead = 1 if elite[b] == 0 else 0
     mean = 0.0
     for i in range(P):
         mean += total[b, i]
-        if i > 0 and not not_worse(levels[b, k], levels[b, i]):
-            k = i
-        if i != elite[b] and not not_worse(levels[b, lead], levels[b, i]):
-            lead = i
+        k = better_of(levels, b, k, i)
+    for j in range(islands):
+        lead = j * size if j * size != elite[b] else j * size + 1
+        for i in range(j * size, (j + 1) * size):
+            if i != elite[b]:
+                lead = better_of(levels, b, lead, i)
+        leader[b, j] = lead
+    if islands > 1 and (gen + 1) % migration == 0:
+        migrate(b, pop_state, elite[b], leader, islands)
     best[b] = k
-    leader[b] = lead
     history[b, generations[b], 0] = total[b, k]
     history[b, generations[b], 1] = mean / P
     generations[b] += 1
