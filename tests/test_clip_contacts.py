@@ -144,7 +144,31 @@ def test_planted_targets_are_the_mean_position_at_the_lowest_height():
     assert targets.shape == (clip.n_frames, len(contacts.sites), 3)
     kin = forward_kinematics(clip.skeleton, clip.frames)
     x, y, z = kin.position("RightAnkle_end")[start:stop].T
-    expected = [x.mean(), y.min(), z.mean()]  # Y is up
-    np.testing.assert_allclose(targets[start:stop, s], np.tile(expected, (stop - start, 1)), atol=1e-12)
+    target = targets[start:stop, s]
+    assert (target == target[0]).all()
+    assert target[0, 1] == pytest.approx(y.min(), abs=1e-12)  # Y is up: the lowest height
+    # along the ground, the mean, moved a little to keep the ankle at the toe's distance
+    assert np.hypot(target[0, 0] - x.mean(), target[0, 2] - z.mean()) < 2e-3
     outside = ~contacts.mask[:, s]
     assert outside.any() and np.isnan(targets[outside, s]).all()
+
+
+@pytest.mark.parametrize("name", ["walk", "run", "jump"])
+def test_planted_ankle_and_toe_keep_the_bone_length_between_them(name):
+    clip = humanoid(name)
+    contacts = detect_contacts(clip)
+    targets = planted_targets(clip, contacts)
+    kin = forward_kinematics(clip.skeleton, clip.frames[:1])
+    for ankle, toe in FEET.values():
+        a, t = contacts.sites.index(ankle), contacts.sites.index(toe)
+        bone = np.linalg.norm(kin.position(ankle) - kin.position(toe))
+        both = contacts.mask[:, a] & contacts.mask[:, t]
+        assert both.any()
+        gap = np.linalg.norm(targets[both, a] - targets[both, t], axis=-1)
+        np.testing.assert_allclose(gap, bone, atol=1e-9)
+        # each keeps the lowest height it reached in its own contact
+        for s in (a, t):
+            for start, stop in contacts.intervals(s):
+                path = forward_kinematics(clip.skeleton, clip.frames[start:stop])
+                lowest = (path.position(contacts.sites[s]) @ clip.skeleton.up).min()
+                assert targets[start, s] @ clip.skeleton.up == pytest.approx(lowest, abs=1e-12)

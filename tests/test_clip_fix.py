@@ -7,10 +7,11 @@ import pytest
 from conftest import shared_path
 from deik.cli import main
 from deik.clips.contacts import detect_contacts, foot_sites
-from deik.clips.metrics import foot_sliding, joint_deviation
-from deik.clips.problem import ClipGoals, neighbour_displacement
+from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
+from deik.clips.problem import ClipGoals, Reach, neighbour_displacement
 from deik.clips.solver import fix_clip
 from deik.io.bvh import read_bvh
+from deik.kinematics import forward_kinematics
 
 
 @pytest.mark.parametrize("name", ["walk", "run"])
@@ -25,6 +26,42 @@ def test_planted_feet_stop_sliding_and_the_pose_stays_close(name):
     assert mean_deviation.mean() < 5.0
     # the fixed clip keeps the input's layout and frame time
     assert fix.clip.layout == clip.layout and fix.clip.frame_time == clip.frame_time
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
+    clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
+    hand, first, last = "RightElbow_end", 55, 65  # the apex: hips and hands highest at frame 60
+    path = forward_kinematics(clip.skeleton, clip.frames).position(hand)
+    prop = path[first:last + 1].mean(axis=0) + 0.05 * clip.skeleton.up  # 5 cm above the path
+    mask = np.zeros(clip.n_frames, bool)
+    mask[first:last + 1] = True
+    targets = np.where(mask[:, None], prop, np.nan)
+    before = np.linalg.norm(path - prop, axis=-1)[mask]
+    assert before.min() > 0.035 and before.max() > 0.09  # the performance misses the prop
+    contacts = detect_contacts(clip)
+    fix = fix_clip(clip, ClipGoals(contacts, (Reach(hand, mask, targets),)), seed=seed)
+    reached = forward_kinematics(clip.skeleton, fix.clip.frames).position(hand)
+    assert np.linalg.norm(reached - prop, axis=-1)[mask].max() < 0.01
+    original, fixed = velocity_spikes(clip), velocity_spikes(fix.clip)
+    assert fixed["max_dof_velocity"] <= original["max_dof_velocity"]
+    assert fixed["max_position_acceleration"] <= original["max_position_acceleration"]
+    assert np.nanmax(foot_sliding(fix.clip, contacts)) < 1e-3  # the feet stay planted
+    assert fix.met.all()
+
+
+def test_de_repairs_the_frames_the_warm_start_leaves_off_balance():
+    clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
+    contacts = detect_contacts(clip)
+    goals = ClipGoals(contacts, balance=True)  # the warm start plants feet; only DE moves the COM
+    warm = fix_clip(clip, goals, passes=0)
+    assert warm.passes == 0 and len(warm.stages) == 1 and 10 < (~warm.met).sum() < clip.n_frames
+    fix = fix_clip(clip, goals, passes=1, population=32, generations=100, seed=0)
+    (stage,) = fix.stages[1:]
+    assert stage["frames"] == (~warm.met).sum() and stage["evaluations"] > 0
+    assert fix.met[warm.met].all()  # DE left alone the frames the warm start had met
+    assert np.nanmean(com_outside_support(fix.clip, contacts)) < 0.5 * np.nanmean(
+        com_outside_support(warm.clip, contacts))
 
 
 def test_neighbour_displacement_is_the_mean_of_both_sides():
@@ -42,24 +79,38 @@ def test_clip_goals_refuse_impossible_settings():
         ClipGoals(balance=True)
 
 
+TRACKS = {"good.csv": "frame,x,y,z\n3,0,1,0\n", "no_z.csv": "frame,x,y\n1,0,1\n",
+          "late.csv": "frame,x,y,z\n3,0,1,0\n40,0,1,0\n", "no_z.json": '[{"frame": 1, "x": 0, "y": 1}]'}
+
+
 @pytest.mark.parametrize("extra,fragment", [
-    (["--reach", "NoSuchHand=0,1,0@3:5"], "joint or site 'NoSuchHand' not found"),
-    (["--reach", "LeftElbow_end=0,1,0@30:60"], "valid frames: 0..38"),
-    (["--plant-feet", "LeftAnkle_end:30-45"], "LeftAnkle_end"),
-    (["--reach", "LeftElbow_end={tmp}/track.csv"], "missing"),
+    (["--reach", "NoSuchHand=0,1,0@3:5"], "--reach 'NoSuchHand=0,1,0@3:5': no joint or site 'NoSuchHand'"),
+    (["--reach", "LeftElbow_ned={tmp}/good.csv"], "did you mean 'LeftElbow_end'"),
+    (["--reach", "NoSuchHand={tmp}/good.csv"], "its sites are RightAnkle_end, LeftAnkle_end, Neck_end"),
+    (["--plant-feet", "LeftAnkel:1-3"], "no joint or site 'LeftAnkel' in humanoid3d_walk.bvh; did you mean"),
+    (["--reach", "LeftElbow_end=0,1,0@30:60"], "frames 30:60 are outside the clip or reversed; valid frames: 0..38"),
+    (["--reach", "LeftElbow_end={tmp}/late.csv"], "late.csv:3: frame 40 is outside the clip; valid frames: 0..38"),
+    (["--plant-feet", "LeftAnkle_end:30-45"], "frames 30-45 are outside the clip or reversed; valid frames: 0..38"),
+    (["--reach", "LeftElbow_end={tmp}/no_z.csv"],
+     "no_z.csv:1: missing column z: the header must name frame, x, y and z"),
+    (["--reach", "LeftElbow_end={tmp}/no_z.json"],
+     'no_z.json: [0]: missing z: each element needs "frame", "x", "y" and "z"'),
     (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
     (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
 ])
 def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fragment):
-    (tmp_path / "track.csv").write_text("frame,x,y\n1,0,1\n")
+    for name, text in TRACKS.items():
+        (tmp_path / name).write_text(text)
     out = tmp_path / "out"
     out.mkdir()
+    (out / "fixed.bvh").write_text("an earlier result")
     argv = ["clip", str(shared_path("humanoid", "humanoid3d_walk.bvh")), "--out", str(out / "fixed.bvh"),
-            "--report", str(out / "report.png")] + [e.format(tmp=tmp_path) for e in extra]
-    assert main(argv) == 2
+            "--report", str(out / "report.png"), "--json", str(out / "report.json")]
+    assert main(argv + [e.format(tmp=tmp_path) for e in extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
-    assert list(out.iterdir()) == []
+    assert [p.name for p in out.iterdir()] == ["fixed.bvh"]  # no report, no temporary file left
+    assert (out / "fixed.bvh").read_text() == "an earlier result"
 
 
 def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):

@@ -14,6 +14,7 @@ import numpy as np
 
 from deik.cli_format import UsageError, check_device, check_output, format_table
 from deik.io.atomic import write_json_atomically
+from deik.suggest import did_you_mean
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
 
@@ -30,15 +31,27 @@ def add_arguments(c) -> None:
     c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
     c.add_argument("--reach", action="append", default=[], metavar="SITE=TRACK",
                    help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)")
-    c.add_argument("--fidelity", type=float, default=1.0, metavar="W", help="weight of staying near the original (0-1)")
-    c.add_argument("--coherence", type=float, default=0.5, metavar="W", help="weight of moving like the neighbours (0-1)")
-    c.add_argument("--passes", type=int, default=3, help="coherence passes (default 3)")
-    c.add_argument("--population", type=int, help="DE population per frame (default 48)")
-    c.add_argument("--generations", type=int, help="most generations per pass (default 150)")
+    c.add_argument("--fidelity", type=float, default=1.0, metavar="W",
+                   help="DE repairs: weight of staying near the original (0-1)")
+    c.add_argument("--coherence", type=float, default=0.5, metavar="W",
+                   help="DE repairs: weight of moving like the neighbours (0-1)")
+    c.add_argument("--passes", type=int,
+                   help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance)")
+    c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
+    c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     c.add_argument("--report", metavar="report.png", help="plot of the errors over time, before and after")
     c.add_argument("--json", metavar="report.json", help="the before/after metrics as JSON")
+
+
+def _check_site(clip, site: str, flag: str) -> None:
+    """UsageError naming `flag`, the unknown `site` and the names to choose from."""
+    sk = clip.skeleton
+    if site not in sk.frame_names:
+        raise UsageError(f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
+                         f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
+                         f"and its joints {', '.join(sk.joint_names)}")
 
 
 def _contacts(args, clip):
@@ -52,15 +65,21 @@ def _contacts(args, clip):
             raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
         return detect_contacts(clip, foot_sites(clip.skeleton), height=args.contact_height, speed=args.contact_speed)
     ranges = {}
+    last = clip.n_frames - 1
     for form in forms:
         site, _, spans = form.partition(":")
         if not site or not spans:
             raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
+        _check_site(clip, site, f"--plant-feet {form!r}")
         for span in spans.split(","):
             start, _, stop = span.partition("-")
             if not (start.strip().isdigit() and stop.strip().isdigit()):
                 raise UsageError(f"--plant-feet {form!r}: frame range {span!r} must read A-B (inclusive)")
-            ranges.setdefault(site, []).append((int(start), int(stop) + 1))
+            start, stop = int(start), int(stop)
+            if not start <= stop <= last:
+                raise UsageError(f"--plant-feet {form!r}: frames {start}-{stop} are outside the clip or "
+                                 f"reversed; valid frames: 0..{last} (A-B, both inclusive)")
+            ranges.setdefault(site, []).append((start, stop + 1))
     return contacts_from_ranges(clip, ranges)
 
 
@@ -71,7 +90,7 @@ def _reaches(args, clip):
     out = []
     for spec in args.reach:
         site, mask, targets = parse_reach_spec(spec, clip.n_frames)
-        clip.skeleton.frame_index(site)  # unknown site: KeyError with suggestions
+        _check_site(clip, site, f"--reach {spec!r}")
         out.append(Reach(site, mask, targets))
     return tuple(out)
 
@@ -108,12 +127,13 @@ def run_clip(args) -> int:
     print(format_table(["goal (mean error)", "before", "after", "after max"], rows))
     print(format_table(["metric", "before", "after"],
                        [[name, f"{v['before']:.4g}", f"{v['after']:.4g}"] for name, v in summary.items()]))
-    print(f"{clip.n_frames} frames, {fix.passes} passes, {fix.wall_time:.2f} s on {fix.settings.device}, "
+    passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
+    print(f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
           f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal")
     write_bvh(args.out, fix.clip)
     if args.json:
         write_json_atomically(args.json, {"metrics": summary, "frames": clip.n_frames, "wall_time_s": fix.wall_time,
-                                          "frames_met": int(fix.met.sum())})
+                                          "frames_met": int(fix.met.sum()), "stages": list(fix.stages)})
     if args.report:
         from deik.clips.report import plot_clip_report
 

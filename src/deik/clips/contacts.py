@@ -30,6 +30,7 @@ FOOT_WORDS = ("foot", "toe", "heel", "ankle")
 HEIGHT_FRACTION = 0.06
 SPEED_FRACTION = 0.5
 MIN_FRAMES = 2
+RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
 
 
 def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
@@ -169,21 +170,59 @@ def contacts_from_ranges(clip, ranges: dict) -> Contacts:
     return Contacts(sites, mask, False, None, None, ground)
 
 
+def _rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
+    """(s, t, distance) of the sites whose distance stays the same in every frame of
+    positions `p` (N, S, 3): an ankle and its toe, moved by no DOF between them."""
+    pairs = []
+    for s in range(p.shape[1]):
+        for t in range(s + 1, p.shape[1]):
+            distance = np.linalg.norm(p[:, s] - p[:, t], axis=-1)
+            if np.ptp(distance) <= RIGID_TOLERANCE * reach:
+                pairs.append((s, t, float(distance.mean())))
+    return pairs
+
+
+def _keep_distance(a: np.ndarray, b: np.ndarray, distance: float, up: np.ndarray):
+    """Targets a, b (3,) moved apart or together along the ground, about their midpoint and
+    keeping their heights, to lie `distance` apart (in 3-D about the midpoint when their
+    heights alone differ by more); unchanged when they coincide (no direction to move in)."""
+    delta = a - b
+    if not np.linalg.norm(delta) > 0:
+        return a, b
+    rise = delta @ up
+    flat = delta - rise * up
+    if abs(rise) < distance and np.linalg.norm(flat) > 0:
+        shift = (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat) - 1.0) * flat / 2
+    else:
+        shift = (distance / np.linalg.norm(delta) - 1.0) * delta / 2
+    return a + shift, b - shift
+
+
 def planted_targets(clip, contacts: Contacts) -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
     Per contact interval, the mean world position of the site over the interval in `clip` (the
-    original), with its height along up set to the lowest height it reaches there.
+    original), with its height along up set to the lowest height it reaches there. Two sites a
+    fixed distance apart (an ankle and its toe) whose intervals overlap get targets that
+    distance apart, so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has "
                          f"{clip.n_frames}")
     up = clip.skeleton.up
     p = _site_positions(clip, contacts.sites)
-    targets = np.full(p.shape, np.nan)
+    plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
             mean = p[a:b, s].mean(axis=0)
-            lowest = (p[a:b, s] @ up).min()
-            targets[a:b, s] = mean + (lowest - mean @ up) * up
+            plants[s, a, b] = mean + ((p[a:b, s] @ up).min() - mean @ up) * up
+    for s, t, distance in _rigid_pairs(p, clip.skeleton.reach):
+        for (s1, a1, b1) in [key for key in plants if key[0] == s]:
+            for (t1, a2, b2) in [key for key in plants if key[0] == t]:
+                if max(a1, a2) < min(b1, b2):
+                    plants[s1, a1, b1], plants[t1, a2, b2] = _keep_distance(
+                        plants[s1, a1, b1], plants[t1, a2, b2], distance, up)
+    targets = np.full(p.shape, np.nan)
+    for (s, a, b), target in plants.items():
+        targets[a:b, s] = target
     return targets

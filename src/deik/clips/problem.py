@@ -4,7 +4,8 @@ Level 0 (strict priority, each within its tolerance): planted contacts (a site p
 original clip put it during each contact), reach tracks (a site follows targets over a frame
 range), balance (the centre of mass over the support polygon of the sites in contact).
 Level 1: fidelity (stay near the original frame's pose) and coherence (move like the
-neighbouring frames do, so the displacement from the original is smooth: no pops, no jitter).
+neighbouring frames do, so the displacement from the original is smooth: no pops, no jitter),
+each counting a DOF's change by its weight (warmstart.dof_weights).
 Angles work as displacements `d` (N, D) from the original frames, so clips whose Euler channels
 leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 """
@@ -17,6 +18,7 @@ import numpy as np
 
 from deik.clips.contacts import Contacts, planted_targets
 from deik.joints import ROTATE
+from deik.kinematics import forward_kinematics
 from deik.objectives import goals as g
 from deik.problem import Problem
 from deik.rotations import wrap_rotations
@@ -39,28 +41,38 @@ class Reach:
     blend: int = BLEND
 
 
-def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
-    """(mask (N,), targets (N, 3)): the reach track widened by `blend` frames on each side of
-    each run, where the target eases (smoothstep) from the site's original path to the track."""
-    from deik.kinematics import forward_kinematics
+def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: int):
+    """(mask (N,), targets (N, 3)): a track `targets` (N, 3) over the frames where `mask` (N,)
+    is True, widened by `blend` frames on each side of each run, where the target eases
+    (smoothstep) from the site's original `path` (N, 3) to the track's nearest end; a gap
+    shorter than 2 * blend eases towards both ends at once. NaN targets outside the new mask."""
+    mask = np.asarray(mask, bool)
+    targets = np.where(mask[:, None], targets, path)
+    N = len(mask)
+    frame = np.arange(N)
+    last = np.maximum.accumulate(np.where(mask, frame, -1))  # last tracked frame <= n
+    next_ = np.minimum.accumulate(np.where(mask, frame, N)[::-1])[::-1]  # first tracked >= n
 
-    mask = np.asarray(reach.mask, bool).copy()
-    targets = np.where(mask[:, None], reach.targets, np.nan)
-    if reach.blend <= 0:
-        return mask, targets
+    def smoothstep(distance, valid):
+        weight = np.clip(1.0 - distance / (blend + 1.0), 0.0, 1.0) * valid
+        return weight * weight * (3 - 2 * weight)
+
+    before = smoothstep(frame - last, last >= 0)
+    after = smoothstep(next_ - frame, next_ < N)
+    scale = 1.0 / np.maximum(before + after, 1.0)
+    pulled = (before * scale)[:, None] * (targets[np.maximum(last, 0)] - path) \
+        + (after * scale)[:, None] * (targets[np.minimum(next_, N - 1)] - path)
+    widened = mask | (before + after > 0)
+    out = np.where(widened[:, None], path + pulled, np.nan)
+    out[mask] = targets[mask]
+    return widened, out
+
+
+def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
+    """(mask (N,), targets (N, 3)): the reach track eased in and out over `reach.blend`
+    frames from the site's original path (eased_track)."""
     path = forward_kinematics(clip.skeleton, clip.poses()).position(reach.site)
-    active = np.flatnonzero(reach.mask)
-    starts = active[np.r_[True, np.diff(active) > 1]]
-    stops = active[np.r_[np.diff(active) > 1, True]]
-    for start, stop in zip(starts, stops):
-        for k in range(1, reach.blend + 1):
-            weight = 1.0 - k / (reach.blend + 1)
-            ease = weight * weight * (3 - 2 * weight)
-            for n, edge in ((start - k, start), (stop + k, stop)):
-                if 0 <= n < clip.n_frames and not reach.mask[n]:
-                    targets[n] = path[n] + ease * (reach.targets[edge] - path[n])
-                    mask[n] = True
-    return mask, targets
+    return eased_track(path, reach.mask, reach.targets, max(reach.blend, 0))
 
 
 @dataclass(frozen=True)
@@ -125,21 +137,26 @@ def _level0_goals(clip, goals: ClipGoals) -> list:
     return out
 
 
-def fixed_goals(clip, goals: ClipGoals) -> list:
-    """The goals that stay the same from pass to pass: level 0 and fidelity."""
+def fixed_goals(clip, goals: ClipGoals, weights: np.ndarray) -> list:
+    """The goals that stay the same from pass to pass: level 0 and fidelity, which counts each
+    DOF's change by `weights` (D,) (warmstart.dof_weights)."""
     out = _level0_goals(clip, goals)
     if goals.fidelity > 0:
-        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses()))
+        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses(),
+                             joint_weights=weights))
     return out
 
 
-def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray, fixed: list | None = None) -> Problem:
+def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray,
+                 fixed: list | None = None) -> Problem:
     """The batch of N frame problems for `clip` given the current displacement (N, D) of every
-    frame from the original (coherence pulls each frame towards its neighbours' displacement);
-    `fixed`: fixed_goals(clip, goals) when already computed."""
+    frame from the original (coherence pulls each frame towards its neighbours' displacement,
+    each DOF counted by `weights` (D,)); `fixed`: fixed_goals(clip, goals, weights) when already
+    computed."""
     sk = clip.skeleton
-    goal_list = list(fixed_goals(clip, goals) if fixed is None else fixed)
+    goal_list = list(fixed_goals(clip, goals, weights) if fixed is None else fixed)
     if goals.coherence > 0:
         smooth = wrap_rotations(clip.poses() + neighbour_displacement(displacement), sk.dof_kind == ROTATE)
-        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth))
+        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth,
+                                   joint_weights=weights))
     return Problem(sk, goal_list)

@@ -1,0 +1,131 @@
+"""Which DOFs each frame's search may move, and smooth easing of displacements over time.
+
+A frame's search (warm start or DE) only moves the DOFs that can reach one of its level-0
+goals (the chain from the root to each site in contact or reaching, every DOF for balance);
+the others take the displacement eased in from the neighbouring frames, so nothing pops where
+a goal starts or stops and no search noise reaches joints no goal needs (an idle arm).
+
+Easing: per DOF, the displacements x (N,) the searches found are kept where a search moved
+the DOF; elsewhere x minimises, over L frames (a length),
+    sum_n  x[n]^2 / L^4  +  2 (x[n+1] - x[n])^2 / L^2  +  (x[n+2] - 2 x[n+1] + x[n])^2,
+a critically damped spring: a correction goes on at the rate it had where its goal let go,
+then fades back to the original over about L frames, with no kink in value or rate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.joints import TRANSLATE
+from deik.objectives.goals import Position
+
+
+def moving_dofs(skeleton, name: str) -> np.ndarray:
+    """(D,) bool: the free DOFs that move joint or site `name` (its ancestors' DOFs, and a
+    joint's own translations; mimic DOFs count through their source). KeyError if unknown."""
+    f = skeleton.frame_index(name)
+    m = skeleton.motions
+    out = np.zeros(skeleton.n_dofs, bool)
+    if f < skeleton.n_joints:
+        own = slice(m.joint_start[f], m.joint_start[f + 1])
+        out[m.source[own][m.kind[own] == TRANSLATE]] = True
+        joint = int(skeleton.parents[f])
+    else:
+        joint = int(skeleton.site_joint[f - skeleton.n_joints])
+    while joint >= 0:
+        out[m.source[m.joint_start[joint]:m.joint_start[joint + 1]]] = True
+        joint = int(skeleton.parents[joint])
+    return out
+
+
+def hinge_channels(clip) -> np.ndarray:
+    """(D,) bool: DOFs that stay exactly 0 in every frame while another DOF of their joint
+    moves (the X and Y channels of a knee that bends about Z): the performance uses the joint
+    as a hinge, so the fix keeps it one."""
+    sk = clip.skeleton
+    frames = clip.frames
+    zero = (frames == 0.0).all(axis=0)
+    moving = np.ptp(frames, axis=0) > 0 if len(frames) else np.zeros(sk.n_dofs, bool)
+    joint_moves = np.zeros(sk.n_joints, bool)
+    np.logical_or.at(joint_moves, sk.dof_joint, moving)
+    return zero & joint_moves[sk.dof_joint]
+
+
+def active_frames(goal, n_frames: int) -> np.ndarray:
+    """(N,) bool: the frames where deik goal `goal` applies (its `active` mask; all if None)."""
+    return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
+
+
+def searched_dofs(clip, goals) -> np.ndarray:
+    """(N, D) bool: the DOFs each frame's search may move for the level-0 `goals` (deik goal
+    objects): a Position goal moves its frame's chain, any other goal (the centre of mass over
+    the support) every DOF, in the frames where it is active; hinge_channels never move."""
+    sk = clip.skeleton
+    out = np.zeros((clip.n_frames, sk.n_dofs), bool)
+    for goal in goals:
+        if goal.level != 0:
+            continue
+        chain = moving_dofs(sk, goal.frame) if isinstance(goal, Position) else True
+        out |= active_frames(goal, clip.n_frames)[:, None] & chain
+    return out & ~hinge_channels(clip)[None, :]
+
+
+def _solve_bands(a0, a1, a2, rhs):
+    """Solve symmetric positive definite pentadiagonal systems, one per column: diagonal a0
+    (N, D), first off-diagonal a1 (N-1, D), second a2 (N-2, D); banded LDL^T."""
+    N = len(a0)
+    d, l1, l2 = np.zeros_like(a0), np.zeros_like(a0), np.zeros_like(a0)
+    z = np.array(rhs, float)
+    for i in range(N):
+        d[i] = a0[i]
+        if i >= 1:
+            d[i] -= l1[i - 1] ** 2 * d[i - 1]
+            z[i] -= l1[i - 1] * z[i - 1]
+        if i >= 2:
+            d[i] -= l2[i - 2] ** 2 * d[i - 2]
+            z[i] -= l2[i - 2] * z[i - 2]
+        if i + 1 < N:
+            l1[i] = (a1[i] - (l2[i - 1] * l1[i - 1] * d[i - 1] if i >= 1 else 0.0)) / d[i]
+        if i + 2 < N:
+            l2[i] = a2[i] / d[i]
+    x = z / d
+    for i in range(N - 2, -1, -1):
+        x[i] -= l1[i] * x[i + 1] + (l2[i] * x[i + 2] if i + 2 < N else 0.0)
+    return x
+
+
+def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
+    """(N, D) displacements: `values` (N, D) where `known` (N, D) is True, and elsewhere the
+    smoothest continuation (see the module notes), a correction fading like a critically
+    damped spring over `length` > 0 frames, continuous in value and rate with the known ones."""
+    y = np.asarray(values, float)
+    known = np.broadcast_to(np.asarray(known, bool), y.shape)
+    N = len(y)
+    if known.all():
+        return y.copy()
+    if N < 3:  # too short for a rate: what no goal holds stays as in the original
+        return np.where(known, y, 0.0)
+    a0 = np.full(y.shape, length**-4.0)
+    a1 = np.zeros((N - 1,) + y.shape[1:])
+    a2 = np.zeros((N - 2,) + y.shape[1:])
+    rate = 2.0 / length**2  # with the two others: critical damping
+    a0[:-1] += rate
+    a0[1:] += rate
+    a1 -= rate
+    for k, c in enumerate((1.0, -2.0, 1.0)):  # second differences (x[n], x[n+1], x[n+2])
+        a0[k:N - 2 + k] += c * c
+    a1[:-1] -= 2.0
+    a1[1:] -= 2.0
+    a2 += 1.0
+    # known entries: move their terms to the right-hand side, keep the system symmetric
+    fixed = np.where(known, y, 0.0)
+    rhs = np.zeros_like(y)
+    rhs[:-1] -= a1 * fixed[1:]
+    rhs[1:] -= a1 * fixed[:-1]
+    rhs[:-2] -= a2 * fixed[2:]
+    rhs[2:] -= a2 * fixed[:-2]
+    a1 = np.where(known[:-1] | known[1:], 0.0, a1)
+    a2 = np.where(known[:-2] | known[2:], 0.0, a2)
+    a0 = np.where(known, 1.0, a0)
+    rhs = np.where(known, y, rhs)
+    return _solve_bands(a0, a1, a2, rhs)
