@@ -35,7 +35,7 @@ def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys,
     out = tmp_path / "pose.json"
     argv = ["solve", "--skeleton", str(path), "--base", base, "--tip", tip,
             "--reach", tip, *map(str, xyz), "--orient", tip, *map(str, angles),
-            "--tolerance", "0.001", "--angle-tolerance", "0.5", "--seed", "0", "--generations", "4000", "--population", "512",
+            "--tolerance", "0.001", "--angle-tolerance", "0.5", "--seed", "0", "--generations", "4000", "--population", "64",
             "--out", str(out)] + (["--up", *up] if up else [])
     assert main(argv) == 0, capsys.readouterr().err
     data = json.loads(out.read_text())
@@ -181,3 +181,28 @@ def test_builtin_humanoid_pose_written_as_bvh_reads_back(tmp_path, capsys):
     end_site = f"{joint}_end" + (str(k + 1) if k else "")  # BVH End Sites have no names of their own
     hand = deik.forward_kinematics(clip.skeleton, clip.frames[0]).position(end_site)
     assert np.linalg.norm(hand - [0.4, 1.2, 0.35]) <= 0.01 * sk.reach
+
+
+def test_cli_start_pose_seeds_the_search_and_keeps_the_answer_near_it(shared_data, tmp_path, capsys):
+    base, tip, _ = ROBOT_CHAINS["panda"]
+    path = shared_data / "robots" / "panda.urdf"
+    sk = read_urdf(path, base, tip)
+    start = np.random.default_rng(3).uniform(sk.lower, sk.upper)
+    moved = np.clip(start + 0.1, sk.lower, sk.upper)
+    target = deik.forward_kinematics(sk, moved).position(tip)  # a nearby pose reaches it
+    first = tmp_path / "start.json"
+    assert main(["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip,
+                 *map(str, deik.forward_kinematics(sk, start).position(tip)), "--start", *map(str, start),
+                 "--tolerance", "0.0001", "--out", str(first)]) == 0
+    assert "near the --start pose" in capsys.readouterr().err
+    out = tmp_path / "pose.json"
+    argv = ["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip, *map(str, target),
+            "--tolerance", "0.0001", "--start", str(first), "--seed", "1", "--out", str(out)]
+    assert main(argv) == 0, capsys.readouterr().err
+    q = np.array(json.loads(out.read_text())["angles"])
+    assert np.linalg.norm(deik.forward_kinematics(sk, q).position(tip) - target) <= 1e-4
+    assert np.abs(q - start).max() < 0.5  # stays near the start, not any of the arm's other solutions
+    for bad, fragment in ((["1", "2"], "needs 7 values"), ([str(tmp_path / "missing.json")], "cannot read a pose")):
+        assert main(["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip, *map(str, target),
+                     "--start", *bad]) == 2
+        assert fragment in capsys.readouterr().err

@@ -21,6 +21,7 @@ from deik.objectives.goals import (
 )
 from deik.problem import Problem
 from deik.result import GoalReport, Result
+from deik.seeding import poses_around
 from deik.skeleton import Skeleton
 from deik.solve import solve, solve_batch
 
@@ -28,7 +29,7 @@ __all__ = [
     "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
     "EvolutionState", "GoalReport", "Joint", "Kinematics", "Obstacle", "Orientation", "Position",
     "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "build_skeleton", "chain",
-    "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "read_bvh", "read_urdf",
+    "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "poses_around", "read_bvh", "read_urdf",
     "solve", "solve_batch", "translation", "write_bvh",
 ]
 __version__ = "0.1.0"

@@ -9,6 +9,7 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 
@@ -73,6 +74,9 @@ def add_arguments(s) -> None:
                    help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
     s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
+    s.add_argument("--start", nargs="+", metavar="VALUE|pose.json",
+                   help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
+                        "pose.json written by --out; comfort then keeps the result near it unless --comfort is given")
 
 
 def _goals(args, frame_pose) -> list:
@@ -93,6 +97,28 @@ def _goals(args, frame_pose) -> list:
     return goals
 
 
+def _start_pose(values: list[str], skeleton) -> np.ndarray:
+    """The --start pose (D,): numbers in DOF order, or the "angles" of a pose.json."""
+    if len(values) == 1 and values[0].lower().endswith(".json"):
+        try:
+            with open(values[0]) as f:
+                pose = np.asarray(json.load(f)["angles"], np.float64)
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            raise UsageError(f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
+                             "an \"angles\" list, as `deik solve --out pose.json` writes") from None
+    else:
+        pose = np.asarray(numbers("--start", values), np.float64)
+    if pose.shape != (skeleton.n_dofs,):
+        raise UsageError(f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); "
+                         f"got {pose.size}")
+    outside = np.flatnonzero((pose < skeleton.lower) | (pose > skeleton.upper))
+    if outside.size:
+        d = outside[0]
+        raise UsageError(f"--start: {skeleton.dof_names[d]} = {pose[d]:.6g} is outside its limits "
+                         f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]")
+    return pose
+
+
 def _file_flags_used(args) -> bool:
     return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up))
 
@@ -104,9 +130,9 @@ def _problem(args):
     if args.skeleton_flag and args.skeleton:
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
     if args.problem:
-        if spec or has_goals or _file_flags_used(args):
+        if spec or has_goals or _file_flags_used(args) or args.start:
             raise UsageError("--problem FILE already names the skeleton and goals; "
-                             "drop the SKELETON argument, skeleton options and goal flags or put them in the file")
+                             "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file")
         problem, settings = load_problem(args.problem)
         return problem, settings, None, None
     if not spec:
@@ -120,6 +146,8 @@ def _problem(args):
         frame_pose = loaded.clip.pose(args.frame)
     elif args.frame is not None:
         raise UsageError("--frame only applies to a BVH clip")
+    if args.start:
+        frame_pose = _start_pose(args.start, loaded.skeleton)
     if not has_goals:
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
     return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose
@@ -165,7 +193,8 @@ def run_solve(args) -> int:
     if frame_pose is not None:
         initial = poses_around(problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed)
         if args.comfort is None:
-            print(f"note: comfort keeps the pose near frame {args.frame} (weight {FRAME_COMFORT}, below the "
+            near = "the --start pose" if args.start else f"frame {args.frame}"
+            print(f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
                   "targets); --comfort 0 turns it off", file=sys.stderr)
     if loaded is not None and loaded.kind == "bvh":
         print(f"note: masses {loaded.mass_source}", file=sys.stderr)
