@@ -18,10 +18,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from deik.evolution.engine import Settings
 from deik.io.atomic import save_atomically, write_text_atomically
 from deik.plot import plot_result, require_matplotlib
 
 CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's reach
+# The figures measure the paper's subject, DE itself: the LM polish, jDE rates and restarts
+# that deik adds by default are off, so every column is evolution alone.
+DE_ONLY = {"polish": 0, "adaptive": False, "restarts": 0}
+
+
+def de_only(**settings) -> Settings:
+    """deik's default current-to-best/1/bin DE without polish, jDE or restarts."""
+    return Settings(**{**DE_ONLY, **settings})
 
 
 def seed_list(quick: bool, full: int, fast: int) -> list[int]:

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from deik.demo import chain_scenarios
-from deik.experiments.common import (Section, command, describe, markdown_table, pose_panels,
+from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, pose_panels,
                                      save_figure, seed_list, write_csv)
 from deik.plot import require_matplotlib
 from deik.solve import solve
@@ -36,7 +36,7 @@ def solve_variants(n_links: int, seed: int, overrides: dict) -> list[tuple]:
     `seed`; angles of each Result are (n_links,) radians."""
     out = []
     for scenario in chain_scenarios(n_links, seed):
-        settings = {**scenario.settings, "seed": seed, **overrides}
+        settings = {**scenario.settings, **DE_ONLY, "seed": seed, **overrides}
         out.append((scenario, solve(scenario.problem, **settings)))
     return out
 

@@ -20,7 +20,7 @@ import numpy as np
 from deik.builders import chain
 from deik.demo import chain_target
 from deik.evolution.engine import Engine, Settings
-from deik.experiments.common import (CONVERGED_FRACTION, Section, command, markdown_table, number,
+from deik.experiments.common import (CONVERGED_FRACTION, Section, de_only, command, markdown_table, number,
                                      save_figure, seed_list, spread, write_csv)
 from deik.objectives.goals import Position
 from deik.plot import require_matplotlib
@@ -30,7 +30,7 @@ from deik.solve import make_result
 NAME = "fig3"
 FAR_FRACTION = 0.75
 NEAR, FAR = "random pose", f"{FAR_FRACTION:.0%} of reach"
-STRATEGIES = {"rand/1/bin (paper)": Settings.paper, "current-to-best/1/bin (deik default)": Settings}
+STRATEGIES = {"rand/1/bin (paper)": Settings.paper, "current-to-best/1/bin (deik DE)": de_only}
 
 
 def sizes(quick: bool) -> dict:

@@ -20,7 +20,7 @@ import os
 import numpy as np
 
 from deik.demo import HUMANOID_SETTINGS, humanoid_scenario
-from deik.experiments.common import (Section, command, describe, markdown_table, number, pose_panels,
+from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, number, pose_panels,
                                      save_figure, seed_list, write_csv)
 from deik.kinematics import forward_kinematics
 from deik.objectives.reference import raw_errors
@@ -81,7 +81,7 @@ def solve_rows(problems: dict[str, Problem], seeds: list[int], settings: dict) -
     rows, solved = [], {}
     comfort_term = comfort_of.table.labels.index("comfort (sum)")
     for variant, problem in problems.items():
-        result = solve(problem, initial=initial, **settings)
+        result = solve(problem, initial=initial, **{**settings, **DE_ONLY})
         solved[variant] = (problem, result)
         comfort = raw_errors(comfort_of, np.atleast_2d(result.angles).astype(float), np.zeros(len(seeds), int))
         for k, seed in enumerate(seeds):

@@ -16,7 +16,7 @@ import numpy as np
 
 from deik.builders import chain
 from deik.evolution.engine import Engine, Settings
-from deik.experiments.common import (Section, command, describe, markdown_table, number, save_figure,
+from deik.experiments.common import (Section, de_only, command, describe, markdown_table, number, save_figure,
                                      seed_list, spread, write_csv)
 from deik.objectives.goals import Comfort
 from deik.plot import require_matplotlib
@@ -25,7 +25,7 @@ from deik.problem import Problem
 NAME = "fig6"
 THRESHOLD = 0.05  # rad, about 3 degrees, on the worst joint
 MODES = ("sum", "max")
-STRATEGIES = {"rand/1/bin (paper)": Settings.paper, "current-to-best/1/bin (deik default)": Settings}
+STRATEGIES = {"rand/1/bin (paper)": Settings.paper, "current-to-best/1/bin (deik DE)": de_only}
 
 
 def sizes(quick: bool) -> dict:

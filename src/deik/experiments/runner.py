@@ -43,7 +43,8 @@ converged when its tip is within 1 % of its reach (the paper's criterion). We gi
 quartiles (or min/max) and the number of seeds, and count runs that never converged within the
 budget as "never" instead of dropping them. DE uses F = 0.5 throughout: the paper's printed FW = 2
 makes DE diverge. "rand/1/bin" with CR 0.5 is the paper's Algorithm 1 (`deik.Settings.paper()`);
-deik's default is current-to-best/1/bin with F 0.5, CR 0.9.
+deik's DE is current-to-best/1/bin with F 0.5, CR 0.9. Every figure measures evolution alone:
+the LM polish, jDE rates and restarts that deik's solver adds by default are off.
 
 Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f} s ({mode}).
 """
