@@ -31,7 +31,8 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
     deadline = start + settings.time_limit if settings.time_limit else math.inf
     state = engine.init(initial)
     chunk = PROGRESS_CHUNK if progress else settings.generations
-    while state.generation < settings.generations and state.active.any() and time.perf_counter() < deadline:
+    while state.generation < settings.generations and state.active.any() and (
+            state.generation == 0 or time.perf_counter() < deadline):  # at least one generation
         count = min(chunk, settings.generations - state.generation)
         if settings.time_limit:
             count = _generations_within(deadline, start, state.generation, count)

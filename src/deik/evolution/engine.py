@@ -34,7 +34,8 @@ class Settings:
     None (default) stops then unless a goal without tolerance (comfort) is left to improve,
     which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
     between kernel launches, so it may overrun by about a quarter of the time left or one
-    generation; the first call in a fresh environment also compiles)."""
+    generation, and always runs at least one generation; the first call in a process also
+    loads or compiles the kernels)."""
 
     population: int = 256
     generations: int = 2000
