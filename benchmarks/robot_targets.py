@@ -1,0 +1,123 @@
+"""Targets for the robot IK benchmark (TRAC-IK protocol) and the one scorer every solver gets.
+
+For a case (robot, base link, tip link): N joint configurations drawn uniformly inside the joint
+limits (seeded), the tip's pose at each by deik's float64 forward kinematics (the targets), and
+the mid-limit start pose every solver begins from. `pose_errors` scores any solver's joint
+solutions with deik's FK, so no solver's own error report is trusted. `export_chain` writes the
+arrays a vectorised FK needs (benchmarks/peers/chain_fk.py) for the DE peers.
+Units: metres, radians.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import deik
+from deik.joints import ROTATE
+
+ROBOTS = Path(__file__).resolve().parents[2] / "shared" / "data" / "robots"
+LIMIT_SLACK = 1e-6  # rad (or m): a joint this close outside its limit still counts as inside
+
+
+@dataclass(frozen=True)
+class Case:
+    """A robot file in shared/data/robots and the chain cut from it."""
+
+    urdf: str
+    base: str
+    tip: str
+
+
+CASES = {
+    "panda": Case("panda.urdf", "panda_link0", "panda_hand_tcp"),
+    "iiwa": Case("kuka_iiwa.urdf", "lbr_iiwa_link_0", "lbr_iiwa_link_7"),
+    "human": Case("human.urdf", "middle_pelvis", "right_hand"),
+}
+
+
+def load_case(name: str, robots: Path = ROBOTS) -> tuple[deik.Skeleton, Case, Path]:
+    """The deik skeleton of case `name`, the case and the URDF path."""
+    case = CASES[name]
+    path = Path(robots) / case.urdf
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} is missing: the robot benchmark needs shared/data beside the checkout")
+    return deik.read_urdf(path, case.base, case.tip), case, path
+
+
+def make_targets(name: str, n: int, seed: int = 0, robots: Path = ROBOTS) -> dict:
+    """N targets of case `name`: q_true (N, D) uniform in [lower, upper]; positions (N, 3) m and
+    rotations (N, 3, 3) of the tip in the base frame; start (D,) mid-limit pose; limits (D,)."""
+    skeleton, case, path = load_case(name, robots)
+    rng = np.random.default_rng(seed)
+    q_true = rng.uniform(skeleton.lower, skeleton.upper, (n, skeleton.n_dofs))
+    kin = deik.forward_kinematics(skeleton, q_true)
+    return {
+        "case": name, "urdf": str(path), "base": case.base, "tip": case.tip, "seed": seed,
+        "dof_names": np.array(skeleton.dof_names), "joint_names": np.array(skeleton.joint_names),
+        "q_true": q_true, "positions": kin.position(case.tip), "rotations": kin.rotation(case.tip),
+        "start": (skeleton.lower + skeleton.upper) / 2, "lower": skeleton.lower.copy(),
+        "upper": skeleton.upper.copy(),
+    }
+
+
+def save_targets(targets: dict, path: Path) -> None:
+    """Write a make_targets dict to an .npz file (strings as 0-d arrays)."""
+    np.savez(path, **{k: np.asarray(v) for k, v in targets.items()})
+
+
+def load_targets(path: Path) -> dict:
+    """Read save_targets' file back: arrays, and plain str/int for the scalar fields."""
+    with np.load(path) as data:
+        return {k: (data[k].item() if data[k].ndim == 0 else data[k]) for k in data.files}
+
+
+def rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
+    """Angle (*batch,) rad of R_a^T R_b for rotations (*batch, 3, 3); accurate near 0 and pi."""
+    M = np.swapaxes(R_a, -1, -2) @ R_b
+    vee = np.stack([M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]], -1)
+    trace = M[..., 0, 0] + M[..., 1, 1] + M[..., 2, 2]
+    return np.arctan2(np.linalg.norm(vee, axis=-1) / 2, (trace - 1) / 2)
+
+
+def pose_errors(skeleton: deik.Skeleton, tip: str, Q, positions, rotations):
+    """Score joint solutions Q (N, D) against targets (N, 3) m and (N, 3, 3) with deik's float64
+    FK -> position error (N,) m, orientation error (N,) rad (angle of R_target^T R), and
+    within_limits (N,) bool (every joint inside [lower, upper] up to LIMIT_SLACK). Rows of Q that
+    are not finite get infinite errors and count as outside the limits."""
+    Q = np.asarray(Q, dtype=np.float64)
+    finite = np.isfinite(Q).all(axis=1)
+    kin = deik.forward_kinematics(skeleton, np.where(finite[:, None], Q, skeleton.lower))
+    pos = np.linalg.norm(kin.position(tip) - positions, axis=1)
+    rot = rotation_angle(np.asarray(rotations, dtype=np.float64), kin.rotation(tip))
+    inside = ((Q >= skeleton.lower - LIMIT_SLACK) & (Q <= skeleton.upper + LIMIT_SLACK)).all(axis=1)
+    return np.where(finite, pos, np.inf), np.where(finite, rot, np.inf), inside & finite
+
+
+def export_chain(skeleton: deik.Skeleton, tip: str) -> dict:
+    """Arrays for benchmarks/peers/chain_fk.py: the joints from the root to `tip`'s joint
+    (`path`, root first) with their parents (J,), offsets (J, 3) m, rest rotations (J, 3, 3);
+    their motions (free and mimic DOFs: joint_start (J+1,), rotate (M,) bool, axis (M, 3),
+    source (M,), scale (M,), bias (M,)); the tip's joint, offset (3,) and rotation (3, 3) in it;
+    limits (D,)."""
+    frame = skeleton.frame_index(tip)
+    if frame < skeleton.n_joints:
+        tip_joint, tip_offset, tip_rotation = frame, np.zeros(3), np.eye(3)
+    else:
+        s = frame - skeleton.n_joints
+        tip_joint = int(skeleton.site_joint[s])
+        tip_offset, tip_rotation = skeleton.site_offset[s], skeleton.site_rotation[s]
+    path = [tip_joint]
+    while skeleton.parents[path[-1]] >= 0:
+        path.append(int(skeleton.parents[path[-1]]))
+    m = skeleton.motions
+    return {
+        "path": np.array(path[::-1], np.int64), "parents": np.asarray(skeleton.parents, np.int64),
+        "offsets": skeleton.offsets.copy(), "joint_rotation": skeleton.joint_rotation.copy(),
+        "joint_start": np.asarray(m.joint_start, np.int64), "rotate": m.kind == ROTATE,
+        "axis": m.axis.copy(), "source": np.asarray(m.source, np.int64), "scale": m.scale.copy(),
+        "bias": m.bias.copy(), "tip_joint": np.int64(tip_joint), "tip_offset": np.array(tip_offset),
+        "tip_rotation": np.array(tip_rotation), "lower": skeleton.lower.copy(), "upper": skeleton.upper.copy(),
+    }
