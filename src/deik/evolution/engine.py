@@ -45,7 +45,7 @@ class Settings:
     adaptive: bool = True
     polish: int = 10
     polish_every: int = 10
-    polish_count: int = 4
+    polish_count: int = 8
     restarts: int = 20
     islands: int = 1
     migration: int = 25
@@ -213,7 +213,7 @@ class Engine:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
         B = state.pop.shape[0]
         cur = tuple(a.copy() for a in state.buffers)
-        nxt = tuple(np.empty_like(a) for a in state.buffers)
+        nxt = tuple(a.copy() for a in state.buffers)  # stopped problems must be in both
         status = tuple(a.copy() for a in state.status)
         history = np.full((B, state.history.shape[1] + n_generations, 2), np.nan)
         history[:, : state.history.shape[1]] = state.history

@@ -14,6 +14,8 @@ from numba import njit, prange
 from deik.kernels.targets import cpu as dev
 
 INIT_GENERATION = -1
+CHUNKS_PER_THREAD = 8
+SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
 
 
 @njit(cache=True)
@@ -58,68 +60,100 @@ def initialise(pop, levels, total, raw, rates, skel, terms, settings, initial, n
             total[b, i] = dev.evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
 
 
-@njit(parallel=True, cache=True)
-def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, n_chunks):
-    """Run up to n_gens generations; returns how many buffer swaps happened (the final state
-    lies in `cur` when even, in `nxt` when odd). cur/nxt = (pop, levels, total, raw, rates).
-    memetic = (LM iterations, every how many generations, individuals per problem)."""
-    B, P, D = cur[0].shape
-    limits = skel[8]
-    best, active, restarting, leader = status[0], status[1], status[7], status[9]
+@njit(cache=True)
+def _chunks(n_jobs, work_per_job, skel, threads):
+    """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
+    the work is small, since waking the pool costs more than it saves and on a loaded machine
+    a descheduled thread stalls the loop; else a few per thread."""
+    if n_jobs * work_per_job * (skel[0].shape[0] + skel[4].shape[0]) < SERIAL_WORK:
+        return 1
+    return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
+
+
+@njit(cache=True)
+def _active_problems(active):
+    """(indices of the active problems, their count)."""
+    order = np.empty(active.shape[0], np.int64)
+    n = 0
+    for b in range(active.shape[0]):
+        if active[b]:
+            order[n] = b
+            n += 1
+    return order, n
+
+
+@njit(cache=True)
+def _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
+    """Chunk c of `chunks` of one generation's trials over the active individuals."""
+    P, D = cur[0].shape[1], cur[0].shape[2]
+    best, restarting, leader = status[0], status[7], status[9]
     island_size = P // settings[6]
+    pop, levels, rates = cur[0], cur[1], cur[4]
+    scratch, trial, lv, rw = _scratch(skel, pop, cur[3].shape[2], levels.shape[2], D)
+    trial_rates = np.empty(2, pop.dtype)
+    for idx in range(c * n // chunks, (c + 1) * n // chunks):
+        b, i = order[idx // P], idx % P
+        dev.make_trial(pop, rates, b, i, leader[b, i // island_size], gen, settings, skel[8], trial, trial_rates, restarting[b])
+        tot = dev.evaluate(trial, b, skel, terms, scratch, lv, rw)
+        if i != best[b] if restarting[b] else dev.not_worse(lv, levels[b, i]):
+            dev.keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
+        else:
+            dev.copy_individual(cur, nxt, b, i)
+
+
+@njit(cache=True)
+def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
+    """Chunk c of `chunks` of a polish round: LM on `count` individuals per active problem."""
+    P, D = state[0].shape[1], state[0].shape[2]
+    iterations, _, count = memetic
+    scratch, q, lv, rw = _scratch(skel, state[0], state[3].shape[2], state[1].shape[2], D)
+    axes, lm = _polish_scratch(skel, state[0], D)
+    for job in range(c * n // chunks, (c + 1) * n // chunks):
+        b, k = order[job // count], job % count
+        dev.polish(b, dev.polish_target(status[9][b], k, count, P), state, iterations, skel, terms, scratch, axes,
+                   lm, q, lv, rw)
+
+
+@njit(parallel=True, cache=True)
+def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
+    """Run up to n_gens generations; returns how many buffer swaps happened (the final state
+    lies in `cur` when even, in `nxt` when odd). cur/nxt = (pop, levels, total, raw, rates)
+    must both hold every inactive problem: only active problems are worked on, and a problem
+    that stops is copied into both. memetic = (LM iterations, every how many generations,
+    individuals per problem). threads: the pool's size (small loops run on the caller's)."""
+    P = cur[0].shape[1]
+    active = status[1]
     iterations, every, count = memetic
-    n = B * P
-    n_chunks = max(1, min(n, n_chunks))
     swaps = 0
     for g in range(n_gens):
         gen = gen_start + g
-        any_active = False
-        for b in range(B):
-            any_active = any_active or active[b]
-        if not any_active:
+        order, n_active = _active_problems(active)
+        if n_active == 0:
             break
-        pop, levels, rates = cur[0], cur[1], cur[4]
-        for c in prange(n_chunks):
-            scratch, trial, lv, rw = _scratch(skel, pop, cur[3].shape[2], levels.shape[2], D)
-            trial_rates = np.empty(2, pop.dtype)
-            for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-                b, i = idx // P, idx % P
-                accept = False
-                tot = 0.0
-                if active[b]:
-                    dev.make_trial(pop, rates, b, i, leader[b, i // island_size], gen, settings, limits, trial, trial_rates, restarting[b])
-                    tot = dev.evaluate(trial, b, skel, terms, scratch, lv, rw)
-                    accept = i != best[b] if restarting[b] else dev.not_worse(lv, levels[b, i])
-                if accept:
-                    dev.keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
-                else:
-                    dev.copy_individual(cur, nxt, b, i)
+        n = n_active * P
+        chunks = _chunks(n, 1, skel, threads)
+        if chunks == 1:
+            _breed(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
+        else:
+            for c in prange(chunks):
+                _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
         cur, nxt = nxt, cur
         swaps += 1
         if iterations > 0 and gen % every == 0:
-            _polish_round(cur, skel, terms, status, memetic, n_chunks)
-        for b in range(B):
-            if active[b]:
-                dev.update_status(b, gen, cur, terms, status, control, history)
+            n = n_active * count
+            chunks = _chunks(n, 3 * iterations, skel, threads)
+            if chunks == 1:
+                _polish_chunk(0, 1, n, cur, skel, terms, status, memetic, order)
+            else:
+                for c in prange(chunks):
+                    _polish_chunk(c, chunks, n, cur, skel, terms, status, memetic, order)
+        for k in range(n_active):
+            b = order[k]
+            dev.update_status(b, gen, cur, terms, status, control, history)
+            if not active[b]:
+                for i in range(P):
+                    dev.copy_individual(cur, nxt, b, i)
     return swaps
-
-
-@njit(parallel=True, cache=True)
-def _polish_round(state, skel, terms, status, memetic, n_chunks):
-    """LM-polish `count` individuals of every active problem in place (device.polish)."""
-    B, P, D = state[0].shape
-    active, leader = status[1], status[9]
-    iterations, _, count = memetic
-    n = B * count
-    n_chunks = max(1, min(n, n_chunks))
-    for c in prange(n_chunks):
-        scratch, q, lv, rw = _scratch(skel, state[0], state[3].shape[2], state[1].shape[2], D)
-        axes, lm = _polish_scratch(skel, state[0], D)
-        for job in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-            b, k = job // count, job % count
-            if active[b]:
-                i = dev.polish_target(leader[b], k, count, P)
-                dev.polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
 
 
 @njit(parallel=True, cache=True)

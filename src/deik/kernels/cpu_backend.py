@@ -8,9 +8,7 @@ import numba
 import numpy as np
 
 from deik.kernels import cpu
-
-CHUNKS_PER_THREAD = 8
-SERIAL_WORK = 4096  # individuals x frames per generation below which one thread is faster
+from deik.kernels.cpu import CHUNKS_PER_THREAD, SERIAL_WORK
 
 
 @contextmanager
@@ -37,9 +35,8 @@ class CpuBackend:
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and history are updated."""
-        with _threads_for(cur[0].shape[0] * cur[0].shape[1], skel) as chunks:
-            swaps = int(cpu.run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history,
-                                            np.int64(gen_start), np.int64(n_gens), chunks))
+        swaps = int(cpu.run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history,
+                                        np.int64(gen_start), np.int64(n_gens), numba.get_num_threads()))
         return (cur if swaps % 2 == 0 else nxt), swaps
 
 
