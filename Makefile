@@ -23,7 +23,7 @@ figures: $(STAMP)
 	$(BIN)/deik experiments all --out figures --doc docs/paper-reproduction.md
 
 bench: $(STAMP)
-	$(BIN)/python -m benchmarks.serial_vs_parallel
+	$(BIN)/python -m benchmarks.run_all
 
 # make bench-peers: deik against peer IK and DE libraries, which live in their own venv.
 PEERS_VENV := .venv-peers

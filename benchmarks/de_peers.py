@@ -37,8 +37,8 @@ from deik.experiments.timing import environment
 
 DE_PEERS = ("scipy_de", "evosax")
 MAX_GENERATIONS = 2000
-DEIK = {"population": 256, "generations": MAX_GENERATIONS}  # retune here (dtype: deik's default)
-DEIK_VARIANTS = {"deik": DEIK, "deik-no-polish": {**DEIK, "polish": 0}}  # the second is DE alone
+DEIK = {"population": 32, "patience": 50, "generations": MAX_GENERATIONS}  # retune here (dtype: deik's default)
+DEIK_VARIANTS = {"deik": DEIK, "deik-no-polish": {**DEIK, "population": 256, "polish": 0, "patience": 300}}  # DE alone
 TARGET_SPEEDUP = 10.0
 
 

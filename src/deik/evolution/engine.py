@@ -194,7 +194,7 @@ class Engine:
         total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
         self.backend.initialise((pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings,
                                 init, n_init)
-        best = np.array([int(np.lexsort(levels[b].T[::-1])[0]) for b in range(B)], np.int64)
+        best = np.lexsort(np.moveaxis(levels, -1, 0)[::-1], axis=-1)[:, 0].astype(np.int64)
         return EvolutionState(
             pop, levels, total, raw, rates, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
             total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros(B, np.int64),
@@ -203,11 +203,11 @@ class Engine:
 
     def _leaders(self, levels: np.ndarray) -> np.ndarray:
         """(B, islands) index of the best individual of each island (levels (B, P, L))."""
-        B, P, _ = levels.shape
-        size = P // self.settings.islands
-        order = [np.lexsort(levels[b].reshape(self.settings.islands, size, -1)[j].T[::-1])[0] + j * size
-                 for b in range(B) for j in range(self.settings.islands)]
-        return np.array(order, np.int64).reshape(B, self.settings.islands)
+        B, P, L = levels.shape
+        islands = self.settings.islands
+        groups = levels.reshape(B, islands, P // islands, L)
+        first = np.lexsort(np.moveaxis(groups, -1, 0)[::-1], axis=-1)[..., 0]
+        return (first + np.arange(islands) * (P // islands)).astype(np.int64)
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
