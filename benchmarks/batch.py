@@ -96,13 +96,8 @@ def plot(rows: list[dict], device: str):
         ax.axhline(GPU_TARGET, color="k", linestyle="--", linewidth=1, label="target (Panda, GPU)")
         for k, (peer, rate) in enumerate(PUBLISHED.items()):
             ax.axhline(rate, color="grey", linestyle=":-"[k], linewidth=1, label=f"{peer} (published, RTX 4090)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("batch size (problems per solve() call)")
-    ax.set_ylabel("problems solved per second")
-    ax.set_title(f"Batched IK throughput, {device.upper()} (labels: success < 100 %)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    harness.style_axes(ax, "batch size (problems per solve() call)", "problems solved per second",
+                       f"Batched IK throughput, {device.upper()} (labels: success < 100 %)")
     fig.tight_layout()
     return fig
 
@@ -118,10 +113,7 @@ def main(argv=None) -> int:
     full_batches = [1, 10, 100, 1000, 10_000] + ([100_000] if args.device == "gpu" else [])
     sizes = {"batches": [1, 4], "populations": [16, 32], "pick_batch": 4} if args.quick else \
         {"batches": full_batches, "populations": [16, 32, 64], "pick_batch": 100}
-    for key, value in sizes.items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    opening = harness.start(args)
+    opening = harness.start(args, sizes)
 
     rows, trials, chosen = [], [], {}
     for name in args.problems:

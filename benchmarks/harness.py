@@ -39,9 +39,15 @@ def parser(doc: str) -> argparse.ArgumentParser:
     return p
 
 
-def start(args) -> dict:
-    """Apply --threads, fail early when --device gpu has no GPU; returns the run's opening facts
-    (wall clock start, load average before)."""
+def start(args, sizes: dict | None = None) -> dict:
+    """Fill every option left unset from `sizes`, one repeat with --quick; apply --threads,
+    fail early when --device gpu has no GPU; returns the run's opening facts (wall clock start,
+    load average before)."""
+    for key, value in (sizes or {}).items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    if args.quick and hasattr(args, "repeats"):
+        args.repeats = 1
     if args.threads:
         numba.set_num_threads(args.threads)
     if args.device == "gpu":
@@ -168,6 +174,18 @@ def target(what: str, goal: float, reached: float, unit: str, applies: bool, at_
     met = reached <= goal if at_most else reached >= goal
     return {"what": what, "goal": goal, "reached": reached, "unit": unit, "comparison": "<=" if at_most else ">=",
             "met": bool(met) if applies else None}
+
+
+def style_axes(ax, xlabel: str, ylabel: str, title: str, ylog: bool = True) -> None:
+    """Log x (and y) axes, labels, title, a light grid and a small legend."""
+    ax.set_xscale("log")
+    if ylog:
+        ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
 
 
 def figure(ncols: int = 1):

@@ -51,12 +51,7 @@ def main(argv=None) -> int:
     sizes = ({"links": 20, "population": 100, "generations": 20, "gpu_generations": 20, "serial_epochs": 1}
              if args.quick else {"links": TARGET_LINKS, "population": TARGET_POPULATION, "generations": 200,
                                  "gpu_generations": 1000, "serial_epochs": 3})
-    for key, value in sizes.items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    if args.quick:
-        args.repeats = 1
-    opening = harness.start(args)
+    opening = harness.start(args, sizes)
 
     problem = make_problem(args.links, args.seed)
     serial = time_serial(problem, args.population, args.serial_epochs, args.seed)

@@ -130,13 +130,7 @@ def plot(rows: list[dict], device: str):
         if device == "gpu":
             ax.plot(x, [r["device_peak_bytes"] or 1 for r in part], "^-", label="device: peak used")
         ax.axhline(GIB, color="k", linestyle="--", linewidth=1, label="1 GiB")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(label)
-        ax.set_ylabel("bytes")
-        ax.set_title(f"Peak memory vs {key} ({device.upper()})")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+        harness.style_axes(ax, label, "bytes", f"Peak memory vs {key} ({device.upper()})")
     fig.tight_layout()
     return fig
 
@@ -150,10 +144,7 @@ def main(argv=None) -> int:
     sizes = ({"populations": [200, 2000], "batches": [1, 10], "generations": 1} if args.quick else
              {"populations": [1000, 10_000, TARGET_POPULATION], "batches": [1, 100, 1000, 10_000],
               "generations": 3})
-    for key, value in sizes.items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    opening = harness.start(args)
+    opening = harness.start(args, sizes)
     deik.solve(harness.chain_problem(5, 2, args.seed), population=8, generations=2, device=args.device,
                dtype=args.dtype)  # compile / load the kernels before measuring
 

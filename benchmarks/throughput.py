@@ -66,16 +66,10 @@ def plot(rows: list[dict], goal: float, device: str):
         ax.plot(r["links"], r["joint_evaluations_per_second"], "**^v<>"[k % 6], markersize=10, color=f"C{k + 3}",
                 label=f"{r['batch']} problems x population {r['population']}, {r['threads']} thr.")
     ax.axhline(goal, color="k", linestyle="--", linewidth=1, label=f"target {goal:.0e}/s")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    harness.style_axes(ax, "links (joints)", "joint evaluations per second", f"DE throughput, {device.upper()}")
     links = sorted({r["links"] for r in rows})
     ax.set_xticks(links, [str(n) for n in links])
     ax.minorticks_off()
-    ax.set_xlabel("links (joints)")
-    ax.set_ylabel("joint evaluations per second")
-    ax.set_title(f"DE throughput, {device.upper()}")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
     fig.tight_layout()
     return fig
 
@@ -94,12 +88,7 @@ def main(argv=None) -> int:
               "batch_population": 100, "seconds": 0.02} if args.quick else
              {"links": [10, 20, 50, 100], "populations": [100, 500, 2000], "batch_links": 100,
               "batch_population": 500, "seconds": 0.5})
-    for key, value in sizes.items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    if args.quick:
-        args.repeats = 1
-    opening = harness.start(args)
+    opening = harness.start(args, sizes)
 
     rows = []
     configs = [(n, pop, 1) for n in args.links for pop in args.populations]

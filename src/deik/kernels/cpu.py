@@ -98,7 +98,7 @@ def _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
         if i != best[b] if restarting[b] else dev.not_worse(lv, levels[b, i]):
             dev.keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
         else:
-            dev.copy_individual(cur, nxt, b, i)
+            dev.copy_individual(cur, nxt, b, i, i)
 
 
 @njit(cache=True)
@@ -152,7 +152,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
             dev.update_status(b, gen, cur, terms, status, control, history)
             if not active[b]:
                 for i in range(P):
-                    dev.copy_individual(cur, nxt, b, i)
+                    dev.copy_individual(cur, nxt, b, i, i)
     return swaps
 
 

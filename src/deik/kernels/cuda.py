@@ -77,7 +77,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                 if (i != best[b]) if restarting[b] else not_worse(lv, levels[b, i]):
                     keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
                 else:
-                    copy_individual(cur, nxt, b, i)
+                    copy_individual(cur, nxt, b, i, i)
             cur, nxt = nxt, cur
             swaps += 1
             cuda.syncthreads()
@@ -90,7 +90,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                 update_status(b, gen_start + g, cur, terms, status, control, history)
         if swaps % 2 == 1:
             for i in range(tid, P, stride):
-                copy_individual(cur, nxt, b, i)
+                copy_individual(cur, nxt, b, i, i)
         if tid == 0:
             advanced[b] = swaps
 

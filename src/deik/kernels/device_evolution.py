@@ -102,18 +102,18 @@ def polish_target(leaders, k, count, P):
     return base + (leaders[island] - base + (k // islands) * size // per_island) % size
 
 
-def copy_individual(source, target, b, i):
-    """Copy individual i of problem b from one (pop, levels, total, raw, rates) buffer set to
-    another."""
+def copy_individual(source, target, b, i, j):
+    """Copy individual i of problem b from one (pop, levels, total, raw, rates) buffer set
+    over individual j of another (or of the same)."""
     for d in range(source[0].shape[2]):
-        target[0][b, i, d] = source[0][b, i, d]
+        target[0][b, j, d] = source[0][b, i, d]
     for lv in range(source[1].shape[2]):
-        target[1][b, i, lv] = source[1][b, i, lv]
-    target[2][b, i] = source[2][b, i]
+        target[1][b, j, lv] = source[1][b, i, lv]
+    target[2][b, j] = source[2][b, i]
     for t in range(source[3].shape[2]):
-        target[3][b, i, t] = source[3][b, i, t]
-    target[4][b, i, 0] = source[4][b, i, 0]
-    target[4][b, i, 1] = source[4][b, i, 1]
+        target[3][b, j, t] = source[3][b, i, t]
+    target[4][b, j, 0] = source[4][b, i, 0]
+    target[4][b, j, 1] = source[4][b, i, 1]
 
 
 def keep_trial(target, b, i, trial, lv, rw, tot, trial_rates):
@@ -144,20 +144,7 @@ def migrate(b, pop_state, elite, leader, islands):
         for i in range(base, base + size):
             if i != elite and (worst < 0 or better_of(pop_state[1], b, i, worst) == worst):
                 worst = i
-        copy_within(pop_state, b, leader[b, j], worst)
-
-
-def copy_within(pop_state, b, source, target):
-    """Copy individual `source` of problem b over individual `target` in the same buffers."""
-    for d in range(pop_state[0].shape[2]):
-        pop_state[0][b, target, d] = pop_state[0][b, source, d]
-    for lvl in range(pop_state[1].shape[2]):
-        pop_state[1][b, target, lvl] = pop_state[1][b, source, lvl]
-    pop_state[2][b, target] = pop_state[2][b, source]
-    for t in range(pop_state[3].shape[2]):
-        pop_state[3][b, target, t] = pop_state[3][b, source, t]
-    pop_state[4][b, target, 0] = pop_state[4][b, source, 0]
-    pop_state[4][b, target, 1] = pop_state[4][b, source, 1]
+        copy_individual(pop_state, pop_state, b, leader[b, j], worst)
 
 
 def update_status(b, gen, pop_state, terms, status, control, history):
