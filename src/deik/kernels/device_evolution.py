@@ -147,6 +147,15 @@ def migrate(b, pop_state, elite, leader, islands):
         copy_individual(pop_state, pop_state, b, leader[b, j], worst)
 
 
+def within_tolerances(b, rw, terms, T):
+    """Does every goal with a tolerance (and a weight in problem b) meet it, raw errors rw (T,)?"""
+    term_float, params = terms[1], terms[2]
+    for t in range(T):
+        if term_float[t, 3] >= 0.0 and term_float[t, 0] * params[b, t, 11] > 0.0 and rw[t] > term_float[t, 3]:
+            return False
+    return True
+
+
 def update_status(b, gen, pop_state, terms, status, control, history):
     """After a generation: best index, island leaders, migration, history, convergence,
     stagnation and restarts of problem b. A problem that stagnates unconverged with restarts
@@ -156,7 +165,6 @@ def update_status(b, gen, pop_state, terms, status, control, history):
     pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
     best, active, generations, converged, best_seen, last_improved, restarts, restarting, elite, leader = status
     patience, rel_improvement, stop_on_converged, max_restarts, migration = control
-    term_float, params = terms[1], terms[2]
     P, islands = pop.shape[1], leader.shape[1]
     size = P // islands
     restarting[b] = False
@@ -177,10 +185,7 @@ def update_status(b, gen, pop_state, terms, status, control, history):
     history[b, generations[b], 0] = total[b, k]
     history[b, generations[b], 1] = mean / P
     generations[b] += 1
-    met = True
-    for t in range(raw.shape[2]):
-        if term_float[t, 3] >= 0 and term_float[t, 0] * params[b, t, 11] > 0 and raw[b, k, t] > term_float[t, 3]:
-            met = False
+    met = within_tolerances(b, raw[b, k], terms, raw.shape[2])
     converged[b] = met
     if met and stop_on_converged:
         active[b] = False

@@ -120,7 +120,8 @@ def damped_step(lm, D, damping, q, limits):
 
 
 def polish(b, i, pop_state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
-    """Up to `iterations` LM steps on individual i of problem b, in place in pop_state =
+    """Up to `iterations` LM steps on individual i of problem b, until every tolerance is met,
+    in place in pop_state =
     (pop, levels, total, raw, rates); q (D,), lv (L,), rw (T,) are scratch."""
     pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
     D, L, T = pop.shape[2], levels.shape[2], raw.shape[2]
@@ -146,6 +147,8 @@ def polish(b, i, pop_state, iterations, skel, terms, scratch, axes, lm, q, lv, r
                 for t in range(T):
                     raw[b, i, t] = rw[t]
                 total[b, i] = tot
+                if within_tolerances(b, rw, terms, T):
+                    return
                 damping = max(damping * 0.3, 1e-7)
                 continue
         damping *= 10.0
