@@ -59,18 +59,8 @@ def rotation_rows(j, skel, axes, weight, jac, D):
 
 def rotation_vector(R, f, target):
     """Rotation vector (radians) of R_f R_target^T, the world-frame orientation error."""
-    e01 = R[9 * f] * target[3] + R[9 * f + 1] * target[4] + R[9 * f + 2] * target[5]
-    e10 = R[9 * f + 3] * target[0] + R[9 * f + 4] * target[1] + R[9 * f + 5] * target[2]
-    e02 = R[9 * f] * target[6] + R[9 * f + 1] * target[7] + R[9 * f + 2] * target[8]
-    e20 = R[9 * f + 6] * target[0] + R[9 * f + 7] * target[1] + R[9 * f + 8] * target[2]
-    e12 = R[9 * f + 3] * target[6] + R[9 * f + 4] * target[7] + R[9 * f + 5] * target[8]
-    e21 = R[9 * f + 6] * target[3] + R[9 * f + 7] * target[4] + R[9 * f + 8] * target[5]
-    trace = 0.0
-    for i in range(3):
-        trace += R[9 * f + 3 * i] * target[3 * i] + R[9 * f + 3 * i + 1] * target[3 * i + 1] + R[9 * f + 3 * i + 2] * target[3 * i + 2]
-    vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
+    vx, vy, vz, angle = rotation_error(R, f, target)
     sine = math.sqrt(vx * vx + vy * vy + vz * vz)
-    angle = math.atan2(sine, 0.5 * (trace - 1.0))
     ratio = angle / sine if sine > 1e-12 else 1.0
     return vx * ratio, vy * ratio, vz * ratio
 

@@ -46,27 +46,21 @@ def polygon_distance(cx, cy, cz, frames, n, ground, p, work):
     return best
 
 
-def orientation_error(R, f, target):
-    """Angle (radians) between frame f's rotation and the row-major target rotation target[0:9]."""
-    tr, sx, sy, sz = 0.0, 0.0, 0.0, 0.0
+def rotation_error(R, f, target):
+    """(vx, vy, vz, angle): half the skew part of R_f R_target^T (its rotation axis times the
+    sine of its angle, world frame) and the angle (radians) between frame f's rotation and the
+    row-major target rotation target[0:9]."""
+    e01 = R[9 * f] * target[3] + R[9 * f + 1] * target[4] + R[9 * f + 2] * target[5]
+    e10 = R[9 * f + 3] * target[0] + R[9 * f + 4] * target[1] + R[9 * f + 5] * target[2]
+    e02 = R[9 * f] * target[6] + R[9 * f + 1] * target[7] + R[9 * f + 2] * target[8]
+    e20 = R[9 * f + 6] * target[0] + R[9 * f + 7] * target[1] + R[9 * f + 8] * target[2]
+    e12 = R[9 * f + 3] * target[6] + R[9 * f + 4] * target[7] + R[9 * f + 5] * target[8]
+    e21 = R[9 * f + 6] * target[3] + R[9 * f + 7] * target[4] + R[9 * f + 8] * target[5]
+    trace = 0.0
     for i in range(3):
-        for j in range(3):
-            e = target[i] * R[9 * f + j] + target[3 + i] * R[9 * f + 3 + j] + target[6 + i] * R[9 * f + 6 + j]
-            if i == j:
-                tr += e
-            elif i == 2 and j == 1:
-                sx += e
-            elif i == 1 and j == 2:
-                sx -= e
-            elif i == 0 and j == 2:
-                sy += e
-            elif i == 2 and j == 0:
-                sy -= e
-            elif i == 1 and j == 0:
-                sz += e
-            else:
-                sz -= e
-    return math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), 0.5 * (tr - 1.0))
+        trace += R[9 * f + 3 * i] * target[3 * i] + R[9 * f + 3 * i + 1] * target[3 * i + 1] + R[9 * f + 3 * i + 2] * target[3 * i + 2]
+    vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
+    return vx, vy, vz, math.atan2(math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (trace - 1.0))
 
 
 def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
@@ -79,7 +73,7 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
         dx, dy, dz = p[3 * f] - g[0], p[3 * f + 1] - g[1], p[3 * f + 2] - g[2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
     if kind == 1:
-        return orientation_error(R, f, g)
+        return rotation_error(R, f, g)[3]
     if kind == 2:
         ax, ay, az = rotate_point(R, 9 * f, g[0], g[1], g[2])
         vx, vy, vz = g[3] - p[3 * f], g[4] - p[3 * f + 1], g[5] - p[3 * f + 2]
