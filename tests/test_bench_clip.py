@@ -27,7 +27,7 @@ def test_the_looped_walk_is_one_long_walk_without_jumps():
     np.testing.assert_array_equal(contacts.mask[40:78], contacts.mask[78:116])  # every cycle alike
 
 
-def test_benchmark_smoke_run_writes_json_and_png(tmp_path, capsys):
+def test_benchmark_smoke_run_writes_json_and_png(shared_data, tmp_path, capsys):
     assert main(["--frames", "60", "--repeats", "1", "--out", str(tmp_path)]) == 0
     assert "frames/s" in capsys.readouterr().out
     result = json.loads((tmp_path / "clip_frames.json").read_text())
