@@ -31,7 +31,9 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D):
     R, p, work = scratch
     A, gradient, jac = lm[0], lm[1], lm[2]
     forward_kinematics(q, skel, R, p, work, axes, True)
-    cx, cy, cz = centre_of_mass(skel, R, p)
+    cx, cy, cz = 0.0, 0.0, 0.0
+    if uses_centre_of_mass(terms[0]):
+        cx, cy, cz = centre_of_mass(skel, R, p)
     for e in range(D * D):
         A[e] = 0.0
     for d in range(D):

@@ -5,8 +5,9 @@ The device_*.py files are written once and compiled for the CPU (numba.njit) and
 functions call each other by name on the same target (they are not meant to be called as
 plain Python). Nothing here may allocate; callers pass scratch arrays. Matrices are flat,
 row-major, 9 floats per frame.
-Tuples group the arrays: skel = (joint_int (J, 3): parent, motion start, motion end;
-joint_frame (J, 12): offset then rest rotation; motion_int (N, 2): kind, source DOF;
+Tuples group the arrays: skel = (joint_int (J, 4): parent, motion start, motion end, 1 if the rest rotation is the identity;
+joint_frame (J, 12): offset then rest rotation; motion_int (N, 3): kind, source DOF, coordinate
+axis 0-2 when the axis is +-x, +-y or +-z (else -1);
 motion_float (N, 5): axis, scale, bias (value = scale * q[source] + bias); site_joint (S,); site_frame (S, 12): offset then
 rotation; mass_joint (M,); mass_data (M, 4): offset then mass fraction; limits (D, 2);
 ground (3, 3): two horizontal axes then up), terms = (term_int, term_float, params,
@@ -72,56 +73,61 @@ def axis_angle_into(ax, ay, az, angle, M, m):
     M[m + 6], M[m + 7], M[m + 8] = t * ax * az - s * ay, t * ay * az + s * ax, t * az * az + c
 
 
+def turn_columns(R, r, i, angle):
+    """R[r:r+9] = R[r:r+9] @ (rotation about coordinate axis i by `angle` radians), in place:
+    only the two other columns mix (12 flops instead of Rodrigues and a 3x3 product)."""
+    c, s = math.cos(angle), math.sin(angle)
+    a, b = (i + 1) % 3, (i + 2) % 3
+    for row in range(3):
+        u, v = R[r + 3 * row + a], R[r + 3 * row + b]
+        R[r + 3 * row + a] = c * u + s * v
+        R[r + 3 * row + b] = c * v - s * u
+
+
 def forward_kinematics(q, skel, R, p, work, axes, record):
     """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q.
-    With `record`, axes (N*6,) also receives each motion's world axis and pivot (the point a
-    rotation turns about), what the analytic Jacobians need (device_polish.py)."""
+    Each joint's frame starts as parent @ (offset, rest rotation) and each of its motions then
+    turns or slides it in place. With `record`, axes (N*6,) also receives each motion's world
+    axis and pivot (the point a rotation turns about), what the analytic Jacobians need
+    (device_polish.py). work needs 18 floats (general-axis rotations only)."""
     joint_int, joint_frame, motion_int, motion_float, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
     J = joint_int.shape[0]
     for k in range(J):
-        for e in range(9):
-            work[e] = joint_frame[k, 3 + e]
+        parent, r = joint_int[k, 0], 9 * k
         tx, ty, tz = joint_frame[k, 0], joint_frame[k, 1], joint_frame[k, 2]
-        parent = joint_int[k, 0]
+        if parent < 0:
+            for e in range(9):
+                R[r + e] = joint_frame[k, 3 + e]
+        else:
+            if joint_int[k, 3] == 1:
+                for e in range(9):
+                    R[r + e] = R[9 * parent + e]
+            else:
+                matmul3(R, 9 * parent, joint_frame[k], 3, R, r)
+            dx, dy, dz = rotate_point(R, 9 * parent, tx, ty, tz)
+            tx, ty, tz = p[3 * parent] + dx, p[3 * parent + 1] + dy, p[3 * parent + 2] + dz
         for n in range(joint_int[k, 1], joint_int[k, 2]):
             ax, ay, az = motion_float[n, 0], motion_float[n, 1], motion_float[n, 2]
             value = motion_float[n, 3] * q[motion_int[n, 1]] + motion_float[n, 4]
             if record:
-                record_axis(R, p, parent, work, ax, ay, az, tx, ty, tz, axes, 6 * n)
-            if motion_int[n, 0] == 0:
-                axis_angle_into(ax, ay, az, value, work, 9)
-                matmul3(work, 0, work, 9, work, 18)
-                for e in range(9):
-                    work[e] = work[18 + e]
-            else:
-                dx, dy, dz = rotate_point(work, 0, ax * value, ay * value, az * value)
+                axes[6 * n], axes[6 * n + 1], axes[6 * n + 2] = rotate_point(R, r, ax, ay, az)
+                axes[6 * n + 3], axes[6 * n + 4], axes[6 * n + 5] = tx, ty, tz
+            if motion_int[n, 0] != 0:
+                dx, dy, dz = rotate_point(R, r, ax * value, ay * value, az * value)
                 tx, ty, tz = tx + dx, ty + dy, tz + dz
-        if parent < 0:
-            for e in range(9):
-                R[9 * k + e] = work[e]
-            p[3 * k], p[3 * k + 1], p[3 * k + 2] = tx, ty, tz
-        else:
-            matmul3(R, 9 * parent, work, 0, R, 9 * k)
-            dx, dy, dz = rotate_point(R, 9 * parent, tx, ty, tz)
-            p[3 * k], p[3 * k + 1], p[3 * k + 2] = p[3 * parent] + dx, p[3 * parent + 1] + dy, p[3 * parent + 2] + dz
+            elif motion_int[n, 2] >= 0:
+                turn_columns(R, r, motion_int[n, 2], value * (ax + ay + az))
+            else:
+                axis_angle_into(ax, ay, az, value, work, 0)
+                matmul3(R, r, work, 0, work, 9)
+                for e in range(9):
+                    R[r + e] = work[9 + e]
+        p[3 * k], p[3 * k + 1], p[3 * k + 2] = tx, ty, tz
     for s in range(site_joint.shape[0]):
         j, f = site_joint[s], J + s
         matmul3(R, 9 * j, site_frame[s], 3, R, 9 * f)
         dx, dy, dz = rotate_point(R, 9 * j, site_frame[s, 0], site_frame[s, 1], site_frame[s, 2])
         p[3 * f], p[3 * f + 1], p[3 * f + 2] = p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz
-
-
-def record_axis(R, p, parent, work, ax, ay, az, tx, ty, tz, axes, a):
-    """axes[a:a+3] = the world direction of local axis (ax, ay, az) after the joint's partial
-    rotation work[0:9]; axes[a+3:a+6] = the world point of its partial translation (tx, ty, tz)."""
-    wx, wy, wz = rotate_point(work, 0, ax, ay, az)
-    if parent < 0:
-        axes[a], axes[a + 1], axes[a + 2] = wx, wy, wz
-        axes[a + 3], axes[a + 4], axes[a + 5] = tx, ty, tz
-    else:
-        axes[a], axes[a + 1], axes[a + 2] = rotate_point(R, 9 * parent, wx, wy, wz)
-        cx, cy, cz = rotate_point(R, 9 * parent, tx, ty, tz)
-        axes[a + 3], axes[a + 4], axes[a + 5] = p[3 * parent] + cx, p[3 * parent + 1] + cy, p[3 * parent + 2] + cz
 
 
 def centre_of_mass(skel, R, p):

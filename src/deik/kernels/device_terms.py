@@ -63,6 +63,14 @@ def rotation_error(R, f, target):
     return vx, vy, vz, math.atan2(math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (trace - 1.0))
 
 
+def uses_centre_of_mass(term_int):
+    """Whether any term (COM, COM over ground point, support polygon) reads the COM."""
+    for t in range(term_int.shape[0]):
+        if term_int[t, 0] >= 3 and term_int[t, 0] <= 5:
+            return True
+    return False
+
+
 def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     """Raw error of term t (metres or radians) for pose q of problem b."""
     term_int, params, dof_weight, reference = terms[0], terms[2], terms[3], terms[4]
@@ -113,7 +121,9 @@ def evaluate(q, b, skel, terms, scratch, levels, raw):
     R, p, work = scratch
     term_int, term_float, params = terms[0], terms[1], terms[2]
     forward_kinematics(q, skel, R, p, work, work, False)
-    cx, cy, cz = centre_of_mass(skel, R, p)
+    cx, cy, cz = 0.0, 0.0, 0.0
+    if uses_centre_of_mass(term_int):
+        cx, cy, cz = centre_of_mass(skel, R, p)
     for lv in range(levels.shape[0]):
         levels[lv] = 0.0
     total = 0.0

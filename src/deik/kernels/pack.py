@@ -36,9 +36,10 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> tuple:
     s = skeleton
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
     m = s.motions
-    joint_int = np.stack([s.parents, m.joint_start[:-1], m.joint_start[1:]], axis=1)
+    plain = np.all(s.joint_rotation.reshape(-1, 9) == np.eye(3).ravel(), axis=1)
+    joint_int = np.stack([s.parents, m.joint_start[:-1], m.joint_start[1:], plain], axis=1)
     joint_frame = np.concatenate([s.offsets, s.joint_rotation.reshape(-1, 9)], axis=1)
-    motion_int = np.stack([m.kind, m.source], axis=1).reshape(-1, 2)
+    motion_int = np.stack([m.kind, m.source, coordinate_axis(m.axis)], axis=1).reshape(-1, 3)
     motion_float = np.concatenate([m.axis, m.scale[:, None], m.bias[:, None]], axis=1).reshape(-1, 5)
     site_frame = np.concatenate([s.site_offset, s.site_rotation.reshape(-1, 9)], axis=1)
     total = s.mass_value.sum()
@@ -54,6 +55,13 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> tuple:
         np.ascontiguousarray(s.mass_joint, np.int32), f(mass_data.reshape(-1, 4)), f(limits),
         f(ground_frame(s.up)),
     )
+
+
+def coordinate_axis(axis: np.ndarray) -> np.ndarray:
+    """(N,) 0, 1 or 2 where a unit axis (N, 3) is exactly +-x, +-y or +-z, else -1: the FK
+    turns such frames by mixing two columns (device_maths.turn_columns)."""
+    unit = (np.count_nonzero(axis, axis=1) == 1) & np.any(np.abs(axis) == 1.0, axis=1)
+    return np.where(unit, np.argmax(np.abs(axis), axis=1), -1)
 
 
 def inward(limits: np.ndarray, dtype) -> np.ndarray:
