@@ -3,11 +3,11 @@
 Each frame's level-0 position goals (planted contacts, reach tracks) are met as nearly as
 possible by the smallest change of the DOFs that frame may move (coherence.searched_dofs),
 each DOF counted by dof_weights as the fidelity term counts it, in a few damped Gauss-Newton
-steps on the positions' Jacobian (analytic: each DOF turns about or slides along its world
-axis). A few more steps each start from the mean of the neighbouring frames' displacements,
-so frames agree where the goals in force change (a foot lifts, a reach begins). The clip's
-corrections are small (millimetres to centimetres), so this is cheap, smooth in time and
-exact to microns. The centre of mass (balance) and goals that cannot all be met are left to
+steps on the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides
+along its world axis). A few more steps each start from the mean of the neighbouring frames'
+displacements, so frames agree where the goals in force change (a foot lifts, a reach
+begins). The clip's corrections are small (millimetres to centimetres), so this is cheap,
+smooth in time and exact to microns. The centre of mass (balance) and goals that cannot all be met are left to
 DE, with its priorities and tolerances.
 """
 
@@ -18,9 +18,10 @@ import numpy as np
 from deik.clips.coherence import active_frames
 from deik.clips.problem import neighbour_displacement
 from deik.joints import ROTATE
+from deik.kernels import cpu
+from deik.kernels.pack import pack_skeleton
 from deik.kinematics import forward_kinematics
 from deik.objectives.goals import Position
-from deik.rotations import axis_angle_matrix
 
 DAMPING = 1e-3  # radians (weighted DOF units): keeps a step finite at a straight knee
 STEPS = 2
@@ -28,47 +29,15 @@ SMOOTHING = 6
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
 
 
-def _motion_axes(skeleton, poses: np.ndarray, kin) -> tuple[np.ndarray, np.ndarray]:
-    """World axis (N, M, 3) and the world point it acts through (N, M, 3) of every motion
-    (free or mimic DOF, skeleton.motions order), at `poses` (N, D) whose kinematics is `kin`."""
-    m = skeleton.motions
-    N = len(poses)
-    value = poses[:, m.source] * m.scale + m.bias
-    axes = np.empty((N, len(m.kind), 3))
-    pivots = np.empty((N, len(m.kind), 3))
-    for k in range(skeleton.n_joints):
-        parent = skeleton.parents[k]
-        R0 = kin.R_world_frame[:, parent] if parent >= 0 else np.eye(3)
-        p0 = kin.p_world_frame[:, parent] if parent >= 0 else np.zeros(3)
-        R_local, p_local = skeleton.joint_rotation[k], skeleton.offsets[k]
-        for n in range(m.joint_start[k], m.joint_start[k + 1]):
-            axes[:, n] = (R0 @ R_local) @ m.axis[n]
-            pivots[:, n] = p0 + np.einsum("...ij,...j->...i", R0, p_local)
-            if m.kind[n] == ROTATE:
-                R_local = R_local @ axis_angle_matrix(m.axis[n], value[:, n])
-            else:
-                p_local = p_local + (R_local @ m.axis[n]) * value[:, n, None]
-    return axes, pivots
-
-
 def position_jacobian(skeleton, poses, names) -> tuple[np.ndarray, np.ndarray]:
     """World positions (N, G, 3) of the joints or sites `names` at `poses` (N, D), and their
-    Jacobian (N, G, 3, D): length units per radian (rotations) or per length unit."""
-    poses = np.atleast_2d(np.asarray(poses, float))
-    kin = forward_kinematics(skeleton, poses)
-    axes, pivots = _motion_axes(skeleton, poses, kin)
-    m, J = skeleton.motions, skeleton.n_joints
-    index = [skeleton.frame_index(name) for name in names]
-    x = kin.p_world_frame[:, index]
-    jac = np.zeros(x.shape + (skeleton.n_dofs,))
-    for g, f in enumerate(index):
-        joint = f if f < J else int(skeleton.site_joint[f - J])
-        while joint >= 0:  # a joint's own rotations act through its origin: no effect on it
-            for n in range(m.joint_start[joint], m.joint_start[joint + 1]):
-                moved = (np.cross(axes[:, n], x[:, g] - pivots[:, n]) if m.kind[n] == ROTATE
-                         else axes[:, n])
-                jac[:, g, :, m.source[n]] += m.scale[n] * moved
-            joint = int(skeleton.parents[joint])
+    Jacobian (N, G, 3, D): length units per radian (rotations) or per length unit. The kernels'
+    float64 FK and analytic rows compute both (deik.kernels.cpu.point_jacobians)."""
+    poses = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, np.float64)))
+    frames = np.array([skeleton.frame_index(name) for name in names], np.int64)
+    x = np.empty((len(poses), len(frames), 3))
+    jac = np.empty((len(poses), len(frames), 3, skeleton.n_dofs))
+    cpu.point_jacobians(poses, frames, pack_skeleton(skeleton, np.float64), x, jac)
     return x, jac
 
 

@@ -174,6 +174,29 @@ def forward_kinematics_batch(poses, skel, R, p):
         dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
+@njit(parallel=True, cache=True)
+def point_jacobians(poses, frames, skel, x, jacobian):
+    """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints)
+    at poses (N, D), and their analytic Jacobian (N, G, 3, D), with the kernels' FK and the
+    polish's rows (device_polish.point_rows)."""
+    N, D = poses.shape
+    for n in prange(N):
+        scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
+        axes, lm = _polish_scratch(skel, poses, D)
+        R, p, work = scratch
+        jac = lm[2]
+        dev.forward_kinematics(poses[n], skel, R, p, work, axes, True)
+        for g in range(frames.shape[0]):
+            f = frames[g]
+            for e in range(3 * D):
+                jac[e] = 0.0
+            dev.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], dev.frame_joint(f, skel), skel, axes, 1.0, jac, D)
+            for row in range(3):
+                x[n, g, row] = p[3 * f + row]
+                for d in range(D):
+                    jacobian[n, g, row, d] = jac[row * D + d]
+
+
 @njit(cache=True)
 def residual_rows(poses, problem_index, term, skel, terms):
     """The LM polish's scaled residual (N, 3) of one term and its analytic Jacobian (N, 3, D)
