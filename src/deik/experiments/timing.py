@@ -108,6 +108,10 @@ def gpu_status() -> tuple[bool, str]:
         from numba import cuda
     except ImportError as error:  # pragma: no cover - numba always ships numba.cuda
         return False, f"numba.cuda cannot be imported ({error})"
+    from numba import config
+
+    if config.ENABLE_CUDASIM:
+        return True, "Numba's CUDA simulator (NUMBA_ENABLE_CUDASIM=1): checks code paths, its timings mean nothing"
     try:
         if not cuda.is_available():
             return False, "no CUDA GPU is available here (numba.cuda.is_available() is False)"
