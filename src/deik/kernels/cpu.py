@@ -103,15 +103,20 @@ def _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
 
 @njit(cache=True)
 def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
-    """Chunk c of `chunks` of a polish round: LM on `count` individuals per active problem."""
-    P, D = state[0].shape[1], state[0].shape[2]
+    """Chunk c of `chunks` of a polish round over the n active problems: LM on up to `count`
+    individuals of each, in order, until one meets every tolerance (the GPU kernel polishes
+    them side by side and undoes those after the first that does: the same result)."""
+    P, D, T = state[0].shape[1], state[0].shape[2], state[3].shape[2]
     iterations, _, count = memetic
-    scratch, q, lv, rw = _scratch(skel, state[0], state[3].shape[2], state[1].shape[2], D)
+    scratch, q, lv, rw = _scratch(skel, state[0], T, state[1].shape[2], D)
     axes, lm = _polish_scratch(skel, state[0], D)
     for job in range(c * n // chunks, (c + 1) * n // chunks):
-        b, k = order[job // count], job % count
-        dev.polish(b, dev.polish_target(status[9][b], k, count, P), state, iterations, skel, terms, scratch, axes,
-                   lm, q, lv, rw)
+        b = order[job]
+        for k in range(count):
+            i = dev.polish_target(status[9][b], k, count, P)
+            dev.polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+            if dev.within_tolerances(b, state[3][b, i], terms, T):
+                break
 
 
 @njit(parallel=True, cache=True)
@@ -140,13 +145,12 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
         cur, nxt = nxt, cur
         swaps += 1
         if iterations > 0 and gen % every == 0:
-            n = n_active * count
-            chunks = _chunks(n, 3 * iterations, skel, threads)
+            chunks = _chunks(n_active, 3 * iterations * count, skel, threads)
             if chunks == 1:
-                _polish_chunk(0, 1, n, cur, skel, terms, status, memetic, order)
+                _polish_chunk(0, 1, n_active, cur, skel, terms, status, memetic, order)
             else:
                 for c in prange(chunks):
-                    _polish_chunk(c, chunks, n, cur, skel, terms, status, memetic, order)
+                    _polish_chunk(c, chunks, n_active, cur, skel, terms, status, memetic, order)
         for k in range(n_active):
             b = order[k]
             dev.update_status(b, gen, cur, terms, status, control, history)

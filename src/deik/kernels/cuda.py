@@ -12,7 +12,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from numba import cuda, float32, float64
+from numba import cuda, float32, float64, int32
 
 from deik.kernels.targets import cuda_device
 
@@ -31,7 +31,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
     dev = cuda_device()
     evaluate, make_trial, not_worse, keep_trial = dev.evaluate, dev.make_trial, dev.not_worse, dev.keep_trial
     update_status, uniform, copy_individual = dev.update_status, dev.uniform, dev.copy_individual
-    polish, polish_target = dev.polish, dev.polish_target
+    polish, polish_target, within_tolerances = dev.polish, dev.polish_target, dev.within_tolerances
     ftype = float32 if dtype_name == "float32" else float64
     n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
     n_dd, n_jac = n_dofs * n_dofs, 3 * n_dofs
@@ -60,6 +60,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         trial_rates, axes = cuda.local.array(2, ftype), cuda.local.array(n_a, ftype)
         lm = (cuda.local.array(n_dd, ftype), cuda.local.array(n_d, ftype), cuda.local.array(n_jac, ftype),
               cuda.local.array(n_d, ftype))
+        met = cuda.shared.array(THREADS_PER_BLOCK, int32)
         best, active, restarting, leader = status[0], status[1], status[7], status[9]
         iterations, every, count = memetic
         limits = skel[8]
@@ -82,9 +83,19 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
             swaps += 1
             cuda.syncthreads()
             if iterations > 0 and (gen_start + g) % every == 0:
+                # polish side by side, then undo every polish after the first that meets all
+                # tolerances: the CPU's in-order round with its early stop (nxt is scratch here)
+                target = polish_target(leader[b], tid, count, P)
                 if tid < count:
-                    polish(b, polish_target(leader[b], tid, count, P), cur, iterations, skel, terms, scratch, axes, lm,
-                           trial, lv, rw)
+                    copy_individual(cur, nxt, b, target, target)
+                    polish(b, target, cur, iterations, skel, terms, scratch, axes, lm, trial, lv, rw)
+                    met[tid] = within_tolerances(b, cur[3][b, target], terms, cur[3].shape[2])
+                cuda.syncthreads()
+                if tid < count:
+                    for k in range(tid):
+                        if met[k]:
+                            copy_individual(nxt, cur, b, target, target)
+                            break
                 cuda.syncthreads()
             if tid == 0:
                 update_status(b, gen_start + g, cur, terms, status, control, history)
