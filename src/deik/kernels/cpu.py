@@ -40,24 +40,34 @@ def _polish_scratch(skel, dtype_probe, n_dofs):
 def initialise(pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial, n_chunks):
     """Fill pop (B, P, D) uniformly inside the limits (the first n_initial individuals of each
     problem copy initial (B, n_initial, D)), set every individual's F, CR (rates (B, P, 2)) to
-    the settings' and evaluate it. n_chunks: work units (a few per thread); it changes the
-    split of work, never the result."""
+    the settings' and evaluate it. n_chunks: work units (a few per thread; 1 runs in the
+    calling thread); it changes the split of work, never the result."""
+    n = pop.shape[0] * pop.shape[1]
+    n_chunks = max(1, min(n, n_chunks))
+    if n_chunks == 1:
+        _initialise_chunk(0, 1, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial)
+    else:
+        for c in prange(n_chunks):
+            _initialise_chunk(c, n_chunks, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial)
+
+
+@njit(cache=True)
+def _initialise_chunk(c, n_chunks, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial):
+    """Chunk c of `n_chunks` of initialise's individuals."""
     B, P, D = pop.shape
     limits, seed = skel[8], settings[4]
     n = B * P
-    n_chunks = max(1, min(n, n_chunks))
-    for c in prange(n_chunks):
-        scratch, _, lv, rw = _scratch(skel, pop, raw.shape[2], levels.shape[2], D)
-        for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-            b, i = idx // P, idx % P
-            for d in range(D):
-                if i < n_initial:
-                    pop[b, i, d] = initial[b, i, d]
-                else:
-                    u = dev.uniform(seed, b, INIT_GENERATION, i, d)
-                    pop[b, i, d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * u
-            rates[b, i, 0], rates[b, i, 1] = settings[2], settings[3]
-            total[b, i] = dev.evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
+    scratch, _, lv, rw = _scratch(skel, pop, raw.shape[2], levels.shape[2], D)
+    for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
+        b, i = idx // P, idx % P
+        for d in range(D):
+            if i < n_initial:
+                pop[b, i, d] = initial[b, i, d]
+            else:
+                u = dev.uniform(seed, b, INIT_GENERATION, i, d)
+                pop[b, i, d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * u
+        rates[b, i, 0], rates[b, i, 1] = settings[2], settings[3]
+        total[b, i] = dev.evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
 
 
 @njit(cache=True)
@@ -161,12 +171,24 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
 
 
 @njit(parallel=True, cache=True)
-def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw):
+def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
-    total (N,), raw (N, T)."""
+    total (N,), raw (N, T). n_chunks as for initialise."""
+    N = poses.shape[0]
+    n_chunks = max(1, min(N, n_chunks))
+    if n_chunks == 1:
+        _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
+    else:
+        for c in prange(n_chunks):
+            _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw)
+
+
+@njit(cache=True)
+def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
+    """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
-    for n in prange(N):
-        scratch, _, _, _ = _scratch(skel, poses, raw.shape[1], levels.shape[1], D)
+    scratch, _, _, _ = _scratch(skel, poses, raw.shape[1], levels.shape[1], D)
+    for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
         total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 

@@ -2,36 +2,23 @@
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import numba
 import numpy as np
 
 from deik.kernels import cpu
-from deik.kernels.cpu import CHUNKS_PER_THREAD, SERIAL_WORK
 
 
-@contextmanager
-def _threads_for(n_individuals, skel):
-    """Run small generations on one thread: waking the pool costs more than it saves, and on a
-    loaded machine a descheduled thread stalls every parallel region. Results do not depend on
-    the thread count."""
-    work = n_individuals * (skel[0].shape[0] + skel[4].shape[0])
-    before = numba.get_num_threads()
-    if work < SERIAL_WORK:
-        numba.set_num_threads(1)
-    try:
-        yield numba.get_num_threads() * CHUNKS_PER_THREAD
-    finally:
-        numba.set_num_threads(before)
+def _chunks_for(n_individuals: int, skel) -> int:
+    """Work units for a loop over n_individuals (1: the calling thread; see cpu._chunks)."""
+    return int(cpu._chunks(n_individuals, 1, skel, numba.get_num_threads()))
 
 
 class CpuBackend:
     name = "cpu"
 
     def initialise(self, buffers, skel, terms, settings, initial, n_initial):
-        with _threads_for(buffers[0].shape[0] * buffers[0].shape[1], skel) as chunks:
-            cpu.initialise(*buffers, skel, terms, settings, initial, np.int64(n_initial), chunks)
+        chunks = _chunks_for(buffers[0].shape[0] * buffers[0].shape[1], skel)
+        cpu.initialise(*buffers, skel, terms, settings, initial, np.int64(n_initial), chunks)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and history are updated."""
@@ -46,6 +33,6 @@ def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
     N, T = len(poses), terms[0].shape[0]
     dtype = skel[1].dtype
     levels, total, raw = np.empty((N, n_levels), dtype), np.empty(N, dtype), np.empty((N, T), dtype)
-    with _threads_for(N, skel):
-        cpu.evaluate_poses(np.ascontiguousarray(poses, dtype), problem_index, skel, terms, levels, total, raw)
+    cpu.evaluate_poses(np.ascontiguousarray(poses, dtype), problem_index, skel, terms, levels, total, raw,
+                       _chunks_for(N, skel))
     return levels, total, raw

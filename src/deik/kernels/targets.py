@@ -1,6 +1,6 @@
 """Compile the one-source device maths (deik.kernels.device_*.py) for each target.
 
-`cpu` is the device maths compiled with numba.njit(cache=True); `cuda_device()` compiles the
+`cpu` is the device maths compiled with numba.njit(cache=True, _nrt=False); `cuda_device()` compiles the
 same sources with numba.cuda.jit(device=True) on first use. Each compile execs the sources into
 one fresh module, so calls between device functions stay on one target.
 
@@ -74,7 +74,11 @@ def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
 from deik.kernels import device_evolution, device_lm, device_maths, device_polish, device_terms  # noqa: E402
 
 DEVICE_SOURCES = (device_maths, device_terms, device_evolution, device_polish, device_lm)
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True))
+# The device maths never allocates, so it is compiled without Numba's reference counting: every
+# array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
+# doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
+# NRT (they allocate scratch); the device functions only borrow their arrays.
+cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True, _nrt=False))
 
 
 @lru_cache(maxsize=1)
