@@ -57,6 +57,11 @@ def test_orientation_target_must_be_a_rotation(chain3):
         problem(chain3, deik.Orientation("tip", np.diag([1.0, 1.0, -1.0])))
     with pytest.raises(ValueError, match=r"not a rotation matrix"):
         problem(chain3, deik.Orientation("tip", 2 * np.eye(3)))
+    skewed = np.eye(3)
+    skewed[0, 1] = 1e-4  # R R^T off by 1e-4: rejected; float32 rounding (1e-7) is accepted
+    with pytest.raises(ValueError, match=r"not a rotation matrix"):
+        problem(chain3, deik.Orientation("tip", skewed))
+    problem(chain3, deik.Orientation("tip", np.eye(3).astype(np.float32) + 1e-7))
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")

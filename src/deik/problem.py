@@ -88,8 +88,13 @@ class Problem:
         return rows
 
     @cached_property
+    def _goal_params(self) -> list:
+        """Each goal's parameters (B_g, N_PARAMS) and gains (B_g,), parsed once."""
+        return [(g.params(self.skeleton), g.gain()) for g in self.goals]
+
+    @cached_property
     def batch_size(self) -> int:
-        sizes = {g.params(self.skeleton).shape[0] for g in self.goals} | {g.gain().shape[0] for g in self.goals}
+        sizes = {p.shape[0] for p, _ in self._goal_params} | {gain.shape[0] for _, gain in self._goal_params}
         sizes |= {r.shape[0] for r in self._references if r is not None}
         sizes.discard(1)
         if len(sizes) > 1:
@@ -113,15 +118,13 @@ class Problem:
     @cached_property
     def table(self) -> tt.TermTable:
         B = self.batch_size
-        params = []
-        for g in self.goals:
-            rows = np.broadcast_to(g.params(self.skeleton), (B, tt.N_PARAMS)).copy()
-            rows[:, tt.GAIN] = np.broadcast_to(g.gain(), (B,))
-            params.append(rows)
+        params = np.zeros((B, len(self.rows), tt.N_PARAMS))
+        for t, (goal_params, gain) in enumerate(self._goal_params):
+            params[:, t] = goal_params  # a batch of 1 broadcasts
+            params[:, t, tt.GAIN] = gain
         if self.limits == "penalty":
-            params.append(np.zeros((B, tt.N_PARAMS)))
-            params[-1][:, tt.GAIN] = 1.0
-        return tt.compile_rows(self.rows, np.stack(params, axis=1), self.skeleton.n_dofs)
+            params[:, -1, tt.GAIN] = 1.0
+        return tt.compile_rows(self.rows, params, self.skeleton.n_dofs)
 
 
 def _check_stackable(first: Problem, other: Problem, k: int) -> None:

@@ -70,9 +70,12 @@ def _pack(*parts: np.ndarray) -> np.ndarray:
     """Concatenate parts (B_k, ...) along their flattened trailing axes -> (B, N_PARAMS);
     only the leading batch axis broadcasts."""
     B = max(p.shape[0] for p in parts)
-    flat = np.concatenate([np.broadcast_to(p.reshape(p.shape[0], -1), (B, p[0].size)) for p in parts], axis=1)
     out = np.zeros((B, tt.N_PARAMS))
-    out[:, : flat.shape[1]] = flat
+    column = 0
+    for p in parts:
+        width = p[0].size
+        out[:, column:column + width] = p.reshape(p.shape[0], width)  # a batch of 1 broadcasts
+        column += width
     return out
 
 
@@ -114,7 +117,8 @@ class Orientation(Goal):
     def row(self, skeleton):
         R = _vector(self.target, (3, 3), f"{self.frame} orientation")
         eye = np.eye(3)
-        if not np.allclose(R @ np.swapaxes(R, -1, -2), eye, atol=1e-5) or (np.linalg.det(R) < 0).any():
+        # R R^T = I within 1e-5 (2e-5 on the diagonal, as np.allclose), and no reflection
+        if not (np.abs(R @ np.swapaxes(R, -1, -2) - eye) <= 1e-5 * (1 + eye)).all() or (np.linalg.det(R) < 0).any():
             raise ValueError(f"orientation target for {self.frame!r} is not a rotation matrix")
         return self._row(tt.ORIENTATION, f"orientation {self.frame}", (skeleton.frame_index(self.frame),),
                          1.0, 0.01)
