@@ -11,7 +11,8 @@ import deik
 from deik import plot
 from deik.cli import main
 from deik.demo import chain_scenarios, run_demo
-from deik.problem_file import load_problem, skeleton_from_spec
+from deik.io.load import skeleton_from_spec
+from deik.problem_file import load_problem
 from deik.rotations import euler_matrix
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -123,7 +124,8 @@ level = 2
 
 
 def test_toml_problem_matches_the_python_api(tmp_path):
-    problem, settings = load_problem(write(tmp_path, TOML))
+    loaded = load_problem(write(tmp_path, TOML))
+    problem, settings = loaded.problem, loaded.settings
     skeleton = deik.chain(4, dims=3)
     expected = deik.Problem(skeleton, [
         deik.Position("tip", (2, 1, 0.5), tolerance=0.01),

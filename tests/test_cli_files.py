@@ -206,3 +206,68 @@ def test_cli_start_pose_seeds_the_search_and_keeps_the_answer_near_it(shared_dat
         assert main(["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip, *map(str, target),
                      "--start", *bad]) == 2
         assert fragment in capsys.readouterr().err
+
+
+def test_toml_problem_on_a_urdf_robot_relative_to_the_file(shared_data, tmp_path, capsys):
+    """skeleton = a URDF path relative to the problem file, with base and tip, solved by the CLI."""
+    import shutil
+
+    base, tip, _ = ROBOT_CHAINS["panda"]
+    robots = tmp_path / "robots"
+    robots.mkdir()
+    shutil.copy(shared_data / "robots" / "panda.urdf", robots / "panda.urdf")
+    sk, xyz, _ = _target(robots / "panda.urdf", base, tip, seed=11)
+    problem = tmp_path / "problems" / "reach.toml"
+    problem.parent.mkdir()
+    problem.write_text(f'skeleton = "../robots/panda.urdf"\nbase = "{base}"\ntip = ["{tip}"]\nup = [0, 0, 1]\n'
+                       f'[settings]\nseed = 0\npopulation = 32\n'
+                       f'[[goal]]\ntype = "position"\nframe = "{tip}"\ntarget = {list(map(float, xyz))}\ntolerance = 1e-5\n')
+    out = tmp_path / "pose.json"
+    assert main(["solve", "--problem", str(problem), "--out", str(out)]) == 0, capsys.readouterr().err
+    angles = np.array(json.loads(out.read_text())["angles"])
+    assert np.all(angles >= sk.lower) and np.all(angles <= sk.upper)
+    assert np.linalg.norm(deik.forward_kinematics(sk, angles).position(tip) - xyz) <= 1e-5
+
+
+def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path, capsys):
+    """frame = N seeds the search, makes comfort goals keep that frame's pose, and --out x.bvh
+    replaces only that frame of the clip."""
+    from deik.io.bvh import read_bvh
+    from deik.problem_file import load_problem
+
+    path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
+    clip, target = _clip_target(path, 5, seed=3)
+    problem = tmp_path / "walk.toml"
+    problem.write_text(f'skeleton = "{path}"\nsegments = "{path.with_suffix(".segments.json")}"\nframe = 5\n'
+                       f'[settings]\nseed = 1\ngenerations = 300\n'
+                       f'[[goal]]\ntype = "position"\nframe = "LeftElbow_end"\ntarget = {list(map(float, target))}\n'
+                       f'[[goal]]\ntype = "comfort"\nweight = 0.1\nlevel = 1\n')
+    loaded = load_problem(problem)
+    assert loaded.frame == 5 and loaded.loaded.kind == "bvh"
+    np.testing.assert_array_equal(loaded.problem.reference[0, 1], clip.pose(5))  # comfort: near frame 5
+    out = tmp_path / "walk_fixed.bvh"
+    assert main(["solve", "--problem", str(problem), "--out", str(out)]) == 0, capsys.readouterr().err
+    assert "masses" in capsys.readouterr().err
+    solved = read_bvh(out)
+    changed = np.flatnonzero(np.abs(solved.frames - clip.frames).max(axis=1) > 1e-6)
+    assert changed.tolist() == [5]
+    hand = deik.forward_kinematics(clip.skeleton, solved.pose(5)).position("LeftElbow_end")
+    assert np.linalg.norm(hand - target) <= 0.01 * clip.skeleton.reach  # the default tolerance
+
+
+@pytest.mark.parametrize("lines, fragment", [
+    ('skeleton = "chain:3"\nbase = "link0"\n', "field 'base' only applies to a URDF robot, not skeleton = 'chain:3'"),
+    ('skeleton = "{data}/robots/panda.urdf"\nframe = 2\n', "field 'frame' only applies to a BVH clip"),
+    ('skeleton = "{data}/humanoid/humanoid3d_walk.bvh"\nframe = 39\n', "field 'frame' must be a frame number from 0 to 38"),
+    ('skeleton = "{data}/robots/panda.urdf"\ntip = 3\n', "field 'tip' must be a link name or a list of link names"),
+    ('skeleton = "{data}/robots/panda.urdf"\ntip = "panda_hnd"\n', "field 'skeleton'"),
+    ('skeleton = "missing.urdf"\n', "field 'skeleton'"),
+])
+def test_toml_skeleton_file_errors_name_the_field(shared_data, tmp_path, lines, fragment):
+    from deik.problem_file import load_problem
+
+    problem = tmp_path / "bad.toml"
+    problem.write_text(lines.format(data=shared_data) + '[[goal]]\ntype = "comfort"\n')
+    with pytest.raises(ValueError) as caught:
+        load_problem(problem)
+    assert str(caught.value).startswith(str(problem)) and fragment in str(caught.value)

@@ -119,7 +119,8 @@ def _file_flags_used(args) -> bool:
 
 
 def _problem(args):
-    """(problem, settings dict, loaded skeleton or None, frame pose or None) from the flags."""
+    """(problem, settings dict, loaded skeleton or None, start pose or None, BVH frame number or
+    None) from the flags or the --problem file."""
     has_goals = bool(args.reach or args.orient or args.com_over or args.obstacle) or args.comfort is not None
     spec = args.skeleton_flag or args.skeleton
     if args.skeleton_flag and args.skeleton:
@@ -128,8 +129,9 @@ def _problem(args):
         if spec or has_goals or _file_flags_used(args) or args.start:
             raise UsageError("--problem FILE already names the skeleton and goals; "
                              "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file")
-        problem, settings = load_problem(args.problem)
-        return problem, settings, None, None
+        file = load_problem(args.problem)
+        pose = None if file.frame is None else file.loaded.clip.pose(file.frame)
+        return file.problem, file.settings, file.loaded, pose, file.frame
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
@@ -145,7 +147,7 @@ def _problem(args):
         frame_pose = _start_pose(args.start, loaded.skeleton)
     if not has_goals:
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
-    return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose
+    return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose, args.frame
 
 
 def _progress(generations: int, terminal: bool):
@@ -180,15 +182,15 @@ def run_solve(args) -> int:
     check_output("--plot", args.plot)
     if args.plot:
         plot.require_matplotlib()
-    problem, settings, loaded, frame_pose = _problem(args)
+    problem, settings, loaded, frame_pose, frame = _problem(args)
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
     settings = Settings(**settings)
     check_device(settings.device)
     initial = None
     if frame_pose is not None:
         initial = poses_around(problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed)
-        if args.comfort is None:
-            near = "the --start pose" if args.start else f"frame {args.frame}"
+        if args.comfort is None and not args.problem:
+            near = "the --start pose" if args.start else f"frame {frame}"
             print(f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
                   "targets); --comfort 0 turns it off", file=sys.stderr)
     if loaded is not None and loaded.kind == "bvh":
@@ -205,7 +207,7 @@ def run_solve(args) -> int:
     print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
           f"converged {'yes' if result.converged else 'no'}")
     if args.out:
-        _write_pose(args.out, result, loaded, args.frame)
+        _write_pose(args.out, result, loaded, frame)
     if args.plot:
         spec = args.skeleton_flag or args.skeleton or args.problem
         plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")

@@ -1,9 +1,10 @@
 """Problems written as TOML files, and the skeleton specs shared with the command line.
 
-A problem file names a built-in skeleton, optional solver settings and one `[[goal]]` table
-per goal (lengths in metres or the skeleton's length unit, angles as noted)::
+A problem file names a skeleton, optional solver settings and one `[[goal]]` table per goal
+(lengths in metres or the skeleton's length unit, angles as noted)::
 
-    skeleton = "humanoid"        # "chain:N" (planar, N links), "chain3d:N" or "humanoid"
+    skeleton = "humanoid"        # "chain:N" (planar, N links), "chain3d:N", "humanoid", or a
+                                 # .bvh / .urdf file (relative to this file's folder)
     limits = "reflect"           # optional: "reflect", "clip", "penalty" or "paper"
 
     [settings]                   # optional: population, generations, strategy, F, CR, seed,
@@ -28,195 +29,45 @@ Other types and their fields (optional ones in brackets): "aim" frame, target [a
 "comfort" [mode ("sum" | "max"), joint_weights ("start" | "end", a table {joint = weight} or
 one number per DOF)]; "obstacle" centre, radius [bone_radius]. Every mistake raises a
 ValueError naming the file, the goal and the field; nothing is guessed or defaulted silently.
+
+A URDF robot takes the top-level keys of `deik solve`'s flags: base = "link", tip = "link" or
+a list of links, up = [x, y, z]. A BVH clip takes segments = "table.json" (masses) and
+frame = N: the search then starts around that frame's pose, and comfort goals keep the pose
+near it (their reference), as `deik solve --frame N` does.
 """
 
 from __future__ import annotations
 
-import math
 import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
 
-import numpy as np
-
-from deik.builders import chain
 from deik.evolution.engine import Settings
-from deik.humanoid import humanoid
+from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.objectives import goals as g
 from deik.problem import LIMIT_MODES, Problem
-from deik.rotations import euler_matrix
-from deik.skeleton import Skeleton
+from deik.problem_goals import goal_from_table, vector_field
 from deik.suggest import did_you_mean
 
-SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain), 'humanoid', or a .bvh or .urdf file"
-COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
-# type -> (goal class, required fields, optional fields besides COMMON_FIELDS)
-GOAL_TYPES = {
-    "position": (g.Position, ("frame", "target"), ()),
-    "orientation": (g.Orientation, ("frame",), ("target", "euler", "degrees")),
-    "aim": (g.Aim, ("frame", "target"), ("axis",)),
-    "com": (g.CentreOfMass, ("target",), ()),
-    "com_over_support": (g.ComOverSupport, ("point",), ()),
-    "com_in_polygon": (g.ComInPolygon, ("frames",), ()),
-    "comfort": (g.Comfort, (), ("mode", "joint_weights")),
-    "obstacle": (g.Obstacle, ("centre", "radius"), ("bone_radius",)),
-}
-TOP_LEVEL = ("skeleton", "limits", "settings", "goal")
+URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")
+TOP_LEVEL = ("skeleton", "limits", "settings", "goal") + URDF_KEYS + BVH_KEYS
 
 
-def skeleton_from_spec(spec: str) -> Skeleton:
-    """Built-in skeleton from "chain:N" (planar, N unit links), "chain3d:N" or "humanoid"."""
-    kind, _, count = str(spec).partition(":")
-    if kind == "humanoid" and not count:
-        return humanoid()
-    if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
-        return chain(int(count), dims=2 if kind == "chain" else 3)
-    raise ValueError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")
+@dataclass(frozen=True)
+class ProblemFile:
+    """A loaded problem file: the Problem, its settings (a dict for deik.solve), the skeleton
+    as loaded (deik.io.load.Loaded: its clip for a BVH) and the clip frame the search starts
+    from (None unless the file sets `frame`)."""
+
+    problem: Problem
+    settings: dict
+    loaded: Loaded
+    frame: int | None = None
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-VECTOR_FORMS = {(3,): "[x, y, z]", (3, 3): "[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]"}
-
-
-def _array(value, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
-    """A finite float64 array of `shape` from nested TOML lists, or a ValueError saying why;
-    `form` describes the expected value (default: a 3-vector or 3x3 matrix template)."""
-
-    def check(item, dims):
-        if not dims:
-            return _is_number(item)
-        return isinstance(item, list) and len(item) == dims[0] and all(check(x, dims[1:]) for x in item)
-
-    form = form or VECTOR_FORMS.get(shape, f"a list of {shape[0]} numbers")
-    if not check(value, shape):
-        raise ValueError(f"{where}: field {field!r} must be {form}, got {value!r}")
-    array = np.asarray(value, dtype=np.float64)
-    if not np.isfinite(array).all():
-        raise ValueError(f"{where}: field {field!r} contains NaN or infinity ({value!r}); give finite numbers")
-    return array
-
-
-def _scalar(value, field: str, where: str):
-    """weight, mu, tolerance, radius, bone_radius: finite numbers; level: an integer >= 0."""
-    if field == "level":
-        if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
-            return value
-        raise ValueError(f"{where}: field 'level' must be an integer >= 0 (0 = highest priority), got {value!r}")
-    if not (_is_number(value) and math.isfinite(value)):
-        raise ValueError(f"{where}: field {field!r} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _frame(skeleton: Skeleton, value, field: str, where: str) -> str:
-    if not isinstance(value, str):
-        raise ValueError(f"{where}: field {field!r} must be a joint or site name (a string), got {value!r}")
-    try:
-        skeleton.frame_index(value)
-    except KeyError as error:
-        raise ValueError(f"{where}: field {field!r}: {error.args[0]}") from None
-    return value
-
-
-def _joint_weights(skeleton: Skeleton, value, where: str):
-    field = "joint_weights"
-    if value in ("start", "end"):
-        return value
-    if isinstance(value, dict):
-        for name, weight in value.items():
-            _frame(skeleton, name, field, where)
-            if name not in skeleton.joint_names:
-                raise ValueError(f"{where}: field {field!r}: {name!r} is a site; weights go on joints")
-            if not (_is_number(weight) and math.isfinite(weight) and weight >= 0):
-                raise ValueError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
-        return {name: float(weight) for name, weight in value.items()}
-    if isinstance(value, list):
-        weights = _array(value, (skeleton.n_dofs,), where, field, f"a list of {skeleton.n_dofs} numbers (one per DOF)")
-        if (weights < 0).any():
-            raise ValueError(f"{where}: field {field!r} must hold weights >= 0")
-        return weights
-    raise ValueError(
-        f"{where}: field {field!r} must be \"start\", \"end\", a table {{joint = weight}} or "
-        f"{skeleton.n_dofs} numbers (one per DOF), got {value!r}"
-    )
-
-
-def _orientation_target(table: dict, where: str) -> np.ndarray:
-    if "target" in table:
-        extra = [f for f in ("euler", "degrees") if f in table]
-        if extra:
-            raise ValueError(f"{where}: give either 'target' (a 3x3 matrix) or 'euler' + 'degrees', not both")
-        return _array(table["target"], (3, 3), where, "target")
-    for field in ("euler", "degrees"):
-        if field not in table:
-            raise ValueError(
-                f"{where}: missing field {field!r}; give target = [[..], [..], [..]] (a 3x3 rotation) "
-                "or euler = \"XYZ\" with degrees = [a, b, c]"
-            )
-    order = table["euler"]
-    if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
-        raise ValueError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
-    degrees = _array(table["degrees"], (len(order),), where, "degrees",
-                     f"a list of {len(order)} numbers (one angle per letter of euler {order!r})")
-    return euler_matrix(order, np.radians(degrees))
-
-
-def _goal(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
-    """Build and check goal `number` (1-based) from its TOML table."""
-    where = f"{path}: goal {number}"
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a [[goal]] table, got {table!r}")
-    kind = table.get("type")
-    if kind is None:
-        raise ValueError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
-    if not isinstance(kind, str) or kind not in GOAL_TYPES:
-        raise ValueError(f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} "
-                         f"(types: {', '.join(GOAL_TYPES)})")
-    where = f"{where} ({kind})"
-    cls, required, optional = GOAL_TYPES[kind]
-    allowed = ("type",) + required + optional + COMMON_FIELDS
-    for field in table:
-        if field not in allowed:
-            raise ValueError(f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} "
-                             f"(fields: {', '.join(allowed[1:])})")
-    for field in required:
-        if field not in table:
-            raise ValueError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
-    kwargs = {}
-    for field, value in table.items():
-        if field in ("type", "euler", "degrees") or (kind == "orientation" and field == "target"):
-            continue
-        if field == "frame":
-            kwargs[field] = _frame(skeleton, value, field, where)
-        elif field == "frames":
-            if not isinstance(value, list) or not value:
-                raise ValueError(f"{where}: field 'frames' must be a non-empty list of joint or site names")
-            kwargs[field] = tuple(_frame(skeleton, name, field, where) for name in value)
-        elif field in ("target", "point", "centre", "axis"):
-            kwargs[field] = _array(value, (3,), where, field)
-        elif field == "mode":
-            if value not in ("sum", "max"):
-                raise ValueError(f"{where}: field 'mode' must be \"sum\" or \"max\", got {value!r}")
-            kwargs[field] = value
-        elif field == "joint_weights":
-            kwargs[field] = _joint_weights(skeleton, value, where)
-        else:
-            kwargs[field] = _scalar(value, field, where)
-    if "axis" in kwargs:
-        kwargs["axis"] = tuple(kwargs["axis"])
-    if kind == "orientation":
-        kwargs["target"] = _orientation_target(table, where)
-    goal = cls(**kwargs)
-    try:
-        goal.row(skeleton)
-        goal.params(skeleton)
-    except (ValueError, KeyError) as error:
-        raise ValueError(f"{where}: {error.args[0]}") from None
-    return goal
-
-
-def load_problem(path) -> tuple[Problem, dict]:
-    """Read TOML file `path` -> (Problem, settings dict for deik.solve(problem, **settings))."""
+def load_problem(path) -> ProblemFile:
+    """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
+    loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
     try:
         with open(path, "rb") as file:
@@ -229,12 +80,8 @@ def load_problem(path) -> tuple[Problem, dict]:
         if key not in TOP_LEVEL:
             raise ValueError(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} "
                              f"(keys: {', '.join(TOP_LEVEL)})")
-    if "skeleton" not in data:
-        raise ValueError(f"{path}: missing field 'skeleton'; set skeleton = {SKELETON_FORMS}")
-    try:
-        skeleton = skeleton_from_spec(data["skeleton"])
-    except ValueError as error:
-        raise ValueError(f"{path}: field 'skeleton': {error}") from None
+    loaded, frame = _skeleton(data, path)
+    skeleton = loaded.skeleton
     limits = data.get("limits", "reflect")
     if limits not in LIMIT_MODES:
         raise ValueError(f"{path}: field 'limits' must be one of {', '.join(LIMIT_MODES)}, got {limits!r}")
@@ -256,8 +103,50 @@ def load_problem(path) -> tuple[Problem, dict]:
     if not isinstance(tables, list) or not tables:
         raise ValueError(f"{path}: no goals; add at least one [[goal]] table, e.g. "
                          "type = \"position\", frame = \"tip\", target = [x, y, z]")
-    goals = [_goal(skeleton, table, n, path) for n, table in enumerate(tables, start=1)]
+    goals = [goal_from_table(skeleton, table, n, path) for n, table in enumerate(tables, start=1)]
+    if frame is not None:
+        pose = loaded.clip.pose(frame)
+        goals = [replace(goal, reference=pose) if isinstance(goal, g.Comfort) and goal.reference is None else goal
+                 for goal in goals]
     try:
-        return Problem(skeleton, goals, limits), dict(settings)
+        return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame)
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
+
+
+def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
+    """The file's skeleton (a built-in spec, or a .bvh / .urdf path relative to the file's
+    folder, with the keys that apply to it) and the BVH frame to start from, or None."""
+    if "skeleton" not in data:
+        raise ValueError(f"{path}: missing field 'skeleton'; set skeleton = {SKELETON_FORMS}")
+    spec = data["skeleton"]
+    if not isinstance(spec, str):
+        raise ValueError(f"{path}: field 'skeleton' must be a string: {SKELETON_FORMS}")
+    suffix = Path(spec).suffix.lower()
+    allowed = URDF_KEYS if suffix == ".urdf" else (BVH_KEYS if suffix == ".bvh" else ())
+    for key in URDF_KEYS + BVH_KEYS:
+        if key in data and key not in allowed:
+            kind = "a URDF robot" if key in URDF_KEYS else "a BVH clip"
+            raise ValueError(f"{path}: field {key!r} only applies to {kind}, not skeleton = {spec!r}")
+    folder = Path(path).parent
+    tip = data.get("tip")
+    if tip is not None and not (isinstance(tip, str) or (isinstance(tip, list) and tip
+                                                          and all(isinstance(t, str) for t in tip))):
+        raise ValueError(f"{path}: field 'tip' must be a link name or a list of link names, got {tip!r}")
+    if "base" in data and not isinstance(data["base"], str):
+        raise ValueError(f"{path}: field 'base' must be a link name, got {data['base']!r}")
+    segments = data.get("segments")
+    if segments is not None and not isinstance(segments, str):
+        raise ValueError(f"{path}: field 'segments' must be the path of a segment table, got {segments!r}")
+    try:
+        loaded = load_skeleton(str(folder / spec) if allowed else spec, base=data.get("base"), tip=tip,
+                               segments=str(folder / segments) if segments else None,
+                               up=vector_field(data["up"], (3,), path, "up") if "up" in data else None)
+    except (ValueError, KeyError, OSError) as error:
+        raise ValueError(f"{path}: field 'skeleton': {error.args[0] if error.args else error}") from None
+    frame = data.get("frame")
+    if frame is not None:
+        if not (isinstance(frame, int) and not isinstance(frame, bool) and 0 <= frame < loaded.clip.n_frames):
+            raise ValueError(f"{path}: field 'frame' must be a frame number from 0 to "
+                             f"{loaded.clip.n_frames - 1} of {spec}, got {frame!r}")
+    return loaded, frame

@@ -8,6 +8,7 @@ from pathlib import Path
 from deik.skeleton import Skeleton
 
 URDF_UP = (0.0, 0.0, 1.0)
+SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain), 'humanoid', or a .bvh or .urdf file"
 
 
 @dataclass(frozen=True)
@@ -25,11 +26,9 @@ def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> 
     """Load `spec`: a path ending in .bvh or .urdf, or "chain:N", "chain3d:N", "humanoid".
     `base`/`tip` (link names) and `up` (3,) apply to URDF only; `segments` (a segment table
     path) to BVH only; giving one for another kind is a ValueError."""
-    from deik.problem_file import skeleton_from_spec
-
     suffix = Path(str(spec)).suffix.lower()
     urdf_only = {"--base": base, "--tip": tip, "--up": up}
-    misplaced = [flag for flag, value in urdf_only.items() if value not in (None, [], ())]
+    misplaced = [flag for flag, value in urdf_only.items() if value is not None and len(value) > 0]
     if suffix != ".urdf" and misplaced:
         raise ValueError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
     if suffix != ".bvh" and segments is not None:
@@ -46,3 +45,16 @@ def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> 
         return Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)")
     skeleton = skeleton_from_spec(spec)
     return Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)")
+
+
+def skeleton_from_spec(spec: str) -> Skeleton:
+    """Built-in skeleton from "chain:N" (planar, N unit links), "chain3d:N" or "humanoid"."""
+    from deik.builders import chain
+    from deik.humanoid import humanoid
+
+    kind, _, count = str(spec).partition(":")
+    if kind == "humanoid" and not count:
+        return humanoid()
+    if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
+        return chain(int(count), dims=2 if kind == "chain" else 3)
+    raise ValueError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")

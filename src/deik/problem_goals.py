@@ -1,0 +1,172 @@
+"""The [[goal]] tables of a problem file (deik.problem_file): one checked deik goal each.
+
+Each table's `type` picks the goal class (GOAL_TYPES); its fields are checked one by one and
+every mistake raises a ValueError naming the file, the goal number, its type and the field.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from deik.objectives import goals as g
+from deik.rotations import euler_matrix
+from deik.skeleton import Skeleton
+from deik.suggest import did_you_mean
+
+COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
+# type -> (goal class, required fields, optional fields besides COMMON_FIELDS)
+GOAL_TYPES = {
+    "position": (g.Position, ("frame", "target"), ()),
+    "orientation": (g.Orientation, ("frame",), ("target", "euler", "degrees")),
+    "aim": (g.Aim, ("frame", "target"), ("axis",)),
+    "com": (g.CentreOfMass, ("target",), ()),
+    "com_over_support": (g.ComOverSupport, ("point",), ()),
+    "com_in_polygon": (g.ComInPolygon, ("frames",), ()),
+    "comfort": (g.Comfort, (), ("mode", "joint_weights")),
+    "obstacle": (g.Obstacle, ("centre", "radius"), ("bone_radius",)),
+}
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+VECTOR_FORMS = {(3,): "[x, y, z]", (3, 3): "[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]"}
+
+
+def vector_field(value, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
+    """A finite float64 array of `shape` from nested TOML lists, or a ValueError saying why;
+    `form` describes the expected value (default: a 3-vector or 3x3 matrix template)."""
+
+    def check(item, dims):
+        if not dims:
+            return _is_number(item)
+        return isinstance(item, list) and len(item) == dims[0] and all(check(x, dims[1:]) for x in item)
+
+    form = form or VECTOR_FORMS.get(shape, f"a list of {shape[0]} numbers")
+    if not check(value, shape):
+        raise ValueError(f"{where}: field {field!r} must be {form}, got {value!r}")
+    array = np.asarray(value, dtype=np.float64)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{where}: field {field!r} contains NaN or infinity ({value!r}); give finite numbers")
+    return array
+
+
+def _scalar(value, field: str, where: str):
+    """weight, mu, tolerance, radius, bone_radius: finite numbers; level: an integer >= 0."""
+    if field == "level":
+        if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+            return value
+        raise ValueError(f"{where}: field 'level' must be an integer >= 0 (0 = highest priority), got {value!r}")
+    if not (_is_number(value) and math.isfinite(value)):
+        raise ValueError(f"{where}: field {field!r} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _frame(skeleton: Skeleton, value, field: str, where: str) -> str:
+    if not isinstance(value, str):
+        raise ValueError(f"{where}: field {field!r} must be a joint or site name (a string), got {value!r}")
+    try:
+        skeleton.frame_index(value)
+    except KeyError as error:
+        raise ValueError(f"{where}: field {field!r}: {error.args[0]}") from None
+    return value
+
+
+def _joint_weights(skeleton: Skeleton, value, where: str):
+    field = "joint_weights"
+    if value in ("start", "end"):
+        return value
+    if isinstance(value, dict):
+        for name, weight in value.items():
+            _frame(skeleton, name, field, where)
+            if name not in skeleton.joint_names:
+                raise ValueError(f"{where}: field {field!r}: {name!r} is a site; weights go on joints")
+            if not (_is_number(weight) and math.isfinite(weight) and weight >= 0):
+                raise ValueError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
+        return {name: float(weight) for name, weight in value.items()}
+    if isinstance(value, list):
+        weights = vector_field(value, (skeleton.n_dofs,), where, field, f"a list of {skeleton.n_dofs} numbers (one per DOF)")
+        if (weights < 0).any():
+            raise ValueError(f"{where}: field {field!r} must hold weights >= 0")
+        return weights
+    raise ValueError(
+        f"{where}: field {field!r} must be \"start\", \"end\", a table {{joint = weight}} or "
+        f"{skeleton.n_dofs} numbers (one per DOF), got {value!r}"
+    )
+
+
+def _orientation_target(table: dict, where: str) -> np.ndarray:
+    if "target" in table:
+        extra = [f for f in ("euler", "degrees") if f in table]
+        if extra:
+            raise ValueError(f"{where}: give either 'target' (a 3x3 matrix) or 'euler' + 'degrees', not both")
+        return vector_field(table["target"], (3, 3), where, "target")
+    for field in ("euler", "degrees"):
+        if field not in table:
+            raise ValueError(
+                f"{where}: missing field {field!r}; give target = [[..], [..], [..]] (a 3x3 rotation) "
+                "or euler = \"XYZ\" with degrees = [a, b, c]"
+            )
+    order = table["euler"]
+    if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
+        raise ValueError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
+    degrees = vector_field(table["degrees"], (len(order),), where, "degrees",
+                     f"a list of {len(order)} numbers (one angle per letter of euler {order!r})")
+    return euler_matrix(order, np.radians(degrees))
+
+
+def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
+    """Build and check goal `number` (1-based) from its TOML table."""
+    where = f"{path}: goal {number}"
+    if not isinstance(table, dict):
+        raise ValueError(f"{where}: must be a [[goal]] table, got {table!r}")
+    kind = table.get("type")
+    if kind is None:
+        raise ValueError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
+    if not isinstance(kind, str) or kind not in GOAL_TYPES:
+        raise ValueError(f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} "
+                         f"(types: {', '.join(GOAL_TYPES)})")
+    where = f"{where} ({kind})"
+    cls, required, optional = GOAL_TYPES[kind]
+    allowed = ("type",) + required + optional + COMMON_FIELDS
+    for field in table:
+        if field not in allowed:
+            raise ValueError(f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} "
+                             f"(fields: {', '.join(allowed[1:])})")
+    for field in required:
+        if field not in table:
+            raise ValueError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
+    kwargs = {}
+    for field, value in table.items():
+        if field in ("type", "euler", "degrees") or (kind == "orientation" and field == "target"):
+            continue
+        if field == "frame":
+            kwargs[field] = _frame(skeleton, value, field, where)
+        elif field == "frames":
+            if not isinstance(value, list) or not value:
+                raise ValueError(f"{where}: field 'frames' must be a non-empty list of joint or site names")
+            kwargs[field] = tuple(_frame(skeleton, name, field, where) for name in value)
+        elif field in ("target", "point", "centre", "axis"):
+            kwargs[field] = vector_field(value, (3,), where, field)
+        elif field == "mode":
+            if value not in ("sum", "max"):
+                raise ValueError(f"{where}: field 'mode' must be \"sum\" or \"max\", got {value!r}")
+            kwargs[field] = value
+        elif field == "joint_weights":
+            kwargs[field] = _joint_weights(skeleton, value, where)
+        else:
+            kwargs[field] = _scalar(value, field, where)
+    if "axis" in kwargs:
+        kwargs["axis"] = tuple(kwargs["axis"])
+    if kind == "orientation":
+        kwargs["target"] = _orientation_target(table, where)
+    goal = cls(**kwargs)
+    try:
+        goal.row(skeleton)
+        goal.params(skeleton)
+    except (ValueError, KeyError) as error:
+        raise ValueError(f"{where}: {error.args[0]}") from None
+    return goal
