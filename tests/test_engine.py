@@ -286,7 +286,8 @@ def test_batch_solves_each_problem():
     assert batch.errors["position tip"].shape == (4,)
     for b in range(4):
         n = int(batch.generations[b])
-        assert (np.diff(batch.history[b, :n, 0]) <= 0).all()
+        assert (np.diff(batch.history[b, :n, 0]) <= 0).all() and np.isfinite(batch.history[b, :n]).all()
+        assert np.isnan(batch.history[b, n:]).all()  # after a problem stops, while others run on
         single = deik.solve(deik.Problem(sk, [deik.Position("tip", targets[b])]), seed=2)
         assert single.converged
         if b == 0:
@@ -333,3 +334,17 @@ def test_humanoid_planted_foot_balance_and_reach():
     horizontal = (got.p_world_com - support)[[0, 2]]  # Y is up
     assert np.linalg.norm(horizontal) <= 0.02 + 1e-6
     assert np.linalg.norm(got.position("left_hand") - hand_target) <= 0.01
+
+
+def test_history_of_a_problem_that_stops_early_is_nan_after_it_stops():
+    sk = deik.chain(3)
+    kin = deik.forward_kinematics(sk, np.random.default_rng(4).uniform(-2, 2, (2, 3)))
+    tips, elbows = kin.position("tip"), kin.position("link2")
+    elbows[1] = -0.5 * tips[1]  # problem 1 cannot meet both goals: it runs until it stagnates
+    problem = deik.Problem(sk, [deik.Position("tip", tips, tolerance=1e-3),
+                                deik.Position("link2", elbows, tolerance=1e-3)])
+    result = deik.solve(problem, seed=0, population=16, patience=5, restarts=0)
+    n0, n1 = (int(n) for n in result.generations)
+    assert result.converged.tolist() == [True, False] and n0 < n1 == result.history.shape[1]
+    assert np.isfinite(result.history[0, :n0]).all() and np.isnan(result.history[0, n0:]).all()
+    assert np.isfinite(result.history[1]).all() and (np.diff(result.history[1, :, 0]) <= 0).all()

@@ -215,12 +215,15 @@ class Engine:
         cur = tuple(a.copy() for a in state.buffers)
         nxt = tuple(a.copy() for a in state.buffers)  # stopped problems must be in both
         status = tuple(a.copy() for a in state.status)
-        history = np.full((B, state.history.shape[1] + n_generations, 2), np.nan)
-        history[:, : state.history.shape[1]] = state.history
+        # generation-major and left unfilled: a launch touches only the rows it runs, however
+        # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
+        steps = np.empty((n_generations, B, 2))
         final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, self.memetic,
-                                           status, self.control, history, state.generation, n_generations)
-        used = int(status[2].max()) if B else 0
-        return EvolutionState(*final, *status, history[:, :used], state.generation + advanced)
+                                           status, self.control, steps, state.generation, n_generations)
+        ran = state.generation + np.arange(advanced)  # rows a problem that had stopped did not write
+        new = np.where((ran[:, None] < status[2][None, :])[..., None], steps[:advanced], np.nan)
+        history = np.concatenate([state.history, new.transpose(1, 0, 2)], axis=1)
+        return EvolutionState(*final, *status, history, state.generation + advanced)
 
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b

@@ -163,7 +163,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
                     _polish_chunk(c, chunks, n_active, cur, skel, terms, status, memetic, order)
         for k in range(n_active):
             b = order[k]
-            dev.update_status(b, gen, cur, terms, status, control, history)
+            dev.update_status(b, gen, g, cur, terms, status, control, history)
             if not active[b]:
                 for i in range(P):
                     dev.copy_individual(cur, nxt, b, i, i)

@@ -21,7 +21,8 @@ class CpuBackend:
         cpu.initialise(*buffers, skel, terms, settings, initial, np.int64(n_initial), chunks)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
-        """Returns (final buffers, generations advanced); status and history are updated."""
+        """Returns (final buffers, generations advanced); status and the first `advanced` rows
+        of history (n_gens, B, 2) are updated."""
         swaps = int(cpu.run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history,
                                         np.int64(gen_start), np.int64(n_gens), numba.get_num_threads()))
         return (cur if swaps % 2 == 0 else nxt), swaps

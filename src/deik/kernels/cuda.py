@@ -98,7 +98,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                             break
                 cuda.syncthreads()
             if tid == 0:
-                update_status(b, gen_start + g, cur, terms, status, control, history)
+                update_status(b, gen_start + g, g, cur, terms, status, control, history)
         if swaps % 2 == 1:
             for i in range(tid, P, stride):
                 copy_individual(cur, nxt, b, i, i)
@@ -144,14 +144,18 @@ class CudaBackend:
             device.copy_to_host(host)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
-        """Returns (final buffers, generations advanced); status and history are updated."""
+        """Returns (final buffers, generations advanced); status and the first `advanced` rows
+        of history (n_gens, B, 2) are updated."""
         _, run = kernels_for(skel, cur)
         d_cur, d_nxt, d_status = self._to_device(cur), self._to_device(nxt), self._to_device(status)
-        d_history = cuda.to_device(history)
+        d_history = cuda.device_array(history.shape, history.dtype)  # written by the kernel, never read
         B, P = cur[0].shape[:2]
         advanced = cuda.to_device(np.zeros(B, np.int64))
         run[B, self._threads(P)](d_cur, d_nxt, self._to_device(skel), self._to_device(terms), settings, memetic,
                                  d_status, control, d_history, np.int64(gen_start), np.int64(n_gens), advanced)
-        for host, device in zip(cur + status + (history,), d_cur + d_status + (d_history,)):
+        for host, device in zip(cur + status, d_cur + d_status):
             device.copy_to_host(host)
-        return cur, int(advanced.copy_to_host().max())
+        swaps = int(advanced.copy_to_host().max())
+        if swaps:
+            d_history[:swaps].copy_to_host(history[:swaps])  # only the generations that ran
+        return cur, swaps

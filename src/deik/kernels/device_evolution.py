@@ -156,12 +156,13 @@ def within_tolerances(b, rw, terms, T):
     return True
 
 
-def update_status(b, gen, pop_state, terms, status, control, history):
+def update_status(b, gen, row, pop_state, terms, status, control, history):
     """After a generation: best index, island leaders, migration, history, convergence,
     stagnation and restarts of problem b. A problem that stagnates unconverged with restarts
     left is flagged to restart: its next generation replaces every individual but the best by
     a random pose, and that best stays on as the elite, never worse, while the leaders that
-    guide mutation and polish are the best of the others in each island."""
+    guide mutation and polish are the best of the others in each island. The best and mean
+    total go to history[row, b] (generation-major (G, B, 2): a launch writes a prefix)."""
     pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
     best, active, generations, converged, best_seen, last_improved, restarts, restarting, elite, leader = status
     patience, rel_improvement, stop_on_converged, max_restarts, migration = control
@@ -182,8 +183,8 @@ def update_status(b, gen, pop_state, terms, status, control, history):
     if islands > 1 and (gen + 1) % migration == 0:
         migrate(b, pop_state, elite[b], leader, islands)
     best[b] = k
-    history[b, generations[b], 0] = total[b, k]
-    history[b, generations[b], 1] = mean / P
+    history[row, b, 0] = total[b, k]
+    history[row, b, 1] = mean / P
     generations[b] += 1
     met = within_tolerances(b, raw[b, k], terms, raw.shape[2])
     converged[b] = met
