@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PEERS_PYTHON = ROOT / ".venv-peers" / "bin" / "python"
 PEERS = ("ikpy", "pk", "placo", "pink", "mink", "pybullet")
 STRICT, LOOSE, BUDGET_S = (1e-5, 1e-4), (1e-3, 1e-2), 0.005
-DEIK = {"population": 32, "generations": 2000, "patience": 50, "dtype": "float64"}  # retune here
+DEIK = {"population": 32, "polish_count": 32, "generations": 2000, "patience": 50, "dtype": "float64"}  # retune here
 PEER_TIMEOUT_S = 900
 
 

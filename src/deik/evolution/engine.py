@@ -24,8 +24,9 @@ STAGNATION = 1e-3  # a best total that falls by less than this fraction in `pati
 class Settings:
     """DE settings. The defaults converge on IK problems: current-to-best/1/bin with jDE
     self-adaptive F and CR (`adaptive`; F and CR are then only the starting values), an LM
-    polish of `polish_count` individuals per problem (the best first) with `polish` steps
-    every `polish_every` generations (0 turns it off), and up to `restarts` restarts of a
+    polish of up to `polish_count` individuals per problem (the best first, stopping at the
+    first that meets every tolerance) with `polish` steps every `polish_every` generations
+    (0 turns it off), and up to `restarts` restarts of a
     search that stagnates unconverged. `islands` > 1 splits each population into that many
     groups that breed apart and pass their leader to the next group every `migration`
     generations. `Settings.paper()` is the paper's plain rand/1/bin for
@@ -45,7 +46,7 @@ class Settings:
     adaptive: bool = True
     polish: int = 10
     polish_every: int = 10
-    polish_count: int = 8
+    polish_count: int = 16
     restarts: int = 20
     islands: int = 1
     migration: int = 25
