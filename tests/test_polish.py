@@ -144,6 +144,8 @@ def test_time_limit_must_be_positive():
         deik.Settings(time_limit=0)
     with pytest.raises(ValueError, match="polish"):
         deik.Settings(polish=-1)
+    with pytest.raises(ValueError, match="polish_count must be at most 128"):
+        deik.Settings(population=256, polish_count=129)
 
 
 def test_panda_poses_solved_to_ten_micrometres_from_the_mid_pose(shared_data):

@@ -17,6 +17,7 @@ from deik.problem import Problem
 STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
 LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
 DEVICES = ("cpu", "gpu")
+MAX_POLISH_COUNT = 128  # individuals one polish round may refine: a GPU block's threads
 STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
 
 
@@ -87,6 +88,9 @@ class Settings:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.polish_count > MAX_POLISH_COUNT:
+            raise ValueError(f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
+                             f"got {self.polish_count}")
         if not (isinstance(self.islands, int) and self.islands >= 1 and self.population % self.islands == 0
                 and self.population // self.islands >= 4):
             raise ValueError(f"islands must divide the population into groups of at least 4 individuals, "

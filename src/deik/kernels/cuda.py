@@ -14,9 +14,10 @@ from functools import lru_cache
 import numpy as np
 from numba import cuda, float32, float64, int32
 
+from deik.evolution.engine import MAX_POLISH_COUNT
 from deik.kernels.targets import cuda_device
 
-THREADS_PER_BLOCK = 128
+THREADS_PER_BLOCK = MAX_POLISH_COUNT  # a polish round gives each of its individuals a thread
 INIT_GENERATION = -1
 
 
@@ -34,7 +35,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
     polish, polish_target, within_tolerances = dev.polish, dev.polish_target, dev.within_tolerances
     ftype = float32 if dtype_name == "float32" else float64
     n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
-    n_dd, n_jac = n_dofs * n_dofs, 3 * n_dofs
+    n_jac = 3 * n_dofs
 
     @cuda.jit
     def initialise(pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial):
@@ -53,13 +54,16 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
             total[b, i] = evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
 
     @cuda.jit
-    def run(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, advanced):
+    def run(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, advanced,
+            polish_matrix):
         b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
         scratch = (cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(32, ftype))
         trial, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
         trial_rates, axes = cuda.local.array(2, ftype), cuda.local.array(n_a, ftype)
-        lm = (cuda.local.array(n_dd, ftype), cuda.local.array(n_d, ftype), cuda.local.array(n_jac, ftype),
-              cuda.local.array(n_d, ftype))
+        # the polish's D x D matrix lives in global memory, one per polishing thread: as a local
+        # array every resident thread would reserve it (64 KiB each at the 128-DOF bucket)
+        lm = (polish_matrix[b, min(tid, polish_matrix.shape[1] - 1)], cuda.local.array(n_d, ftype),
+              cuda.local.array(n_jac, ftype), cuda.local.array(n_d, ftype))
         met = cuda.shared.array(THREADS_PER_BLOCK, int32)
         best, active, restarting, leader = status[0], status[1], status[7], status[9]
         iterations, every, count = memetic
@@ -151,8 +155,12 @@ class CudaBackend:
         d_history = cuda.device_array(history.shape, history.dtype)  # written by the kernel, never read
         B, P = cur[0].shape[:2]
         advanced = cuda.to_device(np.zeros(B, np.int64))
+        iterations, _, count = memetic
+        D = cur[0].shape[2]
+        polish_matrix = cuda.device_array((B, int(count), D * D) if iterations > 0 else (B, 1, 1), cur[0].dtype)
         run[B, self._threads(P)](d_cur, d_nxt, self._to_device(skel), self._to_device(terms), settings, memetic,
-                                 d_status, control, d_history, np.int64(gen_start), np.int64(n_gens), advanced)
+                                 d_status, control, d_history, np.int64(gen_start), np.int64(n_gens), advanced,
+                                 polish_matrix)
         for host, device in zip(cur + status, d_cur + d_status):
             device.copy_to_host(host)
         swaps = int(advanced.copy_to_host().max())
