@@ -202,9 +202,9 @@ def forward_kinematics_batch(poses, skel, R, p):
 
 @njit(parallel=True, cache=True)
 def point_jacobians(poses, frames, skel, x, jacobian):
-    """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints)
-    at poses (N, D), and their analytic Jacobian (N, G, 3, D), with the kernels' FK and the
-    polish's rows (device_polish.point_rows)."""
+    """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
+    -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
+    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows)."""
     N, D = poses.shape
     for n in prange(N):
         scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
@@ -216,9 +216,13 @@ def point_jacobians(poses, frames, skel, x, jacobian):
             f = frames[g]
             for e in range(3 * D):
                 jac[e] = 0.0
-            dev.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], dev.frame_joint(f, skel), skel, axes, 1.0, jac, D)
+            if f < 0:
+                x[n, g, 0], x[n, g, 1], x[n, g, 2] = dev.centre_of_mass(skel, R, p)
+                dev.com_rows(skel, R, p, axes, 1.0, jac, D)
+            else:
+                x[n, g, 0], x[n, g, 1], x[n, g, 2] = p[3 * f], p[3 * f + 1], p[3 * f + 2]
+                dev.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], dev.frame_joint(f, skel), skel, axes, 1.0, jac, D)
             for row in range(3):
-                x[n, g, row] = p[3 * f + row]
                 for d in range(D):
                     jacobian[n, g, row, d] = jac[row * D + d]
 
