@@ -64,7 +64,7 @@ def device_limits() -> Multiprocessor:
     dev = cuda.get_current_device()
     default = Multiprocessor()
     return Multiprocessor(
-        threads=getattr(dev, "MAX_THREADS_PER_MULTI_PROCESSOR", default.threads),
+        threads=getattr(dev, "MAX_THREADS_PER_MULTIPROCESSOR", default.threads),
         registers=getattr(dev, "MAX_REGISTERS_PER_MULTIPROCESSOR", default.registers),
         shared_bytes=getattr(dev, "MAX_SHARED_MEMORY_PER_MULTIPROCESSOR", default.shared_bytes),
         blocks=getattr(dev, "MAX_BLOCKS_PER_MULTIPROCESSOR", default.blocks))
