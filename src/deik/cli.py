@@ -1,11 +1,13 @@
-"""The `deik` command: `solve` poses one problem, `info` describes a skeleton, `demo` runs the
-paper's scenarios, `experiments` reproduces the paper's figures.
+"""The `deik` command: `solve` poses one problem, `info` describes a skeleton, `clip` fixes a
+whole clip, `limits` measures joint limits from a clip, `demo` runs the paper's scenarios,
+`experiments` reproduces the paper's figures.
 
     deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
     deik solve --skeleton panda.urdf --base panda_link0 --tip panda_hand_tcp --reach panda_hand_tcp 0.4 0.2 0.5
     deik info panda.urdf
     deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
+    deik limits walk.bvh --margin 10 --out limits.json      (then --limits limits.json)
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
@@ -18,7 +20,7 @@ import argparse
 import sys
 
 from deik import cli_clip, cli_solve
-from deik.cli_format import Parser, UsageError, numbers
+from deik.cli_format import Parser, UsageError, check_output, numbers
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -39,6 +41,20 @@ def run_info(args) -> int:
     up = numbers("--up", args.up) if args.up else None
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
     print(describe(loaded, args.skeleton))
+    return 0
+
+
+def run_limits(args) -> int:
+    """`deik limits IN.bvh --out limits.json`: each DOF's range over the clip plus margins."""
+    from deik.io.bvh import read_bvh
+    from deik.limits import range_of_motion, write_limits
+
+    check_output("--out", args.out, (".json",))
+    clip = read_bvh(args.clip)
+    limits = range_of_motion(clip, args.margin, args.margin_length)
+    write_limits(args.out, clip.skeleton, limits)
+    print(f"{len(limits)} DOFs of {clip.n_frames} frames, margin {args.margin:g} degrees / "
+          f"{args.margin_length:g}: wrote {args.out}")
     return 0
 
 
@@ -69,6 +85,14 @@ def build_parser() -> Parser:
     e = commands.add_parser("experiments", add_help=False,
                              help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)")
     e.add_argument("rest", nargs=argparse.REMAINDER)
+    lim = commands.add_parser("limits", help="measure joint limits from a BVH clip's range of motion")
+    lim.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
+    lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
+    lim.add_argument("--margin", type=float, default=10.0, metavar="DEGREES",
+                     help="added to each rotation's range on both sides (default 10)")
+    lim.add_argument("--margin-length", type=float, default=0.0, metavar="LENGTH",
+                     help="added to each translation's range on both sides (default 0)")
+    lim.set_defaults(run=run_limits)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
     d.set_defaults(run=run_demo)

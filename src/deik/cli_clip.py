@@ -24,6 +24,8 @@ def add_arguments(c) -> None:
     c.add_argument("clip", metavar="IN.bvh", help="the clip to fix")
     c.add_argument("--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout)")
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
+    c.add_argument("--limits", metavar="FILE.json",
+                   help="joint limits table (degrees / length units), e.g. from `deik limits`; every frame must lie within it")
     c.add_argument("--plant-feet", action="append", default=[], metavar="auto|none|SITE:A-B",
                    help=f"contacts to plant: {PLANT_FORMS}; default auto")
     c.add_argument("--contact-height", type=float, metavar="LENGTH", help="auto contacts: height above the floor")
@@ -111,6 +113,10 @@ def run_clip(args) -> int:
 
         require_matplotlib()
     clip = read_bvh(args.clip, segments=args.segments)
+    if args.limits:
+        from deik.limits import clip_within, read_limits, with_limits
+
+        clip = clip_within(clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}")
     contacts = _contacts(args, clip)
     reach = _reaches(args, clip)
     goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence)

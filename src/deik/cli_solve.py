@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from dataclasses import replace
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from deik.cli_format import UsageError, check_device, check_output, format_table
 from deik.evolution.engine import STRATEGIES, Settings
 from deik.io.atomic import write_json_atomically
 from deik.io.load import load_skeleton
+from deik.limits import read_limits, with_limits
 from deik.objectives import goals as g
 from deik.problem import Problem
 from deik.problem_file import load_problem
@@ -44,6 +46,8 @@ def add_arguments(s) -> None:
     s.add_argument("--tip", action="append", default=[], metavar="LINK",
                    help="URDF: keep only the chain from --base to LINK (repeatable; default: every link)")
     s.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    s.add_argument("--limits", metavar="FILE.json",
+                   help="joint limits table {\"DOF\": [lower, upper]} (degrees / length units), e.g. from `deik limits`")
     s.add_argument("--reach", nargs=4, action="append", default=[], metavar=("FRAME", "X", "Y", "Z"),
                    help="put joint or site FRAME at X Y Z (repeatable)")
     s.add_argument("--orient", nargs=4, action="append", default=[], metavar=("FRAME", "RX", "RY", "RZ"),
@@ -115,7 +119,7 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
 
 
 def _file_flags_used(args) -> bool:
-    return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up))
+    return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up, args.limits))
 
 
 def _problem(args):
@@ -136,6 +140,8 @@ def _problem(args):
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
     loaded = load_skeleton(spec, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    if args.limits:
+        loaded = replace(loaded, skeleton=with_limits(loaded.skeleton, read_limits(args.limits, loaded.skeleton)))
     frame_pose = None
     if loaded.kind == "bvh":
         if args.frame is None:

@@ -33,7 +33,8 @@ ValueError naming the file, the goal and the field; nothing is guessed or defaul
 A URDF robot takes the top-level keys of `deik solve`'s flags: base = "link", tip = "link" or
 a list of links, up = [x, y, z]. A BVH clip takes segments = "table.json" (masses) and
 frame = N: the search then starts around that frame's pose, and comfort goals keep the pose
-near it (their reference), as `deik solve --frame N` does.
+near it (their reference), as `deik solve --frame N` does. Any skeleton takes
+joint_limits = "limits.json", a table of narrower limits (deik.limits).
 """
 
 from __future__ import annotations
@@ -44,13 +45,14 @@ from pathlib import Path
 
 from deik.evolution.engine import Settings
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
+from deik.limits import read_limits, with_limits
 from deik.objectives import goals as g
 from deik.problem import LIMIT_MODES, Problem
 from deik.problem_goals import goal_from_table, vector_field
 from deik.suggest import did_you_mean
 
 URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")
-TOP_LEVEL = ("skeleton", "limits", "settings", "goal") + URDF_KEYS + BVH_KEYS
+TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KEYS + BVH_KEYS
 
 
 @dataclass(frozen=True)
@@ -144,6 +146,15 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
                                up=vector_field(data["up"], (3,), path, "up") if "up" in data else None)
     except (ValueError, KeyError, OSError) as error:
         raise ValueError(f"{path}: field 'skeleton': {error.args[0] if error.args else error}") from None
+    table = data.get("joint_limits")
+    if table is not None:
+        if not isinstance(table, str):
+            raise ValueError(f"{path}: field 'joint_limits' must be the path of a limits table (JSON), got {table!r}")
+        try:
+            limits = read_limits(folder / table, loaded.skeleton)
+        except (ValueError, KeyError) as error:
+            raise ValueError(f"{path}: field 'joint_limits': {error.args[0]}") from None
+        loaded = replace(loaded, skeleton=with_limits(loaded.skeleton, limits))
     frame = data.get("frame")
     if frame is not None:
         if not (isinstance(frame, int) and not isinstance(frame, bool) and 0 <= frame < loaded.clip.n_frames):

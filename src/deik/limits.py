@@ -1,0 +1,110 @@
+"""Joint limits for any skeleton: a JSON table, a clip's range of motion, a new Skeleton.
+
+A BVH file has no limits (every rotation gets [-pi, pi]) and a URDF's may be wider than a task
+allows. A limits table narrows them; DE then samples and keeps every pose inside. The table
+maps DOF names to [lower, upper], degrees for rotations and length units for translations::
+
+    {"LeftKnee.Zrotation": [-150, 0], "Hips.Xposition": [-2.0, 2.0]}
+
+A DOF the table leaves out keeps its limits. `range_of_motion` measures a table from a clip:
+each DOF's extremes over every frame plus a margin, so a clip fix or a new pose stays within
+what the performer did (`deik limits CLIP.bvh --margin 10 --out limits.json`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from deik.io.atomic import write_json_atomically
+from deik.joints import ROTATE
+from deik.skeleton import Skeleton
+from deik.suggest import did_you_mean
+
+
+def with_limits(skeleton: Skeleton, limits: dict) -> Skeleton:
+    """`skeleton` with the DOFs named in `limits` ({dof name: (lower, upper)}, radians or
+    length units) given those limits. Unknown names raise a KeyError with close matches;
+    non-finite or inverted limits a ValueError naming the DOF."""
+    lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
+    for name, bounds in limits.items():
+        if name not in skeleton.dof_names:
+            raise KeyError(f"DOF {name!r} not found in skeleton {skeleton.name!r}"
+                           f"{did_you_mean(name, skeleton.dof_names)}")
+        low, high = (float(b) for b in bounds)
+        if not (math.isfinite(low) and math.isfinite(high) and low <= high):
+            raise ValueError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
+        d = skeleton.dof_names.index(name)
+        lower[d], upper[d] = low, high
+    return replace(skeleton, lower=lower, upper=upper)
+
+
+def read_limits(path, skeleton: Skeleton) -> dict:
+    """The table in JSON file `path` for `skeleton`, rotations converted to radians; every
+    mistake raises a ValueError (or KeyError for an unknown DOF) naming the file."""
+    path = str(path)
+    try:
+        with open(path, encoding="utf-8") as file:
+            table = json.load(file)
+    except OSError as error:
+        raise ValueError(f"{path}: cannot read the limits file ({error.strerror})") from None
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: not valid JSON: {error}") from None
+    if not isinstance(table, dict) or not table:
+        raise ValueError(f"{path}: must be a JSON object {{\"DOF name\": [lower, upper], ...}}")
+    limits = {}
+    for name, bounds in table.items():
+        if not (isinstance(bounds, list) and len(bounds) == 2 and all(
+                isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)):
+            raise ValueError(f"{path}: {name!r} must be [lower, upper] (two numbers), got {bounds!r}")
+        if name in skeleton.dof_names and skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE:
+            bounds = np.radians(bounds)
+        limits[name] = (float(bounds[0]), float(bounds[1]))
+    try:
+        with_limits(skeleton, limits)
+    except (KeyError, ValueError) as error:
+        raise type(error)(f"{path}: {error.args[0]}") from None
+    return limits
+
+
+def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> dict:
+    """{dof name: (lower, upper)} of `clip` (a deik.Clip): each DOF's smallest and largest
+    value over the frames (rotations wrapped into [-pi, pi)), widened by the margins and kept
+    within the skeleton's own limits."""
+    if not (math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(margin_length)
+            and margin_length >= 0):
+        raise ValueError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
+    sk = clip.skeleton
+    poses = clip.poses()
+    margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), margin_length)
+    lower = np.maximum(poses.min(axis=0) - margin, sk.lower)
+    upper = np.minimum(poses.max(axis=0) + margin, sk.upper)
+    return {name: (float(lower[d]), float(upper[d])) for d, name in enumerate(sk.dof_names)}
+
+
+def clip_within(clip, skeleton: Skeleton, source: str):
+    """`clip` (a deik.Clip) on `skeleton`, the same skeleton with other limits; a ValueError
+    naming the first frame and DOF outside them (`source`: where the limits came from)."""
+    poses = clip.poses()
+    outside = np.argwhere((poses < skeleton.lower - 1e-9) | (poses > skeleton.upper + 1e-9))
+    if len(outside):
+        n, d = outside[0]
+        scale = math.degrees(1.0) if skeleton.dof_kind[d] == ROTATE else 1.0
+        raise ValueError(
+            f"{source}: frame {n} has {skeleton.dof_names[d]} = {poses[n, d] * scale:.6g}, outside its limits "
+            f"[{skeleton.lower[d] * scale:.6g}, {skeleton.upper[d] * scale:.6g}] ({len(outside)} values outside in "
+            "all); widen the table, or measure it from the clip with `deik limits`")
+    return replace(clip, skeleton=skeleton)
+
+
+def write_limits(path, skeleton: Skeleton, limits: dict) -> None:
+    """Write `limits` (radians / length units) as a table (degrees for rotations), atomically."""
+    table = {}
+    for name, (low, high) in limits.items():
+        rotation = skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE
+        table[name] = [round(math.degrees(low), 6), round(math.degrees(high), 6)] if rotation else [low, high]
+    write_json_atomically(Path(path), table)
