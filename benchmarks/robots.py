@@ -4,8 +4,9 @@
                                               [--peers all|none|ikpy,pk,...] [--out benchmarks/results]
 
 Per case (benchmarks.robot_targets): N random in-limit poses of the tip, every solver starting
-from the mid-limit pose. deik solves each target alone (timed per call) and then all of them
-in one batched call (throughput). Each peer runs in .venv-peers through
+from the mid-limit pose. deik solves each target alone (timed per call: building the Problem
+and deik.solve), again through one reused deik.Solver that swaps the targets (timed per call),
+and then all of them in one batched call (throughput). Each peer runs in .venv-peers through
 benchmarks.peers.run_peer (skipped, with the reason recorded, when that venv is missing or the
 peer fails). Every answer is scored by robot_targets.pose_errors (deik's float64 FK): success
 = within 1e-5 m and 1e-4 rad with every joint in its limits; also at 1e-3 m / 1e-2 rad, and the
@@ -50,6 +51,20 @@ def solve_deik_single(skeleton, tip, position, rotation, start, seed) -> np.ndar
     return result.angles
 
 
+def solve_deik_reused(skeleton, tip, positions, rotations, start, seed) -> tuple[np.ndarray, list[float]]:
+    """Every target through one deik.Solver (set up once, untimed), one timed call each, seeds
+    as the single solves: (angles (N, D), seconds per call)."""
+    solver = deik.Solver(deik_problem(skeleton, tip, positions[0], rotations[0]), **DEIK)
+    labels = [goal.label for goal in solver.solve(seed=seed, initial=start[None]).goals]
+    angles, seconds = [], []
+    for k in range(len(positions)):
+        t0 = time.perf_counter()
+        angles.append(solver.solve({labels[0]: positions[k], labels[1]: rotations[k]}, initial=start[None],
+                                   seed=seed + k).angles)
+        seconds.append(time.perf_counter() - t0)
+    return np.array(angles), seconds
+
+
 def solve_deik_batch(skeleton, tip, positions, rotations, start, seed) -> np.ndarray:
     """B targets in one call: positions (B, 3), rotations (B, 3, 3), start (D,) -> angles (B, D)."""
     result = deik.solve(deik_problem(skeleton, tip, positions, rotations), seed=seed, initial=start[None], **DEIK)
@@ -83,6 +98,7 @@ def run_deik(skeleton, targets: dict, seed: int) -> dict:
         t0 = time.perf_counter()
         angles.append(solve_deik_single(skeleton, tip, P[k], R[k], start, seed + k))
         seconds.append(time.perf_counter() - t0)
+    reused = solve_deik_reused(skeleton, tip, P, R, start, seed)
     t0 = time.perf_counter()
     batch = solve_deik_batch(skeleton, tip, P, R, start, seed)
     wall = time.perf_counter() - t0
@@ -91,6 +107,8 @@ def run_deik(skeleton, targets: dict, seed: int) -> dict:
     batch_score = score(skeleton, targets, batch, np.full(len(P), wall / len(P)))
     row["batch"] = {"seconds": wall, "problems_per_second": len(P) / wall,
                     "success_strict": batch_score["success_strict"], "success_loose": batch_score["success_loose"]}
+    solver_score = score(skeleton, targets, reused[0], reused[1])
+    row["solver"] = {k: solver_score[k] for k in ("success_strict", "median_ms", "p95_ms")}
     return row
 
 
@@ -133,6 +151,10 @@ def markdown(result: dict) -> str:
                 b = row["batch"]
                 note = (f"batch of {row['n']}: {b['problems_per_second']:.0f} problems/s, "
                         f"strict {100 * b['success_strict']:.1f} %, loose {100 * b['success_loose']:.1f} %")
+            if "solver" in row:
+                s = row["solver"]
+                note += (f"; deik.Solver reused: median {s['median_ms']:.2f} ms, p95 {s['p95_ms']:.2f} ms, "
+                         f"strict {100 * s['success_strict']:.1f} %")
             lines.append(f"| {name} | {row['version']} | {100 * row['success_strict']:.1f} % | "
                          f"{100 * row['success_loose']:.1f} % | {100 * row['success_strict_within_budget']:.1f} % | "
                          f"{row['median_ms']:.2f} | {row['p95_ms']:.2f} | {note} |")

@@ -24,11 +24,12 @@ from deik.result import GoalReport, Result
 from deik.seeding import poses_around
 from deik.skeleton import Skeleton
 from deik.solve import solve, solve_batch
+from deik.solver import Solver
 
 __all__ = [
     "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
     "EvolutionState", "GoalReport", "Joint", "Kinematics", "Obstacle", "Orientation", "Position",
-    "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "build_skeleton", "chain",
+    "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "Solver", "build_skeleton", "chain",
     "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "poses_around", "read_bvh", "read_urdf",
     "solve", "solve_batch", "translation", "write_bvh",
 ]

@@ -79,6 +79,15 @@ class Problem:
         )
         return stacked
 
+    def with_goal_targets(self, goals: tuple, params: np.ndarray) -> "Problem":
+        """This problem with `goals` (same kinds, weights and tolerances, new targets) and
+        their parameters `params` (B, T, N_PARAMS): the compiled rows are reused (Solver)."""
+        new = object.__new__(Problem)
+        new.__dict__.update(self.__dict__)
+        new.__dict__.pop("_goal_params", None)
+        new.__dict__.update(goals=tuple(goals), table=replace(self.table, params=params))
+        return new
+
     @cached_property
     def rows(self) -> list[tt.TermRow]:
         rows = [g.row(self.skeleton) for g in self.goals]

@@ -25,8 +25,13 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
     given. Returns an immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
-    settings = merge_settings("solve()", settings, overrides)
-    engine = Engine(problem, settings)
+    return run_engine(problem, Engine(problem, merge_settings("solve()", settings, overrides)), initial, progress)
+
+
+def run_engine(problem: Problem, engine: Engine, initial=None, progress=None) -> Result:
+    """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
+    budget, time limit, or every problem stopped; the Result (solve() without the set-up)."""
+    settings = engine.settings
     start = time.perf_counter()
     deadline = start + settings.time_limit if settings.time_limit else math.inf
     state = engine.init(initial)

@@ -6,8 +6,9 @@ a new EvolutionState; the one passed in is never changed.
 
 from __future__ import annotations
 
+import copy
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -177,6 +178,19 @@ class Engine:
             from deik.kernels.cpu_backend import CpuBackend
 
             self.backend = CpuBackend()
+
+    def for_problem(self, problem: Problem, seed: int | None = None) -> "Engine":
+        """A copy bound to `problem`, which shares this engine's skeleton and terms and differs
+        only in targets (Problem.with_goal_targets), and to `seed` if given: only the target
+        parameters are packed again."""
+        new = copy.copy(self)
+        new.problem = problem
+        t = self.terms
+        new.terms = (t[0], t[1], np.ascontiguousarray(problem.table.params, t[2].dtype), t[3], t[4])
+        if seed is not None and seed != self.settings.seed:
+            new.settings = replace(self.settings, seed=seed)
+            new.kernel_settings = self.kernel_settings[:4] + (np.uint64(seed),) + self.kernel_settings[5:]
+        return new
 
     def _initial(self, initial, B, D, dtype):
         if initial is None:
