@@ -20,7 +20,7 @@ from deik.clips.balance import balance_track, horizontal_axes
 from deik.clips.coherence import active_frames
 from deik.clips.problem import neighbour_displacement
 from deik.joints import ROTATE
-from deik.kernels import cpu
+from deik.kernels.cpu_backend import point_jacobians
 from deik.kernels.pack import pack_skeleton
 from deik.kinematics import forward_kinematics
 from deik.objectives.goals import ComInPolygon, Position
@@ -35,13 +35,9 @@ def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> t
     """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
-    both (deik.kernels.cpu.point_jacobians)."""
-    poses = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, np.float64)))
-    frames = np.array([skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass, np.int64)
-    x = np.empty((len(poses), len(frames), 3))
-    jac = np.empty((len(poses), len(frames), 3, skeleton.n_dofs))
-    cpu.point_jacobians(poses, frames, pack_skeleton(skeleton, np.float64), x, jac)
-    return x, jac
+    both (deik.kernels.cpu_backend.point_jacobians)."""
+    frames = [skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass
+    return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
 
 
 def dof_weights(clip) -> np.ndarray:

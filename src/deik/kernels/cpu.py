@@ -201,16 +201,28 @@ def forward_kinematics_batch(poses, skel, R, p):
 
 
 @njit(parallel=True, cache=True)
-def point_jacobians(poses, frames, skel, x, jacobian):
+def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
     """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
     -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
-    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows)."""
+    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks as
+    for initialise."""
+    N = poses.shape[0]
+    n_chunks = max(1, min(N, n_chunks))
+    if n_chunks == 1:
+        _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
+    else:
+        for c in prange(n_chunks):
+            _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian)
+
+
+@njit(cache=True)
+def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
+    """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
     N, D = poses.shape
-    for n in prange(N):
-        scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
-        axes, lm = _polish_scratch(skel, poses, D)
-        R, p, work = scratch
-        jac = lm[2]
+    scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
+    R, p, work = scratch
+    axes, jac = np.empty(6 * skel[2].shape[0], poses.dtype), np.empty(3 * D, poses.dtype)
+    for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
         dev.forward_kinematics(poses[n], skel, R, p, work, axes, True)
         for g in range(frames.shape[0]):
             f = frames[g]

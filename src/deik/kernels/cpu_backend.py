@@ -37,3 +37,14 @@ def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
     cpu.evaluate_poses(np.ascontiguousarray(poses, dtype), problem_index, skel, terms, levels, total, raw,
                        _chunks_for(N, skel))
     return levels, total, raw
+
+
+def point_jacobians(poses, frames, skel):
+    """(x (N, G, 3), jacobian (N, G, 3, D)) of frames (G,) (-1: the centre of mass) at poses
+    (N, D), in the dtype of the packed skeleton (cpu.point_jacobians)."""
+    dtype = skel[1].dtype
+    poses = np.ascontiguousarray(poses, dtype)
+    N, D = poses.shape
+    x, jacobian = np.empty((N, len(frames), 3), dtype), np.empty((N, len(frames), 3, D), dtype)
+    cpu.point_jacobians(poses, np.ascontiguousarray(frames, np.int64), skel, x, jacobian, _chunks_for(N, skel))
+    return x, jacobian
