@@ -26,17 +26,17 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from deik.cli_format import check_device
+from deik.cli.common import check_device
 from deik.clips.contacts import detect_contacts
 from deik.clips.metrics import clip_report, per_frame_errors
 from deik.clips.problem import ClipGoals
-from deik.clips.report import plot_clip_report
+from deik.viz.clip_report import plot_clip_report
 from deik.clips.solver import fix_clip
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
 from deik.io.bvh import read_bvh
-from deik.joints import ROTATE, TRANSLATE
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE, TRANSLATE
+from deik.model.kinematics import forward_kinematics
 
 RESULTS = Path(__file__).resolve().parent / "results"
 WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "humanoid" / "humanoid3d_walk.bvh"

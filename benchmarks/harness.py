@@ -22,7 +22,7 @@ from benchmarks.serial_vs_parallel import RESULTS
 from deik.experiments.common import markdown_table, save_figure
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
-from deik.plot import require_matplotlib
+from deik.viz.plot import require_matplotlib
 
 MAX_GENERATIONS = 1_000_000  # cap of the calibrated generation count of one Engine.run
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import deik
-from deik.joints import ROTATE
+from deik.model.joints import ROTATE
 
 ROBOTS = Path(__file__).resolve().parents[2] / "shared" / "data" / "robots"
 LIMIT_SLACK = 1e-6  # rad (or m): a joint this close outside its limit still counts as inside

@@ -5,7 +5,7 @@
 
 For each length n: the paper's planar chain deik.chain(n) with one Position goal on its tip,
 the target being the FK of a random in-limit pose. In the same process, side by side:
-- serial: deik.evolution.serial.SerialDE (NumPy, one candidate evaluated at a time, in-place
+- serial: deik.solver.serial.SerialDE (NumPy, one candidate evaluated at a time, in-place
   replacement), averaged over a few epochs because it is slow;
 - parallel: deik.Engine on the CPU (Numba, ping-pong buffers), Settings.paper (rand/1/bin,
   F 0.5, CR 0.5) with stop_on_converged=False and a huge patience so every generation runs,

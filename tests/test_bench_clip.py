@@ -8,7 +8,7 @@ from benchmarks.clip_frames import loop_clip, main
 from conftest import shared_path
 from deik.clips.contacts import detect_contacts
 from deik.io.bvh import read_bvh
-from deik.kinematics import forward_kinematics
+from deik.model.kinematics import forward_kinematics
 
 
 def test_the_looped_walk_is_one_long_walk_without_jumps():

@@ -14,8 +14,9 @@ from conftest import shared_path
 from deik.io import atomic
 from deik.io.bvh import Clip, format_bvh, parse_bvh, read_bvh, write_bvh
 from deik.io.errors import FileFormatError
-from deik.joints import ROTATE, TRANSLATE, Joint, build_skeleton, euler, hinge, translation
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
+from deik.model.build import build_skeleton
+from deik.model.kinematics import forward_kinematics
 
 CLIPS = {"walk": 39, "run": 25, "jump": 107}
 END_SITES = {"Head": "Neck_end", "RightWrist": "RightElbow_end", "LeftWrist": "LeftElbow_end",
@@ -128,7 +129,7 @@ def test_random_values_round_trip_within_tolerance(tmp_path):
 
 
 def test_humanoid_pose_written_and_read_back_has_the_same_positions(tmp_path):
-    human = deik.humanoid()
+    human = deik.model.humanoid()
     rng = np.random.default_rng(0)
     pose = rng.uniform(human.lower, human.upper)
     clip = Clip.from_poses(human, pose[None], 1 / 30)

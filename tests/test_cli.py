@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import deik
-from deik import plot
-from deik.cli import main
-from deik.demo import chain_scenarios, run_demo
+from deik.viz import plot
+from deik.cli.main import main
+from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.load import skeleton_from_spec
-from deik.problem_file import load_problem
-from deik.rotations import euler_matrix
+from deik.io.problem_file import load_problem
+from deik.model.rotations import euler_matrix
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 TINY = ["--population", "24", "--generations", "40", "--seed", "0"]

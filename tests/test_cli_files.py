@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import deik
-from deik.cli import main
+from deik.cli.main import main
 from deik.io.urdf import read_urdf
 
 ROBOT_CHAINS = {  # robot: (base, tip, up)
@@ -172,7 +172,7 @@ def test_builtin_humanoid_pose_written_as_bvh_reads_back(tmp_path, capsys):
     clip = read_bvh(out)
     assert clip.n_frames == 1
     assert "position left_hand" in capsys.readouterr().out
-    sk = deik.humanoid()
+    sk = deik.model.humanoid()
     assert set(clip.skeleton.joint_names) == set(sk.joint_names)
     # the written frame puts the hand where the solve did: within the default 1 % of reach
     joint = sk.joint_names[sk.site_joint[sk.site_names.index("left_hand")]]
@@ -233,7 +233,7 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     """frame = N seeds the search, makes comfort goals keep that frame's pose, and --out x.bvh
     replaces only that frame of the clip."""
     from deik.io.bvh import read_bvh
-    from deik.problem_file import load_problem
+    from deik.io.problem_file import load_problem
 
     path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
     clip, target = _clip_target(path, 5, seed=3)
@@ -264,7 +264,7 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     ('skeleton = "missing.urdf"\n', "field 'skeleton'"),
 ])
 def test_toml_skeleton_file_errors_name_the_field(shared_data, tmp_path, lines, fragment):
-    from deik.problem_file import load_problem
+    from deik.io.problem_file import load_problem
 
     problem = tmp_path / "bad.toml"
     problem.write_text(lines.format(data=shared_data) + '[[goal]]\ntype = "comfort"\n')

@@ -13,7 +13,7 @@ from deik.clips.problem import ClipGoals
 from deik.clips.solver import fix_clip
 from deik.clips.warmstart import position_jacobian
 from deik.io.bvh import read_bvh
-from deik.kinematics import forward_kinematics
+from deik.model.kinematics import forward_kinematics
 
 
 def _clouds(n=400, sites=4, seed=0):

@@ -9,8 +9,9 @@ from deik.clips.contacts import (
     planted_targets,
 )
 from deik.io.bvh import Clip, read_bvh
-from deik.joints import Joint, Site, build_skeleton, translation
-from deik.kinematics import forward_kinematics
+from deik.model.joints import Joint, Site, translation
+from deik.model.build import build_skeleton
+from deik.model.kinematics import forward_kinematics
 
 FEET = {"Right": ("RightAnkle", "RightAnkle_end"), "Left": ("LeftAnkle", "LeftAnkle_end")}
 

@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 
 from conftest import shared_path
-from deik.cli import main
+from deik.cli.main import main
 from deik.clips.contacts import detect_contacts, foot_sites
 from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
 from deik.clips.problem import ClipGoals, Reach, neighbour_displacement
 from deik.clips.solver import fix_clip
 from deik.io.bvh import read_bvh
-from deik.kinematics import forward_kinematics
+from deik.model.kinematics import forward_kinematics
 
 
 @pytest.mark.parametrize("name", ["walk", "run"])

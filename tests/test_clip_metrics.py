@@ -12,10 +12,11 @@ from deik.clips.metrics import (
     clip_report, com_outside_support, foot_sliding, joint_deviation, per_frame_errors,
     velocity_spikes,
 )
-from deik.clips.report import plot_clip_report
+from deik.viz.clip_report import plot_clip_report
 from deik.io.bvh import Clip, read_bvh
-from deik.joints import ROTATE, Joint, Site, build_skeleton, euler, translation
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
+from deik.model.build import build_skeleton
+from deik.model.kinematics import forward_kinematics
 
 
 def walk() -> Clip:

@@ -10,8 +10,8 @@ from deik.clips.contacts import detect_contacts
 from deik.clips.problem import ClipGoals, eased_track, fixed_goals
 from deik.clips.warmstart import dof_weights, position_jacobian, warm_start
 from deik.io.bvh import read_bvh
-from deik.joints import ROTATE
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
 from deik.objectives import goals as g
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from deik.evolution.serial import SerialDE
+from deik.solver.serial import SerialDE
 from deik.experiments import runner
 from deik.experiments.common import quantile, spread
 from deik.experiments.fig7_selection import SequentialSerialDE

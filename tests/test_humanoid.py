@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from deik.humanoid import humanoid
-from deik.joints import ROTATE
-from deik.kinematics import forward_kinematics
+from deik.model.humanoid import humanoid
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
 
 FOOT_SITES = ("heel", "toe_inner", "toe_outer", "toe_tip")
 

@@ -9,10 +9,10 @@ import pytest
 
 import deik
 from conftest import shared_path
-from deik.cli import main
+from deik.cli.main import main
 from deik.io.bvh import read_bvh
-from deik.limits import clip_within, range_of_motion, read_limits, with_limits, write_limits
-from deik.problem_file import load_problem
+from deik.io.limits import clip_within, range_of_motion, read_limits, with_limits, write_limits
+from deik.io.problem_file import load_problem
 
 
 def walk():
@@ -69,7 +69,7 @@ def test_range_of_motion_holds_every_frame_with_its_margin():
     limits = range_of_motion(clip, 10.0, 0.05)
     sk = with_limits(clip.skeleton, limits)
     poses = clip.poses()
-    margin = np.where(sk.dof_kind == deik.joints.ROTATE, math.radians(10), 0.05)
+    margin = np.where(sk.dof_kind == deik.model.joints.ROTATE, math.radians(10), 0.05)
     np.testing.assert_allclose(sk.lower, np.maximum(poses.min(axis=0) - margin, clip.skeleton.lower))
     np.testing.assert_allclose(sk.upper, np.minimum(poses.max(axis=0) + margin, clip.skeleton.upper))
     assert clip_within(clip, sk, "test").skeleton is sk

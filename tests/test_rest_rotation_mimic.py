@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton
-from deik.joints import ROTATE, TRANSLATE, Dof
+from deik.model.joints import ROTATE, TRANSLATE, Dof
 from deik.kernels.cpu import forward_kinematics_batch
 from deik.kernels.pack import pack_skeleton
 

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 import deik
-from deik.seeding import poses_around
+from deik.solver.seeding import poses_around
 
 
 def test_first_row_is_the_pose_and_every_copy_stays_in_limits():
-    sk = deik.humanoid()
+    sk = deik.model.humanoid()
     pose = np.random.default_rng(0).uniform(sk.lower, sk.upper)
     out = poses_around(sk, pose, 64, spread=0.5, seed=1)
     assert out.shape == (64, sk.n_dofs)

@@ -21,8 +21,9 @@ from deik.io.segments import (
     read_segment_table,
 )
 from conftest import shared_path
-from deik.joints import Joint, Site, build_skeleton, euler
-from deik.kinematics import forward_kinematics
+from deik.model.joints import Joint, Site, euler
+from deik.model.build import build_skeleton
+from deik.model.kinematics import forward_kinematics
 
 JOINTS = ("Hips", "Chest", "RightKnee", "LeftKnee")
 
@@ -177,7 +178,7 @@ def test_estimate_on_the_pybullet_humanoid_is_within_5_cm_of_the_true_com():
 
 
 def test_estimate_on_the_built_in_humanoid_is_within_2_cm_of_its_de_leva_com():
-    human = deik.humanoid()
+    human = deik.model.humanoid()
     segments, description = estimate_segments(human)
     estimated = with_segments(human, segments)
     poses = np.random.default_rng(0).uniform(human.lower, human.upper, (300, human.n_dofs))

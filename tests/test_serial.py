@@ -1,11 +1,11 @@
-"""The paper's serial DE reference (Algorithm 1, deik.evolution.serial)."""
+"""The paper's serial DE reference (Algorithm 1, deik.solver.serial)."""
 
 import numpy as np
 import pytest
 
 import deik
-from deik.evolution.serial import SerialDE, apply_limits, not_worse
-from deik.kinematics import forward_kinematics
+from deik.solver.serial import SerialDE, apply_limits, not_worse
+from deik.model.kinematics import forward_kinematics
 from deik.objectives.reference import fitness
 
 

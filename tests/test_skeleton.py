@@ -9,7 +9,7 @@ import pytest
 
 import deik
 from deik import Joint, Segment, Site, build_skeleton, euler, hinge, translation
-from deik.joints import ROTATE, Dof
+from deik.model.joints import ROTATE, Dof
 
 
 def tree_joints():
@@ -238,7 +238,7 @@ def test_frame_index_and_did_you_mean():
 
 
 def test_humanoid_did_you_mean():
-    sk = deik.humanoid()
+    sk = deik.model.humanoid()
     with pytest.raises(KeyError, match=r"did you mean 'left_hand'"):
         sk.frame_index("left_hnad")
 

@@ -1,14 +1,15 @@
 """deik: inverse kinematics by massively parallel Differential Evolution, on CPU or GPU."""
 
-from deik.builders import chain
-from deik.evolution.engine import Engine, EvolutionState, Settings
-from deik.humanoid import humanoid
+from deik.model.builders import chain
+from deik.solver.engine import Engine, EvolutionState, Settings
+from deik.model.humanoid import humanoid
 from deik.io.bvh import read_bvh, write_bvh
 from deik.io.clip import Clip
 from deik.io.load import load_skeleton
 from deik.io.urdf import read_urdf
-from deik.joints import Dof, Joint, Segment, Site, build_skeleton, euler, hinge, translation
-from deik.kinematics import Kinematics, forward_kinematics
+from deik.model.joints import Dof, Joint, Segment, Site, euler, hinge, translation
+from deik.model.build import build_skeleton
+from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.objectives.goals import (
     Aim,
     CentreOfMass,
@@ -19,12 +20,12 @@ from deik.objectives.goals import (
     Orientation,
     Position,
 )
-from deik.problem import Problem
-from deik.result import GoalReport, Result
-from deik.seeding import poses_around
-from deik.skeleton import Skeleton
-from deik.solve import solve, solve_batch
-from deik.solver import Solver
+from deik.solver.problem import Problem
+from deik.solver.result import GoalReport, Result
+from deik.solver.seeding import poses_around
+from deik.model.skeleton import Skeleton
+from deik.solver.solve import solve, solve_batch
+from deik.solver.solver import Solver
 
 __all__ = [
     "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",

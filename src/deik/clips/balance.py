@@ -19,7 +19,7 @@ from itertools import combinations
 import numpy as np
 
 from deik.clips.coherence import ease
-from deik.kernels.pack import ground_frame
+from deik.model.geometry import ground_frame
 
 EASE = 3.0  # frames (about a third of the fade) over which a COM shift eases in before and out after the frames that need it
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from deik.joints import TRANSLATE
+from deik.model.joints import TRANSLATE
 from deik.objectives.goals import Position
 
 

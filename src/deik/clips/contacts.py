@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.kinematics import forward_kinematics
-from deik.skeleton import Skeleton
+from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 
 FOOT_WORDS = ("foot", "toe", "heel", "ankle")
 HEIGHT_FRACTION = 0.06

@@ -23,11 +23,10 @@ import math
 
 import numpy as np
 
-from deik.joints import ROTATE
-from deik.kernels.pack import ground_frame
-from deik.kinematics import Kinematics, forward_kinematics
-from deik.objectives.reference import _polygon_distance
-from deik.rotations import rotation_angle
+from deik.model.joints import ROTATE
+from deik.model.geometry import ground_frame, polygon_distance
+from deik.model.kinematics import Kinematics, forward_kinematics
+from deik.model.rotations import rotation_angle
 
 MM = 1000.0  # mm per length unit (metres)
 
@@ -74,7 +73,7 @@ def _outside(kin: Kinematics, index, mask: np.ndarray, up: np.ndarray) -> np.nda
     for k, pattern in enumerate(patterns):
         if pattern.any():
             rows = inverse == k
-            out[rows] = _polygon_distance(com[rows], feet[rows][:, pattern])
+            out[rows] = polygon_distance(com[rows], feet[rows][:, pattern])
     return out
 
 

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.clips.contacts import Contacts, planted_targets
-from deik.joints import ROTATE
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
 from deik.objectives import goals as g
-from deik.problem import Problem
-from deik.rotations import wrap_rotations
+from deik.solver.problem import Problem
+from deik.model.rotations import wrap_rotations
 
 CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
 REACH_TOLERANCE = 0.005

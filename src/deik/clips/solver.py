@@ -31,13 +31,13 @@ import numpy as np
 from deik.clips.coherence import ease, searched_dofs
 from deik.clips.problem import ClipGoals, clip_problem, fixed_goals
 from deik.clips.warmstart import dof_weights, warm_start
-from deik.evolution.engine import Settings
-from deik.joints import ROTATE
+from deik.solver.engine import Settings
+from deik.model.joints import ROTATE
 from deik.objectives.reference import raw_errors
 from deik.objectives.table import GAIN
-from deik.rotations import wrap_rotations
-from deik.seeding import poses_around
-from deik.solve import merge_settings, solve
+from deik.model.rotations import wrap_rotations
+from deik.solver.seeding import poses_around
+from deik.solver.solve import merge_settings, solve
 
 # a repair is a local search among the DOFs its goals need: no restart from random poses (it
 # would lose the performance), no LM polish (it moves the DOFs held still, hinge channels

@@ -19,10 +19,10 @@ import numpy as np
 from deik.clips.balance import balance_track, horizontal_axes
 from deik.clips.coherence import active_frames
 from deik.clips.problem import neighbour_displacement
-from deik.joints import ROTATE
+from deik.model.joints import ROTATE
 from deik.kernels.cpu_backend import point_jacobians
 from deik.kernels.pack import pack_skeleton
-from deik.kinematics import forward_kinematics
+from deik.model.kinematics import forward_kinematics
 from deik.objectives.goals import ComInPolygon, Position
 
 DAMPING = 1e-3  # radians (weighted DOF units): keeps a step finite at a straight knee

@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from deik.evolution.engine import Settings
+from deik.solver.engine import Settings
 from deik.io.atomic import save_atomically, write_text_atomically
-from deik.plot import plot_result, require_matplotlib
+from deik.viz.plot import plot_result, require_matplotlib
 
 CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's reach
 # The figures measure the paper's subject, DE itself: the LM polish, jDE rates and restarts
@@ -105,7 +105,7 @@ def save_figure(figure, path: str, dpi: int = 110) -> None:
 
 def pose_panels(axes, panels) -> None:
     """Draw pose pictures into `axes` (one per panel): each panel is (problem, unbatched
-    Result, title), rendered by deik.plot.plot_result into a temporary PNG and shown as an
+    Result, title), rendered by deik.viz.plot.plot_result into a temporary PNG and shown as an
     image, so experiments draw poses exactly as `deik solve --plot` does."""
     plt = require_matplotlib()
     with tempfile.TemporaryDirectory() as folder:

@@ -1,6 +1,6 @@
 """Fig. 2: a planar chain reaching one target; plain, straight near its start, straight near its end.
 
-The scenarios are the demo's (`deik.demo.chain_scenarios`): the tip within 1 % of the reach on
+The scenarios are the demo's (`deik.experiments.demo.chain_scenarios`): the tip within 1 % of the reach on
 the top priority level, and for (b), (c) a comfort goal on the level below whose per-joint
 weights ramp down from the root ("start") or up towards the tip ("end"); the reference pose is
 straight (all angles 0). Each seed draws its own target (the tip of a random in-limit pose)
@@ -14,11 +14,11 @@ import os
 
 import numpy as np
 
-from deik.demo import chain_scenarios
+from deik.experiments.demo import chain_scenarios
 from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, pose_panels,
                                      save_figure, seed_list, write_csv)
-from deik.plot import require_matplotlib
-from deik.solve import solve
+from deik.viz.plot import require_matplotlib
+from deik.solver.solve import solve
 
 NAME = "fig2"
 VARIANTS = ("reach only", "straight near start", "straight near end")

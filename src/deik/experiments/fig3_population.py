@@ -4,7 +4,7 @@ For each target kind, chain length, strategy and population, every seed is one p
 batch solved in one engine run: the planar chain `deik.chain(n)` must bring its tip within 1 %
 of its reach of a target, the engine's counter-based random numbers giving each batch member
 its own stream. Two target kinds: the tip of a random in-limit pose (the demo's
-`deik.demo.chain_target(skeleton, seed)`, mostly well inside the reach) and a point at
+`deik.experiments.demo.chain_target(skeleton, seed)`, mostly well inside the reach) and a point at
 FAR_FRACTION of the reach in a random direction (the chain must unfold). A run stops when it
 converges; one that has not converged after the generation budget counts as "never". A run
 whose random first population already holds a solution needs 0 generations.
@@ -17,15 +17,15 @@ import time
 
 import numpy as np
 
-from deik.builders import chain
-from deik.demo import chain_target
-from deik.evolution.engine import Engine, Settings
+from deik.model.builders import chain
+from deik.experiments.demo import chain_target
+from deik.solver.engine import Engine, Settings
 from deik.experiments.common import (CONVERGED_FRACTION, Section, de_only, command, markdown_table, number,
                                      save_figure, seed_list, spread, write_csv)
 from deik.objectives.goals import Position
-from deik.plot import require_matplotlib
-from deik.problem import Problem
-from deik.solve import make_result
+from deik.viz.plot import require_matplotlib
+from deik.solver.problem import Problem
+from deik.solver.solve import make_result
 
 NAME = "fig3"
 FAR_FRACTION = 0.75

@@ -1,6 +1,6 @@
 """Figs. 4 and 5: the humanoid's centre of mass against its reach, by weights and by priority.
 
-Both start from the demo's humanoid scenario (`deik.demo.humanoid_scenario`): the right foot
+Both start from the demo's humanoid scenario (`deik.experiments.demo.humanoid_scenario`): the right foot
 planted (heel and toe tip within 5 mm), the centre of mass within 2 cm (horizontally) of the
 right foot's support point, the left hand reaching, comfort towards the rest pose; the
 population is seeded with the rest pose. Every seed is one member of a batch (its own random
@@ -19,17 +19,17 @@ import os
 
 import numpy as np
 
-from deik.demo import HUMANOID_SETTINGS, humanoid_scenario
+from deik.experiments.demo import HUMANOID_SETTINGS, humanoid_scenario
 from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, number, pose_panels,
                                      save_figure, seed_list, write_csv)
-from deik.kinematics import forward_kinematics
+from deik.model.kinematics import forward_kinematics
 from deik.objectives.reference import raw_errors
-from deik.plot import require_matplotlib
-from deik.problem import Problem
-from deik.solve import solve
+from deik.viz.plot import require_matplotlib
+from deik.solver.problem import Problem
+from deik.solver.solve import solve
 
 FAR_FORWARD, FAR_UP = 1.3, 0.3  # metres from the rest hand: beyond reach with the COM over the foot
-FORWARD = np.array([0.0, 0.0, 1.0])  # deik.humanoid faces +Z
+FORWARD = np.array([0.0, 0.0, 1.0])  # deik.model.humanoid faces +Z
 HAND_WEIGHT_BELOW_COM = 0.1  # Fig. 4's "COM weighted" variant
 
 

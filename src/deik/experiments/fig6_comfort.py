@@ -14,13 +14,13 @@ import os
 
 import numpy as np
 
-from deik.builders import chain
-from deik.evolution.engine import Engine, Settings
+from deik.model.builders import chain
+from deik.solver.engine import Engine, Settings
 from deik.experiments.common import (Section, de_only, command, describe, markdown_table, number, save_figure,
                                      seed_list, spread, write_csv)
 from deik.objectives.goals import Comfort
-from deik.plot import require_matplotlib
-from deik.problem import Problem
+from deik.viz.plot import require_matplotlib
+from deik.solver.problem import Problem
 
 NAME = "fig6"
 THRESHOLD = 0.05  # rad, about 3 degrees, on the worst joint

@@ -15,7 +15,7 @@ import numpy as np
 
 from deik.experiments.common import Section, command, markdown_table, save_figure, write_csv
 from deik.experiments.timing import cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel
-from deik.plot import require_matplotlib
+from deik.viz.plot import require_matplotlib
 
 NAME = "fig8"
 SEED = 0

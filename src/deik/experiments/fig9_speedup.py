@@ -16,7 +16,7 @@ import numba
 from deik.experiments.common import Section, command, log_time_axes, markdown_table, save_figure, write_csv
 from deik.experiments.timing import (cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel,
                                      time_serial)
-from deik.plot import require_matplotlib
+from deik.viz.plot import require_matplotlib
 
 NAME = "fig9"
 SEED = 0

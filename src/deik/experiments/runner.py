@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         names = resolve(args.names)
         _check_paths(args, names)
-        from deik.plot import require_matplotlib
+        from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
     except SystemExit as done:  # --help

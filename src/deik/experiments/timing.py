@@ -2,7 +2,7 @@
 
 Shared by Figs. 8 and 9 and by `benchmarks/serial_vs_parallel.py`. The problem is the
 paper's planar chain `deik.chain(n)` with one Position goal on its tip whose target is the
-forward kinematics of a random in-limit pose. Serial: `deik.evolution.serial.SerialDE`
+forward kinematics of a random in-limit pose. Serial: `deik.solver.serial.SerialDE`
 (NumPy, one candidate evaluated at a time, in-place replacement). Parallel: `deik.Engine`
 with `Settings.paper` (rand/1/bin, F 0.5, CR 0.5), `stop_on_converged=False` and a huge
 patience so every generation runs, warmed up once so compilation is excluded.
@@ -19,8 +19,8 @@ import numba
 import numpy as np
 
 import deik
-from deik.evolution.serial import SerialDE
-from deik.kinematics import forward_kinematics
+from deik.solver.serial import SerialDE
+from deik.model.kinematics import forward_kinematics
 
 
 def make_problem(n_links: int, seed: int) -> deik.Problem:

@@ -19,7 +19,8 @@ from deik.io.bvh_hierarchy import (
 from deik.io.clip import CHANNELS, Clip, JointChannels
 from deik.io.errors import FileFormatError
 from deik.io.segments import estimate_segments, read_segment_table
-from deik.joints import ROTATE, Joint, Site, build_skeleton, euler, translation
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
+from deik.model.build import build_skeleton
 
 
 def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:

@@ -15,9 +15,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from deik.joints import ROTATE, TRANSLATE
-from deik.rotations import wrap_rotations
-from deik.skeleton import Skeleton
+from deik.model.joints import ROTATE, TRANSLATE
+from deik.model.rotations import wrap_rotations
+from deik.model.skeleton import Skeleton
 
 TWO_PI = 2.0 * math.pi
 DEGREES_PER_RADIAN = 180.0 / math.pi

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from deik.skeleton import Skeleton
+from deik.model.skeleton import Skeleton
 
 URDF_UP = (0.0, 0.0, 1.0)
 SKELETON_FORMS = "'chain:N' (planar chain of N links), 'chain3d:N' (3-D chain), 'humanoid', or a .bvh or .urdf file"
@@ -49,8 +49,8 @@ def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> 
 
 def skeleton_from_spec(spec: str) -> Skeleton:
     """Built-in skeleton from "chain:N" (planar, N unit links), "chain3d:N" or "humanoid"."""
-    from deik.builders import chain
-    from deik.humanoid import humanoid
+    from deik.model.builders import chain
+    from deik.model.humanoid import humanoid
 
     kind, _, count = str(spec).partition(":")
     if kind == "humanoid" and not count:

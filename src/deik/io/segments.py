@@ -16,10 +16,10 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-from deik.humanoid import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
+from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.io.errors import FileFormatError
-from deik.joints import Segment
-from deik.skeleton import Skeleton
+from deik.model.joints import Segment
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 NOMINAL_MASS = 70.0  # kg; only mass fractions matter for the centre of mass

@@ -21,7 +21,8 @@ import numpy as np
 
 from deik.io.errors import FileFormatError
 from deik.io.urdf_tree import LinkTree, read_xml
-from deik.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site, build_skeleton
+from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
+from deik.model.build import build_skeleton
 from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}

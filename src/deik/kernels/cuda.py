@@ -14,10 +14,9 @@ from functools import lru_cache
 import numpy as np
 from numba import cuda, float32, float64, int32
 
-from deik.evolution.engine import MAX_POLISH_COUNT
+from deik.kernels.layout import THREADS_PER_BLOCK
 from deik.kernels.targets import cuda_device
 
-THREADS_PER_BLOCK = MAX_POLISH_COUNT  # a polish round gives each of its individuals a thread
 INIT_GENERATION = -1
 
 

@@ -7,15 +7,8 @@ from functools import lru_cache
 import numpy as np
 
 from deik.objectives.table import TermTable
-from deik.skeleton import Skeleton
-
-
-def ground_frame(up: np.ndarray) -> np.ndarray:
-    """(3, 3): two horizontal unit axes, then `up`."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    e1 = np.cross(up, helper)
-    e1 /= np.linalg.norm(e1)
-    return np.stack([e1, np.cross(up, e1), up])
+from deik.model.geometry import ground_frame
+from deik.model.skeleton import Skeleton
 
 
 def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> tuple:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from deik.objectives import table as tt
-from deik.skeleton import Skeleton
+from deik.model.skeleton import Skeleton
 
 
 def _vector(value, shape: tuple[int, ...], what: str) -> np.ndarray:

@@ -5,39 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from deik.kernels.pack import ground_frame
-from deik.kinematics import forward_kinematics
+from deik.model.geometry import ground_frame, polygon_distance, segment_distance
+from deik.model.kinematics import forward_kinematics
 from deik.objectives import table as tt
-from deik.rotations import direction_angle, rotation_angle
-
-
-def _segment_distance(point, a, b):
-    """Distance from point (..., k) to segments a-b (..., k)."""
-    u = b - a
-    length2 = np.sum(u * u, axis=-1)
-    t = np.where(length2 > 0, np.sum((point - a) * u, axis=-1) / np.where(length2 > 0, length2, 1), 0)
-    t = np.clip(t, 0.0, 1.0)
-    return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
-
-
-def _polygon_distance(q, pts):
-    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
-    non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
-    n = pts.shape[1]
-    inside = np.zeros(len(q), bool)
-    cross = lambda o, a: (a[:, 0] - o[:, 0]) * (q[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (q[:, 0] - o[:, 0])  # noqa: E731
-    for a in range(n):
-        for b in range(a + 1, n):
-            for c in range(b + 1, n):
-                u, v = pts[:, b] - pts[:, a], pts[:, c] - pts[:, a]
-                proper = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] != 0
-                d = np.stack([cross(pts[:, a], pts[:, b]), cross(pts[:, b], pts[:, c]), cross(pts[:, c], pts[:, a])])
-                inside |= proper & ((d >= 0).all(axis=0) | (d <= 0).all(axis=0))
-    best = np.full(len(q), np.inf)
-    for a in range(n):
-        for b in range(a, n):
-            best = np.minimum(best, _segment_distance(q, pts[:, a], pts[:, b]))
-    return np.where(inside, 0.0, best)
+from deik.model.rotations import direction_angle, rotation_angle
 
 
 def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
@@ -68,7 +39,7 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
                 d = d - (d @ ground[2])[:, None] * ground[2]
             out[:, t] = np.linalg.norm(d, axis=-1)
         elif kind == tt.SUPPORT_POLYGON:
-            out[:, t] = _polygon_distance(com @ ground[:2].T, p[:, frames] @ ground[:2].T)
+            out[:, t] = polygon_distance(com @ ground[:2].T, p[:, frames] @ ground[:2].T)
         elif kind in (tt.COMFORT_SUM, tt.COMFORT_MAX):
             e = table.dof_weight[t] * np.abs(poses - problem.reference[idx, t])
             out[:, t] = e.sum(axis=1) if kind == tt.COMFORT_SUM else e.max(axis=1)
@@ -77,7 +48,7 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
         elif kind == tt.OBSTACLE:
             starts = np.concatenate([sk.parents[1:], sk.site_joint])
             ends = np.arange(1, sk.n_frames)
-            dist = _segment_distance(g[:, None, :3], p[:, starts], p[:, ends])
+            dist = segment_distance(g[:, None, :3], p[:, starts], p[:, ends])
             out[:, t] = np.maximum(g[:, None, 3] + g[:, None, 4] - dist, 0).sum(axis=1)
     return out
 

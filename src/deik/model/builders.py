@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 
-from deik.joints import Joint, Site, build_skeleton, euler, hinge
-from deik.skeleton import Skeleton
+from deik.model.joints import Joint, Site, euler, hinge
+
+from deik.model.build import build_skeleton
+from deik.model.skeleton import Skeleton
 
 
 def chain(

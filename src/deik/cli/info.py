@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from deik.cli_format import format_table
+from deik.viz.text import format_table
 from deik.io.load import Loaded
-from deik.joints import ROTATE
+from deik.model.joints import ROTATE
 
 
 def _dof_cells(skeleton, d: int) -> list[str]:

@@ -19,8 +19,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from deik import cli_clip, cli_solve
-from deik.cli_format import Parser, UsageError, check_output, numbers
+from deik.cli import clip as cli_clip
+from deik.cli import solve as cli_solve
+from deik.cli.common import Parser, UsageError, check_output, numbers
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -28,7 +29,7 @@ USAGE_ERROR = 2
 
 def run_demo(args) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
-    from deik import demo
+    from deik.experiments import demo
 
     rows = demo.run_demo(args.out)
     return 0 if all(row["passed"] for row in rows) else 1
@@ -36,7 +37,7 @@ def run_demo(args) -> int:
 
 def run_info(args) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
-    from deik.info import describe
+    from deik.cli.info import describe
 
     up = numbers("--up", args.up) if args.up else None
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
@@ -47,7 +48,7 @@ def run_info(args) -> int:
 def run_limits(args) -> int:
     """`deik limits IN.bvh --out limits.json`: each DOF's range over the clip plus margins."""
     from deik.io.bvh import read_bvh
-    from deik.limits import range_of_motion, write_limits
+    from deik.io.limits import range_of_motion, write_limits
 
     check_output("--out", args.out, (".json",))
     clip = read_bvh(args.clip)

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from deik.io.atomic import write_json_atomically
-from deik.joints import ROTATE
-from deik.skeleton import Skeleton
+from deik.model.joints import ROTATE
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from deik.io.atomic import save_atomically
-from deik.joints import ROTATE
-from deik.kinematics import forward_kinematics
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
 from deik.objectives import goals as g
-from deik.skeleton import Skeleton
+from deik.model.skeleton import Skeleton
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 

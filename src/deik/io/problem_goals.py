@@ -1,4 +1,4 @@
-"""The [[goal]] tables of a problem file (deik.problem_file): one checked deik goal each.
+"""The [[goal]] tables of a problem file (deik.io.problem_file): one checked deik goal each.
 
 Each table's `type` picks the goal class (GOAL_TYPES); its fields are checked one by one and
 every mistake raises a ValueError naming the file, the goal number, its type and the field.
@@ -11,8 +11,8 @@ import math
 import numpy as np
 
 from deik.objectives import goals as g
-from deik.rotations import euler_matrix
-from deik.skeleton import Skeleton
+from deik.model.rotations import euler_matrix
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")

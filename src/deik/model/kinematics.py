@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.joints import ROTATE
-from deik.rotations import axis_angle_matrix
-from deik.skeleton import Skeleton
+from deik.model.joints import ROTATE
+from deik.model.rotations import axis_angle_matrix
+from deik.model.skeleton import Skeleton
 
 
 @dataclass(frozen=True)

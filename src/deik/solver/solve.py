@@ -8,10 +8,10 @@ from dataclasses import fields
 
 import numpy as np
 
-from deik.evolution.engine import Engine, Settings
+from deik.solver.engine import Engine, Settings
 from deik.objectives import table as tt
-from deik.problem import Problem
-from deik.result import GoalReport, Result
+from deik.solver.problem import Problem
+from deik.solver.result import GoalReport, Result
 
 PROGRESS_CHUNK = 100
 TIME_PROBE = 4  # generations of the first launch under a time limit

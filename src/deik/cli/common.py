@@ -1,13 +1,10 @@
-"""Small pieces the command-line modules share: the usage error, number parsing, text tables."""
+"""Small pieces the command-line modules share: the usage error, number parsing, output checks."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import os
-
-RADIAN_WORDS = ("orientation", "aim", "comfort")
-
 
 class UsageError(Exception):
     """A mistake in the command line or its inputs: reported in one line, exit status 2."""
@@ -32,19 +29,6 @@ def numbers(flag: str, words) -> list[float]:
             raise UsageError(f"{flag}: {word!r} is not a finite number")
         values.append(value)
     return values
-
-
-def format_table(header: list[str], rows: list[list]) -> str:
-    """Left-aligned text table: `header` column names, `rows` of cells turned into strings."""
-    cells = [header] + [[str(c) for c in row] for row in rows]
-    widths = [max(len(row[k]) for row in cells) for k in range(len(header))]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells]
-    return "\n".join([lines[0], "  ".join("-" * w for w in widths)] + lines[1:])
-
-
-def unit(label: str) -> str:
-    """Unit of a goal report's error from its label: "rad" for angles, "m" for lengths."""
-    return "rad" if label.split()[0] in RADIAN_WORDS else "m"
 
 
 def check_output(flag: str, path, suffixes=None) -> None:

@@ -19,15 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.builders import chain
-from deik.cli_format import format_table, unit
+from deik.model.builders import chain
+from deik.viz.text import format_table, unit
 from deik.io.atomic import write_json_atomically
-from deik.humanoid import humanoid
-from deik.kinematics import forward_kinematics
+from deik.model.humanoid import humanoid
+from deik.model.kinematics import forward_kinematics
 from deik.objectives.goals import Comfort, ComOverSupport, Position
-from deik.plot import plot_result
-from deik.problem import Problem
-from deik.solve import solve
+from deik.viz.plot import plot_result
+from deik.solver.problem import Problem
+from deik.solver.solve import solve
 
 CHAIN_SETTINGS = {"population": 256, "strategy": "best/1/bin", "seed": 0}
 HUMANOID_SETTINGS = {"population": 256, "generations": 1500, "seed": 1}

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from deik.skeleton import Skeleton
+from deik.model.skeleton import Skeleton
 
 
 @dataclass(frozen=True, eq=False)

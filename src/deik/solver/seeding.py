@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from deik.joints import ROTATE
-from deik.skeleton import Skeleton
+from deik.model.joints import ROTATE
+from deik.model.skeleton import Skeleton
 
 
 def poses_around(skeleton: Skeleton, pose, count: int, spread=0.05, seed: int = 0) -> np.ndarray:

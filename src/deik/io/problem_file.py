@@ -34,7 +34,7 @@ A URDF robot takes the top-level keys of `deik solve`'s flags: base = "link", ti
 a list of links, up = [x, y, z]. A BVH clip takes segments = "table.json" (masses) and
 frame = N: the search then starts around that frame's pose, and comfort goals keep the pose
 near it (their reference), as `deik solve --frame N` does. Any skeleton takes
-joint_limits = "limits.json", a table of narrower limits (deik.limits).
+joint_limits = "limits.json", a table of narrower limits (deik.io.limits).
 """
 
 from __future__ import annotations
@@ -43,12 +43,12 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from deik.evolution.engine import Settings
+from deik.solver.engine import Settings
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
-from deik.limits import read_limits, with_limits
+from deik.io.limits import read_limits, with_limits
 from deik.objectives import goals as g
-from deik.problem import LIMIT_MODES, Problem
-from deik.problem_goals import goal_from_table, vector_field
+from deik.solver.problem import LIMIT_MODES, Problem
+from deik.io.problem_goals import goal_from_table, vector_field
 from deik.suggest import did_you_mean
 
 URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")
@@ -57,7 +57,7 @@ TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KE
 
 @dataclass(frozen=True)
 class ProblemFile:
-    """A loaded problem file: the Problem, its settings (a dict for deik.solve), the skeleton
+    """A loaded problem file: the Problem, its settings (a dict for deik.solver.solve), the skeleton
     as loaded (deik.io.load.Loaded: its clip for a BVH) and the clip frame the search starts
     from (None unless the file sets `frame`)."""
 
@@ -68,7 +68,7 @@ class ProblemFile:
 
 
 def load_problem(path) -> ProblemFile:
-    """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
+    """Read TOML file `path`: its Problem, settings dict (deik.solver.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
     try:

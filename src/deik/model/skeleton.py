@@ -2,7 +2,7 @@
 
 Joints are in topological order (parent index < child index, root -1). Frames are the joints
 followed by the sites: frame f < n_joints is joint f, otherwise site f - n_joints. Built with
-`deik.joints.build_skeleton` or a builder (`chain`, `humanoid`); validated on construction.
+`deik.model.joints.build_skeleton` or a builder (`chain`, `humanoid`); validated on construction.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from deik.model.joints import TRANSLATE
 from deik.suggest import did_you_mean
 
 
@@ -97,7 +98,7 @@ class Skeleton:
                 _fail(
                     f"joint {k} ({self.joint_names[k]!r}) has parent index {p}: parents must be "
                     f"earlier joints (0 <= parent < {k}); a later or missing parent means a cycle "
-                    "or a bad index; build with deik.joints.build_skeleton to sort joints"
+                    "or a bad index; build with deik.model.joints.build_skeleton to sort joints"
                 )
         for label, arr in (("offsets", self.offsets), ("site_offset", self.site_offset),
                            ("mass_offset", self.mass_offset), ("dof_axis", self.dof_axis)):
@@ -180,8 +181,6 @@ class Skeleton:
     @cached_property
     def _frame_path_length(self) -> np.ndarray:
         """(F,) bone length from the root to each frame, non-root slides at full range."""
-        from deik.joints import TRANSLATE
-
         m = self.motions
         source_span = np.maximum(abs(self.lower), abs(self.upper))[m.source]
         slide = np.where(m.kind == TRANSLATE, abs(m.scale) * source_span + abs(m.bias), 0.0)
@@ -204,8 +203,6 @@ class Skeleton:
 
     def root_box(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper corners (3,) of where the root joint's origin can be."""
-        from deik.joints import TRANSLATE
-
         lo, hi = self.offsets[0].copy(), self.offsets[0].copy()
         rotated = False
         for d in range(self.joint_dof_start[0], self.joint_dof_start[1]):

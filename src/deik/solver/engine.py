@@ -12,13 +12,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from deik.kernels.layout import MAX_POLISH_COUNT
 from deik.kernels.pack import pack_skeleton, pack_terms
-from deik.problem import Problem
+from deik.solver.problem import Problem
 
 STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
 LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
 DEVICES = ("cpu", "gpu")
-MAX_POLISH_COUNT = 128  # individuals one polish round may refine: a GPU block's threads
 STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
 
 

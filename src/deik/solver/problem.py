@@ -9,7 +9,7 @@ import numpy as np
 
 from deik.objectives import table as tt
 from deik.objectives.goals import Comfort, Goal
-from deik.skeleton import Skeleton
+from deik.model.skeleton import Skeleton
 
 LIMIT_MODES = ("reflect", "clip", "penalty", "paper")
 

@@ -12,7 +12,8 @@ import sys
 
 import numpy as np
 
-from deik.cli_format import UsageError, check_device, check_output, format_table
+from deik.cli.common import UsageError, check_device, check_output
+from deik.viz.text import format_table
 from deik.io.atomic import write_json_atomically
 from deik.suggest import did_you_mean
 
@@ -109,12 +110,12 @@ def run_clip(args) -> int:
     check_output("--json", args.json, (".json",))
     check_device(args.device)
     if args.report:
-        from deik.plot import require_matplotlib
+        from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
     clip = read_bvh(args.clip, segments=args.segments)
     if args.limits:
-        from deik.limits import clip_within, read_limits, with_limits
+        from deik.io.limits import clip_within, read_limits, with_limits
 
         clip = clip_within(clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}")
     contacts = _contacts(args, clip)
@@ -141,7 +142,7 @@ def run_clip(args) -> int:
         write_json_atomically(args.json, {"metrics": summary, "frames": clip.n_frames, "wall_time_s": fix.wall_time,
                                           "frames_met": int(fix.met.sum()), "stages": list(fix.stages)})
     if args.report:
-        from deik.clips.report import plot_clip_report
+        from deik.viz.clip_report import plot_clip_report
 
         series = per_frame_errors(clip, fix.clip, contacts, reach_tracks)
         plot_clip_report(series, args.report, clip.frame_time, title=f"deik clip {os.path.basename(args.clip)}")

@@ -7,7 +7,7 @@ the candidate is evaluated, one pose at a time with `deik.objectives.reference.f
 serial CPU would, and it replaces population[x] *in place* when it is not worse. Later
 iterations of the same epoch therefore already read the replaced individual (and x may be
 picked, and overwritten, several times); the parallel ping-pong engine (Figure 1,
-`deik.evolution.engine`) removes exactly this dependency by reading one buffer and writing
+`deik.solver.engine`) removes exactly this dependency by reading one buffer and writing
 another.
 
 Deliberate choices, all matching the parallel engine:
@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from deik.objectives.reference import fitness
-from deik.problem import Problem
+from deik.solver.problem import Problem
 
 _TWO_PI = 2.0 * np.pi
 

@@ -19,8 +19,10 @@ from __future__ import annotations
 import math
 import numbers
 
-from deik.joints import Joint, Segment, Site, build_skeleton, euler, hinge, translation
-from deik.skeleton import Skeleton
+from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, HAND, HEAD, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
+from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Segment, Site, euler, hinge, translation
+from deik.model.skeleton import Skeleton
 
 SIDES = (("left", 1.0), ("right", -1.0))
 ORIGIN = (0.0, 0.0, 0.0)
@@ -30,12 +32,6 @@ HIP_HEIGHT, KNEE_HEIGHT, ANKLE_HEIGHT, SHOULDER_HEIGHT = 0.530, 0.285, 0.039, 0.
 UPPER_ARM, FOREARM = 0.186, 0.146
 SHOULDER_WIDTH, FOOT_LENGTH, FOOT_WIDTH = 0.259, 0.152, 0.055
 
-# de Leva's mean male lengths (mm) over his mean stature of 1741 mm.
-LOWER_TRUNK = 145.7 / 1741.0  # mid-hip to omphalion
-MIDDLE_TRUNK = 215.5 / 1741.0  # omphalion to xiphion
-UPPER_TRUNK = 170.7 / 1741.0  # xiphion to suprasternale
-HEAD = 203.3 / 1741.0  # mid-gonion to vertex
-HAND = 86.2 / 1741.0  # wrist joint centre to third knuckle
 NECK_BASE = HIP_HEIGHT + LOWER_TRUNK + MIDDLE_TRUNK + UPPER_TRUNK  # suprasternale height
 
 # Estimates (fractions of stature unless noted).
@@ -46,28 +42,6 @@ TOE_JOINT_HEIGHT = 0.010  # metatarsophalangeal joint centre above the sole
 # Along the foot, as fractions of its heel-to-toe-tip length measured from the heel.
 ANKLE_ALONG_FOOT, INNER_BALL_ALONG_FOOT, OUTER_BALL_ALONG_FOOT, TOE_JOINT_ALONG_FOOT = (
     0.22, 0.73, 0.63, 0.70)
-
-# de Leva (1996) Table 4, males: percent of body mass, and the centre of mass as a fraction of
-# the segment length from its first endpoint (head: vertex; trunk parts: their upper end;
-# limbs: proximal joint; foot: heel).
-DE_LEVA = {
-    "head": (6.94, 0.5976),
-    "upper_trunk": (15.96, 0.2999),
-    "middle_trunk": (16.33, 0.4502),
-    "lower_trunk": (11.17, 0.6115),
-    "upper_arm": (2.71, 0.5772),
-    "forearm": (1.62, 0.4574),
-    "hand": (0.61, 0.7900),
-    "thigh": (14.16, 0.4095),
-    "shank": (4.33, 0.4395),
-    "foot": (1.37, 0.4415),
-}
-PAIRED = ("upper_arm", "forearm", "hand", "thigh", "shank", "foot")
-# The published percentages sum to 100.00; segment masses are divided by this total so they add
-# up to the requested mass exactly, and a mistyped entry fails here instead of skewing the body.
-DE_LEVA_TOTAL = sum(p * (2 if name in PAIRED else 1) for name, (p, _) in DE_LEVA.items())
-if abs(DE_LEVA_TOTAL - 100.0) > 0.05:
-    raise AssertionError(f"de Leva mass table sums to {DE_LEVA_TOTAL}%, not 100%")
 
 # Ranges of motion (lower, upper) per Euler channel, radians, written for the LEFT side.
 # Signs: +X rotation bends the trunk and head forward, swings a limb backwards and points the

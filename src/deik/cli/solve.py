@@ -16,18 +16,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik import plot
-from deik.cli_format import UsageError, check_device, check_output, format_table, numbers, unit
-from deik.evolution.engine import STRATEGIES, Settings
+from deik.viz import plot
+from deik.cli.common import UsageError, check_device, check_output, numbers
+from deik.viz.text import format_table, unit
+from deik.solver.engine import STRATEGIES, Settings
 from deik.io.atomic import write_json_atomically
 from deik.io.load import load_skeleton
-from deik.limits import read_limits, with_limits
+from deik.io.limits import read_limits, with_limits
 from deik.objectives import goals as g
-from deik.problem import Problem
-from deik.problem_file import load_problem
-from deik.rotations import euler_matrix
-from deik.seeding import poses_around
-from deik.solve import solve
+from deik.solver.problem import Problem
+from deik.io.problem_file import load_problem
+from deik.model.rotations import euler_matrix
+from deik.solver.seeding import poses_around
+from deik.solver.solve import solve
 
 SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype", "time_limit", "polish",
                  "restarts", "islands")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from deik.io.atomic import save_atomically
-from deik.plot import require_matplotlib
+from deik.viz.plot import require_matplotlib
 
 
 def plot_clip_report(series: dict, path, frame_time: float, title: str = "") -> None:

@@ -1,1 +1,0 @@
-"""Differential evolution: the parallel engine (engine.py) and the paper's serial reference (serial.py)."""

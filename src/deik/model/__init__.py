@@ -1,0 +1,1 @@
+"""The body model: DOF and joint specs, the frozen Skeleton, forward kinematics, rotations, builders."""

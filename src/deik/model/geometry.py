@@ -1,0 +1,47 @@
+"""Ground frames and point-to-segment and point-to-polygon distances, in NumPy (batched).
+
+The kernels compute the same quantities in device code (kernels/device_terms.py); these are the
+readable versions that the oracle, the clip metrics and the balance track use.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def ground_frame(up: np.ndarray) -> np.ndarray:
+    """(3, 3): two horizontal unit axes, then `up`."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(up, helper)
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(up, e1), up])
+
+
+
+def segment_distance(point, a, b):
+    """Distance from point (..., k) to segments a-b (..., k)."""
+    u = b - a
+    length2 = np.sum(u * u, axis=-1)
+    t = np.where(length2 > 0, np.sum((point - a) * u, axis=-1) / np.where(length2 > 0, length2, 1), 0)
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
+
+
+def polygon_distance(q, pts):
+    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
+    non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
+    n = pts.shape[1]
+    inside = np.zeros(len(q), bool)
+    cross = lambda o, a: (a[:, 0] - o[:, 0]) * (q[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (q[:, 0] - o[:, 0])  # noqa: E731
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                u, v = pts[:, b] - pts[:, a], pts[:, c] - pts[:, a]
+                proper = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] != 0
+                d = np.stack([cross(pts[:, a], pts[:, b]), cross(pts[:, b], pts[:, c]), cross(pts[:, c], pts[:, a])])
+                inside |= proper & ((d >= 0).all(axis=0) | (d <= 0).all(axis=0))
+    best = np.full(len(q), np.inf)
+    for a in range(n):
+        for b in range(a, n):
+            best = np.minimum(best, segment_distance(q, pts[:, a], pts[:, b]))
+    return np.where(inside, 0.0, best)

@@ -1,0 +1,1 @@
+"""Pictures and text views: pose plots, clip reports, tables."""
