@@ -13,16 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-POSITION, ORIENTATION, AIM, COM, COM_GROUND, SUPPORT_POLYGON = 0, 1, 2, 3, 4, 5
-COMFORT_SUM, COMFORT_MAX, LIMITS, OBSTACLE = 6, 7, 8, 9
+from deik.objectives.kinds import (  # noqa: F401  (the table's names, re-exported)
+    AIM, COM, COM_GROUND, COMFORT_MAX, COMFORT_SUM, GAIN, LIMITS, MAX_LEVELS, MAX_TERM_FRAMES, N_PARAMS, OBSTACLE,
+    ORIENTATION, POSITION, SUPPORT_POLYGON,
+)
+
 KIND_NAMES = (
     "position", "orientation", "aim", "centre_of_mass", "com_over_support",
     "support_polygon", "comfort_sum", "comfort_max", "joint_limits", "obstacle",
 )
-MAX_TERM_FRAMES = 8
-N_PARAMS = 12
-GAIN = N_PARAMS - 1  # params[b, t, GAIN]: the term's weight multiplier in problem b (0 = off)
-MAX_LEVELS = 4
 
 
 @dataclass(frozen=True)
