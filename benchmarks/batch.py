@@ -1,4 +1,4 @@
-"""Batch throughput: IK problems solved per second by one batched deik.solver.solve() call.
+"""Batch throughput: IK problems solved per second by one batched deik.solve() call.
 
     PYTHONPATH=src python -m benchmarks.batch [--device cpu|gpu] [--quick] [--out DIR]
         [--batches 1 10 100 1000 10000] [--populations 16 32 64] [--pick-batch 100]
@@ -50,7 +50,7 @@ def measure(name: str, batch: int, population: int, threads: int, args) -> dict:
     problem, initial = make_problem(name, batch, args.seed)
     with harness.threads(threads):
         t = time.perf_counter()
-        result = deik.solver.solve(problem, initial=initial, **solve_settings(population, args))
+        result = deik.solve(problem, initial=initial, **solve_settings(population, args))
         seconds = time.perf_counter() - t
     converged, generations = np.atleast_1d(result.converged), np.atleast_1d(result.generations)
     return {"problem": name, "batch": batch, "population": population, "threads": threads, "seconds": seconds,
@@ -61,7 +61,7 @@ def measure(name: str, batch: int, population: int, threads: int, args) -> dict:
 
 
 def solve_settings(population: int, args) -> dict:
-    """deik.solver.solve keyword overrides: the defaults but population. --quick keeps the default
+    """deik.solve keyword overrides: the defaults but population. --quick keeps the default
     budget too: its batches are tiny, and a cut budget leaves a Panda target unmet at random."""
     return {"population": population, "seed": args.seed, "device": args.device, "dtype": args.dtype}
 

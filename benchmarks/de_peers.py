@@ -61,7 +61,7 @@ def run_deik(settings: dict, skeleton, tip, pose, tolerances, positions, rotatio
     def solve(k, seed):
         problem = deik.Problem(skeleton, deik_goals(tip, pose, tolerances, positions[k], rotations[k]))
         t0 = time.perf_counter()
-        result = deik.solver.solve(problem, seed=seed, **settings)
+        result = deik.solve(problem, seed=seed, **settings)
         seconds = time.perf_counter() - t0
         return {"angles": result.angles.tolist(), "seconds": seconds, "generations": int(result.generations),
                 "evaluations": settings["population"] * (int(result.generations) + 1)}

@@ -145,7 +145,7 @@ def main(argv=None) -> int:
              {"populations": [1000, 10_000, TARGET_POPULATION], "batches": [1, 100, 1000, 10_000],
               "generations": 3})
     opening = harness.start(args, sizes)
-    deik.solver.solve(harness.chain_problem(5, 2, args.seed), population=8, generations=2, device=args.device,
+    deik.solve(harness.chain_problem(5, 2, args.seed), population=8, generations=2, device=args.device,
                dtype=args.dtype)  # compile / load the kernels before measuring
 
     configs = [("population", TARGET_LINKS, pop, 1) for pop in args.populations]

@@ -5,7 +5,7 @@
 
 Per case (benchmarks.robot_targets): N random in-limit poses of the tip, every solver starting
 from the mid-limit pose. deik solves each target alone (timed per call: building the Problem
-and deik.solver.solve), again through one reused deik.Solver that swaps the targets (timed per call),
+and deik.solve), again through one reused deik.Solver that swaps the targets (timed per call),
 and then all of them in one batched call (throughput). Each peer runs in .venv-peers through
 benchmarks.peers.run_peer (skipped, with the reason recorded, when that venv is missing or the
 peer fails). Every answer is scored by robot_targets.pose_errors (deik's float64 FK): success
@@ -47,7 +47,7 @@ def deik_problem(skeleton, tip, positions, rotations) -> deik.Problem:
 
 def solve_deik_single(skeleton, tip, position, rotation, start, seed) -> np.ndarray:
     """One target: position (3,) m, rotation (3, 3), start (D,) -> angles (D,)."""
-    result = deik.solver.solve(deik_problem(skeleton, tip, position, rotation), seed=seed, initial=start[None], **DEIK)
+    result = deik.solve(deik_problem(skeleton, tip, position, rotation), seed=seed, initial=start[None], **DEIK)
     return result.angles
 
 
@@ -67,7 +67,7 @@ def solve_deik_reused(skeleton, tip, positions, rotations, start, seed) -> tuple
 
 def solve_deik_batch(skeleton, tip, positions, rotations, start, seed) -> np.ndarray:
     """B targets in one call: positions (B, 3), rotations (B, 3, 3), start (D,) -> angles (B, D)."""
-    result = deik.solver.solve(deik_problem(skeleton, tip, positions, rotations), seed=seed, initial=start[None], **DEIK)
+    result = deik.solve(deik_problem(skeleton, tip, positions, rotations), seed=seed, initial=start[None], **DEIK)
     return result.angles
 
 

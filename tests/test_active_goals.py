@@ -37,7 +37,7 @@ def test_kernel_fitness_with_gains_matches_the_oracle():
 
 
 def test_inactive_goal_does_not_block_convergence():
-    result = deik.solver.solve(_problem(np.array([True, False])), population=128, seed=3, generations=400)
+    result = deik.solve(_problem(np.array([True, False])), population=128, seed=3, generations=400)
     extra = result.goals[1]
     assert extra.active.tolist() == [True, False]
     assert bool(extra.met[1])  # not active: met whatever its error

@@ -101,7 +101,7 @@ def test_changing_values_never_recompiles_the_cpu_kernels():
                                                tolerance=0.01 * sk.reach)])
 
     def solve(p=None, **changes):
-        return deik.solver.solve(p or problem(), **{"population": 16, "generations": 20, "seed": 0, **changes})
+        return deik.solve(p or problem(), **{"population": 16, "generations": 20, "seed": 0, **changes})
 
     solve()  # compiles or loads the float32 kernels
     counts = [len(k.signatures) for k in kernels]

@@ -129,7 +129,7 @@ def test_random_values_round_trip_within_tolerance(tmp_path):
 
 
 def test_humanoid_pose_written_and_read_back_has_the_same_positions(tmp_path):
-    human = deik.model.humanoid()
+    human = deik.humanoid()
     rng = np.random.default_rng(0)
     pose = rng.uniform(human.lower, human.upper)
     clip = Clip.from_poses(human, pose[None], 1 / 30)

@@ -172,7 +172,7 @@ def test_builtin_humanoid_pose_written_as_bvh_reads_back(tmp_path, capsys):
     clip = read_bvh(out)
     assert clip.n_frames == 1
     assert "position left_hand" in capsys.readouterr().out
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     assert set(clip.skeleton.joint_names) == set(sk.joint_names)
     # the written frame puts the hand where the solve did: within the default 1 % of reach
     joint = sk.joint_names[sk.site_joint[sk.site_names.index("left_hand")]]

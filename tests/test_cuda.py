@@ -78,8 +78,8 @@ def test_real_gpu_solves_like_the_cpu():
     rng = np.random.default_rng(3)
     target = deik.forward_kinematics(chain, rng.uniform(-1, 1, chain.n_dofs)).position("tip")
     problem = deik.Problem(chain, [deik.Position("tip", target)])
-    gpu = deik.solver.solve(problem, population=128, seed=5, device="gpu", dtype="float64")
-    cpu = deik.solver.solve(problem, population=128, seed=5, device="cpu", dtype="float64")
+    gpu = deik.solve(problem, population=128, seed=5, device="gpu", dtype="float64")
+    cpu = deik.solve(problem, population=128, seed=5, device="cpu", dtype="float64")
     assert gpu.converged and cpu.converged
     assert gpu.device == "gpu"
     assert abs(int(gpu.generations) - int(cpu.generations)) <= max(5, int(cpu.generations) // 5)
@@ -89,4 +89,4 @@ def test_real_gpu_solves_like_the_cpu():
 def test_gpu_device_without_a_gpu_says_how_to_fix():
     problem = deik.Problem(deik.chain(3), [deik.Position("tip", (1.0, 1.0, 0.0))])
     with pytest.raises(RuntimeError, match="needs an NVIDIA GPU.*device='cpu'"):
-        deik.solver.solve(problem, device="gpu")
+        deik.solve(problem, device="gpu")

@@ -41,7 +41,7 @@ def within_limits(sk, angles):
 def test_default_settings_converge_within_one_percent_of_reach(n, dims, seed):
     sk = deik.chain(n, dims=dims)
     target, _ = fk_target(sk, 100 + seed)
-    result = deik.solver.solve(deik.Problem(sk, [deik.Position("tip", target)]), seed=seed)
+    result = deik.solve(deik.Problem(sk, [deik.Position("tip", target)]), seed=seed)
     assert result.converged
     err = tip_error(sk, result.angles, target)
     assert err <= 0.01 * sk.reach
@@ -70,9 +70,9 @@ def test_float64_reaches_tolerances_float32_cannot():
     sk = deik.chain(4)
     target, _ = fk_target(sk, 41)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-9)])
-    r = deik.solver.solve(problem, population=32, seed=0, dtype="float64", patience=100)
+    r = deik.solve(problem, population=32, seed=0, dtype="float64", patience=100)
     assert r.converged and tip_error(sk, r.angles, target) <= 1e-9
-    r32 = deik.solver.solve(problem, population=32, seed=0, dtype="float32", patience=100)
+    r32 = deik.solve(problem, population=32, seed=0, dtype="float32", patience=100)
     assert not r32.converged and tip_error(sk, r32.angles, target) < 1e-5
 
 
@@ -84,11 +84,11 @@ def test_same_seed_same_result_and_different_seed_different_result():
     target, _ = fk_target(sk, 11)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=0.001)])
     kw = dict(population=64, generations=80, stop_on_converged=False, patience=1000)
-    a, b = deik.solver.solve(problem, seed=5, **kw), deik.solver.solve(problem, seed=5, **kw)
+    a, b = deik.solve(problem, seed=5, **kw), deik.solve(problem, seed=5, **kw)
     np.testing.assert_array_equal(a.angles, b.angles)
     np.testing.assert_array_equal(a.history, b.history)
     assert a.generations == b.generations == 80
-    c = deik.solver.solve(problem, seed=6, **kw)
+    c = deik.solve(problem, seed=6, **kw)
     assert not np.array_equal(a.angles, c.angles)
     assert not np.array_equal(a.history, c.history)
 
@@ -99,7 +99,7 @@ sk = deik.chain(5, dims=3)
 q = np.random.default_rng(3).uniform(sk.lower, sk.upper, (3, sk.n_dofs))
 targets = deik.forward_kinematics(sk, q).position("tip")
 problem = deik.Problem(sk, [deik.Position("tip", targets, tolerance=1e-4), deik.Comfort(level=1)])
-r = deik.solver.solve(problem, population=48, generations=40, seed=9)
+r = deik.solve(problem, population=48, generations=40, seed=9)
 print(numba.get_num_threads())
 print(repr(r.angles.tolist()))
 print(repr(r.history.tolist()))
@@ -186,11 +186,11 @@ def test_solve_reports_generations_and_history():
     sk = deik.chain(4)
     target, _ = fk_target(sk, 13)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-6)])
-    r = deik.solver.solve(problem, population=16, generations=37, patience=10_000, stop_on_converged=False)
+    r = deik.solve(problem, population=16, generations=37, patience=10_000, stop_on_converged=False)
     assert r.generations == 37 and r.history.shape == (37, 2)
     assert (np.diff(r.history[:, 0]) <= 0).all()
     calls = []
-    deik.solver.solve(problem, population=16, generations=250, patience=10_000, stop_on_converged=False,
+    deik.solve(problem, population=16, generations=250, patience=10_000, stop_on_converged=False,
                progress=lambda g, f: calls.append(g))
     assert calls == [100, 200, 250]
 
@@ -229,12 +229,12 @@ def test_penalty_mode_final_best_is_within_limits():
     problem = _limited_problem("penalty")
     sk = problem.skeleton
     outside = np.array([[2.0, 1.0, 0.5, 0.3], [-1.0, 2.5, 0.0, 0.0]])  # start with poses outside
-    r = deik.solver.solve(problem, initial=outside, population=32, seed=2, generations=200)
+    r = deik.solve(problem, initial=outside, population=32, seed=2, generations=200)
     assert within_limits(sk, r.angles)
     assert r.errors["joint limits"] == 0.0
     assert r.errors["position tip"] > 0.1  # the target itself stays out of reach within limits
     # and penalty mode does rank limit violations first: a free solve gets much closer
-    free = deik.solver.solve(deik.Problem(sk, problem.goals[:1], limits="paper"), population=32, seed=2, generations=200)
+    free = deik.solve(deik.Problem(sk, problem.goals[:1], limits="paper"), population=32, seed=2, generations=200)
     assert not within_limits(sk, free.angles)
     assert free.errors["position tip"] < r.errors["position tip"]
 
@@ -253,7 +253,7 @@ def test_strict_priority_meets_level_zero_first():
     sk, a, b, gap = _two_targets()
     goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2),
              deik.Position("tip", b, tolerance=0.03, level=1)]
-    r = deik.solver.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
+    r = deik.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
     err_a, err_b = tip_error(sk, r.angles, a), tip_error(sk, r.angles, b)
     assert err_a <= 0.05 + 1e-6  # level 0 met despite its smaller weight
     assert err_b > err_a
@@ -267,7 +267,7 @@ def test_weights_in_one_level_trade_off_instead():
     sk, a, b, gap = _two_targets()
     goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2),
              deik.Position("tip", b, tolerance=0.03, weight=1.0)]
-    r = deik.solver.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
+    r = deik.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
     err_a, err_b = tip_error(sk, r.angles, a), tip_error(sk, r.angles, b)
     assert err_a + err_b == pytest.approx(gap, abs=0.02)  # on the segment between the targets
     assert err_b < 0.03 and err_a > 0.05  # the weighted compromise favours B, not A
@@ -279,7 +279,7 @@ def test_weights_in_one_level_trade_off_instead():
 def test_batch_solves_each_problem():
     sk = deik.chain(6, dims=3)
     targets, _ = fk_target(sk, 21, n=4)
-    batch = deik.solver.solve(deik.Problem(sk, [deik.Position("tip", targets)]), seed=2)
+    batch = deik.solve(deik.Problem(sk, [deik.Position("tip", targets)]), seed=2)
     assert batch.angles.shape == (4, sk.n_dofs) and batch.converged.shape == (4,)
     assert batch.converged.all()
     assert (tip_error(sk, batch.angles, targets) <= 0.01 * sk.reach).all()
@@ -288,7 +288,7 @@ def test_batch_solves_each_problem():
         n = int(batch.generations[b])
         assert (np.diff(batch.history[b, :n, 0]) <= 0).all() and np.isfinite(batch.history[b, :n]).all()
         assert np.isnan(batch.history[b, n:]).all()  # after a problem stops, while others run on
-        single = deik.solver.solve(deik.Problem(sk, [deik.Position("tip", targets[b])]), seed=2)
+        single = deik.solve(deik.Problem(sk, [deik.Position("tip", targets[b])]), seed=2)
         assert single.converged
         if b == 0:
             # problem 0 draws the same random numbers alone or in a batch
@@ -303,10 +303,10 @@ def test_exact_initial_pose_converges_in_one_generation():
     sk = deik.chain(10)
     target, q = fk_target(sk, 31)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-3)])
-    r = deik.solver.solve(problem, initial=q, seed=0)
+    r = deik.solve(problem, initial=q, seed=0)
     assert r.converged and r.generations == 1
     assert tip_error(sk, r.angles, target) < 1e-4
-    cold = deik.solver.solve(problem, seed=0, polish=0)  # without the hint, DE alone takes a while
+    cold = deik.solve(problem, seed=0, polish=0)  # without the hint, DE alone takes a while
     assert cold.generations > 1
 
 
@@ -314,7 +314,7 @@ def test_exact_initial_pose_converges_in_one_generation():
 
 
 def test_humanoid_planted_foot_balance_and_reach():
-    h = deik.model.humanoid()
+    h = deik.humanoid()
     kin = deik.forward_kinematics(h, h.reference)
     support = np.mean([kin.position(f"right_{s}") for s in ("heel", "toe_inner", "toe_outer")], axis=0)
     hand_target = kin.position("left_hand") + [0.15, 0.35, 0.35]
@@ -325,7 +325,7 @@ def test_humanoid_planted_foot_balance_and_reach():
         deik.Position("left_hand", hand_target, level=1, tolerance=0.01),
         deik.Comfort(level=2),
     ]
-    r = deik.solver.solve(deik.Problem(h, goals), population=256, seed=1)
+    r = deik.solve(deik.Problem(h, goals), population=256, seed=1)
     assert r.converged
     assert within_limits(h, r.angles)
     got = deik.forward_kinematics(h, r.angles)
@@ -343,7 +343,7 @@ def test_history_of_a_problem_that_stops_early_is_nan_after_it_stops():
     elbows[1] = -0.5 * tips[1]  # problem 1 cannot meet both goals: it runs until it stagnates
     problem = deik.Problem(sk, [deik.Position("tip", tips, tolerance=1e-3),
                                 deik.Position("link2", elbows, tolerance=1e-3)])
-    result = deik.solver.solve(problem, seed=0, population=16, patience=5, restarts=0)
+    result = deik.solve(problem, seed=0, population=16, patience=5, restarts=0)
     n0, n1 = (int(n) for n in result.generations)
     assert result.converged.tolist() == [True, False] and n0 < n1 == result.history.shape[1]
     assert np.isfinite(result.history[0, :n0]).all() and np.isnan(result.history[0, n0:]).all()

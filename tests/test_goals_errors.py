@@ -158,7 +158,7 @@ def test_unknown_joint_name_with_suggestion(chain3, tip_target):
     with pytest.raises(KeyError, match=r"did you mean 'link1'"):
         problem(chain3, deik.Aim("lnk1", tip_target))
     with pytest.raises(KeyError, match=r"'left_hnd' not found.*did you mean 'left_hand'"):
-        problem(deik.model.humanoid(), deik.Orientation("left_hnd", np.eye(3)))
+        problem(deik.humanoid(), deik.Orientation("left_hnd", np.eye(3)))
 
 
 # --- problems ----------------------------------------------------------------------------------
@@ -282,20 +282,20 @@ def test_bad_settings(changes, message):
 def test_bad_settings_through_solve_overrides(chain3, tip_target):
     p = problem(chain3, deik.Position("tip", tip_target))
     with pytest.raises(ValueError, match=r"population must be an integer >= 4"):
-        deik.solver.solve(p, population=2)
+        deik.solve(p, population=2)
     with pytest.raises(ValueError, match=r"CR \(crossover probability\)"):
-        deik.solver.solve(p, deik.Settings(population=16), CR=2.0)
+        deik.solve(p, deik.Settings(population=16), CR=2.0)
 
 
 def test_unknown_solve_keyword(chain3, tip_target):
     p = problem(chain3, deik.Position("tip", tip_target))
     with pytest.raises(TypeError, match=r"unknown solve\(\) settings \['popsize'\]; choose from \[.*'population'"):
-        deik.solver.solve(p, popsize=10)
+        deik.solve(p, popsize=10)
 
 
 def test_solve_needs_a_problem(chain3):
     with pytest.raises(TypeError, match=r"solve\(\) takes a deik.Problem, got Skeleton"):
-        deik.solver.solve(chain3)
+        deik.solve(chain3)
 
 
 @pytest.mark.parametrize(
@@ -310,16 +310,16 @@ def test_solve_needs_a_problem(chain3):
 def test_initial_poses_of_wrong_shape(chain3, tip_target, shape, message):
     p = problem(chain3, deik.Position("tip", tip_target))
     with pytest.raises(ValueError, match=message):
-        deik.solver.solve(p, initial=np.zeros(shape), population=16, generations=2)
+        deik.solve(p, initial=np.zeros(shape), population=16, generations=2)
 
 
 def test_initial_poses_with_nan(chain3, tip_target):
     p = problem(chain3, deik.Position("tip", tip_target))
     with pytest.raises(ValueError, match=r"initial poses contain NaN or infinite values"):
-        deik.solver.solve(p, initial=np.array([0.0, math.nan, 0.0]), population=16, generations=2)
+        deik.solve(p, initial=np.array([0.0, math.nan, 0.0]), population=16, generations=2)
 
 
 def test_initial_poses_with_too_many_axes(chain3, tip_target):
     p = problem(chain3, deik.Position("tip", tip_target))
     with pytest.raises(ValueError, match=r"initial poses"):
-        deik.solver.solve(p, initial=np.zeros((1, 1, 2, 3)), population=16, generations=2)
+        deik.solve(p, initial=np.zeros((1, 1, 2, 3)), population=16, generations=2)

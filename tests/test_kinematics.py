@@ -169,7 +169,7 @@ def test_site_offsets_and_rotations():
 
 
 def test_batch_shapes_equal_a_loop():
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     rng = np.random.default_rng(8)
     q = rng.uniform(sk.lower, sk.upper, (2, 3, sk.n_dofs))
     kin = deik.forward_kinematics(sk, q)
@@ -189,7 +189,7 @@ def test_batch_shapes_equal_a_loop():
 
 
 def test_humanoid_com_is_mass_weighted_average_of_segment_centres():
-    sk = deik.model.humanoid(mass=81.0)
+    sk = deik.humanoid(mass=81.0)
     rng = np.random.default_rng(9)
     poses = rng.uniform(sk.lower, sk.upper, (4, sk.n_dofs))
     kin = deik.forward_kinematics(sk, poses)
@@ -225,7 +225,7 @@ def _kernel_fk(sk, poses, dtype):
 
 
 def test_kernel_fk_float64_equals_numpy_fk_on_humanoid():
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     poses = np.random.default_rng(10).uniform(sk.lower, sk.upper, (32, sk.n_dofs))
     R, p = _kernel_fk(sk, poses, np.float64)
     kin = deik.forward_kinematics(sk, poses)
@@ -234,7 +234,7 @@ def test_kernel_fk_float64_equals_numpy_fk_on_humanoid():
 
 
 def test_kernel_fk_float32_is_close_to_numpy_fk():
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     poses = np.random.default_rng(11).uniform(sk.lower, sk.upper, (32, sk.n_dofs))
     R, p = _kernel_fk(sk, poses, np.float32)
     assert p.dtype == np.float32

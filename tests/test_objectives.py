@@ -43,7 +43,7 @@ FEET = tuple(f"{side}_{site}" for side in ("left", "right") for site in ("heel",
 
 
 def every_goal_problem(batch=False):
-    h = deik.model.humanoid()
+    h = deik.humanoid()
     kin = deik.forward_kinematics(h, h.reference)
     shin = 0.5 * (kin.position("left_knee") + kin.position("left_ankle"))
     hand = kin.position("left_hand") + [0.1, 0.2, 0.1]
@@ -107,7 +107,7 @@ def test_batched_problem_kernel_equals_oracle_per_problem_index():
 
 
 def test_orientation_error_equals_scipy_magnitude():
-    h = deik.model.humanoid()
+    h = deik.humanoid()
     rng = np.random.default_rng(20)
     target = Rotation.random(random_state=rng)
     problem = deik.Problem(h, [deik.Orientation("left_hand", target.as_matrix())])
@@ -120,7 +120,7 @@ def test_orientation_error_equals_scipy_magnitude():
 
 
 def test_aim_error_equals_independent_angle():
-    h = deik.model.humanoid()
+    h = deik.humanoid()
     rng = np.random.default_rng(21)
     point = np.array([0.5, 1.2, 2.0])
     axis = np.array([1.0, 1.0, 0.0])  # not unit length on purpose

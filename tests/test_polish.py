@@ -69,10 +69,10 @@ def test_polish_converges_to_a_micrometre_from_near_a_solution(shared_data):
     near = np.clip(truth + np.random.default_rng(4).normal(0, 0.05, truth.shape), sk.lower, sk.upper)
     for q, start in zip(truth, near):
         problem = _pose_problem(sk, "panda_hand_tcp", q)
-        polished = deik.solver.solve(problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1)
+        polished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1)
         assert polished.converged, [float(g.error) for g in polished.goals]
         assert polished.goals[0].error < 1e-6 and polished.goals[1].error < 1e-5
-        unpolished = deik.solver.solve(problem, initial=start[None], population=8, generations=1, dtype="float64",
+        unpolished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64",
                                 seed=1, polish=0)
         assert unpolished.goals[0].error > 1e-4  # one DE generation alone does not get there
 
@@ -119,13 +119,13 @@ def _conflicting_problem():
 def test_restarts_keep_the_best_and_are_reproducible():
     problem = _conflicting_problem()
     kw = dict(population=16, generations=400, patience=20, restarts=5, seed=4)
-    result = deik.solver.solve(problem, **kw)
+    result = deik.solve(problem, **kw)
     best = result.history[:, 0]
     assert (np.diff(best) <= 1e-12).all(), "the elite kept through a restart must never get worse"
     engine = deik.Engine(problem, deik.Settings(**kw))
     state = engine.run(engine.init(), 400)
     assert state.restarts[0] == 5 and not state.active[0]
-    again = deik.solver.solve(problem, **kw)
+    again = deik.solve(problem, **kw)
     np.testing.assert_array_equal(again.angles, result.angles)
     none = deik.Engine(problem, deik.Settings(**{**kw, "restarts": 0}))
     assert none.run(none.init(), 400).generation < state.generation
@@ -133,8 +133,8 @@ def test_restarts_keep_the_best_and_are_reproducible():
 
 def test_time_limit_stops_a_search_that_cannot_converge():
     problem = _conflicting_problem()
-    deik.solver.solve(problem, population=16, generations=5)  # compile first
-    result = deik.solver.solve(problem, population=64, generations=10**7, patience=10**6, time_limit=0.5, seed=1)
+    deik.solve(problem, population=16, generations=5)  # compile first
+    result = deik.solve(problem, population=64, generations=10**7, patience=10**6, time_limit=0.5, seed=1)
     assert 0.5 <= result.wall_time < 1.5
     assert 1 < result.generations < 10**7 and not result.converged
 
@@ -156,6 +156,6 @@ def test_panda_poses_solved_to_ten_micrometres_from_the_mid_pose(shared_data):
     for n in range(len(truth)):
         problem = deik.Problem(sk, [deik.Position("panda_hand_tcp", kin.position("panda_hand_tcp")[n], tolerance=1e-5),
                                     deik.Orientation("panda_hand_tcp", kin.rotation("panda_hand_tcp")[n], tolerance=1e-4)])
-        result = deik.solver.solve(problem, initial=start[None], population=32, patience=100, dtype="float64", seed=n)
+        result = deik.solve(problem, initial=start[None], population=32, patience=100, dtype="float64", seed=n)
         assert result.converged, n
         assert (result.angles >= sk.lower).all() and (result.angles <= sk.upper).all()

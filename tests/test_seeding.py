@@ -8,7 +8,7 @@ from deik.solver.seeding import poses_around
 
 
 def test_first_row_is_the_pose_and_every_copy_stays_in_limits():
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     pose = np.random.default_rng(0).uniform(sk.lower, sk.upper)
     out = poses_around(sk, pose, 64, spread=0.5, seed=1)
     assert out.shape == (64, sk.n_dofs)

@@ -178,7 +178,7 @@ def test_estimate_on_the_pybullet_humanoid_is_within_5_cm_of_the_true_com():
 
 
 def test_estimate_on_the_built_in_humanoid_is_within_2_cm_of_its_de_leva_com():
-    human = deik.model.humanoid()
+    human = deik.humanoid()
     segments, description = estimate_segments(human)
     estimated = with_segments(human, segments)
     poses = np.random.default_rng(0).uniform(human.lower, human.upper, (300, human.n_dofs))

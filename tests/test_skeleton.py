@@ -238,7 +238,7 @@ def test_frame_index_and_did_you_mean():
 
 
 def test_humanoid_did_you_mean():
-    sk = deik.model.humanoid()
+    sk = deik.humanoid()
     with pytest.raises(KeyError, match=r"did you mean 'left_hand'"):
         sk.frame_index("left_hnad")
 

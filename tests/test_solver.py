@@ -1,4 +1,4 @@
-"""deik.Solver: the same answers as deik.solver.solve on a rebuilt Problem, for new targets, seeds and
+"""deik.Solver: the same answers as deik.solve on a rebuilt Problem, for new targets, seeds and
 batches, and clear errors for goals it cannot retarget."""
 
 import numpy as np
@@ -26,7 +26,7 @@ def test_solver_gives_the_answers_of_solve_on_a_rebuilt_problem():
     solver = deik.Solver(_problem(sk, positions[0], rotations[0]), population=32, dtype="float64")
     for k in range(1, 4):
         got = solver.solve({"position tip": positions[k], 1: rotations[k]}, seed=k)
-        want = deik.solver.solve(_problem(sk, positions[k], rotations[k]), population=32, dtype="float64", seed=k)
+        want = deik.solve(_problem(sk, positions[k], rotations[k]), population=32, dtype="float64", seed=k)
         np.testing.assert_array_equal(got.angles, want.angles)
         assert got.generations == want.generations and got.converged == want.converged
         for a, b in zip(got.goals, want.goals):
@@ -43,7 +43,7 @@ def test_solver_keeps_its_problem_and_other_targets():
     kin = deik.forward_kinematics(sk, moved.angles)
     assert np.linalg.norm(kin.position("tip") - positions[2]) <= 1e-4 + 1e-9
     again = solver.solve(seed=0)  # no targets: the problem as built
-    np.testing.assert_array_equal(again.angles, deik.solver.solve(problem, population=32, dtype="float64", seed=0).angles)
+    np.testing.assert_array_equal(again.angles, deik.solve(problem, population=32, dtype="float64", seed=0).angles)
 
 
 def test_solver_retargets_a_batch():

@@ -17,7 +17,7 @@ from numba import cuda, typeof  # noqa: E402
 import deik  # noqa: E402
 from deik.kernels import cuda as kernels  # noqa: E402
 
-human = deik.model.humanoid()
+human = deik.humanoid()
 rest = deik.forward_kinematics(human, human.reference)
 problem = deik.Problem(human, [deik.Position("left_hand", rest.position("left_hand")), deik.Comfort(level=1)])
 engine = deik.Engine(problem, deik.Settings(population=64))

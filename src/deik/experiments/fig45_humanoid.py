@@ -29,7 +29,7 @@ from deik.solver.problem import Problem
 from deik.solver.solve import solve
 
 FAR_FORWARD, FAR_UP = 1.3, 0.3  # metres from the rest hand: beyond reach with the COM over the foot
-FORWARD = np.array([0.0, 0.0, 1.0])  # deik.model.humanoid faces +Z
+FORWARD = np.array([0.0, 0.0, 1.0])  # deik.humanoid faces +Z
 HAND_WEIGHT_BELOW_COM = 0.1  # Fig. 4's "COM weighted" variant
 
 

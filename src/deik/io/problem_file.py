@@ -57,7 +57,7 @@ TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KE
 
 @dataclass(frozen=True)
 class ProblemFile:
-    """A loaded problem file: the Problem, its settings (a dict for deik.solver.solve), the skeleton
+    """A loaded problem file: the Problem, its settings (a dict for deik.solve), the skeleton
     as loaded (deik.io.load.Loaded: its clip for a BVH) and the clip frame the search starts
     from (None unless the file sets `frame`)."""
 
@@ -68,7 +68,7 @@ class ProblemFile:
 
 
 def load_problem(path) -> ProblemFile:
-    """Read TOML file `path`: its Problem, settings dict (deik.solver.solve(problem, **settings)),
+    """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
     try:

@@ -2,7 +2,7 @@
 
 Joints are in topological order (parent index < child index, root -1). Frames are the joints
 followed by the sites: frame f < n_joints is joint f, otherwise site f - n_joints. Built with
-`deik.model.joints.build_skeleton` or a builder (`chain`, `humanoid`); validated on construction.
+`deik.model.build.build_skeleton` or a builder (`chain`, `humanoid`); validated on construction.
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ class Skeleton:
                 _fail(
                     f"joint {k} ({self.joint_names[k]!r}) has parent index {p}: parents must be "
                     f"earlier joints (0 <= parent < {k}); a later or missing parent means a cycle "
-                    "or a bad index; build with deik.model.joints.build_skeleton to sort joints"
+                    "or a bad index; build with deik.model.build.build_skeleton to sort joints"
                 )
         for label, arr in (("offsets", self.offsets), ("site_offset", self.site_offset),
                            ("mass_offset", self.mass_offset), ("dof_axis", self.dof_axis)):

@@ -1,7 +1,7 @@
 """Solver: one problem's structure set up once, then solved again and again with new targets.
 
 A robot or a character posed many times (a control loop, a stream of targets) keeps its
-skeleton, goal kinds, weights, tolerances and settings; only the targets change. `deik.solver.solve`
+skeleton, goal kinds, weights, tolerances and settings; only the targets change. `deik.solve`
 rebuilds the Problem and the Engine on every call, about a quarter of a small robot's solve.
 A Solver checks and packs only the new targets::
 
@@ -24,7 +24,7 @@ from deik.solver.solve import merge_settings, run_engine
 
 class Solver:
     """Solves `problem` (a deik.Problem) with settings from `settings` and keyword overrides
-    (as deik.solver.solve); `solve(targets)` swaps goal targets between calls."""
+    (as deik.solve); `solve(targets)` swaps goal targets between calls."""
 
     def __init__(self, problem: Problem, settings: Settings | None = None, **overrides):
         if not isinstance(problem, Problem):
@@ -39,7 +39,7 @@ class Solver:
         """Solve with `targets` {goal: new target} replacing those goals' targets (a goal is
         named by its index in problem.goals or its label, e.g. "position tip"; a target has the
         goal's shape, with or without the problem's batch axis); other goals keep theirs.
-        `initial` and `progress` as in deik.solver.solve; `seed` overrides the settings' seed. Each
+        `initial` and `progress` as in deik.solve; `seed` overrides the settings' seed. Each
         new target is checked as a new goal would be (shape, NaN, reach, rotation)."""
         problem = self._retargeted(targets) if targets else self.problem
         return run_engine(problem, self._engine.for_problem(problem, seed), initial, progress)
