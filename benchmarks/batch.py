@@ -52,7 +52,7 @@ def measure(name: str, batch: int, population: int, threads: int, args) -> dict:
         t = time.perf_counter()
         result = deik.solve(problem, initial=initial, **solve_settings(population, args))
         seconds = time.perf_counter() - t
-    converged, generations = np.atleast_1d(result.converged), np.atleast_1d(result.generations)
+    converged, generations = result.converged, result.generations
     return {"problem": name, "batch": batch, "population": population, "threads": threads, "seconds": seconds,
             "solver_wall_time": result.wall_time, "problems_per_second": batch / seconds,
             "success": float(converged.mean()), "generations_median": float(np.median(generations)),

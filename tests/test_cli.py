@@ -153,6 +153,21 @@ def test_cli_solves_a_toml_problem_with_setting_overrides(tmp_path, capsys):
     assert json.loads(out.read_text())["skeleton"] == "chain:3"
 
 
+
+def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
+    path = write(tmp_path, 'skeleton = "chain:3"\nlimits = "penalty"\n[settings]\npopulation = 24\n'
+                           '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\ntolerance = 0.01\n'
+                           '[[goal]]\ntype = "aim"\nframe = "tip"\ntarget = [3, 0, 0]\n')
+    out = tmp_path / "pose.json"
+    assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
+    rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
+    # a rotation-only chain's joint-limit violation is in radians, not metres
+    assert rows["position tip"].split()[3:6] == ["m", "0.01", "m"]
+    assert rows["aim tip"].split()[3] == "rad" and rows["joint limits"].split()[3] == "rad"
+    goals = json.loads(out.read_text())["goals"]
+    assert [(g["kind"], g["unit"]) for g in goals] == [("position", "m"), ("aim", "rad"), ("joint_limits", "rad")]
+
+
 GOAL = '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\n'
 
 

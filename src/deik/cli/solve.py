@@ -16,19 +16,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.viz import plot
 from deik.cli.common import UsageError, check_device, check_output, numbers
-from deik.viz.text import format_table, unit
-from deik.solver.engine import STRATEGIES, Settings
 from deik.io.atomic import write_json_atomically
-from deik.io.load import load_skeleton
 from deik.io.limits import read_limits, with_limits
-from deik.objectives import goals as g
-from deik.solver.problem import Problem
+from deik.io.load import load_skeleton
 from deik.io.problem_file import load_problem
 from deik.model.rotations import euler_matrix
+from deik.objectives import goals as g
+from deik.solver.engine import STRATEGIES, Settings
+from deik.solver.problem import Problem
 from deik.solver.seeding import poses_around
 from deik.solver.solve import solve
+from deik.viz import plot
+from deik.viz.text import format_table
 
 SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype", "time_limit", "polish",
                  "restarts", "islands")
@@ -207,8 +207,7 @@ def run_solve(args) -> int:
     result = solve(problem, settings, initial=initial, progress=progress)
     if progress and terminal:
         print(file=sys.stderr)
-    rows = [[r.label, f"{float(r.error):.6g} {unit(r.label)}",
-             f"{r.tolerance:.6g} {unit(r.label)}" if r.tolerance >= 0 else "-",
+    rows = [[r.label, f"{float(r.error):.6g} {r.unit}", f"{r.tolerance:.6g} {r.unit}" if r.tolerance >= 0 else "-",
              "yes" if r.met else "NO"] for r in result.goals]
     print(format_table(["goal", "error", "tolerance", "met"], rows))
     print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "

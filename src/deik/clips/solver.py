@@ -31,11 +31,11 @@ import numpy as np
 from deik.clips.coherence import ease, searched_dofs
 from deik.clips.problem import ClipGoals, clip_problem, fixed_goals
 from deik.clips.warmstart import dof_weights, warm_start
-from deik.solver.engine import Settings
 from deik.model.joints import ROTATE
-from deik.objectives.reference import raw_errors
-from deik.objectives.table import GAIN
 from deik.model.rotations import wrap_rotations
+from deik.objectives.kinds import GAIN
+from deik.objectives.reference import raw_errors
+from deik.solver.engine import Settings
 from deik.solver.seeding import poses_around
 from deik.solver.solve import merge_settings, solve
 
@@ -152,10 +152,10 @@ def fix_clip(clip, goals: ClipGoals, passes: int | None = None, settings: Settin
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population,
                          settings.seed + 7919 * k)
         result = solve(problem, settings, initial=initial)
-        found = wrap_rotations(np.atleast_2d(result.angles) - original, rotation)
+        found = wrap_rotations(result.angles - original, rotation)
         displacement = _inside(sk, original, ease(np.where(unmet[:, None], found, displacement),
                                                   searched, EASE))
-        generations = np.atleast_1d(result.generations)[unmet]
+        generations = result.generations[unmet]
         stages.append({"stage": f"DE pass {k + 1}", "seconds": time.perf_counter() - began,
                        "frames": int(unmet.sum()), "generations_mean": float(generations.mean()),
                        "generations_max": int(generations.max()),

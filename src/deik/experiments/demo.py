@@ -19,15 +19,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.model.builders import chain
-from deik.viz.text import format_table, unit
 from deik.io.atomic import write_json_atomically
+from deik.model.builders import chain
 from deik.model.humanoid import humanoid
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.goals import Comfort, ComOverSupport, Position
-from deik.viz.plot import plot_result
+from deik.objectives.registry import LENGTH
 from deik.solver.problem import Problem
 from deik.solver.solve import solve
+from deik.viz.plot import plot_result
+from deik.viz.text import format_table
 
 CHAIN_SETTINGS = {"population": 256, "strategy": "best/1/bin", "seed": 0}
 HUMANOID_SETTINGS = {"population": 256, "generations": 1500, "seed": 1}
@@ -98,10 +99,10 @@ def scenario_rows(scenario: Scenario, result) -> list[dict]:
     rows = []
     for report in result.goals:
         error, label = float(report.error), report.label
-        percent = 100 * error / scenario.reach if scenario.reach and unit(label) == "m" else None
+        percent = 100 * error / scenario.reach if scenario.reach and report.unit == LENGTH else None
         bound = report.tolerance if report.tolerance >= 0 else None
         rows.append({
-            "scenario": scenario.key, "goal": label, "error": error, "unit": unit(label),
+            "scenario": scenario.key, "goal": label, "error": error, "unit": report.unit,
             "percent_of_reach": percent, "bound": bound, "met": None if bound is None else bool(report.met),
             "generations": int(result.generations), "time_s": result.wall_time, "passed": passed,
         })

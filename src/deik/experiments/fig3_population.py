@@ -17,15 +17,25 @@ import time
 
 import numpy as np
 
-from deik.model.builders import chain
+from deik.experiments.common import (
+    CONVERGED_FRACTION,
+    Section,
+    command,
+    de_only,
+    markdown_table,
+    number,
+    save_figure,
+    seed_list,
+    spread,
+    write_csv,
+)
 from deik.experiments.demo import chain_target
-from deik.solver.engine import Engine, Settings
-from deik.experiments.common import (CONVERGED_FRACTION, Section, de_only, command, markdown_table, number,
-                                     save_figure, seed_list, spread, write_csv)
+from deik.model.builders import chain
 from deik.objectives.goals import Position
-from deik.viz.plot import require_matplotlib
+from deik.solver.engine import Engine, Settings
 from deik.solver.problem import Problem
 from deik.solver.solve import make_result
+from deik.viz.plot import require_matplotlib
 
 NAME = "fig3"
 FAR_FRACTION = 0.75
@@ -71,9 +81,7 @@ def generations_to_converge(n_links: int, population: int, strategy: str, seeds:
     index = np.arange(len(seeds))
     at_start = state0.raw[index, state0.best, 0] <= tol  # (S,)
     result = make_result(problem, engine, engine.run(state0, budget), time.perf_counter() - start)
-    error = np.atleast_1d(result.goals[0].error)
-    converged = np.atleast_1d(result.converged)
-    used = np.atleast_1d(result.generations)
+    error, converged, used = result.goals[0].error, result.converged, result.generations
     rows = []
     for k, seed in enumerate(seeds):
         generations = 0.0 if at_start[k] else (float(used[k]) if converged[k] else np.inf)

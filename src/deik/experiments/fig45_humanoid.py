@@ -19,14 +19,24 @@ import os
 
 import numpy as np
 
+from deik.experiments.common import (
+    DE_ONLY,
+    Section,
+    command,
+    describe,
+    markdown_table,
+    number,
+    pose_panels,
+    save_figure,
+    seed_list,
+    write_csv,
+)
 from deik.experiments.demo import HUMANOID_SETTINGS, humanoid_scenario
-from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, number, pose_panels,
-                                     save_figure, seed_list, write_csv)
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.reference import raw_errors
-from deik.viz.plot import require_matplotlib
 from deik.solver.problem import Problem
 from deik.solver.solve import solve
+from deik.viz.plot import require_matplotlib
 
 FAR_FORWARD, FAR_UP = 1.3, 0.3  # metres from the rest hand: beyond reach with the COM over the foot
 FORWARD = np.array([0.0, 0.0, 1.0])  # deik.humanoid faces +Z
@@ -83,14 +93,14 @@ def solve_rows(problems: dict[str, Problem], seeds: list[int], settings: dict) -
     for variant, problem in problems.items():
         result = solve(problem, initial=initial, **{**settings, **DE_ONLY})
         solved[variant] = (problem, result)
-        comfort = raw_errors(comfort_of, np.atleast_2d(result.angles).astype(float), np.zeros(len(seeds), int))
+        comfort = raw_errors(comfort_of, result.angles.astype(float), np.zeros(len(seeds), int))
         for k, seed in enumerate(seeds):
             row = {"variant": variant, "seed": seed}
             for goal in result.goals:
-                row[goal.label.replace(" ", "_") + "_error"] = float(np.atleast_1d(goal.error)[k])
+                row[goal.label.replace(" ", "_") + "_error"] = float(goal.error[k])
             row["comfort_sum_rad"] = float(comfort[k, comfort_term])
-            row["all_toleranced_met"] = bool(np.atleast_1d(result.converged)[k])
-            row["generations"] = int(np.atleast_1d(result.generations)[k])
+            row["all_toleranced_met"] = bool(result.converged[k])
+            row["generations"] = int(result.generations[k])
             rows.append(row)
     return rows, solved
 

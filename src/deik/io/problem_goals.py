@@ -1,7 +1,8 @@
 """The [[goal]] tables of a problem file (deik.io.problem_file): one checked deik goal each.
 
-Each table's `type` picks the goal class (GOAL_TYPES); its fields are checked one by one and
-every mistake raises a ValueError naming the file, the goal number, its type and the field.
+Each table's `type` picks the goal class (GOAL_TYPES, read from the registry of goal kinds); its
+fields are checked one by one and every mistake raises a ValueError naming the file, the goal
+number, its type and the field.
 """
 
 from __future__ import annotations
@@ -10,23 +11,14 @@ import math
 
 import numpy as np
 
-from deik.objectives import goals as g
 from deik.model.rotations import euler_matrix
 from deik.model.skeleton import Skeleton
+from deik.objectives import goals as g
+from deik.objectives.registry import COMMON_FIELDS, FILE_TYPES
 from deik.suggest import did_you_mean
 
-COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
-# type -> (goal class, required fields, optional fields besides COMMON_FIELDS)
-GOAL_TYPES = {
-    "position": (g.Position, ("frame", "target"), ()),
-    "orientation": (g.Orientation, ("frame",), ("target", "euler", "degrees")),
-    "aim": (g.Aim, ("frame", "target"), ("axis",)),
-    "com": (g.CentreOfMass, ("target",), ()),
-    "com_over_support": (g.ComOverSupport, ("point",), ()),
-    "com_in_polygon": (g.ComInPolygon, ("frames",), ()),
-    "comfort": (g.Comfort, (), ("mode", "joint_weights")),
-    "obstacle": (g.Obstacle, ("centre", "radius"), ("bone_radius",)),
-}
+# type -> (goal class, required fields, optional fields besides COMMON_FIELDS), from the registry
+GOAL_TYPES = {name: (row.goal, row.required, row.optional) for name, row in FILE_TYPES.items()}
 
 
 def _is_number(value) -> bool:

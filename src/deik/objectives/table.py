@@ -13,15 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.objectives.kinds import (  # noqa: F401  (the table's names, re-exported)
-    AIM, COM, COM_GROUND, COMFORT_MAX, COMFORT_SUM, GAIN, LIMITS, MAX_LEVELS, MAX_TERM_FRAMES, N_PARAMS, OBSTACLE,
-    ORIENTATION, POSITION, SUPPORT_POLYGON,
-)
-
-KIND_NAMES = (
-    "position", "orientation", "aim", "centre_of_mass", "com_over_support",
-    "support_polygon", "comfort_sum", "comfort_max", "joint_limits", "obstacle",
-)
+from deik.objectives.kinds import MAX_LEVELS, MAX_TERM_FRAMES, MU, SCALE, TERM_KIND
 
 
 @dataclass(frozen=True)
@@ -66,11 +58,11 @@ class TermTable:
 
     @property
     def kinds(self) -> np.ndarray:
-        return self.term_int[:, 0]
+        return self.term_int[:, TERM_KIND]
 
     def normalise(self, raw: np.ndarray) -> np.ndarray:
         """Raw errors (..., T) -> normalised values 1 - exp(-mu raw / scale) in [0, 1)."""
-        mu, scale = self.term_float[:, 1], self.term_float[:, 2]
+        mu, scale = self.term_float[:, MU], self.term_float[:, SCALE]
         return -np.expm1(-mu * raw / scale)
 
 

@@ -152,6 +152,10 @@ class Engine:
         dtype = np.dtype(settings.dtype)
         self.skel = pack_skeleton(problem.skeleton, dtype)
         self.terms = pack_terms(problem.table, problem.reference, dtype)
+        # the float64 report of a float32 run (raw_errors) reads these, packed once
+        wide = dtype == np.float64
+        self.skel64 = self.skel if wide else pack_skeleton(problem.skeleton, np.float64)
+        self.terms64 = self.terms if wide else pack_terms(problem.table, problem.reference, np.float64)
         self.kernel_settings = (
             np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
             dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed), settings.adaptive,
@@ -185,8 +189,8 @@ class Engine:
         parameters are packed again."""
         new = copy.copy(self)
         new.problem = problem
-        t = self.terms
-        new.terms = (t[0], t[1], np.ascontiguousarray(problem.table.params, t[2].dtype), t[3], t[4])
+        new.terms = _with_params(self.terms, problem.table.params)
+        new.terms64 = new.terms if self.terms64 is self.terms else _with_params(self.terms64, problem.table.params)
         if seed is not None and seed != self.settings.seed:
             new.settings = replace(self.settings, seed=seed)
             new.kernel_settings = self.kernel_settings[:4] + (np.uint64(seed),) + self.kernel_settings[5:]
@@ -249,12 +253,13 @@ class Engine:
         measured against problem b by the CPU kernel's own maths in float64."""
         from deik.kernels.cpu_backend import evaluate_poses
 
-        skel, terms = self.skel, self.terms
-        if skel[1].dtype != np.float64:
-            skel = pack_skeleton(self.problem.skeleton, np.float64)
-            terms = pack_terms(self.problem.table, self.problem.reference, np.float64)
-        return evaluate_poses(poses, np.arange(len(poses)), skel, terms, self.problem.table.n_levels)[2]
+        return evaluate_poses(poses, np.arange(len(poses)), self.skel64, self.terms64, self.problem.table.n_levels)[2]
 
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
+
+
+def _with_params(terms: tuple, params: np.ndarray) -> tuple:
+    """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced."""
+    return terms[:2] + (np.ascontiguousarray(params, terms[2].dtype),) + terms[3:]

@@ -1,17 +1,35 @@
-"""Problem: a skeleton, its goals and the joint-limit mode, compiled to the kernels' term table."""
+"""Problem: a skeleton, its goals and the joint-limit mode, compiled to the kernels' term table.
+
+A problem's batch shape is () when no goal target, reference pose or `active` mask carries a
+batch axis and (B,) when one does (even B = 1) or when the problem stacks others
+(Problem.stack); a Result's batched fields have that leading shape.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
-from deik.objectives import table as tt
-from deik.objectives.goals import Comfort, Goal
 from deik.model.skeleton import Skeleton
+from deik.objectives.goals import Comfort, Goal, LimitsPenalty
+from deik.objectives.kinds import GAIN, N_PARAMS
+from deik.objectives.table import TermRow, TermTable, compile_rows
+from deik.solver.stacking import merge_parts
 
 LIMIT_MODES = ("reflect", "clip", "penalty", "paper")
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """A problem's term rows (T,), its TermTable (params (B, T, N_PARAMS)), the comfort
+    reference pose of each term per problem (B, T, D) and its batch shape (() or (B,))."""
+
+    rows: tuple[TermRow, ...]
+    table: TermTable
+    reference: np.ndarray
+    batch_shape: tuple[int, ...]
 
 
 @dataclass(frozen=True, eq=False)
@@ -20,14 +38,19 @@ class Problem:
     "reflect" (default) or "clip" fold or clamp trial angles into the joint limits; "penalty"
     lets them leave and ranks any violation below every feasible pose (a top-priority term);
     "paper" applies the paper's Algorithm 2 (only the +-2 pi range, limits used for sampling).
-    Targets with a leading batch axis pose B problems at once (B = batch_size)."""
+    Targets with a leading batch axis pose B problems at once (B = batch_size).
+    `parts`: the problems a stacked problem is made of (set by Problem.stack, whose goals are
+    then the first part's); `_compiled`: terms compiled before (with_goal_targets)."""
 
     skeleton: Skeleton
     goals: tuple
     limits: str = "reflect"
+    parts: tuple = ()
+    _compiled: Compiled | None = field(default=None, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "goals", tuple(self.goals))
+        object.__setattr__(self, "parts", tuple(self.parts))
         if not isinstance(self.skeleton, Skeleton):
             raise TypeError(f"skeleton must be a deik.Skeleton, got {type(self.skeleton).__name__}")
         if not self.goals:
@@ -37,6 +60,9 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
+        if self.parts and not (all(isinstance(p, Problem) for p in self.parts) and len(self.parts[0].goals) == len(self.goals)
+                               and all(a is b for a, b in zip(self.parts[0].goals, self.goals))):
+            raise ValueError("a stacked problem's parts must be Problems and its goals the first part's")
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
             raise ValueError(
@@ -46,108 +72,79 @@ class Problem:
         self.table  # compile now so that bad goals fail here, not inside a solve
 
     @classmethod
-    def stack(cls, problems) -> "Problem":
+    def stack(cls, problems) -> Problem:
         """One batched problem from `problems` (a sequence of Problems) that share a skeleton
         and limit mode and have the same goals in the same order, differing only in targets,
         weights, comfort reference poses and `active` masks; a problem with a batch of B
         contributes B problems. Weights that differ are carried as per-problem gains, so they
         must share a sign. solve(Problem.stack(ps)) solves them all in one launch."""
-        problems = list(problems)
+        problems = tuple(problems)
         if not problems or not all(isinstance(p, Problem) for p in problems):
             raise TypeError("Problem.stack takes a non-empty sequence of deik.Problem")
         first = problems[0]
-        for k, p in enumerate(problems[1:], 1):
-            _check_stackable(first, p, k)
-        weights = np.array([[r.weight for r in p.rows] for p in problems])  # (N, T)
-        magnitude = np.abs(weights).max(axis=0)
-        if ((weights > 0).any(axis=0) & (weights < 0).any(axis=0)).any():
-            raise ValueError("Problem.stack: a goal has positive weights in some problems and negative in others")
-        sign = np.where((weights < 0).any(axis=0), -1.0, 1.0)
-        rows = [replace(r, weight=float(s * m)) for r, s, m in zip(first.rows, sign, magnitude)]
-        params = []
-        for p, w in zip(problems, weights):
-            part = p.table.params.copy()
-            part[:, :, tt.GAIN] *= np.divide(np.abs(w), magnitude, out=np.zeros_like(w), where=magnitude > 0)
-            params.append(part)
-        stacked = cls(first.skeleton, first.goals, first.limits)
-        params = np.concatenate(params)
-        # the merged table and references replace the ones compiled from the first problem's goals
-        stacked.__dict__.update(
-            rows=rows, batch_size=len(params), table=tt.compile_rows(rows, params, first.skeleton.n_dofs),
-            reference=np.concatenate([np.broadcast_to(p.reference, (p.batch_size,) + p.reference.shape[1:])
-                                      for p in problems]),
-        )
-        return stacked
+        return cls(first.skeleton, first.goals, first.limits, parts=problems)
 
-    def with_goal_targets(self, goals: tuple, params: np.ndarray) -> "Problem":
+    def with_goal_targets(self, goals: tuple, params: np.ndarray) -> Problem:
         """This problem with `goals` (same kinds, weights and tolerances, new targets) and
         their parameters `params` (B, T, N_PARAMS): the compiled rows are reused (Solver)."""
-        new = object.__new__(Problem)
-        new.__dict__.update(self.__dict__)
-        new.__dict__.pop("_goal_params", None)
-        new.__dict__.update(goals=tuple(goals), table=replace(self.table, params=params))
-        return new
+        compiled = self.compiled
+        batched = compiled.batch_shape or any(g.batched() for g in goals)
+        return Problem(self.skeleton, goals, self.limits, _compiled=replace(
+            compiled, table=replace(compiled.table, params=params), batch_shape=(len(params),) if batched else ()))
 
     @cached_property
-    def rows(self) -> list[tt.TermRow]:
-        rows = [g.row(self.skeleton) for g in self.goals]
-        if self.limits == "penalty":
-            top = min(r.level for r in rows) - 1
-            rows.append(tt.TermRow(tt.LIMITS, "joint limits", (), (), 1.0, 1.0, 1.0, 0.0, top))
-        return rows
+    def compiled(self) -> Compiled:
+        """The term rows, table, references and batch shape (see Compiled), compiled once."""
+        if self._compiled is not None:
+            return self._compiled
+        if self.parts:
+            rows, params, reference = merge_parts(self.parts)
+            return Compiled(rows, compile_rows(rows, params, self.skeleton.n_dofs), reference, (len(params),))
+        return self._compile()
 
-    @cached_property
-    def _goal_params(self) -> list:
-        """Each goal's parameters (B_g, N_PARAMS) and gains (B_g,), parsed once."""
-        return [(g.params(self.skeleton), g.gain()) for g in self.goals]
+    @property
+    def rows(self) -> tuple[TermRow, ...]:
+        return self.compiled.rows
 
-    @cached_property
+    @property
+    def table(self) -> TermTable:
+        return self.compiled.table
+
+    @property
+    def reference(self) -> np.ndarray:
+        """Reference pose of each comfort term, per problem: (B, T, D); zeros for other terms."""
+        return self.compiled.reference
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """() for a single problem, (B,) for a batch (see the module docstring)."""
+        return self.compiled.batch_shape
+
+    @property
     def batch_size(self) -> int:
-        sizes = {p.shape[0] for p, _ in self._goal_params} | {gain.shape[0] for _, gain in self._goal_params}
-        sizes |= {r.shape[0] for r in self._references if r is not None}
+        return self.table.params.shape[0]
+
+    def _compile(self) -> Compiled:
+        sk = self.skeleton
+        terms = list(self.goals)
+        rows = [g.row(sk) for g in terms]
+        if self.limits == "penalty":  # a level above every goal's
+            terms.append(LimitsPenalty(level=min(r.level for r in rows) - 1))
+            rows.append(terms[-1].row(sk))
+        targets = [(g.params(sk), g.gain()) for g in terms]
+        references = [g.reference_pose(sk) if isinstance(g, Comfort) else None for g in terms]
+        sizes = {p.shape[0] for p, _ in targets} | {gain.shape[0] for _, gain in targets}
+        sizes |= {r.shape[0] for r in references if r is not None}
         sizes.discard(1)
         if len(sizes) > 1:
             raise ValueError(f"goal targets have different batch sizes {sorted(sizes)}; use one B or none")
-        return sizes.pop() if sizes else 1
-
-    @cached_property
-    def _references(self) -> list:
-        return [g.reference_pose(self.skeleton) for g in self.goals if isinstance(g, Comfort)]
-
-    @cached_property
-    def reference(self) -> np.ndarray:
-        """Reference pose of each comfort term, per problem: (B, T, D); zeros for other terms."""
-        out = np.zeros((self.batch_size, len(self.rows), self.skeleton.n_dofs))
-        for t, goal in enumerate(self.goals):
-            if isinstance(goal, Comfort):
-                ref = goal.reference_pose(self.skeleton)
-                out[:, t] = self.skeleton.reference if ref is None else ref
-        return out
-
-    @cached_property
-    def table(self) -> tt.TermTable:
-        B = self.batch_size
-        params = np.zeros((B, len(self.rows), tt.N_PARAMS))
-        for t, (goal_params, gain) in enumerate(self._goal_params):
+        B = sizes.pop() if sizes else 1
+        params = np.zeros((B, len(rows), N_PARAMS))
+        reference = np.zeros((B, len(rows), sk.n_dofs))
+        for t, ((goal_params, gain), goal, ref) in enumerate(zip(targets, terms, references)):
             params[:, t] = goal_params  # a batch of 1 broadcasts
-            params[:, t, tt.GAIN] = gain
-        if self.limits == "penalty":
-            params[:, -1, tt.GAIN] = 1.0
-        return tt.compile_rows(self.rows, params, self.skeleton.n_dofs)
-
-
-def _check_stackable(first: Problem, other: Problem, k: int) -> None:
-    """Raise unless problem k can share a term table with the first one."""
-    if other.skeleton is not first.skeleton:
-        raise ValueError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
-    if other.limits != first.limits:
-        raise ValueError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
-    if len(other.rows) != len(first.rows):
-        raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
-    for t, (a, b) in enumerate(zip(first.rows, other.rows)):
-        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == \
-            (b.kind, b.label, b.frames, b.mu, b.scale, b.tolerance, b.level)
-        if not same or (a.dof_weight is None) != (b.dof_weight is None) or \
-                (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight)):
-            raise ValueError(f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
-                             f"({a.label}) in more than its target, weight, reference or active mask")
+            params[:, t, GAIN] = gain
+            if isinstance(goal, Comfort):
+                reference[:, t] = sk.reference if ref is None else ref
+        batch_shape = (B,) if any(g.batched() for g in terms) else ()
+        return Compiled(tuple(rows), compile_rows(rows, params, sk.n_dofs), reference, batch_shape)

@@ -11,30 +11,41 @@ from deik.model.skeleton import Skeleton
 
 @dataclass(frozen=True, eq=False)
 class GoalReport:
-    """One term of the best pose: raw error (metres / radians / length units), normalised
-    value 1 - exp(-mu x / scale), weight, tolerance (-1 = none), level, active (whether the
-    goal applies to the problem; see Goal.active), met (within tolerance, or not active)."""
+    """One term of the best pose: its label, kind (the registry's name, e.g. "position") and
+    the unit of its error ("m" for metres or the skeleton's length unit, "rad", or "rad+m" for
+    sums over rotation and translation DOFs); raw error, normalised value
+    1 - exp(-mu x / scale), weight, tolerance (-1 = none), level, active (whether the goal
+    applies to the problem; see Goal.active), met (within tolerance, or not active)."""
 
     label: str
-    error: float | np.ndarray
-    normalised: float | np.ndarray
+    kind: str
+    unit: str
+    error: np.ndarray
+    normalised: np.ndarray
     weight: float
     tolerance: float
     level: int
-    active: bool | np.ndarray = True
+    active: np.ndarray
 
     @property
-    def met(self):
-        within = np.asarray(self.error) <= self.tolerance if self.tolerance >= 0 else np.full(np.shape(self.error), True)
-        return within | ~np.asarray(self.active)
+    def met(self) -> np.ndarray:
+        """Bool array of the batch shape."""
+        within = self.error <= self.tolerance if self.tolerance >= 0 else np.full(self.error.shape, True)
+        return np.asarray(within | ~self.active)
 
 
 @dataclass(frozen=True, eq=False)
 class Result:
-    """Best pose per problem. angles (*batch, D); fitness (*batch,) total weighted sum;
-    goals: per-term reports (float64, recomputed from the best pose); generations and
-    converged (*batch,); history (*batch, G, 2) best and mean total fitness per generation;
-    wall_time seconds; device "cpu" or "gpu"."""
+    """Best pose per problem.
+
+    Shape rule: every batched field has the leading shape `batch` = problem.batch_shape, which
+    is () for a problem whose goals carry no batch axis and (B,) when a goal's target, active
+    mask or reference pose carries one (even B = 1) or the problem was stacked
+    (Problem.stack, solve_batch). Nothing is squeezed: angles (*batch, D); fitness (*batch,)
+    total weighted sum; generations and converged (*batch,); history (*batch, G, 2) best and
+    mean total fitness per generation, all NumPy arrays (0-d when batch is ()); goals: one
+    GoalReport per term, whose error, normalised, active and met are arrays of shape batch
+    (float64 errors of the best pose). wall_time seconds; device "cpu" or "gpu"."""
 
     skeleton: Skeleton
     angles: np.ndarray
@@ -59,22 +70,22 @@ class Result:
         return self.skeleton.angles_by_joint(self.angles)
 
     @property
-    def errors(self) -> dict[str, float | np.ndarray]:
-        """{goal label: raw error}."""
+    def errors(self) -> dict[str, np.ndarray]:
+        """{goal label: raw error (*batch,)}."""
         return {g.label: g.error for g in self.goals}
 
     def to_dict(self) -> dict:
         """JSON-ready summary: pose by joint and DOF name, per-goal errors, run facts."""
-        angles = self.angles.tolist()
         return {
             "skeleton": self.skeleton.name,
             "dof_names": list(self.skeleton.dof_names),
-            "angles": angles,
+            "angles": self.angles.tolist(),
             "angles_by_joint": {k: v.tolist() for k, v in self.angles_by_joint.items()} if self.angles.ndim == 1 else None,
             "fitness": self.fitness.tolist(),
             "goals": [
-                {"label": g.label, "error": np.asarray(g.error).tolist(), "normalised": np.asarray(g.normalised).tolist(),
-                 "weight": g.weight, "tolerance": g.tolerance, "level": g.level, "active": np.asarray(g.active).tolist(), "met": np.asarray(g.met).tolist()}
+                {"label": g.label, "kind": g.kind, "unit": g.unit, "error": g.error.tolist(),
+                 "normalised": g.normalised.tolist(), "weight": g.weight, "tolerance": g.tolerance, "level": g.level,
+                 "active": g.active.tolist(), "met": g.met.tolist()}
                 for g in self.goals
             ],
             "generations": self.generations.tolist(),

@@ -8,8 +8,9 @@ from dataclasses import fields
 
 import numpy as np
 
+from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
+from deik.objectives.registry import kind_of
 from deik.solver.engine import Engine, Settings
-from deik.objectives import table as tt
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
 
@@ -76,34 +77,35 @@ def merge_settings(caller: str, settings: Settings | None, overrides: dict, defa
 
 
 def make_result(problem: Problem, engine: Engine, state, wall_time: float) -> Result:
-    """Result from a final EvolutionState; errors are recomputed in float64."""
-    B, settings = problem.batch_size, engine.settings
-    best = state.pop[np.arange(B), state.best].astype(np.float64)
-    raw = engine.raw_errors(best)
-    table = problem.table
+    """Result from a final EvolutionState, shaped by problem.batch_shape. Errors are float64: a
+    float64 run reports the final state's raw errors of each problem's best individual, a
+    float32 run re-evaluates that individual in float64 (Engine.raw_errors)."""
+    B, table, shape = problem.batch_size, problem.table, problem.batch_shape
+    best_index = (np.arange(B), state.best)
+    best = state.pop[best_index].astype(np.float64)
+    raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
     norm = table.normalise(raw)
-    gain = table.params[:, :, tt.GAIN]
-    squeeze = (lambda a: a[0]) if not _is_batched(problem) else (lambda a: a)
+    gain = table.params[:, :, GAIN]
+
+    def batched(a: np.ndarray) -> np.ndarray:
+        """(B, ...) -> (*batch, ...)."""
+        return a.reshape(shape + a.shape[1:])
+
     goals = tuple(
-        GoalReport(label, squeeze(raw[:, t]), squeeze(norm[:, t]), float(table.term_float[t, 0]),
-                   float(table.term_float[t, 3]), int(table.term_int[t, 1]), squeeze(gain[:, t] > 0))
-        for t, label in enumerate(table.labels)
+        GoalReport(label, kind_of(kind).name, kind_of(kind).unit_for(problem.skeleton), batched(raw[:, t]),
+                   batched(norm[:, t]), float(table.term_float[t, WEIGHT]), float(table.term_float[t, TOLERANCE]),
+                   int(table.term_int[t, TERM_LEVEL]), batched(gain[:, t] > 0))
+        for t, (label, kind) in enumerate(zip(table.labels, table.kinds))
     )
-    converged = np.all([np.asarray(g.met) | (g.weight <= 0) for g in goals], axis=0) if goals else np.ones(B, bool)
     return Result(
         skeleton=problem.skeleton,
-        angles=squeeze(best),
-        fitness=np.asarray(squeeze((norm * table.term_float[:, 0] * gain).sum(axis=1))),
+        angles=batched(best),
+        fitness=batched((norm * table.term_float[:, WEIGHT] * gain).sum(axis=1)),
         goals=goals,
-        generations=np.asarray(squeeze(state.generations)),
-        converged=np.asarray(converged if _is_batched(problem) else np.asarray(converged).reshape(-1)[0]),
-        history=np.asarray(squeeze(state.history)),
+        generations=batched(state.generations.copy()),
+        converged=np.asarray(np.logical_and.reduce([g.met | (g.weight <= 0) for g in goals])),
+        history=batched(state.history.copy()),
         wall_time=wall_time,
-        device=settings.device,
-        settings=settings,
+        device=engine.settings.device,
+        settings=engine.settings,
     )
-
-
-def _is_batched(problem: Problem) -> bool:
-    """Results keep a batch axis only when the problem poses more than one target set."""
-    return problem.batch_size > 1

@@ -15,8 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine, Settings
-from deik.objectives import table as tt
 from deik.solver.problem import Problem
 from deik.solver.result import Result
 from deik.solver.solve import merge_settings, run_engine
@@ -58,7 +58,7 @@ class Solver:
             if rows.shape[0] not in (1, problem.batch_size):
                 raise ValueError(f"goal {t} ({self._labels[t]}): {rows.shape[0]} targets for a problem batch of "
                                  f"{problem.batch_size}; give one target or {problem.batch_size}")
-            params[:, t, : tt.GAIN] = rows[:, : tt.GAIN]
+            params[:, t, : GAIN] = rows[:, : GAIN]
         return problem.with_goal_targets(tuple(goals), params)
 
     def _goal_index(self, key) -> int:

@@ -1,8 +1,6 @@
-"""Plain-text views: aligned tables and the unit of a goal report."""
+"""Plain-text views: aligned tables."""
 
 from __future__ import annotations
-
-RADIAN_WORDS = ("orientation", "aim", "comfort")
 
 
 def format_table(header: list[str], rows: list[list]) -> str:
@@ -12,7 +10,3 @@ def format_table(header: list[str], rows: list[list]) -> str:
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells]
     return "\n".join([lines[0], "  ".join("-" * w for w in widths)] + lines[1:])
 
-
-def unit(label: str) -> str:
-    """Unit of a goal report's error from its label: "rad" for angles, "m" for lengths."""
-    return "rad" if label.split()[0] in RADIAN_WORDS else "m"

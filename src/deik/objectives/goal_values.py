@@ -1,0 +1,74 @@
+"""Checked values of goals: target vectors with an optional batch axis, per-problem parameter
+rows, reachability, masses and per-DOF comfort weights (objectives/goals.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.model.skeleton import Skeleton
+from deik.objectives.kinds import N_PARAMS
+
+
+def vector(value, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """`value` of `shape` or (B, *shape) as a finite float64 array (B, *shape), B = 1 without
+    a batch axis; a ValueError naming `what` otherwise."""
+    a = np.asarray(value, dtype=np.float64)
+    if a.shape[-len(shape):] != shape or a.ndim > len(shape) + 1:
+        raise ValueError(f"{what} must have shape {shape} or (batch, *{shape}), got {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{what} contains NaN or infinite values: {value!r}")
+    return a.reshape((-1,) + shape) if a.ndim > len(shape) else a[None]
+
+
+def pack(*parts: np.ndarray) -> np.ndarray:
+    """Concatenate parts (B_k, ...) along their flattened trailing axes -> (B, N_PARAMS);
+    only the leading batch axis broadcasts."""
+    B = max(p.shape[0] for p in parts)
+    out = np.zeros((B, N_PARAMS))
+    column = 0
+    for p in parts:
+        width = p[0].size
+        out[:, column:column + width] = p.reshape(p.shape[0], width)  # a batch of 1 broadcasts
+        column += width
+    return out
+
+
+def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, label: str):
+    """Raise when a target lies farther from every possible root position than the reach."""
+    length = skeleton.path_length(frame) if frame is not None else skeleton.reach
+    gap = np.linalg.norm(target - np.clip(target, *skeleton.root_box()), axis=-1)
+    worst = int(np.argmax(gap))
+    if gap[worst] > length * (1 + 1e-9):
+        raise ValueError(
+            f"{label}: target {target[worst].round(6).tolist()} is unreachable: it lies "
+            f"{gap[worst]:.6g} from the root's range but the chain to it is only {length:.6g} long"
+        )
+
+
+def need_mass(skeleton: Skeleton, what: str) -> None:
+    """Raise when goal `what` needs masses and the skeleton has none."""
+    if skeleton.total_mass <= 0:
+        raise ValueError(f"{what} needs masses, but skeleton {skeleton.name!r} has none")
+
+
+def dof_weights(skeleton: Skeleton, spec) -> np.ndarray:
+    """Comfort's per-DOF weights (D,) from `spec` (see deik.Comfort's joint_weights)."""
+    D = skeleton.n_dofs
+    if spec is None:
+        return np.ones(D)
+    if isinstance(spec, str):
+        if spec not in ("start", "end"):
+            raise ValueError(f"joint_weights string must be 'start' or 'end', got {spec!r}")
+        depth = skeleton.dof_joint / max(skeleton.n_joints - 1, 1)
+        return 1.0 - depth if spec == "start" else depth
+    if isinstance(spec, dict):
+        w = np.zeros(D)
+        for name, value in spec.items():
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"joint_weights[{name!r}] = {value!r} must be finite and >= 0")
+            w[skeleton.joint_dofs(name)] = value
+        return w
+    w = np.asarray(spec, dtype=np.float64)
+    if w.shape != (D,) or not np.isfinite(w).all() or (w < 0).any():
+        raise ValueError(f"joint_weights array must be ({D},), finite and >= 0, got shape {w.shape}")
+    return w
