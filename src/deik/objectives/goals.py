@@ -61,8 +61,8 @@ class Goal:
 
     def batched(self) -> bool:
         """Whether a target, reference or `active` mask carries a batch axis (even of one)."""
-        per_problem = ((getattr(self, name), ndim) for name, ndim in self.BATCH_FIELDS)
-        return self.active is not None or any(value is not None and np.ndim(value) > ndim for value, ndim in per_problem)
+        values = ((getattr(self, name), ndim) for name, ndim in self.BATCH_FIELDS)
+        return self.active is not None or any(v is not None and np.ndim(v) > ndim for v, ndim in values)
 
     def gain(self) -> np.ndarray:
         """Per-problem weight multiplier (B,) or (1,): 1 where the goal applies, 0 where `active`

@@ -51,6 +51,11 @@ class Problem:
     def __post_init__(self):
         object.__setattr__(self, "goals", tuple(self.goals))
         object.__setattr__(self, "parts", tuple(self.parts))
+        if self._compiled is None:  # terms compiled before were checked then (Solver checks new targets)
+            self._check()
+            self.table  # compile now so that bad goals fail here, not inside a solve
+
+    def _check(self) -> None:
         if not isinstance(self.skeleton, Skeleton):
             raise TypeError(f"skeleton must be a deik.Skeleton, got {type(self.skeleton).__name__}")
         if not self.goals:
@@ -60,8 +65,9 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
-        if self.parts and not (all(isinstance(p, Problem) for p in self.parts) and len(self.parts[0].goals) == len(self.goals)
-                               and all(a is b for a, b in zip(self.parts[0].goals, self.goals))):
+        first = self.parts[0] if self.parts else self
+        if not all(isinstance(p, Problem) for p in self.parts) or len(first.goals) != len(self.goals) or \
+                any(a is not b for a, b in zip(first.goals, self.goals)):
             raise ValueError("a stacked problem's parts must be Problems and its goals the first part's")
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
@@ -69,7 +75,6 @@ class Problem:
                 f"DOF {self.skeleton.dof_names[bad[0]]!r} has infinite limits; DE samples its "
                 "first population inside the limits, so give every DOF finite limits"
             )
-        self.table  # compile now so that bad goals fail here, not inside a solve
 
     @classmethod
     def stack(cls, problems) -> Problem:

@@ -80,7 +80,8 @@ class Result:
             "skeleton": self.skeleton.name,
             "dof_names": list(self.skeleton.dof_names),
             "angles": self.angles.tolist(),
-            "angles_by_joint": {k: v.tolist() for k, v in self.angles_by_joint.items()} if self.angles.ndim == 1 else None,
+            "angles_by_joint": ({k: v.tolist() for k, v in self.angles_by_joint.items()}
+                                if self.angles.ndim == 1 else None),
             "fitness": self.fitness.tolist(),
             "goals": [
                 {"label": g.label, "kind": g.kind, "unit": g.unit, "error": g.error.tolist(),

@@ -38,7 +38,8 @@ class Solver:
               progress=None) -> Result:
         """Solve with `targets` {goal: new target} replacing those goals' targets (a goal is
         named by its index in problem.goals or its label, e.g. "position tip"; a target has the
-        goal's shape, with or without the problem's batch axis); other goals keep theirs.
+        goal's shape, with or without the problem's batch axis, and a batch axis makes the
+        Result batched as for deik.solve); other goals keep theirs.
         `initial` and `progress` as in deik.solve; `seed` overrides the settings' seed. Each
         new target is checked as a new goal would be (shape, NaN, reach, rotation)."""
         problem = self._retargeted(targets) if targets else self.problem
