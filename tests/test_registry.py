@@ -12,7 +12,7 @@ from deik import Joint, Site, build_skeleton, translation
 from deik.io.problem_goals import GOAL_TYPES
 from deik.kernels import cpu
 from deik.kernels.pack import pack_skeleton, pack_terms
-from deik.objectives import kinds, term_errors
+from deik.objectives import kinds, registry
 from deik.objectives.goals import Goal
 from deik.objectives.registry import KIND_NAMES, KINDS, kind_of
 
@@ -28,7 +28,7 @@ def test_every_kind_has_a_row_a_goal_class_an_oracle_and_a_file_schema():
     for row in KINDS:
         assert kind_of(row.kind) is row
         assert issubclass(row.goal, Goal) and row.goal.LABEL, row.name
-        assert callable(row.oracle) and row.oracle is getattr(term_errors, row.name), row.name
+        assert callable(row.oracle) and row.oracle is getattr(registry, row.name), row.name
         if row.goal is getattr(deik, row.goal.__name__, None):  # a user goal: written in problem files
             cls, required, optional = GOAL_TYPES[row.file_type]
             fields = {f.name for f in dataclasses.fields(cls)} | {"euler", "degrees"}  # orientation's Euler form

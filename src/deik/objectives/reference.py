@@ -1,8 +1,8 @@
 """NumPy evaluation of a problem's term table: the readable oracle the kernels are tested
 against, the fitness of the paper's serial Algorithm 1, and float64 error reports.
 
-Each term's raw error comes from its kind's oracle function (objectives/term_errors.py),
-found through the registry of goal kinds."""
+Each term's raw error comes from its kind's oracle function in the registry of goal kinds
+(objectives/registry.py)."""
 
 from __future__ import annotations
 
@@ -18,8 +18,7 @@ from deik.objectives.kinds import (
     TERM_LEVEL,
     WEIGHT,
 )
-from deik.objectives.registry import kind_of
-from deik.objectives.term_errors import Posed, Term
+from deik.objectives.registry import Posed, Term, kind_of
 
 
 def raw_errors(problem, poses, problem_index=None) -> np.ndarray:

@@ -1,11 +1,15 @@
 """The registry of goal kinds: one row per term kind, the one place that says what a kind is.
 
 Each row names the kind's integer code (deik.objectives.kinds), its name, the unit of its raw
-error, its goal class (which builds the term row and its label), its NumPy oracle
-(objectives/term_errors.py), its problem-file schema (the `type` of a [[goal]] table, its
-required and optional fields) and whether the LM polish differentiates it (the kernel's
-device_polish.term_rows). The table's KIND_NAMES, the TOML reader's GOAL_TYPES, the unit
-column of reports and the oracle's dispatch are all read from here.
+error, its goal class (which builds the term row and its label), its NumPy oracle, its
+problem-file schema (the `type` of a [[goal]] table, its required and optional fields) and
+whether the LM polish differentiates it (the kernel's device_polish.term_rows). The table's
+KIND_NAMES, the TOML reader's GOAL_TYPES, the unit column of reports and the oracle's dispatch
+(objectives/reference.py) are all read from here.
+
+The oracles live here too, one function per kind: the readable NumPy twin of the kernel's
+device function, taking the evaluated poses (`Posed`) and one term (`Term`) and returning the
+raw error (N,) of N poses in the row's unit.
 """
 
 from __future__ import annotations
@@ -13,11 +17,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
+from deik.model.geometry import polygon_distance, segment_distance
 from deik.model.joints import TRANSLATE
+from deik.model.rotations import direction_angle, rotation_angle
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
 from deik.objectives import kinds as k
-from deik.objectives import term_errors as errors
 
 LENGTH, ANGLE = "m", "rad"  # "m" stands for metres or the skeleton's length unit
 
@@ -27,6 +34,101 @@ def dof_unit(skeleton: Skeleton) -> str:
     when the skeleton has both."""
     translates = skeleton.dof_kind == TRANSLATE
     return LENGTH if translates.all() else (ANGLE if not translates.any() else f"{ANGLE}+{LENGTH}")
+
+
+@dataclass(frozen=True)
+class Posed:
+    """N poses (N, D) of `skeleton` and their forward kinematics: frame rotations R (N, F, 3, 3),
+    frame positions p (N, F, 3), centre of mass com (N, 3); ground (3, 3): two horizontal
+    axes, then up."""
+
+    skeleton: Skeleton
+    poses: np.ndarray
+    R: np.ndarray
+    p: np.ndarray
+    com: np.ndarray
+    ground: np.ndarray
+
+
+@dataclass(frozen=True)
+class Term:
+    """One term row as each pose sees it: frames (k,) frame indices, params (N, N_PARAMS) the
+    targets of each pose's problem, dof_weight (D,), reference (N, D) comfort reference poses."""
+
+    frames: np.ndarray
+    params: np.ndarray
+    dof_weight: np.ndarray
+    reference: np.ndarray
+
+    @property
+    def frame(self) -> int:
+        return int(self.frames[0])
+
+
+def position(x: Posed, term: Term) -> np.ndarray:
+    """Distance of the frame from its target params[:3]."""
+    return np.linalg.norm(x.p[:, term.frame] - term.params[:, :3], axis=-1)
+
+
+def orientation(x: Posed, term: Term) -> np.ndarray:
+    """Angle between the frame's rotation and the target params[:9] (row-major 3x3)."""
+    return rotation_angle(term.params[:, :9].reshape(-1, 3, 3), x.R[:, term.frame])
+
+
+def aim(x: Posed, term: Term) -> np.ndarray:
+    """Angle between the frame's local axis params[:3] (in the world) and the direction to the
+    target params[3:6]."""
+    g = term.params
+    axis = np.einsum("nij,nj->ni", x.R[:, term.frame], g[:, :3])
+    return direction_angle(axis, g[:, 3:6] - x.p[:, term.frame])
+
+
+def centre_of_mass(x: Posed, term: Term) -> np.ndarray:
+    """Distance of the centre of mass from its target params[:3]."""
+    return np.linalg.norm(x.com - term.params[:, :3], axis=-1)
+
+
+def com_over_support(x: Posed, term: Term) -> np.ndarray:
+    """Horizontal distance of the centre of mass from the support point params[:3]."""
+    d = x.com - term.params[:, :3]
+    d = d - (d @ x.ground[2])[:, None] * x.ground[2]
+    return np.linalg.norm(d, axis=-1)
+
+
+def support_polygon(x: Posed, term: Term) -> np.ndarray:
+    """Ground distance of the centre of mass outside the convex hull of the frames."""
+    flat = x.ground[:2].T
+    return polygon_distance(x.com @ flat, x.p[:, term.frames] @ flat)
+
+
+def _comfort(x: Posed, term: Term) -> np.ndarray:
+    return term.dof_weight * np.abs(x.poses - term.reference)
+
+
+def comfort_sum(x: Posed, term: Term) -> np.ndarray:
+    """Weighted sum of |q - reference| (Eq. 6)."""
+    return _comfort(x, term).sum(axis=1)
+
+
+def comfort_max(x: Posed, term: Term) -> np.ndarray:
+    """Largest weighted |q - reference| (Eq. 7)."""
+    return _comfort(x, term).max(axis=1)
+
+
+def joint_limits(x: Posed, term: Term) -> np.ndarray:
+    """Summed violation of the joint limits."""
+    sk, q = x.skeleton, x.poses
+    return (np.maximum(sk.lower - q, 0) + np.maximum(q - sk.upper, 0)).sum(axis=1)
+
+
+def obstacle(x: Posed, term: Term) -> np.ndarray:
+    """Summed penetration of every bone (a capsule of radius params[4]) into the sphere of
+    centre params[:3] and radius params[3]."""
+    sk, g = x.skeleton, term.params
+    starts = np.concatenate([sk.parents[1:], sk.site_joint])
+    ends = np.arange(1, sk.n_frames)
+    dist = segment_distance(g[:, None, :3], x.p[:, starts], x.p[:, ends])
+    return np.maximum(g[:, None, 3] + g[:, None, 4] - dist, 0).sum(axis=1)
 
 
 @dataclass(frozen=True)
@@ -58,22 +160,22 @@ class GoalKind:
 
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
 KINDS = (
-    GoalKind(k.POSITION, "position", g.Position, errors.position, LENGTH, True,
+    GoalKind(k.POSITION, "position", g.Position, position, LENGTH, True,
              "position", ("frame", "target")),
-    GoalKind(k.ORIENTATION, "orientation", g.Orientation, errors.orientation, ANGLE, True,
+    GoalKind(k.ORIENTATION, "orientation", g.Orientation, orientation, ANGLE, True,
              "orientation", ("frame",), ("target", "euler", "degrees")),
-    GoalKind(k.AIM, "aim", g.Aim, errors.aim, ANGLE, False, "aim", ("frame", "target"), ("axis",)),
-    GoalKind(k.COM, "centre_of_mass", g.CentreOfMass, errors.centre_of_mass, LENGTH, True, "com", ("target",)),
-    GoalKind(k.COM_GROUND, "com_over_support", g.ComOverSupport, errors.com_over_support, LENGTH, True,
+    GoalKind(k.AIM, "aim", g.Aim, aim, ANGLE, False, "aim", ("frame", "target"), ("axis",)),
+    GoalKind(k.COM, "centre_of_mass", g.CentreOfMass, centre_of_mass, LENGTH, True, "com", ("target",)),
+    GoalKind(k.COM_GROUND, "com_over_support", g.ComOverSupport, com_over_support, LENGTH, True,
              "com_over_support", ("point",)),
-    GoalKind(k.SUPPORT_POLYGON, "support_polygon", g.ComInPolygon, errors.support_polygon, LENGTH, False,
+    GoalKind(k.SUPPORT_POLYGON, "support_polygon", g.ComInPolygon, support_polygon, LENGTH, False,
              "com_in_polygon", ("frames",)),
-    GoalKind(k.COMFORT_SUM, "comfort_sum", g.Comfort, errors.comfort_sum, dof_unit, False,
+    GoalKind(k.COMFORT_SUM, "comfort_sum", g.Comfort, comfort_sum, dof_unit, False,
              "comfort", (), ("mode", "joint_weights")),
-    GoalKind(k.COMFORT_MAX, "comfort_max", g.Comfort, errors.comfort_max, dof_unit, False,
+    GoalKind(k.COMFORT_MAX, "comfort_max", g.Comfort, comfort_max, dof_unit, False,
              "comfort", (), ("mode", "joint_weights")),
-    GoalKind(k.LIMITS, "joint_limits", g.LimitsPenalty, errors.joint_limits, dof_unit, False),
-    GoalKind(k.OBSTACLE, "obstacle", g.Obstacle, errors.obstacle, LENGTH, False,
+    GoalKind(k.LIMITS, "joint_limits", g.LimitsPenalty, joint_limits, dof_unit, False),
+    GoalKind(k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False,
              "obstacle", ("centre", "radius"), ("bone_radius",)),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"

@@ -2,7 +2,8 @@
 
 A problem's batch shape is () when no goal target, reference pose or `active` mask carries a
 batch axis and (B,) when one does (even B = 1) or when the problem stacks others
-(Problem.stack); a Result's batched fields have that leading shape.
+(Problem.stack); a Result's batched fields have that leading shape. Stacked problems share
+one term table, compiled from their parts.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, Goal, LimitsPenalty
 from deik.objectives.kinds import GAIN, N_PARAMS
 from deik.objectives.table import TermRow, TermTable, compile_rows
-from deik.solver.stacking import merge_parts
 
 LIMIT_MODES = ("reflect", "clip", "penalty", "paper")
 
@@ -103,7 +103,7 @@ class Problem:
         if self._compiled is not None:
             return self._compiled
         if self.parts:
-            rows, params, reference = merge_parts(self.parts)
+            rows, params, reference = _merge_parts(self.parts)
             return Compiled(rows, compile_rows(rows, params, self.skeleton.n_dofs), reference, (len(params),))
         return self._compile()
 
@@ -153,3 +153,42 @@ class Problem:
                 reference[:, t] = sk.reference if ref is None else ref
         batch_shape = (B,) if any(g.batched() for g in terms) else ()
         return Compiled(tuple(rows), compile_rows(rows, params, sk.n_dofs), reference, batch_shape)
+
+
+def _merge_parts(parts) -> tuple[tuple, np.ndarray, np.ndarray]:
+    """(rows (T,), params (B, T, N_PARAMS), reference (B, T, D)) of the Problems `parts`
+    stacked along the batch axis, B the sum of their batch sizes. A weight that differs
+    between parts becomes the largest weight times a per-problem gain, so it must keep one
+    sign; raises a ValueError naming the first part that cannot share the table."""
+    first = parts[0]
+    for k, p in enumerate(parts[1:], 1):
+        _check_stackable(first, p, k)
+    weights = np.array([[r.weight for r in p.rows] for p in parts])  # (N, T)
+    if ((weights > 0).any(axis=0) & (weights < 0).any(axis=0)).any():
+        raise ValueError("Problem.stack: a goal has positive weights in some problems and negative in others")
+    magnitude = np.abs(weights).max(axis=0)
+    sign = np.where((weights < 0).any(axis=0), -1.0, 1.0)
+    rows = tuple(replace(r, weight=float(s * m)) for r, s, m in zip(first.rows, sign, magnitude))
+    params = []
+    for p, w in zip(parts, weights):
+        part = p.table.params.copy()
+        part[:, :, GAIN] *= np.divide(np.abs(w), magnitude, out=np.zeros_like(w), where=magnitude > 0)
+        params.append(part)
+    return rows, np.concatenate(params), np.concatenate([p.reference for p in parts])
+
+
+def _check_stackable(first, other, k: int) -> None:
+    """Raise unless problem k can share a term table with the first one."""
+    if other.skeleton is not first.skeleton:
+        raise ValueError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
+    if other.limits != first.limits:
+        raise ValueError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
+    if len(other.rows) != len(first.rows):
+        raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
+    for t, (a, b) in enumerate(zip(first.rows, other.rows)):
+        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == \
+            (b.kind, b.label, b.frames, b.mu, b.scale, b.tolerance, b.level)
+        if not same or (a.dof_weight is None) != (b.dof_weight is None) or \
+                (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight)):
+            raise ValueError(f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
+                             f"({a.label}) in more than its target, weight, reference or active mask")
