@@ -45,7 +45,7 @@ class Problem:
     skeleton: Skeleton
     goals: tuple
     limits: str = "reflect"
-    parts: tuple = ()
+    parts: tuple = field(default=(), repr=False)
     _compiled: Compiled | None = field(default=None, repr=False)
 
     def __post_init__(self):
