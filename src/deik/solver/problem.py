@@ -37,6 +37,11 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
+        if self.skeleton.n_dofs == 0:
+            raise ValueError(
+                f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
+                "another); choose a base and tip with moving joints between them"
+            )
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
             raise ValueError(

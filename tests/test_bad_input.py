@@ -1,0 +1,70 @@
+"""Bad input a user can give: each case gets a clear error naming the problem and the fix,
+never a traceback, a silent guess or nonsense output."""
+
+import numpy as np
+import pytest
+
+import deik
+from deik.io.urdf import read_urdf
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"adaptive": "no"}, "adaptive must be true or false, got 'no'"),
+    ({"adaptive": 1}, "adaptive must be true or false"),
+    ({"F": True}, "F must be a finite number"),
+    ({"F": "0.5"}, r"F must be a finite number \(the differential weight"),
+    ({"CR": None}, "CR must be a finite number"),
+    ({"seed": True}, "seed must be an integer >= 0, got True"),
+    ({"polish": True}, "polish must be an integer >= 0"),
+    ({"population": 4.0}, "population must be an integer >= 4"),
+    ({"strategy": 3}, "strategy must be one of"),
+    ({"stop_on_converged": "yes"}, "stop_on_converged must be true or false"),
+    ({"time_limit": float("inf")}, "time_limit must be a finite number"),
+    ({"dtype": np.float64}, "dtype must be one of"),
+])
+def test_every_setting_is_type_checked_by_name(changes, message):
+    with pytest.raises(ValueError, match=message):
+        deik.Settings(**changes)
+
+
+def test_settings_accept_numpy_scalars_of_the_right_kind():
+    settings = deik.Settings(seed=np.uint64(2**64 - 1), population=np.int64(8), F=np.float32(0.5), adaptive=np.bool_(False))
+    assert settings.seed == 2**64 - 1 and settings.population == 8
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    return path
+
+
+def test_urdf_joint_without_origin_sits_at_its_parent(tmp_path):
+    # URDF makes <origin> optional: absent, the joint frame is the parent link's frame
+    with_origin = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"/><link name="b"/><link name="c"/>
+        <joint name="j" type="revolute"><parent link="a"/><child link="b"/>{origin}<axis xyz="0 0 1"/>
+        <limit lower="-1" upper="1"/></joint>
+        <joint name="k" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/></joint></robot>""")
+    text = with_origin.read_text()
+    explicit = read_urdf(_write(tmp_path, text.replace("{origin}", '<origin xyz="0 0 0" rpy="0 0 0"/>')))
+    implicit = read_urdf(_write(tmp_path, text.replace("{origin}", "")))
+    q = np.array([0.7])
+    np.testing.assert_array_equal(deik.forward_kinematics(implicit, q).position("c"),
+                                  deik.forward_kinematics(explicit, q).position("c"))
+    np.testing.assert_allclose(deik.forward_kinematics(implicit, q).position("c"), [np.cos(0.7), np.sin(0.7), 0])
+
+
+def test_skeleton_without_free_dofs_is_refused_before_solving(tmp_path):
+    path = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"><inertial><mass value="1"/>
+        </inertial></link><link name="b"/><joint name="j" type="fixed"><parent link="a"/><child link="b"/>
+        <origin xyz="0 0 1"/></joint></robot>""")
+    skeleton = read_urdf(path)
+    with pytest.raises(ValueError, match="has no free DOF to solve for .* choose a base and tip with moving joints"):
+        deik.Problem(skeleton, [deik.Position("b", [0, 0, 1])])
+
+
+def test_duplicate_names_are_found_in_one_pass():
+    joints = [deik.Joint("root", None)] + [deik.Joint(f"j{k}", "root" if k == 0 else f"j{k - 1}", (0, 0, 0.1),
+                                                      deik.hinge((0, 0, 1))) for k in range(3000)]
+    sites = [deik.Site("j5", "j7"), deik.Site("j9", "j9")]
+    with pytest.raises(ValueError, match=r"duplicate joint/site names \['j5', 'j9'\]"):
+        deik.build_skeleton(joints, sites=sites)
