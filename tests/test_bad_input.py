@@ -68,3 +68,23 @@ def test_duplicate_names_are_found_in_one_pass():
     sites = [deik.Site("j5", "j7"), deik.Site("j9", "j9")]
     with pytest.raises(ValueError, match=r"duplicate joint/site names \['j5', 'j9'\]"):
         deik.build_skeleton(joints, sites=sites)
+
+
+def test_deeply_nested_toml_is_refused_with_the_file_named(tmp_path):
+    from deik.io.problem_file import load_problem
+
+    path = tmp_path / "deep.toml"
+    path.write_text('skeleton = "chain:3"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
+    with pytest.raises(ValueError, match=r"deep\.toml: arrays or tables nested too deeply"):
+        load_problem(path)
+
+
+def test_range_of_motion_of_a_clip_without_frames_is_refused(tmp_path):
+    from deik.io.bvh import read_bvh
+    from deik.io.limits import range_of_motion
+
+    path = tmp_path / "empty.bvh"
+    path.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+                    "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n")
+    with pytest.raises(ValueError, match="the clip has no frames"):
+        range_of_motion(read_bvh(path), 10.0)

@@ -79,6 +79,8 @@ def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> 
             and margin_length >= 0):
         raise ValueError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
+    if clip.n_frames == 0:
+        raise ValueError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
     poses = clip.poses()
     margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), margin_length)
     lower = np.maximum(poses.min(axis=0) - margin, sk.lower)

@@ -78,6 +78,9 @@ def load_problem(path) -> ProblemFile:
         raise ValueError(f"{path}: cannot read the problem file ({error.strerror})") from None
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{path}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
+                         "three levels (a 3x3 rotation)") from None
     for key in data:
         if key not in TOP_LEVEL:
             raise ValueError(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} "
