@@ -420,7 +420,26 @@ def test_malformed_file_error_names_file_and_line(case, tmp_path):
 
 
 def test_unreadable_paths_name_the_path(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nowhere.bvh"):
+    with pytest.raises(FileFormatError, match=r"nowhere\.bvh: no such BVH file"):
         read_bvh(tmp_path / "nowhere.bvh")
-    with pytest.raises(IsADirectoryError, match=str(tmp_path.name)):
+    with pytest.raises(FileFormatError, match=f"{tmp_path.name}: is a folder, not a BVH file"):
         read_bvh(tmp_path)
+
+
+def test_special_files_are_refused_without_reading_them(tmp_path):
+    link = tmp_path / "zero.bvh"
+    link.symlink_to("/dev/zero")
+    with pytest.raises(FileFormatError, match=r"zero\.bvh: is a device, pipe or socket, not a BVH file"):
+        read_bvh(link)
+    fifo = tmp_path / "pipe.bvh"
+    os.mkfifo(fifo)
+    with pytest.raises(FileFormatError, match=r"pipe\.bvh: is a device, pipe or socket"):
+        read_bvh(fifo)
+
+
+def test_files_over_the_input_limit_are_refused(tmp_path, monkeypatch):
+    path = tmp_path / "big.bvh"
+    path.write_text("HIERARCHY\n" + " " * 200)
+    monkeypatch.setenv("DEIK_MAX_INPUT_BYTES", "100")
+    with pytest.raises(FileFormatError, match=r"big\.bvh: is 210 bytes, more than the 100 .* DEIK_MAX_INPUT_BYTES"):
+        read_bvh(path)

@@ -18,6 +18,7 @@ from deik.io.bvh_hierarchy import (
 )
 from deik.io.clip import CHANNELS, Clip, JointChannels
 from deik.io.errors import FileFormatError
+from deik.io.files import read_input
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
@@ -150,9 +151,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>", segments=None) -> Cli
 def read_bvh(path, segments=None) -> Clip:
     """Read the BVH file at `path` into a Clip (see parse_bvh); `segments` a table path or None.
 
-    A path that cannot be read raises FileNotFoundError, IsADirectoryError or PermissionError
-    naming it; a malformed file raises FileFormatError naming it and the line.
+    A path that cannot be read (missing, a folder or device, too large) or a malformed file
+    raises FileFormatError naming it (and the line).
     """
-    with open(path, "rb") as file:
-        data = file.read()
-    return parse_bvh(data, str(path), segments)
+    return parse_bvh(read_input(path, "BVH"), str(path), segments)

@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from deik.solver.engine import Settings
+from deik.io.files import read_input_text
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.limits import read_limits, with_limits
 from deik.objectives import goals as g
@@ -71,11 +72,9 @@ def load_problem(path) -> ProblemFile:
     """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
+    text = read_input_text(path, "problem (TOML)")
     try:
-        with open(path, "rb") as file:
-            data = tomllib.load(file)
-    except OSError as error:
-        raise ValueError(f"{path}: cannot read the problem file ({error.strerror})") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{path}: not valid TOML: {error}") from None
     except RecursionError:
