@@ -38,6 +38,9 @@ def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
             pass
     return [number(source, w, line, f"channel {k + 1}") for k, w in enumerate(words)]
 
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
+MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
+
 
 def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
     """(values (N, C) in file order and units, frame time in s) from lines after MOTION."""
@@ -56,12 +59,15 @@ def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
         fail("expected 'Frame Time: seconds' after 'Frames:'", body[min(1, len(body) - 1)][0])
     count, frames_line, time_line = int(header[0][1]), body[0][0], body[1][0]
     frame_time = number(source, header[1][1], time_line, "Frame Time")
-    if frame_time <= 0:
-        fail(f"Frame Time must be positive seconds, got {header[1][1]}", time_line)
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+        fail(f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
+             time_line)
     rows = body[2:]
     if n_channels == 0 and rows:
         fail("frame numbers given but the hierarchy has no channels", rows[0][0])
     if n_channels == 0:
+        if count > MAX_EMPTY_FRAMES:
+            fail(f"'Frames: {count}' for a hierarchy without channels; give at most {MAX_EMPTY_FRAMES}", frames_line)
         return np.zeros((count, 0)), frame_time
     values = [_frame_row(source, text, n, n_channels) for n, text in rows[:count]]
     if len(rows) > count:
