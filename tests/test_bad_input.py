@@ -88,3 +88,93 @@ def test_range_of_motion_of_a_clip_without_frames_is_refused(tmp_path):
                     "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n")
     with pytest.raises(ValueError, match="the clip has no frames"):
         range_of_motion(read_bvh(path), 10.0)
+
+
+TOY_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+           "  JOINT Arm\n  {\n    OFFSET 0 1 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+           "    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.033333\n"
+           "0 0 0 0 0 0\n0 0 0 10 0 0\n")
+
+
+def _cli(argv, capsys):
+    from deik.cli import main
+
+    status = main([str(a) for a in argv])
+    return status, capsys.readouterr().err
+
+
+def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(TOY_BVH)
+    status, err = _cli(["solve", "--skeleton", clip, "--frame", "0", "--reach", "Arm_end", 0, 1.5, 0.5,
+                        "--out", clip], capsys)
+    assert status == 2 and "--out" in err and "is the input file" in err and "--overwrite" in err
+    assert err.count("\n") == 1 and clip.read_text() == TOY_BVH
+    status, err = _cli(["clip", clip, "--out", clip], capsys)
+    assert status == 2 and "is the input file" in err and clip.read_text() == TOY_BVH
+
+
+def test_two_outputs_naming_one_file_are_refused(tmp_path, capsys):
+    # the PNG of --plot can no longer land in the JSON's name: --plot takes .png only
+    status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json",
+                        "--plot", tmp_path / "x.json"], capsys)
+    assert status == 2 and "--plot" in err and "must end in .png" in err
+    assert not list(tmp_path.iterdir())
+    from deik.cli.common import UsageError, check_outputs
+
+    with pytest.raises(UsageError, match="--a and --b both name"):
+        check_outputs({"--a": str(tmp_path / "x.json"), "--b": str(tmp_path / "x.json")}, {})
+
+
+def test_unwritable_output_folder_is_refused_before_solving(tmp_path, capsys, monkeypatch):
+    import deik.cli.common
+
+    # as root every folder is writable, so the check's system call is made to answer "no"
+    monkeypatch.setattr(deik.cli.common.os, "access", lambda path, mode: False)
+    status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json"], capsys)
+    assert status == 2 and "is not writable; choose another folder" in err
+
+
+def test_all_or_nothing_leaves_no_file_when_a_later_write_fails(tmp_path):
+    from deik.io import atomic
+
+    first, second = tmp_path / "a.json", tmp_path / "b.png"
+    first.write_text("old\n")
+
+    def broken(temporary):
+        open(temporary, "w").write("part")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        with atomic.all_or_nothing():
+            atomic.write_json_atomically(first, {"new": 1})
+            atomic.save_atomically(second, broken)
+    assert first.read_text() == "old\n" and not second.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
+    with atomic.all_or_nothing():
+        atomic.write_json_atomically(first, {"new": 1})
+        assert first.read_text() == "old\n"  # moved into place only when the block ends
+    assert json_load(first) == {"new": 1}
+
+
+def json_load(path):
+    import json
+
+    return json.loads(path.read_text())
+
+
+def test_a_temporary_file_stranded_by_a_killed_process_is_removed_by_the_next_write(tmp_path):
+    from deik.io import atomic
+
+    stranded = tmp_path / f".pose{atomic.PARTIAL}999999999.json"
+    stranded.write_text("{")
+    atomic.write_json_atomically(tmp_path / "pose.json", {"ok": True})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"]
+
+
+def test_nan_results_are_never_written_as_json(tmp_path):
+    from deik.io import atomic
+
+    with pytest.raises(ValueError, match=r"x\.json: the results hold NaN or infinite numbers, so no JSON was written"):
+        atomic.write_json_atomically(tmp_path / "x.json", {"angles": [float("nan")]})
+    assert not list(tmp_path.iterdir())

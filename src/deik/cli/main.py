@@ -21,7 +21,7 @@ import sys
 
 from deik.cli import clip as cli_clip
 from deik.cli import solve as cli_solve
-from deik.cli.common import Parser, UsageError, check_output, numbers
+from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -50,7 +50,7 @@ def run_limits(args) -> int:
     from deik.io.bvh import read_bvh
     from deik.io.limits import range_of_motion, write_limits
 
-    check_output("--out", args.out, (".json",))
+    check_outputs({"--out": args.out}, {"--out": (".json",)}, (args.clip,))
     clip = read_bvh(args.clip)
     limits = range_of_motion(clip, args.margin, args.margin_length)
     write_limits(args.out, clip.skeleton, limits)

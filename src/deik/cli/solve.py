@@ -17,10 +17,10 @@ from dataclasses import replace
 import numpy as np
 
 from deik.viz import plot
-from deik.cli.common import UsageError, check_device, check_output, numbers
+from deik.cli.common import UsageError, check_device, check_outputs, numbers
 from deik.viz.text import format_table, unit
 from deik.solver.engine import STRATEGIES, Settings
-from deik.io.atomic import write_json_atomically
+from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.load import load_skeleton
 from deik.io.limits import read_limits, with_limits
 from deik.objectives import goals as g
@@ -78,6 +78,7 @@ def add_arguments(s) -> None:
     s.add_argument("--out", metavar="pose.json|pose.bvh",
                    help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
+    s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
     s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
     s.add_argument("--start", nargs="+", metavar="VALUE|pose.json",
                    help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
@@ -185,8 +186,10 @@ def _write_pose(path, result, loaded, frame) -> None:
 
 def run_solve(args) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
-    check_output("--out", args.out, (".json", ".bvh"))
-    check_output("--plot", args.plot)
+    inputs = (args.skeleton_flag, args.skeleton, args.problem, args.segments, args.limits,
+              args.start[0] if args.start and len(args.start) == 1 else None)
+    check_outputs({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)},
+                  inputs, args.overwrite)
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
@@ -213,9 +216,10 @@ def run_solve(args) -> int:
     print(format_table(["goal", "error", "tolerance", "met"], rows))
     print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
           f"converged {'yes' if result.converged else 'no'}")
-    if args.out:
-        _write_pose(args.out, result, loaded, frame)
-    if args.plot:
-        spec = args.skeleton_flag or args.skeleton or args.problem
-        plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
+    with all_or_nothing():
+        if args.out:
+            _write_pose(args.out, result, loaded, frame)
+        if args.plot:
+            spec = args.skeleton_flag or args.skeleton or args.problem
+            plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
     return 0
