@@ -178,3 +178,32 @@ def test_nan_results_are_never_written_as_json(tmp_path):
     with pytest.raises(ValueError, match=r"x\.json: the results hold NaN or infinite numbers, so no JSON was written"):
         atomic.write_json_atomically(tmp_path / "x.json", {"angles": [float("nan")]})
     assert not list(tmp_path.iterdir())
+
+
+def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    problem = tmp_path / "long.toml"
+    problem.write_text('skeleton = "chain:30"\n[settings]\ngenerations = 10000000\npatience = 10000000\n'
+                       'population = 64\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [12.0, 9.0, 0.0]\n'
+                       'tolerance = 0.0\n')
+    out = tmp_path / "pose.json"
+    process = subprocess.Popen([sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())",
+                                "solve", "--problem", str(problem), "--out", str(out), "--progress"],
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stderr.readline().startswith("generation")  # compiled and running generations
+        sent = time.perf_counter()
+        process.send_signal(signal.SIGINT)
+        status = process.wait(timeout=30)
+        stopped = time.perf_counter() - sent
+    finally:
+        process.kill()
+    rest = process.stderr.read()
+    assert status == 130, rest
+    assert "deik: interrupted; nothing was written" in rest
+    assert stopped < 10, f"took {stopped:.1f} s to stop"
+    assert not list(tmp_path.glob("*.json")) and not list(tmp_path.glob(".*"))

@@ -136,7 +136,7 @@ def _problem(args):
             raise UsageError("--problem FILE already names the skeleton and goals; "
                              "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file")
         file = load_problem(args.problem)
-        pose = None if file.frame is None else file.loaded.clip.pose(file.frame)
+        pose = None if file.frame is None else _clip_pose(file.loaded.clip, file.frame)
         return file.problem, file.settings, file.loaded, pose, file.frame
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
@@ -148,7 +148,7 @@ def _problem(args):
     if loaded.kind == "bvh":
         if args.frame is None:
             raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
-        frame_pose = loaded.clip.pose(args.frame)
+        frame_pose = _clip_pose(loaded.clip, args.frame)
     elif args.frame is not None:
         raise UsageError("--frame only applies to a BVH clip")
     if args.start:
@@ -156,6 +156,15 @@ def _problem(args):
     if not has_goals:
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
     return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose, args.frame
+
+
+
+def _clip_pose(clip, frame: int):
+    """Pose (D,) of clip frame `frame`; UsageError naming the valid frames when it is out of range."""
+    try:
+        return clip.pose(frame)
+    except IndexError as error:
+        raise UsageError(f"--frame: {error}") from None
 
 
 def _progress(generations: int, terminal: bool):
