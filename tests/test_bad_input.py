@@ -207,3 +207,31 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
     assert "deik: interrupted; nothing was written" in rest
     assert stopped < 10, f"took {stopped:.1f} s to stop"
     assert not list(tmp_path.glob("*.json")) and not list(tmp_path.glob(".*"))
+
+
+def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
+    problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
+    with pytest.raises(ValueError, match=r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"):
+        deik.solve(problem, population=1_000_000_000)
+    with pytest.raises(ValueError, match=r"needs about .* more than the 0\.000977 GiB allowed"):
+        deik.solve(problem, population=100_000, memory_limit=2**20)
+    status, err = _cli(["solve", "chain:10", "--reach", "tip", 5, 5, 0, "--population", 1_000_000_000], capsys)
+    assert status == 2 and "--memory-limit GIB" in err and err.count("\n") == 1
+
+
+def test_memory_estimate_covers_what_a_solve_allocates():
+    from deik.solver.memory import solve_bytes
+
+    problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
+    engine = deik.Engine(problem, deik.Settings(population=64, generations=50, polish=0))
+    state = engine.run(engine.init(), 50)
+    held = sum(a.nbytes for a in state.buffers) + state.history.nbytes
+    estimate = solve_bytes(1, 64, 10, 1, 1, 4, 50)
+    assert held <= estimate <= 8 * held
+
+
+def test_absurd_chains_are_refused_with_the_limit(capsys):
+    with pytest.raises(ValueError, match="n_links must be an integer from 1 to 100000, got 100000000"):
+        deik.chain(100_000_000)
+    status, err = _cli(["info", "chain:100000000"], capsys)
+    assert status == 2 and "from 1 to 100000" in err

@@ -75,6 +75,8 @@ def add_arguments(s) -> None:
     s.add_argument("--islands", type=int, metavar="N", help="split the population into N islands that migrate (default 1)")
     s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
+    s.add_argument("--memory-limit", type=float, metavar="GIB",
+                   help="memory a solve may use, GiB (default: 80%% of this machine's)")
     s.add_argument("--out", metavar="pose.json|pose.bvh",
                    help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
@@ -203,6 +205,10 @@ def run_solve(args) -> int:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
+    if args.memory_limit is not None:
+        if not args.memory_limit > 0:
+            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
+        settings["memory_limit"] = int(args.memory_limit * 2**30)
     settings = Settings(**settings)
     check_device(settings.device)
     initial = None

@@ -14,6 +14,7 @@ import numpy as np
 
 from deik.kernels.layout import MAX_POLISH_COUNT
 from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 
 STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
@@ -38,7 +39,8 @@ class Settings:
     which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
     between kernel launches, so it may overrun by about a quarter of the time left or one
     generation, and always runs at least one generation; the first call in a process also
-    loads or compiles the kernels)."""
+    loads or compiles the kernels). `memory_limit`: bytes a solve may allocate (None: 80 % of
+    the machine's memory); a larger solve is refused before anything is allocated."""
 
     population: int = 256
     generations: int = 2000
@@ -58,6 +60,7 @@ class Settings:
     time_limit: float | None = None
     device: str = "cpu"
     dtype: str = "float32"
+    memory_limit: int | None = None
 
     @classmethod
     def paper(cls, **changes) -> "Settings":
@@ -101,6 +104,8 @@ class Settings:
                 raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
         _choice("device", self.device, DEVICES)
         _choice("dtype", self.dtype, ("float32", "float64"))
+        if self.memory_limit is not None:
+            _integer("memory_limit", self.memory_limit, 1, "bytes; None: 80 % of physical memory")
 
 
 def _integer(name: str, value, minimum: int, note: str = "") -> None:
@@ -231,6 +236,8 @@ class Engine:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
         B, P, D = self.problem.batch_size, self.settings.population, self.problem.skeleton.n_dofs
         T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
+        needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
+        check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
         init, n_init = self._initial(initial, B, D, dtype)
         pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
         total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
