@@ -9,6 +9,7 @@ unit; degrees become radians. Every malformed input raises FileFormatError namin
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,22 @@ from deik.io.files import read_input
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
+
+
+def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np.ndarray:
+    """(N, expected) float64 from frame lines (line number, text), converted by NumPy's C reader
+    in one call; only when that fails (a count, a token or a magnitude is off) are the lines
+    checked one by one, so that the error names the first bad line and number."""
+    if not rows:
+        return np.zeros((0, expected))
+    block = "\n".join(text for _, text in rows)
+    try:
+        values = np.loadtxt(io.StringIO(block), dtype=np.float64, comments=None, ndmin=2)
+    except ValueError:
+        values = None
+    if values is not None and values.shape == (len(rows), expected) and np.all(np.abs(values) <= MAX_MAGNITUDE):
+        return values  # (NaN fails the magnitude test)
+    return np.array([_frame_row(source, text, n, expected) for n, text in rows], np.float64).reshape(-1, expected)
 
 
 def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
@@ -69,13 +86,13 @@ def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
         if count > MAX_EMPTY_FRAMES:
             fail(f"'Frames: {count}' for a hierarchy without channels; give at most {MAX_EMPTY_FRAMES}", frames_line)
         return np.zeros((count, 0)), frame_time
-    values = [_frame_row(source, text, n, n_channels) for n, text in rows[:count]]
+    values = _frame_values(source, rows[:count], n_channels)
     if len(rows) > count:
         fail(f"more frame lines than 'Frames: {count}' (line {frames_line}) says", rows[count][0])
     if len(rows) < count:
         fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)",
              frames_line)
-    return np.array(values, dtype=np.float64).reshape(count, n_channels), frame_time
+    return values.reshape(count, n_channels), frame_time
 
 
 def _site_names(nodes: list[Node]) -> dict[int, str]:
