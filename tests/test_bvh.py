@@ -397,9 +397,10 @@ BAD = {
     "frame_overflow": (lines_with({23: "1 2 3 4 5 1e400 7"}), 23, r"channel 6 '1e400' is beyond"),
     "frame_not_a_number": (lines_with({23: "1 2 3 4 5 6 7x"}),
         23, r"channel 7 '7x' is not a number"),
-    "zero_frame_time": (lines_with({22: "Frame Time: 0"}), 22, r"Frame Time must be positive"),
+    "zero_frame_time": (lines_with({22: "Frame Time: 0"}), 22, r"Frame Time must lie between 1e-06 and 3600"),
     "negative_frame_time": (lines_with({22: "Frame Time: -0.1"}),
-        22, r"Frame Time must be positive"),
+        22, r"Frame Time must lie between"),
+    "subnormal_frame_time": (lines_with({22: "Frame Time: 1e-320"}), 22, r"Frame Time must lie between"),
     "empty_file": ("", 1, r"empty file"),
     "blank_file": ("\n  \n\t\n", 1, r"empty file"),
     "no_hierarchy": ("ROOT a\n{\n}\n", 1, r"must start with HIERARCHY"),
@@ -420,7 +421,26 @@ def test_malformed_file_error_names_file_and_line(case, tmp_path):
 
 
 def test_unreadable_paths_name_the_path(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nowhere.bvh"):
+    with pytest.raises(FileFormatError, match=r"nowhere\.bvh: no such BVH file"):
         read_bvh(tmp_path / "nowhere.bvh")
-    with pytest.raises(IsADirectoryError, match=str(tmp_path.name)):
+    with pytest.raises(FileFormatError, match=f"{tmp_path.name}: is a folder, not a BVH file"):
         read_bvh(tmp_path)
+
+
+def test_special_files_are_refused_without_reading_them(tmp_path):
+    link = tmp_path / "zero.bvh"
+    link.symlink_to("/dev/zero")
+    with pytest.raises(FileFormatError, match=r"zero\.bvh: is a device, pipe or socket, not a BVH file"):
+        read_bvh(link)
+    fifo = tmp_path / "pipe.bvh"
+    os.mkfifo(fifo)
+    with pytest.raises(FileFormatError, match=r"pipe\.bvh: is a device, pipe or socket"):
+        read_bvh(fifo)
+
+
+def test_files_over_the_input_limit_are_refused(tmp_path, monkeypatch):
+    path = tmp_path / "big.bvh"
+    path.write_text("HIERARCHY\n" + " " * 200)
+    monkeypatch.setenv("DEIK_MAX_INPUT_BYTES", "100")
+    with pytest.raises(FileFormatError, match=r"big\.bvh: is 210 bytes, more than the 100 .* DEIK_MAX_INPUT_BYTES"):
+        read_bvh(path)

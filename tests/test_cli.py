@@ -239,7 +239,7 @@ def test_skeleton_specs():
     (["solve", "chain:3"], "no goals"),
     (["solve"], "give a SKELETON"),
     (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
-    (["solve", "--problem", "missing.toml"], "cannot read the problem file"),
+    (["solve", "--problem", "missing.toml"], "missing.toml: no such problem (TOML) file"),
     (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
 ])
 def test_bad_cli_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, monkeypatch, argv, fragment):

@@ -50,7 +50,7 @@ def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys,
 
 def test_info_on_every_shared_file(shared_data, capsys):
     files = sorted(shared_data.glob("robots/*.urdf")) + sorted(shared_data.glob("humanoid/*.bvh"))
-    assert len(files) == 6
+    assert {p.name for p in files} >= {"panda.urdf", "kuka_iiwa.urdf", "human.urdf", "humanoid3d_walk.bvh"}
     for path in files:
         assert main(["info", str(path)]) == 0, capsys.readouterr().err
         text = capsys.readouterr().out

@@ -123,5 +123,5 @@ def test_malformed_reach_specs_name_the_accepted_forms(spec, message):
 
 
 def test_reach_spec_naming_a_missing_track_file(tmp_path):
-    with pytest.raises(FileNotFoundError):
+    with pytest.raises(FileFormatError, match=r"missing\.csv: no such track file"):
         parse_reach_spec(f"hand={tmp_path / 'missing.csv'}", N)

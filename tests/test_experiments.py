@@ -49,7 +49,7 @@ def test_every_experiment_writes_png_csv_and_section(quick_run):
         assert len(rows(out, name)) > 0
     text = doc.read_text()
     assert "(figures/fig3.png)" in text and "## Claims and measurements side by side" in text
-    assert not list(out.glob(".*.tmp*"))  # atomic writes leave no temporary files
+    assert not list(out.glob(".*.deik-partial-*"))  # atomic writes leave no temporary files
     if not gpu_status()[0]:
         assert "GPU column pending" in (out / "fig8.md").read_text()
         assert "GPU column pending" in (out / "fig9.md").read_text()

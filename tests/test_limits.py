@@ -122,5 +122,5 @@ def test_problem_file_joint_limits_relative_to_the_file(tmp_path):
     d = sk.dof_names.index("LeftElbow.Zrotation")
     assert (sk.lower[d], sk.upper[d]) == pytest.approx((0.0, math.pi / 2))
     problem.write_text('skeleton = "chain:3"\njoint_limits = "missing.json"\n[[goal]]\ntype = "comfort"\n')
-    with pytest.raises(ValueError, match="field 'joint_limits'.*cannot read the limits file"):
+    with pytest.raises(ValueError, match="field 'joint_limits'.*missing.json: no such limits \\(JSON\\) file; check the path"):
         load_problem(problem)

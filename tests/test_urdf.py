@@ -149,7 +149,7 @@ def test_good_toy_robot_reads(tmp_path):
 
 
 def test_missing_file_is_named(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nothere.urdf: no such URDF file"):
+    with pytest.raises(FileFormatError, match="nothere.urdf: no such URDF file"):
         read_urdf(tmp_path / "nothere.urdf")
 
 

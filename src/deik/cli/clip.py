@@ -12,9 +12,9 @@ import sys
 
 import numpy as np
 
-from deik.cli.common import UsageError, check_device, check_output
+from deik.cli.common import UsageError, check_device, check_outputs
 from deik.viz.text import format_table
-from deik.io.atomic import write_json_atomically
+from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
@@ -44,6 +44,7 @@ def add_arguments(c) -> None:
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
+    c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
     c.add_argument("--report", metavar="report.png", help="plot of the errors over time, before and after")
     c.add_argument("--json", metavar="report.json", help="the before/after metrics as JSON")
 
@@ -105,9 +106,9 @@ def run_clip(args) -> int:
     from deik.clips.solver import fix_clip
     from deik.io.bvh import read_bvh, write_bvh
 
-    check_output("--out", args.out, (".bvh",))
-    check_output("--report", args.report, (".png",))
-    check_output("--json", args.json, (".json",))
+    check_outputs({"--out": args.out, "--report": args.report, "--json": args.json},
+                  {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
+                  (args.clip, args.segments, args.limits), args.overwrite)
     check_device(args.device)
     if args.report:
         from deik.viz.plot import require_matplotlib
@@ -137,13 +138,15 @@ def run_clip(args) -> int:
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
           f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal")
-    write_bvh(args.out, fix.clip)
-    if args.json:
-        write_json_atomically(args.json, {"metrics": summary, "frames": clip.n_frames, "wall_time_s": fix.wall_time,
-                                          "frames_met": int(fix.met.sum()), "stages": list(fix.stages)})
-    if args.report:
-        from deik.viz.clip_report import plot_clip_report
+    with all_or_nothing():
+        write_bvh(args.out, fix.clip)
+        if args.json:
+            write_json_atomically(args.json, {"metrics": summary, "frames": clip.n_frames,
+                                              "wall_time_s": fix.wall_time, "frames_met": int(fix.met.sum()),
+                                              "stages": list(fix.stages)})
+        if args.report:
+            from deik.viz.clip_report import plot_clip_report
 
-        series = per_frame_errors(clip, fix.clip, contacts, reach_tracks)
-        plot_clip_report(series, args.report, clip.frame_time, title=f"deik clip {os.path.basename(args.clip)}")
+            series = per_frame_errors(clip, fix.clip, contacts, reach_tracks)
+            plot_clip_report(series, args.report, clip.frame_time, title=f"deik clip {os.path.basename(args.clip)}")
     return 0

@@ -31,15 +31,35 @@ def numbers(flag: str, words) -> list[float]:
     return values
 
 
-def check_output(flag: str, path, suffixes=None) -> None:
-    """UsageError unless `path` (when given) is in an existing folder and ends in one of
-    `suffixes` (when given)."""
-    if path is None:
+def check_outputs(outputs: dict, suffixes: dict, inputs=(), overwrite: bool = False) -> None:
+    """Check every output a command will write before it starts work: `outputs` {flag: path or
+    None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
+    writable, each path has an allowed ending, no two flags name one file, and no output is one
+    of `inputs` (the files the command reads) unless `overwrite`."""
+    given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
+    for flag, path in given.items():
+        folder = os.path.dirname(path)
+        if not os.path.isdir(folder):
+            raise UsageError(f"{flag}: folder {folder!r} does not exist; create it first")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise UsageError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+        allowed = suffixes.get(flag)
+        if allowed and os.path.splitext(path)[1].lower() not in allowed:
+            raise UsageError(f"{flag}: {outputs[flag]!r} must end in {' or '.join(allowed)}")
+        if os.path.isdir(path):
+            raise UsageError(f"{flag}: {outputs[flag]!r} is a folder; give a file name")
+    flags = list(given)
+    for k, flag in enumerate(flags):
+        for other in flags[k + 1:]:
+            if given[flag] == given[other]:
+                raise UsageError(f"{flag} and {other} both name {outputs[flag]!r}; give each output its own file")
+    if overwrite:
         return
-    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
-        raise UsageError(f"{flag}: folder {os.path.dirname(os.path.abspath(path))!r} does not exist")
-    if suffixes and os.path.splitext(path)[1].lower() not in suffixes:
-        raise UsageError(f"{flag}: {path!r} must end in {' or '.join(suffixes)}")
+    for flag, path in given.items():
+        for source in inputs:
+            if source is not None and os.path.exists(path) and os.path.exists(source) and os.path.samefile(path, source):
+                raise UsageError(f"{flag} {outputs[flag]!r} is the input file; write elsewhere, or add --overwrite "
+                                 "to replace the input")
 
 
 def check_device(device: str) -> None:

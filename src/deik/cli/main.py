@@ -11,20 +11,25 @@ whole clip, `limits` measures joint limits from a clip, `demo` runs the paper's 
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
-Mistakes in the input print one line `deik: error: ...` on stderr and exit with status 2.
+Mistakes in the input print one line `deik: error: ...` on stderr and exit with status 2; a bug prints
+`deik: internal error: ...` and exits with 3; Ctrl-C stops the work, writes nothing and exits with 130.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from deik.cli import clip as cli_clip
 from deik.cli import solve as cli_solve
-from deik.cli.common import Parser, UsageError, check_output, numbers
+from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
+INTERNAL_ERROR = 3
+INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+MESSAGE_LIMIT = 500
 
 
 def run_demo(args) -> int:
@@ -50,7 +55,7 @@ def run_limits(args) -> int:
     from deik.io.bvh import read_bvh
     from deik.io.limits import range_of_motion, write_limits
 
-    check_output("--out", args.out, (".json",))
+    check_outputs({"--out": args.out}, {"--out": (".json",)}, (args.clip,))
     clip = read_bvh(args.clip)
     limits = range_of_motion(clip, args.margin, args.margin_length)
     write_limits(args.out, clip.skeleton, limits)
@@ -110,11 +115,30 @@ def main(argv=None) -> int:
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code
-    except (UsageError, ValueError, ImportError, OSError, KeyError, IndexError) as error:
+    except (UsageError, ValueError, ImportError, OSError, KeyError) as error:
         # KeyError (unknown joint) keeps its message in args[0]; str() would add quotes.
         message = error.args[0] if isinstance(error, KeyError) else error
-        print(f"deik: error: {message}", file=sys.stderr)
+        print(f"deik: error: {_shortened(str(message))}", file=sys.stderr)
         return USAGE_ERROR
+    except KeyboardInterrupt:
+        print("deik: interrupted; nothing was written", file=sys.stderr)
+        return INTERRUPTED
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) has gone: stay quiet, and keep Python from complaining at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except Exception as error:  # a bug, not a mistake in the input
+        if os.environ.get("DEIK_DEBUG"):
+            raise
+        print(f"deik: internal error: {type(error).__name__}: {_shortened(str(error))}. This is a bug in deik; "
+              "please report it with the command line (rerun with DEIK_DEBUG=1 for the traceback)", file=sys.stderr)
+        return INTERNAL_ERROR
+
+
+def _shortened(message: str, limit: int = MESSAGE_LIMIT) -> str:
+    """`message` on one line and at most `limit` characters (a whole echoed input is cut)."""
+    line = " ".join(message.split())
+    return line if len(line) <= limit else f"{line[:limit - 30]} ... ({len(line)} characters)"
 
 
 if __name__ == "__main__":

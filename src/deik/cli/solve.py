@@ -16,8 +16,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, check_device, check_output, numbers
-from deik.io.atomic import write_json_atomically
+from deik.cli.common import UsageError, check_device, check_outputs, numbers
+from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.problem_file import load_problem
@@ -75,9 +75,12 @@ def add_arguments(s) -> None:
     s.add_argument("--islands", type=int, metavar="N", help="split the population into N islands that migrate (default 1)")
     s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
+    s.add_argument("--memory-limit", type=float, metavar="GIB",
+                   help="memory a solve may use, GiB (default: 80%% of this machine's)")
     s.add_argument("--out", metavar="pose.json|pose.bvh",
                    help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
+    s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
     s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
     s.add_argument("--start", nargs="+", metavar="VALUE|pose.json",
                    help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
@@ -135,7 +138,7 @@ def _problem(args):
             raise UsageError("--problem FILE already names the skeleton and goals; "
                              "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file")
         file = load_problem(args.problem)
-        pose = None if file.frame is None else file.loaded.clip.pose(file.frame)
+        pose = None if file.frame is None else _clip_pose(file.loaded.clip, file.frame)
         return file.problem, file.settings, file.loaded, pose, file.frame
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
@@ -147,7 +150,7 @@ def _problem(args):
     if loaded.kind == "bvh":
         if args.frame is None:
             raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
-        frame_pose = loaded.clip.pose(args.frame)
+        frame_pose = _clip_pose(loaded.clip, args.frame)
     elif args.frame is not None:
         raise UsageError("--frame only applies to a BVH clip")
     if args.start:
@@ -155,6 +158,15 @@ def _problem(args):
     if not has_goals:
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
     return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose, args.frame
+
+
+
+def _clip_pose(clip, frame: int):
+    """Pose (D,) of clip frame `frame`; UsageError naming the valid frames when it is out of range."""
+    try:
+        return clip.pose(frame)
+    except IndexError as error:
+        raise UsageError(f"--frame: {error}") from None
 
 
 def _progress(generations: int, terminal: bool):
@@ -185,12 +197,18 @@ def _write_pose(path, result, loaded, frame) -> None:
 
 def run_solve(args) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
-    check_output("--out", args.out, (".json", ".bvh"))
-    check_output("--plot", args.plot)
+    inputs = (args.skeleton_flag, args.skeleton, args.problem, args.segments, args.limits,
+              args.start[0] if args.start and len(args.start) == 1 else None)
+    check_outputs({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)},
+                  inputs, args.overwrite)
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
+    if args.memory_limit is not None:
+        if not args.memory_limit > 0:
+            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
+        settings["memory_limit"] = int(args.memory_limit * 2**30)
     settings = Settings(**settings)
     check_device(settings.device)
     initial = None
@@ -212,9 +230,10 @@ def run_solve(args) -> int:
     print(format_table(["goal", "error", "tolerance", "met"], rows))
     print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
           f"converged {'yes' if result.converged else 'no'}")
-    if args.out:
-        _write_pose(args.out, result, loaded, frame)
-    if args.plot:
-        spec = args.skeleton_flag or args.skeleton or args.problem
-        plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
+    with all_or_nothing():
+        if args.out:
+            _write_pose(args.out, result, loaded, frame)
+        if args.plot:
+            spec = args.skeleton_flag or args.skeleton or args.problem
+            plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
     return 0

@@ -22,6 +22,7 @@ import numpy as np
 
 from deik.io.bvh_hierarchy import number
 from deik.io.errors import FileFormatError
+from deik.io.files import read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
 SPEC_FORMS = ("SITE=track.csv, SITE=track.json, or SITE=X,Y,Z@A:B (a fixed point over frames "
@@ -125,12 +126,7 @@ def read_track(path, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
     repeated frames, frames outside 0..N-1 and tracks that list no frame.
     """
     source = str(path)
-    with open(path, "rb") as file:
-        data = file.read()
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise FileFormatError(source, "not a text (UTF-8) track file") from None
+    text = read_input_text(path, "track")
     if text.lstrip()[:1] in ("[", "{"):
         values = _json_values(source, text)
     else:

@@ -9,6 +9,7 @@ unit; degrees become radians. Every malformed input raises FileFormatError namin
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +19,26 @@ from deik.io.bvh_hierarchy import (
 )
 from deik.io.clip import CHANNELS, Clip, JointChannels
 from deik.io.errors import FileFormatError
+from deik.io.files import read_input
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
+
+
+def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np.ndarray:
+    """(N, expected) float64 from frame lines (line number, text), converted by NumPy's C reader
+    in one call; only when that fails (a count, a token or a magnitude is off) are the lines
+    checked one by one, so that the error names the first bad line and number."""
+    if not rows:
+        return np.zeros((0, expected))
+    block = "\n".join(text for _, text in rows)
+    try:
+        values = np.loadtxt(io.StringIO(block), dtype=np.float64, comments=None, ndmin=2)
+    except ValueError:
+        values = None
+    if values is not None and values.shape == (len(rows), expected) and np.all(np.abs(values) <= MAX_MAGNITUDE):
+        return values  # (NaN fails the magnitude test)
+    return np.array([_frame_row(source, text, n, expected) for n, text in rows], np.float64).reshape(-1, expected)
 
 
 def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
@@ -36,6 +54,9 @@ def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
         except ValueError:
             pass
     return [number(source, w, line, f"channel {k + 1}") for k, w in enumerate(words)]
+
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
+MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
 
 
 def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
@@ -55,20 +76,23 @@ def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
         fail("expected 'Frame Time: seconds' after 'Frames:'", body[min(1, len(body) - 1)][0])
     count, frames_line, time_line = int(header[0][1]), body[0][0], body[1][0]
     frame_time = number(source, header[1][1], time_line, "Frame Time")
-    if frame_time <= 0:
-        fail(f"Frame Time must be positive seconds, got {header[1][1]}", time_line)
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+        fail(f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
+             time_line)
     rows = body[2:]
     if n_channels == 0 and rows:
         fail("frame numbers given but the hierarchy has no channels", rows[0][0])
     if n_channels == 0:
+        if count > MAX_EMPTY_FRAMES:
+            fail(f"'Frames: {count}' for a hierarchy without channels; give at most {MAX_EMPTY_FRAMES}", frames_line)
         return np.zeros((count, 0)), frame_time
-    values = [_frame_row(source, text, n, n_channels) for n, text in rows[:count]]
+    values = _frame_values(source, rows[:count], n_channels)
     if len(rows) > count:
         fail(f"more frame lines than 'Frames: {count}' (line {frames_line}) says", rows[count][0])
     if len(rows) < count:
         fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)",
              frames_line)
-    return np.array(values, dtype=np.float64).reshape(count, n_channels), frame_time
+    return values.reshape(count, n_channels), frame_time
 
 
 def _site_names(nodes: list[Node]) -> dict[int, str]:
@@ -150,9 +174,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>", segments=None) -> Cli
 def read_bvh(path, segments=None) -> Clip:
     """Read the BVH file at `path` into a Clip (see parse_bvh); `segments` a table path or None.
 
-    A path that cannot be read raises FileNotFoundError, IsADirectoryError or PermissionError
-    naming it; a malformed file raises FileFormatError naming it and the line.
+    A path that cannot be read (missing, a folder or device, too large) or a malformed file
+    raises FileFormatError naming it (and the line).
     """
-    with open(path, "rb") as file:
-        data = file.read()
-    return parse_bvh(data, str(path), segments)
+    return parse_bvh(read_input(path, "BVH"), str(path), segments)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from deik.io.atomic import write_json_atomically
+from deik.io.files import read_input_text
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -47,13 +48,13 @@ def read_limits(path, skeleton: Skeleton) -> dict:
     """The table in JSON file `path` for `skeleton`, rotations converted to radians; every
     mistake raises a ValueError (or KeyError for an unknown DOF) naming the file."""
     path = str(path)
+    text = read_input_text(path, "limits (JSON)")
     try:
-        with open(path, encoding="utf-8") as file:
-            table = json.load(file)
-    except OSError as error:
-        raise ValueError(f"{path}: cannot read the limits file ({error.strerror})") from None
+        table = json.loads(text)
     except json.JSONDecodeError as error:
         raise ValueError(f"{path}: not valid JSON: {error}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: JSON nested too deeply; a limits table is one level of [lower, upper]") from None
     if not isinstance(table, dict) or not table:
         raise ValueError(f"{path}: must be a JSON object {{\"DOF name\": [lower, upper], ...}}")
     limits = {}
@@ -79,6 +80,8 @@ def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> 
             and margin_length >= 0):
         raise ValueError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
+    if clip.n_frames == 0:
+        raise ValueError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
     poses = clip.poses()
     margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), margin_length)
     lower = np.maximum(poses.min(axis=0) - margin, sk.lower)

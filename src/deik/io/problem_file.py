@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from deik.solver.engine import Settings
+from deik.io.files import read_input_text
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.limits import read_limits, with_limits
 from deik.objectives import goals as g
@@ -71,13 +72,14 @@ def load_problem(path) -> ProblemFile:
     """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
+    text = read_input_text(path, "problem (TOML)")
     try:
-        with open(path, "rb") as file:
-            data = tomllib.load(file)
-    except OSError as error:
-        raise ValueError(f"{path}: cannot read the problem file ({error.strerror})") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{path}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
+                         "three levels (a 3x3 rotation)") from None
     for key in data:
         if key not in TOP_LEVEL:
             raise ValueError(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} "

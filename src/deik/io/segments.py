@@ -18,6 +18,7 @@ import numpy as np
 
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.io.errors import FileFormatError
+from deik.io.files import read_input_text
 from deik.model.joints import Segment
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -178,12 +179,9 @@ def read_segment_table(path, joint_names) -> tuple[tuple[Segment, ...], str]:
     description). Malformed tables raise FileFormatError naming the file and element.
     """
     source = str(path)
-    with open(path, "rb") as file:
-        data = file.read()
+    text = read_input_text(path, "segment table (JSON)")
     try:
-        table = json.loads(data.decode("utf-8-sig"))
-    except UnicodeDecodeError:
-        raise FileFormatError(source, "not a text (UTF-8) JSON file") from None
+        table = json.loads(text)
     except json.JSONDecodeError as error:
         raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
     except RecursionError:

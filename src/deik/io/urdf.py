@@ -124,7 +124,8 @@ def _build(tree: LinkTree, links: list[str], up, name: str):
     for link in links[1:]:
         joint = tree.joint_of[link]
         parent = frames[joint.parent]
-        R_origin, p_origin = joint.origin[:3, :3], joint.origin[:3, 3]
+        origin = joint.origin if joint.origin is not None else np.eye(4)  # URDF: no <origin> is the identity
+        R_origin, p_origin = origin[:3, :3], origin[:3, 3]
         R = parent.R @ R_origin
         p = parent.p + parent.R @ p_origin
         if _is_moving(joint):

@@ -3,9 +3,9 @@ whose parent, and the sub-tree or chain a user picks by base and tip link names.
 
 from __future__ import annotations
 
-import os
 
 from deik.io.errors import FileFormatError
+from deik.io.files import read_input
 from deik.suggest import did_you_mean
 
 
@@ -15,10 +15,7 @@ def read_xml(path):
     from lxml import etree
 
     source = str(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"{source}: no such URDF file")
-    with open(path, "rb") as file:
-        data = file.read()
+    data = read_input(path, "URDF")
     if not data.strip():
         raise FileFormatError(source, "the file is empty; a URDF file holds a <robot> element")
     if b"\0" in data:

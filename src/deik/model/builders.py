@@ -10,6 +10,9 @@ from deik.model.build import build_skeleton
 from deik.model.skeleton import Skeleton
 
 
+MAX_CHAIN_LINKS = 100_000  # far beyond any character; a larger chain only exhausts memory
+
+
 def chain(
     n_links: int,
     dims: int = 2,
@@ -25,8 +28,8 @@ def chain(
     `mass` (kg) at each; the site `tip` is the end effector. Reach is n_links * link_length.
     Named "chain:N" (planar) or "chain3d:N", as the CLI spells them.
     """
-    if not isinstance(n_links, int) or n_links < 1:
-        raise ValueError(f"n_links must be a positive integer, got {n_links!r}")
+    if isinstance(n_links, bool) or not isinstance(n_links, int) or not 1 <= n_links <= MAX_CHAIN_LINKS:
+        raise ValueError(f"n_links must be an integer from 1 to {MAX_CHAIN_LINKS}, got {n_links!r}")
     if dims not in (2, 3):
         raise ValueError(f"dims must be 2 or 3, got {dims!r}")
     if not (math.isfinite(link_length) and link_length > 0):

@@ -7,6 +7,7 @@ followed by the sites: frame f < n_joints is joint f, otherwise site f - n_joint
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -86,7 +87,7 @@ class Skeleton:
         if J == 0:
             _fail("a skeleton needs at least one joint")
         names = list(self.joint_names) + list(self.site_names)
-        dupes = sorted({n for n in names if names.count(n) > 1})
+        dupes = sorted(name for name, count in Counter(names).items() if count > 1)
         if dupes:
             _fail(f"duplicate joint/site names {dupes}; joints and sites share one namespace")
         if self.parents.shape != (J,) or self.offsets.shape != (J, 3):

@@ -14,6 +14,7 @@ import numpy as np
 
 from deik.kernels.layout import MAX_POLISH_COUNT
 from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 
 STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
@@ -38,7 +39,8 @@ class Settings:
     which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
     between kernel launches, so it may overrun by about a quarter of the time left or one
     generation, and always runs at least one generation; the first call in a process also
-    loads or compiles the kernels)."""
+    loads or compiles the kernels). `memory_limit`: bytes a solve may allocate (None: 80 % of
+    the machine's memory); a larger solve is refused before anything is allocated."""
 
     population: int = 256
     generations: int = 2000
@@ -58,6 +60,7 @@ class Settings:
     time_limit: float | None = None
     device: str = "cpu"
     dtype: str = "float32"
+    memory_limit: int | None = None
 
     @classmethod
     def paper(cls, **changes) -> "Settings":
@@ -67,43 +70,68 @@ class Settings:
                       "polish": 0, "restarts": 0, **changes})
 
     def __post_init__(self):
-        if self.strategy not in STRATEGIES:
-            raise ValueError(f"strategy must be one of {list(STRATEGIES)}, got {self.strategy!r}")
-        if not (isinstance(self.population, int) and self.population >= 4):
-            raise ValueError(f"population must be an integer >= 4 (DE needs 3 donors), got {self.population!r}")
-        if not (isinstance(self.generations, int) and self.generations >= 1):
-            raise ValueError(f"generations must be a positive integer, got {self.generations!r}")
-        if not (0 < self.F <= 2 and math.isfinite(self.F)):
+        _choice("strategy", self.strategy, tuple(STRATEGIES))
+        _integer("population", self.population, 4, "DE needs 3 donors")
+        _integer("generations", self.generations, 1)
+        _number("F", self.F, "the differential weight, in (0, 2]")
+        if not 0 < self.F <= 2:
             raise ValueError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
+        _number("CR", self.CR, "the crossover probability, in [0, 1]")
         if not 0 <= self.CR <= 1:
             raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
-        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed < 2**64):
+        _boolean("adaptive", self.adaptive)
+        _integer("seed", self.seed, 0)
+        if self.seed >= 2**64:
             raise ValueError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
-        if not (isinstance(self.patience, int) and self.patience >= 1):
-            raise ValueError(f"patience must be a positive integer, got {self.patience!r}")
-        for name in ("polish", "restarts"):
-            value = getattr(self, name)
-            if not (isinstance(value, int) and value >= 0):
-                raise ValueError(f"{name} must be an integer >= 0 (0 turns it off), got {value!r}")
-        for name in ("polish_every", "polish_count"):
-            value = getattr(self, name)
-            if not (isinstance(value, int) and value >= 1):
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        _integer("patience", self.patience, 1)
+        _integer("polish", self.polish, 0, "0 turns it off")
+        _integer("restarts", self.restarts, 0, "0 turns them off")
+        _integer("polish_every", self.polish_every, 1)
+        _integer("polish_count", self.polish_count, 1)
         if self.polish_count > MAX_POLISH_COUNT:
             raise ValueError(f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
                              f"got {self.polish_count}")
-        if not (isinstance(self.islands, int) and self.islands >= 1 and self.population % self.islands == 0
-                and self.population // self.islands >= 4):
+        _integer("islands", self.islands, 1)
+        if self.population % self.islands or self.population // self.islands < 4:
             raise ValueError(f"islands must divide the population into groups of at least 4 individuals, "
                              f"got {self.islands!r} islands for population {self.population}")
-        if not (isinstance(self.migration, int) and self.migration >= 1):
-            raise ValueError(f"migration must be a positive number of generations, got {self.migration!r}")
-        if self.time_limit is not None and not (math.isfinite(self.time_limit) and self.time_limit > 0):
-            raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
-        if self.device not in DEVICES:
-            raise ValueError(f"device must be 'cpu' or 'gpu', got {self.device!r}")
-        if self.dtype not in ("float32", "float64"):
-            raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
+        _integer("migration", self.migration, 1)
+        if self.stop_on_converged is not None:
+            _boolean("stop_on_converged", self.stop_on_converged)
+        if self.time_limit is not None:
+            _number("time_limit", self.time_limit, "seconds, or None for no limit")
+            if not self.time_limit > 0:
+                raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
+        _choice("device", self.device, DEVICES)
+        _choice("dtype", self.dtype, ("float32", "float64"))
+        if self.memory_limit is not None:
+            _integer("memory_limit", self.memory_limit, 1, "bytes; None: 80 % of physical memory")
+
+
+def _integer(name: str, value, minimum: int, note: str = "") -> None:
+    """ValueError unless `value` is an integer (not a bool) >= minimum."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
+        hint = f" ({note})" if note else ""
+        raise ValueError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
+
+
+def _number(name: str, value, meaning: str) -> None:
+    """ValueError unless `value` is a finite real number (not a bool or a string)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
+
+
+def _boolean(name: str, value) -> None:
+    """ValueError unless `value` is True or False."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
+
+
+def _choice(name: str, value, choices: tuple) -> None:
+    """ValueError unless `value` is one of `choices` (strings)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,6 +240,8 @@ class Engine:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
         B, P, D = self.problem.batch_size, self.settings.population, self.problem.skeleton.n_dofs
         T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
+        needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
+        check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
         init, n_init = self._initial(initial, B, D, dtype)
         pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
         total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)

@@ -65,6 +65,11 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
+        if self.skeleton.n_dofs == 0:
+            raise ValueError(
+                f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
+                "another); choose a base and tip with moving joints between them"
+            )
         first = self.parts[0] if self.parts else self
         if not all(isinstance(p, Problem) for p in self.parts) or len(first.goals) != len(self.goals) or \
                 any(a is not b for a, b in zip(first.goals, self.goals)):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import fields
 
@@ -11,18 +10,16 @@ import numpy as np
 from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
 from deik.objectives.registry import kind_of
 from deik.solver.engine import Engine, Settings
+from deik.solver.launches import Launches
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
-
-PROGRESS_CHUNK = 100
-TIME_PROBE = 4  # generations of the first launch under a time limit
 
 
 def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
     """Solve `problem`; settings from `settings` and/or keyword overrides (population,
     generations, time_limit, strategy, F, CR, adaptive, polish, restarts, seed, patience,
     device, dtype). `initial`: poses (n, D) or (B, n, D) seeding the population.
-    `progress(generation, best_fitness)` is called every PROGRESS_CHUNK generations when
+    `progress(generation, best_fitness)` is called every 100 generations (launches.PROGRESS_CHUNK) when
     given. Returns an immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
@@ -31,32 +28,23 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
 
 def run_engine(problem: Problem, engine: Engine, initial=None, progress=None) -> Result:
     """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
-    budget, time limit, or every problem stopped; the Result (solve() without the set-up)."""
+    budget, time limit, or every problem stopped; the Result (solve() without the set-up).
+    Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly."""
     settings = engine.settings
     start = time.perf_counter()
-    deadline = start + settings.time_limit if settings.time_limit else math.inf
     state = engine.init(initial)
-    chunk = PROGRESS_CHUNK if progress else settings.generations
-    while state.generation < settings.generations and state.active.any() and (
-            state.generation == 0 or time.perf_counter() < deadline):  # at least one generation
-        count = min(chunk, settings.generations - state.generation)
-        if settings.time_limit:
-            count = _generations_within(deadline, start, state.generation, count)
+    skeleton = problem.skeleton
+    frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
+    launches = Launches(settings, frame_work, progress is not None, start)
+    while launches.more(state.generation, state.active.any()):
+        count = launches.next(state.generation)
+        began = time.perf_counter()
         state = engine.run(state, count)
+        launches.ran(count, time.perf_counter() - began)
         if progress:
             progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
     wall = time.perf_counter() - start
     return make_result(problem, engine, state, wall)
-
-
-def _generations_within(deadline: float, start: float, done: int, most: int) -> int:
-    """How many generations to launch next so the run ends near `deadline`: a quarter of the
-    time left at the pace so far (a few to start with)."""
-    now = time.perf_counter()
-    if done == 0:
-        return min(most, TIME_PROBE)
-    pace = (now - start) / done
-    return max(1, min(most, int(0.25 * (deadline - now) / pace)))
 
 
 def solve_batch(problems, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:

@@ -1,0 +1,49 @@
+"""How many generations each kernel launch of a solve runs.
+
+A kernel launch cannot be interrupted: Python sees Ctrl-C, the time limit and progress reports
+only between launches. So a solve runs in launches of about LAUNCH_SECONDS each. The first is
+sized from an estimate of its work (individuals x frames per generation over an assumed rate),
+later ones from the measured pace of the one before, growing at most GROWTH-fold per launch so
+that a first launch slowed by compilation does not set the pace. A time limit caps each launch
+at a quarter of the time left, and progress reports at PROGRESS_CHUNK generations.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+LAUNCH_SECONDS = 0.25
+FRAME_EVALUATIONS_PER_SECOND = {"cpu": 2e7, "gpu": 1e9}  # conservative first guesses, before any measurement
+GROWTH = 4
+PROGRESS_CHUNK = 100
+
+
+class Launches:
+    """Plans the launches of one solve: `next(done)` -> generations to run now, `ran(count,
+    seconds)` records a launch. `frame_work`: individuals x kinematic frames of one generation."""
+
+    def __init__(self, settings, frame_work: int, progress: bool, start: float):
+        self.budget = settings.generations
+        self.deadline = start + settings.time_limit if settings.time_limit else math.inf
+        self.chunk = PROGRESS_CHUNK if progress else self.budget
+        rate = FRAME_EVALUATIONS_PER_SECOND[settings.device]
+        self.size = max(1, int(LAUNCH_SECONDS * rate / max(frame_work, 1)))
+        self.pace = None  # seconds per generation of the last launch
+
+    def more(self, done: int, any_active: bool) -> bool:
+        """Whether to launch again: budget left, a problem still running, time left (the first
+        generation always runs)."""
+        return done < self.budget and any_active and (done == 0 or time.perf_counter() < self.deadline)
+
+    def next(self, done: int) -> int:
+        """Generations for the next launch, after `done` generations."""
+        count = min(self.size, self.chunk, self.budget - done)
+        if self.pace is not None and math.isfinite(self.deadline):
+            count = min(count, int(0.25 * (self.deadline - time.perf_counter()) / self.pace))
+        return max(1, count)
+
+    def ran(self, count: int, seconds: float) -> None:
+        """Record a launch of `count` generations that took `seconds`."""
+        self.pace = max(seconds, 1e-9) / count
+        self.size = max(1, min(GROWTH * count, int(LAUNCH_SECONDS / self.pace)))

@@ -1,0 +1,237 @@
+"""Bad input a user can give: each case gets a clear error naming the problem and the fix,
+never a traceback, a silent guess or nonsense output."""
+
+import numpy as np
+import pytest
+
+import deik
+from deik.io.urdf import read_urdf
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"adaptive": "no"}, "adaptive must be true or false, got 'no'"),
+    ({"adaptive": 1}, "adaptive must be true or false"),
+    ({"F": True}, "F must be a finite number"),
+    ({"F": "0.5"}, r"F must be a finite number \(the differential weight"),
+    ({"CR": None}, "CR must be a finite number"),
+    ({"seed": True}, "seed must be an integer >= 0, got True"),
+    ({"polish": True}, "polish must be an integer >= 0"),
+    ({"population": 4.0}, "population must be an integer >= 4"),
+    ({"strategy": 3}, "strategy must be one of"),
+    ({"stop_on_converged": "yes"}, "stop_on_converged must be true or false"),
+    ({"time_limit": float("inf")}, "time_limit must be a finite number"),
+    ({"dtype": np.float64}, "dtype must be one of"),
+])
+def test_every_setting_is_type_checked_by_name(changes, message):
+    with pytest.raises(ValueError, match=message):
+        deik.Settings(**changes)
+
+
+def test_settings_accept_numpy_scalars_of_the_right_kind():
+    settings = deik.Settings(seed=np.uint64(2**64 - 1), population=np.int64(8), F=np.float32(0.5), adaptive=np.bool_(False))
+    assert settings.seed == 2**64 - 1 and settings.population == 8
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    return path
+
+
+def test_urdf_joint_without_origin_sits_at_its_parent(tmp_path):
+    # URDF makes <origin> optional: absent, the joint frame is the parent link's frame
+    with_origin = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"/><link name="b"/><link name="c"/>
+        <joint name="j" type="revolute"><parent link="a"/><child link="b"/>{origin}<axis xyz="0 0 1"/>
+        <limit lower="-1" upper="1"/></joint>
+        <joint name="k" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/></joint></robot>""")
+    text = with_origin.read_text()
+    explicit = read_urdf(_write(tmp_path, text.replace("{origin}", '<origin xyz="0 0 0" rpy="0 0 0"/>')))
+    implicit = read_urdf(_write(tmp_path, text.replace("{origin}", "")))
+    q = np.array([0.7])
+    np.testing.assert_array_equal(deik.forward_kinematics(implicit, q).position("c"),
+                                  deik.forward_kinematics(explicit, q).position("c"))
+    np.testing.assert_allclose(deik.forward_kinematics(implicit, q).position("c"), [np.cos(0.7), np.sin(0.7), 0])
+
+
+def test_skeleton_without_free_dofs_is_refused_before_solving(tmp_path):
+    path = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"><inertial><mass value="1"/>
+        </inertial></link><link name="b"/><joint name="j" type="fixed"><parent link="a"/><child link="b"/>
+        <origin xyz="0 0 1"/></joint></robot>""")
+    skeleton = read_urdf(path)
+    with pytest.raises(ValueError, match="has no free DOF to solve for .* choose a base and tip with moving joints"):
+        deik.Problem(skeleton, [deik.Position("b", [0, 0, 1])])
+
+
+def test_duplicate_names_are_found_in_one_pass():
+    joints = [deik.Joint("root", None)] + [deik.Joint(f"j{k}", "root" if k == 0 else f"j{k - 1}", (0, 0, 0.1),
+                                                      deik.hinge((0, 0, 1))) for k in range(3000)]
+    sites = [deik.Site("j5", "j7"), deik.Site("j9", "j9")]
+    with pytest.raises(ValueError, match=r"duplicate joint/site names \['j5', 'j9'\]"):
+        deik.build_skeleton(joints, sites=sites)
+
+
+def test_deeply_nested_toml_is_refused_with_the_file_named(tmp_path):
+    from deik.io.problem_file import load_problem
+
+    path = tmp_path / "deep.toml"
+    path.write_text('skeleton = "chain:3"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
+    with pytest.raises(ValueError, match=r"deep\.toml: arrays or tables nested too deeply"):
+        load_problem(path)
+
+
+def test_range_of_motion_of_a_clip_without_frames_is_refused(tmp_path):
+    from deik.io.bvh import read_bvh
+    from deik.io.limits import range_of_motion
+
+    path = tmp_path / "empty.bvh"
+    path.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+                    "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n")
+    with pytest.raises(ValueError, match="the clip has no frames"):
+        range_of_motion(read_bvh(path), 10.0)
+
+
+TOY_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+           "  JOINT Arm\n  {\n    OFFSET 0 1 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+           "    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.033333\n"
+           "0 0 0 0 0 0\n0 0 0 10 0 0\n")
+
+
+def _cli(argv, capsys):
+    from deik.cli import main
+
+    status = main([str(a) for a in argv])
+    return status, capsys.readouterr().err
+
+
+def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(TOY_BVH)
+    status, err = _cli(["solve", "--skeleton", clip, "--frame", "0", "--reach", "Arm_end", 0, 1.5, 0.5,
+                        "--out", clip], capsys)
+    assert status == 2 and "--out" in err and "is the input file" in err and "--overwrite" in err
+    assert err.count("\n") == 1 and clip.read_text() == TOY_BVH
+    status, err = _cli(["clip", clip, "--out", clip], capsys)
+    assert status == 2 and "is the input file" in err and clip.read_text() == TOY_BVH
+
+
+def test_two_outputs_naming_one_file_are_refused(tmp_path, capsys):
+    # the PNG of --plot can no longer land in the JSON's name: --plot takes .png only
+    status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json",
+                        "--plot", tmp_path / "x.json"], capsys)
+    assert status == 2 and "--plot" in err and "must end in .png" in err
+    assert not list(tmp_path.iterdir())
+    from deik.cli.common import UsageError, check_outputs
+
+    with pytest.raises(UsageError, match="--a and --b both name"):
+        check_outputs({"--a": str(tmp_path / "x.json"), "--b": str(tmp_path / "x.json")}, {})
+
+
+def test_unwritable_output_folder_is_refused_before_solving(tmp_path, capsys, monkeypatch):
+    import deik.cli.common
+
+    # as root every folder is writable, so the check's system call is made to answer "no"
+    monkeypatch.setattr(deik.cli.common.os, "access", lambda path, mode: False)
+    status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json"], capsys)
+    assert status == 2 and "is not writable; choose another folder" in err
+
+
+def test_all_or_nothing_leaves_no_file_when_a_later_write_fails(tmp_path):
+    from deik.io import atomic
+
+    first, second = tmp_path / "a.json", tmp_path / "b.png"
+    first.write_text("old\n")
+
+    def broken(temporary):
+        open(temporary, "w").write("part")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        with atomic.all_or_nothing():
+            atomic.write_json_atomically(first, {"new": 1})
+            atomic.save_atomically(second, broken)
+    assert first.read_text() == "old\n" and not second.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
+    with atomic.all_or_nothing():
+        atomic.write_json_atomically(first, {"new": 1})
+        assert first.read_text() == "old\n"  # moved into place only when the block ends
+    assert json_load(first) == {"new": 1}
+
+
+def json_load(path):
+    import json
+
+    return json.loads(path.read_text())
+
+
+def test_a_temporary_file_stranded_by_a_killed_process_is_removed_by_the_next_write(tmp_path):
+    from deik.io import atomic
+
+    stranded = tmp_path / f".pose{atomic.PARTIAL}999999999.json"
+    stranded.write_text("{")
+    atomic.write_json_atomically(tmp_path / "pose.json", {"ok": True})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"]
+
+
+def test_nan_results_are_never_written_as_json(tmp_path):
+    from deik.io import atomic
+
+    with pytest.raises(ValueError, match=r"x\.json: the results hold NaN or infinite numbers, so no JSON was written"):
+        atomic.write_json_atomically(tmp_path / "x.json", {"angles": [float("nan")]})
+    assert not list(tmp_path.iterdir())
+
+
+def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    problem = tmp_path / "long.toml"
+    problem.write_text('skeleton = "chain:30"\n[settings]\ngenerations = 10000000\npatience = 10000000\n'
+                       'population = 64\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [12.0, 9.0, 0.0]\n'
+                       'tolerance = 0.0\n')
+    out = tmp_path / "pose.json"
+    process = subprocess.Popen([sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())",
+                                "solve", "--problem", str(problem), "--out", str(out), "--progress"],
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stderr.readline().startswith("generation")  # compiled and running generations
+        sent = time.perf_counter()
+        process.send_signal(signal.SIGINT)
+        status = process.wait(timeout=30)
+        stopped = time.perf_counter() - sent
+    finally:
+        process.kill()
+    rest = process.stderr.read()
+    assert status == 130, rest
+    assert "deik: interrupted; nothing was written" in rest
+    assert stopped < 10, f"took {stopped:.1f} s to stop"
+    assert not list(tmp_path.glob("*.json")) and not list(tmp_path.glob(".*"))
+
+
+def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
+    problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
+    with pytest.raises(ValueError, match=r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"):
+        deik.solve(problem, population=1_000_000_000)
+    with pytest.raises(ValueError, match=r"needs about .* more than the 0\.000977 GiB allowed"):
+        deik.solve(problem, population=100_000, memory_limit=2**20)
+    status, err = _cli(["solve", "chain:10", "--reach", "tip", 5, 5, 0, "--population", 1_000_000_000], capsys)
+    assert status == 2 and "--memory-limit GIB" in err and err.count("\n") == 1
+
+
+def test_memory_estimate_covers_what_a_solve_allocates():
+    from deik.solver.memory import solve_bytes
+
+    problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
+    engine = deik.Engine(problem, deik.Settings(population=64, generations=50, polish=0))
+    state = engine.run(engine.init(), 50)
+    held = sum(a.nbytes for a in state.buffers) + state.history.nbytes
+    estimate = solve_bytes(1, 64, 10, 1, 1, 4, 50)
+    assert held <= estimate <= 8 * held
+
+
+def test_absurd_chains_are_refused_with_the_limit(capsys):
+    with pytest.raises(ValueError, match="n_links must be an integer from 1 to 100000, got 100000000"):
+        deik.chain(100_000_000)
+    status, err = _cli(["info", "chain:100000000"], capsys)
+    assert status == 2 and "from 1 to 100000" in err
