@@ -188,8 +188,9 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
 
     problem = tmp_path / "long.toml"
     problem.write_text('skeleton = "chain:30"\n[settings]\ngenerations = 10000000\npatience = 10000000\n'
-                       'population = 64\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [12.0, 9.0, 0.0]\n'
-                       'tolerance = 0.0\n')
+                       'population = 64\n' + ''.join(  # two targets for one tip: never met, never stagnant
+                           f'[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [{x}, 9.0, 0.0]\ntolerance = 0.0\n'
+                           for x in (12.0, -12.0)))
     out = tmp_path / "pose.json"
     process = subprocess.Popen([sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())",
                                 "solve", "--problem", str(problem), "--out", str(out), "--progress"],
