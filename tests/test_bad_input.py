@@ -236,3 +236,17 @@ def test_absurd_chains_are_refused_with_the_limit(capsys):
         deik.chain(100_000_000)
     status, err = _cli(["info", "chain:100000000"], capsys)
     assert status == 2 and "from 1 to 100000" in err
+
+
+def test_absurd_limits_and_masses_are_refused_when_the_skeleton_is_built():
+    def arm(lower=-1.0, upper=1.0, mass=1.0):
+        return deik.build_skeleton([deik.Joint("base", None, dofs=deik.hinge((0, 0, 1), lower, upper)),
+                                    deik.Joint("tip", "base", (1, 0, 0))],
+                                   segments=[deik.Segment("base", mass, (0.5, 0, 0))])
+
+    for lower, upper in ((-1e308, 1e308), (-1e38, 1e38), (0.0, 2e6)):
+        with pytest.raises(ValueError, match=r"has limits .* beyond \+-1e\+06 .* give real limits"):
+            arm(lower, upper)
+    with pytest.raises(ValueError, match=r"mass 1e\+308 kg on joint 'base' must lie between 0 and 1e\+12 kg"):
+        arm(mass=1e308)
+    assert arm(-2 * np.pi, 2 * np.pi).upper[0] == 2 * np.pi

@@ -17,6 +17,10 @@ from deik.model.joints import TRANSLATE
 from deik.suggest import did_you_mean
 
 
+MAX_LIMIT = 1e6  # radians or length units: beyond it float32 poses cannot resolve a millimetre or a degree
+MAX_MASS = 1e12  # kg per segment: keeps every total finite
+
+
 def _fail(message: str) -> None:
     raise ValueError(message)
 
@@ -119,12 +123,18 @@ class Skeleton:
                 f"DOF {self.dof_names[k]!r} has inverted limits: lower {self.lower[k]:.6g} > "
                 f"upper {self.upper[k]:.6g}; swap them"
             )
+        finite = np.isfinite(np.concatenate([self.lower, self.upper]))
+        huge = np.flatnonzero(finite & (np.abs(np.concatenate([self.lower, self.upper])) > MAX_LIMIT))
+        if huge.size:
+            k = huge[0] % D
+            _fail(f"DOF {self.dof_names[k]!r} has limits [{self.lower[k]:.6g}, {self.upper[k]:.6g}] beyond "
+                  f"+-{MAX_LIMIT:g} (radians or length units), where poses lose all precision; give real limits")
         if not np.isfinite(self.reference).all():
             _fail("the reference (comfort) pose must be finite")
-        if (self.mass_value < 0).any() or not np.isfinite(self.mass_value).all():
-            k = int(np.argmax(~(self.mass_value >= 0)))
+        if not ((self.mass_value >= 0) & (self.mass_value <= MAX_MASS)).all():
+            k = int(np.argmax(~((self.mass_value >= 0) & (self.mass_value <= MAX_MASS))))
             joint = self.joint_names[self.mass_joint[k]]
-            _fail(f"mass {float(self.mass_value[k])} kg on joint {joint!r} is negative or not finite")
+            _fail(f"mass {float(self.mass_value[k])} kg on joint {joint!r} must lie between 0 and {MAX_MASS:g} kg")
         if self.site_rotation.shape != (len(self.site_names), 3, 3):
             _fail("site_rotation must be (S, 3, 3)")
         for k, R in enumerate(self.site_rotation):

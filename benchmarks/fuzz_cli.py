@@ -1,0 +1,243 @@
+"""Fuzz the command line with mutated input files: every case must end in a result or one line
+`deik: error: FILE...` (exit 2), never a traceback, an internal error, a hang or a crash.
+
+Seeds: a small BVH clip, a small URDF arm and a TOML problem built here, plus the BVH and URDF
+files of ../shared/data when present. Each case mutates one seed (a flipped byte, a deleted,
+doubled or truncated line, a number swapped for NaN, 1e308, 1_000, 0x10 or nothing, CR-only
+line endings, deep nesting) and runs `deik info` (BVH, URDF) or `deik solve --problem` (TOML)
+in this process, with an alarm as the time bound. The same seed gives the same cases.
+
+    PYTHONPATH=src python -m benchmarks.fuzz_cli --cases 3000     # results/fuzz_cli.json
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import random
+import re
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from benchmarks.harness import figure, finish, parser, print_report, start, target
+from deik.cli import main as deik_main
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+CASE_SECONDS = 30  # a case running longer counts as a hang
+
+SEED_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0.9 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 0.2 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 0.3 0
+    }
+  }
+  JOINT Leg
+  {
+    OFFSET 0.1 -0.4 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 -0.4 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.033333
+0 0.9 0 0 0 0 0 5 0 0 0 0
+0 0.9 0.01 1 2 3 0 6 0 1 0 0
+0 0.91 0.02 2 4 6 0 7 0 2 0 0
+"""
+
+SEED_URDF = """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"><inertial><origin xyz="0 0 0.05" rpy="0 0 0"/><mass value="2.0"/></inertial></link>
+  <link name="upper"><inertial><mass value="1.0"/></inertial></link>
+  <link name="lower"><inertial><mass value="0.5"/></inertial></link>
+  <link name="tool"/>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.1" rpy="0 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" effort="10" velocity="1"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="lower"/><origin xyz="0 0 0.3" rpy="0 1.5708 0"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="fixed">
+    <parent link="lower"/><child link="tool"/><origin xyz="0 0 0.25" rpy="0.1 0.2 0.3"/>
+  </joint>
+</robot>
+"""
+
+SEED_TOML = """skeleton = "chain:4"
+limits = "reflect"
+
+[settings]
+population = 8
+generations = 5
+seed = 1
+
+[[goal]]
+type = "position"
+frame = "tip"
+target = [2.0, 1.0, 0.0]
+tolerance = 0.01
+
+[[goal]]
+type = "comfort"
+weight = 0.1
+level = 1
+"""
+
+NASTY = ["nan", "inf", "-inf", "1e308", "-1e308", "1e-320", "1_000", "0x10", "", "-0", "99999999999999999999",
+         "1e5e5", "e5", "true", "[]", "\"x\"", "{", "}", "-", "."]
+NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
+
+
+def seeds() -> list[tuple[str, str, bytes]]:
+    """(name, kind, content) of every seed file: the built-in ones, then the shared BVH and URDFs."""
+    out = [("seed.bvh", "bvh", SEED_BVH.encode()), ("seed.urdf", "urdf", SEED_URDF.encode()),
+           ("seed.toml", "toml", SEED_TOML.encode())]
+    if SHARED.is_dir():
+        for path in sorted(SHARED.glob("humanoid/*.bvh"))[:3] + sorted(SHARED.glob("robots/*.urdf")):
+            out.append((path.name, path.suffix[1:], path.read_bytes()))
+    return out
+
+
+def mutate(data: bytes, rng: random.Random) -> bytes:
+    """One to three random mutations of `data`."""
+    for _ in range(rng.randint(1, 3)):
+        lines = data.split(b"\n")
+        choice = rng.randrange(8)
+        k = rng.randrange(len(lines))
+        if choice == 0 and data:
+            i = rng.randrange(len(data))
+            data = data[:i] + bytes([rng.randrange(256)]) + data[i + 1:]
+        elif choice == 1:
+            del lines[k]
+            data = b"\n".join(lines)
+        elif choice == 2:
+            lines.insert(k, lines[k])
+            data = b"\n".join(lines)
+        elif choice == 3:
+            data = data[:rng.randrange(len(data) + 1)]
+        elif choice == 4:
+            text = lines[k].decode("latin-1")
+            numbers = list(NUMBER.finditer(text))
+            if numbers:
+                m = rng.choice(numbers)
+                text = text[:m.start()] + rng.choice(NASTY) + text[m.end():]
+            lines[k] = text.encode("latin-1")
+            data = b"\n".join(lines)
+        elif choice == 5:
+            data = data.replace(b"\n", b"\r")
+        elif choice == 6:
+            depth = rng.choice([10, 1000, 100_000])
+            lines.insert(k, b"x = " + b"[" * depth + b"]" * depth if rng.random() < 0.5 else b"{" * depth)
+            data = b"\n".join(lines)
+        else:
+            words = lines[k].split(b" ")
+            if len(words) > 1:
+                words.insert(rng.randrange(len(words)), rng.choice(NASTY).encode())
+            lines[k] = b" ".join(words)
+            data = b"\n".join(lines)
+    return data
+
+
+class Hang(Exception):
+    """A case ran past CASE_SECONDS."""
+
+
+def _alarm(signum, frame):
+    raise Hang()
+
+
+def run_case(path: Path, kind: str) -> tuple[int, str, float]:
+    """(exit status, stderr, seconds) of the CLI on `path`; status -1 for a hang."""
+    argv = ["solve", "--problem", str(path)] if kind == "toml" else ["info", str(path)]
+    err, out = io.StringIO(), io.StringIO()
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(CASE_SECONDS)
+    began = time.perf_counter()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            status = deik_main(argv)
+    except Hang:
+        status = -1
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    return status, err.getvalue(), time.perf_counter() - began
+
+
+def problem_with(status: int, err: str, path: Path) -> str | None:
+    """Why a case's outcome breaks the rules, or None when it is fine."""
+    if status == -1:
+        return f"ran past {CASE_SECONDS} s"
+    if status == 0:
+        return None
+    if status != 2:
+        return f"exit status {status}: {err.strip()[:300]}"
+    if err.count("\n") != 1 or not err.startswith("deik: error: "):
+        return f"not one 'deik: error:' line: {err[:300]!r}"
+    if path.name not in err:
+        return f"the message does not name the file: {err.strip()[:300]}"
+    return None
+
+
+def fuzz(cases: int, seed: int, folder: Path) -> dict:
+    """Run `cases` mutated cases (round robin over the seeds); returns counts, times and failures."""
+    rng = random.Random(seed)
+    pool = seeds()
+    outcomes = {"ok": 0, "error": 0}
+    failures, slowest = [], 0.0
+    for n in range(cases):
+        name, kind, data = pool[n % len(pool)]
+        path = folder / f"case{n}_{name}"
+        path.write_bytes(mutate(data, rng))
+        status, err, seconds = run_case(path, kind)
+        slowest = max(slowest, seconds)
+        why = problem_with(status, err, path)
+        if why:
+            failures.append({"case": n, "seed_file": name, "why": why})
+        else:
+            outcomes["ok" if status == 0 else "error"] += 1
+        path.unlink()
+    return {"cases": cases, "outcomes": outcomes, "failures": failures, "slowest_case_s": slowest,
+            "seed_files": [name for name, _, _ in pool]}
+
+
+def main(argv=None) -> int:
+    p = parser(__doc__)
+    p.add_argument("--cases", type=int, default=3000)
+    args = p.parse_args(argv)
+    opening = start(args)
+    with tempfile.TemporaryDirectory() as folder:
+        found = fuzz(200 if args.quick else args.cases, args.seed, Path(folder))
+    targets = [target("cases that break the rules", 0, len(found["failures"]), "cases", True, at_most=True)]
+    fig, axes = figure()
+    axes[0, 0].bar(["result", "one-line error", "broke a rule"],
+                   [found["outcomes"]["ok"], found["outcomes"]["error"], len(found["failures"])])
+    axes[0, 0].set_title(f"{found['cases']} mutated inputs through the CLI")
+    result = finish("fuzz_cli", args, opening, {**found, "targets": targets}, fig)
+    print_report(result, ["outcome", "cases"], [["result", found["outcomes"]["ok"]],
+                                                ["one-line error", found["outcomes"]["error"]],
+                                                ["broke a rule", len(found["failures"])]])
+    for failure in found["failures"][:20]:
+        print(f"case {failure['case']} ({failure['seed_file']}): {failure['why']}")
+    return 1 if found["failures"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
