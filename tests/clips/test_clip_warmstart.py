@@ -4,7 +4,7 @@ that meet the goals, which DOFs a frame may move, and eased displacements and tr
 import numpy as np
 import pytest
 
-from conftest import shared_path
+from helpers import shared_path
 from deik.clips.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.clips.contacts import detect_contacts
 from deik.clips.problem import ClipGoals, eased_track, fixed_goals

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, Delaunay
 
-from conftest import shared_path
+from helpers import shared_path
 from deik.clips.balance import balance_track, inside_support, nearest_support_point, support_correction
 from deik.clips.contacts import detect_contacts
 from deik.clips.metrics import com_outside_support, velocity_spikes

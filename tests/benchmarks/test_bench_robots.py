@@ -5,7 +5,7 @@ Runs in the deik venv alone: nothing here needs the peers venv (.venv-peers).
 
 import numpy as np
 import pytest
-from conftest import shared_path
+from helpers import shared_path
 from scipy.spatial.transform import Rotation
 
 import deik

@@ -20,7 +20,7 @@ from deik.io.segments import (
     estimate_segments,
     read_segment_table,
 )
-from conftest import shared_path
+from helpers import shared_path
 from deik.model.joints import Joint, Site, euler
 from deik.model.build import build_skeleton
 from deik.model.kinematics import forward_kinematics

@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 
-from conftest import shared_path
+from helpers import shared_path
 from deik.clips.contacts import contacts_from_ranges, detect_contacts
 from deik.clips.metrics import (
     clip_report, com_outside_support, foot_sliding, joint_deviation, per_frame_errors,

@@ -9,26 +9,10 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.kernels import cpu
-from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.kernels.targets import cpu as dev
 from deik.objectives import reference
 from deik.objectives import table as tt
-
-
-def kernel_fitness(problem, poses, problem_index=None, dtype=np.float64):
-    """(levels (N, L), total (N,), raw (N, T)) from the compiled CPU evaluation."""
-    poses = np.ascontiguousarray(np.atleast_2d(poses), dtype)
-    N = len(poses)
-    idx = np.zeros(N, np.int64) if problem_index is None else np.asarray(problem_index, np.int64)
-    table = problem.table
-    skel = pack_skeleton(problem.skeleton, dtype)
-    terms = pack_terms(table, problem.reference, dtype)
-    levels = np.empty((N, table.n_levels), dtype)
-    total = np.empty(N, dtype)
-    raw = np.empty((N, table.n_terms), dtype)
-    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3)  # 3 chunks: the parallel path
-    return levels, total, raw
+from helpers import kernel_fitness
 
 
 def raw_of(problem, poses, label):

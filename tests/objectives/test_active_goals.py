@@ -6,7 +6,7 @@ import pytest
 
 import deik
 from deik.objectives import reference
-from test_objectives import kernel_fitness
+from helpers import kernel_fitness
 
 
 def _problem(active):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conftest import shared_path
+from helpers import shared_path
 from deik.clips.contacts import (
     HEIGHT_FRACTION, SPEED_FRACTION, Contacts, contacts_from_ranges, detect_contacts, foot_sites,
     planted_targets,

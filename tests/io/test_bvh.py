@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import deik
-from conftest import shared_path
+from helpers import shared_path
 from deik.io import atomic
 from deik.io.bvh import Clip, format_bvh, parse_bvh, read_bvh, write_bvh
 from deik.io.errors import FileFormatError

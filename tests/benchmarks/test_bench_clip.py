@@ -5,7 +5,7 @@ import json
 import numpy as np
 
 from benchmarks.clip_frames import loop_clip, main
-from conftest import shared_path
+from helpers import shared_path
 from deik.clips.contacts import detect_contacts
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics

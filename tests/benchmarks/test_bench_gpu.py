@@ -11,7 +11,7 @@ import pytest
 
 from benchmarks.gpu_kernels import Multiprocessor, blocks_per_multiprocessor
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 HOPPER = Multiprocessor(threads=2048, registers=65536, shared_bytes=228 * 1024, blocks=32)
 
 

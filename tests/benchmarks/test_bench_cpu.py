@@ -9,7 +9,7 @@ import pytest
 
 import deik
 from benchmarks import run_all
-from conftest import shared_path
+from helpers import shared_path
 from deik.kernels import cpu
 
 PNG = b"\x89PNG\r\n\x1a\n"

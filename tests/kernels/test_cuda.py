@@ -12,8 +12,8 @@ import pytest
 
 import deik
 
-SCRIPTS = Path(__file__).parent / "scripts"
-SRC = Path(__file__).resolve().parents[1] / "src"
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def _run(script, *args, simulator=False):
