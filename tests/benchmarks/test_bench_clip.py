@@ -11,6 +11,7 @@ from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
 
 
+@pytest.mark.shared_data
 def test_the_looped_walk_is_one_long_walk_without_jumps():
     walk = read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"))
     clip = loop_clip(walk, 200)

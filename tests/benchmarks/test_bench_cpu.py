@@ -9,17 +9,15 @@ import pytest
 
 import deik
 from benchmarks import run_all
-from helpers import shared_path
 from deik.kernels import cpu
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def results(tmp_path_factory):
+def results(tmp_path_factory, shared_data):
     """The folder of one quick CPU run of every benchmark, and its printed output (the batch
     benchmark's Panda needs the shared robots: skipped without them)."""
-    shared_path("robots", "panda.urdf")
     out = tmp_path_factory.mktemp("bench")
     assert run_all.main(["--quick", "--out", str(out)]) == 0
     return out

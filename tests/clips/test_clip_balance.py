@@ -67,6 +67,7 @@ def test_balance_track_eases_shifts_in_and_out():
     assert not balance_track(com, [(square, inactive, 0.1)])[1].any()
 
 
+@pytest.mark.shared_data
 def test_com_jacobian_matches_finite_differences():
     clip = read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"),
                     segments=shared_path("humanoid", "humanoid3d_walk.segments.json"))
@@ -82,6 +83,7 @@ def test_com_jacobian_matches_finite_differences():
         np.testing.assert_allclose(jac[:, 1, :, d], numeric, atol=1e-8)
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "run"])
 def test_balanced_clip_keeps_its_motion(name):
     """--balance: the COM stands over the support, and the fix neither bends joints far from the

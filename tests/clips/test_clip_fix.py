@@ -14,6 +14,7 @@ from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "run"])
 def test_planted_feet_stop_sliding_and_the_pose_stays_close(name):
     clip = read_bvh(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
@@ -28,6 +29,7 @@ def test_planted_feet_stop_sliding_and_the_pose_stays_close(name):
     assert fix.clip.layout == clip.layout and fix.clip.frame_time == clip.frame_time
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("seed", [0, 1])
 def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
     clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
@@ -50,6 +52,7 @@ def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
     assert fix.met.all()
 
 
+@pytest.mark.shared_data
 def test_warm_start_balances_most_frames_and_de_repairs_the_rest():
     clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
     contacts = detect_contacts(clip)
@@ -85,6 +88,7 @@ TRACKS = {"good.csv": "frame,x,y,z\n3,0,1,0\n", "no_z.csv": "frame,x,y\n1,0,1\n"
           "late.csv": "frame,x,y,z\n3,0,1,0\n40,0,1,0\n", "no_z.json": '[{"frame": 1, "x": 0, "y": 1}]'}
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("extra,fragment", [
     (["--reach", "NoSuchHand=0,1,0@3:5"], "--reach 'NoSuchHand=0,1,0@3:5': no joint or site 'NoSuchHand'"),
     (["--reach", "LeftElbow_ned={tmp}/good.csv"], "did you mean 'LeftElbow_end'"),
@@ -115,6 +119,7 @@ def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fra
     assert (out / "fixed.bvh").read_text() == "an earlier result"
 
 
+@pytest.mark.shared_data
 def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     out = tmp_path / "fixed.bvh"
     argv = ["clip", str(shared_path("humanoid", "humanoid3d_run.bvh")), "--out", str(out),

@@ -71,6 +71,7 @@ def flipped_euler(clip: Clip) -> np.ndarray:
     return frames
 
 
+@pytest.mark.shared_data
 def test_joint_deviation_compares_rotations_not_euler_numbers():
     clip = walk()
     flipped = Clip(clip.skeleton, flipped_euler(clip), clip.frame_time, clip.layout)
@@ -79,6 +80,7 @@ def test_joint_deviation_compares_rotations_not_euler_numbers():
     assert top.max() < 1e-6
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("channel", ["RightKnee.Zrotation", "RightKnee.Yrotation"])
 def test_joint_deviation_of_one_joint_turned_by_a_known_angle(channel):
     clip = walk()  # Z is the first and Y the last of the ZXY channels: either turns the knee by 30 deg
@@ -100,6 +102,7 @@ def test_velocity_spikes_of_a_steady_turn():
     np.testing.assert_allclose(spikes["position_acceleration"][:, hand], 1.0, rtol=1e-3)
 
 
+@pytest.mark.shared_data
 def test_velocity_spikes_find_an_injected_pop():
     clip = walk()
     before = velocity_spikes(clip)
@@ -116,6 +119,7 @@ def test_velocity_spikes_find_an_injected_pop():
     assert after["max_position_acceleration_site"] in ("RightAnkle", "RightAnkle_end")
 
 
+@pytest.mark.shared_data
 def test_report_and_series_of_an_unchanged_clip():
     clip = walk()
     contacts = detect_contacts(clip)
@@ -140,6 +144,7 @@ def test_report_and_series_of_an_unchanged_clip():
     assert np.isnan(series["reach RightElbow_end (mm)"][0][10:]).all()
 
 
+@pytest.mark.shared_data
 def test_plot_clip_report_writes_one_png_atomically(tmp_path):
     clip = walk()
     series = per_frame_errors(clip, clip, detect_contacts(clip))
