@@ -35,7 +35,7 @@ def pytest_collection_modifyitems(config, items):
     gpu_tests = [item for item in items if item.get_closest_marker("gpu") is not None]
     if gpu_tests and not _gpu_available():
         for item in gpu_tests:
-            item.add_marker(pytest.mark.skip(reason="no CUDA GPU on this machine: the real-GPU run is checked on a GPU"))
+            item.add_marker(pytest.mark.skip(reason="no CUDA GPU on this machine: run the gpu tests on one"))
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -28,7 +28,7 @@ SCRIPTS = TESTS / "scripts"  # helper programs the tests run in subprocesses
 # folder). DEIK_SHARED_DATA points elsewhere; DEIK_SHARED_DATA=/nonexistent runs the suite as a
 # clone without them would.
 SHARED_DATA = Path(os.environ.get("DEIK_SHARED_DATA") or ROOT.parent / "shared" / "data")
-SHARED_DATA_REASON = f"the real test data is not at {SHARED_DATA} (clone the project beside shared/ or set DEIK_SHARED_DATA)"
+SHARED_DATA_REASON = f"the real test data is not at {SHARED_DATA} (clone beside shared/ or set DEIK_SHARED_DATA)"
 
 
 class _Running:

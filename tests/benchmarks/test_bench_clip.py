@@ -3,12 +3,13 @@
 import json
 
 import numpy as np
+import pytest
 
 from benchmarks.clip_frames import loop_clip, main
-from helpers import shared_path
 from deik.clips.contacts import detect_contacts
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 
 @pytest.mark.shared_data

@@ -5,7 +5,6 @@ Runs in the deik venv alone: nothing here needs the peers venv (.venv-peers).
 
 import numpy as np
 import pytest
-from helpers import robot_arm, shared_path
 from scipy.spatial.transform import Rotation
 
 import deik
@@ -15,6 +14,7 @@ from benchmarks.robot_targets import (
     CASES, export_chain, load_case, load_targets, make_targets, pose_errors, save_targets,
 )
 from benchmarks.robots import score
+from helpers import robot_arm, shared_path
 
 
 @pytest.fixture(scope="module")

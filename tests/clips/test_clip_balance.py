@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, Delaunay
 
-from helpers import shared_path
 from deik.clips.balance import balance_track, inside_support, nearest_support_point, support_correction
 from deik.clips.contacts import detect_contacts
 from deik.clips.metrics import com_outside_support, velocity_spikes
@@ -14,6 +13,7 @@ from deik.clips.solver import fix_clip
 from deik.clips.warmstart import position_jacobian
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 
 def _clouds(n=400, sites=4, seed=0):

@@ -3,15 +3,20 @@
 import numpy as np
 import pytest
 
-from helpers import shared_path
 from deik.clips.contacts import (
-    HEIGHT_FRACTION, SPEED_FRACTION, Contacts, contacts_from_ranges, detect_contacts, foot_sites,
+    HEIGHT_FRACTION,
+    SPEED_FRACTION,
+    Contacts,
+    contacts_from_ranges,
+    detect_contacts,
+    foot_sites,
     planted_targets,
 )
 from deik.io.bvh import Clip, read_bvh
-from deik.model.joints import Joint, Site, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Site, translation
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 FEET = {"Right": ("RightAnkle", "RightAnkle_end"), "Left": ("LeftAnkle", "LeftAnkle_end")}
 

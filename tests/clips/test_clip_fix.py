@@ -4,7 +4,6 @@ close to the performance; bad input is refused before anything is written."""
 import numpy as np
 import pytest
 
-from helpers import shared_path
 from deik.cli.main import main
 from deik.clips.contacts import detect_contacts, foot_sites
 from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
@@ -12,6 +11,7 @@ from deik.clips.problem import ClipGoals, Reach, neighbour_displacement
 from deik.clips.solver import fix_clip
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 
 @pytest.mark.shared_data

@@ -6,17 +6,21 @@ import os
 import numpy as np
 import pytest
 
-from helpers import shared_path
 from deik.clips.contacts import contacts_from_ranges, detect_contacts
 from deik.clips.metrics import (
-    clip_report, com_outside_support, foot_sliding, joint_deviation, per_frame_errors,
+    clip_report,
+    com_outside_support,
+    foot_sliding,
+    joint_deviation,
+    per_frame_errors,
     velocity_spikes,
 )
-from deik.viz.clip_report import plot_clip_report
 from deik.io.bvh import Clip, read_bvh
-from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.kinematics import forward_kinematics
+from deik.viz.clip_report import plot_clip_report
+from helpers import shared_path
 
 
 def walk() -> Clip:

@@ -4,7 +4,6 @@ that meet the goals, which DOFs a frame may move, and eased displacements and tr
 import numpy as np
 import pytest
 
-from helpers import shared_path
 from deik.clips.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.clips.contacts import detect_contacts
 from deik.clips.problem import ClipGoals, eased_track, fixed_goals
@@ -13,6 +12,7 @@ from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.objectives import goals as g
+from helpers import shared_path
 
 
 def walk():

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from deik.solver.serial import SerialDE
 from deik.experiments import runner
 from deik.experiments.common import quantile, spread
 from deik.experiments.fig7_selection import SequentialSerialDE
 from deik.experiments.timing import gpu_status, make_problem
+from deik.solver.serial import SerialDE
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 NAMES = list(runner.EXPERIMENTS)

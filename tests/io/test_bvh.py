@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import deik
-from helpers import shared_path
 from deik.io import atomic
 from deik.io.bvh import Clip, format_bvh, parse_bvh, read_bvh, write_bvh
 from deik.io.errors import FileFormatError
-from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 CLIPS = {"walk": 39, "run": 25, "jump": 107}
 END_SITES = {"Head": "Neck_end", "RightWrist": "RightElbow_end", "LeftWrist": "LeftElbow_end",

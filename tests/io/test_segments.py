@@ -20,10 +20,10 @@ from deik.io.segments import (
     estimate_segments,
     read_segment_table,
 )
-from helpers import shared_path
-from deik.model.joints import Joint, Site, euler
 from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Site, euler
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 JOINTS = ("Hips", "Chest", "RightKnee", "LeftKnee")
 

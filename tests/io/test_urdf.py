@@ -40,7 +40,8 @@ def test_centre_of_mass_matches_link_inertials(shared_data, robot):
     path = shared_data / "robots" / f"{robot}.urdf"
     sk = read_urdf(path)
     reference = _yourdfpy(path)
-    masses = {l.name: l.inertial for l in reference.robot.links if l.inertial is not None and l.inertial.mass}
+    masses = {link.name: link.inertial for link in reference.robot.links
+              if link.inertial is not None and link.inertial.mass}
     assert sk.total_mass == pytest.approx(sum(i.mass for i in masses.values()))
     q = np.random.default_rng(3).uniform(sk.lower, sk.upper)
     reference.update_cfg(dict(zip(sk.dof_names, q)))
