@@ -5,7 +5,8 @@ rotations, a prismatic and a mimic DOF, a rotated tool frame; helpers.robot_arm)
 - the LM polish's analytic Jacobian rows against finite differences of its residuals;
 - the point and centre-of-mass Jacobians of the clip warm start against finite differences of
   the NumPy forward kinematics;
-- the compiled evaluation of every goal kind against the NumPy oracle (deik.objectives.reference).
+- the compiled evaluation of every goal kind against the NumPy oracle (deik.objectives.reference);
+- the float32 kernels' joint limits inside the float64 ones.
 
 The real robots and clips get the same checks in tests/solver/test_polish.py and tests/clips/.
 """
@@ -16,6 +17,7 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik.clips.warmstart import position_jacobian
+from deik.kernels.pack import pack_skeleton
 from deik.model.joints import TRANSLATE
 from deik.objectives import reference
 from deik.objectives import table as tt
@@ -104,3 +106,13 @@ def test_every_goal_kind_kernel_equals_oracle(name):
     np.testing.assert_allclose(raw_k, raw_r, rtol=0, atol=1e-9)
     np.testing.assert_allclose(lv_k, lv_r, rtol=0, atol=1e-9)
     np.testing.assert_allclose(tot_k, tot_r, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", SKELETONS)
+def test_float32_kernel_limits_lie_inside_the_float64_limits(name):
+    """Limits such as pi or the arm's -2.9 have no exact float32 value: the float32 kernels' limits
+    are rounded inwards, so a float32 solution never lies outside the float64 limits."""
+    sk = BUILTIN_SKELETONS[name]()
+    assert (sk.lower.astype(np.float32) != sk.lower).any()  # some limit must need rounding
+    limits = pack_skeleton(sk, np.float32)[8].astype(np.float64)
+    assert np.all(limits[:, 0] >= sk.lower) and np.all(limits[:, 1] <= sk.upper)
