@@ -87,8 +87,9 @@ def test_com_jacobian_matches_finite_differences():
 @pytest.mark.parametrize("name", ["walk", "run"])
 def test_balanced_clip_keeps_its_motion(name):
     """--balance: the COM stands over the support, and the fix neither bends joints far from the
-    capture nor adds joint velocity or acceleration peaks (DE alone used to: run 38.9 deg mean
-    deviation and 10,530 deg/s)."""
+    capture (mean deviation under 10 degrees) nor adds joint velocity or acceleration peaks (at
+    most 2 % above the capture's). DE alone, searching each frame afresh, meets the goals with
+    poses tens of degrees from the performance that jerk between frames; these bounds catch that."""
     path = shared_path("humanoid", f"humanoid3d_{name}.bvh")
     clip = read_bvh(path, segments=str(path).replace(".bvh", ".segments.json"))
     contacts = detect_contacts(clip)

@@ -163,8 +163,9 @@ def test_meshes_are_never_loaded(tmp_path):
 
 
 def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
-    """Panda limits like -2.8973 have no float32 twin; rounding outward once let a float32
-    solution sit 5e-9 rad outside its joint limit."""
+    """Limits like the Panda's -2.8973 have no exact float32 value: the float32 kernels' limits must
+    be rounded inwards, or a float32 solution could lie a few nanoradians outside the limit that
+    the float64 Result is checked against."""
     from deik.kernels.pack import pack_skeleton
 
     sk = read_urdf(shared_data / "robots" / "panda.urdf")

@@ -72,7 +72,7 @@ def test_cuda_kernels_compile_to_ptx_for_hopper():
     assert [line.split()[:2] for line in lines if line] == [["run", "entry"], ["initialise", "entry"]]
 
 
-@pytest.mark.skipif(not _gpu_available(), reason="no CUDA GPU on this machine: the real-GPU run is checked on a lent GPU")
+@pytest.mark.gpu  # skipped, with the reason, without a GPU (conftest)
 def test_real_gpu_solves_like_the_cpu():
     chain = deik.chain(12, dims=3)
     rng = np.random.default_rng(3)
