@@ -45,6 +45,7 @@ def test_gpu_kernel_report_runs_in_the_simulator(tmp_path):
         assert "theoretical_occupancy" not in r
 
 
+@pytest.mark.slow
 def test_gpu_throughput_benchmark_runs_in_the_simulator(tmp_path):
     result = _simulated("throughput", tmp_path)
     rows = result["rows"]

@@ -60,6 +60,7 @@ def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
     np.testing.assert_allclose(np.array(cpu["pop"]), np.array(sim["pop"]), atol=1e-5)
 
 
+@pytest.mark.slow
 def test_cuda_kernels_compile_to_ptx_for_hopper():
     pytest.importorskip("cuda.bindings", reason="numba-cuda's CUDA bindings are not installed")
     try:
