@@ -1,6 +1,6 @@
-"""Helpers shared by the test modules: where the repository and the real data are, the compiled
-evaluation and Jacobian rows called the way the solver calls them, and built-in skeletons that
-stand in for the real files.
+"""Helpers shared by the test modules: where the real data is, the compiled evaluation and
+Jacobian rows called the way the solver calls them, and built-in skeletons that stand in for the
+real files.
 
 Test modules import from here (pyproject puts tests/ on the path), never from each other.
 """
@@ -19,10 +19,7 @@ from deik.kernels import cpu
 from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.model.joints import ROTATE
 
-TESTS = Path(__file__).resolve().parent
-ROOT = TESTS.parent
-SRC = ROOT / "src"
-SCRIPTS = TESTS / "scripts"  # helper programs the tests run in subprocesses
+ROOT = Path(__file__).resolve().parents[1]  # the checkout
 
 # The real BVH clips and URDF robots live beside the checkout (shared/data next to the project
 # folder). DEIK_SHARED_DATA points elsewhere; DEIK_SHARED_DATA=/nonexistent runs the suite as a
