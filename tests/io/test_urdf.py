@@ -156,7 +156,8 @@ def test_missing_file_is_named(tmp_path):
 
 def test_meshes_are_never_loaded(tmp_path):
     """A visual mesh that does not exist must not matter: geometry is stripped before parsing."""
-    links = '<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link><link name="b"/>'
+    links = ('<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link>'
+             '<link name="b"/>')
     path = tmp_path / "mesh.urdf"
     path.write_text(_robot(GOOD_JOINT, links))
     assert read_urdf(path).n_dofs == 1
