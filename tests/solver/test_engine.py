@@ -313,7 +313,6 @@ def test_exact_initial_pose_converges_in_one_generation():
 # --- (i) multi-goal humanoid --------------------------------------------------------------------
 
 
-@pytest.mark.slow
 def test_humanoid_planted_foot_balance_and_reach():
     h = deik.humanoid()
     kin = deik.forward_kinematics(h, h.reference)
