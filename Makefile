@@ -1,5 +1,5 @@
-# make demo: the paper's scenarios on built-in data; make test: the whole suite; make bench: benchmarks;
-# make figures: the paper's figures and docs/paper-reproduction.md.
+# make demo: the paper's scenarios on built-in data; make test: ruff (lint, format check), then the
+# whole suite; make bench: benchmarks; make figures: the paper's figures and docs/paper-reproduction.md.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -17,6 +17,8 @@ demo: $(STAMP)
 	$(BIN)/deik demo --out demo_output
 
 test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest -q
 
 figures: $(STAMP)

@@ -1,20 +1,55 @@
-"""Shared test fixtures: the real data in ../shared/data beside the project checkout."""
+"""Test configuration: the `shared_data` fixture, and the markers that say what a test needs.
+
+- shared_data: the real BVH clips and URDF robots (helpers.SHARED_DATA). Every test that uses
+  the `shared_data` fixture gets the marker here; the tests skip, with the reason, when the
+  folder is absent.
+- gpu: a real CUDA GPU; skipped, with the reason, on a machine without one. Tests that run the
+  CUDA kernels in Numba's simulator are not gpu tests.
+- slow: over about 20 s on a two-core machine; `pytest -m "not slow"` leaves them out.
+"""
 
 from pathlib import Path
 
 import pytest
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+from helpers import SHARED_DATA_REASON, _Running, shared_data_present, shared_path
 
 
-def shared_path(*parts: str) -> Path:
-    """A path inside the real data folder; the calling test skips when the folder is absent."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(f"the real test data is not at {SHARED_DATA} (clone the project beside shared/)")
-    return SHARED_DATA.joinpath(*parts)
+def _gpu_available() -> bool:
+    try:
+        from numba import cuda
+
+        return bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 - no numba-cuda, no driver, the simulator: no real GPU either way
+        return False
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if "shared_data" in getattr(item, "fixturenames", ()) and item.get_closest_marker("shared_data") is None:
+            item.add_marker(pytest.mark.shared_data)
+    if not shared_data_present():
+        for item in items:
+            if item.get_closest_marker("shared_data") is not None:
+                item.add_marker(pytest.mark.skip(reason=SHARED_DATA_REASON))
+    gpu_tests = [item for item in items if item.get_closest_marker("gpu") is not None]
+    if gpu_tests and not _gpu_available():
+        for item in gpu_tests:
+            item.add_marker(pytest.mark.skip(reason="no CUDA GPU on this machine: run the gpu tests on one"))
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    _Running.test = item.nodeid
+    _Running.marked = item.get_closest_marker("shared_data") is not None
+
+
+def pytest_runtest_teardown(item):
+    _Running.test = None
+    _Running.marked = False
 
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """The folder of real BVH clips and URDF robots; tests that need it skip when it is absent."""
+    """The folder of real BVH clips and URDF robots; the tests that use it are marked shared_data."""
     return shared_path()

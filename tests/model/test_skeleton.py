@@ -285,7 +285,7 @@ def test_build_skeleton_sorts_joints_given_in_any_order():
     rng = np.random.default_rng(5)
     pose_by_dof = {n: rng.uniform(-1.0, 1.0) for n in reference.dof_names}
     expected = deik.forward_kinematics(reference, [pose_by_dof[n] for n in reference.dof_names])
-    for trial in range(6):
+    for _ in range(6):
         order = rng.permutation(len(joints))
         sk = build_skeleton([joints[k] for k in order], tree_sites())
         assert sk.parents[0] == -1

@@ -3,15 +3,20 @@
 import numpy as np
 import pytest
 
-from conftest import shared_path
 from deik.clips.contacts import (
-    HEIGHT_FRACTION, SPEED_FRACTION, Contacts, contacts_from_ranges, detect_contacts, foot_sites,
+    HEIGHT_FRACTION,
+    SPEED_FRACTION,
+    Contacts,
+    contacts_from_ranges,
+    detect_contacts,
+    foot_sites,
     planted_targets,
 )
 from deik.io.bvh import Clip, read_bvh
-from deik.model.joints import Joint, Site, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Site, translation
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 FEET = {"Right": ("RightAnkle", "RightAnkle_end"), "Left": ("LeftAnkle", "LeftAnkle_end")}
 
@@ -38,6 +43,7 @@ def point_clip(heights, frame_time=0.1) -> Clip:
     return Clip.from_poses(skeleton, poses, frame_time)
 
 
+@pytest.mark.shared_data
 def test_foot_sites_of_the_humanoid_group_each_ankle_with_its_toe():
     assert foot_sites(humanoid("walk").skeleton) == (
         "RightAnkle", "RightAnkle_end", "LeftAnkle", "LeftAnkle_end")
@@ -49,6 +55,7 @@ def test_a_skeleton_without_feet_asks_for_contact_sites():
         foot_sites(skeleton)
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "run"])
 def test_walk_and_run_contacts_alternate_between_the_feet(name):
     clip = humanoid(name)
@@ -65,6 +72,7 @@ def test_walk_and_run_contacts_alternate_between_the_feet(name):
         assert 0.15 <= planted <= 0.75, (foot, planted)
 
 
+@pytest.mark.shared_data
 def test_jump_has_a_flight_phase_with_no_contact_between_two_stances():
     contacts = detect_contacts(humanoid("jump"))
     airborne = np.flatnonzero(~contacts.mask.any(axis=1))
@@ -75,6 +83,7 @@ def test_jump_has_a_flight_phase_with_no_contact_between_two_stances():
     assert contacts.mask[0, toes].all()
 
 
+@pytest.mark.shared_data
 def test_ground_ignores_a_fast_foot_that_dips_through_the_floor():
     clip = humanoid("run")  # its last frame drops the moving right toe about 5 cm down
     contacts = detect_contacts(clip)
@@ -101,6 +110,7 @@ def test_speed_threshold():
     assert detect_contacts(moving, ["toe"], height=0.05, speed=10.0).mask.all()
 
 
+@pytest.mark.shared_data
 def test_unknown_sites_and_bad_thresholds():
     clip = humanoid("walk")
     with pytest.raises(KeyError, match="did you mean 'RightAnkle'"):
@@ -111,6 +121,7 @@ def test_unknown_sites_and_bad_thresholds():
         detect_contacts(clip, speed=float("nan"))
 
 
+@pytest.mark.shared_data
 def test_user_ranges_and_describe():
     clip = humanoid("walk")
     contacts = contacts_from_ranges(clip, {"RightAnkle_end": [(0, 8), (27, 39)], "LeftAnkle": []})
@@ -125,17 +136,20 @@ def test_user_ranges_and_describe():
         contacts.intervals("Neck_end")
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("span", [(30, 40), (-1, 3), (5, 5)])
 def test_user_ranges_outside_the_clip(span):
     with pytest.raises(ValueError, match=rf"\({span[0]}, {span[1]}\) of site 'LeftAnkle_end'.*0\.\.38"):
         contacts_from_ranges(humanoid("walk"), {"LeftAnkle_end": [span]})
 
 
+@pytest.mark.shared_data
 def test_user_ranges_name_unknown_sites():
     with pytest.raises(KeyError, match="did you mean 'LeftAnkle_end'"):
         contacts_from_ranges(humanoid("walk"), {"LeftAnkle_ned": [(0, 3)]})
 
 
+@pytest.mark.shared_data
 def test_planted_targets_are_the_mean_position_at_the_lowest_height():
     clip = humanoid("walk")
     contacts = detect_contacts(clip)
@@ -154,6 +168,7 @@ def test_planted_targets_are_the_mean_position_at_the_lowest_height():
     assert outside.any() and np.isnan(targets[outside, s]).all()
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "run", "jump"])
 def test_planted_ankle_and_toe_keep_the_bone_length_between_them(name):
     clip = humanoid(name)

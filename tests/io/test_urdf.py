@@ -40,7 +40,8 @@ def test_centre_of_mass_matches_link_inertials(shared_data, robot):
     path = shared_data / "robots" / f"{robot}.urdf"
     sk = read_urdf(path)
     reference = _yourdfpy(path)
-    masses = {l.name: l.inertial for l in reference.robot.links if l.inertial is not None and l.inertial.mass}
+    masses = {link.name: link.inertial for link in reference.robot.links
+              if link.inertial is not None and link.inertial.mass}
     assert sk.total_mass == pytest.approx(sum(i.mass for i in masses.values()))
     q = np.random.default_rng(3).uniform(sk.lower, sk.upper)
     reference.update_cfg(dict(zip(sk.dof_names, q)))
@@ -155,15 +156,17 @@ def test_missing_file_is_named(tmp_path):
 
 def test_meshes_are_never_loaded(tmp_path):
     """A visual mesh that does not exist must not matter: geometry is stripped before parsing."""
-    links = '<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link><link name="b"/>'
+    links = ('<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link>'
+             '<link name="b"/>')
     path = tmp_path / "mesh.urdf"
     path.write_text(_robot(GOOD_JOINT, links))
     assert read_urdf(path).n_dofs == 1
 
 
 def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
-    """Panda limits like -2.8973 have no float32 twin; rounding outward once let a float32
-    solution sit 5e-9 rad outside its joint limit."""
+    """Limits like the Panda's -2.8973 have no exact float32 value: the float32 kernels' limits must
+    be rounded inwards, or a float32 solution could lie a few nanoradians outside the limit that
+    the float64 Result is checked against."""
     from deik.kernels.pack import pack_skeleton
 
     sk = read_urdf(shared_data / "robots" / "panda.urdf")

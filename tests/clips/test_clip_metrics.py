@@ -6,17 +6,21 @@ import os
 import numpy as np
 import pytest
 
-from conftest import shared_path
 from deik.clips.contacts import contacts_from_ranges, detect_contacts
 from deik.clips.metrics import (
-    clip_report, com_outside_support, foot_sliding, joint_deviation, per_frame_errors,
+    clip_report,
+    com_outside_support,
+    foot_sliding,
+    joint_deviation,
+    per_frame_errors,
     velocity_spikes,
 )
-from deik.viz.clip_report import plot_clip_report
 from deik.io.bvh import Clip, read_bvh
-from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.kinematics import forward_kinematics
+from deik.viz.clip_report import plot_clip_report
+from helpers import shared_path
 
 
 def walk() -> Clip:
@@ -71,6 +75,7 @@ def flipped_euler(clip: Clip) -> np.ndarray:
     return frames
 
 
+@pytest.mark.shared_data
 def test_joint_deviation_compares_rotations_not_euler_numbers():
     clip = walk()
     flipped = Clip(clip.skeleton, flipped_euler(clip), clip.frame_time, clip.layout)
@@ -79,6 +84,7 @@ def test_joint_deviation_compares_rotations_not_euler_numbers():
     assert top.max() < 1e-6
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("channel", ["RightKnee.Zrotation", "RightKnee.Yrotation"])
 def test_joint_deviation_of_one_joint_turned_by_a_known_angle(channel):
     clip = walk()  # Z is the first and Y the last of the ZXY channels: either turns the knee by 30 deg
@@ -100,6 +106,7 @@ def test_velocity_spikes_of_a_steady_turn():
     np.testing.assert_allclose(spikes["position_acceleration"][:, hand], 1.0, rtol=1e-3)
 
 
+@pytest.mark.shared_data
 def test_velocity_spikes_find_an_injected_pop():
     clip = walk()
     before = velocity_spikes(clip)
@@ -116,6 +123,7 @@ def test_velocity_spikes_find_an_injected_pop():
     assert after["max_position_acceleration_site"] in ("RightAnkle", "RightAnkle_end")
 
 
+@pytest.mark.shared_data
 def test_report_and_series_of_an_unchanged_clip():
     clip = walk()
     contacts = detect_contacts(clip)
@@ -140,6 +148,7 @@ def test_report_and_series_of_an_unchanged_clip():
     assert np.isnan(series["reach RightElbow_end (mm)"][0][10:]).all()
 
 
+@pytest.mark.shared_data
 def test_plot_clip_report_writes_one_png_atomically(tmp_path):
     clip = walk()
     series = per_frame_errors(clip, clip, detect_contacts(clip))

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import deik
-from deik.solver.serial import SerialDE, apply_limits, not_worse
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.reference import fitness
+from deik.solver.serial import SerialDE, apply_limits, not_worse
 
 
 def chain_problem(n_links=5, seed=12345, limits="reflect"):

@@ -12,8 +12,8 @@ import pytest
 
 import deik
 
-SCRIPTS = Path(__file__).parent / "scripts"
-SRC = Path(__file__).resolve().parents[1] / "src"
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def _run(script, *args, simulator=False):
@@ -60,6 +60,7 @@ def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
     np.testing.assert_allclose(np.array(cpu["pop"]), np.array(sim["pop"]), atol=1e-5)
 
 
+@pytest.mark.slow
 def test_cuda_kernels_compile_to_ptx_for_hopper():
     pytest.importorskip("cuda.bindings", reason="numba-cuda's CUDA bindings are not installed")
     try:
@@ -72,7 +73,7 @@ def test_cuda_kernels_compile_to_ptx_for_hopper():
     assert [line.split()[:2] for line in lines if line] == [["run", "entry"], ["initialise", "entry"]]
 
 
-@pytest.mark.skipif(not _gpu_available(), reason="no CUDA GPU on this machine: the real-GPU run is checked on a lent GPU")
+@pytest.mark.gpu  # skipped, with the reason, without a GPU (conftest)
 def test_real_gpu_solves_like_the_cpu():
     chain = deik.chain(12, dims=3)
     rng = np.random.default_rng(3)

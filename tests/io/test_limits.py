@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import deik
-from conftest import shared_path
 from deik.cli.main import main
 from deik.io.bvh import read_bvh
 from deik.io.limits import clip_within, range_of_motion, read_limits, with_limits, write_limits
 from deik.io.problem_file import load_problem
+from helpers import shared_path
 
 
 def walk():
@@ -33,6 +33,7 @@ def test_with_limits_changes_only_the_named_dofs():
         with_limits(sk, {"link1.Zrotation": (1, 0)})
 
 
+@pytest.mark.shared_data
 def test_limits_table_uses_degrees_for_rotations_and_lengths_for_translations(tmp_path):
     sk = walk().skeleton
     path = tmp_path / "limits.json"
@@ -48,6 +49,7 @@ def test_limits_table_uses_degrees_for_rotations_and_lengths_for_translations(tm
         assert again[name] == pytest.approx(limits[name], abs=1e-7)  # degrees written to 6 decimals
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("text, fragment", [
     ("[1, 2]", "must be a JSON object"),
     ('{"LeftKnee.Zrotation": [0]}', "'LeftKnee.Zrotation' must be [lower, upper]"),
@@ -64,6 +66,7 @@ def test_bad_limits_tables_name_the_file_and_the_dof(tmp_path, text, fragment):
     assert message.startswith(str(path)) and fragment in message
 
 
+@pytest.mark.shared_data
 def test_range_of_motion_holds_every_frame_with_its_margin():
     clip = walk()
     limits = range_of_motion(clip, 10.0, 0.05)
@@ -77,6 +80,7 @@ def test_range_of_motion_holds_every_frame_with_its_margin():
         range_of_motion(clip, -1.0)
 
 
+@pytest.mark.shared_data
 def test_clip_outside_the_limits_is_refused_with_frame_and_dof():
     clip = walk()
     d = clip.skeleton.dof_names.index("RightKnee.Zrotation")
@@ -86,6 +90,7 @@ def test_clip_outside_the_limits_is_refused_with_frame_and_dof():
         clip_within(clip, narrowed, "limits.json")
 
 
+@pytest.mark.shared_data
 def test_cli_limits_then_solve_keeps_the_pose_inside(tmp_path, capsys):
     clip_path = shared_path("humanoid", "humanoid3d_walk.bvh")
     table = tmp_path / "limits.json"
@@ -103,6 +108,7 @@ def test_cli_limits_then_solve_keeps_the_pose_inside(tmp_path, capsys):
     assert np.linalg.norm(deik.forward_kinematics(sk, angles).position("LeftElbow_end") - target) <= 0.01 * sk.reach
 
 
+@pytest.mark.shared_data
 def test_cli_clip_refuses_a_table_the_capture_breaks(tmp_path, capsys):
     table = tmp_path / "tight.json"
     table.write_text(json.dumps({"RightKnee.Zrotation": [0, 1]}))
@@ -112,6 +118,7 @@ def test_cli_clip_refuses_a_table_the_capture_breaks(tmp_path, capsys):
     assert "RightKnee.Zrotation" in capsys.readouterr().err and not (tmp_path / "w.bvh").exists()
 
 
+@pytest.mark.shared_data
 def test_problem_file_joint_limits_relative_to_the_file(tmp_path):
     clip_path = shared_path("humanoid", "humanoid3d_walk.bvh")
     (tmp_path / "lim.json").write_text(json.dumps({"LeftElbow.Zrotation": [0, 90]}))

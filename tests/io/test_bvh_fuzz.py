@@ -1,7 +1,13 @@
 """Fuzz the BVH reader: on any text or bytes it returns a Clip or raises FileFormatError naming
-the file, and every Clip it returns writes and reads back unchanged. Derandomized, so CI is
-reproducible; under 10 s in all."""
+the file, and every Clip it returns writes and reads back unchanged.
 
+Inputs: arbitrary text and bytes, soups of BVH words, and a valid file after a few random edits
+(also as CRLF bytes). Derandomized, so every run tries the same inputs. By default a few hundred
+in all, so that every test run includes the fuzzing; DEIK_FUZZ_SCALE=10 multiplies each count
+for a thorough search (thousands of inputs, a few minutes).
+"""
+
+import os
 import re
 
 import numpy as np
@@ -11,7 +17,15 @@ from hypothesis import strategies as st
 from deik.io.bvh import format_bvh, parse_bvh
 from deik.io.errors import FileFormatError
 
-FUZZ = settings(max_examples=500, deadline=None, derandomize=True, database=None,
+SCALE = float(os.environ.get("DEIK_FUZZ_SCALE", "1"))
+
+
+def examples(n: int) -> int:
+    """The number of inputs a test tries: n, times DEIK_FUZZ_SCALE."""
+    return max(1, round(n * SCALE))
+
+
+FUZZ = settings(max_examples=examples(60), deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.too_slow])
 
 VALID = """HIERARCHY
@@ -95,7 +109,7 @@ def test_arbitrary_bytes(data):
     check(data)
 
 
-@settings(FUZZ, max_examples=1000)
+@settings(FUZZ, max_examples=examples(100))
 @given(st.lists(st.sampled_from(WORDS + ["\n"] * 8), max_size=120))
 def test_soup_of_bvh_words(words):
     check(" ".join(words))
@@ -136,7 +150,7 @@ def mutations(draw):
     return text[:rnd.randrange(len(text) + 1)] if truncate else text
 
 
-@settings(FUZZ, max_examples=2000)
+@settings(FUZZ, max_examples=examples(200))
 @given(mutations())
 def test_mutations_of_a_valid_file(text):
     check(text)

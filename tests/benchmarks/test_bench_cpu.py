@@ -9,17 +9,15 @@ import pytest
 
 import deik
 from benchmarks import run_all
-from conftest import shared_path
 from deik.kernels import cpu
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def results(tmp_path_factory):
+def results(tmp_path_factory, shared_data):
     """The folder of one quick CPU run of every benchmark, and its printed output (the batch
     benchmark's Panda needs the shared robots: skipped without them)."""
-    shared_path("robots", "panda.urdf")
     out = tmp_path_factory.mktemp("bench")
     assert run_all.main(["--quick", "--out", str(out)]) == 0
     return out
@@ -34,6 +32,7 @@ def positive(x) -> bool:
     return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["throughput", "headline", "batch", "memory"])
 def test_each_benchmark_records_the_machine_settings_and_targets(results, name):
     result = load(results, name)
@@ -47,6 +46,7 @@ def test_each_benchmark_records_the_machine_settings_and_targets(results, name):
         assert t["met"] is None and positive(t["goal"]) and positive(t["reached"])  # quick: no verdict
 
 
+@pytest.mark.slow
 def test_throughput_rows_are_joint_evaluations_per_second(results):
     rows = load(results, "throughput")["rows"]
     assert {r["threads"] for r in rows} >= {1} and any(r["batch"] > 1 for r in rows)
@@ -56,6 +56,7 @@ def test_throughput_rows_are_joint_evaluations_per_second(results):
         assert positive(r["joint_evaluations_per_second"]) and r["joint_evaluations_per_second"] == pytest.approx(rate)
 
 
+@pytest.mark.slow
 def test_headline_compares_the_engine_with_the_serial_reference(results):
     rows = load(results, "headline")["rows"]
     assert [r["engine"].split(" (")[0] for r in rows] == ["serial", "parallel CPU"]
@@ -63,6 +64,7 @@ def test_headline_compares_the_engine_with_the_serial_reference(results):
                                              for r in rows)
 
 
+@pytest.mark.slow
 def test_batch_rows_solve_both_problem_sets(results):
     result = load(results, "batch")
     rows = result["rows"]
@@ -75,6 +77,7 @@ def test_batch_rows_solve_both_problem_sets(results):
     assert result["population_trials"] and result["published_panda_problems_per_second"]["PyRoki"] == 7e4
 
 
+@pytest.mark.slow
 def test_memory_rows_cover_population_and_batch(results):
     rows = load(results, "memory")["rows"]
     assert {r["sweep"] for r in rows} == {"population", "batch"}
@@ -83,6 +86,7 @@ def test_memory_rows_cover_population_and_batch(results):
         assert r["host_rss_peak_above_start_bytes"] >= 0 and r["device_peak_bytes"] is None
 
 
+@pytest.mark.slow
 def test_run_all_summarises_every_stage(results):
     summary = json.loads((results / "run_all.json").read_text())
     assert [s["name"] for s in summary["stages"]] == ["serial_vs_parallel", "throughput", "headline", "batch", "memory"]

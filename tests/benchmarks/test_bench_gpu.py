@@ -11,7 +11,7 @@ import pytest
 
 from benchmarks.gpu_kernels import Multiprocessor, blocks_per_multiprocessor
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 HOPPER = Multiprocessor(threads=2048, registers=65536, shared_bytes=228 * 1024, blocks=32)
 
 
@@ -45,6 +45,7 @@ def test_gpu_kernel_report_runs_in_the_simulator(tmp_path):
         assert "theoretical_occupancy" not in r
 
 
+@pytest.mark.slow
 def test_gpu_throughput_benchmark_runs_in_the_simulator(tmp_path):
     result = _simulated("throughput", tmp_path)
     rows = result["rows"]

@@ -4,7 +4,6 @@ that meet the goals, which DOFs a frame may move, and eased displacements and tr
 import numpy as np
 import pytest
 
-from conftest import shared_path
 from deik.clips.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.clips.contacts import detect_contacts
 from deik.clips.problem import ClipGoals, eased_track, fixed_goals
@@ -13,12 +12,14 @@ from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.objectives import goals as g
+from helpers import shared_path
 
 
 def walk():
     return read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"))
 
 
+@pytest.mark.shared_data
 def test_position_jacobian_matches_finite_differences():
     clip = walk()
     sk, poses = clip.skeleton, clip.poses()[::9]
@@ -35,6 +36,7 @@ def test_position_jacobian_matches_finite_differences():
         np.testing.assert_allclose(jac[..., d], (ahead - behind) / (2 * h), atol=1e-8)
 
 
+@pytest.mark.shared_data
 def test_moving_dofs_follow_the_chain_to_the_root():
     sk = walk().skeleton
     names = lambda mask: {sk.dof_names[d].split(".")[0] for d in np.flatnonzero(mask)}  # noqa: E731
@@ -44,6 +46,7 @@ def test_moving_dofs_follow_the_chain_to_the_root():
     assert root.sum() == 3 and not (sk.dof_kind[root] == ROTATE).any()  # its translations only
 
 
+@pytest.mark.shared_data
 def test_hinges_and_the_dofs_each_frame_searches():
     clip = walk()
     sk = clip.skeleton
@@ -62,6 +65,7 @@ def test_hinges_and_the_dofs_each_frame_searches():
     assert searched_dofs(clip, balance)[:, sk.dof_names.index("Chest.Zrotation")].all()
 
 
+@pytest.mark.shared_data
 def test_dof_weights_count_radians_and_the_root_translation_by_the_body_size():
     clip = walk()
     w = dof_weights(clip)
@@ -70,6 +74,7 @@ def test_dof_weights_count_radians_and_the_root_translation_by_the_body_size():
     assert 1.5 < w[~rotation][0] < 4.0 and (w[~rotation] == w[~rotation][0]).all()  # 1 / (0.25..0.7 m)
 
 
+@pytest.mark.shared_data
 def test_warm_start_meets_contacts_and_a_reach_with_small_changes():
     clip = walk()
     sk = clip.skeleton

@@ -5,7 +5,6 @@ Runs in the deik venv alone: nothing here needs the peers venv (.venv-peers).
 
 import numpy as np
 import pytest
-from conftest import shared_path
 from scipy.spatial.transform import Rotation
 
 import deik
@@ -15,11 +14,12 @@ from benchmarks.robot_targets import (
     CASES, export_chain, load_case, load_targets, make_targets, pose_errors, save_targets,
 )
 from benchmarks.robots import score
+from helpers import robot_arm, shared_path
 
 
 @pytest.fixture(scope="module")
-def robots():
-    return shared_path("robots")
+def robots(shared_data):
+    return shared_data / "robots"
 
 
 def test_targets_are_reproducible_from_the_seed(robots, tmp_path):
@@ -90,10 +90,13 @@ CHAINS = {
     "fingers": lambda: robot_chain("fingers"),
     "chain20": lambda: (deik.chain(20), "tip"),
     "chain3d": lambda: (deik.chain(6, dims=3), "tip"),
+    "robot_arm": lambda: (robot_arm(), "fingertip"),  # built in code: the URDF features without shared/
 }
+ON_SHARED_ROBOTS = {"panda", "human", "fingers"}
 
 
-@pytest.mark.parametrize("name", list(CHAINS))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.shared_data) if n in ON_SHARED_ROBOTS else n
+                                  for n in CHAINS])
 def test_exported_chain_fk_matches_deik(name, tmp_path):
     skeleton, tip = CHAINS[name]()
     Q = np.random.default_rng(0).uniform(skeleton.lower, skeleton.upper, (40, skeleton.n_dofs))

@@ -9,26 +9,10 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.kernels import cpu
-from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.kernels.targets import cpu as dev
 from deik.objectives import reference
 from deik.objectives.registry import KIND_NAMES
-
-
-def kernel_fitness(problem, poses, problem_index=None, dtype=np.float64):
-    """(levels (N, L), total (N,), raw (N, T)) from the compiled CPU evaluation."""
-    poses = np.ascontiguousarray(np.atleast_2d(poses), dtype)
-    N = len(poses)
-    idx = np.zeros(N, np.int64) if problem_index is None else np.asarray(problem_index, np.int64)
-    table = problem.table
-    skel = pack_skeleton(problem.skeleton, dtype)
-    terms = pack_terms(table, problem.reference, dtype)
-    levels = np.empty((N, table.n_levels), dtype)
-    total = np.empty(N, dtype)
-    raw = np.empty((N, table.n_terms), dtype)
-    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3)  # 3 chunks: the parallel path
-    return levels, total, raw
+from helpers import every_goal_problem, kernel_fitness
 
 
 def raw_of(problem, poses, label):
@@ -39,30 +23,6 @@ def raw_of(problem, poses, label):
     return k, r
 
 
-FEET = tuple(f"{side}_{site}" for side in ("left", "right") for site in ("heel", "toe_inner", "toe_outer"))
-
-
-def every_goal_problem(batch=False):
-    h = deik.humanoid()
-    kin = deik.forward_kinematics(h, h.reference)
-    shin = 0.5 * (kin.position("left_knee") + kin.position("left_ankle"))
-    hand = kin.position("left_hand") + [0.1, 0.2, 0.1]
-    ref = None
-    if batch:
-        hand = np.stack([hand, kin.position("right_hand") + [-0.1, 0.3, 0.2]])
-        ref = np.stack([h.reference, np.full(h.n_dofs, 0.05)])
-    goals = [
-        deik.Position("left_hand", hand, tolerance=0.02),
-        deik.Orientation("head", Rotation.from_euler("XYZ", [0.2, -0.3, 0.4]).as_matrix(), level=1, tolerance=0.05),
-        deik.Aim("head", kin.position("head") + [0.3, 0.1, 1.0], axis=(0, 0, 2.0), weight=0.5, mu=2.0),
-        deik.CentreOfMass(kin.p_world_com + [0.0, -0.1, 0.05]),
-        deik.ComOverSupport(kin.position("right_heel"), level=1, tolerance=0.02),
-        deik.ComInPolygon(FEET, weight=0.8),
-        deik.Comfort("sum", joint_weights="start", level=2, reference=ref),
-        deik.Comfort("max", joint_weights={"left_shoulder": 2.0, "spine": 0.5}, weight=-0.3, level=2),
-        deik.Obstacle(shin, 0.05, bone_radius=0.02, level=1),
-    ]
-    return deik.Problem(h, goals, limits="penalty")
 
 
 def mixed_poses(sk, n_random=12, seed=3):

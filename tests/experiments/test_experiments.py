@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from deik.solver.serial import SerialDE
 from deik.experiments import runner
 from deik.experiments.common import quantile, spread
 from deik.experiments.fig7_selection import SequentialSerialDE
 from deik.experiments.timing import gpu_status, make_problem
+from deik.solver.serial import SerialDE
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 NAMES = list(runner.EXPERIMENTS)
@@ -36,6 +36,7 @@ def median(values):
     return float(np.median([float(v) for v in values]))
 
 
+@pytest.mark.slow
 def test_every_experiment_writes_png_csv_and_section(quick_run):
     out, doc = quick_run
     report = (out / "report.md").read_text()
@@ -55,6 +56,7 @@ def test_every_experiment_writes_png_csv_and_section(quick_run):
         assert "GPU column pending" in (out / "fig9.md").read_text()
 
 
+@pytest.mark.slow
 def test_fig2_comfort_ramps_straighten_their_end_of_the_chain(quick_run):
     data = rows(quick_run[0], "fig2")
     assert len(data) == 2 * 3 and all(r["tip_met"] == "True" for r in data)
@@ -66,6 +68,7 @@ def test_fig2_comfort_ramps_straighten_their_end_of_the_chain(quick_run):
     assert all(float(r["tip_error_percent_of_reach"]) <= 1.0 for r in data)
 
 
+@pytest.mark.slow
 def test_fig3_bigger_population_needs_no_more_generations(quick_run):
     data = rows(quick_run[0], "fig3")
     assert len(data) == 2 * 2 * 2 * 8 + 1 * 2 * 2 * 4
@@ -84,6 +87,7 @@ def test_fig3_bigger_population_needs_no_more_generations(quick_run):
         assert spread(gens["100"])["median"] <= 2 * spread(gens["10"])["median"], cell
 
 
+@pytest.mark.slow
 def test_fig4_com_first_keeps_balance_and_equal_weights_do_not(quick_run):
     data = rows(quick_run[0], "fig4")
     assert len(data) == 3 * 2
@@ -93,6 +97,7 @@ def test_fig4_com_first_keeps_balance_and_equal_weights_do_not(quick_run):
     assert min(com["equal weights"]) > 2 * max(com["COM first (strict levels)"])
 
 
+@pytest.mark.slow
 def test_fig5_comfort_level_keeps_the_pose_closer_to_rest(quick_run):
     data = rows(quick_run[0], "fig5")
     three = [r for r in data if r["variant"].startswith("three")]
@@ -101,6 +106,7 @@ def test_fig5_comfort_level_keeps_the_pose_closer_to_rest(quick_run):
     assert median(r["comfort_sum_rad"] for r in three) < median(r["comfort_sum_rad"] for r in two)
 
 
+@pytest.mark.slow
 def test_fig6_curves_are_elitist_and_the_sum_beats_the_max(quick_run):
     data = rows(quick_run[0], "fig6")
     assert len(data) == 2 * 2 * 4 * 61
@@ -115,6 +121,7 @@ def test_fig6_curves_are_elitist_and_the_sum_beats_the_max(quick_run):
     assert final["sum"] < final["max"]
 
 
+@pytest.mark.slow
 def test_fig7_both_selections_improve_fitness(quick_run):
     data = rows(quick_run[0], "fig7")
     assert len(data) == 2 * 2 * 13
@@ -126,6 +133,7 @@ def test_fig7_both_selections_improve_fitness(quick_run):
             assert np.all(np.diff(best) <= 0) and mean[-1] < 0.8 * mean[0]
 
 
+@pytest.mark.slow
 def test_fig8_fig9_timings_are_complete_and_finite(quick_run):
     devices = {"cpu", "gpu"} if gpu_status()[0] else {"cpu"}
     data = rows(quick_run[0], "fig8")

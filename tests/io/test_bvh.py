@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import deik
-from conftest import shared_path
 from deik.io import atomic
 from deik.io.bvh import Clip, format_bvh, parse_bvh, read_bvh, write_bvh
 from deik.io.errors import FileFormatError
-from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 CLIPS = {"walk": 39, "run": 25, "jump": 107}
 END_SITES = {"Head": "Neck_end", "RightWrist": "RightElbow_end", "LeftWrist": "LeftElbow_end",
@@ -82,6 +82,7 @@ def write(tmp_path, text, name="bad.bvh"):
 # --- ground truth and round trips on the shared clips ---------------------------------------
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", CLIPS)
 def test_every_joint_end_site_and_com_matches_pybullet(name):
     clip = read_bvh(humanoid_path(name), segments=table_path(name))
@@ -97,6 +98,7 @@ def test_every_joint_end_site_and_com_matches_pybullet(name):
     assert np.abs(fk.p_world_com - reference["com"]).max() < 1e-5
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", CLIPS)
 def test_unchanged_clip_round_trips(name, tmp_path):
     source = humanoid_path(name)
@@ -119,6 +121,7 @@ def assert_same_channels(a: Clip, b: Clip):
     assert difference[:, ~rotation].max(initial=0) < 1e-6
 
 
+@pytest.mark.shared_data
 def test_random_values_round_trip_within_tolerance(tmp_path):
     clip = read_bvh(humanoid_path("walk"))
     rng = np.random.default_rng(3)
@@ -250,6 +253,7 @@ def equivalent_angles(clip: Clip, frames: np.ndarray, rng) -> np.ndarray:
     return out
 
 
+@pytest.mark.shared_data
 def test_with_pose_keeps_rotations_and_returns_to_the_original_angles():
     clip = read_bvh(humanoid_path("walk"))
     rng = np.random.default_rng(7)
@@ -264,6 +268,7 @@ def test_with_pose_keeps_rotations_and_returns_to_the_original_angles():
                                    R_given, atol=1e-12)
 
 
+@pytest.mark.shared_data
 def test_with_pose_on_random_poses_is_never_farther_than_whole_turns():
     clip = read_bvh(humanoid_path("run"))
     sk, rng = clip.skeleton, np.random.default_rng(11)
@@ -279,6 +284,7 @@ def test_with_pose_on_random_poses_is_never_farther_than_whole_turns():
         assert ((new - clip.frames[n]) ** 2).sum() <= ((turned - clip.frames[n]) ** 2).sum() + 1e-9
 
 
+@pytest.mark.shared_data
 def test_with_frames_makes_every_frame_continuous():
     clip = read_bvh(humanoid_path("jump"))
     disguised = equivalent_angles(clip, clip.frames, np.random.default_rng(5))

@@ -10,9 +10,9 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton
-from deik.model.joints import ROTATE, TRANSLATE, Dof
 from deik.kernels.cpu import forward_kinematics_batch
 from deik.kernels.pack import pack_skeleton
+from deik.model.joints import ROTATE, TRANSLATE, Dof
 
 R_A = Rotation.from_euler("xyz", [0.3, -0.7, 1.1]).as_matrix()
 R_B = Rotation.from_euler("xyz", [-1.2, 0.4, 0.2]).as_matrix()
@@ -39,9 +39,9 @@ def _robot():
     )
 
 
-def _homogeneous(R=np.eye(3), p=(0, 0, 0)):
+def _homogeneous(R=None, p=(0, 0, 0)):
     T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, p
+    T[:3, :3], T[:3, 3] = np.eye(3) if R is None else R, p
     return T
 
 

@@ -3,14 +3,16 @@
 import json
 
 import numpy as np
+import pytest
 
 from benchmarks.clip_frames import loop_clip, main
-from conftest import shared_path
 from deik.clips.contacts import detect_contacts
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 
+@pytest.mark.shared_data
 def test_the_looped_walk_is_one_long_walk_without_jumps():
     walk = read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"))
     clip = loop_clip(walk, 200)

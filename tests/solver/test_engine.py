@@ -13,7 +13,7 @@ import pytest
 import deik
 from deik.objectives import reference
 
-SRC = Path(__file__).resolve().parent.parent / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 STRATEGIES = ["current-to-best/1/bin", "rand/1/bin", "best/1/bin"]
 
 

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, Delaunay
 
-from conftest import shared_path
 from deik.clips.balance import balance_track, inside_support, nearest_support_point, support_correction
 from deik.clips.contacts import detect_contacts
 from deik.clips.metrics import com_outside_support, velocity_spikes
@@ -14,6 +13,7 @@ from deik.clips.solver import fix_clip
 from deik.clips.warmstart import position_jacobian
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
+from helpers import shared_path
 
 
 def _clouds(n=400, sites=4, seed=0):
@@ -67,6 +67,7 @@ def test_balance_track_eases_shifts_in_and_out():
     assert not balance_track(com, [(square, inactive, 0.1)])[1].any()
 
 
+@pytest.mark.shared_data
 def test_com_jacobian_matches_finite_differences():
     clip = read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"),
                     segments=shared_path("humanoid", "humanoid3d_walk.segments.json"))
@@ -82,11 +83,13 @@ def test_com_jacobian_matches_finite_differences():
         np.testing.assert_allclose(jac[:, 1, :, d], numeric, atol=1e-8)
 
 
+@pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "run"])
 def test_balanced_clip_keeps_its_motion(name):
     """--balance: the COM stands over the support, and the fix neither bends joints far from the
-    capture nor adds joint velocity or acceleration peaks (DE alone used to: run 38.9 deg mean
-    deviation and 10,530 deg/s)."""
+    capture (mean deviation under 10 degrees) nor adds joint velocity or acceleration peaks (at
+    most 2 % above the capture's). DE alone, searching each frame afresh, meets the goals with
+    poses tens of degrees from the performance that jerk between frames; these bounds catch that."""
     path = shared_path("humanoid", f"humanoid3d_{name}.bvh")
     clip = read_bvh(path, segments=str(path).replace(".bvh", ".segments.json"))
     contacts = detect_contacts(clip)

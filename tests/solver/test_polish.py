@@ -5,9 +5,7 @@ import numpy as np
 import pytest
 
 import deik
-from conftest import shared_path
-from deik.kernels import cpu
-from deik.kernels.pack import pack_skeleton, pack_terms
+from helpers import finite_difference_check, shared_path
 
 
 def _panda():
@@ -18,25 +16,6 @@ def _random_poses(sk, n, seed):
     return np.random.default_rng(seed).uniform(sk.lower, sk.upper, (n, sk.n_dofs))
 
 
-def _finite_difference_check(sk, goals, poses, step=1e-6):
-    """Analytic Jacobian rows of every term against central differences of its residual."""
-    problem = deik.Problem(sk, goals)
-    skel, terms = pack_skeleton(sk, np.float64), pack_terms(problem.table, problem.reference, np.float64)
-    index = np.zeros(len(poses), np.int64)
-    for t in range(problem.table.n_terms):
-        _, analytic = cpu.residual_rows(poses, index, t, skel, terms)
-        numeric = np.zeros_like(analytic)
-        for d in range(sk.n_dofs):
-            up, down = poses.copy(), poses.copy()
-            up[:, d] += step
-            down[:, d] -= step
-            numeric[:, :, d] = (cpu.residual_rows(up, index, t, skel, terms)[0]
-                                - cpu.residual_rows(down, index, t, skel, terms)[0]) / (2 * step)
-        scale = np.abs(numeric).max()
-        assert scale > 0, problem.table.labels[t]
-        np.testing.assert_allclose(analytic, numeric, atol=1e-6 * scale, err_msg=problem.table.labels[t])
-
-
 def test_jacobians_match_finite_differences_on_a_urdf_arm(shared_data):
     sk = _panda()
     poses = _random_poses(sk, 6, 0)
@@ -44,7 +23,7 @@ def test_jacobians_match_finite_differences_on_a_urdf_arm(shared_data):
     goals = [deik.Position("panda_hand_tcp", far.position("panda_hand_tcp")[0]),
              deik.Orientation("panda_hand_tcp", far.rotation("panda_hand_tcp")[0]),
              deik.Position("panda_link4", [0.3, 0.1, 0.5]), deik.CentreOfMass([0.1, 0.0, 0.4])]
-    _finite_difference_check(sk, goals, poses)
+    finite_difference_check(sk, goals, poses)
 
 
 def test_jacobians_match_finite_differences_on_a_bvh_character(shared_data):
@@ -54,7 +33,7 @@ def test_jacobians_match_finite_differences_on_a_bvh_character(shared_data):
     site = sk.site_names[1]
     goals = [deik.Position(site, [0.3, 0.2, 0.1]), deik.Orientation(site, np.eye(3)),
              deik.CentreOfMass([0.0, 0.9, 0.0]), deik.ComOverSupport([0.1, 0.0, 0.2])]
-    _finite_difference_check(sk, goals, poses)
+    finite_difference_check(sk, goals, poses)
 
 
 def _pose_problem(sk, tip, q, **tolerances):

@@ -5,7 +5,7 @@ come from the registry, never from a label."""
 import dataclasses
 
 import numpy as np
-from test_objectives import every_goal_problem
+from helpers import every_goal_problem
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
