@@ -250,3 +250,13 @@ def test_absurd_limits_and_masses_are_refused_when_the_skeleton_is_built():
     with pytest.raises(ValueError, match=r"mass 1e\+308 kg on joint 'base' must lie between 0 and 1e\+12 kg"):
         arm(mass=1e308)
     assert arm(-2 * np.pi, 2 * np.pi).upper[0] == 2 * np.pi
+
+
+def test_piping_into_head_is_quiet():
+    import subprocess
+    import sys
+
+    code = "import sys; from deik.cli import main; sys.exit(main())"
+    run = subprocess.run(f"{sys.executable} -c '{code}' info chain:20000 | head -1", shell=True,
+                         capture_output=True, text=True, timeout=300)
+    assert run.stdout.startswith("chain:20000") and run.stderr == ""

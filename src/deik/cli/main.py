@@ -29,6 +29,7 @@ from deik.io.load import load_skeleton
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
 INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+BROKEN_PIPE = 141  # 128 + SIGPIPE
 MESSAGE_LIMIT = 500
 
 
@@ -115,6 +116,10 @@ def main(argv=None) -> int:
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) has gone: stay quiet, and keep Python from complaining at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return BROKEN_PIPE
     except (UsageError, ValueError, ImportError, OSError, KeyError) as error:
         # KeyError (unknown joint) keeps its message in args[0]; str() would add quotes.
         message = error.args[0] if isinstance(error, KeyError) else error
@@ -123,10 +128,6 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("deik: interrupted; nothing was written", file=sys.stderr)
         return INTERRUPTED
-    except BrokenPipeError:
-        # the reader (e.g. `| head`) has gone: stay quiet, and keep Python from complaining at exit
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
     except Exception as error:  # a bug, not a mistake in the input
         if os.environ.get("DEIK_DEBUG"):
             raise
