@@ -40,8 +40,10 @@ def make_problem(name: str, batch: int, seed: int) -> tuple[deik.Problem, np.nda
         return harness.chain_problem(20, batch, seed, tolerance=0.01 * sk.reach), None
     t = make_targets("panda", batch, seed=seed)
     sk = deik.read_urdf(t["urdf"], t["base"], t["tip"])
-    goals = [deik.Position(t["tip"], t["positions"], tolerance=PANDA_TOLERANCES[0]),
-             deik.Orientation(t["tip"], t["rotations"], tolerance=PANDA_TOLERANCES[1])]
+    goals = [
+        deik.Position(t["tip"], t["positions"], tolerance=PANDA_TOLERANCES[0]),
+        deik.Orientation(t["tip"], t["rotations"], tolerance=PANDA_TOLERANCES[1]),
+    ]
     return deik.Problem(sk, goals), t["start"][None]
 
 
@@ -53,11 +55,19 @@ def measure(name: str, batch: int, population: int, threads: int, args) -> dict:
         result = deik.solve(problem, initial=initial, **solve_settings(population, args))
         seconds = time.perf_counter() - t
     converged, generations = result.converged, result.generations
-    return {"problem": name, "batch": batch, "population": population, "threads": threads, "seconds": seconds,
-            "solver_wall_time": result.wall_time, "problems_per_second": batch / seconds,
-            "success": float(converged.mean()), "generations_median": float(np.median(generations)),
-            "generations_max": int(generations.max()),
-            "errors_median": {g.label: float(np.median(g.error)) for g in result.goals}}
+    return {
+        "problem": name,
+        "batch": batch,
+        "population": population,
+        "threads": threads,
+        "seconds": seconds,
+        "solver_wall_time": result.wall_time,
+        "problems_per_second": batch / seconds,
+        "success": float(converged.mean()),
+        "generations_median": float(np.median(generations)),
+        "generations_max": int(generations.max()),
+        "errors_median": {g.label: float(np.median(g.error)) for g in result.goals},
+    }
 
 
 def solve_settings(population: int, args) -> dict:
@@ -83,21 +93,34 @@ def plot(rows: list[dict], device: str):
     counts = sorted({r["threads"] for r in rows}, reverse=True)
     for k, name in enumerate(sorted({r["problem"] for r in rows})):
         for threads, style in zip(counts, ("-", ":")):
-            line = sorted((r["batch"], r["problems_per_second"], r["success"]) for r in rows
-                          if r["problem"] == name and r["threads"] == threads)
+            line = sorted(
+                (r["batch"], r["problems_per_second"], r["success"])
+                for r in rows
+                if r["problem"] == name and r["threads"] == threads
+            )
             population = next(r["population"] for r in rows if r["problem"] == name)
-            ax.plot([x[0] for x in line], [x[1] for x in line], "o" + style, color=f"C{k}",
-                    label=f"{name}, population {population}, {threads} thr.")
+            ax.plot(
+                [x[0] for x in line],
+                [x[1] for x in line],
+                "o" + style,
+                color=f"C{k}",
+                label=f"{name}, population {population}, {threads} thr.",
+            )
             for b, rate, success in line:
                 if success < 1:
-                    ax.annotate(f"{100 * success:.2f}%", (b, rate), fontsize=7, textcoords="offset points",
-                                xytext=(3, -9))
+                    ax.annotate(
+                        f"{100 * success:.2f}%", (b, rate), fontsize=7, textcoords="offset points", xytext=(3, -9)
+                    )
     if device == "gpu":
         ax.axhline(GPU_TARGET, color="k", linestyle="--", linewidth=1, label="target (Panda, GPU)")
         for k, (peer, rate) in enumerate(PUBLISHED.items()):
             ax.axhline(rate, color="grey", linestyle=":-"[k], linewidth=1, label=f"{peer} (published, RTX 4090)")
-    harness.style_axes(ax, "batch size (problems per solve() call)", "problems solved per second",
-                       f"Batched IK throughput, {device.upper()} (labels: success < 100 %)")
+    harness.style_axes(
+        ax,
+        "batch size (problems per solve() call)",
+        "problems solved per second",
+        f"Batched IK throughput, {device.upper()} (labels: success < 100 %)",
+    )
     fig.tight_layout()
     return fig
 
@@ -105,14 +128,16 @@ def plot(rows: list[dict], device: str):
 def main(argv=None) -> int:
     p = harness.parser(__doc__)
     p.add_argument("--problems", nargs="+", default=["chain20", "panda"], choices=("chain20", "panda"))
-    p.add_argument("--batches", type=int, nargs="+",
-                   help="batch sizes (default 1 10 100 1000 10000; GPU also 100000)")
+    p.add_argument("--batches", type=int, nargs="+", help="batch sizes (default 1 10 100 1000 10000; GPU also 100000)")
     p.add_argument("--populations", type=int, nargs="+", help="populations tried (default 16 32 64)")
     p.add_argument("--pick-batch", type=int, help="batch size of the population trial (default 100)")
     args = p.parse_args(argv)
     full_batches = [1, 10, 100, 1000, 10_000] + ([100_000] if args.device == "gpu" else [])
-    sizes = {"batches": [1, 4], "populations": [16, 32], "pick_batch": 4} if args.quick else \
-        {"batches": full_batches, "populations": [16, 32, 64], "pick_batch": 100}
+    sizes = (
+        {"batches": [1, 4], "populations": [16, 32], "pick_batch": 4}
+        if args.quick
+        else {"batches": full_batches, "populations": [16, 32, 64], "pick_batch": 100}
+    )
     opening = harness.start(args, sizes)
 
     rows, trials, chosen = [], [], {}
@@ -124,30 +149,65 @@ def main(argv=None) -> int:
             for threads in harness.thread_counts(args.device):
                 row = measure(name, batch, chosen[name], threads, args)
                 rows.append(row)
-                print(f"{name} batch {batch:6d} population {chosen[name]} threads {threads}: "
-                      f"{row['problems_per_second']:.4g} problems/s, success {100 * row['success']:.2f} %", flush=True)
+                print(
+                    f"{name} batch {batch:6d} population {chosen[name]} threads {threads}: "
+                    f"{row['problems_per_second']:.4g} problems/s, success {100 * row['success']:.2f} %",
+                    flush=True,
+                )
 
     panda = [r for r in rows if r["problem"] == "panda"]
     targets = []
     if panda:
         reached = max((r["problems_per_second"] for r in panda if r["success"] >= RELIABLE), default=0.0)
-        targets.append(harness.target(f"Panda problems per second at >= {100 * RELIABLE:.0f} % success "
-                                      f"({args.device})", GPU_TARGET, reached, "/s",
-                                      args.device == "gpu" and not args.quick))
-    result = harness.finish("batch", args, opening, {
-        "settings": {**solve_settings(0, args), "population": chosen, "populations_tried": args.populations,
-                     "pick_batch": args.pick_batch, "reliable_success": RELIABLE, "quick": args.quick,
-                     "chain20_tolerance": "0.01 x reach", "panda_tolerances_m_rad": PANDA_TOLERANCES,
-                     "panda_initial": "mid-limit pose"},
-        "published_panda_problems_per_second": PUBLISHED, "population_trials": trials, "rows": rows,
-        "targets": targets,
-    }, plot(rows, args.device))
-    harness.print_report(result, ["problem", "batch", "population", "threads", "seconds", "problems/s", "success",
-                                  "generations median / max"],
-                         [[r["problem"] + (" (trial)" if r in trials else ""), r["batch"], r["population"],
-                           r["threads"], f"{r['seconds']:.3g}",
-                           f"{r['problems_per_second']:.4g}", f"{100 * r['success']:.2f} %",
-                           f"{r['generations_median']:g} / {r['generations_max']}"] for r in trials + rows])
+        targets.append(
+            harness.target(
+                f"Panda problems per second at >= {100 * RELIABLE:.0f} % success ({args.device})",
+                GPU_TARGET,
+                reached,
+                "/s",
+                args.device == "gpu" and not args.quick,
+            )
+        )
+    result = harness.finish(
+        "batch",
+        args,
+        opening,
+        {
+            "settings": {
+                **solve_settings(0, args),
+                "population": chosen,
+                "populations_tried": args.populations,
+                "pick_batch": args.pick_batch,
+                "reliable_success": RELIABLE,
+                "quick": args.quick,
+                "chain20_tolerance": "0.01 x reach",
+                "panda_tolerances_m_rad": PANDA_TOLERANCES,
+                "panda_initial": "mid-limit pose",
+            },
+            "published_panda_problems_per_second": PUBLISHED,
+            "population_trials": trials,
+            "rows": rows,
+            "targets": targets,
+        },
+        plot(rows, args.device),
+    )
+    harness.print_report(
+        result,
+        ["problem", "batch", "population", "threads", "seconds", "problems/s", "success", "generations median / max"],
+        [
+            [
+                r["problem"] + (" (trial)" if r in trials else ""),
+                r["batch"],
+                r["population"],
+                r["threads"],
+                f"{r['seconds']:.3g}",
+                f"{r['problems_per_second']:.4g}",
+                f"{100 * r['success']:.2f} %",
+                f"{r['generations_median']:g} / {r['generations_max']}",
+            ]
+            for r in trials + rows
+        ],
+    )
     return 0
 
 

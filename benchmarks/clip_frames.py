@@ -30,13 +30,13 @@ from deik.cli.common import check_device
 from deik.clips.contacts import detect_contacts
 from deik.clips.metrics import clip_report, per_frame_errors
 from deik.clips.problem import ClipGoals
-from deik.viz.clip_report import plot_clip_report
 from deik.clips.solver import fix_clip
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.kinematics import forward_kinematics
+from deik.viz.clip_report import plot_clip_report
 
 RESULTS = Path(__file__).resolve().parent / "results"
 WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "humanoid" / "humanoid3d_walk.bvh"
@@ -62,8 +62,11 @@ def loop_clip(clip, n_frames: int, seam: int = SEAM):
     ends = forward_kinematics(sk, clip.frames[[0, -1]]).p_world_frame[:, index]
     stride = (ends[1] - ends[0]).mean(axis=0)
     stride -= (stride @ sk.up) * sk.up
-    step = np.where(sk.dof_kind == ROTATE,  # whole turns, keeping Euler channels continuous
-                    2 * math.pi * np.round((clip.frames[-1] - clip.frames[0]) / (2 * math.pi)), 0.0)
+    step = np.where(
+        sk.dof_kind == ROTATE,  # whole turns, keeping Euler channels continuous
+        2 * math.pi * np.round((clip.frames[-1] - clip.frames[0]) / (2 * math.pi)),
+        0.0,
+    )
     root = range(sk.joint_dof_start[0], sk.joint_dof_start[1])
     for d in root:
         if sk.dof_kind[d] == TRANSLATE:
@@ -78,8 +81,9 @@ def loop_clip(clip, n_frames: int, seam: int = SEAM):
     lower = np.where(wide, np.minimum(sk.lower, frames.min(axis=0) - sk.reach), sk.lower)
     upper = np.where(wide, np.maximum(sk.upper, frames.max(axis=0) + sk.reach), sk.upper)
     skeleton = dataclasses.replace(sk, lower=lower, upper=upper)
-    return dataclasses.replace(clip, skeleton=skeleton, frames=frames,
-                               source=f"{clip.source} looped to {n_frames} frames")
+    return dataclasses.replace(
+        clip, skeleton=skeleton, frames=frames, source=f"{clip.source} looped to {n_frames} frames"
+    )
 
 
 def _fix(clip, device: str):
@@ -104,18 +108,24 @@ def run(frames: int, device: str, repeats: int):
     target = TARGET_SECONDS[device] * frames / 1000
     settings = {f.name: getattr(fix.settings, f.name) for f in dataclasses.fields(fix.settings)}
     record = {
-        "benchmark": "clip_frames", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "clip": str(WALK.name), "frames": frames, "frame_time_s": clip.frame_time,
-        "seconds": best, "all_seconds": seconds, "frames_per_second": frames / best,
-        "seconds_in_fix_clip": fix.wall_time, "passes": fix.passes, "settings": settings,
+        "benchmark": "clip_frames",
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "clip": str(WALK.name),
+        "frames": frames,
+        "frame_time_s": clip.frame_time,
+        "seconds": best,
+        "all_seconds": seconds,
+        "frames_per_second": frames / best,
+        "seconds_in_fix_clip": fix.wall_time,
+        "passes": fix.passes,
+        "settings": settings,
         "stages": list(fix.stages),
         "evaluations_per_frame": sum(s.get("evaluations", 0) for s in fix.stages) / frames,
         "frames_met": int(fix.met.sum()),
         "contacts": contacts.describe().splitlines(),
         "metrics": clip_report(clip, fix.clip, contacts),
         "target": {"seconds": target, "per_1000_frames": TARGET_SECONDS[device], "met": best < target},
-        "environment": {**environment(), "cpu_model": cpu_model(), "gpu": gpu_status()[1],
-                        "load_average_before": load},
+        "environment": {**environment(), "cpu_model": cpu_model(), "gpu": gpu_status()[1], "load_average_before": load},
     }
     return record, clip, fix, contacts
 
@@ -134,25 +144,39 @@ def main(argv=None) -> int:
     result, clip, fix, contacts = run(a.frames, a.device, a.repeats)
     write_json_atomically(a.out / "clip_frames.json", result)
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
-    title = (f"walk looped to {a.frames} frames: {result['seconds']:.2f} s on {a.device} "
-             f"({result['frames_per_second']:.0f} frames/s), warm start + {passes}")
-    plot_clip_report(per_frame_errors(clip, fix.clip, contacts), a.out / "clip_frames.png",
-                     clip.frame_time, title)
+    title = (
+        f"walk looped to {a.frames} frames: {result['seconds']:.2f} s on {a.device} "
+        f"({result['frames_per_second']:.0f} frames/s), warm start + {passes}"
+    )
+    plot_clip_report(per_frame_errors(clip, fix.clip, contacts), a.out / "clip_frames.png", clip.frame_time, title)
     env = result["environment"]
-    print(f"{a.frames} frames on {a.device} ({env['cpu_model']}, {numba.get_num_threads()} Numba threads): "
-          f"best {result['seconds']:.2f} s of {[round(s, 2) for s in result['all_seconds']]}, "
-          f"{result['frames_per_second']:.0f} frames/s")
+    print(
+        f"{a.frames} frames on {a.device} ({env['cpu_model']}, {numba.get_num_threads()} Numba threads): "
+        f"best {result['seconds']:.2f} s of {[round(s, 2) for s in result['all_seconds']]}, "
+        f"{result['frames_per_second']:.0f} frames/s"
+    )
     for stage in result["stages"]:
-        extra = (f", {stage['generations_mean']:.1f} generations per frame (max {stage['generations_max']}), "
-                 f"{stage['evaluations']} evaluations" if "evaluations" in stage else "")
+        extra = (
+            f", {stage['generations_mean']:.1f} generations per frame (max {stage['generations_max']}), "
+            f"{stage['evaluations']} evaluations"
+            if "evaluations" in stage
+            else ""
+        )
         print(f"  {stage['stage']}: {stage['seconds']:.2f} s{extra}")
-    for name in ("foot sliding mean (mm/frame)", "foot sliding max (mm/frame)", "joint deviation mean (deg)",
-                 "joint deviation max (deg)", "max position acceleration (m/s^2)"):
+    for name in (
+        "foot sliding mean (mm/frame)",
+        "foot sliding max (mm/frame)",
+        "joint deviation mean (deg)",
+        "joint deviation max (deg)",
+        "max position acceleration (m/s^2)",
+    ):
         row = result["metrics"][name]
         print(f"  {name}: {row['before']:.3g} -> {row['after']:.3g}")
     target = result["target"]
-    print(f"{result['frames_met']}/{a.frames} frames meet every contact; target (< {target['seconds']:.3g} s): "
-          f"{'MET' if target['met'] else 'NOT MET'}")
+    print(
+        f"{result['frames_met']}/{a.frames} frames meet every contact; target (< {target['seconds']:.3g} s): "
+        f"{'MET' if target['met'] else 'NOT MET'}"
+    )
     print(f"wrote {a.out / 'clip_frames.json'} and {a.out / 'clip_frames.png'}")
     return 0
 

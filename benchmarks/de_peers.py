@@ -46,8 +46,10 @@ def problems(robots: Path) -> dict:
     """name -> (skeleton, tip, pose goal?, (position tolerance, orientation tolerance))."""
     chain = deik.chain(20)
     panda = load_case("panda", robots)[0]
-    return {"chain20": (chain, "tip", False, (0.01 * chain.reach, np.inf)),
-            "panda": (panda, "panda_hand_tcp", True, (5e-3, 0.05))}
+    return {
+        "chain20": (chain, "tip", False, (0.01 * chain.reach, np.inf)),
+        "panda": (panda, "panda_hand_tcp", True, (5e-3, 0.05)),
+    }
 
 
 def deik_goals(tip: str, pose: bool, tolerances, position, rotation) -> list:
@@ -58,17 +60,25 @@ def deik_goals(tip: str, pose: bool, tolerances, position, rotation) -> list:
 def run_deik(settings: dict, skeleton, tip, pose, tolerances, positions, rotations, seeds) -> dict:
     """deik with `settings` on every trial (a warm-up solve first, not timed). Evaluations count
     DE members, population x (generations + 1); LM polish steps, where on, are not counted."""
+
     def solve(k, seed):
         problem = deik.Problem(skeleton, deik_goals(tip, pose, tolerances, positions[k], rotations[k]))
         t0 = time.perf_counter()
         result = deik.solve(problem, seed=seed, **settings)
         seconds = time.perf_counter() - t0
-        return {"angles": result.angles.tolist(), "seconds": seconds, "generations": int(result.generations),
-                "evaluations": settings["population"] * (int(result.generations) + 1)}
+        return {
+            "angles": result.angles.tolist(),
+            "seconds": seconds,
+            "generations": int(result.generations),
+            "evaluations": settings["population"] * (int(result.generations) + 1),
+        }
 
     solve(0, seeds[0] + 10_000)
-    return {"version": deik.__version__, "settings": {**settings, "other": "deik defaults (float32)"},
-            "trials": [solve(k, s) for k, s in enumerate(seeds)]}
+    return {
+        "version": deik.__version__,
+        "settings": {**settings, "other": "deik defaults (float32)"},
+        "trials": [solve(k, s) for k, s in enumerate(seeds)],
+    }
 
 
 def run_peer(name: str, problem_file: Path) -> dict:
@@ -97,26 +107,37 @@ def summarise(row: dict, skeleton, tip, pose, tolerances, positions, rotations) 
 
 
 def markdown(result: dict) -> str:
-    lines = [f"DE against DE, {result['settings']['trials']} random targets per problem; success and "
-             "time to reach the error (median over trials; a failed trial counts its full time). "
-             "CPU shared, timings noisy. deik's evaluations count DE members only (not its LM polish); "
-             "deik-no-polish is its DE alone.", "",
-             "| problem | solver | version | success | median s | median evaluations | median generations "
-             "| deik faster by | deik-no-polish faster by |", "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"DE against DE, {result['settings']['trials']} random targets per problem; success and "
+        "time to reach the error (median over trials; a failed trial counts its full time). "
+        "CPU shared, timings noisy. deik's evaluations count DE members only (not its LM polish); "
+        "deik-no-polish is its DE alone.",
+        "",
+        "| problem | solver | version | success | median s | median evaluations | median generations "
+        "| deik faster by | deik-no-polish faster by |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for name, data in result["problems"].items():
         solvers = data["solvers"]
         for solver, row in solvers.items():
             if "skipped" in row:
                 lines.append(f"| {name} | {solver} | | | | | | | skipped: {row['skipped'][:100]} |")
                 continue
-            ratios = ["" if solver in DEIK_VARIANTS else f"{row['median_seconds'] / solvers[v]['median_seconds']:.1f}x"
-                      for v in DEIK_VARIANTS]
-            lines.append(f"| {name} | {solver} | {row['version']} | {100 * row['success']:.0f} % | "
-                         f"{row['median_seconds']:.4f} | {row['median_evaluations']:.0f} | "
-                         f"{row['median_generations']:.0f} | {' | '.join(ratios)} |")
+            ratios = [
+                "" if solver in DEIK_VARIANTS else f"{row['median_seconds'] / solvers[v]['median_seconds']:.1f}x"
+                for v in DEIK_VARIANTS
+            ]
+            lines.append(
+                f"| {name} | {solver} | {row['version']} | {100 * row['success']:.0f} % | "
+                f"{row['median_seconds']:.4f} | {row['median_evaluations']:.0f} | "
+                f"{row['median_generations']:.0f} | {' | '.join(ratios)} |"
+            )
     met = result["target"]["met"]
-    lines += ["", f"Target: deik (defaults) >= {TARGET_SPEEDUP:.0f}x faster than each peer on each problem: "
-              + ("not measured (a peer was skipped)" if met is None else "MET" if met else "NOT MET")]
+    lines += [
+        "",
+        f"Target: deik (defaults) >= {TARGET_SPEEDUP:.0f}x faster than each peer on each problem: "
+        + ("not measured (a peer was skipped)" if met is None else "MET" if met else "NOT MET"),
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -128,8 +149,12 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=RESULTS, help="results folder")
     a = p.parse_args(argv)
     began, load_before = time.perf_counter(), list(os.getloadavg())
-    result = {"benchmark": "de_peers", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-              "settings": {"trials": a.trials, "seed": a.seed, "max_generations": MAX_GENERATIONS}, "problems": {}}
+    result = {
+        "benchmark": "de_peers",
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "settings": {"trials": a.trials, "seed": a.seed, "max_generations": MAX_GENERATIONS},
+        "problems": {},
+    }
     ratios = []
     with tempfile.TemporaryDirectory() as work:
         for name, (skeleton, tip, pose, tol) in problems(a.robots).items():
@@ -139,10 +164,20 @@ def main(argv=None) -> int:
             P, R, seeds = kin.position(tip), kin.rotation(tip), [a.seed + k for k in range(a.trials)]
             problem_file = Path(work) / name / "problem.npz"
             problem_file.parent.mkdir()
-            np.savez(problem_file, **export_chain(skeleton, tip), positions=P, rotations=R, seeds=np.array(seeds),
-                     pose=pose, tolerances=np.array(tol), max_generations=MAX_GENERATIONS)
-            solvers = {name_: run_deik(settings, skeleton, tip, pose, tol, P, R, seeds)
-                       for name_, settings in DEIK_VARIANTS.items()}
+            np.savez(
+                problem_file,
+                **export_chain(skeleton, tip),
+                positions=P,
+                rotations=R,
+                seeds=np.array(seeds),
+                pose=pose,
+                tolerances=np.array(tol),
+                max_generations=MAX_GENERATIONS,
+            )
+            solvers = {
+                name_: run_deik(settings, skeleton, tip, pose, tol, P, R, seeds)
+                for name_, settings in DEIK_VARIANTS.items()
+            }
             solvers.update({peer: run_peer(peer, problem_file) for peer in DE_PEERS})
             for solver, row in solvers.items():
                 if "skipped" not in row:
@@ -152,8 +187,13 @@ def main(argv=None) -> int:
                 row = solvers[peer]
                 ratios.append(None if "skipped" in row else row["median_seconds"] / solvers["deik"]["median_seconds"])
             tolerances = [tol[0], None if np.isinf(tol[1]) else tol[1]]
-            result["problems"][name] = {"dofs": skeleton.n_dofs, "tip": tip, "pose": pose,
-                                        "tolerances": tolerances, "solvers": solvers}
+            result["problems"][name] = {
+                "dofs": skeleton.n_dofs,
+                "tip": tip,
+                "pose": pose,
+                "tolerances": tolerances,
+                "solvers": solvers,
+            }
     met = None if None in ratios else bool(min(ratios) >= TARGET_SPEEDUP)
     result["target"] = {"speedup": TARGET_SPEEDUP, "met": met, "ratios": ratios}
     result["environment"] = {**environment(), "load_average_before": load_before}

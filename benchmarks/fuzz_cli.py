@@ -100,15 +100,38 @@ weight = 0.1
 level = 1
 """
 
-NASTY = ["nan", "inf", "-inf", "1e308", "-1e308", "1e-320", "1_000", "0x10", "", "-0", "99999999999999999999",
-         "1e5e5", "e5", "true", "[]", "\"x\"", "{", "}", "-", "."]
+NASTY = [
+    "nan",
+    "inf",
+    "-inf",
+    "1e308",
+    "-1e308",
+    "1e-320",
+    "1_000",
+    "0x10",
+    "",
+    "-0",
+    "99999999999999999999",
+    "1e5e5",
+    "e5",
+    "true",
+    "[]",
+    '"x"',
+    "{",
+    "}",
+    "-",
+    ".",
+]
 NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
 
 
 def seeds() -> list[tuple[str, str, bytes]]:
     """(name, kind, content) of every seed file: the built-in ones, then the shared BVH and URDFs."""
-    out = [("seed.bvh", "bvh", SEED_BVH.encode()), ("seed.urdf", "urdf", SEED_URDF.encode()),
-           ("seed.toml", "toml", SEED_TOML.encode())]
+    out = [
+        ("seed.bvh", "bvh", SEED_BVH.encode()),
+        ("seed.urdf", "urdf", SEED_URDF.encode()),
+        ("seed.toml", "toml", SEED_TOML.encode()),
+    ]
     if SHARED.is_dir():
         for path in sorted(SHARED.glob("humanoid/*.bvh"))[:3] + sorted(SHARED.glob("robots/*.urdf")):
             out.append((path.name, path.suffix[1:], path.read_bytes()))
@@ -123,7 +146,7 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
         k = rng.randrange(len(lines))
         if choice == 0 and data:
             i = rng.randrange(len(data))
-            data = data[:i] + bytes([rng.randrange(256)]) + data[i + 1:]
+            data = data[:i] + bytes([rng.randrange(256)]) + data[i + 1 :]
         elif choice == 1:
             del lines[k]
             data = b"\n".join(lines)
@@ -131,13 +154,13 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
             lines.insert(k, lines[k])
             data = b"\n".join(lines)
         elif choice == 3:
-            data = data[:rng.randrange(len(data) + 1)]
+            data = data[: rng.randrange(len(data) + 1)]
         elif choice == 4:
             text = lines[k].decode("latin-1")
             numbers = list(NUMBER.finditer(text))
             if numbers:
                 m = rng.choice(numbers)
-                text = text[:m.start()] + rng.choice(NASTY) + text[m.end():]
+                text = text[: m.start()] + rng.choice(NASTY) + text[m.end() :]
             lines[k] = text.encode("latin-1")
             data = b"\n".join(lines)
         elif choice == 5:
@@ -214,8 +237,13 @@ def fuzz(cases: int, seed: int, folder: Path) -> dict:
         else:
             outcomes["ok" if status == 0 else "error"] += 1
         path.unlink()
-    return {"cases": cases, "outcomes": outcomes, "failures": failures, "slowest_case_s": slowest,
-            "seed_files": [name for name, _, _ in pool]}
+    return {
+        "cases": cases,
+        "outcomes": outcomes,
+        "failures": failures,
+        "slowest_case_s": slowest,
+        "seed_files": [name for name, _, _ in pool],
+    }
 
 
 def main(argv=None) -> int:
@@ -227,13 +255,21 @@ def main(argv=None) -> int:
         found = fuzz(200 if args.quick else args.cases, args.seed, Path(folder))
     targets = [target("cases that break the rules", 0, len(found["failures"]), "cases", True, at_most=True)]
     fig, axes = figure()
-    axes[0, 0].bar(["result", "one-line error", "broke a rule"],
-                   [found["outcomes"]["ok"], found["outcomes"]["error"], len(found["failures"])])
+    axes[0, 0].bar(
+        ["result", "one-line error", "broke a rule"],
+        [found["outcomes"]["ok"], found["outcomes"]["error"], len(found["failures"])],
+    )
     axes[0, 0].set_title(f"{found['cases']} mutated inputs through the CLI")
     result = finish("fuzz_cli", args, opening, {**found, "targets": targets}, fig)
-    print_report(result, ["outcome", "cases"], [["result", found["outcomes"]["ok"]],
-                                                ["one-line error", found["outcomes"]["error"]],
-                                                ["broke a rule", len(found["failures"])]])
+    print_report(
+        result,
+        ["outcome", "cases"],
+        [
+            ["result", found["outcomes"]["ok"]],
+            ["one-line error", found["outcomes"]["error"]],
+            ["broke a rule", len(found["failures"])],
+        ],
+    )
     for failure in found["failures"][:20]:
         print(f"case {failure['case']} ({failure['seed_file']}): {failure['why']}")
     return 1 if found["failures"] else 0

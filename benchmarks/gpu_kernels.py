@@ -26,10 +26,12 @@ import deik
 from benchmarks import harness, robot_targets
 
 KERNELS = ("initialise", "run")
-NCU_METRICS = ("sm__warps_active.avg.pct_of_peak_sustained_active,"
-               "sm__throughput.avg.pct_of_peak_sustained_elapsed,"
-               "dram__throughput.avg.pct_of_peak_sustained_elapsed,"
-               "launch__registers_per_thread,launch__occupancy_limit_registers")
+NCU_METRICS = (
+    "sm__warps_active.avg.pct_of_peak_sustained_active,"
+    "sm__throughput.avg.pct_of_peak_sustained_elapsed,"
+    "dram__throughput.avg.pct_of_peak_sustained_elapsed,"
+    "launch__registers_per_thread,launch__occupancy_limit_registers"
+)
 
 
 @dataclass(frozen=True)
@@ -67,7 +69,8 @@ def device_limits() -> Multiprocessor:
         threads=getattr(dev, "MAX_THREADS_PER_MULTIPROCESSOR", default.threads),
         registers=getattr(dev, "MAX_REGISTERS_PER_MULTIPROCESSOR", default.registers),
         shared_bytes=getattr(dev, "MAX_SHARED_MEMORY_PER_MULTIPROCESSOR", default.shared_bytes),
-        blocks=getattr(dev, "MAX_BLOCKS_PER_MULTIPROCESSOR", default.blocks))
+        blocks=getattr(dev, "MAX_BLOCKS_PER_MULTIPROCESSOR", default.blocks),
+    )
 
 
 def _resource(kernel, method: str):
@@ -83,18 +86,33 @@ def cases(quick: bool) -> list[tuple[str, deik.Problem, deik.Settings]]:
     """(name, problem, settings) of each profiled case."""
     links, batch, population = (10, 4, 64) if quick else (100, 64, 500)
     chain = harness.chain_problem(links, batch, 0)
-    out = [(f"chain {links} links x {batch} problems, DE only", chain,
-            harness.evaluation_settings(population, "gpu", "float32", 0))]
+    out = [
+        (
+            f"chain {links} links x {batch} problems, DE only",
+            chain,
+            harness.evaluation_settings(population, "gpu", "float32", 0),
+        )
+    ]
     try:
         skeleton, case, _ = robot_targets.load_case("panda")
     except (FileNotFoundError, OSError) as error:
         print(f"Panda case skipped: {error}", file=sys.stderr)
         return out
     targets = robot_targets.make_targets("panda", 4 if quick else 1024, seed=0)
-    panda = deik.Problem(skeleton, [deik.Position(case.tip, targets["positions"], tolerance=5e-3),
-                                    deik.Orientation(case.tip, targets["rotations"], tolerance=0.05)])
-    return out + [(f"Panda x {len(targets['positions'])}, memetic defaults", panda,
-                   deik.Settings(population=32, device="gpu", dtype="float32"))]
+    panda = deik.Problem(
+        skeleton,
+        [
+            deik.Position(case.tip, targets["positions"], tolerance=5e-3),
+            deik.Orientation(case.tip, targets["rotations"], tolerance=0.05),
+        ],
+    )
+    return out + [
+        (
+            f"Panda x {len(targets['positions'])}, memetic defaults",
+            panda,
+            deik.Settings(population=32, device="gpu", dtype="float32"),
+        )
+    ]
 
 
 def profile_case(name: str, problem: deik.Problem, settings: deik.Settings, sm: Multiprocessor) -> list[dict]:
@@ -109,13 +127,22 @@ def profile_case(name: str, problem: deik.Problem, settings: deik.Settings, sm: 
         regs = _resource(kernel, "get_regs_per_thread")
         local = _resource(kernel, "get_local_mem_per_thread")
         shared = _resource(kernel, "get_shared_mem_per_block")
-        row = {"case": name, "kernel": label, "threads_per_block": threads, "registers_per_thread": regs,
-               "local_bytes_per_thread": local, "shared_bytes_per_block": shared}
+        row = {
+            "case": name,
+            "kernel": label,
+            "threads_per_block": threads,
+            "registers_per_thread": regs,
+            "local_bytes_per_thread": local,
+            "shared_bytes_per_block": shared,
+        }
         if regs is not None:
             blocks, binding = blocks_per_multiprocessor(threads, regs, shared or 0, sm)
-            row.update(blocks_per_multiprocessor=blocks, binding_limit=binding,
-                       theoretical_occupancy=blocks * threads / sm.threads,
-                       local_bytes_resident=(local or 0) * blocks * threads)
+            row.update(
+                blocks_per_multiprocessor=blocks,
+                binding_limit=binding,
+                theoretical_occupancy=blocks * threads / sm.threads,
+                local_bytes_resident=(local or 0) * blocks * threads,
+            )
         rows.append(row)
     return rows
 
@@ -125,16 +152,43 @@ def run_ncu(args) -> dict:
     ncu = shutil.which("ncu")
     if ncu is None:
         return {"ran": False, "why": "ncu is not on PATH"}
-    command = [ncu, "--metrics", NCU_METRICS, "-k", "regex:run", "-c", "1", sys.executable, "-m",
-               "benchmarks.throughput", "--device", "gpu", "--links", "100", "--populations", "500",
-               "--batches", "1024", "--seconds", "0.05", "--repeats", "1", "--out", str(args.out / "ncu_run")]
+    command = [
+        ncu,
+        "--metrics",
+        NCU_METRICS,
+        "-k",
+        "regex:run",
+        "-c",
+        "1",
+        sys.executable,
+        "-m",
+        "benchmarks.throughput",
+        "--device",
+        "gpu",
+        "--links",
+        "100",
+        "--populations",
+        "500",
+        "--batches",
+        "1024",
+        "--seconds",
+        "0.05",
+        "--repeats",
+        "1",
+        "--out",
+        str(args.out / "ncu_run"),
+    ]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     except subprocess.TimeoutExpired:
         return {"ran": False, "why": "ncu took over 600 s", "command": " ".join(command)}
     (args.out / "gpu_kernels_ncu.txt").write_text(done.stdout + done.stderr)
-    return {"ran": done.returncode == 0, "returncode": done.returncode, "command": " ".join(command),
-            "text": "gpu_kernels_ncu.txt"}
+    return {
+        "ran": done.returncode == 0,
+        "returncode": done.returncode,
+        "command": " ".join(command),
+        "text": "gpu_kernels_ncu.txt",
+    }
 
 
 def plot(rows: list[dict]):
@@ -158,19 +212,42 @@ def main(argv=None) -> int:
     opening = harness.start(args)
     sm = device_limits()
     rows = [row for name, problem, settings in cases(args.quick) for row in profile_case(name, problem, settings, sm)]
-    result = harness.finish("gpu_kernels", args, opening, {
-        "multiprocessor": vars(sm), "rows": rows, "ncu": run_ncu(args) if args.ncu else {"ran": False, "why": "no --ncu"},
-        "targets": [],
-    }, plot(rows))
+    result = harness.finish(
+        "gpu_kernels",
+        args,
+        opening,
+        {
+            "multiprocessor": vars(sm),
+            "rows": rows,
+            "ncu": run_ncu(args) if args.ncu else {"ran": False, "why": "no --ncu"},
+            "targets": [],
+        },
+        plot(rows),
+    )
 
     def shown(value):
-        return "-" if value is None else (f"{value:.2f}" if isinstance(value, float) and not math.isnan(value) else value)
-    harness.print_report(result, ["case", "kernel", "threads", "registers", "local B", "shared B", "blocks/SM",
-                                  "limit", "occupancy"],
-                         [[r["case"], r["kernel"], r["threads_per_block"], shown(r["registers_per_thread"]),
-                           shown(r["local_bytes_per_thread"]), shown(r["shared_bytes_per_block"]),
-                           shown(r.get("blocks_per_multiprocessor")), shown(r.get("binding_limit")),
-                           shown(r.get("theoretical_occupancy"))] for r in rows])
+        return (
+            "-" if value is None else (f"{value:.2f}" if isinstance(value, float) and not math.isnan(value) else value)
+        )
+
+    harness.print_report(
+        result,
+        ["case", "kernel", "threads", "registers", "local B", "shared B", "blocks/SM", "limit", "occupancy"],
+        [
+            [
+                r["case"],
+                r["kernel"],
+                r["threads_per_block"],
+                shown(r["registers_per_thread"]),
+                shown(r["local_bytes_per_thread"]),
+                shown(r["shared_bytes_per_block"]),
+                shown(r.get("blocks_per_multiprocessor")),
+                shown(r.get("binding_limit")),
+                shown(r.get("theoretical_occupancy")),
+            ]
+            for r in rows
+        ],
+    )
     return 0
 
 

@@ -78,15 +78,17 @@ def threads(n: int):
 def machine(device: str, opening: dict) -> dict:
     """CPU model and count, Numba threads and threading layer, load average before and now,
     versions, and for --device gpu the GPU's name, memory and multiprocessor count."""
-    env = {**environment(), "cpu_model": cpu_model(), "load_average_before": opening["load_before"],
-           "device": device}
+    env = {**environment(), "cpu_model": cpu_model(), "load_average_before": opening["load_before"], "device": device}
     if device == "gpu":
         from numba import cuda
 
         gpu = cuda.get_current_device()
-        env.update(gpu_name=gpu_status()[1], gpu_multiprocessors=getattr(gpu, "MULTIPROCESSOR_COUNT", None),
-                   gpu_memory_bytes=float(cuda.current_context().get_memory_info()[1]),
-                   gpu_compute_capability=list(getattr(gpu, "compute_capability", ())))
+        env.update(
+            gpu_name=gpu_status()[1],
+            gpu_multiprocessors=getattr(gpu, "MULTIPROCESSOR_COUNT", None),
+            gpu_memory_bytes=float(cuda.current_context().get_memory_info()[1]),
+            gpu_compute_capability=list(getattr(gpu, "compute_capability", ())),
+        )
         try:
             env["numba_cuda"] = metadata.version("numba-cuda")
         except metadata.PackageNotFoundError:
@@ -105,8 +107,17 @@ def chain_problem(links: int, batch: int, seed: int, tolerance: float | None = N
 
 def evaluation_settings(population: int, device: str, dtype: str, seed: int) -> deik.Settings:
     """Default settings with only DE evaluation left: no polish, no restarts, no stopping."""
-    return deik.Settings(population=population, generations=MAX_GENERATIONS, polish=0, restarts=0,
-                         stop_on_converged=False, patience=10**9, seed=seed, device=device, dtype=dtype)
+    return deik.Settings(
+        population=population,
+        generations=MAX_GENERATIONS,
+        polish=0,
+        restarts=0,
+        stop_on_converged=False,
+        patience=10**9,
+        seed=seed,
+        device=device,
+        dtype=dtype,
+    )
 
 
 def timed_run(engine: deik.Engine, state, generations: int) -> float:
@@ -131,16 +142,20 @@ def time_engine(engine: deik.Engine, seconds: float, repeats: int) -> dict:
         g = min(MAX_GENERATIONS, max(2 * g, int(1.2 * g * seconds / max(t, 1e-9))))
         t = timed_run(engine, state, g)
     times = [t] + [timed_run(engine, state, g) for _ in range(repeats - 1)]
-    return {"generations": g, "seconds": times, "seconds_per_generation": min(times) / g,
-            "one_generation_seconds": one}
+    return {"generations": g, "seconds": times, "seconds_per_generation": min(times) / g, "one_generation_seconds": one}
 
 
 def finish(name: str, args, opening: dict, result: dict, figure) -> dict:
     """Add the machine facts and wall time to `result`, write NAME.json and NAME.png (the
     matplotlib `figure`) into args.out atomically; returns the completed result."""
-    result = {"benchmark": name, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-              "command": command(name, args), **result, "environment": machine(args.device, opening),
-              "seconds": time.perf_counter() - opening["t0"]}
+    result = {
+        "benchmark": name,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "command": command(name, args),
+        **result,
+        "environment": machine(args.device, opening),
+        "seconds": time.perf_counter() - opening["t0"],
+    }
     args.out.mkdir(parents=True, exist_ok=True)
     write_json_atomically(args.out / f"{name}.json", result)
     save_figure(figure, str(args.out / f"{name}.png"))
@@ -156,11 +171,14 @@ def command(name: str, args) -> str:
 def print_report(result: dict, header: list[str], rows: list[list]) -> None:
     """Machine line, markdown table and the targets of a finished benchmark."""
     env = result["environment"]
-    where = env.get("gpu_name") or (f"{env['cpu_model']}, {env['numba_threads']} Numba threads "
-                                     f"({env['numba_threading_layer']})")
-    print(f"\n{result['benchmark']} on {where}, {env['cpu_count']} CPUs; load average before "
-          f"{env['load_average_before'][0]:.2f}, after {env['load_average_1_5_15'][0]:.2f}; "
-          f"numpy {env['numpy']}, numba {env['numba']}; {result['seconds']:.1f} s\n")
+    where = env.get("gpu_name") or (
+        f"{env['cpu_model']}, {env['numba_threads']} Numba threads ({env['numba_threading_layer']})"
+    )
+    print(
+        f"\n{result['benchmark']} on {where}, {env['cpu_count']} CPUs; load average before "
+        f"{env['load_average_before'][0]:.2f}, after {env['load_average_1_5_15'][0]:.2f}; "
+        f"numpy {env['numpy']}, numba {env['numba']}; {result['seconds']:.1f} s\n"
+    )
     print(markdown_table(header, rows))
     for t in result["targets"]:
         verdict = "not measured here" if t["met"] is None else ("MET" if t["met"] else "NOT MET")
@@ -172,8 +190,14 @@ def target(what: str, goal: float, reached: float, unit: str, applies: bool, at_
     """One target, reached >= goal (or <= goal when `at_most`): met is None where it does not
     apply to this run (device, quick sizes)."""
     met = reached <= goal if at_most else reached >= goal
-    return {"what": what, "goal": goal, "reached": reached, "unit": unit, "comparison": "<=" if at_most else ">=",
-            "met": bool(met) if applies else None}
+    return {
+        "what": what,
+        "goal": goal,
+        "reached": reached,
+        "unit": unit,
+        "comparison": "<=" if at_most else ">=",
+        "met": bool(met) if applies else None,
+    }
 
 
 def style_axes(ax, xlabel: str, ylabel: str, title: str, ylog: bool = True) -> None:

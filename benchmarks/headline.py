@@ -29,8 +29,13 @@ def plot(rows: list[dict], links: int, population: int):
     seconds = [r["seconds_per_generation"] for r in rows]
     ax.bar([r["engine"] for r in rows], seconds, color=[f"C{k}" for k in range(len(rows))])
     for k, r in enumerate(rows):
-        ax.annotate(f"{r['seconds_per_generation']:.3g} s" + (f"\n{r['speedup']:.0f}x" if k else ""),
-                    (k, r["seconds_per_generation"]), ha="center", va="bottom", fontsize=8)
+        ax.annotate(
+            f"{r['seconds_per_generation']:.3g} s" + (f"\n{r['speedup']:.0f}x" if k else ""),
+            (k, r["seconds_per_generation"]),
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
     ax.set_yscale("log")
     ax.set_ylabel("seconds per generation")
     ax.set_title(f"{links}-link chain, population {population}, one problem")
@@ -48,9 +53,17 @@ def main(argv=None) -> int:
     p.add_argument("--serial-epochs", type=int, help="serial epochs averaged (default 3)")
     p.add_argument("--repeats", type=int, default=5, help="timed runs of the engines, best kept")
     args = p.parse_args(argv)
-    sizes = ({"links": 20, "population": 100, "generations": 20, "gpu_generations": 20, "serial_epochs": 1}
-             if args.quick else {"links": TARGET_LINKS, "population": TARGET_POPULATION, "generations": 200,
-                                 "gpu_generations": 1000, "serial_epochs": 3})
+    sizes = (
+        {"links": 20, "population": 100, "generations": 20, "gpu_generations": 20, "serial_epochs": 1}
+        if args.quick
+        else {
+            "links": TARGET_LINKS,
+            "population": TARGET_POPULATION,
+            "generations": 200,
+            "gpu_generations": 1000,
+            "serial_epochs": 3,
+        }
+    )
     opening = harness.start(args, sizes)
 
     problem = make_problem(args.links, args.seed)
@@ -59,24 +72,54 @@ def main(argv=None) -> int:
     cpu = time_parallel(problem, args.population, args.generations, args.repeats, args.seed, args.dtype, "cpu")
     rows.append({"engine": f"parallel CPU ({numba.get_num_threads()} threads)", **cpu})
     if args.device == "gpu":
-        rows.append({"engine": "parallel GPU", **time_parallel(problem, args.population, args.gpu_generations,
-                                                              args.repeats, args.seed, args.dtype, "gpu")})
+        rows.append(
+            {
+                "engine": "parallel GPU",
+                **time_parallel(
+                    problem, args.population, args.gpu_generations, args.repeats, args.seed, args.dtype, "gpu"
+                ),
+            }
+        )
     for r in rows:
         r["speedup"] = serial["seconds_per_generation"] / r["seconds_per_generation"]
         print(f"{r['engine']}: {r['seconds_per_generation']:.4g} s/generation, {r['speedup']:.0f}x", flush=True)
 
     headline = args.links == TARGET_LINKS and args.population == TARGET_POPULATION
-    result = harness.finish("headline", args, opening, {
-        "settings": {"links": args.links, "population": args.population, "generations": args.generations,
-                     "gpu_generations": args.gpu_generations, "serial_epochs": args.serial_epochs,
-                     "repeats": args.repeats, "seed": args.seed, "dtype": args.dtype, "quick": args.quick,
-                     "problem": "deik.chain(n), Position('tip', FK of a random pose); Settings.paper"},
-        "rows": rows,
-        "targets": [harness.target(f"speed-up per generation over the serial reference ({rows[-1]['engine']})",
-                                   TARGET_SPEEDUP, rows[-1]["speedup"], "x", args.device == "gpu" and headline)],
-    }, plot(rows, args.links, args.population))
-    harness.print_report(result, ["engine", "seconds per generation", "speed-up"],
-                         [[r["engine"], f"{r['seconds_per_generation']:.4g}", f"{r['speedup']:.0f}x"] for r in rows])
+    result = harness.finish(
+        "headline",
+        args,
+        opening,
+        {
+            "settings": {
+                "links": args.links,
+                "population": args.population,
+                "generations": args.generations,
+                "gpu_generations": args.gpu_generations,
+                "serial_epochs": args.serial_epochs,
+                "repeats": args.repeats,
+                "seed": args.seed,
+                "dtype": args.dtype,
+                "quick": args.quick,
+                "problem": "deik.chain(n), Position('tip', FK of a random pose); Settings.paper",
+            },
+            "rows": rows,
+            "targets": [
+                harness.target(
+                    f"speed-up per generation over the serial reference ({rows[-1]['engine']})",
+                    TARGET_SPEEDUP,
+                    rows[-1]["speedup"],
+                    "x",
+                    args.device == "gpu" and headline,
+                )
+            ],
+        },
+        plot(rows, args.links, args.population),
+    )
+    harness.print_report(
+        result,
+        ["engine", "seconds per generation", "speed-up"],
+        [[r["engine"], f"{r['seconds_per_generation']:.4g}", f"{r['speedup']:.0f}x"] for r in rows],
+    )
     return 0
 
 

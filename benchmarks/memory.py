@@ -103,29 +103,42 @@ def measure(links: int, population: int, batch: int, args) -> dict:
     tracemalloc.start()
     meter = DeviceMeter(args.device)
     t = time.perf_counter()
-    engine = deik.Engine(harness.chain_problem(links, batch, args.seed),
-                         harness.evaluation_settings(population, args.device, args.dtype, args.seed))
+    engine = deik.Engine(
+        harness.chain_problem(links, batch, args.seed),
+        harness.evaluation_settings(population, args.device, args.dtype, args.seed),
+    )
     state = meter.during(engine.init)
     state = meter.during(lambda: engine.run(state, args.generations))
     seconds = time.perf_counter() - t
     numpy_peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     state_bytes = sum(a.nbytes for a in state.buffers)
-    return {"links": links, "population": population, "batch": batch, "generations": args.generations,
-            "seconds": seconds, "state_bytes": state_bytes, "host_numpy_peak_bytes": numpy_peak,
-            "host_rss_peak_above_start_bytes": process_memory()["VmHWM"] - rss, "rss_peak_reset": reset,
-            "device_peak_bytes": meter.used}
+    return {
+        "links": links,
+        "population": population,
+        "batch": batch,
+        "generations": args.generations,
+        "seconds": seconds,
+        "state_bytes": state_bytes,
+        "host_numpy_peak_bytes": numpy_peak,
+        "host_rss_peak_above_start_bytes": process_memory()["VmHWM"] - rss,
+        "rss_peak_reset": reset,
+        "device_peak_bytes": meter.used,
+    }
 
 
 def plot(rows: list[dict], device: str):
     fig, axes = harness.figure(2)
-    for ax, key, label, scale in ((axes[0, 0], "population", "population (100-link chain, 1 problem)", "batch"),
-                                  (axes[0, 1], "batch", "batch size (20-link chain, population 64)", "population")):
+    for ax, key, label, _other in (
+        (axes[0, 0], "population", "population (100-link chain, 1 problem)", "batch"),
+        (axes[0, 1], "batch", "batch size (20-link chain, population 64)", "population"),
+    ):
         part = sorted((r for r in rows if r["sweep"] == key), key=lambda r: r[key])
         x = [r[key] for r in part]
         ax.plot(x, [r["host_numpy_peak_bytes"] for r in part], "o-", label="host: NumPy peak (tracemalloc)")
-        ax.plot(x, [max(r["host_rss_peak_above_start_bytes"], 1) for r in part], "s-",
-                label="host: peak RSS above start")
+        ax.plot(
+            x, [max(r["host_rss_peak_above_start_bytes"], 1) for r in part], "s-", label="host: peak RSS above start"
+        )
         ax.plot(x, [r["state_bytes"] for r in part], ":", color="grey", label="one copy of the state")
         if device == "gpu":
             ax.plot(x, [r["device_peak_bytes"] or 1 for r in part], "^-", label="device: peak used")
@@ -141,12 +154,15 @@ def main(argv=None) -> int:
     p.add_argument("--batches", type=int, nargs="+", help="batch sizes on the 20-link chain, population 64")
     p.add_argument("--generations", type=int, help="generations run per configuration (default 3)")
     args = p.parse_args(argv)
-    sizes = ({"populations": [200, 2000], "batches": [1, 10], "generations": 1} if args.quick else
-             {"populations": [1000, 10_000, TARGET_POPULATION], "batches": [1, 100, 1000, 10_000],
-              "generations": 3})
+    sizes = (
+        {"populations": [200, 2000], "batches": [1, 10], "generations": 1}
+        if args.quick
+        else {"populations": [1000, 10_000, TARGET_POPULATION], "batches": [1, 100, 1000, 10_000], "generations": 3}
+    )
     opening = harness.start(args, sizes)
-    deik.solve(harness.chain_problem(5, 2, args.seed), population=8, generations=2, device=args.device,
-               dtype=args.dtype)  # compile / load the kernels before measuring
+    deik.solve(
+        harness.chain_problem(5, 2, args.seed), population=8, generations=2, device=args.device, dtype=args.dtype
+    )  # compile / load the kernels before measuring
 
     configs = [("population", TARGET_LINKS, pop, 1) for pop in args.populations]
     configs += [("batch", 20, 64, b) for b in args.batches]
@@ -154,25 +170,59 @@ def main(argv=None) -> int:
     for sweep, links, population, batch in configs:
         row = {"sweep": sweep, **measure(links, population, batch, args)}
         rows.append(row)
-        print(f"links {links:3d} population {population:6d} batch {batch:6d}: NumPy peak "
-              f"{mib(row['host_numpy_peak_bytes'])} MiB, RSS peak +{mib(row['host_rss_peak_above_start_bytes'])} MiB, "
-              f"device {mib(row['device_peak_bytes'])} MiB", flush=True)
+        print(
+            f"links {links:3d} population {population:6d} batch {batch:6d}: NumPy peak "
+            f"{mib(row['host_numpy_peak_bytes'])} MiB, RSS peak +{mib(row['host_rss_peak_above_start_bytes'])} MiB, "
+            f"device {mib(row['device_peak_bytes'])} MiB",
+            flush=True,
+        )
 
     big = max((r for r in rows if r["sweep"] == "population"), key=lambda r: r["population"])
     peak = max(big["host_numpy_peak_bytes"], big["host_rss_peak_above_start_bytes"], big["device_peak_bytes"] or 0)
     applies = big["population"] >= TARGET_POPULATION and (args.device == "cpu" or big["device_peak_bytes"] is not None)
-    result = harness.finish("memory", args, opening, {
-        "settings": {"generations": args.generations, "dtype": args.dtype, "device": args.device, "quick": args.quick,
-                     "problem": "deik.chain(n), Position('tip', FK of random in-limit poses); polish and restarts off"},
-        "rows": rows,
-        "targets": [harness.target(f"peak memory (host and {args.device}), population {big['population']}, "
-                                   f"{TARGET_LINKS} links", GIB, peak, "bytes", applies, at_most=True)],
-    }, plot(rows, args.device))
-    harness.print_report(result, ["links", "population", "batch", "state MiB", "NumPy peak MiB", "RSS peak + MiB",
-                                  "device MiB", "seconds"],
-                         [[r["links"], r["population"], r["batch"], mib(r["state_bytes"]),
-                           mib(r["host_numpy_peak_bytes"]), mib(r["host_rss_peak_above_start_bytes"]),
-                           mib(r["device_peak_bytes"]), f"{r['seconds']:.2f}"] for r in rows])
+    result = harness.finish(
+        "memory",
+        args,
+        opening,
+        {
+            "settings": {
+                "generations": args.generations,
+                "dtype": args.dtype,
+                "device": args.device,
+                "quick": args.quick,
+                "problem": "deik.chain(n), Position('tip', FK of random in-limit poses); polish and restarts off",
+            },
+            "rows": rows,
+            "targets": [
+                harness.target(
+                    f"peak memory (host and {args.device}), population {big['population']}, {TARGET_LINKS} links",
+                    GIB,
+                    peak,
+                    "bytes",
+                    applies,
+                    at_most=True,
+                )
+            ],
+        },
+        plot(rows, args.device),
+    )
+    harness.print_report(
+        result,
+        ["links", "population", "batch", "state MiB", "NumPy peak MiB", "RSS peak + MiB", "device MiB", "seconds"],
+        [
+            [
+                r["links"],
+                r["population"],
+                r["batch"],
+                mib(r["state_bytes"]),
+                mib(r["host_numpy_peak_bytes"]),
+                mib(r["host_rss_peak_above_start_bytes"]),
+                mib(r["device_peak_bytes"]),
+                f"{r['seconds']:.2f}",
+            ]
+            for r in rows
+        ],
+    )
     return 0
 
 

@@ -23,20 +23,28 @@ from pathlib import Path
 import deik
 from benchmarks.harness import figure, finish, parser, print_report, start, style_axes, target
 
+
 def urdf_chain(n: int) -> str:
     """A URDF of n links joined by revolute joints."""
     out = ['<?xml version="1.0"?>', '<robot name="chain">', '<link name="l0"/>']
     for k in range(1, n):
-        out += [f'<link name="l{k}"><inertial><mass value="1"/></inertial></link>',
-                f'<joint name="j{k}" type="revolute"><parent link="l{k - 1}"/><child link="l{k}"/>'
-                '<origin xyz="0 0 0.01" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>']
+        out += [
+            f'<link name="l{k}"><inertial><mass value="1"/></inertial></link>',
+            f'<joint name="j{k}" type="revolute"><parent link="l{k - 1}"/><child link="l{k}"/>'
+            '<origin xyz="0 0 0.01" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>',
+        ]
     return "\n".join(out + ["</robot>"]) + "\n"
 
 
 def bvh_frames(n: int) -> str:
     """A 13-joint chain clip (root with 6 channels, 12 joints with 3) of n frames."""
-    lines = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0",
-             "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    lines = [
+        "HIERARCHY",
+        "ROOT j0",
+        "{",
+        "OFFSET 0 0 0",
+        "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+    ]
     for k in range(1, 13):
         lines += [f"JOINT j{k}", "{", "OFFSET 0 0.1 0", "CHANNELS 3 Zrotation Xrotation Yrotation"]
     lines += ["End Site", "{", "OFFSET 0 0.1 0", "}"] + ["}"] * 13
@@ -65,8 +73,10 @@ def best_time(read, path: Path, repeats: int) -> float:
 
 def first_read_in_fresh_process(path: Path) -> float:
     """Seconds from `import deik` to a read URDF skeleton in a new interpreter (imports included)."""
-    code = ("import time; t = time.perf_counter(); import deik; deik.read_urdf(%r); "
-            "print(time.perf_counter() - t)" % str(path))
+    code = (
+        f"import time; t = time.perf_counter(); import deik; deik.read_urdf({str(path)!r}); "
+        "print(time.perf_counter() - t)"
+    )
     return float(subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout)
 
 
@@ -75,10 +85,16 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=3)
     args = p.parse_args(argv)
     opening = start(args)
-    sizes = ({"urdf": [250, 500], "frames": [5_000, 10_000], "deep": [500, 1_000]} if args.quick else
-             {"urdf": [1_000, 2_000, 4_000], "frames": [50_000, 100_000, 200_000], "deep": [5_000, 10_000, 20_000]})
-    makers = {"urdf": (urdf_chain, deik.read_urdf, ".urdf"), "frames": (bvh_frames, deik.read_bvh, ".bvh"),
-              "deep": (bvh_deep, deik.read_bvh, ".bvh")}
+    sizes = (
+        {"urdf": [250, 500], "frames": [5_000, 10_000], "deep": [500, 1_000]}
+        if args.quick
+        else {"urdf": [1_000, 2_000, 4_000], "frames": [50_000, 100_000, 200_000], "deep": [5_000, 10_000, 20_000]}
+    )
+    makers = {
+        "urdf": (urdf_chain, deik.read_urdf, ".urdf"),
+        "frames": (bvh_frames, deik.read_bvh, ".bvh"),
+        "deep": (bvh_deep, deik.read_bvh, ".bvh"),
+    }
     series, rows = {}, []
     with tempfile.TemporaryDirectory() as folder:
         for kind, counts in sizes.items():
@@ -93,7 +109,9 @@ def main(argv=None) -> int:
                 point = {"size": n, "seconds": best_time(read, path, args.repeats), "bytes": path.stat().st_size}
                 if series[kind]:
                     before = series[kind][-1]
-                    point["growth_for_double"] = 2 ** (math.log2(point["seconds"] / before["seconds"]) / math.log2(n / before["size"]))
+                    point["growth_for_double"] = 2 ** (
+                        math.log2(point["seconds"] / before["seconds"]) / math.log2(n / before["size"])
+                    )
                 series[kind].append(point)
                 growth = point.get("growth_for_double")
                 rows.append([kind, n, f"{point['seconds']:.3f}", "-" if growth is None else f"{growth:.2f}"])
@@ -103,17 +121,34 @@ def main(argv=None) -> int:
     at = {kind: {s["size"]: s["seconds"] for s in series[kind]} for kind in series}
     # at --quick sizes the largest measured file stands in, and the verdict is "not measured here"
     targets = [
-        target("URDF of 2,000 links read", 0.5, at["urdf"].get(2000, max(at["urdf"].values())), "s",
-               not args.quick, at_most=True),
-        target("BVH of 200,000 frames read", 5.0, at["frames"].get(200_000, max(at["frames"].values())), "s",
-               not args.quick, at_most=True),
+        target(
+            "URDF of 2,000 links read",
+            0.5,
+            at["urdf"].get(2000, max(at["urdf"].values())),
+            "s",
+            not args.quick,
+            at_most=True,
+        ),
+        target(
+            "BVH of 200,000 frames read",
+            5.0,
+            at["frames"].get(200_000, max(at["frames"].values())),
+            "s",
+            not args.quick,
+            at_most=True,
+        ),
     ]
     fig, axes = figure()
     for kind, label in (("urdf", "URDF links"), ("frames", "BVH frames"), ("deep", "BVH joints deep")):
         axes[0, 0].plot([s["size"] for s in series[kind]], [s["seconds"] for s in series[kind]], "o-", label=label)
     style_axes(axes[0, 0], "size (links, frames or joints)", "seconds (best of repeats)", "Parsing time")
-    result = finish("parsing", args, opening, {"series": series, "urdf_first_read_fresh_process_s": first_read,
-                                                "targets": targets, "quick": args.quick}, fig)
+    result = finish(
+        "parsing",
+        args,
+        opening,
+        {"series": series, "urdf_first_read_fresh_process_s": first_read, "targets": targets, "quick": args.quick},
+        fig,
+    )
     print_report(result, ["file", "size", "seconds", "growth for double (2 = linear)"], rows)
     print(f"first read of the largest URDF in a fresh process (imports included): {first_read:.2f} s")
     return 0

@@ -55,10 +55,18 @@ def make_targets(name: str, n: int, seed: int = 0, robots: Path = ROBOTS) -> dic
     q_true = rng.uniform(skeleton.lower, skeleton.upper, (n, skeleton.n_dofs))
     kin = deik.forward_kinematics(skeleton, q_true)
     return {
-        "case": name, "urdf": str(path), "base": case.base, "tip": case.tip, "seed": seed,
-        "dof_names": np.array(skeleton.dof_names), "joint_names": np.array(skeleton.joint_names),
-        "q_true": q_true, "positions": kin.position(case.tip), "rotations": kin.rotation(case.tip),
-        "start": (skeleton.lower + skeleton.upper) / 2, "lower": skeleton.lower.copy(),
+        "case": name,
+        "urdf": str(path),
+        "base": case.base,
+        "tip": case.tip,
+        "seed": seed,
+        "dof_names": np.array(skeleton.dof_names),
+        "joint_names": np.array(skeleton.joint_names),
+        "q_true": q_true,
+        "positions": kin.position(case.tip),
+        "rotations": kin.rotation(case.tip),
+        "start": (skeleton.lower + skeleton.upper) / 2,
+        "lower": skeleton.lower.copy(),
         "upper": skeleton.upper.copy(),
     }
 
@@ -114,10 +122,19 @@ def export_chain(skeleton: deik.Skeleton, tip: str) -> dict:
         path.append(int(skeleton.parents[path[-1]]))
     m = skeleton.motions
     return {
-        "path": np.array(path[::-1], np.int64), "parents": np.asarray(skeleton.parents, np.int64),
-        "offsets": skeleton.offsets.copy(), "joint_rotation": skeleton.joint_rotation.copy(),
-        "joint_start": np.asarray(m.joint_start, np.int64), "rotate": m.kind == ROTATE,
-        "axis": m.axis.copy(), "source": np.asarray(m.source, np.int64), "scale": m.scale.copy(),
-        "bias": m.bias.copy(), "tip_joint": np.int64(tip_joint), "tip_offset": np.array(tip_offset),
-        "tip_rotation": np.array(tip_rotation), "lower": skeleton.lower.copy(), "upper": skeleton.upper.copy(),
+        "path": np.array(path[::-1], np.int64),
+        "parents": np.asarray(skeleton.parents, np.int64),
+        "offsets": skeleton.offsets.copy(),
+        "joint_rotation": skeleton.joint_rotation.copy(),
+        "joint_start": np.asarray(m.joint_start, np.int64),
+        "rotate": m.kind == ROTATE,
+        "axis": m.axis.copy(),
+        "source": np.asarray(m.source, np.int64),
+        "scale": m.scale.copy(),
+        "bias": m.bias.copy(),
+        "tip_joint": np.int64(tip_joint),
+        "tip_offset": np.array(tip_offset),
+        "tip_rotation": np.array(tip_rotation),
+        "lower": skeleton.lower.copy(),
+        "upper": skeleton.upper.copy(),
     }

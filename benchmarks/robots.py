@@ -41,8 +41,10 @@ PEER_TIMEOUT_S = 900
 
 def deik_problem(skeleton, tip, positions, rotations) -> deik.Problem:
     """Tip pose goals at the strict tolerances; targets (3,) / (3, 3) or batched (B, 3) / (B, 3, 3)."""
-    return deik.Problem(skeleton, [deik.Position(tip, positions, tolerance=STRICT[0]),
-                                   deik.Orientation(tip, rotations, tolerance=STRICT[1])])
+    return deik.Problem(
+        skeleton,
+        [deik.Position(tip, positions, tolerance=STRICT[0]), deik.Orientation(tip, rotations, tolerance=STRICT[1])],
+    )
 
 
 def solve_deik_single(skeleton, tip, position, rotation, start, seed) -> np.ndarray:
@@ -59,8 +61,9 @@ def solve_deik_reused(skeleton, tip, positions, rotations, start, seed) -> tuple
     angles, seconds = [], []
     for k in range(len(positions)):
         t0 = time.perf_counter()
-        angles.append(solver.solve({labels[0]: positions[k], labels[1]: rotations[k]}, initial=start[None],
-                                   seed=seed + k).angles)
+        angles.append(
+            solver.solve({labels[0]: positions[k], labels[1]: rotations[k]}, initial=start[None], seed=seed + k).angles
+        )
         seconds.append(time.perf_counter() - t0)
     return np.array(angles), seconds
 
@@ -78,11 +81,15 @@ def score(skeleton, targets: dict, angles, seconds) -> dict:
     loose = (pos <= LOOSE[0]) & (rot <= LOOSE[1]) & inside
     seconds = np.asarray(seconds, dtype=float)
     return {
-        "n": len(pos), "success_strict": float(strict.mean()), "success_loose": float(loose.mean()),
+        "n": len(pos),
+        "success_strict": float(strict.mean()),
+        "success_loose": float(loose.mean()),
         "success_strict_within_budget": float((strict & (seconds <= BUDGET_S)).mean()),
         "within_limits": float(inside.mean()),
-        "median_position_error_m": float(np.median(pos)), "median_orientation_error_rad": float(np.median(rot)),
-        "median_ms": float(np.median(seconds) * 1e3), "p95_ms": float(np.percentile(seconds, 95) * 1e3),
+        "median_position_error_m": float(np.median(pos)),
+        "median_orientation_error_rad": float(np.median(rot)),
+        "median_ms": float(np.median(seconds) * 1e3),
+        "p95_ms": float(np.percentile(seconds, 95) * 1e3),
         "mean_ms": float(seconds.mean() * 1e3),
     }
 
@@ -102,11 +109,18 @@ def run_deik(skeleton, targets: dict, seed: int) -> dict:
     t0 = time.perf_counter()
     batch = solve_deik_batch(skeleton, tip, P, R, start, seed)
     wall = time.perf_counter() - t0
-    row = {"version": deik.__version__, "settings": {**DEIK, "seed": "seed + target index (single); seed (batch)"},
-           **score(skeleton, targets, np.array(angles), seconds)}
+    row = {
+        "version": deik.__version__,
+        "settings": {**DEIK, "seed": "seed + target index (single); seed (batch)"},
+        **score(skeleton, targets, np.array(angles), seconds),
+    }
     batch_score = score(skeleton, targets, batch, np.full(len(P), wall / len(P)))
-    row["batch"] = {"seconds": wall, "problems_per_second": len(P) / wall,
-                    "success_strict": batch_score["success_strict"], "success_loose": batch_score["success_loose"]}
+    row["batch"] = {
+        "seconds": wall,
+        "problems_per_second": len(P) / wall,
+        "success_strict": batch_score["success_strict"],
+        "success_loose": batch_score["success_loose"],
+    }
     solver_score = score(skeleton, targets, reused[0], reused[1])
     row["solver"] = {k: solver_score[k] for k in ("success_strict", "median_ms", "p95_ms")}
     return row
@@ -119,8 +133,14 @@ def run_peer(name: str, skeleton, targets: dict, targets_file: Path) -> dict:
     out = targets_file.with_name(f"{name}.json")
     cmd = [str(PEERS_PYTHON), "-m", "benchmarks.peers.run_peer", name, str(targets_file), str(out)]
     try:
-        proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=PEER_TIMEOUT_S,
-                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+        proc = subprocess.run(
+            cmd,
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=PEER_TIMEOUT_S,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+        )
     except subprocess.TimeoutExpired:
         return {"skipped": f"timed out after {PEER_TIMEOUT_S} s"}
     if not out.exists():
@@ -134,14 +154,20 @@ def run_peer(name: str, skeleton, targets: dict, targets_file: Path) -> dict:
 
 def markdown(result: dict) -> str:
     """One table per case: success rates and times per solver."""
-    lines = [f"Robot IK, TRAC-IK protocol: {result['settings']['targets']} random in-limit targets per case, "
-             "start at mid-limits, scored by deik's float64 FK. strict = 1e-5 m and 1e-4 rad with joints in "
-             "limits; loose = 1e-3 m and 1e-2 rad; ≤5 ms = strict within 5 ms. Times per solve call; CPU shared, "
-             "timings noisy."]
+    lines = [
+        f"Robot IK, TRAC-IK protocol: {result['settings']['targets']} random in-limit targets per case, "
+        "start at mid-limits, scored by deik's float64 FK. strict = 1e-5 m and 1e-4 rad with joints in "
+        "limits; loose = 1e-3 m and 1e-2 rad; ≤5 ms = strict within 5 ms. Times per solve call; CPU shared, "
+        "timings noisy."
+    ]
     for case, data in result["cases"].items():
-        lines += ["", f"### {case} ({data['dofs']} DOF, {data['base']} -> {data['tip']})", "",
-                  "| solver | version | strict | loose | ≤5 ms | median ms | p95 ms | note |",
-                  "|---|---|---:|---:|---:|---:|---:|---|"]
+        lines += [
+            "",
+            f"### {case} ({data['dofs']} DOF, {data['base']} -> {data['tip']})",
+            "",
+            "| solver | version | strict | loose | ≤5 ms | median ms | p95 ms | note |",
+            "|---|---|---:|---:|---:|---:|---:|---|",
+        ]
         for name, row in data["solvers"].items():
             if "skipped" in row:
                 lines.append(f"| {name} | | | | | | | skipped: {row['skipped'][:120]} |")
@@ -149,15 +175,21 @@ def markdown(result: dict) -> str:
             note = ""
             if "batch" in row:
                 b = row["batch"]
-                note = (f"batch of {row['n']}: {b['problems_per_second']:.0f} problems/s, "
-                        f"strict {100 * b['success_strict']:.1f} %, loose {100 * b['success_loose']:.1f} %")
+                note = (
+                    f"batch of {row['n']}: {b['problems_per_second']:.0f} problems/s, "
+                    f"strict {100 * b['success_strict']:.1f} %, loose {100 * b['success_loose']:.1f} %"
+                )
             if "solver" in row:
                 s = row["solver"]
-                note += (f"; deik.Solver reused: median {s['median_ms']:.2f} ms, p95 {s['p95_ms']:.2f} ms, "
-                         f"strict {100 * s['success_strict']:.1f} %")
-            lines.append(f"| {name} | {row['version']} | {100 * row['success_strict']:.1f} % | "
-                         f"{100 * row['success_loose']:.1f} % | {100 * row['success_strict_within_budget']:.1f} % | "
-                         f"{row['median_ms']:.2f} | {row['p95_ms']:.2f} | {note} |")
+                note += (
+                    f"; deik.Solver reused: median {s['median_ms']:.2f} ms, p95 {s['p95_ms']:.2f} ms, "
+                    f"strict {100 * s['success_strict']:.1f} %"
+                )
+            lines.append(
+                f"| {name} | {row['version']} | {100 * row['success_strict']:.1f} % | "
+                f"{100 * row['success_loose']:.1f} % | {100 * row['success_strict_within_budget']:.1f} % | "
+                f"{row['median_ms']:.2f} | {row['p95_ms']:.2f} | {note} |"
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -178,8 +210,14 @@ def plot(result: dict, path: Path) -> None:
             ax.plot(row["median_ms"], y, "o", color=colour, label=name)
             if "batch" in row:
                 per = 1e3 / row["batch"]["problems_per_second"]
-                ax.plot(per, 100 * row["batch"]["success_strict"], "*", ms=11, color=colour,
-                        label=f"{name} batch (amortised)")
+                ax.plot(
+                    per,
+                    100 * row["batch"]["success_strict"],
+                    "*",
+                    ms=11,
+                    color=colour,
+                    label=f"{name} batch (amortised)",
+                )
         ax.axvline(BUDGET_S * 1e3, color="grey", ls=":", lw=1)
         ax.set_xscale("log")
         ax.set_ylim(-3, 103)
@@ -207,9 +245,20 @@ def main(argv=None) -> int:
     if unknown:
         p.error(f"unknown peers {unknown}; choose from {PEERS}")
     began, load_before = time.perf_counter(), list(os.getloadavg())
-    result = {"benchmark": "robots", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-              "settings": {"targets": a.targets, "seed": a.seed, "strict": STRICT, "loose": LOOSE,
-                           "budget_s": BUDGET_S, "deik": DEIK, "peers": list(peers)}, "cases": {}}
+    result = {
+        "benchmark": "robots",
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "settings": {
+            "targets": a.targets,
+            "seed": a.seed,
+            "strict": STRICT,
+            "loose": LOOSE,
+            "budget_s": BUDGET_S,
+            "deik": DEIK,
+            "peers": list(peers),
+        },
+        "cases": {},
+    }
     with tempfile.TemporaryDirectory() as work:
         for case in a.cases:
             skeleton = load_case(case, a.robots)[0]
@@ -221,8 +270,13 @@ def main(argv=None) -> int:
             for name in peers:
                 solvers[name] = run_peer(name, skeleton, targets, folder / "targets.npz")
                 print(f"{case}: {name} done", file=sys.stderr, flush=True)
-            result["cases"][case] = {"dofs": skeleton.n_dofs, "base": targets["base"], "tip": targets["tip"],
-                                     "dof_names": list(skeleton.dof_names), "solvers": solvers}
+            result["cases"][case] = {
+                "dofs": skeleton.n_dofs,
+                "base": targets["base"],
+                "tip": targets["tip"],
+                "dof_names": list(skeleton.dof_names),
+                "solvers": solvers,
+            }
     result["environment"] = {**environment(), "load_average_before": load_before}
     result["wall_s"] = time.perf_counter() - began
     write_atomic(a.out / "robots.json", lambda tmp: Path(tmp).write_text(json.dumps(result, indent=2) + "\n"))

@@ -26,8 +26,13 @@ from deik.experiments.common import markdown_table
 from deik.experiments.timing import machine_line
 from deik.io.atomic import write_json_atomically, write_text_atomically
 
-STAGES = (("a", "serial_vs_parallel", serial_vs_parallel), ("b", "throughput", throughput),
-          ("c", "headline", headline), ("d", "batch", batch), ("f", "memory", memory))
+STAGES = (
+    ("a", "serial_vs_parallel", serial_vs_parallel),
+    ("b", "throughput", throughput),
+    ("c", "headline", headline),
+    ("d", "batch", batch),
+    ("f", "memory", memory),
+)
 GPU_STAGES = (("3", "gpu_kernels", gpu_kernels),)  # kernel resources and occupancy, GPU only
 SPEEDUP_GOAL = 100.0  # issue 5 item 4a: >= 100x at 100 links, population 500
 
@@ -44,12 +49,27 @@ def targets_of(name: str, result: dict) -> list[dict]:
         return result["targets"]
     rows = [r for r in result["rows"] if r["links"] == 100]
     if not rows:
-        return [{"what": "serial vs parallel CPU speed-up, 100 links", "goal": SPEEDUP_GOAL, "reached": None,
-                 "unit": "x", "comparison": ">=", "met": None}]
+        return [
+            {
+                "what": "serial vs parallel CPU speed-up, 100 links",
+                "goal": SPEEDUP_GOAL,
+                "reached": None,
+                "unit": "x",
+                "comparison": ">=",
+                "met": None,
+            }
+        ]
     population = result["settings"]["population"]
-    return [{"what": f"serial vs parallel CPU speed-up, 100 links, population {population}", "goal": SPEEDUP_GOAL,
-             "reached": rows[0]["speedup"], "unit": "x", "comparison": ">=",
-             "met": bool(rows[0]["speedup"] >= SPEEDUP_GOAL) if population == 500 else None}]
+    return [
+        {
+            "what": f"serial vs parallel CPU speed-up, 100 links, population {population}",
+            "goal": SPEEDUP_GOAL,
+            "reached": rows[0]["speedup"],
+            "unit": "x",
+            "comparison": ">=",
+            "met": bool(rows[0]["speedup"] >= SPEEDUP_GOAL) if population == 500 else None,
+        }
+    ]
 
 
 def summary(stages: list[dict], args, seconds: float) -> str:
@@ -59,15 +79,35 @@ def summary(stages: list[dict], args, seconds: float) -> str:
         for t in s.get("targets", []):
             reached = "-" if t["reached"] is None else f"{t['reached']:.3g}"
             verdict = "n/a here" if t["met"] is None else ("met" if t["met"] else "NOT met")
-            rows.append([f"{s['item']}. {s['name']}", t["what"], f"{t['comparison']} {t['goal']:.3g} {t['unit']}",
-                         reached, verdict])
+            rows.append(
+                [
+                    f"{s['item']}. {s['name']}",
+                    t["what"],
+                    f"{t['comparison']} {t['goal']:.3g} {t['unit']}",
+                    reached,
+                    verdict,
+                ]
+            )
     quick = " --quick" if args.quick else ""
-    lines = [f"# Benchmarks ({args.device}{', quick sizes' if args.quick else ''})", "", machine_line(), "",
-             markdown_table(["benchmark", "target", "goal", "reached", "verdict"], rows), "",
-             markdown_table(["benchmark", "seconds", "status"],
-                            [[f"{s['item']}. {s['name']}", f"{s['seconds']:.1f}", s["status"]] for s in stages]),
-             "", f"Total {seconds:.0f} s. Command:", "", "```sh",
-             f"PYTHONPATH=src python -m benchmarks.run_all --device {args.device}{quick} --out {args.out}", "```", ""]
+    lines = [
+        f"# Benchmarks ({args.device}{', quick sizes' if args.quick else ''})",
+        "",
+        machine_line(),
+        "",
+        markdown_table(["benchmark", "target", "goal", "reached", "verdict"], rows),
+        "",
+        markdown_table(
+            ["benchmark", "seconds", "status"],
+            [[f"{s['item']}. {s['name']}", f"{s['seconds']:.1f}", s["status"]] for s in stages],
+        ),
+        "",
+        f"Total {seconds:.0f} s. Command:",
+        "",
+        "```sh",
+        f"PYTHONPATH=src python -m benchmarks.run_all --device {args.device}{quick} --out {args.out}",
+        "```",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -94,8 +134,10 @@ def main(argv=None) -> int:
         stages.append(stage)
     seconds = time.perf_counter() - t0
     text = summary(stages, args, seconds)
-    write_json_atomically(args.out / "run_all.json", {"device": args.device, "quick": args.quick,
-                                                      "seconds": seconds, "machine": machine_line(), "stages": stages})
+    write_json_atomically(
+        args.out / "run_all.json",
+        {"device": args.device, "quick": args.quick, "seconds": seconds, "machine": machine_line(), "stages": stages},
+    )
     write_text_atomically(args.out / "run_all.md", text)
     print("\n" + text)
     return 0 if all(s["status"] == "ok" for s in stages) else 1

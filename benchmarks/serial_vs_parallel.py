@@ -58,8 +58,12 @@ def plot(rows: list[dict], population: int, path: Path) -> None:
     links = [r["links"] for r in rows]
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(links, [r["serial"]["seconds_per_generation"] for r in rows], "o-", label="serial (Algorithm 1, NumPy)")
-    ax.plot(links, [r["parallel"]["seconds_per_generation"] for r in rows], "s-",
-            label=f"parallel CPU engine ({rows[0]['threads']} Numba threads)")
+    ax.plot(
+        links,
+        [r["parallel"]["seconds_per_generation"] for r in rows],
+        "s-",
+        label=f"parallel CPU engine ({rows[0]['threads']} Numba threads)",
+    )
     for r in rows:  # speed-up written halfway (geometrically) between the two curves
         mid = (r["serial"]["seconds_per_generation"] * r["parallel"]["seconds_per_generation"]) ** 0.5
         ax.annotate(f"{r['speedup']:.0f}x", (r["links"], mid), ha="center", va="center", fontsize=8)
@@ -73,8 +77,10 @@ def plot(rows: list[dict], population: int, path: Path) -> None:
 def table(rows: list[dict]) -> str:
     lines = ["| links | serial s/gen | parallel s/gen | speed-up |", "|---:|---:|---:|---:|"]
     for r in rows:
-        lines.append(f"| {r['links']} | {r['serial']['seconds_per_generation']:.4f} | "
-                     f"{r['parallel']['seconds_per_generation']:.6f} | {r['speedup']:.0f}x |")
+        lines.append(
+            f"| {r['links']} | {r['serial']['seconds_per_generation']:.4f} | "
+            f"{r['parallel']['seconds_per_generation']:.6f} | {r['speedup']:.0f}x |"
+        )
     return "\n".join(lines)
 
 
@@ -105,44 +111,66 @@ def main(argv=None) -> int:
         problem = make_problem(n, a.seed)
         par = time_parallel(problem, a.population, a.generations, a.repeats, a.seed, a.dtype)
         ser = time_serial(problem, a.population, a.serial_epochs, a.seed)
-        row = {"links": n, "dofs": problem.skeleton.n_dofs, "threads": numba.get_num_threads(),
-               "serial": ser, "parallel": par,
-               "speedup": ser["seconds_per_generation"] / par["seconds_per_generation"]}
+        row = {
+            "links": n,
+            "dofs": problem.skeleton.n_dofs,
+            "threads": numba.get_num_threads(),
+            "serial": ser,
+            "parallel": par,
+            "speedup": ser["seconds_per_generation"] / par["seconds_per_generation"],
+        }
         rows.append(row)
-        print(f"links {n:4d}: serial {ser['seconds_per_generation']:.4f} s/gen, parallel "
-              f"{par['seconds_per_generation']:.6f} s/gen, {row['speedup']:.0f}x", flush=True)
+        print(
+            f"links {n:4d}: serial {ser['seconds_per_generation']:.4f} s/gen, parallel "
+            f"{par['seconds_per_generation']:.6f} s/gen, {row['speedup']:.0f}x",
+            flush=True,
+        )
 
     at_target = [r for r in rows if r["links"] == TARGET_LINKS]
     met = None if not at_target else bool(at_target[0]["speedup"] >= TARGET_SPEEDUP)
     result = {
-        "benchmark": "serial_vs_parallel", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "settings": {"population": a.population, "parallel_generations": a.generations,
-                     "serial_epochs": a.serial_epochs, "repeats": a.repeats, "seed": a.seed,
-                     "quick": a.quick, "problem": "deik.chain(n), Position('tip', FK of a random pose)",
-                     "limits": "reflect (Problem default)"},
+        "benchmark": "serial_vs_parallel",
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "settings": {
+            "population": a.population,
+            "parallel_generations": a.generations,
+            "serial_epochs": a.serial_epochs,
+            "repeats": a.repeats,
+            "seed": a.seed,
+            "quick": a.quick,
+            "problem": "deik.chain(n), Position('tip', FK of a random pose)",
+            "limits": "reflect (Problem default)",
+        },
         "environment": {**environment(), "load_average_before": load_before},
         "target": {"links": TARGET_LINKS, "speedup": TARGET_SPEEDUP, "met": met},
         "rows": rows,
     }
-    write_atomic(a.out / "serial_vs_parallel.json",
-                 lambda tmp: Path(tmp).write_text(json.dumps(result, indent=2) + "\n"))
+    write_atomic(
+        a.out / "serial_vs_parallel.json", lambda tmp: Path(tmp).write_text(json.dumps(result, indent=2) + "\n")
+    )
     plot(rows, a.population, a.out / "serial_vs_parallel.png")
 
     env = result["environment"]
     print()
-    print(f"population {a.population}; {env['numba_threads']} Numba threads on {env['cpu_count']} CPUs; "
-          f"{env['platform']}; numpy {env['numpy']}, numba {env['numba']}")
+    print(
+        f"population {a.population}; {env['numba_threads']} Numba threads on {env['cpu_count']} CPUs; "
+        f"{env['platform']}; numpy {env['numpy']}, numba {env['numba']}"
+    )
     if load_before and load_before[0] > 0.5 * (env["cpu_affinity"] or env["cpu_count"]):
-        print(f"warning: load average {load_before[0]:.1f} on {env['cpu_count']} CPUs before the run: other "
-              "processes compete and the parallel timings (threads waiting at each generation) are noisy")
+        print(
+            f"warning: load average {load_before[0]:.1f} on {env['cpu_count']} CPUs before the run: other "
+            "processes compete and the parallel timings (threads waiting at each generation) are noisy"
+        )
     print()
     print(table(rows))
     print()
     if met is None:
         print(f"Target (>= {TARGET_SPEEDUP:.0f}x at {TARGET_LINKS} links): not measured (add --links {TARGET_LINKS})")
     else:
-        print(f"Target (>= {TARGET_SPEEDUP:.0f}x at {TARGET_LINKS} links): {'MET' if met else 'NOT MET'} "
-              f"({at_target[0]['speedup']:.0f}x)")
+        print(
+            f"Target (>= {TARGET_SPEEDUP:.0f}x at {TARGET_LINKS} links): {'MET' if met else 'NOT MET'} "
+            f"({at_target[0]['speedup']:.0f}x)"
+        )
     print(f"wrote {a.out / 'serial_vs_parallel.json'} and {a.out / 'serial_vs_parallel.png'}")
     return 0
 

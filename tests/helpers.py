@@ -82,8 +82,9 @@ def finite_difference_check(sk, goals, poses, step=1e-6):
             up, down = poses.copy(), poses.copy()
             up[:, d] += step
             down[:, d] -= step
-            numeric[:, :, d] = (cpu.residual_rows(up, index, t, skel, terms)[0]
-                                - cpu.residual_rows(down, index, t, skel, terms)[0]) / (2 * step)
+            numeric[:, :, d] = (
+                cpu.residual_rows(up, index, t, skel, terms)[0] - cpu.residual_rows(down, index, t, skel, terms)[0]
+            ) / (2 * step)
         scale = np.abs(numeric).max()
         assert scale > 0, problem.table.labels[t]
         np.testing.assert_allclose(analytic, numeric, atol=1e-6 * scale, err_msg=problem.table.labels[t])
@@ -110,22 +111,44 @@ def robot_arm():
     joints = [
         Joint("base", None, mass=4.0),
         Joint("shoulder", "base", (0.0, 0.0, 0.33), hinge((0, 0, 1), -2.9, 2.9, label="yaw"), mass=3.0),
-        Joint("upper_arm", "shoulder", (0.0, 0.0, 0.0), hinge((0, 0, 1), -1.8, 1.8, label="pitch"), mass=2.5,
-              rotation=rpy(-half, 0.0, 0.0)),
-        Joint("elbow", "upper_arm", (0.0, -0.32, 0.0), hinge((0, 0, 1), -3.0, -0.07, label="pitch"), mass=2.0,
-              rotation=rpy(half, 0.0, 0.0)),
+        Joint(
+            "upper_arm",
+            "shoulder",
+            (0.0, 0.0, 0.0),
+            hinge((0, 0, 1), -1.8, 1.8, label="pitch"),
+            mass=2.5,
+            rotation=rpy(-half, 0.0, 0.0),
+        ),
+        Joint(
+            "elbow",
+            "upper_arm",
+            (0.0, -0.32, 0.0),
+            hinge((0, 0, 1), -3.0, -0.07, label="pitch"),
+            mass=2.0,
+            rotation=rpy(half, 0.0, 0.0),
+        ),
         Joint("slide", "elbow", (0.08, 0.0, 0.1), translation("Z", 0.0, 0.2), mass=1.0, rotation=rpy(0.3, -0.2, 0.5)),
-        Joint("wrist", "slide", (0.0, 0.0, 0.1), hinge((0.0, 0.6, 0.8), -2.9, 2.9, label="roll"), mass=1.0,
-              rotation=rpy(half, 0.0, 0.0)),
+        Joint(
+            "wrist",
+            "slide",
+            (0.0, 0.0, 0.1),
+            hinge((0.0, 0.6, 0.8), -2.9, 2.9, label="roll"),
+            mass=1.0,
+            rotation=rpy(half, 0.0, 0.0),
+        ),
         Joint("flange", "wrist", (0.09, 0.0, 0.0), hinge((0, 0, 1), -0.5, 3.8, label="turn"), mass=0.6),
-        Joint("finger", "flange", (0.0, 0.02, 0.06),
-              (Dof(ROTATE, (1.0, 0.0, 0.0), name="finger_joint", mimic=("wrist.roll", -0.5, 0.1)),), mass=0.2),
+        Joint(
+            "finger",
+            "flange",
+            (0.0, 0.02, 0.06),
+            (Dof(ROTATE, (1.0, 0.0, 0.0), name="finger_joint", mimic=("wrist.roll", -0.5, 0.1)),),
+            mass=0.2,
+        ),
     ]
     sites = [
         Site("tool", "flange", (0.0, 0.0, 0.11), rpy(0.0, -half, math.pi / 4)),
         Site("fingertip", "finger", (0.0, 0.0, 0.04)),
-        *(Site(f"foot{k}", "base", (0.2 * math.cos(a), 0.2 * math.sin(a), 0.0))
-          for k, a in enumerate((0.0, 2.1, 4.2))),
+        *(Site(f"foot{k}", "base", (0.2 * math.cos(a), 0.2 * math.sin(a), 0.0)) for k, a in enumerate((0.0, 2.1, 4.2))),
     ]
     return deik.build_skeleton(joints, sites=sites, up=(0.0, 0.0, 1.0), name="robot_arm")
 

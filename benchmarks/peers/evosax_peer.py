@@ -15,9 +15,14 @@ from benchmarks.peers.chain_fk import tip_errors
 
 PACKAGE = "evosax"
 POPULATION_PER_DOF = 15
-SETTINGS = {"algorithm": "DifferentialEvolution", "population": f"{POPULATION_PER_DOF} x D",
-            "params": "evosax defaults (elitism, crossover_rate 0.9, differential_weight 0.8)",
-            "bounds": "clip", "loop": "jax.lax.while_loop under jit", "dtype": "float32"}
+SETTINGS = {
+    "algorithm": "DifferentialEvolution",
+    "population": f"{POPULATION_PER_DOF} x D",
+    "params": "evosax defaults (elitism, crossover_rate 0.9, differential_weight 0.8)",
+    "bounds": "clip",
+    "loop": "jax.lax.while_loop under jit",
+    "dtype": "float32",
+}
 
 
 def make_solver(chain: dict, pose: bool, tolerances, max_generations: int):
@@ -68,7 +73,11 @@ def make_solver(chain: dict, pose: bool, tolerances, max_generations: int):
         best, generations = run(jax.random.key(seed), jnp.asarray(position), jnp.asarray(rotation))
         best.block_until_ready()
         seconds = time.perf_counter() - t0
-        return {"angles": [float(v) for v in best], "seconds": seconds,
-                "evaluations": population * (int(generations) + 1), "generations": int(generations)}
+        return {
+            "angles": [float(v) for v in best],
+            "seconds": seconds,
+            "evaluations": population * (int(generations) + 1),
+            "generations": int(generations),
+        }
 
     return solve

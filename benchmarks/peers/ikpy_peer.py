@@ -27,9 +27,12 @@ class Peer:
             mask = [link.joint_type != "fixed" for link in links]
             self.chain = Chain.from_urdf_file(urdf, base_elements=[base], active_links_mask=mask)
         self.idx = index_map([link.name for link in self.chain.links], dof_names)
-        self.settings = {"call": "inverse_kinematics_frame, orientation_mode='all'",
-                         "optimizer": "least_squares (IKPy default), SciPy default tolerances and evaluation cap",
-                         "backend": "numpy, symbolic=True", "budget_s": None}
+        self.settings = {
+            "call": "inverse_kinematics_frame, orientation_mode='all'",
+            "optimizer": "least_squares (IKPy default), SciPy default tolerances and evaluation cap",
+            "backend": "numpy, symbolic=True",
+            "budget_s": None,
+        }
 
     def _full(self, q: np.ndarray) -> np.ndarray:
         full = np.zeros(len(self.chain.links))

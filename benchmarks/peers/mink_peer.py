@@ -44,9 +44,15 @@ class Peer:
         self.configuration = mink.Configuration(model)
         self.task = mink.FrameTask(tip, "body", position_cost=1.0, orientation_cost=1.0)
         self.limits = [mink.ConfigurationLimit(model)]
-        self.settings = {"task": "FrameTask (body), position and orientation cost 1", "limits": "ConfigurationLimit",
-                         "qp_solver": QP_SOLVER, "damping": DAMPING, "dt": DT, "budget_s": BUDGET_S,
-                         "max_iterations": MAX_ITERATIONS}
+        self.settings = {
+            "task": "FrameTask (body), position and orientation cost 1",
+            "limits": "ConfigurationLimit",
+            "qp_solver": QP_SOLVER,
+            "damping": DAMPING,
+            "dt": DT,
+            "budget_s": BUDGET_S,
+            "max_iterations": MAX_ITERATIONS,
+        }
 
     def _set(self, q: np.ndarray) -> None:
         full = np.zeros(self.nq)
@@ -69,8 +75,9 @@ class Peer:
 
         def step():
             try:
-                velocity = mink.solve_ik(configuration, [self.task], DT, solver=QP_SOLVER, damping=DAMPING,
-                                         limits=self.limits)
+                velocity = mink.solve_ik(
+                    configuration, [self.task], DT, solver=QP_SOLVER, damping=DAMPING, limits=self.limits
+                )
             except mink.NoSolutionFound:
                 raise StopIteration from None
             configuration.integrate_inplace(velocity, DT)

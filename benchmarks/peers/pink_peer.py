@@ -19,8 +19,8 @@ DT, DAMPING, QP_SOLVER = 1.0, 1e-6, "daqp"
 
 class Peer:
     def __init__(self, urdf: str, base: str, tip: str, dof_names: list[str]):
-        import pinocchio as pin
         import pink
+        import pinocchio as pin
         from pink.limits import ConfigurationLimit
         from pink.tasks import FrameTask
 
@@ -32,9 +32,15 @@ class Peer:
         self.configuration = pink.Configuration(model, model.createData(), pin.neutral(model))
         self.task = FrameTask(tip, position_cost=1.0, orientation_cost=1.0)
         self.limits = [ConfigurationLimit(model)]
-        self.settings = {"task": "FrameTask, position and orientation cost 1", "limits": "ConfigurationLimit",
-                         "qp_solver": QP_SOLVER, "damping": DAMPING, "dt": DT, "budget_s": BUDGET_S,
-                         "max_iterations": MAX_ITERATIONS}
+        self.settings = {
+            "task": "FrameTask, position and orientation cost 1",
+            "limits": "ConfigurationLimit",
+            "qp_solver": QP_SOLVER,
+            "damping": DAMPING,
+            "dt": DT,
+            "budget_s": BUDGET_S,
+            "max_iterations": MAX_ITERATIONS,
+        }
 
     def _set(self, q: np.ndarray) -> None:
         full = self.pin.neutral(self.model)
@@ -56,8 +62,15 @@ class Peer:
 
         def step():
             try:
-                velocity = self.pink.solve_ik(configuration, [self.task], DT, solver=QP_SOLVER, damping=DAMPING,
-                                              limits=self.limits, safety_break=False)
+                velocity = self.pink.solve_ik(
+                    configuration,
+                    [self.task],
+                    DT,
+                    solver=QP_SOLVER,
+                    damping=DAMPING,
+                    limits=self.limits,
+                    safety_break=False,
+                )
             except self.pink.exceptions.NoSolutionFound:
                 raise StopIteration from None
             configuration.integrate_inplace(velocity, DT)

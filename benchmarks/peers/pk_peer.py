@@ -32,10 +32,15 @@ class Peer:
         lower = self.chain.low.numpy()[order]
         upper = self.chain.high.numpy()[order]
         self.retries = np.random.default_rng(RETRY_SEED).uniform(lower, upper, (RETRIES - 1, len(dof_names)))
-        self.settings = {"solver": "PseudoInverseIK",
-                         "retries": f"start + {RETRIES - 1} uniform in limits (seed {RETRY_SEED})",
-                         "max_iterations": MAX_ITERATIONS, "early_stopping_any_converged": True,
-                         "dtype": "float64", "torch_threads": 1, "budget_s": None}
+        self.settings = {
+            "solver": "PseudoInverseIK",
+            "retries": f"start + {RETRIES - 1} uniform in limits (seed {RETRY_SEED})",
+            "max_iterations": MAX_ITERATIONS,
+            "early_stopping_any_converged": True,
+            "dtype": "float64",
+            "torch_threads": 1,
+            "budget_s": None,
+        }
 
     def _pk(self, q: np.ndarray):
         return self.torch.as_tensor(np.asarray(q)[..., self.to_pk])
@@ -46,9 +51,14 @@ class Peer:
 
     def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
         configs = self._pk(np.vstack([start[None], self.retries]))
-        ik = self.pk.PseudoInverseIK(self.chain, retry_configs=configs, max_iterations=MAX_ITERATIONS,
-                                     pos_tolerance=POS_TOL, rot_tolerance=ROT_TOL,
-                                     early_stopping_any_converged=True)
+        ik = self.pk.PseudoInverseIK(
+            self.chain,
+            retry_configs=configs,
+            max_iterations=MAX_ITERATIONS,
+            pos_tolerance=POS_TOL,
+            rot_tolerance=ROT_TOL,
+            early_stopping_any_converged=True,
+        )
         target = np.eye(4)
         target[:3, :3], target[:3, 3] = rotation, position
         solution = ik.solve(self.pk.Transform3d(matrix=self.torch.as_tensor(target[None])))

@@ -25,9 +25,12 @@ class Peer:
         self.solver.mask_fbase(True)
         self.task = self.solver.add_frame_task(tip, np.eye(4))
         self.task.configure(tip, "soft", 1.0, 1.0)
-        self.settings = {"task": "frame task, soft, position and orientation weight 1",
-                         "joint limits": "on (PlaCo default)", "budget_s": BUDGET_S,
-                         "max_iterations": MAX_ITERATIONS}
+        self.settings = {
+            "task": "frame task, soft, position and orientation weight 1",
+            "joint limits": "on (PlaCo default)",
+            "budget_s": BUDGET_S,
+            "max_iterations": MAX_ITERATIONS,
+        }
 
     def _set(self, q: np.ndarray) -> None:
         for name, value in zip(self.names, q):

@@ -26,23 +26,28 @@ class Peer:
         self.pb = pybullet
         self.client = pybullet.connect(pybullet.DIRECT)
         self.body = pybullet.loadURDF(urdf, useFixedBase=True, physicsClientId=self.client)
-        infos = [pybullet.getJointInfo(self.body, j, physicsClientId=self.client)
-                 for j in range(pybullet.getNumJoints(self.body, physicsClientId=self.client))]
+        infos = [
+            pybullet.getJointInfo(self.body, j, physicsClientId=self.client)
+            for j in range(pybullet.getNumJoints(self.body, physicsClientId=self.client))
+        ]
         movable = [i for i in infos if i[2] != pybullet.JOINT_FIXED]
         self.order = index_map([i[1].decode() for i in movable], dof_names)
         self.joints = [movable[k][0] for k in self.order]
         self.tip = next(i[0] for i in infos if i[12].decode() == tip)
-        self.settings = {"solver": "calculateInverseKinematics (DLS), no null space",
-                         "maxNumIterations": INNER_ITERATIONS, "residualThreshold": RESIDUAL,
-                         "outer loop": "write back and call again", "budget_s": BUDGET_S}
+        self.settings = {
+            "solver": "calculateInverseKinematics (DLS), no null space",
+            "maxNumIterations": INNER_ITERATIONS,
+            "residualThreshold": RESIDUAL,
+            "outer loop": "write back and call again",
+            "budget_s": BUDGET_S,
+        }
 
     def _set(self, q: np.ndarray) -> None:
         for j, v in zip(self.joints, q):
             self.pb.resetJointState(self.body, j, float(v), physicsClientId=self.client)
 
     def _pose(self):
-        state = self.pb.getLinkState(self.body, self.tip, computeForwardKinematics=True,
-                                     physicsClientId=self.client)
+        state = self.pb.getLinkState(self.body, self.tip, computeForwardKinematics=True, physicsClientId=self.client)
         return np.array(state[4]), Rotation.from_quat(state[5]).as_matrix()
 
     def fk(self, q: np.ndarray):
@@ -56,8 +61,14 @@ class Peer:
 
         def step():
             out = self.pb.calculateInverseKinematics(
-                self.body, self.tip, position.tolist(), quat.tolist(), maxNumIterations=INNER_ITERATIONS,
-                residualThreshold=RESIDUAL, physicsClientId=self.client)
+                self.body,
+                self.tip,
+                position.tolist(),
+                quat.tolist(),
+                maxNumIterations=INNER_ITERATIONS,
+                residualThreshold=RESIDUAL,
+                physicsClientId=self.client,
+            )
             q[:] = np.asarray(out)[self.order]
             self._set(q)
 

@@ -36,8 +36,13 @@ def run(name: str, problem_file: str) -> dict:
     solve = module.make_solver(chain, bool(chain["pose"]), chain["tolerances"].tolist(), int(chain["max_generations"]))
     targets = list(zip(chain["positions"], chain["rotations"], chain["seeds"].tolist()))
     solve(targets[0][0], targets[0][1], targets[0][2] + 10_000)  # warm-up, not timed
-    return {"name": name, "package": module.PACKAGE, "version": importlib.metadata.version(module.PACKAGE),
-            "settings": module.SETTINGS, "trials": [solve(p, R, seed) for p, R, seed in targets]}
+    return {
+        "name": name,
+        "package": module.PACKAGE,
+        "version": importlib.metadata.version(module.PACKAGE),
+        "settings": module.SETTINGS,
+        "trials": [solve(p, R, seed) for p, R, seed in targets],
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,8 +50,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         result, code = run(name, problem_file), 0
     except Exception as error:  # a failing peer is a result to record
-        result, code = {"name": name, "error": f"{type(error).__name__}: {error}",
-                        "traceback": traceback.format_exc(limit=-3)}, 1
+        result, code = (
+            {"name": name, "error": f"{type(error).__name__}: {error}", "traceback": traceback.format_exc(limit=-3)},
+            1,
+        )
     Path(out).write_text(json.dumps(result))
     return code
 

@@ -63,9 +63,16 @@ def run(name: str, targets: dict, workdir: Path) -> dict:
         q = peer.solve(p, R, start)
         seconds.append(time.perf_counter() - t0)
         angles.append(np.asarray(q, dtype=float))
-    return {"name": name, "package": module.PACKAGE, "version": importlib.metadata.version(module.PACKAGE),
-            "settings": peer.settings, "setup_s": setup, "frame_check": check,
-            "angles": np.array(angles).tolist(), "seconds": seconds}
+    return {
+        "name": name,
+        "package": module.PACKAGE,
+        "version": importlib.metadata.version(module.PACKAGE),
+        "settings": peer.settings,
+        "setup_s": setup,
+        "frame_check": check,
+        "angles": np.array(angles).tolist(),
+        "seconds": seconds,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,8 +85,11 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory() as workdir:
             result, code = run(name, targets, Path(workdir)), 0
     except Exception as error:  # any failure of a peer is a result to record, not a crash
-        result = {"name": name, "error": f"{type(error).__name__}: {error}",
-                  "traceback": traceback.format_exc(limit=-3)}
+        result = {
+            "name": name,
+            "error": f"{type(error).__name__}: {error}",
+            "traceback": traceback.format_exc(limit=-3),
+        }
         code = 1
     Path(out).write_text(json.dumps(result))
     return code

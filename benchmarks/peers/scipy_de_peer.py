@@ -15,8 +15,17 @@ import time
 from benchmarks.peers.chain_fk import tip_errors
 
 PACKAGE = "scipy"
-SETTINGS = {"strategy": "best1bin", "population": "15 x D", "mutation": [0.5, 1.0], "recombination": 0.7,
-            "vectorized": True, "updating": "deferred", "polish": False, "tol": 0, "dtype": "float64"}
+SETTINGS = {
+    "strategy": "best1bin",
+    "population": "15 x D",
+    "mutation": [0.5, 1.0],
+    "recombination": 0.7,
+    "vectorized": True,
+    "updating": "deferred",
+    "polish": False,
+    "tol": 0,
+    "dtype": "float64",
+}
 
 
 def make_solver(chain: dict, pose: bool, tolerances, max_generations: int):
@@ -40,9 +49,22 @@ def make_solver(chain: dict, pose: bool, tolerances, max_generations: int):
             return bool(pos[0] < pos_tol and (not pose or rot[0] < rot_tol))
 
         t0 = time.perf_counter()
-        result = differential_evolution(objective, bounds, maxiter=max_generations, tol=0, polish=False,
-                                        vectorized=True, updating="deferred", rng=seed, callback=callback)
-        return {"angles": result.x.tolist(), "seconds": time.perf_counter() - t0,
-                "evaluations": evaluations[0], "generations": int(result.nit)}
+        result = differential_evolution(
+            objective,
+            bounds,
+            maxiter=max_generations,
+            tol=0,
+            polish=False,
+            vectorized=True,
+            updating="deferred",
+            rng=seed,
+            callback=callback,
+        )
+        return {
+            "angles": result.x.tolist(),
+            "seconds": time.perf_counter() - t0,
+            "evaluations": evaluations[0],
+            "generations": int(result.nit),
+        }
 
     return solve

@@ -1,37 +1,68 @@
 """deik: inverse kinematics by massively parallel Differential Evolution, on CPU or GPU."""
 
-from deik.model.builders import chain
-from deik.solver.engine import Engine, EvolutionState, Settings
-from deik.model.humanoid import humanoid
 from deik.io.bvh import read_bvh, write_bvh
 from deik.io.clip import Clip
 from deik.io.load import load_skeleton
 from deik.io.urdf import read_urdf
-from deik.model.joints import Dof, Joint, Segment, Site, euler, hinge, translation
 from deik.model.build import build_skeleton
+from deik.model.builders import chain
+from deik.model.humanoid import humanoid
+from deik.model.joints import Dof, Joint, Segment, Site, euler, hinge, translation
 from deik.model.kinematics import Kinematics, forward_kinematics
+from deik.model.skeleton import Skeleton
 from deik.objectives.goals import (
     Aim,
     CentreOfMass,
+    Comfort,
     ComInPolygon,
     ComOverSupport,
-    Comfort,
     Obstacle,
     Orientation,
     Position,
 )
+from deik.solver.engine import Engine, EvolutionState, Settings
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
 from deik.solver.seeding import poses_around
-from deik.model.skeleton import Skeleton
 from deik.solver.solve import solve, solve_batch
 from deik.solver.solver import Solver
 
 __all__ = [
-    "Aim", "CentreOfMass", "Clip", "ComInPolygon", "ComOverSupport", "Comfort", "Dof", "Engine",
-    "EvolutionState", "GoalReport", "Joint", "Kinematics", "Obstacle", "Orientation", "Position",
-    "Problem", "Result", "Segment", "Settings", "Site", "Skeleton", "Solver", "build_skeleton", "chain",
-    "euler", "forward_kinematics", "hinge", "humanoid", "load_skeleton", "poses_around", "read_bvh", "read_urdf",
-    "solve", "solve_batch", "translation", "write_bvh",
+    "Aim",
+    "CentreOfMass",
+    "Clip",
+    "ComInPolygon",
+    "ComOverSupport",
+    "Comfort",
+    "Dof",
+    "Engine",
+    "EvolutionState",
+    "GoalReport",
+    "Joint",
+    "Kinematics",
+    "Obstacle",
+    "Orientation",
+    "Position",
+    "Problem",
+    "Result",
+    "Segment",
+    "Settings",
+    "Site",
+    "Skeleton",
+    "Solver",
+    "build_skeleton",
+    "chain",
+    "euler",
+    "forward_kinematics",
+    "hinge",
+    "humanoid",
+    "load_skeleton",
+    "poses_around",
+    "read_bvh",
+    "read_urdf",
+    "solve",
+    "solve_batch",
+    "translation",
+    "write_bvh",
 ]
 __version__ = "0.1.0"

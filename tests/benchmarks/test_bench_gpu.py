@@ -15,22 +15,30 @@ ROOT = Path(__file__).resolve().parents[2]
 HOPPER = Multiprocessor(threads=2048, registers=65536, shared_bytes=228 * 1024, blocks=32)
 
 
-@pytest.mark.parametrize("threads, registers, shared, blocks, binding", [
-    (128, 64, 0, 8, "registers"),  # 64 registers per thread: half the resident threads
-    (128, 32, 0, 16, "threads"),  # full occupancy: threads and registers both allow 16 blocks
-    (256, 255, 0, 1, "registers"),  # 255 registers round up to 8192 per warp
-    (64, 16, 100 * 1024, 2, "shared memory"),
-    (32, 16, 0, 32, "blocks"),  # 32-thread blocks: the 32-block limit leaves half the threads idle
-])
+@pytest.mark.parametrize(
+    "threads, registers, shared, blocks, binding",
+    [
+        (128, 64, 0, 8, "registers"),  # 64 registers per thread: half the resident threads
+        (128, 32, 0, 16, "threads"),  # full occupancy: threads and registers both allow 16 blocks
+        (256, 255, 0, 1, "registers"),  # 255 registers round up to 8192 per warp
+        (64, 16, 100 * 1024, 2, "shared memory"),
+        (32, 16, 0, 32, "blocks"),  # 32-thread blocks: the 32-block limit leaves half the threads idle
+    ],
+)
 def test_blocks_per_multiprocessor_matches_the_occupancy_calculator(threads, registers, shared, blocks, binding):
     assert blocks_per_multiprocessor(threads, registers, shared, HOPPER) == (blocks, binding)
 
 
 def _simulated(module: str, out: Path) -> dict:
     env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}", "NUMBA_ENABLE_CUDASIM": "1"}
-    done = subprocess.run([sys.executable, "-W", "ignore", "-m", f"benchmarks.{module}", "--device", "gpu",
-                           "--quick", "--out", str(out)], cwd=ROOT, env=env, capture_output=True, text=True,
-                          timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-W", "ignore", "-m", f"benchmarks.{module}", "--device", "gpu", "--quick", "--out", str(out)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads((out / f"{module}.json").read_text())
 

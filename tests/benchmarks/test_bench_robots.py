@@ -11,7 +11,13 @@ import deik
 from benchmarks.peers.chain_fk import load_chain, tip_errors, tip_pose
 from benchmarks.peers.chain_urdf import cut_urdf
 from benchmarks.robot_targets import (
-    CASES, export_chain, load_case, load_targets, make_targets, pose_errors, save_targets,
+    CASES,
+    export_chain,
+    load_case,
+    load_targets,
+    make_targets,
+    pose_errors,
+    save_targets,
 )
 from benchmarks.robots import score
 from helpers import robot_arm, shared_path
@@ -95,8 +101,9 @@ CHAINS = {
 ON_SHARED_ROBOTS = {"panda", "human", "fingers"}
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.shared_data) if n in ON_SHARED_ROBOTS else n
-                                  for n in CHAINS])
+@pytest.mark.parametrize(
+    "name", [pytest.param(n, marks=pytest.mark.shared_data) if n in ON_SHARED_ROBOTS else n for n in CHAINS]
+)
 def test_exported_chain_fk_matches_deik(name, tmp_path):
     skeleton, tip = CHAINS[name]()
     Q = np.random.default_rng(0).uniform(skeleton.lower, skeleton.upper, (40, skeleton.n_dofs))
@@ -117,5 +124,8 @@ def test_cut_urdf_keeps_deiks_dofs(case, robots, tmp_path):
     assert joints == list(skeleton.dof_names)
     cut = deik.read_urdf(tmp_path / "cut.urdf", spec.base, spec.tip)
     Q = np.random.default_rng(0).uniform(skeleton.lower, skeleton.upper, (5, skeleton.n_dofs))
-    np.testing.assert_allclose(deik.forward_kinematics(cut, Q).position(spec.tip),
-                               deik.forward_kinematics(skeleton, Q).position(spec.tip), atol=1e-12)
+    np.testing.assert_allclose(
+        deik.forward_kinematics(cut, Q).position(spec.tip),
+        deik.forward_kinematics(skeleton, Q).position(spec.tip),
+        atol=1e-12,
+    )

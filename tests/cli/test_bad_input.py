@@ -8,27 +8,32 @@ import deik
 from deik.io.urdf import read_urdf
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"adaptive": "no"}, "adaptive must be true or false, got 'no'"),
-    ({"adaptive": 1}, "adaptive must be true or false"),
-    ({"F": True}, "F must be a finite number"),
-    ({"F": "0.5"}, r"F must be a finite number \(the differential weight"),
-    ({"CR": None}, "CR must be a finite number"),
-    ({"seed": True}, "seed must be an integer >= 0, got True"),
-    ({"polish": True}, "polish must be an integer >= 0"),
-    ({"population": 4.0}, "population must be an integer >= 4"),
-    ({"strategy": 3}, "strategy must be one of"),
-    ({"stop_on_converged": "yes"}, "stop_on_converged must be true or false"),
-    ({"time_limit": float("inf")}, "time_limit must be a finite number"),
-    ({"dtype": np.float64}, "dtype must be one of"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"adaptive": "no"}, "adaptive must be true or false, got 'no'"),
+        ({"adaptive": 1}, "adaptive must be true or false"),
+        ({"F": True}, "F must be a finite number"),
+        ({"F": "0.5"}, r"F must be a finite number \(the differential weight"),
+        ({"CR": None}, "CR must be a finite number"),
+        ({"seed": True}, "seed must be an integer >= 0, got True"),
+        ({"polish": True}, "polish must be an integer >= 0"),
+        ({"population": 4.0}, "population must be an integer >= 4"),
+        ({"strategy": 3}, "strategy must be one of"),
+        ({"stop_on_converged": "yes"}, "stop_on_converged must be true or false"),
+        ({"time_limit": float("inf")}, "time_limit must be a finite number"),
+        ({"dtype": np.float64}, "dtype must be one of"),
+    ],
+)
 def test_every_setting_is_type_checked_by_name(changes, message):
     with pytest.raises(ValueError, match=message):
         deik.Settings(**changes)
 
 
 def test_settings_accept_numpy_scalars_of_the_right_kind():
-    settings = deik.Settings(seed=np.uint64(2**64 - 1), population=np.int64(8), F=np.float32(0.5), adaptive=np.bool_(False))
+    settings = deik.Settings(
+        seed=np.uint64(2**64 - 1), population=np.int64(8), F=np.float32(0.5), adaptive=np.bool_(False)
+    )
     assert settings.seed == 2**64 - 1 and settings.population == 8
 
 
@@ -40,31 +45,39 @@ def _write(tmp_path, text):
 
 def test_urdf_joint_without_origin_sits_at_its_parent(tmp_path):
     # URDF makes <origin> optional: absent, the joint frame is the parent link's frame
-    with_origin = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"/><link name="b"/><link name="c"/>
+    with_origin = _write(
+        tmp_path,
+        """<?xml version="1.0"?><robot name="r"><link name="a"/><link name="b"/><link name="c"/>
         <joint name="j" type="revolute"><parent link="a"/><child link="b"/>{origin}<axis xyz="0 0 1"/>
         <limit lower="-1" upper="1"/></joint>
-        <joint name="k" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/></joint></robot>""")
+        <joint name="k" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/></joint></robot>""",
+    )
     text = with_origin.read_text()
     explicit = read_urdf(_write(tmp_path, text.replace("{origin}", '<origin xyz="0 0 0" rpy="0 0 0"/>')))
     implicit = read_urdf(_write(tmp_path, text.replace("{origin}", "")))
     q = np.array([0.7])
-    np.testing.assert_array_equal(deik.forward_kinematics(implicit, q).position("c"),
-                                  deik.forward_kinematics(explicit, q).position("c"))
+    np.testing.assert_array_equal(
+        deik.forward_kinematics(implicit, q).position("c"), deik.forward_kinematics(explicit, q).position("c")
+    )
     np.testing.assert_allclose(deik.forward_kinematics(implicit, q).position("c"), [np.cos(0.7), np.sin(0.7), 0])
 
 
 def test_skeleton_without_free_dofs_is_refused_before_solving(tmp_path):
-    path = _write(tmp_path, """<?xml version="1.0"?><robot name="r"><link name="a"><inertial><mass value="1"/>
+    path = _write(
+        tmp_path,
+        """<?xml version="1.0"?><robot name="r"><link name="a"><inertial><mass value="1"/>
         </inertial></link><link name="b"/><joint name="j" type="fixed"><parent link="a"/><child link="b"/>
-        <origin xyz="0 0 1"/></joint></robot>""")
+        <origin xyz="0 0 1"/></joint></robot>""",
+    )
     skeleton = read_urdf(path)
     with pytest.raises(ValueError, match="has no free DOF to solve for .* choose a base and tip with moving joints"):
         deik.Problem(skeleton, [deik.Position("b", [0, 0, 1])])
 
 
 def test_duplicate_names_are_found_in_one_pass():
-    joints = [deik.Joint("root", None)] + [deik.Joint(f"j{k}", "root" if k == 0 else f"j{k - 1}", (0, 0, 0.1),
-                                                      deik.hinge((0, 0, 1))) for k in range(3000)]
+    joints = [deik.Joint("root", None)] + [
+        deik.Joint(f"j{k}", "root" if k == 0 else f"j{k - 1}", (0, 0, 0.1), deik.hinge((0, 0, 1))) for k in range(3000)
+    ]
     sites = [deik.Site("j5", "j7"), deik.Site("j9", "j9")]
     with pytest.raises(ValueError, match=r"duplicate joint/site names \['j5', 'j9'\]"):
         deik.build_skeleton(joints, sites=sites)
@@ -84,16 +97,20 @@ def test_range_of_motion_of_a_clip_without_frames_is_refused(tmp_path):
     from deik.io.limits import range_of_motion
 
     path = tmp_path / "empty.bvh"
-    path.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
-                    "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n")
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n"
+    )
     with pytest.raises(ValueError, match="the clip has no frames"):
         range_of_motion(read_bvh(path), 10.0)
 
 
-TOY_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
-           "  JOINT Arm\n  {\n    OFFSET 0 1 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
-           "    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.033333\n"
-           "0 0 0 0 0 0\n0 0 0 10 0 0\n")
+TOY_BVH = (
+    "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+    "  JOINT Arm\n  {\n    OFFSET 0 1 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+    "    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.033333\n"
+    "0 0 0 0 0 0\n0 0 0 10 0 0\n"
+)
 
 
 def _cli(argv, capsys):
@@ -106,8 +123,9 @@ def _cli(argv, capsys):
 def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
     clip = tmp_path / "walk.bvh"
     clip.write_text(TOY_BVH)
-    status, err = _cli(["solve", "--skeleton", clip, "--frame", "0", "--reach", "Arm_end", 0, 1.5, 0.5,
-                        "--out", clip], capsys)
+    status, err = _cli(
+        ["solve", "--skeleton", clip, "--frame", "0", "--reach", "Arm_end", 0, 1.5, 0.5, "--out", clip], capsys
+    )
     assert status == 2 and "--out" in err and "is the input file" in err and "--overwrite" in err
     assert err.count("\n") == 1 and clip.read_text() == TOY_BVH
     status, err = _cli(["clip", clip, "--out", clip], capsys)
@@ -116,8 +134,10 @@ def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
 
 def test_two_outputs_naming_one_file_are_refused(tmp_path, capsys):
     # the PNG of --plot can no longer land in the JSON's name: --plot takes .png only
-    status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json",
-                        "--plot", tmp_path / "x.json"], capsys)
+    status, err = _cli(
+        ["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json", "--plot", tmp_path / "x.json"],
+        capsys,
+    )
     assert status == 2 and "--plot" in err and "must end in .png" in err
     assert not list(tmp_path.iterdir())
     from deik.cli.common import UsageError, check_outputs
@@ -187,14 +207,30 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
     import time
 
     problem = tmp_path / "long.toml"
-    problem.write_text('skeleton = "chain:30"\n[settings]\ngenerations = 10000000\npatience = 10000000\n'
-                       'population = 64\n' + ''.join(  # two targets for one tip: never met, never stagnant
-                           f'[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [{x}, 9.0, 0.0]\ntolerance = 0.0\n'
-                           for x in (12.0, -12.0)))
+    problem.write_text(
+        'skeleton = "chain:30"\n[settings]\ngenerations = 10000000\npatience = 10000000\n'
+        "population = 64\n"
+        + "".join(  # two targets for one tip: never met, never stagnant
+            f'[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [{x}, 9.0, 0.0]\ntolerance = 0.0\n'
+            for x in (12.0, -12.0)
+        )
+    )
     out = tmp_path / "pose.json"
-    process = subprocess.Popen([sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())",
-                                "solve", "--problem", str(problem), "--out", str(out), "--progress"],
-                               stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from deik.cli import main; sys.exit(main())",
+            "solve",
+            "--problem",
+            str(problem),
+            "--out",
+            str(out),
+            "--progress",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert process.stderr.readline().startswith("generation")  # compiled and running generations
         sent = time.perf_counter()
@@ -212,7 +248,9 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
 
 def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
     problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
-    with pytest.raises(ValueError, match=r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"):
+    with pytest.raises(
+        ValueError, match=r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"
+    ):
         deik.solve(problem, population=1_000_000_000)
     with pytest.raises(ValueError, match=r"needs about .* more than the 0\.000977 GiB allowed"):
         deik.solve(problem, population=100_000, memory_limit=2**20)
@@ -240,9 +278,10 @@ def test_absurd_chains_are_refused_with_the_limit(capsys):
 
 def test_absurd_limits_and_masses_are_refused_when_the_skeleton_is_built():
     def arm(lower=-1.0, upper=1.0, mass=1.0):
-        return deik.build_skeleton([deik.Joint("base", None, dofs=deik.hinge((0, 0, 1), lower, upper)),
-                                    deik.Joint("tip", "base", (1, 0, 0))],
-                                   segments=[deik.Segment("base", mass, (0.5, 0, 0))])
+        return deik.build_skeleton(
+            [deik.Joint("base", None, dofs=deik.hinge((0, 0, 1), lower, upper)), deik.Joint("tip", "base", (1, 0, 0))],
+            segments=[deik.Segment("base", mass, (0.5, 0, 0))],
+        )
 
     for lower, upper in ((-1e308, 1e308), (-1e38, 1e38), (0.0, 2e6)):
         with pytest.raises(ValueError, match=r"has limits .* beyond \+-1e\+06 .* give real limits"):
@@ -257,6 +296,11 @@ def test_piping_into_head_is_quiet():
     import sys
 
     code = "import sys; from deik.cli import main; sys.exit(main())"
-    run = subprocess.run(f"{sys.executable} -c '{code}' info chain:20000 | head -1", shell=True,
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        f"{sys.executable} -c '{code}' info chain:20000 | head -1",
+        shell=True,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.stdout.startswith("chain:20000") and run.stderr == ""

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import deik
-from deik.viz import plot
 from deik.cli.main import main
 from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.load import skeleton_from_spec
 from deik.io.problem_file import load_problem
 from deik.model.rotations import euler_matrix
+from deik.viz import plot
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 TINY = ["--population", "24", "--generations", "40", "--seed", "0"]
@@ -39,8 +39,24 @@ def test_solve_writes_json_whose_angles_reproduce_the_error(tmp_path, capsys):
 
 def test_plot_writes_a_png_and_progress_goes_to_stderr(tmp_path, capsys):
     png = tmp_path / "pose.png"
-    argv = ["solve", "chain:4", "--reach", "tip", "2", "1", "0", "--comfort", "0.5", "--progress",
-            "--population", "24", "--generations", "120", "--plot", str(png)]
+    argv = [
+        "solve",
+        "chain:4",
+        "--reach",
+        "tip",
+        "2",
+        "1",
+        "0",
+        "--comfort",
+        "0.5",
+        "--progress",
+        "--population",
+        "24",
+        "--generations",
+        "120",
+        "--plot",
+        str(png),
+    ]
     assert main(argv) == 0
     assert png.read_bytes()[:8] == PNG_MAGIC
     assert "generation 100/120" in capsys.readouterr().err
@@ -51,8 +67,16 @@ def test_plot_pose_draws_3d_skeletons_in_two_views(tmp_path):
     skeleton = deik.chain(3, dims=3)
     assert not plot.is_planar(skeleton) and plot.is_planar(deik.chain(3))
     path = tmp_path / "pose.png"
-    plot.plot_pose(skeleton, np.full(skeleton.n_dofs, 0.3), path, targets=[(1, 1, 1)], com=(0.5, 0.2, 0.1),
-                   support=(0, 0, 0), title="3-D", obstacles=[((1, 0, 0), 0.2)])
+    plot.plot_pose(
+        skeleton,
+        np.full(skeleton.n_dofs, 0.3),
+        path,
+        targets=[(1, 1, 1)],
+        com=(0.5, 0.2, 0.1),
+        support=(0, 0, 0),
+        title="3-D",
+        obstacles=[((1, 0, 0), 0.2)],
+    )
     assert path.read_bytes()[:8] == PNG_MAGIC
 
 
@@ -60,10 +84,21 @@ def test_missing_matplotlib_names_the_extra(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(ImportError, match=r'pip install "deik\[viz\]"'):
         plot.require_matplotlib()
-    argv = ["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--out", str(tmp_path / "p.json"),
-            "--plot", str(tmp_path / "p.png")]
+    argv = [
+        "solve",
+        "chain:3",
+        "--reach",
+        "tip",
+        "1",
+        "1",
+        "0",
+        "--out",
+        str(tmp_path / "p.json"),
+        "--plot",
+        str(tmp_path / "p.png"),
+    ]
     assert main(argv) == 2
-    assert 'deik[viz]' in capsys.readouterr().err
+    assert "deik[viz]" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -127,16 +162,20 @@ def test_toml_problem_matches_the_python_api(tmp_path):
     loaded = load_problem(write(tmp_path, TOML))
     problem, settings = loaded.problem, loaded.settings
     skeleton = deik.chain(4, dims=3)
-    expected = deik.Problem(skeleton, [
-        deik.Position("tip", (2, 1, 0.5), tolerance=0.01),
-        deik.Orientation("link3", euler_matrix("XYZ", np.radians([0, 30, 45])), level=1),
-        deik.Aim("link2", (0, 3, 0), axis=(1, 0, 0), weight=0.5),
-        deik.ComOverSupport((0.5, 0, 0), mu=2.0),
-        deik.CentreOfMass((1, 0.5, 0)),
-        deik.ComInPolygon(("link0", "link1", "tip")),
-        deik.Obstacle((1, 1, 1), 0.3, bone_radius=0.05),
-        deik.Comfort(mode="max", joint_weights={"link0": 1.0, "link3": 0.5}, level=2),
-    ], limits="clip")
+    expected = deik.Problem(
+        skeleton,
+        [
+            deik.Position("tip", (2, 1, 0.5), tolerance=0.01),
+            deik.Orientation("link3", euler_matrix("XYZ", np.radians([0, 30, 45])), level=1),
+            deik.Aim("link2", (0, 3, 0), axis=(1, 0, 0), weight=0.5),
+            deik.ComOverSupport((0.5, 0, 0), mu=2.0),
+            deik.CentreOfMass((1, 0.5, 0)),
+            deik.ComInPolygon(("link0", "link1", "tip")),
+            deik.Obstacle((1, 1, 1), 0.3, bone_radius=0.05),
+            deik.Comfort(mode="max", joint_weights={"link0": 1.0, "link3": 0.5}, level=2),
+        ],
+        limits="clip",
+    )
     assert settings == {"population": 24, "generations": 30, "seed": 2}
     assert problem.limits == "clip" and problem.skeleton.n_dofs == skeleton.n_dofs
     got, want = problem.table, expected.table
@@ -147,17 +186,22 @@ def test_toml_problem_matches_the_python_api(tmp_path):
 
 def test_cli_solves_a_toml_problem_with_setting_overrides(tmp_path, capsys):
     out = tmp_path / "pose.json"
-    path = write(tmp_path, 'skeleton = "chain:3"\n[settings]\npopulation = 24\n'
-                           '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\n')
+    path = write(
+        tmp_path,
+        'skeleton = "chain:3"\n[settings]\npopulation = 24\n'
+        '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\n',
+    )
     assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["skeleton"] == "chain:3"
 
 
-
 def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
-    path = write(tmp_path, 'skeleton = "chain:3"\nlimits = "penalty"\n[settings]\npopulation = 24\n'
-                           '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\ntolerance = 0.01\n'
-                           '[[goal]]\ntype = "aim"\nframe = "tip"\ntarget = [3, 0, 0]\n')
+    path = write(
+        tmp_path,
+        'skeleton = "chain:3"\nlimits = "penalty"\n[settings]\npopulation = 24\n'
+        '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1.5, 1.5, 0]\ntolerance = 0.01\n'
+        '[[goal]]\ntype = "aim"\nframe = "tip"\ntarget = [3, 0, 0]\n',
+    )
     out = tmp_path / "pose.json"
     assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
     rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
@@ -171,43 +215,73 @@ def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
 GOAL = '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\n'
 
 
-@pytest.mark.parametrize("text, fragments", [
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "positon"\n', ["goal 1", "unknown type 'positon'", "'position'"]),
-    ('skeleton = "chain:3"\n[[goal]]\nframe = "tip"\n', ["goal 1", "missing field 'type'"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\n',
-     ["goal 1 (position)", "missing field 'target'"]),
-    ('skeleton = "chain:3"\n' + GOAL + '[[goal]]\ntype = "comfort"\njoint_wieghts = "start"\n',
-     ["goal 2 (comfort)", "unknown field 'joint_wieghts'", "did you mean 'joint_weights'"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1]\n',
-     ["goal 1 (position)", "field 'target' must be [x, y, z]"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [nan, 1, 0]\n',
-     ["field 'target'", "NaN"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tipp"\ntarget = [1, 1, 0]\n',
-     ["goal 1 (position)", "field 'frame'", "did you mean 'tip'"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [9, 1, 0]\n',
-     ["goal 1 (position)", "unreachable"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\nlevel = 0.5\n',
-     ["field 'level' must be an integer"]),
-    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\neuler = "XYW"\ndegrees = [0, 0, 0]\n',
-     ["goal 1 (orientation)", "field 'euler'"]),
-    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\neuler = "XY"\ndegrees = [0, 0, 0]\n',
-     ["field 'degrees' must be a list of 2 numbers"]),
-    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\ntarget = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n',
-     ["goal 1 (orientation)", "not a rotation matrix"]),
-    ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n', ["missing field 'euler'"]),
-    ('skeleton = "chian:3"\n' + GOAL, ["field 'skeleton'", "chain:N"]),
-    ('skelton = "chain:3"\n' + GOAL, ["unknown top-level key 'skelton'", "did you mean 'skeleton'"]),
-    ('skeleton = "chain:3"\nlimits = "bounce"\n' + GOAL, ["field 'limits'", "reflect"]),
-    ('skeleton = "chain:3"\n[settings]\npopulaton = 50\n' + GOAL, ["[settings]", "did you mean 'population'"]),
-    ('skeleton = "chain:3"\n[settings]\npopulation = 2\n' + GOAL, ["[settings]", "population must be"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = { link1 = -1 }\n',
-     ["goal 1 (comfort)", "weight of 'link1' must be a finite number >= 0"]),
-    ('skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = [1, 1]\n',
-     ["field 'joint_weights' must be a list of 3 numbers"]),
-    ('skeleton = "chain:3"\n', ["no goals", "[[goal]]"]),
-    ('skeleton = "chain:3"\n[goal]\ntype = "com"\ntarget = [0, 1, 0]\n', ["double brackets"]),
-    ('skeleton = "chain:3"\n[[goal]\n', ["not valid TOML"]),
-])
+@pytest.mark.parametrize(
+    "text, fragments",
+    [
+        ('skeleton = "chain:3"\n[[goal]]\ntype = "positon"\n', ["goal 1", "unknown type 'positon'", "'position'"]),
+        ('skeleton = "chain:3"\n[[goal]]\nframe = "tip"\n', ["goal 1", "missing field 'type'"]),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\n',
+            ["goal 1 (position)", "missing field 'target'"],
+        ),
+        (
+            'skeleton = "chain:3"\n' + GOAL + '[[goal]]\ntype = "comfort"\njoint_wieghts = "start"\n',
+            ["goal 2 (comfort)", "unknown field 'joint_wieghts'", "did you mean 'joint_weights'"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1]\n',
+            ["goal 1 (position)", "field 'target' must be [x, y, z]"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [nan, 1, 0]\n',
+            ["field 'target'", "NaN"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tipp"\ntarget = [1, 1, 0]\n',
+            ["goal 1 (position)", "field 'frame'", "did you mean 'tip'"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [9, 1, 0]\n',
+            ["goal 1 (position)", "unreachable"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\nlevel = 0.5\n',
+            ["field 'level' must be an integer"],
+        ),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n'
+            'euler = "XYW"\ndegrees = [0, 0, 0]\n',
+            ["goal 1 (orientation)", "field 'euler'"],
+        ),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n'
+            'euler = "XY"\ndegrees = [0, 0, 0]\n',
+            ["field 'degrees' must be a list of 2 numbers"],
+        ),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n'
+            "target = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n",
+            ["goal 1 (orientation)", "not a rotation matrix"],
+        ),
+        ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n', ["missing field 'euler'"]),
+        ('skeleton = "chian:3"\n' + GOAL, ["field 'skeleton'", "chain:N"]),
+        ('skelton = "chain:3"\n' + GOAL, ["unknown top-level key 'skelton'", "did you mean 'skeleton'"]),
+        ('skeleton = "chain:3"\nlimits = "bounce"\n' + GOAL, ["field 'limits'", "reflect"]),
+        ('skeleton = "chain:3"\n[settings]\npopulaton = 50\n' + GOAL, ["[settings]", "did you mean 'population'"]),
+        ('skeleton = "chain:3"\n[settings]\npopulation = 2\n' + GOAL, ["[settings]", "population must be"]),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = { link1 = -1 }\n',
+            ["goal 1 (comfort)", "weight of 'link1' must be a finite number >= 0"],
+        ),
+        (
+            'skeleton = "chain:3"\n[[goal]]\ntype = "comfort"\njoint_weights = [1, 1]\n',
+            ["field 'joint_weights' must be a list of 3 numbers"],
+        ),
+        ('skeleton = "chain:3"\n', ["no goals", "[[goal]]"]),
+        ('skeleton = "chain:3"\n[goal]\ntype = "com"\ntarget = [0, 1, 0]\n', ["double brackets"]),
+        ('skeleton = "chain:3"\n[[goal]\n', ["not valid TOML"]),
+    ],
+)
 def test_bad_toml_names_file_goal_and_field(tmp_path, text, fragments):
     path = write(tmp_path, text)
     with pytest.raises(ValueError) as caught:
@@ -227,21 +301,24 @@ def test_skeleton_specs():
             skeleton_from_spec(bad)
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["solve", "chain:3", "--reach", "tipp", "1", "1", "0"], "did you mean 'tip'"),
-    (["solve", "chian:3", "--reach", "tip", "1", "1", "0"], "unknown skeleton 'chian:3'"),
-    (["solve", "chain:3", "--reach", "tip", "9", "1", "0"], "unreachable"),
-    (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "not a finite number"),
-    (["solve", "chain:3", "--reach", "tip", "1", "one", "0"], "'one' is not a number"),
-    (["solve", "chain:3", "--reach", "tip", "1", "1"], "expected 4 arguments"),
-    (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--population", "2"], "population must be"),
-    (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--strategy", "fast"], "invalid choice"),
-    (["solve", "chain:3"], "no goals"),
-    (["solve"], "give a SKELETON"),
-    (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
-    (["solve", "--problem", "missing.toml"], "missing.toml: no such problem (TOML) file"),
-    (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["solve", "chain:3", "--reach", "tipp", "1", "1", "0"], "did you mean 'tip'"),
+        (["solve", "chian:3", "--reach", "tip", "1", "1", "0"], "unknown skeleton 'chian:3'"),
+        (["solve", "chain:3", "--reach", "tip", "9", "1", "0"], "unreachable"),
+        (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "not a finite number"),
+        (["solve", "chain:3", "--reach", "tip", "1", "one", "0"], "'one' is not a number"),
+        (["solve", "chain:3", "--reach", "tip", "1", "1"], "expected 4 arguments"),
+        (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--population", "2"], "population must be"),
+        (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--strategy", "fast"], "invalid choice"),
+        (["solve", "chain:3"], "no goals"),
+        (["solve"], "give a SKELETON"),
+        (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
+        (["solve", "--problem", "missing.toml"], "missing.toml: no such problem (TOML) file"),
+        (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
+    ],
+)
 def test_bad_cli_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, monkeypatch, argv, fragment):
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "pose.json"

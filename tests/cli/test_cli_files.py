@@ -33,10 +33,33 @@ def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys,
     path = shared_data / "robots" / f"{robot}.urdf"
     sk, xyz, angles = _target(path, base, tip, seed=7)
     out = tmp_path / "pose.json"
-    argv = ["solve", "--skeleton", str(path), "--base", base, "--tip", tip,
-            "--reach", tip, *map(str, xyz), "--orient", tip, *map(str, angles),
-            "--tolerance", "0.001", "--angle-tolerance", "0.5", "--seed", "0", "--generations", "4000", "--population", "64",
-            "--out", str(out)] + (["--up", *up] if up else [])
+    argv = [
+        "solve",
+        "--skeleton",
+        str(path),
+        "--base",
+        base,
+        "--tip",
+        tip,
+        "--reach",
+        tip,
+        *map(str, xyz),
+        "--orient",
+        tip,
+        *map(str, angles),
+        "--tolerance",
+        "0.001",
+        "--angle-tolerance",
+        "0.5",
+        "--seed",
+        "0",
+        "--generations",
+        "4000",
+        "--population",
+        "64",
+        "--out",
+        str(out),
+    ] + (["--up", *up] if up else [])
     assert main(argv) == 0, capsys.readouterr().err
     data = json.loads(out.read_text())
     assert data["dof_names"] == list(sk.dof_names)
@@ -67,19 +90,63 @@ def test_info_refuses_the_pybullet_only_source_with_its_line(shared_data, capsys
     assert err.count("\n") == 1 and "joint type 'spherical' is not supported" in err and ".urdf:" in err
 
 
-@pytest.mark.parametrize("argv,fragment", [
-    (["solve", "--skeleton", "{robots}/panda.urdf", "--tip", "panda_hnd", "--reach", "panda_hand", "0", "0", "0.5"],
-     "tip link 'panda_hnd' is not in"),
-    (["solve", "--skeleton", "{robots}/panda.urdf", "--frame", "3", "--reach", "panda_hand", "0", "0", "0.5"],
-     "--frame only applies to a BVH clip"),
-    (["solve", "chain:3", "--base", "a", "--reach", "tip", "1", "0", "0"], "--base only apply to a URDF robot"),
-    (["solve", "--skeleton", "{robots}/panda.urdf", "--segments", "x.json", "--reach", "panda_hand", "0", "0", "0.5"],
-     "--segments only applies to a BVH character"),
-    (["solve", "--skeleton", "{robots}/panda.urdf", "--reach", "panda_hand", "0", "0", "0.5", "--out", "pose.txt"],
-     "must end in .json or .bvh"),
-    (["solve", "--skeleton", "{robots}/nothere.urdf", "--reach", "a", "0", "0", "0"], "no such URDF file"),
-    (["info", "{robots}/panda.urdf", "--tip", "panda_link3", "--base", "panda_link5"], "is not below base link"),
-])
+@pytest.mark.parametrize(
+    "argv,fragment",
+    [
+        (
+            [
+                "solve",
+                "--skeleton",
+                "{robots}/panda.urdf",
+                "--tip",
+                "panda_hnd",
+                "--reach",
+                "panda_hand",
+                "0",
+                "0",
+                "0.5",
+            ],
+            "tip link 'panda_hnd' is not in",
+        ),
+        (
+            ["solve", "--skeleton", "{robots}/panda.urdf", "--frame", "3", "--reach", "panda_hand", "0", "0", "0.5"],
+            "--frame only applies to a BVH clip",
+        ),
+        (["solve", "chain:3", "--base", "a", "--reach", "tip", "1", "0", "0"], "--base only apply to a URDF robot"),
+        (
+            [
+                "solve",
+                "--skeleton",
+                "{robots}/panda.urdf",
+                "--segments",
+                "x.json",
+                "--reach",
+                "panda_hand",
+                "0",
+                "0",
+                "0.5",
+            ],
+            "--segments only applies to a BVH character",
+        ),
+        (
+            [
+                "solve",
+                "--skeleton",
+                "{robots}/panda.urdf",
+                "--reach",
+                "panda_hand",
+                "0",
+                "0",
+                "0.5",
+                "--out",
+                "pose.txt",
+            ],
+            "must end in .json or .bvh",
+        ),
+        (["solve", "--skeleton", "{robots}/nothere.urdf", "--reach", "a", "0", "0", "0"], "no such URDF file"),
+        (["info", "{robots}/panda.urdf", "--tip", "panda_link3", "--base", "panda_link5"], "is not below base link"),
+    ],
+)
 def test_file_cli_mistakes_exit_2_with_one_line(shared_data, tmp_path, monkeypatch, capsys, argv, fragment):
     monkeypatch.chdir(tmp_path)
     argv = [a.format(robots=shared_data / "robots") for a in argv]
@@ -107,8 +174,26 @@ def test_cli_poses_a_bvh_frame_and_writes_the_clip_with_only_that_frame_changed(
     path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
     clip, target = _clip_target(path, 12, seed=1)
     out = tmp_path / "fixed.bvh"
-    argv = ["solve", "--skeleton", str(path), "--frame", "12", "--reach", "LeftElbow_end", *map(str, target),
-            "--tolerance", "0.005", "--comfort", "0.3", "--generations", "500", "--seed", "0", "--out", str(out)]
+    argv = [
+        "solve",
+        "--skeleton",
+        str(path),
+        "--frame",
+        "12",
+        "--reach",
+        "LeftElbow_end",
+        *map(str, target),
+        "--tolerance",
+        "0.005",
+        "--comfort",
+        "0.3",
+        "--generations",
+        "500",
+        "--seed",
+        "0",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0, capsys.readouterr().err
     assert "comfort keeps the pose near frame" not in capsys.readouterr().err  # --comfort was given
     original, fixed = path.read_text().splitlines(), out.read_text().splitlines()
@@ -128,8 +213,21 @@ def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys, 
     path = shared_data / "humanoid" / f"humanoid3d_{clip_name}.bvh"
     clip, target = _clip_target(path, 3, seed=2)
     out = tmp_path / "pose.json"
-    argv = ["solve", str(path), "--frame", "3", "--reach", "LeftElbow_end", *map(str, target),
-            "--segments", str(path.with_suffix(".segments.json")), "--generations", "300", "--out", str(out)]
+    argv = [
+        "solve",
+        str(path),
+        "--frame",
+        "3",
+        "--reach",
+        "LeftElbow_end",
+        *map(str, target),
+        "--segments",
+        str(path.with_suffix(".segments.json")),
+        "--generations",
+        "300",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     assert "comfort keeps the pose near frame 3" in capsys.readouterr().err
     data = json.loads(out.read_text())
@@ -138,15 +236,28 @@ def test_cli_bvh_frame_to_json_records_the_frame(shared_data, tmp_path, capsys, 
     assert np.linalg.norm(hand - target) <= 0.01 * clip.skeleton.reach  # the default tolerance
 
 
-@pytest.mark.parametrize("extra,fragment", [
-    ([], "choose one with --frame N"),
-    (["--frame", "39"], "frame 39 is out of range; valid frames: 0..38"),
-    (["--frame", "2", "--base", "Hips"], "--base only apply to a URDF robot"),
-    (["--frame", "2", "--segments", "{data}/robots/panda.urdf"], "panda.urdf"),
-])
+@pytest.mark.parametrize(
+    "extra,fragment",
+    [
+        ([], "choose one with --frame N"),
+        (["--frame", "39"], "frame 39 is out of range; valid frames: 0..38"),
+        (["--frame", "2", "--base", "Hips"], "--base only apply to a URDF robot"),
+        (["--frame", "2", "--segments", "{data}/robots/panda.urdf"], "panda.urdf"),
+    ],
+)
 def test_bvh_cli_mistakes_exit_2_and_write_nothing(shared_data, tmp_path, capsys, extra, fragment):
-    argv = ["solve", "--skeleton", str(shared_data / "humanoid" / "humanoid3d_walk.bvh"),
-            "--reach", "LeftElbow_end", "0.3", "0.9", "0", "--out", str(tmp_path / "x.bvh")]
+    argv = [
+        "solve",
+        "--skeleton",
+        str(shared_data / "humanoid" / "humanoid3d_walk.bvh"),
+        "--reach",
+        "LeftElbow_end",
+        "0.3",
+        "0.9",
+        "0",
+        "--out",
+        str(tmp_path / "x.bvh"),
+    ]
     assert main(argv + [e.format(data=shared_data) for e in extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
@@ -156,7 +267,19 @@ def test_bvh_cli_mistakes_exit_2_and_write_nothing(shared_data, tmp_path, capsys
 def test_urdf_pose_cannot_be_written_as_bvh(shared_data, tmp_path, capsys):
     path = shared_data / "robots" / "kuka_iiwa.urdf"
     out = tmp_path / "pose.bvh"
-    argv = ["solve", str(path), "--reach", "lbr_iiwa_link_7", "0.3", "0.2", "0.8", "--generations", "50", "--out", str(out)]
+    argv = [
+        "solve",
+        str(path),
+        "--reach",
+        "lbr_iiwa_link_7",
+        "0.3",
+        "0.2",
+        "0.8",
+        "--generations",
+        "50",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "has a fixed rest rotation, which BVH cannot carry" in err or "not a coordinate axis" in err, err
@@ -167,8 +290,26 @@ def test_builtin_humanoid_pose_written_as_bvh_reads_back(tmp_path, capsys):
     from deik.io.bvh import read_bvh
 
     out = tmp_path / "pose.bvh"
-    assert main(["solve", "humanoid", "--reach", "left_hand", "0.4", "1.2", "0.35", "--generations", "60",
-                 "--seed", "2", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "solve",
+                "humanoid",
+                "--reach",
+                "left_hand",
+                "0.4",
+                "1.2",
+                "0.35",
+                "--generations",
+                "60",
+                "--seed",
+                "2",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     clip = read_bvh(out)
     assert clip.n_frames == 1
     assert "position left_hand" in capsys.readouterr().out
@@ -191,20 +332,75 @@ def test_cli_start_pose_seeds_the_search_and_keeps_the_answer_near_it(shared_dat
     moved = np.clip(start + 0.1, sk.lower, sk.upper)
     target = deik.forward_kinematics(sk, moved).position(tip)  # a nearby pose reaches it
     first = tmp_path / "start.json"
-    assert main(["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip,
-                 *map(str, deik.forward_kinematics(sk, start).position(tip)), "--start", *map(str, start),
-                 "--tolerance", "0.0001", "--out", str(first)]) == 0
+    assert (
+        main(
+            [
+                "solve",
+                "--skeleton",
+                str(path),
+                "--base",
+                base,
+                "--tip",
+                tip,
+                "--reach",
+                tip,
+                *map(str, deik.forward_kinematics(sk, start).position(tip)),
+                "--start",
+                *map(str, start),
+                "--tolerance",
+                "0.0001",
+                "--out",
+                str(first),
+            ]
+        )
+        == 0
+    )
     assert "near the --start pose" in capsys.readouterr().err
     out = tmp_path / "pose.json"
-    argv = ["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip, *map(str, target),
-            "--tolerance", "0.0001", "--start", str(first), "--seed", "1", "--out", str(out)]
+    argv = [
+        "solve",
+        "--skeleton",
+        str(path),
+        "--base",
+        base,
+        "--tip",
+        tip,
+        "--reach",
+        tip,
+        *map(str, target),
+        "--tolerance",
+        "0.0001",
+        "--start",
+        str(first),
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0, capsys.readouterr().err
     q = np.array(json.loads(out.read_text())["angles"])
     assert np.linalg.norm(deik.forward_kinematics(sk, q).position(tip) - target) <= 1e-4
     assert np.abs(q - start).max() < 0.5  # stays near the start, not any of the arm's other solutions
     for bad, fragment in ((["1", "2"], "needs 7 values"), ([str(tmp_path / "missing.json")], "cannot read a pose")):
-        assert main(["solve", "--skeleton", str(path), "--base", base, "--tip", tip, "--reach", tip, *map(str, target),
-                     "--start", *bad]) == 2
+        assert (
+            main(
+                [
+                    "solve",
+                    "--skeleton",
+                    str(path),
+                    "--base",
+                    base,
+                    "--tip",
+                    tip,
+                    "--reach",
+                    tip,
+                    *map(str, target),
+                    "--start",
+                    *bad,
+                ]
+            )
+            == 2
+        )
         assert fragment in capsys.readouterr().err
 
 
@@ -219,9 +415,11 @@ def test_toml_problem_on_a_urdf_robot_relative_to_the_file(shared_data, tmp_path
     sk, xyz, _ = _target(robots / "panda.urdf", base, tip, seed=11)
     problem = tmp_path / "problems" / "reach.toml"
     problem.parent.mkdir()
-    problem.write_text(f'skeleton = "../robots/panda.urdf"\nbase = "{base}"\ntip = ["{tip}"]\nup = [0, 0, 1]\n'
-                       f'[settings]\nseed = 0\npopulation = 32\n'
-                       f'[[goal]]\ntype = "position"\nframe = "{tip}"\ntarget = {list(map(float, xyz))}\ntolerance = 1e-5\n')
+    problem.write_text(
+        f'skeleton = "../robots/panda.urdf"\nbase = "{base}"\ntip = ["{tip}"]\nup = [0, 0, 1]\n'
+        f"[settings]\nseed = 0\npopulation = 32\n"
+        f'[[goal]]\ntype = "position"\nframe = "{tip}"\ntarget = {list(map(float, xyz))}\ntolerance = 1e-5\n'
+    )
     out = tmp_path / "pose.json"
     assert main(["solve", "--problem", str(problem), "--out", str(out)]) == 0, capsys.readouterr().err
     angles = np.array(json.loads(out.read_text())["angles"])
@@ -238,10 +436,12 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
     clip, target = _clip_target(path, 5, seed=3)
     problem = tmp_path / "walk.toml"
-    problem.write_text(f'skeleton = "{path}"\nsegments = "{path.with_suffix(".segments.json")}"\nframe = 5\n'
-                       f'[settings]\nseed = 1\ngenerations = 300\n'
-                       f'[[goal]]\ntype = "position"\nframe = "LeftElbow_end"\ntarget = {list(map(float, target))}\n'
-                       f'[[goal]]\ntype = "comfort"\nweight = 0.1\nlevel = 1\n')
+    problem.write_text(
+        f'skeleton = "{path}"\nsegments = "{path.with_suffix(".segments.json")}"\nframe = 5\n'
+        f"[settings]\nseed = 1\ngenerations = 300\n"
+        f'[[goal]]\ntype = "position"\nframe = "LeftElbow_end"\ntarget = {list(map(float, target))}\n'
+        f'[[goal]]\ntype = "comfort"\nweight = 0.1\nlevel = 1\n'
+    )
     loaded = load_problem(problem)
     assert loaded.frame == 5 and loaded.loaded.kind == "bvh"
     np.testing.assert_array_equal(loaded.problem.reference[0, 1], clip.pose(5))  # comfort: near frame 5
@@ -255,14 +455,23 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     assert np.linalg.norm(hand - target) <= 0.01 * clip.skeleton.reach  # the default tolerance
 
 
-@pytest.mark.parametrize("lines, fragment", [
-    ('skeleton = "chain:3"\nbase = "link0"\n', "field 'base' only applies to a URDF robot, not skeleton = 'chain:3'"),
-    ('skeleton = "{data}/robots/panda.urdf"\nframe = 2\n', "field 'frame' only applies to a BVH clip"),
-    ('skeleton = "{data}/humanoid/humanoid3d_walk.bvh"\nframe = 39\n', "field 'frame' must be a frame number from 0 to 38"),
-    ('skeleton = "{data}/robots/panda.urdf"\ntip = 3\n', "field 'tip' must be a link name or a list of link names"),
-    ('skeleton = "{data}/robots/panda.urdf"\ntip = "panda_hnd"\n', "field 'skeleton'"),
-    ('skeleton = "missing.urdf"\n', "field 'skeleton'"),
-])
+@pytest.mark.parametrize(
+    "lines, fragment",
+    [
+        (
+            'skeleton = "chain:3"\nbase = "link0"\n',
+            "field 'base' only applies to a URDF robot, not skeleton = 'chain:3'",
+        ),
+        ('skeleton = "{data}/robots/panda.urdf"\nframe = 2\n', "field 'frame' only applies to a BVH clip"),
+        (
+            'skeleton = "{data}/humanoid/humanoid3d_walk.bvh"\nframe = 39\n',
+            "field 'frame' must be a frame number from 0 to 38",
+        ),
+        ('skeleton = "{data}/robots/panda.urdf"\ntip = 3\n', "field 'tip' must be a link name or a list of link names"),
+        ('skeleton = "{data}/robots/panda.urdf"\ntip = "panda_hnd"\n', "field 'skeleton'"),
+        ('skeleton = "missing.urdf"\n', "field 'skeleton'"),
+    ],
+)
 def test_toml_skeleton_file_errors_name_the_field(shared_data, tmp_path, lines, fragment):
     from deik.io.problem_file import load_problem
 

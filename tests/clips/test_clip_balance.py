@@ -69,8 +69,10 @@ def test_balance_track_eases_shifts_in_and_out():
 
 @pytest.mark.shared_data
 def test_com_jacobian_matches_finite_differences():
-    clip = read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"),
-                    segments=shared_path("humanoid", "humanoid3d_walk.segments.json"))
+    clip = read_bvh(
+        shared_path("humanoid", "humanoid3d_walk.bvh"),
+        segments=shared_path("humanoid", "humanoid3d_walk.segments.json"),
+    )
     sk, poses = clip.skeleton, clip.poses()[::13]
     x, jac = position_jacobian(sk, poses, ["Hips"], centre_of_mass=True)
     np.testing.assert_allclose(x[:, 1], forward_kinematics(sk, poses).p_world_com, atol=1e-12)
@@ -78,8 +80,9 @@ def test_com_jacobian_matches_finite_differences():
     for d in range(sk.n_dofs):
         step = np.zeros(sk.n_dofs)
         step[d] = h
-        numeric = (forward_kinematics(sk, poses + step).p_world_com
-                   - forward_kinematics(sk, poses - step).p_world_com) / (2 * h)
+        numeric = (
+            forward_kinematics(sk, poses + step).p_world_com - forward_kinematics(sk, poses - step).p_world_com
+        ) / (2 * h)
         np.testing.assert_allclose(jac[:, 1, :, d], numeric, atol=1e-8)
 
 

@@ -45,8 +45,7 @@ def point_clip(heights, frame_time=0.1) -> Clip:
 
 @pytest.mark.shared_data
 def test_foot_sites_of_the_humanoid_group_each_ankle_with_its_toe():
-    assert foot_sites(humanoid("walk").skeleton) == (
-        "RightAnkle", "RightAnkle_end", "LeftAnkle", "LeftAnkle_end")
+    assert foot_sites(humanoid("walk").skeleton) == ("RightAnkle", "RightAnkle_end", "LeftAnkle", "LeftAnkle_end")
 
 
 def test_a_skeleton_without_feet_asks_for_contact_sites():
@@ -77,7 +76,7 @@ def test_jump_has_a_flight_phase_with_no_contact_between_two_stances():
     contacts = detect_contacts(humanoid("jump"))
     airborne = np.flatnonzero(~contacts.mask.any(axis=1))
     assert len(airborne) >= 10
-    assert contacts.mask[:airborne[0]].any(axis=1).all()  # standing until take-off
+    assert contacts.mask[: airborne[0]].any(axis=1).all()  # standing until take-off
     assert contacts.mask[-1].all()  # both feet flat at the end
     toes = [contacts.sites.index("RightAnkle_end"), contacts.sites.index("LeftAnkle_end")]
     assert contacts.mask[0, toes].all()
@@ -129,7 +128,9 @@ def test_user_ranges_and_describe():
     assert contacts.mask[:, 0].sum() == 20 and not contacts.mask[:, 1].any()
     assert contacts.intervals("RightAnkle_end") == [(0, 8), (27, 39)]
     assert contacts.describe().splitlines() == [
-        "RightAnkle_end: 20 frames in 2 contacts (0-7, 27-38)", "LeftAnkle: no contact"]
+        "RightAnkle_end: 20 frames in 2 contacts (0-7, 27-38)",
+        "LeftAnkle: no contact",
+    ]
     with pytest.raises(ValueError):
         contacts.mask[0, 0] = False
     with pytest.raises(KeyError, match="not a contact site"):

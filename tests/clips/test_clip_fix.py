@@ -35,9 +35,9 @@ def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
     clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
     hand, first, last = "RightElbow_end", 55, 65  # the apex: hips and hands highest at frame 60
     path = forward_kinematics(clip.skeleton, clip.frames).position(hand)
-    prop = path[first:last + 1].mean(axis=0) + 0.05 * clip.skeleton.up  # 5 cm above the path
+    prop = path[first : last + 1].mean(axis=0) + 0.05 * clip.skeleton.up  # 5 cm above the path
     mask = np.zeros(clip.n_frames, bool)
-    mask[first:last + 1] = True
+    mask[first : last + 1] = True
     targets = np.where(mask[:, None], prop, np.nan)
     before = np.linalg.norm(path - prop, axis=-1)[mask]
     assert before.min() > 0.035 and before.max() > 0.09  # the performance misses the prop
@@ -66,7 +66,8 @@ def test_warm_start_balances_most_frames_and_de_repairs_the_rest():
     assert stage["frames"] == (~warm.met).sum() and stage["evaluations"] > 0
     assert fix.met[warm.met].all()  # DE left alone the frames the warm start had met
     assert fix.met.all() and np.nanmean(com_outside_support(fix.clip, contacts)) < np.nanmean(
-        com_outside_support(warm.clip, contacts))
+        com_outside_support(warm.clip, contacts)
+    )
 
 
 def test_neighbour_displacement_is_the_mean_of_both_sides():
@@ -84,34 +85,56 @@ def test_clip_goals_refuse_impossible_settings():
         ClipGoals(balance=True)
 
 
-TRACKS = {"good.csv": "frame,x,y,z\n3,0,1,0\n", "no_z.csv": "frame,x,y\n1,0,1\n",
-          "late.csv": "frame,x,y,z\n3,0,1,0\n40,0,1,0\n", "no_z.json": '[{"frame": 1, "x": 0, "y": 1}]'}
+TRACKS = {
+    "good.csv": "frame,x,y,z\n3,0,1,0\n",
+    "no_z.csv": "frame,x,y\n1,0,1\n",
+    "late.csv": "frame,x,y,z\n3,0,1,0\n40,0,1,0\n",
+    "no_z.json": '[{"frame": 1, "x": 0, "y": 1}]',
+}
 
 
 @pytest.mark.shared_data
-@pytest.mark.parametrize("extra,fragment", [
-    (["--reach", "NoSuchHand=0,1,0@3:5"], "--reach 'NoSuchHand=0,1,0@3:5': no joint or site 'NoSuchHand'"),
-    (["--reach", "LeftElbow_ned={tmp}/good.csv"], "did you mean 'LeftElbow_end'"),
-    (["--reach", "NoSuchHand={tmp}/good.csv"], "its sites are RightAnkle_end, LeftAnkle_end, Neck_end"),
-    (["--plant-feet", "LeftAnkel:1-3"], "no joint or site 'LeftAnkel' in humanoid3d_walk.bvh; did you mean"),
-    (["--reach", "LeftElbow_end=0,1,0@30:60"], "frames 30:60 are outside the clip or reversed; valid frames: 0..38"),
-    (["--reach", "LeftElbow_end={tmp}/late.csv"], "late.csv:3: frame 40 is outside the clip; valid frames: 0..38"),
-    (["--plant-feet", "LeftAnkle_end:30-45"], "frames 30-45 are outside the clip or reversed; valid frames: 0..38"),
-    (["--reach", "LeftElbow_end={tmp}/no_z.csv"],
-     "no_z.csv:1: missing column z: the header must name frame, x, y and z"),
-    (["--reach", "LeftElbow_end={tmp}/no_z.json"],
-     'no_z.json: [0]: missing z: each element needs "frame", "x", "y" and "z"'),
-    (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
-    (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
-])
+@pytest.mark.parametrize(
+    "extra,fragment",
+    [
+        (["--reach", "NoSuchHand=0,1,0@3:5"], "--reach 'NoSuchHand=0,1,0@3:5': no joint or site 'NoSuchHand'"),
+        (["--reach", "LeftElbow_ned={tmp}/good.csv"], "did you mean 'LeftElbow_end'"),
+        (["--reach", "NoSuchHand={tmp}/good.csv"], "its sites are RightAnkle_end, LeftAnkle_end, Neck_end"),
+        (["--plant-feet", "LeftAnkel:1-3"], "no joint or site 'LeftAnkel' in humanoid3d_walk.bvh; did you mean"),
+        (
+            ["--reach", "LeftElbow_end=0,1,0@30:60"],
+            "frames 30:60 are outside the clip or reversed; valid frames: 0..38",
+        ),
+        (["--reach", "LeftElbow_end={tmp}/late.csv"], "late.csv:3: frame 40 is outside the clip; valid frames: 0..38"),
+        (["--plant-feet", "LeftAnkle_end:30-45"], "frames 30-45 are outside the clip or reversed; valid frames: 0..38"),
+        (
+            ["--reach", "LeftElbow_end={tmp}/no_z.csv"],
+            "no_z.csv:1: missing column z: the header must name frame, x, y and z",
+        ),
+        (
+            ["--reach", "LeftElbow_end={tmp}/no_z.json"],
+            'no_z.json: [0]: missing z: each element needs "frame", "x", "y" and "z"',
+        ),
+        (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
+        (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
+    ],
+)
 def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fragment):
     for name, text in TRACKS.items():
         (tmp_path / name).write_text(text)
     out = tmp_path / "out"
     out.mkdir()
     (out / "fixed.bvh").write_text("an earlier result")
-    argv = ["clip", str(shared_path("humanoid", "humanoid3d_walk.bvh")), "--out", str(out / "fixed.bvh"),
-            "--report", str(out / "report.png"), "--json", str(out / "report.json")]
+    argv = [
+        "clip",
+        str(shared_path("humanoid", "humanoid3d_walk.bvh")),
+        "--out",
+        str(out / "fixed.bvh"),
+        "--report",
+        str(out / "report.png"),
+        "--json",
+        str(out / "report.json"),
+    ]
     assert main(argv + [e.format(tmp=tmp_path) for e in extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
@@ -122,8 +145,18 @@ def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fra
 @pytest.mark.shared_data
 def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     out = tmp_path / "fixed.bvh"
-    argv = ["clip", str(shared_path("humanoid", "humanoid3d_run.bvh")), "--out", str(out),
-            "--report", str(tmp_path / "report.png"), "--json", str(tmp_path / "report.json"), "--passes", "1"]
+    argv = [
+        "clip",
+        str(shared_path("humanoid", "humanoid3d_run.bvh")),
+        "--out",
+        str(out),
+        "--report",
+        str(tmp_path / "report.png"),
+        "--json",
+        str(tmp_path / "report.json"),
+        "--passes",
+        "1",
+    ]
     assert main(argv) == 0, capsys.readouterr().err
     captured = capsys.readouterr()
     assert "contacts (detected)" in captured.err and "foot sliding mean (mm/frame)" in captured.out

@@ -30,11 +30,18 @@ def walk() -> Clip:
 def stage(poses, frame_time=0.1) -> Clip:
     """Three fixed sites a, b, c on the ground (Y up) and a body of mass 1 kg moved by
     translation DOFs (its position is the centre of mass), swinging an arm that carries a site."""
-    joints = [Joint("ground", None), Joint("body", "ground", dofs=translation("XYZ"), mass=1.0),
-              Joint("arm", "body", (0.0, 1.0, 0.0), dofs=euler("Z"))]
-    sites = [Site("a", "ground"), Site("b", "ground", (1.0, 0.0, 0.0)),
-             Site("c", "ground", (0.0, 0.0, 1.0)), Site("foot", "body"),
-             Site("hand", "arm", (1.0, 0.0, 0.0))]
+    joints = [
+        Joint("ground", None),
+        Joint("body", "ground", dofs=translation("XYZ"), mass=1.0),
+        Joint("arm", "body", (0.0, 1.0, 0.0), dofs=euler("Z")),
+    ]
+    sites = [
+        Site("a", "ground"),
+        Site("b", "ground", (1.0, 0.0, 0.0)),
+        Site("c", "ground", (0.0, 0.0, 1.0)),
+        Site("foot", "body"),
+        Site("hand", "arm", (1.0, 0.0, 0.0)),
+    ]
     return Clip.from_poses(build_skeleton(joints, sites), np.asarray(poses, float), frame_time)
 
 
@@ -54,8 +61,15 @@ def test_foot_sliding_is_zero_while_pinned_and_the_step_length_otherwise():
 
 
 def test_com_outside_a_hand_made_triangle():
-    com = [(0.2, 0.5, 0.2), (1.0, 0.3, 1.0), (-0.5, 0.0, 0.5), (2.0, 0.0, -1.0),
-           (0.5, 0.0, 0.3), (0.6, 0.0, 0.8), (0.5, 0.0, 0.5)]
+    com = [
+        (0.2, 0.5, 0.2),
+        (1.0, 0.3, 1.0),
+        (-0.5, 0.0, 0.5),
+        (2.0, 0.0, -1.0),
+        (0.5, 0.0, 0.3),
+        (0.6, 0.0, 0.8),
+        (0.5, 0.0, 0.5),
+    ]
     clip = stage(np.concatenate([com, np.zeros((7, 1))], axis=1))
     ranges = {"a": [(0, 6)], "b": [(0, 5)], "c": [(0, 4)]}  # frame 4: a-b, 5: a alone, 6: none
     outside = com_outside_support(clip, contacts_from_ranges(clip, ranges))
@@ -137,9 +151,14 @@ def test_report_and_series_of_an_unchanged_clip():
     assert report["reach RightElbow_end max (mm)"]["before"] == 0.0
     assert report["foot sliding max (mm/frame)"]["before"] > 1.0
     series = per_frame_errors(clip, clip, contacts, reach)
-    assert set(series) == {"foot sliding (mm/frame)", "COM outside support (mm)",
-                           "joint deviation max (deg)", "joint acceleration (deg/s^2)",
-                           "position acceleration (m/s^2)", "reach RightElbow_end (mm)"}
+    assert set(series) == {
+        "foot sliding (mm/frame)",
+        "COM outside support (mm)",
+        "joint deviation max (deg)",
+        "joint acceleration (deg/s^2)",
+        "position acceleration (m/s^2)",
+        "reach RightElbow_end (mm)",
+    }
     for before, after in series.values():
         assert before.shape == after.shape == (clip.n_frames,)
     sliding = series["foot sliding (mm/frame)"][0]

@@ -46,39 +46,48 @@ def test_json_round_trip_both_forms(tmp_path):
     check(read_track(write(tmp_path, "b.json", json.dumps(paired)), N), POINTS)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("frame,x\n0,1,\n", r"track.csv:1: missing columns y, z"),
-    ("frame,x,y,z\n0,1,2,3\n1,1,oops,3\n", r"track.csv:3: column y 'oops' is not a number"),
-    ("frame,x,y,z\n0,1,nan,3\n", r"track.csv:2: column y is nan: NaN"),
-    ("frame,x,y,z\n1.5,1,2,3\n", r"track.csv:2: frame '1.5' is not a whole number"),
-    ("frame,x,y,z\n2,1,2,3\n4,0,0,0\n2,1,2,3\n", r"track.csv:4: frame 2 is listed twice \(first at line 2\)"),
-    ("frame,x,y,z\n10,1,2,3\n", r"track.csv:2: frame 10 is outside the clip; valid frames: 0\.\.9"),
-    ("frame,x,y,z\n-1,1,2,3\n", r"valid frames: 0\.\.9"),
-    ("frame,x,y,z\n0,1,2\n", r"track.csv:2: 3 fields where the header has 4"),
-    ("frame,x,y,z\n\n", r"track.csv: empty track"),
-    ("", r"track.csv: empty track"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("frame,x\n0,1,\n", r"track.csv:1: missing columns y, z"),
+        ("frame,x,y,z\n0,1,2,3\n1,1,oops,3\n", r"track.csv:3: column y 'oops' is not a number"),
+        ("frame,x,y,z\n0,1,nan,3\n", r"track.csv:2: column y is nan: NaN"),
+        ("frame,x,y,z\n1.5,1,2,3\n", r"track.csv:2: frame '1.5' is not a whole number"),
+        ("frame,x,y,z\n2,1,2,3\n4,0,0,0\n2,1,2,3\n", r"track.csv:4: frame 2 is listed twice \(first at line 2\)"),
+        ("frame,x,y,z\n10,1,2,3\n", r"track.csv:2: frame 10 is outside the clip; valid frames: 0\.\.9"),
+        ("frame,x,y,z\n-1,1,2,3\n", r"valid frames: 0\.\.9"),
+        ("frame,x,y,z\n0,1,2\n", r"track.csv:2: 3 fields where the header has 4"),
+        ("frame,x,y,z\n\n", r"track.csv: empty track"),
+        ("", r"track.csv: empty track"),
+    ],
+)
 def test_csv_errors_name_the_file_and_line(tmp_path, text, message):
     with pytest.raises(FileFormatError, match=message):
         read_track(write(tmp_path, "track.csv", text), N)
 
 
-@pytest.mark.parametrize("data, message", [
-    ([{"frame": 0, "x": 1, "y": 2}], r"t.json: \[0\]: missing z"),
-    ([{"frame": 0, "x": 1, "y": 2, "z": "3"}], r"t.json: \[0\]\.z: must be a finite number"),
-    ([{"frame": 0, "x": 1, "y": 2, "z": float("nan")}],
-     r"t.json: \[0\]\.z: must be a finite number, got nan"),
-    ([{"frame": True, "x": 1, "y": 2, "z": 3}], r"\[0\]\.frame: frame must be a whole number"),
-    ([{"frame": 1, "x": 1, "y": 2, "z": 3}, {"frame": 1, "x": 0, "y": 0, "z": 0}],
-     r"\[1\]\.frame: frame 1 is listed twice \(first at \[0\]\.frame\)"),
-    ({"frames": [12], "positions": [[0, 0, 0]]},
-     r"frames\[0\]: frame 12 is outside the clip; valid frames: 0\.\.9"),
-    ({"frames": [1, 2], "positions": [[0, 0, 0]]}, r"must be lists of the same length"),
-    ({"frames": [1], "positions": [[0, 0]]}, r"positions\[0\]: must be \[x, y, z\]"),
-    ({"frames": [1], "positions": [[0, None, 0]]}, r"positions\[0\]\[1\]: must be a finite number"),
-    ([], r"t.json: empty track"),
-    ({"points": []}, r"top level: expected a list"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ([{"frame": 0, "x": 1, "y": 2}], r"t.json: \[0\]: missing z"),
+        ([{"frame": 0, "x": 1, "y": 2, "z": "3"}], r"t.json: \[0\]\.z: must be a finite number"),
+        ([{"frame": 0, "x": 1, "y": 2, "z": float("nan")}], r"t.json: \[0\]\.z: must be a finite number, got nan"),
+        ([{"frame": True, "x": 1, "y": 2, "z": 3}], r"\[0\]\.frame: frame must be a whole number"),
+        (
+            [{"frame": 1, "x": 1, "y": 2, "z": 3}, {"frame": 1, "x": 0, "y": 0, "z": 0}],
+            r"\[1\]\.frame: frame 1 is listed twice \(first at \[0\]\.frame\)",
+        ),
+        (
+            {"frames": [12], "positions": [[0, 0, 0]]},
+            r"frames\[0\]: frame 12 is outside the clip; valid frames: 0\.\.9",
+        ),
+        ({"frames": [1, 2], "positions": [[0, 0, 0]]}, r"must be lists of the same length"),
+        ({"frames": [1], "positions": [[0, 0]]}, r"positions\[0\]: must be \[x, y, z\]"),
+        ({"frames": [1], "positions": [[0, None, 0]]}, r"positions\[0\]\[1\]: must be a finite number"),
+        ([], r"t.json: empty track"),
+        ({"points": []}, r"top level: expected a list"),
+    ],
+)
 def test_json_errors_name_the_file_and_element(tmp_path, data, message):
     with pytest.raises(FileFormatError, match=message):
         read_track(write(tmp_path, "t.json", json.dumps(data)), N)
@@ -104,17 +113,20 @@ def test_reach_spec_with_a_fixed_point_over_an_inclusive_range():
     check(parse_reach_spec("hand=1,2,3@9:9", N)[1:], {9: (1, 2, 3)})
 
 
-@pytest.mark.parametrize("spec, message", [
-    ("hand", "is not SITE=TARGET"),
-    ("=1,2,3", "is not SITE=TARGET"),
-    ("hand=", "is not SITE=TARGET"),
-    ("hand=1,2", "is not a point X,Y,Z"),
-    ("hand=1,2,inf", "is not a point X,Y,Z"),
-    ("hand=1,2,3@4", "frame range '4' is not A:B"),
-    ("hand=1,2,3@a:b", "frame range 'a:b' is not A:B"),
-    ("hand=1,2,3@5:2", r"frames 5:2 are outside the clip or reversed; valid frames: 0\.\.9"),
-    ("hand=1,2,3@0:10", r"frames 0:10 are outside the clip"),
-])
+@pytest.mark.parametrize(
+    "spec, message",
+    [
+        ("hand", "is not SITE=TARGET"),
+        ("=1,2,3", "is not SITE=TARGET"),
+        ("hand=", "is not SITE=TARGET"),
+        ("hand=1,2", "is not a point X,Y,Z"),
+        ("hand=1,2,inf", "is not a point X,Y,Z"),
+        ("hand=1,2,3@4", "frame range '4' is not A:B"),
+        ("hand=1,2,3@a:b", "frame range 'a:b' is not A:B"),
+        ("hand=1,2,3@5:2", r"frames 5:2 are outside the clip or reversed; valid frames: 0\.\.9"),
+        ("hand=1,2,3@0:10", r"frames 0:10 are outside the clip"),
+    ],
+)
 def test_malformed_reach_specs_name_the_accepted_forms(spec, message):
     with pytest.raises(ValueError, match=message) as error:
         parse_reach_spec(spec, N)

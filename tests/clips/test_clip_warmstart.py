@@ -51,8 +51,9 @@ def test_hinges_and_the_dofs_each_frame_searches():
     clip = walk()
     sk = clip.skeleton
     hinges = {sk.dof_names[d] for d in np.flatnonzero(hinge_channels(clip))}
-    assert hinges == {f"{side}{joint}.{axis}rotation" for side in ("Left", "Right")
-                      for joint in ("Knee", "Elbow") for axis in "XY"}
+    assert hinges == {
+        f"{side}{joint}.{axis}rotation" for side in ("Left", "Right") for joint in ("Knee", "Elbow") for axis in "XY"
+    }
     contacts = detect_contacts(clip)
     goals = fixed_goals(clip, ClipGoals(contacts), dof_weights(clip))
     searched = searched_dofs(clip, goals)
@@ -125,14 +126,14 @@ def test_eased_track_blends_from_the_path_to_each_run(gap):
     N, blend = 10 + gap + 10, 4
     path = np.zeros((N, 3))
     mask = np.zeros(N, bool)
-    mask[:10] = mask[10 + gap:] = True
+    mask[:10] = mask[10 + gap :] = True
     targets = np.where(mask[:, None], 1.0, np.nan)
     widened, eased = eased_track(path, mask, targets, blend)
     np.testing.assert_array_equal(eased[mask], 1.0)
-    between = eased[10:10 + gap, 0]
+    between = eased[10 : 10 + gap, 0]
     if gap > 2 * blend:
         assert between[blend:-blend].size and np.isnan(between[blend:-blend]).all()
-        assert not widened[10 + blend:10 + gap - blend].any()
+        assert not widened[10 + blend : 10 + gap - blend].any()
         np.testing.assert_array_less(np.diff(between[:blend]), 0.0)  # easing out of the run
     else:
         assert widened.all() and (between > 0.5).all() and (between <= 1.0).all()

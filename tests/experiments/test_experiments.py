@@ -82,8 +82,14 @@ def test_fig3_bigger_population_needs_no_more_generations(quick_run):
     assert sum(r["converged"] == "True" for r in data) >= 0.9 * len(data)
     cells = {(r["targets"], r["strategy"], r["links"]) for r in data}
     for cell in cells:
-        gens = {p: [float(r["generations"]) for r in data
-                    if (r["targets"], r["strategy"], r["links"]) == cell and r["population"] == p] for p in ("10", "100")}
+        gens = {
+            p: [
+                float(r["generations"])
+                for r in data
+                if (r["targets"], r["strategy"], r["links"]) == cell and r["population"] == p
+            ]
+            for p in ("10", "100")
+        }
         assert spread(gens["100"])["median"] <= 2 * spread(gens["10"])["median"], cell
 
 
@@ -91,8 +97,10 @@ def test_fig3_bigger_population_needs_no_more_generations(quick_run):
 def test_fig4_com_first_keeps_balance_and_equal_weights_do_not(quick_run):
     data = rows(quick_run[0], "fig4")
     assert len(data) == 3 * 2
-    com = {v: [float(r["com_over_support_error"]) for r in data if r["variant"] == v]
-           for v in ("equal weights", "COM first (strict levels)")}
+    com = {
+        v: [float(r["com_over_support_error"]) for r in data if r["variant"] == v]
+        for v in ("equal weights", "COM first (strict levels)")
+    }
     assert max(com["COM first (strict levels)"]) <= 0.02 + 1e-6
     assert min(com["equal weights"]) > 2 * max(com["COM first (strict levels)"])
 
@@ -113,11 +121,21 @@ def test_fig6_curves_are_elitist_and_the_sum_beats_the_max(quick_run):
     for strategy in {r["strategy"] for r in data}:
         for mode, column in (("sum", "mean_abs_error_rad"), ("max", "max_abs_error_rad")):
             for seed in range(4):
-                curve = [float(r[column]) for r in data if (r["strategy"], r["comfort"], r["seed"]) == (strategy, mode, str(seed))]
+                curve = [
+                    float(r[column])
+                    for r in data
+                    if (r["strategy"], r["comfort"], r["seed"]) == (strategy, mode, str(seed))
+                ]
                 assert len(curve) == 61 and np.isfinite(curve).all()
                 assert np.all(np.diff(curve) <= 1e-5)  # the optimised yardstick never gets worse
-    final = {m: median(r["mean_abs_error_rad"] for r in data
-                       if r["comfort"] == m and r["generation"] == "60" and r["strategy"].startswith("rand")) for m in ("sum", "max")}
+    final = {
+        m: median(
+            r["mean_abs_error_rad"]
+            for r in data
+            if r["comfort"] == m and r["generation"] == "60" and r["strategy"].startswith("rand")
+        )
+        for m in ("sum", "max")
+    }
     assert final["sum"] < final["max"]
 
 
@@ -151,13 +169,16 @@ def test_gpu_request_without_gpu_is_skipped_with_a_note(tmp_path, capsys):
         assert "--device cuda" in (tmp_path / "fig8.md").read_text()
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["fig1", "--out", "{tmp}"], "unknown experiment 'fig1'; choose from fig2, fig3"),
-    (["fig2", "--out", "{tmp}/file"], "is a file, not a folder"),
-    (["fig2", "--out", "{tmp}", "--doc", "{tmp}/d.md"], "--doc needs all experiments"),
-    (["--out", "{tmp}"], "required"),
-    (["fig2"], "required: --out"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fig1", "--out", "{tmp}"], "unknown experiment 'fig1'; choose from fig2, fig3"),
+        (["fig2", "--out", "{tmp}/file"], "is a file, not a folder"),
+        (["fig2", "--out", "{tmp}", "--doc", "{tmp}/d.md"], "--doc needs all experiments"),
+        (["--out", "{tmp}"], "required"),
+        (["fig2"], "required: --out"),
+    ],
+)
 def test_bad_input_is_one_line_and_status_2(tmp_path, capsys, argv, message):
     (tmp_path / "file").write_text("x")
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]

@@ -19,8 +19,13 @@ from deik.model.kinematics import forward_kinematics
 from helpers import shared_path
 
 CLIPS = {"walk": 39, "run": 25, "jump": 107}
-END_SITES = {"Head": "Neck_end", "RightWrist": "RightElbow_end", "LeftWrist": "LeftElbow_end",
-             "RightToe": "RightAnkle_end", "LeftToe": "LeftAnkle_end"}
+END_SITES = {
+    "Head": "Neck_end",
+    "RightWrist": "RightElbow_end",
+    "LeftWrist": "LeftElbow_end",
+    "RightToe": "RightAnkle_end",
+    "LeftToe": "LeftAnkle_end",
+}
 
 # Position channels on a non-root joint and between rotations; two End Sites on one joint.
 TOY = """HIERARCHY
@@ -141,8 +146,7 @@ def test_humanoid_pose_written_and_read_back_has_the_same_positions(tmp_path):
     assert again.skeleton.joint_names == human.joint_names and again.n_frames == 1
     before = forward_kinematics(human, pose)
     after = forward_kinematics(again.skeleton, again.frames[0])
-    np.testing.assert_allclose(after.p_world_frame[:human.n_joints],
-                               before.p_world_frame[:human.n_joints], atol=1e-6)
+    np.testing.assert_allclose(after.p_world_frame[: human.n_joints], before.p_world_frame[: human.n_joints], atol=1e-6)
     for original, read in zip(clip.layout, again.layout):  # End Sites come back in file order
         sites = [(a, b) for a, b in zip(original.children, read.children) if a in human.site_names]
         for a, b in sites:
@@ -152,8 +156,7 @@ def test_humanoid_pose_written_and_read_back_has_the_same_positions(tmp_path):
 
 
 def test_from_poses_rejects_dofs_bvh_cannot_carry():
-    tilted = build_skeleton([Joint("root", None),
-                             Joint("arm", "root", (0, 1, 0), hinge((1, 1, 0)))])
+    tilted = build_skeleton([Joint("root", None), Joint("arm", "root", (0, 1, 0), hinge((1, 1, 0)))])
     with pytest.raises(ValueError, match=r"'arm.hinge'.*not a coordinate axis"):
         Clip.from_poses(tilted, np.zeros((1, 1)), 0.1)
     slid = build_skeleton([Joint("root", None, dofs=euler("Z") + translation("X"))])
@@ -170,8 +173,15 @@ def test_from_poses_rejects_dofs_bvh_cannot_carry():
 def test_position_channels_on_any_joint_in_any_order_match_hand_computed_positions():
     clip = parse_bvh(TOY, "toy.bvh")
     sk = clip.skeleton
-    assert sk.dof_names == ("base.Xposition", "base.Yrotation", "base.Zrotation", "arm.Xposition",
-                            "arm.Yposition", "arm.Zrotation", "arm.Yrotation")
+    assert sk.dof_names == (
+        "base.Xposition",
+        "base.Yrotation",
+        "base.Zrotation",
+        "arm.Xposition",
+        "arm.Yposition",
+        "arm.Zrotation",
+        "arm.Yrotation",
+    )
     assert sk.site_names == ("arm_end", "arm_end2")
     fk = forward_kinematics(sk, clip.frames)
     rows = [[float(v) for v in line.split()] for line in TOY.strip().splitlines()[-2:]]
@@ -184,8 +194,7 @@ def test_position_channels_on_any_joint_in_any_order_match_hand_computed_positio
         np.testing.assert_allclose(fk.position("arm")[n], p_arm, atol=1e-12)
         np.testing.assert_allclose(fk.rotation("arm")[n], R_arm, atol=1e-12)
         np.testing.assert_allclose(fk.position("arm_end")[n], p_arm + R_arm @ [0, 0, 2], atol=1e-12)
-        np.testing.assert_allclose(fk.position("arm_end2")[n], p_arm + R_arm @ [0.5, 0, 0],
-                                   atol=1e-12)
+        np.testing.assert_allclose(fk.position("arm_end2")[n], p_arm + R_arm @ [0.5, 0, 0], atol=1e-12)
     text = format_bvh(clip)
     assert "CHANNELS 4 Zrotation Xposition Yrotation Yposition" in text
     assert text.count("End Site") == 2
@@ -264,8 +273,7 @@ def test_with_pose_keeps_rotations_and_returns_to_the_original_angles():
         np.testing.assert_allclose(new.frames[n], nudged, atol=1e-9)
         np.testing.assert_array_equal(np.delete(new.frames, n, 0), np.delete(clip.frames, n, 0))
         R_given = forward_kinematics(clip.skeleton, disguised).R_world_frame
-        np.testing.assert_allclose(forward_kinematics(clip.skeleton, new.frames[n]).R_world_frame,
-                                   R_given, atol=1e-12)
+        np.testing.assert_allclose(forward_kinematics(clip.skeleton, new.frames[n]).R_world_frame, R_given, atol=1e-12)
 
 
 @pytest.mark.shared_data
@@ -276,8 +284,9 @@ def test_with_pose_on_random_poses_is_never_farther_than_whole_turns():
     for n in range(0, clip.n_frames, 4):
         pose = rng.uniform(-math.pi, math.pi, sk.n_dofs)
         new = clip.with_pose(n, pose).frames[n]
-        np.testing.assert_allclose(forward_kinematics(sk, new).R_world_frame,
-                                   forward_kinematics(sk, pose).R_world_frame, atol=1e-12)
+        np.testing.assert_allclose(
+            forward_kinematics(sk, new).R_world_frame, forward_kinematics(sk, pose).R_world_frame, atol=1e-12
+        )
         assert (new[~rotation] == pose[~rotation]).all()
         turned = pose + 2 * math.pi * np.round((clip.frames[n] - pose) / (2 * math.pi))
         assert np.abs(new - clip.frames[n])[rotation].max() <= math.pi + 1e-9
@@ -350,8 +359,10 @@ def test_zero_frames_and_zero_channels(tmp_path):
     with pytest.raises(IndexError, match="no frames"):
         clip.pose(0)
     assert parse_bvh(format_bvh(clip), "again.bvh").frames.shape == (0, 7)
-    still = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 0\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n" \
-            "MOTION\nFrames: 3\nFrame Time: 0.5\n"
+    still = (
+        "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 0\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n"
+        "MOTION\nFrames: 3\nFrame Time: 0.5\n"
+    )
     clip = parse_bvh(still, "still.bvh")
     assert clip.frames.shape == (3, 0) and clip.skeleton.site_names == ("a_end",)
     assert parse_bvh(format_bvh(clip), "again.bvh").frames.shape == (3, 0)
@@ -373,23 +384,27 @@ BAD = {
     "missing_closing_brace": (lines_with({18: ""}), 20, r"ends inside joint 'base'.*missing '\}'"),
     "unknown_keyword": (lines_with({5: "  ROTATION 1 2 3"}), 5, r"unknown keyword 'ROTATION'"),
     "unknown_joint_type": (lines_with({6: "  BONE arm"}), 6, r"unknown keyword 'BONE'"),
-    "channel_count": (lines_with({5: "  CHANNELS 4 Yrotation Xposition Zrotation"}), 5,
-                      r"CHANNELS says 4 channels but names 3"),
-    "unknown_channel": (lines_with({5: "  CHANNELS 3 Yrotation Wposition Zrotation"}), 5,
-                        r"unknown channel 'Wposition'"),
-    "duplicate_channel": (lines_with({5: "  CHANNELS 3 Yrotation Xposition Yrotation"}), 5,
-                          r"duplicate channel Yrotation in joint 'base'"),
-    "duplicate_joint": (lines_with({6: "  JOINT base"}),
-        6, r"duplicate joint name 'base' \(first at line 2\)"),
-    "offset_count": (lines_with({8: "    OFFSET 0 1"}),
-        8, r"OFFSET needs 3 numbers \(x y z\), found 2"),
-    "offset_not_a_number": (lines_with({8: "    OFFSET 0 one 0"}),
-        8, r"OFFSET value 'one' is not a number"),
-    "offset_nan": (lines_with({4: "  OFFSET 1 nan 3"}),
-        4, r"NaN and infinite values are not allowed"),
+    "channel_count": (
+        lines_with({5: "  CHANNELS 4 Yrotation Xposition Zrotation"}),
+        5,
+        r"CHANNELS says 4 channels but names 3",
+    ),
+    "unknown_channel": (
+        lines_with({5: "  CHANNELS 3 Yrotation Wposition Zrotation"}),
+        5,
+        r"unknown channel 'Wposition'",
+    ),
+    "duplicate_channel": (
+        lines_with({5: "  CHANNELS 3 Yrotation Xposition Yrotation"}),
+        5,
+        r"duplicate channel Yrotation in joint 'base'",
+    ),
+    "duplicate_joint": (lines_with({6: "  JOINT base"}), 6, r"duplicate joint name 'base' \(first at line 2\)"),
+    "offset_count": (lines_with({8: "    OFFSET 0 1"}), 8, r"OFFSET needs 3 numbers \(x y z\), found 2"),
+    "offset_not_a_number": (lines_with({8: "    OFFSET 0 one 0"}), 8, r"OFFSET value 'one' is not a number"),
+    "offset_nan": (lines_with({4: "  OFFSET 1 nan 3"}), 4, r"NaN and infinite values are not allowed"),
     "missing_offset": (lines_with({8: ""}), 18, r"joint 'arm' \(line 6\) has no OFFSET"),
-    "end_site_channels": (lines_with({12: "      CHANNELS 1 Xrotation"}),
-        12, r"an End Site cannot have CHANNELS"),
+    "end_site_channels": (lines_with({12: "      CHANNELS 1 Xrotation"}), 12, r"an End Site cannot have CHANNELS"),
     "second_root": (TOY.replace("MOTION", "ROOT again\nMOTION"), 20, r"one ROOT"),
     "missing_motion": (lines_with(cut=19), 19, r"no MOTION section"),
     "missing_frames_line": (lines_with({21: "Frame Count: 2"}), 21, r"expected 'Frames: N'"),
@@ -401,17 +416,14 @@ BAD = {
     "frame_nan": (lines_with({24: "1 2 3 NaN 5 6 7"}), 24, r"channel 4 is NaN"),
     "frame_inf": (lines_with({23: "1 2 3 4 5 -inf 7"}), 23, r"channel 6 is -inf"),
     "frame_overflow": (lines_with({23: "1 2 3 4 5 1e400 7"}), 23, r"channel 6 '1e400' is beyond"),
-    "frame_not_a_number": (lines_with({23: "1 2 3 4 5 6 7x"}),
-        23, r"channel 7 '7x' is not a number"),
+    "frame_not_a_number": (lines_with({23: "1 2 3 4 5 6 7x"}), 23, r"channel 7 '7x' is not a number"),
     "zero_frame_time": (lines_with({22: "Frame Time: 0"}), 22, r"Frame Time must lie between 1e-06 and 3600"),
-    "negative_frame_time": (lines_with({22: "Frame Time: -0.1"}),
-        22, r"Frame Time must lie between"),
+    "negative_frame_time": (lines_with({22: "Frame Time: -0.1"}), 22, r"Frame Time must lie between"),
     "subnormal_frame_time": (lines_with({22: "Frame Time: 1e-320"}), 22, r"Frame Time must lie between"),
     "empty_file": ("", 1, r"empty file"),
     "blank_file": ("\n  \n\t\n", 1, r"empty file"),
     "no_hierarchy": ("ROOT a\n{\n}\n", 1, r"must start with HIERARCHY"),
-    "nul_bytes": (TOY.encode()[:40] + b"\x00\x01\x02" + TOY.encode()[40:],
-        5, r"not a text BVH file"),
+    "nul_bytes": (TOY.encode()[:40] + b"\x00\x01\x02" + TOY.encode()[40:], 5, r"not a text BVH file"),
     "not_utf8": (b"HIERARCHY\nROOT \xff\xfe\n", 2, r"not a text BVH file"),
 }
 

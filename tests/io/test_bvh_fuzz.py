@@ -25,8 +25,13 @@ def examples(n: int) -> int:
     return max(1, round(n * SCALE))
 
 
-FUZZ = settings(max_examples=examples(60), deadline=None, derandomize=True, database=None,
-                suppress_health_check=[HealthCheck.too_slow])
+FUZZ = settings(
+    max_examples=examples(60),
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
 
 VALID = """HIERARCHY
 ROOT Hips
@@ -68,10 +73,45 @@ Frame Time: 0.0333333
 0.1 0.91 0 -179 2 3 4 0.02 5 6 7 8 9 10 11
 0.2 0.92 0 181 2 3 4 0.03 5 6 370 8 9 10 11
 """
-WORDS = ["HIERARCHY", "ROOT", "JOINT", "End", "Site", "OFFSET", "CHANNELS", "{", "}", "MOTION",
-         "Frames:", "Frame", "Time:", "0", "1", "2", "3", "6", "-2.5", "1e12", "1e308", "nan",
-         "-inf", "Xposition", "Zrotation", "Yrotation", "xROTATION", "Hips", "Spine", "é", "\x00",
-         "7x", "--1", ".5", "1e", "\t", "\r"]
+WORDS = [
+    "HIERARCHY",
+    "ROOT",
+    "JOINT",
+    "End",
+    "Site",
+    "OFFSET",
+    "CHANNELS",
+    "{",
+    "}",
+    "MOTION",
+    "Frames:",
+    "Frame",
+    "Time:",
+    "0",
+    "1",
+    "2",
+    "3",
+    "6",
+    "-2.5",
+    "1e12",
+    "1e308",
+    "nan",
+    "-inf",
+    "Xposition",
+    "Zrotation",
+    "Yrotation",
+    "xROTATION",
+    "Hips",
+    "Spine",
+    "é",
+    "\x00",
+    "7x",
+    "--1",
+    ".5",
+    "1e",
+    "\t",
+    "\r",
+]
 NUMBER = re.compile(r"-?[0-9.]+")
 NUMBERS = ["0", "-0", "1", "2", "3", "6", "-2.5", ".5", "1e-9", "1e12", "-1e12", "370", "12345.678"]
 
@@ -92,8 +132,7 @@ def check(data, source="fuzz.bvh"):
 
 def test_the_valid_file_parses():
     clip = parse_bvh(VALID, "valid.bvh")
-    assert clip.frames.shape == (3, 15) and clip.skeleton.site_names == ("Head_end", "Spine_end",
-                                                                        "LeftUpLeg_end")
+    assert clip.frames.shape == (3, 15) and clip.skeleton.site_names == ("Head_end", "Spine_end", "LeftUpLeg_end")
     check(VALID)
 
 
@@ -122,16 +161,18 @@ def mutations(draw):
     rnd = draw(st.randoms(use_true_random=False))
     lines, numbers_only = VALID.split("\n"), rnd.random() < 0.3  # numbers only: mostly valid
     for _ in range(rnd.randint(1, 4)):
-        edit = "number" if numbers_only else rnd.choice(
-            ["delete line", "duplicate line", "move line", "insert", "delete", "duplicate",
-             "replace", "number"])
-        numeric = [[i for i, word in enumerate(line.split()) if NUMBER.fullmatch(word)]
-                   for line in lines]
+        edit = (
+            "number"
+            if numbers_only
+            else rnd.choice(
+                ["delete line", "duplicate line", "move line", "insert", "delete", "duplicate", "replace", "number"]
+            )
+        )
+        numeric = [[i for i, word in enumerate(line.split()) if NUMBER.fullmatch(word)] for line in lines]
         candidates = [m for m, found in enumerate(numeric) if found] if edit == "number" else []
         n = rnd.choice(candidates) if candidates else rnd.randrange(len(lines))
         words = lines[n].split()
-        k = (rnd.choice(numeric[n]) if edit == "number" and numeric[n]
-             else rnd.randrange(len(words) + 1))
+        k = rnd.choice(numeric[n]) if edit == "number" and numeric[n] else rnd.randrange(len(words) + 1)
         if edit == "delete line":
             del lines[n]
         elif edit == "duplicate line":
@@ -141,13 +182,17 @@ def mutations(draw):
         elif edit == "insert":
             lines[n] = " ".join(words[:k] + [rnd.choice(WORDS)] + words[k:])
         else:
-            token = {"delete": [], "duplicate": words[k:k + 1] * 2, "replace": [rnd.choice(WORDS)],
-                     "number": [rnd.choice(NUMBERS)]}[edit]
-            lines[n] = " ".join(words[:k] + token + words[k + 1:])
+            token = {
+                "delete": [],
+                "duplicate": words[k : k + 1] * 2,
+                "replace": [rnd.choice(WORDS)],
+                "number": [rnd.choice(NUMBERS)],
+            }[edit]
+            lines[n] = " ".join(words[:k] + token + words[k + 1 :])
         lines = lines or [""]
     text = "\n".join(lines)
     truncate = rnd.random() < 0.3 and not numbers_only
-    return text[:rnd.randrange(len(text) + 1)] if truncate else text
+    return text[: rnd.randrange(len(text) + 1)] if truncate else text
 
 
 @settings(FUZZ, max_examples=examples(200))

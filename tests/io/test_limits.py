@@ -50,13 +50,16 @@ def test_limits_table_uses_degrees_for_rotations_and_lengths_for_translations(tm
 
 
 @pytest.mark.shared_data
-@pytest.mark.parametrize("text, fragment", [
-    ("[1, 2]", "must be a JSON object"),
-    ('{"LeftKnee.Zrotation": [0]}', "'LeftKnee.Zrotation' must be [lower, upper]"),
-    ('{"LeftKnee.Zrotation": [10, -10]}', "lower <= upper"),
-    ('{"LeftKnee.Zrotaton": [0, 10]}', "did you mean 'LeftKnee.Zrotation'"),
-    ('{"LeftKnee.Zrotation": [0, 10],', "not valid JSON"),
-])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("[1, 2]", "must be a JSON object"),
+        ('{"LeftKnee.Zrotation": [0]}', "'LeftKnee.Zrotation' must be [lower, upper]"),
+        ('{"LeftKnee.Zrotation": [10, -10]}', "lower <= upper"),
+        ('{"LeftKnee.Zrotaton": [0, 10]}', "did you mean 'LeftKnee.Zrotation'"),
+        ('{"LeftKnee.Zrotation": [0, 10],', "not valid JSON"),
+    ],
+)
 def test_bad_limits_tables_name_the_file_and_the_dof(tmp_path, text, fragment):
     path = tmp_path / "bad.json"
     path.write_text(text)
@@ -100,8 +103,21 @@ def test_cli_limits_then_solve_keeps_the_pose_inside(tmp_path, capsys):
     pose = np.random.default_rng(3).uniform(sk.lower, sk.upper)  # a target the narrowed body can reach
     target = deik.forward_kinematics(sk, pose).position("LeftElbow_end")
     out = tmp_path / "pose.json"
-    argv = ["solve", str(clip_path), "--frame", "3", "--limits", str(table), "--reach", "LeftElbow_end",
-            *map(str, target), "--seed", "1", "--out", str(out)]
+    argv = [
+        "solve",
+        str(clip_path),
+        "--frame",
+        "3",
+        "--limits",
+        str(table),
+        "--reach",
+        "LeftElbow_end",
+        *map(str, target),
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0, capsys.readouterr().err
     angles = np.array(json.loads(out.read_text())["angles"])
     assert (angles >= sk.lower).all() and (angles <= sk.upper).all()
@@ -112,8 +128,14 @@ def test_cli_limits_then_solve_keeps_the_pose_inside(tmp_path, capsys):
 def test_cli_clip_refuses_a_table_the_capture_breaks(tmp_path, capsys):
     table = tmp_path / "tight.json"
     table.write_text(json.dumps({"RightKnee.Zrotation": [0, 1]}))
-    argv = ["clip", str(shared_path("humanoid", "humanoid3d_walk.bvh")), "--limits", str(table),
-            "--out", str(tmp_path / "w.bvh")]
+    argv = [
+        "clip",
+        str(shared_path("humanoid", "humanoid3d_walk.bvh")),
+        "--limits",
+        str(table),
+        "--out",
+        str(tmp_path / "w.bvh"),
+    ]
     assert main(argv) == 2
     assert "RightKnee.Zrotation" in capsys.readouterr().err and not (tmp_path / "w.bvh").exists()
 
@@ -123,11 +145,12 @@ def test_problem_file_joint_limits_relative_to_the_file(tmp_path):
     clip_path = shared_path("humanoid", "humanoid3d_walk.bvh")
     (tmp_path / "lim.json").write_text(json.dumps({"LeftElbow.Zrotation": [0, 90]}))
     problem = tmp_path / "p.toml"
-    problem.write_text(f'skeleton = "{clip_path}"\njoint_limits = "lim.json"\n'
-                       '[[goal]]\ntype = "comfort"\n')
+    problem.write_text(f'skeleton = "{clip_path}"\njoint_limits = "lim.json"\n[[goal]]\ntype = "comfort"\n')
     sk = load_problem(problem).problem.skeleton
     d = sk.dof_names.index("LeftElbow.Zrotation")
     assert (sk.lower[d], sk.upper[d]) == pytest.approx((0.0, math.pi / 2))
     problem.write_text('skeleton = "chain:3"\njoint_limits = "missing.json"\n[[goal]]\ntype = "comfort"\n')
-    with pytest.raises(ValueError, match="field 'joint_limits'.*missing.json: no such limits \\(JSON\\) file; check the path"):
+    with pytest.raises(
+        ValueError, match="field 'joint_limits'.*missing.json: no such limits \\(JSON\\) file; check the path"
+    ):
         load_problem(problem)

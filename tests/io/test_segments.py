@@ -42,9 +42,11 @@ def with_segments(skeleton, segments):
     """`skeleton` carrying `segments` instead of its own masses."""
     index = skeleton.joint_names.index
     return dataclasses.replace(
-        skeleton, mass_joint=np.array([index(s.joint) for s in segments], np.int32),
+        skeleton,
+        mass_joint=np.array([index(s.joint) for s in segments], np.int32),
         mass_offset=np.array([s.com_offset for s in segments]).reshape(-1, 3),
-        mass_value=np.array([s.mass for s in segments]))
+        mass_value=np.array([s.mass for s in segments]),
+    )
 
 
 # --- segment tables ----------------------------------------------------------------------------
@@ -61,13 +63,18 @@ def test_shared_table_is_read_with_its_description():
 
 
 def test_a_minimal_table_with_joint_keys_and_a_zero_mass(tmp_path):
-    path = table(tmp_path, {"segments": [{"joint": "Hips", "mass_kg": 2, "com_offset_m": [0, 1, 0]},
-                                         {"bvh_frame": "Chest", "mass_kg": 0.0,
-                                          "com_offset_m": [0, 0, 0], "name": "marker"}],
-                            "comment": "ignored"})
+    path = table(
+        tmp_path,
+        {
+            "segments": [
+                {"joint": "Hips", "mass_kg": 2, "com_offset_m": [0, 1, 0]},
+                {"bvh_frame": "Chest", "mass_kg": 0.0, "com_offset_m": [0, 0, 0], "name": "marker"},
+            ],
+            "comment": "ignored",
+        },
+    )
     segments, _ = read_segment_table(path, JOINTS)
-    assert [(s.joint, s.mass, s.name) for s in segments] == [("Hips", 2.0, ""),
-                                                              ("Chest", 0.0, "marker")]
+    assert [(s.joint, s.mass, s.name) for s in segments] == [("Hips", 2.0, ""), ("Chest", 0.0, "marker")]
 
 
 SEGMENT = {"bvh_frame": "Hips", "mass_kg": 1.0, "com_offset_m": [0, 0, 0]}
@@ -75,23 +82,39 @@ BAD_TABLES = {
     "not_json": ('{"segments": [\n  {"bvh_frame": "Hips",,}\n]}', None, 2, r"not valid JSON"),
     "no_segments": ({"links": []}, "segments", None, r'non-empty "segments" list'),
     "not_an_object": ({"segments": [SEGMENT, 3]}, "segments[1]", None, r"must be an object"),
-    "no_joint": ({"segments": [{"mass_kg": 1, "com_offset_m": [0, 0, 0]}]}, "segments[0]", None,
-                 r'one joint name'),
-    "two_joints": ({"segments": [dict(SEGMENT, joint="Chest")]}, "segments[0]", None,
-                   r"one joint name"),
-    "unknown_joint": ({"segments": [SEGMENT, dict(SEGMENT, bvh_frame="RightKne")]},
-                      "segments[1].bvh_frame", None,
-                      r"unknown joint 'RightKne'; did you mean 'RightKnee'"),
-    "missing_mass": ({"segments": [{"bvh_frame": "Hips", "com_offset_m": [0, 0, 0]}]},
-                     "segments[0]", None, r'needs "mass_kg" and "com_offset_m"'),
-    "negative_mass": ({"segments": [dict(SEGMENT, mass_kg=-1)]}, "segments[0].mass_kg", None,
-                      r"finite number >= 0 kg, got -1"),
-    "nan_mass": ('{"segments": [{"bvh_frame": "Hips", "mass_kg": NaN, "com_offset_m": [0, 0, 0]}]}',
-                 "segments[0].mass_kg", None, r"got nan"),
-    "text_mass": ({"segments": [dict(SEGMENT, mass_kg="3")]}, "segments[0].mass_kg", None,
-                  r"got '3'"),
-    "short_offset": ({"segments": [dict(SEGMENT, com_offset_m=[0, 1])]}, "segments[0].com_offset_m",
-                     None, r"list of 3 finite numbers"),
+    "no_joint": ({"segments": [{"mass_kg": 1, "com_offset_m": [0, 0, 0]}]}, "segments[0]", None, r"one joint name"),
+    "two_joints": ({"segments": [dict(SEGMENT, joint="Chest")]}, "segments[0]", None, r"one joint name"),
+    "unknown_joint": (
+        {"segments": [SEGMENT, dict(SEGMENT, bvh_frame="RightKne")]},
+        "segments[1].bvh_frame",
+        None,
+        r"unknown joint 'RightKne'; did you mean 'RightKnee'",
+    ),
+    "missing_mass": (
+        {"segments": [{"bvh_frame": "Hips", "com_offset_m": [0, 0, 0]}]},
+        "segments[0]",
+        None,
+        r'needs "mass_kg" and "com_offset_m"',
+    ),
+    "negative_mass": (
+        {"segments": [dict(SEGMENT, mass_kg=-1)]},
+        "segments[0].mass_kg",
+        None,
+        r"finite number >= 0 kg, got -1",
+    ),
+    "nan_mass": (
+        '{"segments": [{"bvh_frame": "Hips", "mass_kg": NaN, "com_offset_m": [0, 0, 0]}]}',
+        "segments[0].mass_kg",
+        None,
+        r"got nan",
+    ),
+    "text_mass": ({"segments": [dict(SEGMENT, mass_kg="3")]}, "segments[0].mass_kg", None, r"got '3'"),
+    "short_offset": (
+        {"segments": [dict(SEGMENT, com_offset_m=[0, 1])]},
+        "segments[0].com_offset_m",
+        None,
+        r"list of 3 finite numbers",
+    ),
     "zero_total": ({"segments": [dict(SEGMENT, mass_kg=0)]}, "segments", None, r"add up to 0 kg"),
 }
 
@@ -113,16 +136,26 @@ def test_binary_table(tmp_path):
         read_segment_table(path, JOINTS)
 
 
-LEAVES = (st.none() | st.booleans() | st.floats() | st.integers() | st.just(10 ** 400)
-          | st.text(max_size=8) | st.sampled_from(JOINTS))
+LEAVES = (
+    st.none()
+    | st.booleans()
+    | st.floats()
+    | st.integers()
+    | st.just(10**400)
+    | st.text(max_size=8)
+    | st.sampled_from(JOINTS)
+)
 KEYS = st.sampled_from(["segments", "bvh_frame", "joint", "mass_kg", "com_offset_m", "name"])
 ENTRY = st.dictionaries(KEYS, LEAVES | st.lists(LEAVES, max_size=4), max_size=5)
 
 
 @settings(max_examples=300, deadline=None, derandomize=True, database=None)
-@given(st.recursive(LEAVES, lambda inner: st.lists(inner, max_size=4)
-                    | st.dictionaries(KEYS, inner, max_size=4), max_leaves=12)
-       | st.fixed_dictionaries({"segments": st.lists(ENTRY, max_size=4)}))
+@given(
+    st.recursive(
+        LEAVES, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(KEYS, inner, max_size=4), max_leaves=12
+    )
+    | st.fixed_dictionaries({"segments": st.lists(ENTRY, max_size=4)})
+)
 def test_any_json_gives_segments_or_a_file_format_error(tmp_path_factory, content):
     path = tmp_path_factory.getbasetemp() / "fuzzed.segments.json"
     path.write_text(json.dumps(content))
@@ -138,8 +171,7 @@ def test_any_json_gives_segments_or_a_file_format_error(tmp_path_factory, conten
 def test_read_bvh_says_where_masses_came_from():
     estimated = read_bvh(shared("humanoid3d_run.bvh"))
     assert estimated.mass_source.startswith("estimated from bone lengths")
-    with_table = read_bvh(shared("humanoid3d_run.bvh"),
-                          segments=shared("humanoid3d_run.segments.json"))
+    with_table = read_bvh(shared("humanoid3d_run.bvh"), segments=shared("humanoid3d_run.segments.json"))
     assert with_table.mass_source.startswith("segment table")
 
 
@@ -153,15 +185,28 @@ def test_table_errors_surface_from_read_bvh(tmp_path):
 # --- the estimate ---------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name, side, cls", [
-    ("Hips", "", "trunk"), ("RightHip", "right", "thigh"), ("LeftUpLeg", "left", "thigh"),
-    ("LeftLeg", "left", "shank"), ("rShin", "right", "shank"), ("L_Foot", "left", "foot"),
-    ("LeftToeBase", "left", "foot"), ("lShldr", "left", "upper_arm"),
-    ("RightArm", "right", "upper_arm"),
-    ("LeftForeArm", "left", "forearm"), ("hand_r", "right", "hand"), ("Spine1", "", "trunk"),
-    ("Neck", "", "head"), ("Head", "", "head"), ("Leg", "", "shank"), ("rButtock", "right", None),
-    ("Tail", "", None),
-])
+@pytest.mark.parametrize(
+    "name, side, cls",
+    [
+        ("Hips", "", "trunk"),
+        ("RightHip", "right", "thigh"),
+        ("LeftUpLeg", "left", "thigh"),
+        ("LeftLeg", "left", "shank"),
+        ("rShin", "right", "shank"),
+        ("L_Foot", "left", "foot"),
+        ("LeftToeBase", "left", "foot"),
+        ("lShldr", "left", "upper_arm"),
+        ("RightArm", "right", "upper_arm"),
+        ("LeftForeArm", "left", "forearm"),
+        ("hand_r", "right", "hand"),
+        ("Spine1", "", "trunk"),
+        ("Neck", "", "head"),
+        ("Head", "", "head"),
+        ("Leg", "", "shank"),
+        ("rButtock", "right", None),
+        ("Tail", "", None),
+    ],
+)
 def test_bones_are_classified_by_name(name, side, cls):
     assert bone_side(name) == side and bone_class(name) == cls
 
@@ -188,17 +233,21 @@ def test_estimate_on_the_built_in_humanoid_is_within_2_cm_of_its_de_leva_com():
     estimated = with_segments(human, segments)
     poses = np.random.default_rng(0).uniform(human.lower, human.upper, (300, human.n_dofs))
     poses[0] = human.reference
-    error = np.linalg.norm(forward_kinematics(estimated, poses).p_world_com
-                           - forward_kinematics(human, poses).p_world_com, axis=1)
+    error = np.linalg.norm(
+        forward_kinematics(estimated, poses).p_world_com - forward_kinematics(human, poses).p_world_com, axis=1
+    )
     assert error.max() < 0.02  # the estimate from bone lengths, not the exact tables: close, not equal
     assert "unclassified" not in description and "scaled" not in description
 
 
 def test_unclassified_bones_share_the_rest_by_length():
-    joints = [Joint("Hips", None, dofs=euler("ZXY")), Joint("Spine", "Hips", (0, 0.5, 0)),
-              Joint("Tail", "Hips", (0, 0, -0.3)), Joint("Antenna", "Spine", (0, 0.1, 0))]
-    sk = build_skeleton(joints, [Site("tip", "Tail", (0, 0, -0.9)),
-                                 Site("top", "Antenna", (0, 0.3, 0))])
+    joints = [
+        Joint("Hips", None, dofs=euler("ZXY")),
+        Joint("Spine", "Hips", (0, 0.5, 0)),
+        Joint("Tail", "Hips", (0, 0, -0.3)),
+        Joint("Antenna", "Spine", (0, 0.1, 0)),
+    ]
+    sk = build_skeleton(joints, [Site("tip", "Tail", (0, 0, -0.9)), Site("top", "Antenna", (0, 0.3, 0))])
     segments, description = estimate_segments(sk, total_mass=10.0)
     mass = {s.joint: s.mass for s in segments}
     assert sum(mass.values()) == pytest.approx(10.0) and all(m > 0 for m in mass.values())
@@ -209,8 +258,9 @@ def test_unclassified_bones_share_the_rest_by_length():
 
 
 def test_a_skeleton_without_bones_puts_all_mass_at_the_root():
-    clip = parse_bvh("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\n"
-                     "MOTION\nFrames: 1\nFrame Time: 1\n5\n", "dot.bvh")
+    clip = parse_bvh(
+        "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 1\n5\n", "dot.bvh"
+    )
     assert clip.skeleton.total_mass == pytest.approx(NOMINAL_MASS)
     assert "no bone has a length" in clip.mass_source
     assert np.isfinite(forward_kinematics(clip.skeleton, clip.frames).p_world_com).all()

@@ -47,11 +47,13 @@ def test_polish_jacobians_match_finite_differences(name):
     poses = random_poses(sk, 5, 0)
     target = deik.forward_kinematics(sk, random_poses(sk, 1, 1)[0])
     com = deik.forward_kinematics(sk, sk.reference).p_world_com
-    goals = [deik.Position(end, target.position(end)),
-             deik.Orientation(end, target.rotation(end)),
-             deik.Position(middle, target.position(middle) + 0.1),
-             deik.CentreOfMass(com + 0.05),
-             deik.ComOverSupport(com + 0.1)]
+    goals = [
+        deik.Position(end, target.position(end)),
+        deik.Orientation(end, target.rotation(end)),
+        deik.Position(middle, target.position(middle) + 0.1),
+        deik.CentreOfMass(com + 0.05),
+        deik.ComOverSupport(com + 0.1),
+    ]
     finite_difference_check(sk, goals, poses)
 
 
@@ -72,24 +74,29 @@ def test_point_and_com_jacobians_match_finite_differences(name):
     for d in range(sk.n_dofs):
         step = np.zeros(sk.n_dofs)
         step[d] = h
-        np.testing.assert_allclose(jac[..., d], (points(poses + step) - points(poses - step)) / (2 * h), atol=1e-8,
-                                   err_msg=sk.dof_names[d])
+        np.testing.assert_allclose(
+            jac[..., d], (points(poses + step) - points(poses - step)) / (2 * h), atol=1e-8, err_msg=sk.dof_names[d]
+        )
 
 
 def _every_goal_problem(sk, end, middle, support):
     kin = deik.forward_kinematics(sk, sk.reference)
     centre = 0.5 * (kin.position(end) + kin.position(middle))
-    return deik.Problem(sk, [
-        deik.Position(end, kin.position(end) - 0.1, tolerance=0.02),
-        deik.Orientation(end, Rotation.from_euler("XYZ", [0.2, -0.3, 0.4]).as_matrix(), level=1, tolerance=0.05),
-        deik.Aim(end, kin.position(end) + [0.3, 0.1, 1.0], axis=(0, 0, 2.0), weight=0.5, mu=2.0),
-        deik.CentreOfMass(kin.p_world_com + 0.05),
-        deik.ComOverSupport(kin.position(support[0]), level=1, tolerance=0.02),
-        deik.ComInPolygon(support, weight=0.8),
-        deik.Comfort("sum", joint_weights="start", level=2),
-        deik.Comfort("max", weight=-0.3, level=2),
-        deik.Obstacle(centre, 0.05, bone_radius=0.02, level=1),
-    ], limits="penalty")
+    return deik.Problem(
+        sk,
+        [
+            deik.Position(end, kin.position(end) - 0.1, tolerance=0.02),
+            deik.Orientation(end, Rotation.from_euler("XYZ", [0.2, -0.3, 0.4]).as_matrix(), level=1, tolerance=0.05),
+            deik.Aim(end, kin.position(end) + [0.3, 0.1, 1.0], axis=(0, 0, 2.0), weight=0.5, mu=2.0),
+            deik.CentreOfMass(kin.p_world_com + 0.05),
+            deik.ComOverSupport(kin.position(support[0]), level=1, tolerance=0.02),
+            deik.ComInPolygon(support, weight=0.8),
+            deik.Comfort("sum", joint_weights="start", level=2),
+            deik.Comfort("max", weight=-0.3, level=2),
+            deik.Obstacle(centre, 0.05, bone_radius=0.02, level=1),
+        ],
+        limits="penalty",
+    )
 
 
 @pytest.mark.parametrize("name", SKELETONS)
@@ -99,8 +106,13 @@ def test_every_goal_kind_kernel_equals_oracle(name):
     assert set(problem.table.kinds.tolist()) == set(range(len(tt.KIND_NAMES))), "every term kind"
     rng = np.random.default_rng(3)
     span = sk.upper - sk.lower
-    poses = np.vstack([sk.reference[None], sk.reference + rng.normal(0.0, 0.05, (4, sk.n_dofs)),
-                       rng.uniform(sk.lower - 0.3 * span, sk.upper + 0.3 * span, (8, sk.n_dofs))])
+    poses = np.vstack(
+        [
+            sk.reference[None],
+            sk.reference + rng.normal(0.0, 0.05, (4, sk.n_dofs)),
+            rng.uniform(sk.lower - 0.3 * span, sk.upper + 0.3 * span, (8, sk.n_dofs)),
+        ]
+    )
     lv_k, tot_k, raw_k = kernel_fitness(problem, poses)
     lv_r, tot_r, raw_r = reference.fitness(problem, poses)
     np.testing.assert_allclose(raw_k, raw_r, rtol=0, atol=1e-9)

@@ -35,8 +35,7 @@ def test_total_mass_and_centre_of_mass():
     sk = humanoid(height=1.75, mass=82.5)
     assert sk.total_mass == pytest.approx(82.5, rel=1e-12)
     fk = rest(sk)
-    feet = np.array([fk.position(f"{side}_{site}") for side in ("left", "right")
-                     for site in FOOT_SITES])
+    feet = np.array([fk.position(f"{side}_{site}") for side in ("left", "right") for site in FOOT_SITES])
     com = fk.p_world_com
     assert feet[:, 0].min() < com[0] < feet[:, 0].max()
     assert feet[:, 2].min() < com[2] < feet[:, 2].max()

@@ -32,8 +32,7 @@ def test_euler_matrix_matches_scipy_intrinsic(order):
 @pytest.mark.parametrize("order", ["X", "Y", "Z", "ZY", "XZ"])
 def test_short_euler_orders_match_scipy(order):
     angles = np.random.default_rng(1).uniform(-3, 3, (5, len(order)))
-    np.testing.assert_allclose(euler_matrix(order, angles),
-                               Rotation.from_euler(order, angles).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(euler_matrix(order, angles), Rotation.from_euler(order, angles).as_matrix(), atol=1e-12)
 
 
 def test_euler_matrix_wrong_angle_count():
@@ -47,8 +46,9 @@ def test_axis_angle_matrix_matches_scipy_rotvec():
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         angle = rng.uniform(-4, 4)
-        np.testing.assert_allclose(axis_angle_matrix(axis, angle),
-                                   Rotation.from_rotvec(axis * angle).as_matrix(), atol=1e-12)
+        np.testing.assert_allclose(
+            axis_angle_matrix(axis, angle), Rotation.from_rotvec(axis * angle).as_matrix(), atol=1e-12
+        )
 
 
 def test_rotation_angle_matches_scipy_magnitude():
@@ -139,8 +139,7 @@ def test_root_translation_moves_everything():
 
 def test_translation_after_rotation_slides_along_the_rotated_axis():
     sk = build_skeleton(
-        [Joint("base", None, (1.0, 0, 0), euler("Z") + translation("X", -1, 1)),
-         Joint("arm", "base", (0, 0.5, 0))],
+        [Joint("base", None, (1.0, 0, 0), euler("Z") + translation("X", -1, 1)), Joint("arm", "base", (0, 0.5, 0))],
     )
     for angle, slide in [(0.3, 0.4), (-2.0, 0.9), (1.5, -0.6)]:
         R = Rotation.from_euler("Z", angle)
@@ -154,8 +153,10 @@ def test_site_offsets_and_rotations():
     R_site = Rotation.from_euler("XYZ", [0.3, -0.5, 1.1])
     sk = build_skeleton(
         [Joint("root", None, (0, 0, 0), euler("YXZ")), Joint("hand", "root", (0.2, 0.6, 0), euler("ZY"))],
-        sites=[Site("tool", "hand", (0.1, -0.3, 0.25), tuple(map(tuple, R_site.as_matrix()))),
-               Site("plain", "root", (0.0, 0.0, 1.0))],
+        sites=[
+            Site("tool", "hand", (0.1, -0.3, 0.25), tuple(map(tuple, R_site.as_matrix()))),
+            Site("plain", "root", (0.0, 0.0, 1.0)),
+        ],
     )
     q = np.random.default_rng(7).uniform(-2, 2, sk.n_dofs)
     R0 = Rotation.from_euler("YXZ", q[:3])
@@ -210,8 +211,7 @@ def test_massless_skeleton_com_is_nan():
 
 
 def test_segment_com_offset_rotates_with_its_joint():
-    sk = build_skeleton([Joint("root", None, (0, 0, 0), euler("Z"))],
-                        segments=[Segment("root", 2.0, (1.0, 0.0, 0.0))])
+    sk = build_skeleton([Joint("root", None, (0, 0, 0), euler("Z"))], segments=[Segment("root", 2.0, (1.0, 0.0, 0.0))])
     kin = deik.forward_kinematics(sk, [math.pi / 2])
     np.testing.assert_allclose(kin.p_world_com, [0.0, 1.0, 0.0], atol=1e-12)
 
@@ -247,8 +247,10 @@ def test_kernel_fk_float32_is_close_to_numpy_fk():
 def test_kernel_fk_on_chain_with_sites_rotations_and_translations():
     R_site = Rotation.from_euler("ZYX", [0.4, 0.2, -0.9]).as_matrix()
     sk = build_skeleton(
-        [Joint("root", None, (0.1, 0.2, 0.3), translation("XZ", -1, 1) + euler("ZXY") + translation("Y", -1, 1)),
-         Joint("a", "root", (0, 1, 0), hinge((1, 1, 0)))],
+        [
+            Joint("root", None, (0.1, 0.2, 0.3), translation("XZ", -1, 1) + euler("ZXY") + translation("Y", -1, 1)),
+            Joint("a", "root", (0, 1, 0), hinge((1, 1, 0))),
+        ],
         sites=[Site("tool", "a", (0.2, 0.1, 0.0), tuple(map(tuple, R_site)))],
     )
     poses = np.random.default_rng(12).uniform(-1, 1, (8, sk.n_dofs))

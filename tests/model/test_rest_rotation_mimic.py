@@ -28,11 +28,17 @@ def _robot():
     return build_skeleton(
         [
             Joint("base", None),
-            Joint("a", "base", (0.1, 0.0, 0.3), (Dof(ROTATE, (0.0, 0.0, 1.0), -2, 2, name="j_a"),), rotation=_rows(R_A)),
-            Joint("b", "a", (0.0, 0.2, 0.0), (Dof(TRANSLATE, (1.0, 0.0, 0.0), -0.1, 0.4, name="j_b"),),
-                  rotation=_rows(R_B)),
-            Joint("c", "b", (0.0, 0.0, 0.15),
-                  (Dof(ROTATE, (0.0, 1.0, 0.0), name="j_c", mimic=("j_a", -0.5, 0.25)),)),
+            Joint(
+                "a", "base", (0.1, 0.0, 0.3), (Dof(ROTATE, (0.0, 0.0, 1.0), -2, 2, name="j_a"),), rotation=_rows(R_A)
+            ),
+            Joint(
+                "b",
+                "a",
+                (0.0, 0.2, 0.0),
+                (Dof(TRANSLATE, (1.0, 0.0, 0.0), -0.1, 0.4, name="j_b"),),
+                rotation=_rows(R_B),
+            ),
+            Joint("c", "b", (0.0, 0.0, 0.15), (Dof(ROTATE, (0.0, 1.0, 0.0), name="j_c", mimic=("j_a", -0.5, 0.25)),)),
         ],
         sites=[Site("tool", "c", (0.05, 0.0, 0.1), _rows(R_TOOL))],
         up=(0.0, 0.0, 1.0),
@@ -85,12 +91,18 @@ def test_kernel_fk_with_rest_rotations_and_mimic_matches_numpy(dtype, atol):
 
 
 def test_reach_counts_a_mimic_slide():
-    sk = build_skeleton([
-        Joint("base", None),
-        Joint("slider", "base", (1.0, 0.0, 0.0), (Dof(TRANSLATE, (1.0, 0.0, 0.0), 0.0, 0.5, name="s"),)),
-        Joint("follower", "slider", (1.0, 0.0, 0.0),
-              (Dof(TRANSLATE, (1.0, 0.0, 0.0), name="f", mimic=("s", 2.0, 0.1)),)),
-    ])
+    sk = build_skeleton(
+        [
+            Joint("base", None),
+            Joint("slider", "base", (1.0, 0.0, 0.0), (Dof(TRANSLATE, (1.0, 0.0, 0.0), 0.0, 0.5, name="s"),)),
+            Joint(
+                "follower",
+                "slider",
+                (1.0, 0.0, 0.0),
+                (Dof(TRANSLATE, (1.0, 0.0, 0.0), name="f", mimic=("s", 2.0, 0.1)),),
+            ),
+        ]
+    )
     assert sk.reach == pytest.approx(1.0 + 0.5 + 1.0 + 2.0 * 0.5 + 0.1)
 
 

@@ -247,8 +247,7 @@ def test_joint_dofs_slices_and_site_error():
     sk = build_skeleton(tree_joints(), tree_sites())
     root = sk.joint_dofs("root")
     assert root.stop - root.start == 6
-    assert [sk.dof_names[d] for d in range(*sk.joint_dofs("a2").indices(sk.n_dofs))] == [
-        "a2.Xrotation", "a2.Zrotation"]
+    assert [sk.dof_names[d] for d in range(*sk.joint_dofs("a2").indices(sk.n_dofs))] == ["a2.Xrotation", "a2.Zrotation"]
     with pytest.raises(KeyError, match=r"'a_tip' is a site, not a joint"):
         sk.joint_dofs("a_tip")
     with pytest.raises(KeyError, match=r"'rooot' not found.*did you mean 'root'"):

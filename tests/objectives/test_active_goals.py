@@ -13,11 +13,14 @@ def _problem(active):
     sk = deik.chain(6, dims=3)
     q = np.random.default_rng(0).uniform(sk.lower, sk.upper, (2, sk.n_dofs))
     kin = deik.forward_kinematics(sk, q)
-    return deik.Problem(sk, [
-        deik.Position("tip", kin.position("tip"), level=0),
-        deik.Position("link3", kin.position("link3") + [0.0, 0.0, 0.5], active=active, level=0),
-        deik.Comfort(level=1),
-    ])
+    return deik.Problem(
+        sk,
+        [
+            deik.Position("tip", kin.position("tip"), level=0),
+            deik.Position("link3", kin.position("link3") + [0.0, 0.0, 0.5], active=active, level=0),
+            deik.Comfort(level=1),
+        ],
+    )
 
 
 def test_kernel_fitness_with_gains_matches_the_oracle():
@@ -46,11 +49,14 @@ def test_inactive_goal_does_not_block_convergence():
     assert result.to_dict()["goals"][1]["active"] == [True, False]
 
 
-@pytest.mark.parametrize("active,message", [
-    ([1, 0], "active must be a non-empty 1-D bool array"),
-    (np.array([], bool), "active must be a non-empty 1-D bool array"),
-    (np.array([True, False, True]), "different batch sizes"),
-])
+@pytest.mark.parametrize(
+    "active,message",
+    [
+        ([1, 0], "active must be a non-empty 1-D bool array"),
+        (np.array([], bool), "active must be a non-empty 1-D bool array"),
+        (np.array([True, False, True]), "different batch sizes"),
+    ],
+)
 def test_bad_active(active, message):
     with pytest.raises(ValueError, match=message):
         _ = _problem(active).table  # the goals are checked when the term table is built

@@ -71,8 +71,11 @@ def test_aim_axis_must_be_non_zero(chain3):
 
 
 def test_unreachable_target_names_distance_and_length(chain3):
-    with pytest.raises(ValueError, match=r"position tip: target \[3\.5, 0\.0, 0\.0\] is unreachable: it lies "
-                                         r"3\.5 from the root's range but the chain to it is only 3 long"):
+    with pytest.raises(
+        ValueError,
+        match=r"position tip: target \[3\.5, 0\.0, 0\.0\] is unreachable: it lies "
+        r"3\.5 from the root's range but the chain to it is only 3 long",
+    ):
         problem(chain3, deik.Position("tip", [3.5, 0.0, 0.0]))
     # an intermediate joint has a shorter chain
     with pytest.raises(ValueError, match=r"position link1: .* only 1 long"):
@@ -94,17 +97,23 @@ def test_unreachable_centre_of_mass(chain3):
 
 
 def test_root_translation_extends_what_is_reachable():
-    sk = build_skeleton([Joint("base", None, (0, 0, 0), translation("X", -2.0, 2.0) + euler("Z")),
-                         Joint("arm", "base", (1.0, 0, 0))], sites=[Site("tip", "arm", (0.5, 0, 0))])
+    sk = build_skeleton(
+        [Joint("base", None, (0, 0, 0), translation("X", -2.0, 2.0) + euler("Z")), Joint("arm", "base", (1.0, 0, 0))],
+        sites=[Site("tip", "arm", (0.5, 0, 0))],
+    )
     problem(sk, deik.Position("tip", [3.4, 0.0, 0.0]))
     with pytest.raises(ValueError, match=r"unreachable: it lies 1\.6 from the root's range .* only 1\.5 long"):
         problem(sk, deik.Position("tip", [3.6, 0.0, 0.0]))
 
 
 def test_reachable_target_after_root_rotation_is_accepted():
-    sk = build_skeleton([Joint("base", None, (0, 0, 0), euler("Z") + translation("X", -1.0, 1.0)),
-                         Joint("arm", "base", (0.5, 0, 0), hinge((0, 0, 1)))],
-                        sites=[Site("tip", "arm", (0.1, 0, 0))])
+    sk = build_skeleton(
+        [
+            Joint("base", None, (0, 0, 0), euler("Z") + translation("X", -1.0, 1.0)),
+            Joint("arm", "base", (0.5, 0, 0), hinge((0, 0, 1))),
+        ],
+        sites=[Site("tip", "arm", (0.1, 0, 0))],
+    )
     target = deik.forward_kinematics(sk, [math.pi / 2, 1.0, 0.0]).position("tip")  # (0, 1.6, 0)
     problem(sk, deik.Position("tip", target))
 
@@ -190,8 +199,9 @@ def test_goals_must_be_goal_objects(chain3, tip_target):
 
 
 def test_infinite_dof_limits_in_a_problem():
-    sk = build_skeleton([Joint("root", None, (0, 0, 0), translation("XYZ") + euler("Z")),
-                         Joint("a", "root", (1, 0, 0), mass=1.0)])
+    sk = build_skeleton(
+        [Joint("root", None, (0, 0, 0), translation("XYZ") + euler("Z")), Joint("a", "root", (1, 0, 0), mass=1.0)]
+    )
     with pytest.raises(ValueError, match=r"DOF 'root.Xposition' has infinite limits; .*finite limits"):
         deik.Problem(sk, [deik.Comfort()])
 
@@ -264,7 +274,10 @@ def test_support_polygon_frame_count(chain3):
         ({"F": 0.0}, r"F \(differential weight\) must lie in \(0, 2\], got 0.0"),
         ({"F": -0.5}, r"F \(differential weight\)"),
         ({"F": math.nan}, r"F \(differential weight\)"),
-        ({"strategy": "rand/2/exp"}, r"strategy must be one of \['rand/1/bin', 'best/1/bin', 'current-to-best/1/bin'\]"),
+        (
+            {"strategy": "rand/2/exp"},
+            r"strategy must be one of \['rand/1/bin', 'best/1/bin', 'current-to-best/1/bin'\]",
+        ),
         ({"device": "tpu"}, r"device must be 'cpu' or 'gpu', got 'tpu'"),
         ({"dtype": "float16"}, r"dtype must be 'float32' or 'float64', got 'float16'"),
         ({"seed": -1}, r"seed must be an integer in \[0, 2\*\*64\), got -1"),

@@ -23,8 +23,6 @@ def raw_of(problem, poses, label):
     return k, r
 
 
-
-
 def mixed_poses(sk, n_random=12, seed=3):
     rng = np.random.default_rng(seed)
     span = sk.upper - sk.lower
@@ -158,7 +156,6 @@ def test_com_over_support_ignores_height():
     assert r[0] == pytest.approx(0.5, abs=1e-12) and k[0] == pytest.approx(0.5, abs=1e-12)
 
 
-
 @pytest.mark.parametrize(
     "pose, centre, radius, bone_radius, expected",
     [
@@ -192,11 +189,14 @@ def test_comfort_sum_and_max_by_hand():
     weights = {"link1": 2.0, "link3": 0.5}  # link0 and link2 weigh nothing
     dw = np.array([0, 0, 2, 2, 0, 0, 0.5, 0.5])
     diff = np.abs(pose - ref)  # [0.3, 0, 0.6, 0, 0.5, 1.0, 0, 0.5]
-    problem = deik.Problem(sk, [
-        deik.Comfort("sum", joint_weights=weights, reference=ref),
-        deik.Comfort("max", joint_weights=weights, reference=ref),
-        deik.Comfort("sum"),  # default weights 1 and the skeleton's reference (zeros)
-    ])
+    problem = deik.Problem(
+        sk,
+        [
+            deik.Comfort("sum", joint_weights=weights, reference=ref),
+            deik.Comfort("max", joint_weights=weights, reference=ref),
+            deik.Comfort("sum"),  # default weights 1 and the skeleton's reference (zeros)
+        ],
+    )
     for label, expected in (("comfort (sum)", 2 * 0.6 + 0.5 * 0.5), ("comfort (max)", 2 * 0.6)):
         k, r = raw_of(problem, pose, label)
         assert r[0] == pytest.approx(expected, abs=1e-12)
@@ -208,8 +208,14 @@ def test_each_comfort_goal_uses_its_own_reference():
     sk = deik.chain(3)
     pose = np.zeros((1, 3))
     try:
-        problem = deik.Problem(sk, [deik.Comfort(reference=[1.0, 1.0, 1.0]), deik.Comfort("sum"),
-                                    deik.Comfort("max", reference=[0.5, -2.0, 0.0])])
+        problem = deik.Problem(
+            sk,
+            [
+                deik.Comfort(reference=[1.0, 1.0, 1.0]),
+                deik.Comfort("sum"),
+                deik.Comfort("max", reference=[0.5, -2.0, 0.0]),
+            ],
+        )
     except ValueError:
         return  # refusing conflicting references would be fine too
     raw_r = reference.raw_errors(problem, pose)[0]
@@ -251,8 +257,9 @@ def test_priority_level_counts_only_the_excess_over_tolerance():
     inward = -tip / np.linalg.norm(tip)
     f = lambda x: -math.expm1(-x / 3.0)  # noqa: E731  (mu 1, scale = reach 3)
     for d in (0.05, 0.2, 0.5, 1.0):
-        problem = deik.Problem(sk, [deik.Position("tip", tip + d * inward, tolerance=0.2, weight=0.6),
-                                    deik.Comfort(level=1)])
+        problem = deik.Problem(
+            sk, [deik.Position("tip", tip + d * inward, tolerance=0.2, weight=0.6), deik.Comfort(level=1)]
+        )
         assert problem.table.n_levels == 2
         levels, total, raw = kernel_fitness(problem, q)
         assert raw[0, 0] == pytest.approx(d, abs=1e-12)
@@ -291,8 +298,9 @@ def _two_target_problem(weight0=0.5):
     sk = deik.chain(3)
     a = deik.forward_kinematics(sk, np.array([0.3, 0.4, -0.2])).position("tip")
     b = deik.forward_kinematics(sk, np.array([-0.5, 0.6, 0.3])).position("tip")
-    problem = deik.Problem(sk, [deik.Position("tip", a, tolerance=0.05, weight=weight0),
-                                deik.Position("tip", b, level=1)])
+    problem = deik.Problem(
+        sk, [deik.Position("tip", a, tolerance=0.05, weight=weight0), deik.Position("tip", b, level=1)]
+    )
     return problem, np.array([0.3, 0.4, -0.2]), np.array([-0.5, 0.6, 0.3]), np.linalg.norm(a - b)
 
 

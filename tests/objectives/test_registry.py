@@ -5,7 +5,6 @@ come from the registry, never from a label."""
 import dataclasses
 
 import numpy as np
-from helpers import every_goal_problem
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
@@ -15,9 +14,20 @@ from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.objectives import kinds, registry
 from deik.objectives.goals import Goal
 from deik.objectives.registry import KIND_NAMES, KINDS, kind_of
+from helpers import every_goal_problem
 
-KIND_CODES = ("POSITION", "ORIENTATION", "AIM", "COM", "COM_GROUND", "SUPPORT_POLYGON", "COMFORT_SUM",
-              "COMFORT_MAX", "LIMITS", "OBSTACLE")
+KIND_CODES = (
+    "POSITION",
+    "ORIENTATION",
+    "AIM",
+    "COM",
+    "COM_GROUND",
+    "SUPPORT_POLYGON",
+    "COMFORT_SUM",
+    "COMFORT_MAX",
+    "LIMITS",
+    "OBSTACLE",
+)
 
 
 def test_every_kind_has_a_row_a_goal_class_an_oracle_and_a_file_schema():
@@ -69,8 +79,13 @@ def test_units_come_from_the_registry():
     assert (limits.unit_for(chain), limits.unit_for(slider), limits.unit_for(h)) == ("rad", "m", "rad+m")
     assert kind_of(kinds.POSITION).unit_for(chain) == "m" and kind_of(kinds.AIM).unit_for(chain) == "rad"
     target = deik.forward_kinematics(chain, np.array([0.3, -0.2, 0.4])).position("tip")
-    result = deik.solve(deik.Problem(chain, [deik.Position("tip", target, tolerance=1e-3)], limits="penalty"),
-                        population=16, generations=5, dtype="float64")
+    result = deik.solve(
+        deik.Problem(chain, [deik.Position("tip", target, tolerance=1e-3)], limits="penalty"),
+        population=16,
+        generations=5,
+        dtype="float64",
+    )
     assert [(g.label, g.kind, g.unit) for g in result.goals] == [
-        ("position tip", "position", "m"), ("joint limits", "joint_limits", "rad")]
-
+        ("position tip", "position", "m"),
+        ("joint limits", "joint_limits", "rad"),
+    ]

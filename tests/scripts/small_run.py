@@ -18,14 +18,30 @@ rng = np.random.default_rng(0)
 kin = deik.forward_kinematics(chain, rng.uniform(-2, 2, (3, 3)))
 tips, elbows = kin.position("tip"), kin.position("link2")
 elbows[2] = -0.5 * tips[2]  # problem 2 cannot put the elbow there and the tip at its target
-problem = deik.Problem(chain, [deik.Position("tip", tips, tolerance=1e-3), deik.Position("link2", elbows, tolerance=1e-3),
-                               deik.Comfort(weight=0.1, level=1)])
-settings = deik.Settings(population=8, dtype=dtype, device=device, patience=3, polish=polish, polish_every=3,
-                         islands=2, migration=2)
+problem = deik.Problem(
+    chain,
+    [
+        deik.Position("tip", tips, tolerance=1e-3),
+        deik.Position("link2", elbows, tolerance=1e-3),
+        deik.Comfort(weight=0.1, level=1),
+    ],
+)
+settings = deik.Settings(
+    population=8, dtype=dtype, device=device, patience=3, polish=polish, polish_every=3, islands=2, migration=2
+)
 engine = deik.Engine(problem, settings)
 state = engine.run(engine.init(), 12)
-print(json.dumps({
-    "pop": state.pop.tolist(), "generation": state.generation, "generations": state.generations.tolist(),
-    "history": state.history.tolist(), "best": state.best.tolist(), "raw": state.raw.tolist(),
-    "rates": state.rates.tolist(), "restarts": state.restarts.tolist(),
-}))
+print(
+    json.dumps(
+        {
+            "pop": state.pop.tolist(),
+            "generation": state.generation,
+            "generations": state.generations.tolist(),
+            "history": state.history.tolist(),
+            "best": state.best.tolist(),
+            "raw": state.raw.tolist(),
+            "rates": state.rates.tolist(),
+            "restarts": state.restarts.tolist(),
+        }
+    )
+)

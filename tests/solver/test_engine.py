@@ -107,10 +107,14 @@ print(repr(r.history.tolist()))
 
 
 def _run_with_threads(n_threads):
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(n_threads),
-               PYTHONPATH=os.pathsep.join([str(SRC)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
-    out = subprocess.run([sys.executable, "-c", THREAD_SCRIPT], env=env, cwd=SRC.parent,
-                         capture_output=True, text=True, timeout=300)
+    env = dict(
+        os.environ,
+        NUMBA_NUM_THREADS=str(n_threads),
+        PYTHONPATH=os.pathsep.join([str(SRC)] + [p for p in [os.environ.get("PYTHONPATH")] if p]),
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", THREAD_SCRIPT], env=env, cwd=SRC.parent, capture_output=True, text=True, timeout=300
+    )
     assert out.returncode == 0, out.stderr
     threads, angles, history = out.stdout.strip().splitlines()[-3:]
     return int(threads), angles, history
@@ -190,8 +194,14 @@ def test_solve_reports_generations_and_history():
     assert r.generations == 37 and r.history.shape == (37, 2)
     assert (np.diff(r.history[:, 0]) <= 0).all()
     calls = []
-    deik.solve(problem, population=16, generations=250, patience=10_000, stop_on_converged=False,
-               progress=lambda g, f: calls.append(g))
+    deik.solve(
+        problem,
+        population=16,
+        generations=250,
+        patience=10_000,
+        stop_on_converged=False,
+        progress=lambda g, f: calls.append(g),
+    )
     assert calls == [100, 200, 250]
 
 
@@ -251,8 +261,7 @@ def _two_targets():
 
 def test_strict_priority_meets_level_zero_first():
     sk, a, b, gap = _two_targets()
-    goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2),
-             deik.Position("tip", b, tolerance=0.03, level=1)]
+    goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2), deik.Position("tip", b, tolerance=0.03, level=1)]
     r = deik.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
     err_a, err_b = tip_error(sk, r.angles, a), tip_error(sk, r.angles, b)
     assert err_a <= 0.05 + 1e-6  # level 0 met despite its smaller weight
@@ -265,8 +274,7 @@ def test_weights_in_one_level_trade_off_instead():
     """Same goals, one level: the weighted sum decides. With the concave normalisation
     1 - exp(-x) the weighted optimum on the segment A-B is the heavier goal's end, B."""
     sk, a, b, gap = _two_targets()
-    goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2),
-             deik.Position("tip", b, tolerance=0.03, weight=1.0)]
+    goals = [deik.Position("tip", a, tolerance=0.05, weight=0.2), deik.Position("tip", b, tolerance=0.03, weight=1.0)]
     r = deik.solve(deik.Problem(sk, goals), population=64, seed=3, patience=100)
     err_a, err_b = tip_error(sk, r.angles, a), tip_error(sk, r.angles, b)
     assert err_a + err_b == pytest.approx(gap, abs=0.02)  # on the segment between the targets
@@ -341,8 +349,9 @@ def test_history_of_a_problem_that_stops_early_is_nan_after_it_stops():
     kin = deik.forward_kinematics(sk, np.random.default_rng(4).uniform(-2, 2, (2, 3)))
     tips, elbows = kin.position("tip"), kin.position("link2")
     elbows[1] = -0.5 * tips[1]  # problem 1 cannot meet both goals: it runs until it stagnates
-    problem = deik.Problem(sk, [deik.Position("tip", tips, tolerance=1e-3),
-                                deik.Position("link2", elbows, tolerance=1e-3)])
+    problem = deik.Problem(
+        sk, [deik.Position("tip", tips, tolerance=1e-3), deik.Position("link2", elbows, tolerance=1e-3)]
+    )
     result = deik.solve(problem, seed=0, population=16, patience=5, restarts=0)
     n0, n1 = (int(n) for n in result.generations)
     assert result.converged.tolist() == [True, False] and n0 < n1 == result.history.shape[1]

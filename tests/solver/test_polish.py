@@ -20,9 +20,12 @@ def test_jacobians_match_finite_differences_on_a_urdf_arm(shared_data):
     sk = _panda()
     poses = _random_poses(sk, 6, 0)
     far = deik.forward_kinematics(sk, _random_poses(sk, 1, 1))
-    goals = [deik.Position("panda_hand_tcp", far.position("panda_hand_tcp")[0]),
-             deik.Orientation("panda_hand_tcp", far.rotation("panda_hand_tcp")[0]),
-             deik.Position("panda_link4", [0.3, 0.1, 0.5]), deik.CentreOfMass([0.1, 0.0, 0.4])]
+    goals = [
+        deik.Position("panda_hand_tcp", far.position("panda_hand_tcp")[0]),
+        deik.Orientation("panda_hand_tcp", far.rotation("panda_hand_tcp")[0]),
+        deik.Position("panda_link4", [0.3, 0.1, 0.5]),
+        deik.CentreOfMass([0.1, 0.0, 0.4]),
+    ]
     finite_difference_check(sk, goals, poses)
 
 
@@ -31,15 +34,24 @@ def test_jacobians_match_finite_differences_on_a_bvh_character(shared_data):
     sk = clip.skeleton
     poses = clip.poses()[::10] + np.random.default_rng(2).normal(0, 0.2, (4, sk.n_dofs))
     site = sk.site_names[1]
-    goals = [deik.Position(site, [0.3, 0.2, 0.1]), deik.Orientation(site, np.eye(3)),
-             deik.CentreOfMass([0.0, 0.9, 0.0]), deik.ComOverSupport([0.1, 0.0, 0.2])]
+    goals = [
+        deik.Position(site, [0.3, 0.2, 0.1]),
+        deik.Orientation(site, np.eye(3)),
+        deik.CentreOfMass([0.0, 0.9, 0.0]),
+        deik.ComOverSupport([0.1, 0.0, 0.2]),
+    ]
     finite_difference_check(sk, goals, poses)
 
 
 def _pose_problem(sk, tip, q, **tolerances):
     kin = deik.forward_kinematics(sk, q)
-    return deik.Problem(sk, [deik.Position(tip, kin.position(tip), tolerance=tolerances.get("position", 1e-6)),
-                             deik.Orientation(tip, kin.rotation(tip), tolerance=tolerances.get("angle", 1e-5))])
+    return deik.Problem(
+        sk,
+        [
+            deik.Position(tip, kin.position(tip), tolerance=tolerances.get("position", 1e-6)),
+            deik.Orientation(tip, kin.rotation(tip), tolerance=tolerances.get("angle", 1e-5)),
+        ],
+    )
 
 
 def test_polish_converges_to_a_micrometre_from_near_a_solution(shared_data):
@@ -51,8 +63,9 @@ def test_polish_converges_to_a_micrometre_from_near_a_solution(shared_data):
         polished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1)
         assert polished.converged, [float(g.error) for g in polished.goals]
         assert polished.goals[0].error < 1e-6 and polished.goals[1].error < 1e-5
-        unpolished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64",
-                                seed=1, polish=0)
+        unpolished = deik.solve(
+            problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1, polish=0
+        )
         assert unpolished.goals[0].error > 1e-4  # one DE generation alone does not get there
 
 
@@ -61,8 +74,14 @@ def test_polish_never_leaves_the_joint_limits(shared_data, dtype):
     sk = _panda()
     truth = _random_poses(sk, 12, 5)
     truth[:, ::2] = np.where(truth[:, ::2] > 0, sk.upper[::2], sk.lower[::2])  # targets with joints at a limit
-    problem = deik.Problem(sk, [deik.Position("panda_hand_tcp", deik.forward_kinematics(sk, truth).position("panda_hand_tcp"),
-                                              tolerance=1e-4)])
+    problem = deik.Problem(
+        sk,
+        [
+            deik.Position(
+                "panda_hand_tcp", deik.forward_kinematics(sk, truth).position("panda_hand_tcp"), tolerance=1e-4
+            )
+        ],
+    )
     engine = deik.Engine(problem, deik.Settings(population=16, dtype=dtype, seed=2, polish_count=16, polish_every=1))
     state = engine.run(engine.init(), 30)
     assert (state.pop >= sk.lower.astype(dtype)).all() and (state.pop <= sk.upper.astype(dtype)).all()
@@ -91,8 +110,13 @@ def _conflicting_problem():
     """Tip and elbow targets 4 apart with 2 links between them: no pose meets both, so the
     search can only stagnate."""
     sk = deik.chain(4)
-    return deik.Problem(sk, [deik.Position("tip", [2.5, 0.0, 0.0], tolerance=1e-4),
-                             deik.Position("link2", [-1.5, 0.0, 0.0], tolerance=1e-4)])
+    return deik.Problem(
+        sk,
+        [
+            deik.Position("tip", [2.5, 0.0, 0.0], tolerance=1e-4),
+            deik.Position("link2", [-1.5, 0.0, 0.0], tolerance=1e-4),
+        ],
+    )
 
 
 def test_restarts_keep_the_best_and_are_reproducible():
@@ -133,8 +157,13 @@ def test_panda_poses_solved_to_ten_micrometres_from_the_mid_pose(shared_data):
     kin = deik.forward_kinematics(sk, truth)
     start = (sk.lower + sk.upper) / 2
     for n in range(len(truth)):
-        problem = deik.Problem(sk, [deik.Position("panda_hand_tcp", kin.position("panda_hand_tcp")[n], tolerance=1e-5),
-                                    deik.Orientation("panda_hand_tcp", kin.rotation("panda_hand_tcp")[n], tolerance=1e-4)])
+        problem = deik.Problem(
+            sk,
+            [
+                deik.Position("panda_hand_tcp", kin.position("panda_hand_tcp")[n], tolerance=1e-5),
+                deik.Orientation("panda_hand_tcp", kin.rotation("panda_hand_tcp")[n], tolerance=1e-4),
+            ],
+        )
         result = deik.solve(problem, initial=start[None], population=32, patience=100, dtype="float64", seed=n)
         assert result.converged, n
         assert (result.angles >= sk.lower).all() and (result.angles <= sk.upper).all()

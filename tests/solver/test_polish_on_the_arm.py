@@ -30,11 +30,17 @@ def test_polish_converges_to_a_micrometre_from_near_a_solution():
     near = np.clip(truth + np.random.default_rng(4).normal(0, 0.05, truth.shape), sk.lower, sk.upper)
     kin = deik.forward_kinematics(sk, truth)
     for n, start in enumerate(near):
-        problem = deik.Problem(sk, [deik.Position("tool", kin.position("tool")[n], tolerance=1e-6),
-                                    deik.Orientation("tool", kin.rotation("tool")[n], tolerance=1e-5)])
+        problem = deik.Problem(
+            sk,
+            [
+                deik.Position("tool", kin.position("tool")[n], tolerance=1e-6),
+                deik.Orientation("tool", kin.rotation("tool")[n], tolerance=1e-5),
+            ],
+        )
         polished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1)
         assert polished.converged, [float(g.error) for g in polished.goals]
         assert polished.goals[0].error < 1e-6 and polished.goals[1].error < 1e-5
-        unpolished = deik.solve(problem, initial=start[None], population=8, generations=1, dtype="float64",
-                                seed=1, polish=0)
+        unpolished = deik.solve(
+            problem, initial=start[None], population=8, generations=1, dtype="float64", seed=1, polish=0
+        )
         assert unpolished.goals[0].error > 1e-4  # one DE generation alone does not get there

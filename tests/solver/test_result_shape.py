@@ -39,8 +39,12 @@ def test_a_problem_without_a_batch_axis_gives_0d_fields():
 @pytest.mark.parametrize("how", ["target", "active", "reference", "stack"])
 def test_a_batch_axis_of_one_is_kept(how):
     sk, tips = _targets(1)
-    position = deik.Position("tip", tips[:1] if how == "target" else tips[0], tolerance=1e-3,
-                             active=np.array([True]) if how == "active" else None)
+    position = deik.Position(
+        "tip",
+        tips[:1] if how == "target" else tips[0],
+        tolerance=1e-3,
+        active=np.array([True]) if how == "active" else None,
+    )
     comfort = deik.Comfort(weight=0.1, level=1, reference=sk.reference[None] if how == "reference" else None)
     problem = deik.Problem(sk, [position, comfort])
     if how == "stack":
@@ -72,8 +76,9 @@ def test_reported_errors_are_float64_and_match_an_independent_fk(dtype):
     result = make_result(problem, engine, state, 0.0)
     assert result.goals[0].error.dtype == np.float64
     # the state's own raw errors (float64 run) equal a fresh float64 evaluation of the same poses
-    np.testing.assert_allclose(np.stack([g.error for g in result.goals], axis=1), engine.raw_errors(result.angles),
-                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(
+        np.stack([g.error for g in result.goals], axis=1), engine.raw_errors(result.angles), rtol=1e-12, atol=1e-15
+    )
     tip = deik.forward_kinematics(sk, result.angles).position("tip")
     np.testing.assert_allclose(result.goals[0].error, np.linalg.norm(tip - tips, axis=-1), rtol=1e-9, atol=1e-12)
     comfort = np.abs(result.angles - sk.reference).sum(axis=1)

@@ -12,9 +12,16 @@ def _problems(sk, n, seed):
     rng = np.random.default_rng(seed)
     truth = rng.uniform(sk.lower, sk.upper, (n, sk.n_dofs))
     tips = deik.forward_kinematics(sk, truth).position("tip")
-    return [deik.Problem(sk, [deik.Position("tip", tips[k], tolerance=1e-3, weight=1.0 - 0.1 * k),
-                              deik.Comfort(weight=0.1 * (k + 1), reference=rng.uniform(-1, 1, sk.n_dofs), level=1)])
-            for k in range(n)], truth
+    return [
+        deik.Problem(
+            sk,
+            [
+                deik.Position("tip", tips[k], tolerance=1e-3, weight=1.0 - 0.1 * k),
+                deik.Comfort(weight=0.1 * (k + 1), reference=rng.uniform(-1, 1, sk.n_dofs), level=1),
+            ],
+        )
+        for k in range(n)
+    ], truth
 
 
 def test_stacked_problems_keep_each_problems_own_fitness():
@@ -24,8 +31,8 @@ def test_stacked_problems_keep_each_problems_own_fitness():
     assert stacked.batch_size == 4
     poses = np.random.default_rng(1).uniform(sk.lower, sk.upper, (4, sk.n_dofs))
     for k, problem in enumerate(problems):
-        own_levels, own_total, own_raw = fitness(problem, poses[k:k + 1])
-        levels, total, raw = fitness(stacked, poses[k:k + 1], [k])
+        own_levels, own_total, own_raw = fitness(problem, poses[k : k + 1])
+        levels, total, raw = fitness(stacked, poses[k : k + 1], [k])
         np.testing.assert_allclose(raw, own_raw, rtol=1e-12)
         np.testing.assert_allclose(total, own_total, rtol=1e-12)
         np.testing.assert_allclose(levels, own_levels, rtol=1e-12)
@@ -60,16 +67,29 @@ def _island_state(migration):
     sk = deik.chain(6, dims=3)
     target = deik.forward_kinematics(sk, np.full(sk.n_dofs, 0.3)).position("tip")
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-9)])
-    settings = deik.Settings(population=32, islands=4, migration=migration, seed=5, polish=0, restarts=0,
-                             patience=10_000, stop_on_converged=False)
+    settings = deik.Settings(
+        population=32,
+        islands=4,
+        migration=migration,
+        seed=5,
+        polish=0,
+        restarts=0,
+        patience=10_000,
+        stop_on_converged=False,
+    )
     engine = deik.Engine(problem, settings)
     return engine.run(engine.init(), 6)
 
 
 def _leader_copied_to_next_island(state):
     pop, size = state.pop[0], 8
-    return [any(np.array_equal(pop[state.leaders[0, j]], pop[i]) for i in range(((j + 1) % 4) * size, ((j + 1) % 4 + 1) * size))
-            for j in range(4)]
+    return [
+        any(
+            np.array_equal(pop[state.leaders[0, j]], pop[i])
+            for i in range(((j + 1) % 4) * size, ((j + 1) % 4 + 1) * size)
+        )
+        for j in range(4)
+    ]
 
 
 def test_islands_pass_their_leader_to_the_next_island_when_they_migrate():

@@ -16,9 +16,14 @@ def _arm():
 
 
 def _problem(sk, position, rotation):
-    return deik.Problem(sk, [deik.Position("tip", position, tolerance=1e-4),
-                             deik.Orientation("link5", rotation, tolerance=1e-3),
-                             deik.Comfort(weight=0.1, level=1)])
+    return deik.Problem(
+        sk,
+        [
+            deik.Position("tip", position, tolerance=1e-4),
+            deik.Orientation("link5", rotation, tolerance=1e-3),
+            deik.Comfort(weight=0.1, level=1),
+        ],
+    )
 
 
 def test_solver_gives_the_answers_of_solve_on_a_rebuilt_problem():

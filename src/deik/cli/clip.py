@@ -13,9 +13,9 @@ import sys
 import numpy as np
 
 from deik.cli.common import UsageError, check_device, check_outputs
-from deik.viz.text import format_table
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
+from deik.viz.text import format_table
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
 
@@ -25,21 +25,43 @@ def add_arguments(c) -> None:
     c.add_argument("clip", metavar="IN.bvh", help="the clip to fix")
     c.add_argument("--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout)")
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
-    c.add_argument("--limits", metavar="FILE.json",
-                   help="joint limits table (degrees / length units), e.g. from `deik limits`; every frame must lie within it")
-    c.add_argument("--plant-feet", action="append", default=[], metavar="auto|none|SITE:A-B",
-                   help=f"contacts to plant: {PLANT_FORMS}; default auto")
+    c.add_argument(
+        "--limits",
+        metavar="FILE.json",
+        help="joint limits table (degrees / length units), e.g. from `deik limits`; every frame must lie within it",
+    )
+    c.add_argument(
+        "--plant-feet",
+        action="append",
+        default=[],
+        metavar="auto|none|SITE:A-B",
+        help=f"contacts to plant: {PLANT_FORMS}; default auto",
+    )
     c.add_argument("--contact-height", type=float, metavar="LENGTH", help="auto contacts: height above the floor")
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
-    c.add_argument("--reach", action="append", default=[], metavar="SITE=TRACK",
-                   help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)")
-    c.add_argument("--fidelity", type=float, default=1.0, metavar="W",
-                   help="DE repairs: weight of staying near the original (0-1)")
-    c.add_argument("--coherence", type=float, default=0.5, metavar="W",
-                   help="DE repairs: weight of moving like the neighbours (0-1)")
-    c.add_argument("--passes", type=int,
-                   help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance)")
+    c.add_argument(
+        "--reach",
+        action="append",
+        default=[],
+        metavar="SITE=TRACK",
+        help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)",
+    )
+    c.add_argument(
+        "--fidelity", type=float, default=1.0, metavar="W", help="DE repairs: weight of staying near the original (0-1)"
+    )
+    c.add_argument(
+        "--coherence",
+        type=float,
+        default=0.5,
+        metavar="W",
+        help="DE repairs: weight of moving like the neighbours (0-1)",
+    )
+    c.add_argument(
+        "--passes",
+        type=int,
+        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance)",
+    )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
@@ -53,9 +75,11 @@ def _check_site(clip, site: str, flag: str) -> None:
     """UsageError naming `flag`, the unknown `site` and the names to choose from."""
     sk = clip.skeleton
     if site not in sk.frame_names:
-        raise UsageError(f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
-                         f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
-                         f"and its joints {', '.join(sk.joint_names)}")
+        raise UsageError(
+            f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
+            f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
+            f"and its joints {', '.join(sk.joint_names)}"
+        )
 
 
 def _contacts(args, clip):
@@ -81,8 +105,10 @@ def _contacts(args, clip):
                 raise UsageError(f"--plant-feet {form!r}: frame range {span!r} must read A-B (inclusive)")
             start, stop = int(start), int(stop)
             if not start <= stop <= last:
-                raise UsageError(f"--plant-feet {form!r}: frames {start}-{stop} are outside the clip or "
-                                 f"reversed; valid frames: 0..{last} (A-B, both inclusive)")
+                raise UsageError(
+                    f"--plant-feet {form!r}: frames {start}-{stop} are outside the clip or "
+                    f"reversed; valid frames: 0..{last} (A-B, both inclusive)"
+                )
             ranges.setdefault(site, []).append((start, stop + 1))
     return contacts_from_ranges(clip, ranges)
 
@@ -106,9 +132,12 @@ def run_clip(args) -> int:
     from deik.clips.solver import fix_clip
     from deik.io.bvh import read_bvh, write_bvh
 
-    check_outputs({"--out": args.out, "--report": args.report, "--json": args.json},
-                  {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
-                  (args.clip, args.segments, args.limits), args.overwrite)
+    check_outputs(
+        {"--out": args.out, "--report": args.report, "--json": args.json},
+        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
+        (args.clip, args.segments, args.limits),
+        args.overwrite,
+    )
     check_device(args.device)
     if args.report:
         from deik.viz.plot import require_matplotlib
@@ -118,32 +147,60 @@ def run_clip(args) -> int:
     if args.limits:
         from deik.io.limits import clip_within, read_limits, with_limits
 
-        clip = clip_within(clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}")
+        clip = clip_within(
+            clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
+        )
     contacts = _contacts(args, clip)
     reach = _reaches(args, clip)
     goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence)
     if contacts is not None:
-        print("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " +
-              contacts.describe().replace("\n", "\n  "), file=sys.stderr)
-    overrides = {k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None}
+        print(
+            "contacts"
+            + (" (detected)" if contacts.detected else "")
+            + ":\n  "
+            + contacts.describe().replace("\n", "\n  "),
+            file=sys.stderr,
+        )
+    overrides = {
+        k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
+    }
     fix = fix_clip(clip, goals, passes=args.passes, **overrides)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     summary = clip_report(clip, fix.clip, contacts, reach_tracks)
-    rows = [[label, f"{np.nanmean(b):.4g}" if np.isfinite(b).any() else "-", f"{np.nanmean(a):.4g}" if np.isfinite(a).any() else "-",
-             f"{np.nanmax(a):.4g}" if np.isfinite(a).any() else "-"]
-            for label, b, a in zip(fix.labels, fix.before.T, fix.after.T)]
+    rows = [
+        [
+            label,
+            f"{np.nanmean(b):.4g}" if np.isfinite(b).any() else "-",
+            f"{np.nanmean(a):.4g}" if np.isfinite(a).any() else "-",
+            f"{np.nanmax(a):.4g}" if np.isfinite(a).any() else "-",
+        ]
+        for label, b, a in zip(fix.labels, fix.before.T, fix.after.T)
+    ]
     print(format_table(["goal (mean error)", "before", "after", "after max"], rows))
-    print(format_table(["metric", "before", "after"],
-                       [[name, f"{v['before']:.4g}", f"{v['after']:.4g}"] for name, v in summary.items()]))
+    print(
+        format_table(
+            ["metric", "before", "after"],
+            [[name, f"{v['before']:.4g}", f"{v['after']:.4g}"] for name, v in summary.items()],
+        )
+    )
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
-    print(f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-          f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal")
+    print(
+        f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
+        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal"
+    )
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
-            write_json_atomically(args.json, {"metrics": summary, "frames": clip.n_frames,
-                                              "wall_time_s": fix.wall_time, "frames_met": int(fix.met.sum()),
-                                              "stages": list(fix.stages)})
+            write_json_atomically(
+                args.json,
+                {
+                    "metrics": summary,
+                    "frames": clip.n_frames,
+                    "wall_time_s": fix.wall_time,
+                    "frames_met": int(fix.met.sum()),
+                    "stages": list(fix.stages),
+                },
+            )
         if args.report:
             from deik.viz.clip_report import plot_clip_report
 

@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 
+
 class UsageError(Exception):
     """A mistake in the command line or its inputs: reported in one line, exit status 2."""
 
@@ -50,16 +51,23 @@ def check_outputs(outputs: dict, suffixes: dict, inputs=(), overwrite: bool = Fa
             raise UsageError(f"{flag}: {outputs[flag]!r} is a folder; give a file name")
     flags = list(given)
     for k, flag in enumerate(flags):
-        for other in flags[k + 1:]:
+        for other in flags[k + 1 :]:
             if given[flag] == given[other]:
                 raise UsageError(f"{flag} and {other} both name {outputs[flag]!r}; give each output its own file")
     if overwrite:
         return
     for flag, path in given.items():
         for source in inputs:
-            if source is not None and os.path.exists(path) and os.path.exists(source) and os.path.samefile(path, source):
-                raise UsageError(f"{flag} {outputs[flag]!r} is the input file; write elsewhere, or add --overwrite "
-                                 "to replace the input")
+            if (
+                source is not None
+                and os.path.exists(path)
+                and os.path.exists(source)
+                and os.path.samefile(path, source)
+            ):
+                raise UsageError(
+                    f"{flag} {outputs[flag]!r} is the input file; write elsewhere, or add --overwrite "
+                    "to replace the input"
+                )
 
 
 def check_device(device: str) -> None:

@@ -60,8 +60,10 @@ def run_limits(args) -> int:
     clip = read_bvh(args.clip)
     limits = range_of_motion(clip, args.margin, args.margin_length)
     write_limits(args.out, clip.skeleton, limits)
-    print(f"{len(limits)} DOFs of {clip.n_frames} frames, margin {args.margin:g} degrees / "
-          f"{args.margin_length:g}: wrote {args.out}")
+    print(
+        f"{len(limits)} DOFs of {clip.n_frames} frames, margin {args.margin:g} degrees / "
+        f"{args.margin_length:g}: wrote {args.out}"
+    )
     return 0
 
 
@@ -89,16 +91,29 @@ def build_parser() -> Parser:
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
     c.set_defaults(run=cli_clip.run_clip)
-    e = commands.add_parser("experiments", add_help=False,
-                             help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)")
+    e = commands.add_parser(
+        "experiments",
+        add_help=False,
+        help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)",
+    )
     e.add_argument("rest", nargs=argparse.REMAINDER)
     lim = commands.add_parser("limits", help="measure joint limits from a BVH clip's range of motion")
     lim.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
     lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
-    lim.add_argument("--margin", type=float, default=10.0, metavar="DEGREES",
-                     help="added to each rotation's range on both sides (default 10)")
-    lim.add_argument("--margin-length", type=float, default=0.0, metavar="LENGTH",
-                     help="added to each translation's range on both sides (default 0)")
+    lim.add_argument(
+        "--margin",
+        type=float,
+        default=10.0,
+        metavar="DEGREES",
+        help="added to each rotation's range on both sides (default 10)",
+    )
+    lim.add_argument(
+        "--margin-length",
+        type=float,
+        default=0.0,
+        metavar="LENGTH",
+        help="added to each translation's range on both sides (default 0)",
+    )
     lim.set_defaults(run=run_limits)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
@@ -131,15 +146,18 @@ def main(argv=None) -> int:
     except Exception as error:  # a bug, not a mistake in the input
         if os.environ.get("DEIK_DEBUG"):
             raise
-        print(f"deik: internal error: {type(error).__name__}: {_shortened(str(error))}. This is a bug in deik; "
-              "please report it with the command line (rerun with DEIK_DEBUG=1 for the traceback)", file=sys.stderr)
+        print(
+            f"deik: internal error: {type(error).__name__}: {_shortened(str(error))}. This is a bug in deik; "
+            "please report it with the command line (rerun with DEIK_DEBUG=1 for the traceback)",
+            file=sys.stderr,
+        )
         return INTERNAL_ERROR
 
 
 def _shortened(message: str, limit: int = MESSAGE_LIMIT) -> str:
     """`message` on one line and at most `limit` characters (a whole echoed input is cut)."""
     line = " ".join(message.split())
-    return line if len(line) <= limit else f"{line[:limit - 30]} ... ({len(line)} characters)"
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
 
 
 if __name__ == "__main__":

@@ -30,8 +30,18 @@ from deik.solver.solve import solve
 from deik.viz import plot
 from deik.viz.text import format_table
 
-SETTING_FLAGS = ("seed", "population", "generations", "strategy", "device", "dtype", "time_limit", "polish",
-                 "restarts", "islands")
+SETTING_FLAGS = (
+    "seed",
+    "population",
+    "generations",
+    "strategy",
+    "device",
+    "dtype",
+    "time_limit",
+    "polish",
+    "restarts",
+    "islands",
+)
 FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame" when posing a BVH frame
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
 
@@ -44,47 +54,106 @@ def add_arguments(s) -> None:
     s.add_argument("--frame", type=int, metavar="N", help="BVH: pose frame N (0-based) of the clip")
     s.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated from bone lengths)")
     s.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world (default: the root link)")
-    s.add_argument("--tip", action="append", default=[], metavar="LINK",
-                   help="URDF: keep only the chain from --base to LINK (repeatable; default: every link)")
+    s.add_argument(
+        "--tip",
+        action="append",
+        default=[],
+        metavar="LINK",
+        help="URDF: keep only the chain from --base to LINK (repeatable; default: every link)",
+    )
     s.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
-    s.add_argument("--limits", metavar="FILE.json",
-                   help="joint limits table {\"DOF\": [lower, upper]} (degrees / length units), e.g. from `deik limits`")
-    s.add_argument("--reach", nargs=4, action="append", default=[], metavar=("FRAME", "X", "Y", "Z"),
-                   help="put joint or site FRAME at X Y Z (repeatable)")
-    s.add_argument("--orient", nargs=4, action="append", default=[], metavar=("FRAME", "RX", "RY", "RZ"),
-                   help="turn FRAME to intrinsic XYZ Euler angles in degrees (repeatable)")
-    s.add_argument("--tolerance", type=float, metavar="LENGTH",
-                   help="--reach goals are met within this distance (default 1%% of the reach)")
-    s.add_argument("--angle-tolerance", type=float, metavar="DEGREES",
-                   help="--orient goals are met within this angle (default 0.57 degrees = 0.01 rad)")
-    s.add_argument("--com-over", nargs=3, metavar=("X", "Y", "Z"),
-                   help="keep the centre of mass over this support point (horizontally)")
-    s.add_argument("--obstacle", nargs=4, action="append", default=[], metavar=("X", "Y", "Z", "RADIUS"),
-                   help="keep every bone out of this sphere (repeatable)")
-    s.add_argument("--comfort", type=float, metavar="WEIGHT",
-                   help="stay near the rest pose (BVH: near the frame's pose, default weight 1) with this "
-                        "weight in [-1, 1], below the other goals in priority; 0 turns it off")
+    s.add_argument(
+        "--limits",
+        metavar="FILE.json",
+        help='joint limits table {"DOF": [lower, upper]} (degrees / length units), e.g. from `deik limits`',
+    )
+    s.add_argument(
+        "--reach",
+        nargs=4,
+        action="append",
+        default=[],
+        metavar=("FRAME", "X", "Y", "Z"),
+        help="put joint or site FRAME at X Y Z (repeatable)",
+    )
+    s.add_argument(
+        "--orient",
+        nargs=4,
+        action="append",
+        default=[],
+        metavar=("FRAME", "RX", "RY", "RZ"),
+        help="turn FRAME to intrinsic XYZ Euler angles in degrees (repeatable)",
+    )
+    s.add_argument(
+        "--tolerance",
+        type=float,
+        metavar="LENGTH",
+        help="--reach goals are met within this distance (default 1%% of the reach)",
+    )
+    s.add_argument(
+        "--angle-tolerance",
+        type=float,
+        metavar="DEGREES",
+        help="--orient goals are met within this angle (default 0.57 degrees = 0.01 rad)",
+    )
+    s.add_argument(
+        "--com-over",
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="keep the centre of mass over this support point (horizontally)",
+    )
+    s.add_argument(
+        "--obstacle",
+        nargs=4,
+        action="append",
+        default=[],
+        metavar=("X", "Y", "Z", "RADIUS"),
+        help="keep every bone out of this sphere (repeatable)",
+    )
+    s.add_argument(
+        "--comfort",
+        type=float,
+        metavar="WEIGHT",
+        help="stay near the rest pose (BVH: near the frame's pose, default weight 1) with this "
+        "weight in [-1, 1], below the other goals in priority; 0 turns it off",
+    )
     s.add_argument("--seed", type=int, help="random seed (same seed, same answer)")
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
     s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
     s.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop after this wall time (default: none)")
-    s.add_argument("--polish", type=int, metavar="N",
-                   help="Levenberg-Marquardt steps per polish of the best individuals (default 10; 0: DE only)")
+    s.add_argument(
+        "--polish",
+        type=int,
+        metavar="N",
+        help="Levenberg-Marquardt steps per polish of the best individuals (default 10; 0: DE only)",
+    )
     s.add_argument("--restarts", type=int, metavar="N", help="restarts of a stagnating unconverged search (default 20)")
-    s.add_argument("--islands", type=int, metavar="N", help="split the population into N islands that migrate (default 1)")
+    s.add_argument(
+        "--islands", type=int, metavar="N", help="split the population into N islands that migrate (default 1)"
+    )
     s.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
-    s.add_argument("--memory-limit", type=float, metavar="GIB",
-                   help="memory a solve may use, GiB (default: 80%% of this machine's)")
-    s.add_argument("--out", metavar="pose.json|pose.bvh",
-                   help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)")
+    s.add_argument(
+        "--memory-limit",
+        type=float,
+        metavar="GIB",
+        help="memory a solve may use, GiB (default: 80%% of this machine's)",
+    )
+    s.add_argument(
+        "--out",
+        metavar="pose.json|pose.bvh",
+        help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)",
+    )
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
     s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
     s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
-    s.add_argument("--start", nargs="+", metavar="VALUE|pose.json",
-                   help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
-                        "pose.json written by --out; comfort then keeps the result near it unless --comfort is given")
+    s.add_argument(
+        "--start",
+        nargs="+",
+        metavar="VALUE|pose.json",
+        help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
+        "pose.json written by --out; comfort then keeps the result near it unless --comfort is given",
+    )
 
 
 def _goals(args, frame_pose) -> list:
@@ -112,13 +181,16 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
             with open(values[0]) as f:
                 pose = np.asarray(json.load(f)["angles"], np.float64)
         except (OSError, ValueError, KeyError, TypeError) as error:
-            raise UsageError(f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
-                             "an \"angles\" list, as `deik solve --out pose.json` writes") from None
+            raise UsageError(
+                f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
+                'an "angles" list, as `deik solve --out pose.json` writes'
+            ) from None
     else:
         pose = np.asarray(numbers("--start", values), np.float64)
     if pose.shape != (skeleton.n_dofs,):
-        raise UsageError(f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); "
-                         f"got {pose.size}")
+        raise UsageError(
+            f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); got {pose.size}"
+        )
     return pose  # poses_around refuses a pose outside the limits, naming the DOF
 
 
@@ -135,8 +207,10 @@ def _problem(args):
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
     if args.problem:
         if spec or has_goals or _file_flags_used(args) or args.start:
-            raise UsageError("--problem FILE already names the skeleton and goals; "
-                             "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file")
+            raise UsageError(
+                "--problem FILE already names the skeleton and goals; "
+                "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file"
+            )
         file = load_problem(args.problem)
         pose = None if file.frame is None else _clip_pose(file.loaded.clip, file.frame)
         return file.problem, file.settings, file.loaded, pose, file.frame
@@ -160,7 +234,6 @@ def _problem(args):
     return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose, args.frame
 
 
-
 def _clip_pose(clip, frame: int):
     """Pose (D,) of clip frame `frame`; UsageError naming the valid frames when it is out of range."""
     try:
@@ -171,9 +244,11 @@ def _clip_pose(clip, frame: int):
 
 def _progress(generations: int, terminal: bool):
     """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
+
     def report(generation, best):
         line = f"generation {generation}/{generations}  best fitness {best:.6g}"
         print(f"\r{line}" if terminal else line, end="" if terminal else "\n", file=sys.stderr, flush=True)
+
     return report
 
 
@@ -197,10 +272,20 @@ def _write_pose(path, result, loaded, frame) -> None:
 
 def run_solve(args) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
-    inputs = (args.skeleton_flag, args.skeleton, args.problem, args.segments, args.limits,
-              args.start[0] if args.start and len(args.start) == 1 else None)
-    check_outputs({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)},
-                  inputs, args.overwrite)
+    inputs = (
+        args.skeleton_flag,
+        args.skeleton,
+        args.problem,
+        args.segments,
+        args.limits,
+        args.start[0] if args.start and len(args.start) == 1 else None,
+    )
+    check_outputs(
+        {"--out": args.out, "--plot": args.plot},
+        {"--out": (".json", ".bvh"), "--plot": (".png",)},
+        inputs,
+        args.overwrite,
+    )
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
@@ -213,11 +298,16 @@ def run_solve(args) -> int:
     check_device(settings.device)
     initial = None
     if frame_pose is not None:
-        initial = poses_around(problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed)
+        initial = poses_around(
+            problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed
+        )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
-            print(f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
-                  "targets); --comfort 0 turns it off", file=sys.stderr)
+            print(
+                f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
+                "targets); --comfort 0 turns it off",
+                file=sys.stderr,
+            )
     if loaded is not None and loaded.kind == "bvh":
         print(f"note: masses {loaded.mass_source}", file=sys.stderr)
     terminal = sys.stderr.isatty()
@@ -225,11 +315,20 @@ def run_solve(args) -> int:
     result = solve(problem, settings, initial=initial, progress=progress)
     if progress and terminal:
         print(file=sys.stderr)
-    rows = [[r.label, f"{float(r.error):.6g} {r.unit}", f"{r.tolerance:.6g} {r.unit}" if r.tolerance >= 0 else "-",
-             "yes" if r.met else "NO"] for r in result.goals]
+    rows = [
+        [
+            r.label,
+            f"{float(r.error):.6g} {r.unit}",
+            f"{r.tolerance:.6g} {r.unit}" if r.tolerance >= 0 else "-",
+            "yes" if r.met else "NO",
+        ]
+        for r in result.goals
+    ]
     print(format_table(["goal", "error", "tolerance", "met"], rows))
-    print(f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
-          f"converged {'yes' if result.converged else 'no'}")
+    print(
+        f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
+        f"converged {'yes' if result.converged else 'no'}"
+    )
     with all_or_nothing():
         if args.out:
             _write_pose(args.out, result, loaded, frame)

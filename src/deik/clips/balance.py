@@ -21,7 +21,8 @@ import numpy as np
 from deik.clips.coherence import ease
 from deik.model.geometry import ground_frame
 
-EASE = 3.0  # frames (about a third of the fade) over which a COM shift eases in before and out after the frames that need it
+# frames (about a third of the fade) over which a COM shift eases in before and out after the frames that need it
+EASE = 3.0
 
 
 def horizontal_axes(skeleton) -> np.ndarray:

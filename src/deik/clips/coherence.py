@@ -33,7 +33,7 @@ def moving_dofs(skeleton, name: str) -> np.ndarray:
     else:
         joint = int(skeleton.site_joint[f - skeleton.n_joints])
     while joint >= 0:
-        out[m.source[m.joint_start[joint]:m.joint_start[joint + 1]]] = True
+        out[m.source[m.joint_start[joint] : m.joint_start[joint + 1]]] = True
         joint = int(skeleton.parents[joint])
     return out
 
@@ -113,7 +113,7 @@ def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
     a0[1:] += rate
     a1 -= rate
     for k, c in enumerate((1.0, -2.0, 1.0)):  # second differences (x[n], x[n+1], x[n+2])
-        a0[k:N - 2 + k] += c * c
+        a0[k : N - 2 + k] += c * c
     a1[:-1] -= 2.0
     a1[1:] -= 2.0
     a2 += 1.0

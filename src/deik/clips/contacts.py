@@ -36,11 +36,12 @@ RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly
 def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
     """Joints and sites whose names contain foot, toe, heel or ankle (any case), each joint
     followed by its sites; ValueError when there are none."""
-    found = [f for f, name in enumerate(skeleton.frame_names)
-             if any(word in name.lower() for word in FOOT_WORDS)]
+    found = [f for f, name in enumerate(skeleton.frame_names) if any(word in name.lower() for word in FOOT_WORDS)]
     if not found:
-        raise ValueError(f"skeleton {skeleton.name!r} has no joint or site named like a foot "
-                         f"({', '.join(FOOT_WORDS)}); name the contact sites with --contact SITE")
+        raise ValueError(
+            f"skeleton {skeleton.name!r} has no joint or site named like a foot "
+            f"({', '.join(FOOT_WORDS)}); name the contact sites with --contact SITE"
+        )
     J = skeleton.n_joints
     owner = lambda f: (f, 0) if f < J else (int(skeleton.site_joint[f - J]), 1)  # noqa: E731
     return tuple(skeleton.frame_names[f] for f in sorted(found, key=owner))
@@ -96,8 +97,9 @@ class Contacts:
                 continue
             shown = ", ".join(f"{a}-{b - 1}" for a, b in spans)
             count = len(spans)
-            lines.append(f"{name}: {int(self.mask[:, s].sum())} frames in {count} "
-                         f"contact{'s' if count > 1 else ''} ({shown})")
+            lines.append(
+                f"{name}: {int(self.mask[:, s].sum())} frames in {count} contact{'s' if count > 1 else ''} ({shown})"
+            )
         return "\n".join(lines)
 
 
@@ -160,9 +162,11 @@ def contacts_from_ranges(clip, ranges: dict) -> Contacts:
             start, stop = (operator.index(v) for v in span)
             if not 0 <= start < stop <= N:
                 valid = f"0..{N - 1}" if N else "none: the clip has no frames"
-                raise ValueError(f"contact range ({start}, {stop}) of site {name!r} is outside the "
-                                 f"clip or empty; ranges are (start, stop) with stop exclusive, "
-                                 f"valid frames: {valid}")
+                raise ValueError(
+                    f"contact range ({start}, {stop}) of site {name!r} is outside the "
+                    f"clip or empty; ranges are (start, stop) with stop exclusive, "
+                    f"valid frames: {valid}"
+                )
             mask[start:stop, s] = True
     heights = _site_positions(clip, sites) @ clip.skeleton.up
     chosen = heights[mask] if mask.any() else heights.ravel()
@@ -207,8 +211,7 @@ def planted_targets(clip, contacts: Contacts) -> np.ndarray:
     distance apart, so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
-        raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has "
-                         f"{clip.n_frames}")
+        raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = _site_positions(clip, contacts.sites)
     plants = {}  # (site, start, stop) -> target (3,)
@@ -217,11 +220,12 @@ def planted_targets(clip, contacts: Contacts) -> np.ndarray:
             mean = p[a:b, s].mean(axis=0)
             plants[s, a, b] = mean + ((p[a:b, s] @ up).min() - mean @ up) * up
     for s, t, distance in _rigid_pairs(p, clip.skeleton.reach):
-        for (s1, a1, b1) in [key for key in plants if key[0] == s]:
-            for (t1, a2, b2) in [key for key in plants if key[0] == t]:
+        for s1, a1, b1 in [key for key in plants if key[0] == s]:
+            for t1, a2, b2 in [key for key in plants if key[0] == t]:
                 if max(a1, a2) < min(b1, b2):
                     plants[s1, a1, b1], plants[t1, a2, b2] = _keep_distance(
-                        plants[s1, a1, b1], plants[t1, a2, b2], distance, up)
+                        plants[s1, a1, b1], plants[t1, a2, b2], distance, up
+                    )
     targets = np.full(p.shape, np.nan)
     for (s, a, b), target in plants.items():
         targets[a:b, s] = target

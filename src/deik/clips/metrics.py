@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 
-from deik.model.joints import ROTATE
 from deik.model.geometry import ground_frame, polygon_distance
+from deik.model.joints import ROTATE
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import rotation_angle
 
@@ -81,16 +81,14 @@ def com_outside_support(clip, contacts) -> np.ndarray:
     """(N,) distance in length units of the centre of mass, projected on the ground, outside
     the convex support polygon of the sites in contact in each frame: 0 inside, NaN when no
     site is in contact (or the skeleton has no mass)."""
-    return _outside(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask,
-                    clip.skeleton.up)
+    return _outside(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask, clip.skeleton.up)
 
 
 def _joint_angles(original, fixed) -> np.ndarray:
     """(N, K) angle in radians between the local rotations of each joint with rotation DOFs."""
     sk = original.skeleton
     m = sk.motions
-    turning = [k for k in range(sk.n_joints)
-               if (m.kind[m.joint_start[k]:m.joint_start[k + 1]] == ROTATE).any()]
+    turning = [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
     parents = sk.parents[turning]
     rotations = []
     for clip in (original, fixed):
@@ -104,8 +102,7 @@ def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
     """Per frame (mean (N,), max (N,)) over the joints with rotation DOFs of the angle between
     the joint's rotation in `original` and in `fixed` (relative to its parent), degrees."""
     if fixed.frames.shape != original.frames.shape:
-        raise ValueError(f"the clips differ: {original.frames.shape} and {fixed.frames.shape} "
-                         "frames x DOFs")
+        raise ValueError(f"the clips differ: {original.frames.shape} and {fixed.frames.shape} frames x DOFs")
     angles = np.degrees(_joint_angles(original, fixed))
     if angles.shape[1] == 0:
         return np.zeros(len(angles)), np.zeros(len(angles))
@@ -147,10 +144,15 @@ def _spikes(clip, kin: Kinematics) -> dict:
     top_dof = _largest(acceleration, names, 1)
     top_position = _largest(position, sk.frame_names, 1)
     return {
-        "dof_names": names, "dof_velocity": velocity, "dof_acceleration": acceleration,
-        "max_dof_velocity": top_velocity, "max_dof_acceleration": top_dof[0],
-        "max_dof_acceleration_frame": top_dof[1], "max_dof_acceleration_dof": top_dof[2],
-        "frame_names": sk.frame_names, "position_acceleration": position,
+        "dof_names": names,
+        "dof_velocity": velocity,
+        "dof_acceleration": acceleration,
+        "max_dof_velocity": top_velocity,
+        "max_dof_acceleration": top_dof[0],
+        "max_dof_acceleration_frame": top_dof[1],
+        "max_dof_acceleration_dof": top_dof[2],
+        "frame_names": sk.frame_names,
+        "position_acceleration": position,
         "max_position_acceleration": top_position[0],
         "max_position_acceleration_frame": top_position[1],
         "max_position_acceleration_site": top_position[2],
@@ -223,7 +225,7 @@ def per_frame_errors(original, fixed, contacts=None, reach=None) -> dict:
 
     def padded(values, front):
         out = np.full(N, np.nan)
-        out[front:front + len(values)] = values
+        out[front : front + len(values)] = values
         return out
 
     series = {}
@@ -232,9 +234,11 @@ def per_frame_errors(original, fixed, contacts=None, reach=None) -> dict:
         series["COM outside support (mm)"] = tuple(MM * m["outside"] for m in runs)
     series["joint deviation max (deg)"] = (np.zeros(N), joint_deviation(original, fixed)[1])
     series["joint acceleration (deg/s^2)"] = tuple(
-        padded(_row_max(np.abs(m["spikes"]["dof_acceleration"])), 1) for m in runs)
+        padded(_row_max(np.abs(m["spikes"]["dof_acceleration"])), 1) for m in runs
+    )
     series["position acceleration (m/s^2)"] = tuple(
-        padded(_row_max(m["spikes"]["position_acceleration"]), 1) for m in runs)
+        padded(_row_max(m["spikes"]["position_acceleration"]), 1) for m in runs
+    )
     for k, name in enumerate(_reach_names(reach)):
         series[f"{name} (mm)"] = tuple(MM * m["reach"][k] for m in runs)
     return series

@@ -19,9 +19,9 @@ import numpy as np
 from deik.clips.contacts import Contacts, planted_targets
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
+from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
 from deik.solver.problem import Problem
-from deik.model.rotations import wrap_rotations
 
 CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
 REACH_TOLERANCE = 0.005
@@ -60,8 +60,9 @@ def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: 
     before = smoothstep(frame - last, last >= 0)
     after = smoothstep(next_ - frame, next_ < N)
     scale = 1.0 / np.maximum(before + after, 1.0)
-    pulled = (before * scale)[:, None] * (targets[np.maximum(last, 0)] - path) \
-        + (after * scale)[:, None] * (targets[np.minimum(next_, N - 1)] - path)
+    pulled = (before * scale)[:, None] * (targets[np.maximum(last, 0)] - path) + (after * scale)[:, None] * (
+        targets[np.minimum(next_, N - 1)] - path
+    )
     widened = mask | (before + after > 0)
     out = np.where(widened[:, None], path + pulled, np.nan)
     out[mask] = targets[mask]
@@ -142,13 +143,13 @@ def fixed_goals(clip, goals: ClipGoals, weights: np.ndarray) -> list:
     DOF's change by `weights` (D,) (warmstart.dof_weights)."""
     out = _level0_goals(clip, goals)
     if goals.fidelity > 0:
-        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses(),
-                             joint_weights=weights))
+        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses(), joint_weights=weights))
     return out
 
 
-def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray,
-                 fixed: list | None = None) -> Problem:
+def clip_problem(
+    clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed: list | None = None
+) -> Problem:
     """The batch of N frame problems for `clip` given the current displacement (N, D) of every
     frame from the original (coherence pulls each frame towards its neighbours' displacement,
     each DOF counted by `weights` (D,)); `fixed`: fixed_goals(clip, goals, weights) when already
@@ -157,6 +158,5 @@ def clip_problem(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.n
     goal_list = list(fixed_goals(clip, goals, weights) if fixed is None else fixed)
     if goals.coherence > 0:
         smooth = wrap_rotations(clip.poses() + neighbour_displacement(displacement), sk.dof_kind == ROTATE)
-        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth,
-                                   joint_weights=weights))
+        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth, joint_weights=weights))
     return Problem(sk, goal_list)

@@ -76,7 +76,7 @@ class ClipFix:
 def _labels(problem) -> tuple[str, ...]:
     """Goal labels with the two comfort terms told apart."""
     names = []
-    for goal, label in zip(problem.goals, problem.table.labels):
+    for label in problem.table.labels[: len(problem.goals)]:
         if label.startswith("comfort"):
             label = "fidelity" if not any(n == "fidelity" for n in names) else "coherence"
         names.append(label)
@@ -114,8 +114,9 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return errors, np.all(np.isnan(errors[:, level0]) | within, axis=1)
 
 
-def fix_clip(clip, goals: ClipGoals, passes: int | None = None, settings: Settings | None = None,
-             **overrides) -> ClipFix:
+def fix_clip(
+    clip, goals: ClipGoals, passes: int | None = None, settings: Settings | None = None, **overrides
+) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance) over the frames
     that still miss a level-0 goal; settings default to CLIP_SETTINGS (BALANCE_SETTINGS with
@@ -149,20 +150,33 @@ def fix_clip(clip, goals: ClipGoals, passes: int | None = None, settings: Settin
         if not unmet.any():
             break
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
-        initial = _seeds(sk, current, searched & unmet[:, None], settings.population,
-                         settings.seed + 7919 * k)
+        initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         result = solve(problem, settings, initial=initial)
         found = wrap_rotations(result.angles - original, rotation)
-        displacement = _inside(sk, original, ease(np.where(unmet[:, None], found, displacement),
-                                                  searched, EASE))
+        displacement = _inside(sk, original, ease(np.where(unmet[:, None], found, displacement), searched, EASE))
         generations = result.generations[unmet]
-        stages.append({"stage": f"DE pass {k + 1}", "seconds": time.perf_counter() - began,
-                       "frames": int(unmet.sum()), "generations_mean": float(generations.mean()),
-                       "generations_max": int(generations.max()),
-                       "evaluations": int(settings.population * (generations + 1).sum())})
+        stages.append(
+            {
+                "stage": f"DE pass {k + 1}",
+                "seconds": time.perf_counter() - began,
+                "frames": int(unmet.sum()),
+                "generations_mean": float(generations.mean()),
+                "generations_max": int(generations.max()),
+                "evaluations": int(settings.population * (generations + 1).sum()),
+            }
+        )
     wall = time.perf_counter() - start
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
-    return ClipFix(clip.with_frames(clip.frames + displacement), clip, _labels(problem),
-                   _errors(problem, original), after, met, len(stages) - 1, wall, settings,
-                   tuple(stages))
+    return ClipFix(
+        clip.with_frames(clip.frames + displacement),
+        clip,
+        _labels(problem),
+        _errors(problem, original),
+        after,
+        met,
+        len(stages) - 1,
+        wall,
+        settings,
+        tuple(stages),
+    )

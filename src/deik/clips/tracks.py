@@ -25,8 +25,10 @@ from deik.io.errors import FileFormatError
 from deik.io.files import read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
-SPEC_FORMS = ("SITE=track.csv, SITE=track.json, or SITE=X,Y,Z@A:B (a fixed point over frames "
-              "A..B inclusive; without @A:B, the whole clip)")
+SPEC_FORMS = (
+    "SITE=track.csv, SITE=track.json, or SITE=X,Y,Z@A:B (a fixed point over frames "
+    "A..B inclusive; without @A:B, the whole clip)"
+)
 FRAME_RANGE = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
 
 
@@ -43,16 +45,18 @@ def _csv_rows(source: str, text: str) -> list[tuple[int, list[str]]]:
     names = [name.strip().lower() for name in header.split(",")]
     missing = [c for c in COLUMNS if c not in names]
     if missing:
-        raise FileFormatError(source, f"missing column{'s' if len(missing) > 1 else ''} "
-                              f"{', '.join(missing)}: the header must name frame, x, y and z",
-                              line=header_line)
+        raise FileFormatError(
+            source,
+            f"missing column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(missing)}: the header must name frame, x, y and z",
+            line=header_line,
+        )
     where = [names.index(c) for c in COLUMNS]
     rows = []
     for n, line in lines[1:]:
         fields = [field.strip() for field in line.split(",")]
         if len(fields) != len(names):
-            raise FileFormatError(source, f"{len(fields)} fields where the header has "
-                                  f"{len(names)}", line=n)
+            raise FileFormatError(source, f"{len(fields)} fields where the header has {len(names)}", line=n)
         rows.append((n, [fields[k] for k in where]))
     return rows
 
@@ -72,12 +76,10 @@ def _json_value(source: str, where: str, value, integer: bool):
     """A JSON frame (integer) or coordinate (finite number) checked, else FileFormatError."""
     if integer:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise FileFormatError(source, f"frame must be a whole number, got {value!r:.40}",
-                                  element=where)
+            raise FileFormatError(source, f"frame must be a whole number, got {value!r:.40}", element=where)
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise FileFormatError(source, f"must be a finite number, got {value!r:.40}",
-                              element=where)
+        raise FileFormatError(source, f"must be a finite number, got {value!r:.40}", element=where)
     return float(value)
 
 
@@ -91,15 +93,14 @@ def _json_values(source: str, text: str) -> list[tuple[str, None, int, list[floa
         raise FileFormatError(source, "JSON nested too deeply") from None
     if isinstance(data, dict) and {"frames", "positions"} <= set(data):
         frames, positions = data["frames"], data["positions"]
-        if not isinstance(frames, list) or not isinstance(positions, list) \
-                or len(frames) != len(positions):
-            raise FileFormatError(source, '"frames" and "positions" must be lists of the same '
-                                  "length", element="positions")
+        if not isinstance(frames, list) or not isinstance(positions, list) or len(frames) != len(positions):
+            raise FileFormatError(
+                source, '"frames" and "positions" must be lists of the same length', element="positions"
+            )
         items = []
         for k, (frame, point) in enumerate(zip(frames, positions)):
             if not isinstance(point, list) or len(point) != 3:
-                raise FileFormatError(source, f"must be [x, y, z], got {point!r:.60}",
-                                      element=f"positions[{k}]")
+                raise FileFormatError(source, f"must be [x, y, z], got {point!r:.60}", element=f"positions[{k}]")
             coordinates = [(f"positions[{k}][{j}]", v) for j, v in enumerate(point)]
             items.append((f"frames[{k}]", frame, coordinates))
     elif isinstance(data, list):
@@ -107,15 +108,27 @@ def _json_values(source: str, text: str) -> list[tuple[str, None, int, list[floa
         for k, item in enumerate(data):
             missing = [c for c in COLUMNS if not isinstance(item, dict) or c not in item]
             if missing:
-                raise FileFormatError(source, f"missing {', '.join(missing)}: each element "
-                                      'needs "frame", "x", "y" and "z"', element=f"[{k}]")
+                raise FileFormatError(
+                    source,
+                    f'missing {", ".join(missing)}: each element needs "frame", "x", "y" and "z"',
+                    element=f"[{k}]",
+                )
             items.append((f"[{k}].frame", item["frame"], [(f"[{k}].{c}", item[c]) for c in "xyz"]))
     else:
-        raise FileFormatError(source, 'expected a list of {"frame", "x", "y", "z"} objects or '
-                              'an object with "frames" and "positions"', element="top level")
-    return [(where, None, _json_value(source, where, frame, True),
-             [_json_value(source, at, v, False) for at, v in coordinates])
-            for where, frame, coordinates in items]
+        raise FileFormatError(
+            source,
+            'expected a list of {"frame", "x", "y", "z"} objects or an object with "frames" and "positions"',
+            element="top level",
+        )
+    return [
+        (
+            where,
+            None,
+            _json_value(source, where, frame, True),
+            [_json_value(source, at, v, False) for at, v in coordinates],
+        )
+        for where, frame, coordinates in items
+    ]
 
 
 def read_track(path, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,11 +152,16 @@ def read_track(path, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
     for where, line, frame, point in values:
         element = None if line is not None else where
         if not 0 <= frame < n_frames:
-            raise FileFormatError(source, f"frame {frame} is outside the clip; valid frames: "
-                                  f"{_valid_frames(n_frames)}", line=line, element=element)
+            raise FileFormatError(
+                source,
+                f"frame {frame} is outside the clip; valid frames: {_valid_frames(n_frames)}",
+                line=line,
+                element=element,
+            )
         if frame in seen:
-            raise FileFormatError(source, f"frame {frame} is listed twice (first at {seen[frame]})",
-                                  line=line, element=element)
+            raise FileFormatError(
+                source, f"frame {frame} is listed twice (first at {seen[frame]})", line=line, element=element
+            )
         seen[frame] = where
         mask[frame] = True
         targets[frame] = point
@@ -157,21 +175,27 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
     except ValueError:
         point = []
     if len(point) != 3 or not all(map(math.isfinite, point)):
-        raise ValueError(f"reach {spec!r}: {point_text!r} is not a point X,Y,Z of three finite "
-                         f"numbers and not a .csv or .json track; the accepted forms are "
-                         f"{SPEC_FORMS}")
+        raise ValueError(
+            f"reach {spec!r}: {point_text!r} is not a point X,Y,Z of three finite "
+            f"numbers and not a .csv or .json track; the accepted forms are "
+            f"{SPEC_FORMS}"
+        )
     first, last = 0, n_frames - 1
     if at:
         match = FRAME_RANGE.fullmatch(span)
         if not match:
-            raise ValueError(f"reach {spec!r}: frame range {span!r} is not A:B (two whole "
-                             f"numbers, B inclusive); the accepted forms are {SPEC_FORMS}")
+            raise ValueError(
+                f"reach {spec!r}: frame range {span!r} is not A:B (two whole "
+                f"numbers, B inclusive); the accepted forms are {SPEC_FORMS}"
+            )
         first, last = int(match[1]), int(match[2])
         if not 0 <= first <= last < n_frames:
-            raise ValueError(f"reach {spec!r}: frames {first}:{last} are outside the clip or "
-                             f"reversed; valid frames: {_valid_frames(n_frames)}")
+            raise ValueError(
+                f"reach {spec!r}: frames {first}:{last} are outside the clip or "
+                f"reversed; valid frames: {_valid_frames(n_frames)}"
+            )
     mask = np.zeros(n_frames, dtype=bool)
-    mask[first:last + 1] = True
+    mask[first : last + 1] = True
     targets = np.full((n_frames, 3), np.nan)
     targets[mask] = point
     return mask, targets

@@ -19,9 +19,9 @@ import numpy as np
 from deik.clips.balance import balance_track, horizontal_axes
 from deik.clips.coherence import active_frames
 from deik.clips.problem import neighbour_displacement
-from deik.model.joints import ROTATE
 from deik.kernels.cpu_backend import point_jacobians
 from deik.kernels.pack import pack_skeleton
+from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.goals import ComInPolygon, Position
 
@@ -52,8 +52,15 @@ def dof_weights(clip) -> np.ndarray:
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
 
-def warm_start(skeleton, original: np.ndarray, goals, searched: np.ndarray, weights: np.ndarray,
-               steps: int = STEPS, smoothing: int = SMOOTHING) -> np.ndarray:
+def warm_start(
+    skeleton,
+    original: np.ndarray,
+    goals,
+    searched: np.ndarray,
+    weights: np.ndarray,
+    steps: int = STEPS,
+    smoothing: int = SMOOTHING,
+) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D) that meets the level-0 Position
     goals active in each frame and brings the centre of mass over the support of its level-0
     ComInPolygon goals (clips/balance.py), moving only the `searched` (N, D) DOFs, each change
@@ -74,8 +81,10 @@ def warm_start(skeleton, original: np.ndarray, goals, searched: np.ndarray, weig
     targets = np.array([np.broadcast_to(np.asarray(goal.target, float), (N, 3)) for goal in held]).reshape(H, N, 3)
     targets = targets.transpose(1, 0, 2)  # (N, H, 3)
     active = np.array([active_frames(goal, N) for goal in held]).reshape(H, N).T
-    supports = [(np.array([names.index(site) for site in goal.frames]), active_frames(goal, N),
-                 0.5 * (goal.tolerance or 0.0)) for goal in balance]
+    supports = [
+        (np.array([names.index(site) for site in goal.frames]), active_frames(goal, N), 0.5 * (goal.tolerance or 0.0))
+        for goal in balance
+    ]
     ground = horizontal_axes(skeleton)
     rows = 3 * H + 2 * bool(balance)
     damping = DAMPING**2 * np.eye(rows)

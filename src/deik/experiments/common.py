@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from deik.solver.engine import Settings
 from deik.io.atomic import save_atomically, write_text_atomically
+from deik.solver.engine import Settings
 from deik.viz.plot import plot_result, require_matplotlib
 
 CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's reach
@@ -55,9 +55,15 @@ def spread(values) -> dict:
     """{n, median, q1, q3, min, max, never}: `values` (n,), +inf marking non-converged runs
     (counted in `never`)."""
     v = np.asarray(values, dtype=np.float64)
-    return {"n": int(v.size), "median": quantile(v, 0.5), "q1": quantile(v, 0.25),
-            "q3": quantile(v, 0.75), "min": quantile(v, 0.0), "max": quantile(v, 1.0),
-            "never": int(np.isinf(v).sum())}
+    return {
+        "n": int(v.size),
+        "median": quantile(v, 0.5),
+        "q1": quantile(v, 0.25),
+        "q3": quantile(v, 0.75),
+        "min": quantile(v, 0.0),
+        "max": quantile(v, 1.0),
+        "never": int(np.isinf(v).sum()),
+    }
 
 
 def number(x: float, digits: int = 3) -> str:
@@ -70,7 +76,7 @@ def number(x: float, digits: int = 3) -> str:
 
 
 def describe(values, digits: int = 3) -> str:
-    """"median [q1, q3]" of `values` (n,), e.g. "12 [8, 20]"."""
+    """ "median [q1, q3]" of `values` (n,), e.g. "12 [8, 20]"."""
     s = spread(values)
     return f"{number(s['median'], digits)} [{number(s['q1'], digits)}, {number(s['q3'], digits)}]"
 
@@ -141,11 +147,29 @@ class Section:
     def markdown(self, image: str | None = None) -> str:
         """The section as markdown; `image`: link to the PNG (default NAME.png beside it)."""
         image = image or f"{self.name}.png"
-        parts = [f"## {self.title}", "", f"![{self.name}]({image})", "",
-                 f"**Paper.** {self.claim}", "", f"**Ours.** {self.headline}", "", self.measurement, ""]
+        parts = [
+            f"## {self.title}",
+            "",
+            f"![{self.name}]({image})",
+            "",
+            f"**Paper.** {self.claim}",
+            "",
+            f"**Ours.** {self.headline}",
+            "",
+            self.measurement,
+            "",
+        ]
         parts += [f"**Note: {note}**\n" for note in self.notes]
-        parts += [f"**Where and why we differ.** {self.differences}", "",
-                  f"Command ({self.seconds:.0f} s for this run):", "", "```sh", self.command, "```", ""]
+        parts += [
+            f"**Where and why we differ.** {self.differences}",
+            "",
+            f"Command ({self.seconds:.0f} s for this run):",
+            "",
+            "```sh",
+            self.command,
+            "```",
+            "",
+        ]
         return "\n".join(parts)
 
     def write(self, out_dir: str) -> None:

@@ -61,13 +61,17 @@ def chain_scenarios(n_links: int = 20, seed: int = 0) -> list[Scenario]:
     """Figs. 2a-2c on deik.chain(n_links): plain reach, then comfort "start" and "end"."""
     skeleton = chain(n_links)
     reach = Position("tip", chain_target(skeleton, seed), tolerance=CHAIN_BOUND * skeleton.reach)
-    variants = [("a_chain_reach", "reach", []),
-                ("b_chain_straight_start", "reach, straight near the start",
-                 [Comfort(joint_weights="start", level=1)]),
-                ("c_chain_straight_end", "reach, straight near the end",
-                 [Comfort(joint_weights="end", level=1)])]
-    return [Scenario(key, f"{n_links}-link chain: {title}", Problem(skeleton, [reach] + extra),
-                     CHAIN_SETTINGS, skeleton.reach) for key, title, extra in variants]
+    variants = [
+        ("a_chain_reach", "reach", []),
+        ("b_chain_straight_start", "reach, straight near the start", [Comfort(joint_weights="start", level=1)]),
+        ("c_chain_straight_end", "reach, straight near the end", [Comfort(joint_weights="end", level=1)]),
+    ]
+    return [
+        Scenario(
+            key, f"{n_links}-link chain: {title}", Problem(skeleton, [reach] + extra), CHAIN_SETTINGS, skeleton.reach
+        )
+        for key, title, extra in variants
+    ]
 
 
 def humanoid_scenario() -> Scenario:
@@ -86,8 +90,13 @@ def humanoid_scenario() -> Scenario:
         Position("left_hand", hand, tolerance=HAND_BOUND, level=1),
         Comfort(level=2),
     ]
-    return Scenario("d_humanoid_reach", "humanoid: left-hand reach on the right foot",
-                    Problem(skeleton, goals), HUMANOID_SETTINGS, initial=skeleton.reference[None])
+    return Scenario(
+        "d_humanoid_reach",
+        "humanoid: left-hand reach on the right foot",
+        Problem(skeleton, goals),
+        HUMANOID_SETTINGS,
+        initial=skeleton.reference[None],
+    )
 
 
 def scenario_rows(scenario: Scenario, result) -> list[dict]:
@@ -101,11 +110,20 @@ def scenario_rows(scenario: Scenario, result) -> list[dict]:
         error, label = float(report.error), report.label
         percent = 100 * error / scenario.reach if scenario.reach and report.unit == LENGTH else None
         bound = report.tolerance if report.tolerance >= 0 else None
-        rows.append({
-            "scenario": scenario.key, "goal": label, "error": error, "unit": report.unit,
-            "percent_of_reach": percent, "bound": bound, "met": None if bound is None else bool(report.met),
-            "generations": int(result.generations), "time_s": result.wall_time, "passed": passed,
-        })
+        rows.append(
+            {
+                "scenario": scenario.key,
+                "goal": label,
+                "error": error,
+                "unit": report.unit,
+                "percent_of_reach": percent,
+                "bound": bound,
+                "met": None if bound is None else bool(report.met),
+                "generations": int(result.generations),
+                "time_s": result.wall_time,
+                "passed": passed,
+            }
+        )
     return rows
 
 
@@ -114,13 +132,18 @@ def _print_table(rows: list[dict]) -> None:
     for row in rows:
         first = row["scenario"] != previous
         previous = row["scenario"]
-        cells.append([
-            row["scenario"] if first else "", row["goal"], f"{row['error']:.4g} {row['unit']}",
-            "" if row["percent_of_reach"] is None else f"{row['percent_of_reach']:.3f} %",
-            "-" if row["bound"] is None else f"{row['bound']:.4g} {row['unit']}",
-            {None: "-", True: "yes", False: "NO"}[row["met"]],
-            row["generations"] if first else "", f"{row['time_s']:.2f} s" if first else "",
-        ])
+        cells.append(
+            [
+                row["scenario"] if first else "",
+                row["goal"],
+                f"{row['error']:.4g} {row['unit']}",
+                "" if row["percent_of_reach"] is None else f"{row['percent_of_reach']:.3f} %",
+                "-" if row["bound"] is None else f"{row['bound']:.4g} {row['unit']}",
+                {None: "-", True: "yes", False: "NO"}[row["met"]],
+                row["generations"] if first else "",
+                f"{row['time_s']:.2f} s" if first else "",
+            ]
+        )
     print(format_table(["scenario", "goal", "error", "% reach", "bound", "met", "generations", "time"], cells))
 
 
@@ -137,11 +160,20 @@ def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
         image = f"{scenario.key}.png"
         plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
         rows += scenario_rows(scenario, result)
-        summary.append({"key": scenario.key, "title": scenario.title, "image": image,
-                        "settings": scenario.settings, "passed": rows[-1]["passed"],
-                        "result": result.to_dict()})
+        summary.append(
+            {
+                "key": scenario.key,
+                "title": scenario.title,
+                "image": image,
+                "settings": scenario.settings,
+                "passed": rows[-1]["passed"],
+                "result": result.to_dict(),
+            }
+        )
     total = time.perf_counter() - start
-    write_json_atomically(os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total})
+    write_json_atomically(
+        os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total}
+    )
     _print_table(rows)
     missed = [s["key"] for s in summary if not s["passed"]]
     verdict = f"MISSED: {', '.join(missed)}" if missed else "every scenario met its targets"

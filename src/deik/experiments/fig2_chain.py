@@ -14,11 +14,20 @@ import os
 
 import numpy as np
 
+from deik.experiments.common import (
+    DE_ONLY,
+    Section,
+    command,
+    describe,
+    markdown_table,
+    pose_panels,
+    save_figure,
+    seed_list,
+    write_csv,
+)
 from deik.experiments.demo import chain_scenarios
-from deik.experiments.common import (DE_ONLY, Section, command, describe, markdown_table, pose_panels,
-                                     save_figure, seed_list, write_csv)
-from deik.viz.plot import require_matplotlib
 from deik.solver.solve import solve
+from deik.viz.plot import require_matplotlib
 
 NAME = "fig2"
 VARIANTS = ("reach only", "straight near start", "straight near end")
@@ -61,10 +70,16 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         for variant, (scenario, result) in zip(VARIANTS, solved):
             tip = result.goals[0]
             start, end = thirds(result.angles)
-            row = {"seed": seed, "variant": variant, "links": n,
-                   "tip_error_percent_of_reach": 100 * float(tip.error) / scenario.reach,
-                   "tip_met": bool(tip.met), "generations": int(result.generations),
-                   "mean_abs_angle_first_third_rad": start, "mean_abs_angle_last_third_rad": end}
+            row = {
+                "seed": seed,
+                "variant": variant,
+                "links": n,
+                "tip_error_percent_of_reach": 100 * float(tip.error) / scenario.reach,
+                "tip_met": bool(tip.met),
+                "generations": int(result.generations),
+                "mean_abs_angle_first_third_rad": start,
+                "mean_abs_angle_last_third_rad": end,
+            }
             row.update({f"abs_angle_j{j:02d}": float(abs(a)) for j, a in enumerate(result.angles)})
             rows.append(row)
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
@@ -73,40 +88,63 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
     table, stats = [], {}
     for variant in VARIANTS:
         sel = [r for r in rows if r["variant"] == variant]
-        stats[variant] = {key: np.median([r[key] for r in sel]) for key in
-                          ("mean_abs_angle_first_third_rad", "mean_abs_angle_last_third_rad")}
-        table.append([variant, len(sel), sum(not r["tip_met"] for r in sel),
-                      describe([r["tip_error_percent_of_reach"] for r in sel]),
-                      describe([r["mean_abs_angle_first_third_rad"] for r in sel]),
-                      describe([r["mean_abs_angle_last_third_rad"] for r in sel]),
-                      describe([r["generations"] for r in sel], 4)])
+        stats[variant] = {
+            key: np.median([r[key] for r in sel])
+            for key in ("mean_abs_angle_first_third_rad", "mean_abs_angle_last_third_rad")
+        }
+        table.append(
+            [
+                variant,
+                len(sel),
+                sum(not r["tip_met"] for r in sel),
+                describe([r["tip_error_percent_of_reach"] for r in sel]),
+                describe([r["mean_abs_angle_first_third_rad"] for r in sel]),
+                describe([r["mean_abs_angle_last_third_rad"] for r in sel]),
+                describe([r["generations"] for r in sel], 4),
+            ]
+        )
     s, e = stats[VARIANTS[1]], stats[VARIANTS[2]]
     a = stats[VARIANTS[0]]
-    headline = (f"{n}-link chain, {len(cfg['seeds'])} seeds: the tip met 1 % of reach in "
-                f"{sum(r['tip_met'] for r in rows)}/{len(rows)} runs; median mean absolute angle of the "
-                f"first third {a['mean_abs_angle_first_third_rad']:.2f} rad (reach only) -> "
-                f"{s['mean_abs_angle_first_third_rad']:.2f} (straight start), of the last third "
-                f"{a['mean_abs_angle_last_third_rad']:.2f} -> {e['mean_abs_angle_last_third_rad']:.2f} (straight end).")
+    headline = (
+        f"{n}-link chain, {len(cfg['seeds'])} seeds: the tip met 1 % of reach in "
+        f"{sum(r['tip_met'] for r in rows)}/{len(rows)} runs; median mean absolute angle of the "
+        f"first third {a['mean_abs_angle_first_third_rad']:.2f} rad (reach only) -> "
+        f"{s['mean_abs_angle_first_third_rad']:.2f} (straight start), of the last third "
+        f"{a['mean_abs_angle_last_third_rad']:.2f} -> {e['mean_abs_angle_last_third_rad']:.2f} (straight end)."
+    )
     measurement = markdown_table(
-        ["variant", "seeds", "tip missed", "tip error, % reach", "first third mean abs angle, rad",
-         "last third mean abs angle, rad", "generations"], table) + \
-        ("\n\nCells are median [quartiles] over seeds. The pictures show seed 0; the lower panel the "
-         "median |angle| per joint.")
+        [
+            "variant",
+            "seeds",
+            "tip missed",
+            "tip error, % reach",
+            "first third mean abs angle, rad",
+            "last third mean abs angle, rad",
+            "generations",
+        ],
+        table,
+    ) + (
+        "\n\nCells are median [quartiles] over seeds. The pictures show seed 0; the lower panel the "
+        "median |angle| per joint."
+    )
     return Section(
-        NAME, "Fig. 2: one target, three secondary objectives",
+        NAME,
+        "Fig. 2: one target, three secondary objectives",
         "Pictures only, no numbers: a serial chain reaches a target with (a) the end-effector "
         "distance alone, (b) plus a secondary bias keeping the links near the start of the chain "
         "straight, (c) the same near the end.",
-        headline, measurement,
+        headline,
+        measurement,
         "The paper folds the straightness term into one weighted sum; we put it on a lower strict "
         "priority level (the reach never pays for straightness) and use a linear per-joint ramp "
-        "(`Comfort(joint_weights=\"start\"/\"end\")`). Settings are the demo's (population 256, "
+        '(`Comfort(joint_weights="start"/"end")`). Settings are the demo\'s (population 256, '
         "best/1/bin), not rand/1/bin; the paper gives no settings, chain length or target for this "
         "figure, so we quantify the shape over many random targets instead of one picture. The "
         "summed |angle| (Eq. 6) is an L1 penalty, so the optimum bends few joints sharply, above all "
-        "the joint whose ramp weight is zero (the last for \"start\", the root for \"end\"), where "
+        'the joint whose ramp weight is zero (the last for "start", the root for "end"), where '
         "the paper's pictures bend smoothly.",
-        command(NAME, quick))
+        command(NAME, quick),
+    )
 
 
 def _plot(out_dir: str, first: list[tuple], rows: list[dict], n: int) -> None:

@@ -49,10 +49,17 @@ def sizes(quick: bool) -> dict:
     if quick:
         grid = {"links": [5, 10], "populations": [10, 100], "seeds": seed_list(True, 0, 8)}
         return {"budget": 300, "grids": {NEAR: grid, FAR: {**grid, "links": [5], "seeds": seed_list(True, 0, 4)}}}
-    return {"budget": 2000, "grids": {
-        NEAR: {"links": [5, 10, 20, 50], "populations": [10, 20, 50, 100, 200, 500, 1000],
-               "seeds": seed_list(False, 100, 0)},
-        FAR: {"links": [5, 10, 20, 50], "populations": [10, 50, 200, 500], "seeds": seed_list(False, 20, 0)}}}
+    return {
+        "budget": 2000,
+        "grids": {
+            NEAR: {
+                "links": [5, 10, 20, 50],
+                "populations": [10, 20, 50, 100, 200, 500, 1000],
+                "seeds": seed_list(False, 100, 0),
+            },
+            FAR: {"links": [5, 10, 20, 50], "populations": [10, 50, 200, 500], "seeds": seed_list(False, 20, 0)},
+        },
+    }
 
 
 def far_target(skeleton, seed: int) -> np.ndarray:
@@ -64,8 +71,15 @@ def far_target(skeleton, seed: int) -> np.ndarray:
 TARGETS = {NEAR: chain_target, FAR: far_target}
 
 
-def generations_to_converge(n_links: int, population: int, strategy: str, seeds: list[int],
-                            budget: int, targets: str = "random pose", device: str = "cpu") -> list[dict]:
+def generations_to_converge(
+    n_links: int,
+    population: int,
+    strategy: str,
+    seeds: list[int],
+    budget: int,
+    targets: str = "random pose",
+    device: str = "cpu",
+) -> list[dict]:
     """One row per seed: generations (0 when the first population already converged, inf
     when not within `budget`), converged, the final tip error in % of reach, seconds (the
     whole batch's wall time, shared by its rows)."""
@@ -73,8 +87,9 @@ def generations_to_converge(n_links: int, population: int, strategy: str, seeds:
     tol = CONVERGED_FRACTION * skeleton.reach
     points = np.array([TARGETS[targets](skeleton, seed) for seed in seeds])  # (S, 3)
     problem = Problem(skeleton, [Position("tip", points, tolerance=tol)])
-    settings = STRATEGIES[strategy](population=population, generations=budget, patience=budget,
-                                    stop_on_converged=True, seed=0, device=device)
+    settings = STRATEGIES[strategy](
+        population=population, generations=budget, patience=budget, stop_on_converged=True, seed=0, device=device
+    )
     engine = Engine(problem, settings)
     start = time.perf_counter()
     state0 = engine.init()
@@ -85,11 +100,22 @@ def generations_to_converge(n_links: int, population: int, strategy: str, seeds:
     rows = []
     for k, seed in enumerate(seeds):
         generations = 0.0 if at_start[k] else (float(used[k]) if converged[k] else np.inf)
-        rows.append({"targets": targets, "strategy": strategy, "links": n_links, "population": population, "seed": seed,
-                     "converged": bool(converged[k] or at_start[k]), "generations": generations,
-                     "evaluations": population * generations, "solved_by_first_population": bool(at_start[k]),
-                     "tip_error_percent_of_reach": 100 * float(error[k]) / skeleton.reach,
-                     "budget": budget, "batch_seconds": result.wall_time})
+        rows.append(
+            {
+                "targets": targets,
+                "strategy": strategy,
+                "links": n_links,
+                "population": population,
+                "seed": seed,
+                "converged": bool(converged[k] or at_start[k]),
+                "generations": generations,
+                "evaluations": population * generations,
+                "solved_by_first_population": bool(at_start[k]),
+                "tip_error_percent_of_reach": 100 * float(error[k]) / skeleton.reach,
+                "budget": budget,
+                "batch_seconds": result.wall_time,
+            }
+        )
     return rows
 
 
@@ -105,8 +131,12 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
                     rows += generations_to_converge(n, p, strategy, grid["seeds"], cfg["budget"], targets)
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
     keys = {(r["targets"], r["strategy"], r["links"], r["population"]) for r in rows}
-    stats = {key: spread([r["generations"] for r in rows
-                          if (r["targets"], r["strategy"], r["links"], r["population"]) == key]) for key in keys}
+    stats = {
+        key: spread(
+            [r["generations"] for r in rows if (r["targets"], r["strategy"], r["links"], r["population"]) == key]
+        )
+        for key in keys
+    }
     _plot(out_dir, cfg, stats)
 
     tables = []
@@ -120,8 +150,10 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
                     never = f" ({s['never']} never)" if s["never"] else ""
                     cells.append(f"{number(s['median'])} [{number(s['q1'])}, {number(s['q3'])}]{never}")
                 table.append([strategy.split(" ")[0], n] + cells)
-        tables.append(f"Targets: {targets}, {len(grid['seeds'])} seeds per cell.\n\n" + markdown_table(
-            ["strategy", "links"] + [f"pop {p}" for p in grid["populations"]], table))
+        tables.append(
+            f"Targets: {targets}, {len(grid['seeds'])} seeds per cell.\n\n"
+            + markdown_table(["strategy", "links"] + [f"pop {p}" for p in grid["populations"]], table)
+        )
     paper = list(STRATEGIES)[0]
 
     def trend(kind):
@@ -133,20 +165,28 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
     def never(kind, strategy):
         return sum(s["never"] for k, s in stats.items() if k[0] == kind and k[1] == strategy)
 
-    counts = "; ".join(f"{kind}: {never(kind, paper)} (rand/1/bin) and {never(kind, list(STRATEGIES)[1])} "
-                       f"(default)" for kind in cfg["grids"])
+    counts = "; ".join(
+        f"{kind}: {never(kind, paper)} (rand/1/bin) and {never(kind, list(STRATEGIES)[1])} (default)"
+        for kind in cfg["grids"]
+    )
     first = sum(r["solved_by_first_population"] for r in rows)
-    headline = (f"Budget {cfg['budget']} generations. rand/1/bin median generations: {trend(NEAR)}; "
-                f"{trend(FAR)}. Runs that never converged, of {len(rows)}: {counts}. {first} runs were "
-                "solved by the random first population.")
-    measurement = ("Generations to bring the tip within 1 % of reach, median [quartiles] over seeds; "
-                   "\"never\" = not within the budget (counted, not dropped).\n\n" + "\n\n".join(tables))
+    headline = (
+        f"Budget {cfg['budget']} generations. rand/1/bin median generations: {trend(NEAR)}; "
+        f"{trend(FAR)}. Runs that never converged, of {len(rows)}: {counts}. {first} runs were "
+        "solved by the random first population."
+    )
+    measurement = (
+        "Generations to bring the tip within 1 % of reach, median [quartiles] over seeds; "
+        '"never" = not within the budget (counted, not dropped).\n\n' + "\n\n".join(tables)
+    )
     return Section(
-        NAME, "Fig. 3: population size vs generations to converge",
+        NAME,
+        "Fig. 3: population size vs generations to converge",
         "Averaged over 100 runs, the number of generations to bring the end effector within 1 % "
         "falls as the population grows, for several chain lengths; even small populations "
         "(under 100) converge within a limited number of generations.",
-        headline, measurement,
+        headline,
+        measurement,
         "We report medians with quartiles rather than the paper's average, which is undefined "
         "when a run never converges. The paper's chain lengths, targets, budget and F are not "
         "given: we use planar chains of unit links, targets at the tip of a random in-limit pose "
@@ -157,13 +197,15 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "converge cost the whole budget, so that family has 20 seeds and four populations. Our "
         "default strategy is shown beside the paper's rand/1/bin. The CSV also gives the cost in "
         "fitness evaluations (population x generations).",
-        command(NAME, quick))
+        command(NAME, quick),
+    )
 
 
 def _plot(out_dir: str, cfg: dict, stats: dict) -> None:
     plt = require_matplotlib()
-    figure, axes = plt.subplots(len(TARGETS), len(STRATEGIES), figsize=(12, 8.5), sharex=True, sharey=True,
-                                squeeze=False)
+    figure, axes = plt.subplots(
+        len(TARGETS), len(STRATEGIES), figsize=(12, 8.5), sharex=True, sharey=True, squeeze=False
+    )
     for row, (targets, grid) in enumerate(cfg["grids"].items()):
         pops = np.array(grid["populations"], float)
         for col, strategy in enumerate(STRATEGIES):
@@ -172,13 +214,24 @@ def _plot(out_dir: str, cfg: dict, stats: dict) -> None:
                 s = [stats[(targets, strategy, n, int(p))] for p in pops]
                 med, lo, hi = (np.array([x[k] for x in s]) for k in ("median", "q1", "q3"))
                 ok = np.isfinite(med)
-                line, = ax.plot(pops[ok], np.maximum(med[ok], 0.5), "o-", label=f"{n} links")
-                ax.fill_between(pops[ok], np.maximum(lo[ok], 0.5), np.minimum(hi[ok], cfg["budget"]),
-                                color=line.get_color(), alpha=0.12)
+                (line,) = ax.plot(pops[ok], np.maximum(med[ok], 0.5), "o-", label=f"{n} links")
+                ax.fill_between(
+                    pops[ok],
+                    np.maximum(lo[ok], 0.5),
+                    np.minimum(hi[ok], cfg["budget"]),
+                    color=line.get_color(),
+                    alpha=0.12,
+                )
                 for p, x in zip(pops, s):
                     if x["never"]:
-                        ax.annotate(f"{x['never']} never", (p, cfg["budget"]), fontsize=7,
-                                    color=line.get_color(), rotation=90, va="top")
+                        ax.annotate(
+                            f"{x['never']} never",
+                            (p, cfg["budget"]),
+                            fontsize=7,
+                            color=line.get_color(),
+                            rotation=90,
+                            va="top",
+                        )
             ax.set_title(f"{strategy}; targets: {targets} ({len(grid['seeds'])} seeds)", fontsize="medium")
             ax.set_xscale("log")
             ax.set_yscale("log")
@@ -187,7 +240,8 @@ def _plot(out_dir: str, cfg: dict, stats: dict) -> None:
         axes[row][0].set_ylabel("generations to < 1 % of reach")
     for ax in axes[-1]:
         ax.set_xlabel("population")
-    figure.suptitle(f"Fig. 3: generations to converge, median and quartiles "
-                    f"(0 generations drawn at 0.5; budget {cfg['budget']})")
+    figure.suptitle(
+        f"Fig. 3: generations to converge, median and quartiles (0 generations drawn at 0.5; budget {cfg['budget']})"
+    )
     figure.tight_layout()
     save_figure(figure, os.path.join(out_dir, f"{NAME}.png"))

@@ -67,7 +67,8 @@ def fig4_problems(n: int) -> dict[str, Problem]:
     return {
         "equal weights": Problem(base.skeleton, flat + [dataclasses.replace(hand, level=0)]),
         f"COM weighted (hand weight {HAND_WEIGHT_BELOW_COM})": Problem(
-            base.skeleton, flat + [dataclasses.replace(hand, level=0, weight=HAND_WEIGHT_BELOW_COM)]),
+            base.skeleton, flat + [dataclasses.replace(hand, level=0, weight=HAND_WEIGHT_BELOW_COM)]
+        ),
         "COM first (strict levels)": Problem(base.skeleton, [heel, toe, com, hand]),
     }
 
@@ -77,8 +78,10 @@ def fig5_problems(n: int) -> dict[str, Problem]:
     base = humanoid_scenario().problem
     heel, toe, com, hand, comfort = base.goals
     hand = _batched(hand, n)
-    return {"three levels (COM, reach, comfort)": Problem(base.skeleton, [heel, toe, com, hand, comfort]),
-            "two levels (no comfort)": Problem(base.skeleton, [heel, toe, com, hand])}
+    return {
+        "three levels (COM, reach, comfort)": Problem(base.skeleton, [heel, toe, com, hand, comfort]),
+        "two levels (no comfort)": Problem(base.skeleton, [heel, toe, com, hand]),
+    }
 
 
 def solve_rows(problems: dict[str, Problem], seeds: list[int], settings: dict) -> tuple:
@@ -107,8 +110,10 @@ def solve_rows(problems: dict[str, Problem], seeds: list[int], settings: dict) -
 
 def _first(problem: Problem, result):
     """Batch member 0 of `result` as an unbatched (problem, Result) for drawing."""
-    goals = [dataclasses.replace(g, target=np.asarray(g.target)[0]) if np.ndim(getattr(g, "target", 0)) == 2 else g
-             for g in problem.goals]
+    goals = [
+        dataclasses.replace(g, target=np.asarray(g.target)[0]) if np.ndim(getattr(g, "target", 0)) == 2 else g
+        for g in problem.goals
+    ]
     one = Problem(problem.skeleton, goals)
     return one, dataclasses.replace(result, angles=np.array(result.angles[0]))
 
@@ -135,11 +140,15 @@ def _table(rows: list[dict], variants, columns: dict) -> str:
     body = []
     for v in variants:
         sel = [r for r in rows if r["variant"] == v]
-        body.append([v, len(sel), sum(not r["all_toleranced_met"] for r in sel)] +
-                    [describe([r[key] for r in sel]) for key in columns] +
-                    [describe([r["generations"] for r in sel], 4)])
-    return markdown_table(["variant", "seeds", "not all met"] + list(columns.values()) + ["generations"], body) + \
-        "\n\nCells are median [quartiles] over seeds; boxes in the figure span min to max."
+        body.append(
+            [v, len(sel), sum(not r["all_toleranced_met"] for r in sel)]
+            + [describe([r[key] for r in sel]) for key in columns]
+            + [describe([r["generations"] for r in sel], 4)]
+        )
+    return (
+        markdown_table(["variant", "seeds", "not all met"] + list(columns.values()) + ["generations"], body)
+        + "\n\nCells are median [quartiles] over seeds; boxes in the figure span min to max."
+    )
 
 
 def run_fig4(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
@@ -152,24 +161,29 @@ def run_fig4(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
     _figure(out_dir, "fig4", solved, rows, columns, "Fig. 4: hand target out of balanced reach")
     med = {v: {k: np.median([r[k] for r in rows if r["variant"] == v]) for k in columns} for v in problems}
     eq, first = med["equal weights"], med["COM first (strict levels)"]
-    headline = (f"Hand target {FAR_FORWARD} m forward and {FAR_UP} m up from rest, {len(cfg['seeds'])} seeds: "
-                f"equal weights leave the COM {number(eq['com_over_support_error'] * 100, 2)} cm off the support "
-                f"point (hand {number(eq['position_left_hand_error'] * 100, 2)} cm short); COM first keeps it at "
-                f"{number(first['com_over_support_error'] * 100, 2)} cm (bound 2 cm) and the hand stops "
-                f"{number(first['position_left_hand_error'] * 100, 2)} cm short (medians). By design no variant "
-                "meets every bound.")
+    headline = (
+        f"Hand target {FAR_FORWARD} m forward and {FAR_UP} m up from rest, {len(cfg['seeds'])} seeds: "
+        f"equal weights leave the COM {number(eq['com_over_support_error'] * 100, 2)} cm off the support "
+        f"point (hand {number(eq['position_left_hand_error'] * 100, 2)} cm short); COM first keeps it at "
+        f"{number(first['com_over_support_error'] * 100, 2)} cm (bound 2 cm) and the hand stops "
+        f"{number(first['position_left_hand_error'] * 100, 2)} cm short (medians). By design no variant "
+        "meets every bound."
+    )
     return Section(
-        "fig4", "Fig. 4: centre of mass and reach, equal weights vs COM first",
+        "fig4",
+        "Fig. 4: centre of mass and reach, equal weights vs COM first",
         "Pictures only: with the COM and the end effector at equal priority the character reaches "
         "but its COM leaves the support (it would fall); with the COM as the priority of the "
         "weighted sum it stays balanced.",
-        headline, _table(rows, problems, columns),
+        headline,
+        _table(rows, problems, columns),
         "The paper gives neither target nor weights. We place the hand target where the right "
         "foot cannot support a full reach, and show the paper's weighted-sum priority (hand weight "
         f"{HAND_WEIGHT_BELOW_COM}) beside deik's strict levels: a smaller weight only shifts the "
         "trade-off, a strict level bounds the COM error by its tolerance. The feet are held by "
         "goals on the same level as the COM (the paper does not say how its character stands).",
-        command("fig4", quick))
+        command("fig4", quick),
+    )
 
 
 def run_fig5(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
@@ -178,23 +192,31 @@ def run_fig5(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
     problems = fig5_problems(len(cfg["seeds"]))
     rows, solved = solve_rows(problems, cfg["seeds"], cfg["settings"])
     write_csv(os.path.join(out_dir, "fig5.csv"), rows)
-    columns = {"com_over_support_error": "COM off support, m", "position_left_hand_error": "hand error, m",
-               "comfort_sum_rad": "comfort: sum abs(q - rest), rad"}
+    columns = {
+        "com_over_support_error": "COM off support, m",
+        "position_left_hand_error": "hand error, m",
+        "comfort_sum_rad": "comfort: sum abs(q - rest), rad",
+    }
     _figure(out_dir, "fig5", solved, rows, columns, "Fig. 5: COM over the support, then reach, then comfort")
     v3, v2 = list(problems)
     met = {v: sum(r["all_toleranced_met"] for r in rows if r["variant"] == v) for v in problems}
     comfort = {v: np.median([r["comfort_sum_rad"] for r in rows if r["variant"] == v]) for v in problems}
     n = len(cfg["seeds"])
-    headline = (f"{n} seeds: with three levels, COM, feet and hand bounds were all met in {met[v3]}/{n} runs "
-                f"and the median summed departure from the rest pose is {comfort[v3]:.2f} rad; without the "
-                f"comfort level, {met[v2]}/{n} met and {comfort[v2]:.2f} rad.")
+    headline = (
+        f"{n} seeds: with three levels, COM, feet and hand bounds were all met in {met[v3]}/{n} runs "
+        f"and the median summed departure from the rest pose is {comfort[v3]:.2f} rad; without the "
+        f"comfort level, {met[v2]}/{n} met and {comfort[v2]:.2f} rad."
+    )
     return Section(
-        "fig5", "Fig. 5: three priorities: COM over the support, reach, pose coherence",
+        "fig5",
+        "Fig. 5: three priorities: COM over the support, reach, pose coherence",
         "Pictures only: with the COM over the support point first, the end-effector reach second "
         "and pose coherence last, the character reaches while staying balanced and natural.",
-        headline, _table(rows, problems, columns),
+        headline,
+        _table(rows, problems, columns),
         "The paper weights the three criteria in one sum; we use strict levels (the demo's "
         "scenario: the foot planted within 5 mm, the COM within 2 cm, the hand within 1 cm) and "
         "measure pose coherence as the summed absolute departure from the rest pose (Eq. 6 "
         "without its exponential), which the two-level variant does not optimise.",
-        command("fig5", quick))
+        command("fig5", quick),
+    )

@@ -14,13 +14,23 @@ import os
 
 import numpy as np
 
+from deik.experiments.common import (
+    Section,
+    command,
+    de_only,
+    describe,
+    markdown_table,
+    number,
+    save_figure,
+    seed_list,
+    spread,
+    write_csv,
+)
 from deik.model.builders import chain
-from deik.solver.engine import Engine, Settings
-from deik.experiments.common import (Section, de_only, command, describe, markdown_table, number, save_figure,
-                                     seed_list, spread, write_csv)
 from deik.objectives.goals import Comfort
-from deik.viz.plot import require_matplotlib
+from deik.solver.engine import Engine, Settings
 from deik.solver.problem import Problem
+from deik.viz.plot import require_matplotlib
 
 NAME = "fig6"
 THRESHOLD = 0.05  # rad, about 3 degrees, on the worst joint
@@ -35,15 +45,17 @@ def sizes(quick: bool) -> dict:
     return {"links": 20, "population": 100, "generations": 400, "seeds": seed_list(False, 20, 0)}
 
 
-def convergence_curves(mode: str, strategy: str, links: int, population: int, generations: int,
-                       seeds: list[int]) -> np.ndarray:
+def convergence_curves(
+    mode: str, strategy: str, links: int, population: int, generations: int, seeds: list[int]
+) -> np.ndarray:
     """(generations + 1, 2, S): mean and max |angle - reference| (rad) of each seed's best
     pose after each generation (row 0: the first population)."""
     skeleton = chain(links)
     reference = np.array([np.random.default_rng((seed, 6)).uniform(skeleton.lower, skeleton.upper) for seed in seeds])
     problem = Problem(skeleton, [Comfort(mode=mode, reference=reference)])
-    settings = STRATEGIES[strategy](population=population, generations=generations, patience=generations,
-                                    stop_on_converged=False, seed=0)
+    settings = STRATEGIES[strategy](
+        population=population, generations=generations, patience=generations, stop_on_converged=False, seed=0
+    )
     engine = Engine(problem, settings)
     state, index, curves = engine.init(), np.arange(len(seeds)), []
     for generation in range(generations + 1):
@@ -65,8 +77,16 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
             curves[(strategy, mode)] = c
             for g in range(c.shape[0]):
                 for k, seed in enumerate(cfg["seeds"]):
-                    rows.append({"strategy": strategy, "comfort": mode, "seed": seed, "generation": g,
-                                 "mean_abs_error_rad": float(c[g, 0, k]), "max_abs_error_rad": float(c[g, 1, k])})
+                    rows.append(
+                        {
+                            "strategy": strategy,
+                            "comfort": mode,
+                            "seed": seed,
+                            "generation": g,
+                            "mean_abs_error_rad": float(c[g, 0, k]),
+                            "max_abs_error_rad": float(c[g, 1, k]),
+                        }
+                    )
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
     _plot(out_dir, cfg, curves)
 
@@ -75,49 +95,85 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         below = c[:, 1, :] <= THRESHOLD  # (G + 1, S)
         first = np.where(below.any(axis=0), below.argmax(axis=0), np.inf)
         reach[(strategy, mode)] = spread(first)
-        table.append([strategy.split(" ")[0], f"{mode} (Eq. {6 if mode == 'sum' else 7})", len(cfg["seeds"]),
-                      describe(first, 4), reach[(strategy, mode)]["never"],
-                      describe(c[-1, 0]), describe(c[-1, 1])])
+        table.append(
+            [
+                strategy.split(" ")[0],
+                f"{mode} (Eq. {6 if mode == 'sum' else 7})",
+                len(cfg["seeds"]),
+                describe(first, 4),
+                reach[(strategy, mode)]["never"],
+                describe(c[-1, 0]),
+                describe(c[-1, 1]),
+            ]
+        )
     paper = list(STRATEGIES)[0]
     s, m = reach[(paper, "sum")], reach[(paper, "max")]
     G = cfg["generations"]
     final = {mode: np.median(curves[(paper, mode)][-1], axis=1) for mode in MODES}  # (2,): mean, max
     wins = [what for k, what in enumerate(("mean", "max")) if final["sum"][k] < final["max"][k]]
-    verdict = (f"the sum ends lower on {' and '.join(wins)} joint error" if wins
-               else "the sum does not end lower on either yardstick")
-    headline = (f"{cfg['links']}-link chain, population {cfg['population']}, {len(cfg['seeds'])} seeds, rand/1/bin: "
-                f"every joint within {THRESHOLD} rad after a median {number(s['median'], 4)} generations with "
-                f"the sum and {number(m['median'], 4)} with the max ({s['never']} and {m['never']} runs not "
-                f"there by generation {G}); {verdict} at generation {G}.")
-    measurement = markdown_table(
-        ["strategy", "comfort", "seeds", f"generations until max error < {THRESHOLD} rad", "never",
-         f"mean error at {G}, rad", f"max error at {G}, rad"], table) + \
-        "\n\nCells are median [quartiles] over seeds; \"never\" counts runs not there by the last generation."
+    verdict = (
+        f"the sum ends lower on {' and '.join(wins)} joint error"
+        if wins
+        else "the sum does not end lower on either yardstick"
+    )
+    headline = (
+        f"{cfg['links']}-link chain, population {cfg['population']}, {len(cfg['seeds'])} seeds, rand/1/bin: "
+        f"every joint within {THRESHOLD} rad after a median {number(s['median'], 4)} generations with "
+        f"the sum and {number(m['median'], 4)} with the max ({s['never']} and {m['never']} runs not "
+        f"there by generation {G}); {verdict} at generation {G}."
+    )
+    measurement = (
+        markdown_table(
+            [
+                "strategy",
+                "comfort",
+                "seeds",
+                f"generations until max error < {THRESHOLD} rad",
+                "never",
+                f"mean error at {G}, rad",
+                f"max error at {G}, rad",
+            ],
+            table,
+        )
+        + '\n\nCells are median [quartiles] over seeds; "never" counts runs not there by the last generation.'
+    )
     return Section(
-        NAME, "Fig. 6: comfort as a sum (Eq. 6) vs as a max (Eq. 7)",
+        NAME,
+        "Fig. 6: comfort as a sum (Eq. 6) vs as a max (Eq. 7)",
         "The summed joint error converges faster than the maximum joint error: with only the "
         "largest error fed back, small moves of the other joints go unrewarded, so the "
         "population gets little guidance and improvements come in long, step-like delays.",
-        headline, measurement,
+        headline,
+        measurement,
         "The paper does not say which problem, chain or population its curves come from. We "
         "retarget a chain to a random reference pose with comfort as the only goal, so the curves "
         "isolate the fitness shape, and score both runs on the same yardsticks (mean and max "
         "joint error) rather than on their own, incomparable, fitness values. deik's default "
         f"strategy is shown too: {_default_verdict(curves)}",
-        command(NAME, quick))
+        command(NAME, quick),
+    )
 
 
 def _default_verdict(curves: dict) -> str:
     """One sentence on how the default strategy's runs end, from `curves` {(strategy, mode): (G+1, 2, S)}."""
     default = list(STRATEGIES)[1]
     end = {mode: np.median(curves[(default, mode)][-1], axis=1) for mode in MODES}
-    stalled = {mode: bool(np.median(np.abs(curves[(default, mode)][-1, 0] - curves[(default, mode)][-51, 0]))
-                          == 0.0) if curves[(default, mode)].shape[0] > 51 else False for mode in MODES}
-    note = (" Both forms stop improving early (median unchanged over the last 50 generations): "
-            "current-to-best converges prematurely on this problem at this population."
-            if all(stalled.values()) else "")
-    return (f"its median final mean error is {end['sum'][0]:.3g} rad with the sum and {end['max'][0]:.3g} rad "
-            f"with the max.{note}")
+    stalled = {
+        mode: bool(np.median(np.abs(curves[(default, mode)][-1, 0] - curves[(default, mode)][-51, 0])) == 0.0)
+        if curves[(default, mode)].shape[0] > 51
+        else False
+        for mode in MODES
+    }
+    note = (
+        " Both forms stop improving early (median unchanged over the last 50 generations): "
+        "current-to-best converges prematurely on this problem at this population."
+        if all(stalled.values())
+        else ""
+    )
+    return (
+        f"its median final mean error is {end['sum'][0]:.3g} rad with the sum and {end['max'][0]:.3g} rad "
+        f"with the max.{note}"
+    )
 
 
 def _plot(out_dir: str, cfg: dict, curves: dict) -> None:
@@ -140,7 +196,9 @@ def _plot(out_dir: str, cfg: dict, curves: dict) -> None:
         ax.set_ylabel("radians (median, quartiles)")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize="small")
-    figure.suptitle(f"Fig. 6: {cfg['links']}-link chain retargeted to a random pose, population "
-                    f"{cfg['population']}, {len(cfg['seeds'])} seeds")
+    figure.suptitle(
+        f"Fig. 6: {cfg['links']}-link chain retargeted to a random pose, population "
+        f"{cfg['population']}, {len(cfg['seeds'])} seeds"
+    )
     figure.tight_layout()
     save_figure(figure, os.path.join(out_dir, f"{NAME}.png"))

@@ -15,10 +15,9 @@ import os
 
 import numpy as np
 
-from deik.solver.serial import SerialDE
-from deik.experiments.common import (Section, command, describe, markdown_table, save_figure, seed_list,
-                                     write_csv)
+from deik.experiments.common import Section, command, describe, markdown_table, save_figure, seed_list, write_csv
 from deik.experiments.timing import make_problem
+from deik.solver.serial import SerialDE
 from deik.viz.plot import require_matplotlib
 
 NAME = "fig7"
@@ -84,42 +83,79 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
     """Both selections over the fixed seeds; write fig7.{csv,png}. CSV: one row per
     (selection, seed, generation) with the best and mean total fitness."""
     cfg = sizes(quick)
-    curves = {s: np.array([fitness_curve(s, cfg["links"], cfg["population"], cfg["generations"], seed)
-                           for seed in cfg["seeds"]]) for s in SELECTIONS}  # (S, G + 1, 2)
-    rows = [{"selection": s, "seed": seed, "generation": g, "best_fitness": float(c[k, g, 0]),
-             "mean_fitness": float(c[k, g, 1])}
-            for s, c in curves.items() for k, seed in enumerate(cfg["seeds"]) for g in range(c.shape[1])]
+    curves = {
+        s: np.array(
+            [fitness_curve(s, cfg["links"], cfg["population"], cfg["generations"], seed) for seed in cfg["seeds"]]
+        )
+        for s in SELECTIONS
+    }  # (S, G + 1, 2)
+    rows = [
+        {
+            "selection": s,
+            "seed": seed,
+            "generation": g,
+            "best_fitness": float(c[k, g, 0]),
+            "mean_fitness": float(c[k, g, 1]),
+        }
+        for s, c in curves.items()
+        for k, seed in enumerate(cfg["seeds"])
+        for g in range(c.shape[1])
+    ]
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
     _plot(out_dir, cfg, curves)
 
     G, half = cfg["generations"], cfg["generations"] // 2
-    table = [[s, len(cfg["seeds"]), describe(c[:, 0, 1]), describe(c[:, half, 1]), describe(c[:, G, 1]),
-              describe(c[:, G, 0])] for s, c in curves.items()]
+    table = [
+        [
+            s,
+            len(cfg["seeds"]),
+            describe(c[:, 0, 1]),
+            describe(c[:, half, 1]),
+            describe(c[:, G, 1]),
+            describe(c[:, G, 0]),
+        ]
+        for s, c in curves.items()
+    ]
     end = {s: np.median(c[:, G, 1]) for s, c in curves.items()}
     ahead = sum(curves["sequential"][k, G, 1] < curves["random"][k, G, 1] for k in range(len(cfg["seeds"])))
-    gap = np.max(np.abs(np.median(curves["sequential"][:, :, 1], axis=0) / np.median(curves["random"][:, :, 1], axis=0)
-                        - 1.0))
-    headline = (f"{cfg['links']} joints, population {cfg['population']}, {len(cfg['seeds'])} seeds, {G} generations: "
-                f"median population-mean fitness at the end {end['random']:.3g} (random) vs "
-                f"{end['sequential']:.3g} (sequential); sequential is lower in {ahead} of {len(cfg['seeds'])} seeds; "
-                f"the median curves differ by at most {100 * gap:.1f} % at any generation.")
+    gap = np.max(
+        np.abs(np.median(curves["sequential"][:, :, 1], axis=0) / np.median(curves["random"][:, :, 1], axis=0) - 1.0)
+    )
+    headline = (
+        f"{cfg['links']} joints, population {cfg['population']}, {len(cfg['seeds'])} seeds, {G} generations: "
+        f"median population-mean fitness at the end {end['random']:.3g} (random) vs "
+        f"{end['sequential']:.3g} (sequential); sequential is lower in {ahead} of {len(cfg['seeds'])} seeds; "
+        f"the median curves differ by at most {100 * gap:.1f} % at any generation."
+    )
     measurement = markdown_table(
-        ["selection", "seeds", "mean fitness, start", f"mean fitness, generation {half}",
-         f"mean fitness, generation {G}", f"best fitness, generation {G}"], table) + \
-        ("\n\nTotal fitness is the normalised tip error 1 - exp(-d / reach) (0 = on target); "
-         "median [quartiles] over seeds.")
+        [
+            "selection",
+            "seeds",
+            "mean fitness, start",
+            f"mean fitness, generation {half}",
+            f"mean fitness, generation {G}",
+            f"best fitness, generation {G}",
+        ],
+        table,
+    ) + (
+        "\n\nTotal fitness is the normalised tip error 1 - exp(-d / reach) (0 = on target); "
+        "median [quartiles] over seeds."
+    )
     return Section(
-        NAME, "Fig. 7: random vs sequential target selection (serial algorithm)",
+        NAME,
+        "Fig. 7: random vs sequential target selection (serial algorithm)",
         "Averaged over 100 runs of the serial algorithm with 20 joints and population 500, the "
         "average fitness per generation when the candidate to replace is picked at random "
         "(Algorithm 1) is compared with picking the candidates in order; the paper removes the "
         "random pick, which it needs gone for the parallel version.",
-        headline, measurement,
+        headline,
+        measurement,
         f"The serial algorithm is interpreted NumPy (about half a second per generation at this "
         f"size on our CPU), so we average {len(cfg['seeds'])} seeds over {G} generations, not 100 runs. "
-        "The paper's plot caption mixes \"vs population\" and \"vs generation\"; we plot against "
+        'The paper\'s plot caption mixes "vs population" and "vs generation"; we plot against '
         "generations. F is 0.5, not the printed FW = 2 (which diverges); CR 0.5.",
-        command(NAME, quick))
+        command(NAME, quick),
+    )
 
 
 def _plot(out_dir: str, cfg: dict, curves: dict) -> None:
@@ -138,7 +174,8 @@ def _plot(out_dir: str, cfg: dict, curves: dict) -> None:
         ax.set_ylabel("fitness (0 = solved; median, quartiles)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
-    figure.suptitle(f"Fig. 7: serial DE, {cfg['links']} joints, population {cfg['population']}, "
-                    f"{len(cfg['seeds'])} seeds")
+    figure.suptitle(
+        f"Fig. 7: serial DE, {cfg['links']} joints, population {cfg['population']}, {len(cfg['seeds'])} seeds"
+    )
     figure.tight_layout()
     save_figure(figure, os.path.join(out_dir, f"{NAME}.png"))

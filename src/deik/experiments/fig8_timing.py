@@ -35,8 +35,16 @@ def time_curve(links: int, population: int, checkpoints: list[int], repeats: int
     for G in checkpoints:
         timed = time_parallel(problem, population, G, repeats, SEED, "float32", device)
         for r, per_generation in enumerate(timed["all_seconds_per_generation"]):
-            rows.append({"device": device, "links": links, "population": population, "generations": G,
-                         "repeat": r, "seconds": per_generation * G})
+            rows.append(
+                {
+                    "device": device,
+                    "links": links,
+                    "population": population,
+                    "generations": G,
+                    "repeat": r,
+                    "seconds": per_generation * G,
+                }
+            )
     return rows
 
 
@@ -55,7 +63,7 @@ def linear_fit(rows: list[dict]) -> tuple[float, float]:
     a, b = np.polyfit(g, t, 1)
     residual = t - (a * g + b)
     total = ((t - t.mean()) ** 2).sum()
-    return float(a), float(1.0 - (residual ** 2).sum() / total) if total > 0 else 1.0
+    return float(a), float(1.0 - (residual**2).sum() / total) if total > 0 else 1.0
 
 
 def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
@@ -65,44 +73,69 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
     use_gpu, note = gpu_plan(device)
     devices = ["cpu"] + (["gpu"] if use_gpu else [])
     names = {"cpu": cpu_model(), "gpu": gpu_status()[1] if use_gpu else None}
-    rows = [dict(row, device_name=names[row["device"]]) for d in devices for n in cfg["links"]
-            for row in time_curve(n, cfg["population"], cfg["checkpoints"], cfg["repeats"], d)]
+    rows = [
+        dict(row, device_name=names[row["device"]])
+        for d in devices
+        for n in cfg["links"]
+        for row in time_curve(n, cfg["population"], cfg["checkpoints"], cfg["repeats"], d)
+    ]
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
     _plot(out_dir, cfg, rows, devices)
 
-    fits = {(d, n): linear_fit([r for r in rows if (r["device"], r["links"]) == (d, n)])
-            for d in devices for n in cfg["links"]}
+    fits = {
+        (d, n): linear_fit([r for r in rows if (r["device"], r["links"]) == (d, n)])
+        for d in devices
+        for n in cfg["links"]
+    }
     per_gen = {key: fit[0] for key, fit in fits.items()}
     worst_r2 = min(fit[1] for fit in fits.values())
     G = cfg["checkpoints"][-1]
     table = []
     for n in cfg["links"]:
-        at_G = {d: min(r["seconds"] for r in rows if (r["device"], r["links"], r["generations"]) == (d, n, G))
-                for d in devices}
+        at_G = {
+            d: min(r["seconds"] for r in rows if (r["device"], r["links"], r["generations"]) == (d, n, G))
+            for d in devices
+        }
         gpu = f"{per_gen[('gpu', n)] * 1e3:.3f} ms, {at_G['gpu']:.3f} s" if use_gpu else "pending"
         table.append([n, f"{per_gen[('cpu', n)] * 1e3:.3f} ms", f"{at_G['cpu']:.3f} s", gpu])
     cpu_line = ", ".join(f"{n} joints {per_gen[('cpu', n)] * 1e3:.2f} ms" for n in cfg["links"])
-    gpu_line = (", ".join(f"{n} joints {per_gen[('gpu', n)] * 1e3:.2f} ms" for n in cfg["links"])
-                if use_gpu else "pending (no GPU in this run)")
+    gpu_line = (
+        ", ".join(f"{n} joints {per_gen[('gpu', n)] * 1e3:.2f} ms" for n in cfg["links"])
+        if use_gpu
+        else "pending (no GPU in this run)"
+    )
     shape = "linearly" if worst_r2 > 0.99 else "not quite linearly"
-    headline = (f"Population {cfg['population']}: time grows {shape} with generations (least-squares R^2 >= "
-                f"{worst_r2:.3f}); seconds per generation on the CPU ({names['cpu']}): {cpu_line}. GPU: {gpu_line}.")
+    headline = (
+        f"Population {cfg['population']}: time grows {shape} with generations (least-squares R^2 >= "
+        f"{worst_r2:.3f}); seconds per generation on the CPU ({names['cpu']}): {cpu_line}. GPU: {gpu_line}."
+    )
     measurement = markdown_table(
-        ["joints", "CPU per generation (slope)", f"CPU, {G} generations (best of {cfg['repeats']})",
-         f"GPU per generation, {G} generations"], table) + \
-        (f"\n\nCPU: {names['cpu']}. GPU: {names['gpu'] or 'none in this run'}. Compilation is excluded (warm-up "
-         f"run); every point is the best of {cfg['repeats']} repeats (the CSV has all). {load_line()}")
+        [
+            "joints",
+            "CPU per generation (slope)",
+            f"CPU, {G} generations (best of {cfg['repeats']})",
+            f"GPU per generation, {G} generations",
+        ],
+        table,
+    ) + (
+        f"\n\nCPU: {names['cpu']}. GPU: {names['gpu'] or 'none in this run'}. Compilation is excluded (warm-up "
+        f"run); every point is the best of {cfg['repeats']} repeats (the CSV has all). {load_line()}"
+    )
     return Section(
-        NAME, "Fig. 8: time vs generations, CPU and GPU",
+        NAME,
+        "Fig. 8: time vs generations, CPU and GPU",
         "With population 500, the time to run a given number of generations grows linearly with "
         "the generations for every joint count, and the GPU implementation's lines lie below the "
         "CPU's.",
-        headline, measurement,
+        headline,
+        measurement,
         "The paper's CPU line is its serial implementation; ours is deik's parallel CPU engine "
         "(Numba threads on every core); the serial algorithm is timed in Fig. 9. The paper names "
         "neither its CPU nor its GPU. On the GPU deik runs one problem per thread block, so one "
         "problem uses one multiprocessor; the paper's kernel layout is not described.",
-        command(NAME, quick), notes=[note] if note else [])
+        command(NAME, quick),
+        notes=[note] if note else [],
+    )
 
 
 def _plot(out_dir: str, cfg: dict, rows: list[dict], devices: list[str]) -> None:
@@ -113,8 +146,13 @@ def _plot(out_dir: str, cfg: dict, rows: list[dict], devices: list[str]) -> None
         for d in devices:
             sel = [r for r in rows if (r["device"], r["links"]) == (d, n)]
             g, best = best_times(sel)
-            ax.plot(g, best, "o-" if d == "cpu" else "s--", color=colours[k % len(colours)],
-                    label=f"{n} joints, {d.upper()}")
+            ax.plot(
+                g,
+                best,
+                "o-" if d == "cpu" else "s--",
+                color=colours[k % len(colours)],
+                label=f"{n} joints, {d.upper()}",
+            )
     ax.set_xlabel("generations")
     ax.set_ylabel(f"seconds (best of {cfg['repeats']})")
     ax.grid(alpha=0.3)

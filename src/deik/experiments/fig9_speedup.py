@@ -14,8 +14,7 @@ import os
 import numba
 
 from deik.experiments.common import Section, command, log_time_axes, markdown_table, save_figure, write_csv
-from deik.experiments.timing import (cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel,
-                                     time_serial)
+from deik.experiments.timing import cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel, time_serial
 from deik.viz.plot import require_matplotlib
 
 NAME = "fig9"
@@ -27,8 +26,13 @@ def sizes(quick: bool) -> dict:
     """Chain lengths, population, serial epochs, parallel generations and repeats."""
     if quick:
         return {"links": [5, 10], "population": 50, "serial_epochs": 1, "generations": 20, "repeats": 2}
-    return {"links": [10, 20, 50, 100], "population": PAPER_POPULATION, "serial_epochs": 3, "generations": 200,
-            "repeats": 5}
+    return {
+        "links": [10, 20, 50, 100],
+        "population": PAPER_POPULATION,
+        "serial_epochs": 3,
+        "generations": 200,
+        "repeats": 5,
+    }
 
 
 def time_all(links: int, cfg: dict, use_gpu: bool) -> list[dict]:
@@ -36,8 +40,16 @@ def time_all(links: int, cfg: dict, use_gpu: bool) -> list[dict]:
     repeat of each parallel implementation, each with seconds per generation."""
     problem = make_problem(links, SEED)
     serial = time_serial(problem, cfg["population"], cfg["serial_epochs"], SEED)
-    rows = [{"links": links, "implementation": "serial CPU (Algorithm 1, NumPy)", "device": "cpu", "threads": 1,
-             "repeat": 0, "seconds_per_generation": serial["seconds_per_generation"]}]
+    rows = [
+        {
+            "links": links,
+            "implementation": "serial CPU (Algorithm 1, NumPy)",
+            "device": "cpu",
+            "threads": 1,
+            "repeat": 0,
+            "seconds_per_generation": serial["seconds_per_generation"],
+        }
+    ]
     threads = numba.get_num_threads()
     variants = [("parallel CPU, all threads", "cpu", threads), ("parallel CPU, 1 thread", "cpu", 1)]
     variants += [("parallel GPU", "gpu", None)] if use_gpu else []
@@ -45,12 +57,22 @@ def time_all(links: int, cfg: dict, use_gpu: bool) -> list[dict]:
         if n_threads:
             numba.set_num_threads(n_threads)
         try:
-            timed = time_parallel(problem, cfg["population"], cfg["generations"], cfg["repeats"], SEED,
-                                  "float32", device)
+            timed = time_parallel(
+                problem, cfg["population"], cfg["generations"], cfg["repeats"], SEED, "float32", device
+            )
         finally:
             numba.set_num_threads(threads)
-        rows += [{"links": links, "implementation": name, "device": device, "threads": n_threads, "repeat": r,
-                  "seconds_per_generation": s} for r, s in enumerate(timed["all_seconds_per_generation"])]
+        rows += [
+            {
+                "links": links,
+                "implementation": name,
+                "device": device,
+                "threads": n_threads,
+                "repeat": r,
+                "seconds_per_generation": s,
+            }
+            for r, s in enumerate(timed["all_seconds_per_generation"])
+        ]
     return rows
 
 
@@ -63,15 +85,22 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
     write_csv(os.path.join(out_dir, f"{NAME}.csv"), rows)
     implementations = list(dict.fromkeys(r["implementation"] for r in rows))
     keys = {(x["links"], x["implementation"]) for x in rows}
-    med = {k: min(x["seconds_per_generation"] for x in rows if (x["links"], x["implementation"]) == k)
-           for k in keys}  # best of repeats, as the benchmark
+    med = {
+        k: min(x["seconds_per_generation"] for x in rows if (x["links"], x["implementation"]) == k) for k in keys
+    }  # best of repeats, as the benchmark
     _plot(out_dir, cfg, med, implementations)
 
     serial, par, one, gpu = implementations[0], implementations[1], implementations[2], "parallel GPU"
     table = []
     for n in cfg["links"]:
-        cells = [n, f"{med[(n, serial)]:.4f}", f"{med[(n, par)] * 1e3:.3f} ms", f"{med[(n, one)] * 1e3:.3f} ms",
-                 f"{med[(n, serial)] / med[(n, par)]:.0f}x", f"{med[(n, one)] / med[(n, par)]:.2f}x"]
+        cells = [
+            n,
+            f"{med[(n, serial)]:.4f}",
+            f"{med[(n, par)] * 1e3:.3f} ms",
+            f"{med[(n, one)] * 1e3:.3f} ms",
+            f"{med[(n, serial)] / med[(n, par)]:.0f}x",
+            f"{med[(n, one)] / med[(n, par)]:.2f}x",
+        ]
         if use_gpu:
             cells += [f"{med[(n, gpu)] * 1e3:.3f} ms", f"{med[(n, serial)] / med[(n, gpu)]:.0f}x"]
         else:
@@ -79,29 +108,49 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
         table.append(cells)
     n = PAPER_LINKS if PAPER_LINKS in cfg["links"] else cfg["links"][-1]
     p = cfg["population"]
-    gpu_ratio = (f"serial/parallel-GPU {med[(n, serial)] / med[(n, gpu)]:.0f}x on {gpu_status()[1]}" if use_gpu
-                 else "serial/parallel-GPU pending (needs the lent GPU machine)")
-    headline = (f"At population {p} and {n} links: serial/parallel-CPU {med[(n, serial)] / med[(n, par)]:.0f}x "
-                f"({numba.get_num_threads()} threads on {cpu_model()}), of which the threads give "
-                f"{med[(n, one)] / med[(n, par)]:.2f}x; {gpu_ratio}. The paper: 12x (its GPU vs its serial CPU).")
+    gpu_ratio = (
+        f"serial/parallel-GPU {med[(n, serial)] / med[(n, gpu)]:.0f}x on {gpu_status()[1]}"
+        if use_gpu
+        else "serial/parallel-GPU pending (needs the lent GPU machine)"
+    )
+    headline = (
+        f"At population {p} and {n} links: serial/parallel-CPU {med[(n, serial)] / med[(n, par)]:.0f}x "
+        f"({numba.get_num_threads()} threads on {cpu_model()}), of which the threads give "
+        f"{med[(n, one)] / med[(n, par)]:.2f}x; {gpu_ratio}. The paper: 12x (its GPU vs its serial CPU)."
+    )
     measurement = markdown_table(
-        ["links", "serial s/gen", "parallel CPU s/gen", "parallel CPU, 1 thread", "serial / parallel CPU",
-         "1 thread / all threads", "parallel GPU s/gen", "serial / parallel GPU"], table) + \
-        (f"\n\nSerial: mean of {cfg['serial_epochs']} epochs; parallel: best of {cfg['repeats']} runs of "
-         f"{cfg['generations']} generations (the CSV has all), compilation excluded. CPU: {cpu_model()}. "
-         f"{load_line()}")
+        [
+            "links",
+            "serial s/gen",
+            "parallel CPU s/gen",
+            "parallel CPU, 1 thread",
+            "serial / parallel CPU",
+            "1 thread / all threads",
+            "parallel GPU s/gen",
+            "serial / parallel GPU",
+        ],
+        table,
+    ) + (
+        f"\n\nSerial: mean of {cfg['serial_epochs']} epochs; parallel: best of {cfg['repeats']} runs of "
+        f"{cfg['generations']} generations (the CSV has all), compilation excluded. CPU: {cpu_model()}. "
+        f"{load_line()}"
+    )
     return Section(
-        NAME, "Fig. 9: serial CPU vs parallel",
+        NAME,
+        "Fig. 9: serial CPU vs parallel",
         f"Averaged over 100 iterations, the parallel CUDA implementation is {PAPER_SPEEDUP:.0f}x faster than "
         f"the serial CPU version at population {PAPER_POPULATION} with {PAPER_LINKS} links.",
-        headline, measurement,
+        headline,
+        measurement,
         "The ratio is not the paper's quantity: our serial baseline is interpreted NumPy (one "
         "Python-level fitness call per candidate), the parallel engine is compiled (Numba), so "
         "most of the CPU ratio is compiled vs interpreted code; the 1-thread column isolates it, "
         "and the 1 thread / all threads column is the parallel part on this 2-core CPU. The "
         "paper compared two compiled implementations (C++ and CUDA) and names neither device. "
         "Timings are taken on a shared machine; the CSV keeps every repeat.",
-        command(NAME, quick), notes=[note] if note else [])
+        command(NAME, quick),
+        notes=[note] if note else [],
+    )
 
 
 def _plot(out_dir: str, cfg: dict, med: dict, implementations: list[str]) -> None:
@@ -112,8 +161,14 @@ def _plot(out_dir: str, cfg: dict, med: dict, implementations: list[str]) -> Non
         ax.plot(links, [med[(n, name)] for n in links], style, label=name)
     serial, parallel = implementations[0], implementations[1]
     for n in links:
-        ax.annotate(f"{med[(n, serial)] / med[(n, parallel)]:.0f}x", (n, med[(n, parallel)]),
-                    textcoords="offset points", xytext=(0, -14), ha="center", fontsize=8)
+        ax.annotate(
+            f"{med[(n, serial)] / med[(n, parallel)]:.0f}x",
+            (n, med[(n, parallel)]),
+            textcoords="offset points",
+            xytext=(0, -14),
+            ha="center",
+            fontsize=8,
+        )
     gpu = "" if any("GPU" in i for i in implementations) else " (GPU pending)"
     log_time_axes(ax, links, f"Fig. 9: population {cfg['population']}; labels: serial / parallel CPU{gpu}")
     ax.legend(fontsize="small")

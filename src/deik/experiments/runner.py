@@ -17,16 +17,22 @@ import sys
 import time
 
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
-from deik.experiments.fig45_humanoid import run_fig4, run_fig5
 from deik.experiments.common import Section, markdown_table
+from deik.experiments.fig45_humanoid import run_fig4, run_fig5
 from deik.experiments.timing import GPU_COMMAND, machine_line
 from deik.io.atomic import save_atomically, write_text_atomically
 
 PROG = "deik experiments"
 USAGE_ERROR = 2
 EXPERIMENTS = {
-    "fig2": fig2_chain.run, "fig3": fig3_population.run, "fig4": run_fig4, "fig5": run_fig5,
-    "fig6": fig6_comfort.run, "fig7": fig7_selection.run, "fig8": fig8_timing.run, "fig9": fig9_speedup.run,
+    "fig2": fig2_chain.run,
+    "fig3": fig3_population.run,
+    "fig4": run_fig4,
+    "fig5": run_fig5,
+    "fig6": fig6_comfort.run,
+    "fig7": fig7_selection.run,
+    "fig8": fig8_timing.run,
+    "fig9": fig9_speedup.run,
 }
 DEVICES = {"cpu": "cpu", "gpu": "gpu", "cuda": "gpu", "auto": "auto"}
 
@@ -62,14 +68,20 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of `deik experiments`."""
     parser = _Parser(prog=PROG, description="Reproduce the paper's figures: PNG, CSV and a report section each.")
-    parser.add_argument("names", nargs="+", metavar="NAME|all",
-                        help=f"experiments to run: {', '.join(EXPERIMENTS)}, or all")
+    parser.add_argument(
+        "names", nargs="+", metavar="NAME|all", help=f"experiments to run: {', '.join(EXPERIMENTS)}, or all"
+    )
     parser.add_argument("--out", required=True, metavar="DIR", help="folder for the outputs (created if missing)")
     parser.add_argument("--quick", action="store_true", help="few seeds, small sizes (seconds, for tests)")
-    parser.add_argument("--device", choices=list(DEVICES), default="auto",
-                        help="GPU parts of fig8/fig9: auto (when a GPU is present), gpu/cuda, or cpu only")
-    parser.add_argument("--doc", metavar="PATH.md",
-                        help="with all: also write the report to PATH, its pictures in figures/ beside it")
+    parser.add_argument(
+        "--device",
+        choices=list(DEVICES),
+        default="auto",
+        help="GPU parts of fig8/fig9: auto (when a GPU is present), gpu/cuda, or cpu only",
+    )
+    parser.add_argument(
+        "--doc", metavar="PATH.md", help="with all: also write the report to PATH, its pictures in figures/ beside it"
+    )
     return parser
 
 
@@ -98,20 +110,32 @@ def _check_paths(args, names: list[str]) -> None:
             raise UsageError(f"--doc {args.doc!r} must be a file in an existing folder")
 
 
-def report(sections: list[Section], command: str, total: float, quick: bool, load: str,
-           image_prefix: str = "") -> str:
+def report(sections: list[Section], command: str, total: float, quick: bool, load: str, image_prefix: str = "") -> str:
     """The combined markdown report: intro, side-by-side table, every section. Image links
     are `image_prefix` + NAME.png."""
     rows = [[s.title.split(":")[0], s.claim, s.headline] for s in sections]
-    parts = ["# Reproducing the paper's evaluation", "",
-             INTRO.format(command=command, machine=machine_line(), load=load, total=total,
-                          mode="quick sizes" if quick else "full sizes"),
-             "## Claims and measurements side by side", "",
-             markdown_table(["figure", "paper", "deik"], rows), ""]
+    parts = [
+        "# Reproducing the paper's evaluation",
+        "",
+        INTRO.format(
+            command=command,
+            machine=machine_line(),
+            load=load,
+            total=total,
+            mode="quick sizes" if quick else "full sizes",
+        ),
+        "## Claims and measurements side by side",
+        "",
+        markdown_table(["figure", "paper", "deik"], rows),
+        "",
+    ]
     pending = [s.name for s in sections if s.notes]
     if pending:
-        parts += [f"GPU columns of {', '.join(pending)} are pending: they need a run on a machine with a CUDA GPU: "
-                  f"`{GPU_COMMAND}`.", ""]
+        parts += [
+            f"GPU columns of {', '.join(pending)} are pending: they need a run on a machine with a CUDA GPU: "
+            f"`{GPU_COMMAND}`.",
+            "",
+        ]
     parts += [s.markdown(f"{image_prefix}{s.name}.png") for s in sections]
     return "\n".join(parts)
 

@@ -19,8 +19,8 @@ import numba
 import numpy as np
 
 import deik
-from deik.solver.serial import SerialDE
 from deik.model.kinematics import forward_kinematics
+from deik.solver.serial import SerialDE
 
 
 def make_problem(n_links: int, seed: int) -> deik.Problem:
@@ -41,17 +41,24 @@ def time_serial(problem, population: int, epochs: int, seed: int) -> dict:
     for _ in range(epochs):
         de.epoch()
     seconds = (time.perf_counter() - start) / epochs
-    return {"seconds_per_generation": seconds, "epochs_timed": epochs,
-            "best_tip_error": float(de.best_errors[0])}
+    return {"seconds_per_generation": seconds, "epochs_timed": epochs, "best_tip_error": float(de.best_errors[0])}
 
 
-def time_parallel(problem, population: int, generations: int, repeats: int, seed: int, dtype: str,
-                  device: str = "cpu") -> dict:
+def time_parallel(
+    problem, population: int, generations: int, repeats: int, seed: int, dtype: str, device: str = "cpu"
+) -> dict:
     """Seconds per generation of the parallel engine on `device` ("cpu" or "gpu"): best of
     `repeats` runs of `generations` generations each from the same warmed-up state;
     "all_seconds_per_generation" lists every repeat."""
-    settings = deik.Settings.paper(population=population, stop_on_converged=False, patience=10**9,
-                                   generations=max(generations, 1), seed=seed, dtype=dtype, device=device)
+    settings = deik.Settings.paper(
+        population=population,
+        stop_on_converged=False,
+        patience=10**9,
+        generations=max(generations, 1),
+        seed=seed,
+        dtype=dtype,
+        device=device,
+    )
     engine = deik.Engine(problem, settings)
     state = engine.init()
     state = engine.run(state, 2)  # warm-up: compilation (or cache load) excluded from timing
@@ -63,21 +70,33 @@ def time_parallel(problem, population: int, generations: int, repeats: int, seed
         if out.generation != state.generation + generations:
             raise RuntimeError(f"engine stopped early at {out.generation - state.generation} generations")
     best = out.raw[0, out.best[0], 0]
-    return {"seconds_per_generation": min(times) / generations, "generations_timed": generations,
-            "repeats": repeats, "all_seconds_per_generation": [t / generations for t in times],
-            "best_tip_error": float(best), "strategy": settings.strategy, "F": settings.F,
-            "CR": settings.CR, "dtype": settings.dtype, "device": device}
+    return {
+        "seconds_per_generation": min(times) / generations,
+        "generations_timed": generations,
+        "repeats": repeats,
+        "all_seconds_per_generation": [t / generations for t in times],
+        "best_tip_error": float(best),
+        "strategy": settings.strategy,
+        "F": settings.F,
+        "CR": settings.CR,
+        "dtype": settings.dtype,
+        "device": device,
+    }
 
 
 def environment() -> dict:
     """Platform, CPU count, Numba threads and threading layer, load average and versions."""
     return {
-        "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
         "cpu_count": os.cpu_count(),
         "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "numba_threads": numba.get_num_threads(), "numba_threading_layer": threading_layer(),
+        "numba_threads": numba.get_num_threads(),
+        "numba_threading_layer": threading_layer(),
         "load_average_1_5_15": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-        "python": sys.version.split()[0], "numpy": np.__version__, "numba": numba.__version__,
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "numba": numba.__version__,
         "deik": deik.__version__,
     }
 
@@ -124,12 +143,14 @@ def gpu_status() -> tuple[bool, str]:
 def machine_line() -> str:
     """One line naming this machine for reports: CPU model, cores, Numba threads, platform."""
     env = environment()
-    return (f"{cpu_model()}, {env['cpu_count']} CPUs, {env['numba_threads']} Numba threads, "
-            f"{env['platform']}, Python {env['python']}, NumPy {env['numpy']}, Numba {env['numba']}")
+    return (
+        f"{cpu_model()}, {env['cpu_count']} CPUs, {env['numba_threads']} Numba threads, "
+        f"{env['platform']}, Python {env['python']}, NumPy {env['numpy']}, Numba {env['numba']}"
+    )
 
 
 def load_line() -> str:
-    """"Load average now: 1, 5, 15 minutes" (other processes make parallel timings noisy)."""
+    """ "Load average now: 1, 5, 15 minutes" (other processes make parallel timings noisy)."""
     if not hasattr(os, "getloadavg"):
         return ""
     one, five, fifteen = os.getloadavg()
@@ -148,5 +169,6 @@ def gpu_plan(device: str) -> tuple[bool, str | None]:
     available, description = gpu_status()
     if available:
         return True, None
-    return False, (f"GPU column pending: needs a run on the lent GPU machine ({description}); "
-                   f"there run `{GPU_COMMAND}`")
+    return False, (
+        f"GPU column pending: needs a run on the lent GPU machine ({description}); there run `{GPU_COMMAND}`"
+    )

@@ -31,7 +31,7 @@ def _remove_stranded(path: str) -> None:
     stem, extension = os.path.splitext(name)
     pattern = os.path.join(glob.escape(folder), f".{glob.escape(stem)}{PARTIAL}*{glob.escape(extension)}")
     for stranded in glob.glob(pattern):
-        pid = stranded[len(os.path.join(folder, f".{stem}{PARTIAL}")):len(stranded) - len(extension)]
+        pid = stranded[len(os.path.join(folder, f".{stem}{PARTIAL}")) : len(stranded) - len(extension)]
         if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
             with contextlib.suppress(OSError):
                 os.unlink(stranded)
@@ -87,6 +87,7 @@ def all_or_nothing():
 
 def write_text_atomically(path, text: str) -> None:
     """Write `text` (UTF-8) to `path` atomically."""
+
     def write(temporary):
         with open(temporary, "w", encoding="utf-8") as file:
             file.write(text)
@@ -100,6 +101,8 @@ def write_json_atomically(path, data) -> None:
     try:
         text = json.dumps(data, indent=2, allow_nan=False)
     except ValueError:
-        raise ValueError(f"{path}: the results hold NaN or infinite numbers, so no JSON was written; "
-                         "this is a bug or an input beyond float range (report it with the command)") from None
+        raise ValueError(
+            f"{path}: the results hold NaN or infinite numbers, so no JSON was written; "
+            "this is a bug or an input beyond float range (report it with the command)"
+        ) from None
     write_text_atomically(path, text + "\n")

@@ -61,8 +61,7 @@ def decode(data: bytes | str, source: str) -> str:
             data = data.decode("utf-8-sig")
         except UnicodeDecodeError as error:
             line = data.count(b"\n", 0, error.start) + 1
-            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)",
-                                  line=line) from None
+            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)", line=line) from None
     if "\x00" in data:
         line = data.count("\n", 0, data.index("\x00")) + 1
         raise FileFormatError(source, "not a text BVH file (NUL bytes)", line=line)
@@ -85,8 +84,7 @@ class Hierarchy:
     def rest_of_line(self, pos: int, line: int) -> tuple[list[str], int]:
         """Words from token `pos` to the end of `line` or the next brace, and the next position."""
         end = pos
-        while (end < len(self.tokens) and self.tokens[end][1] == line
-               and self.tokens[end][0] not in ("{", "}")):
+        while end < len(self.tokens) and self.tokens[end][1] == line and self.tokens[end][0] not in ("{", "}"):
             end += 1
         return [t for t, _ in self.tokens[pos:end]], end
 
@@ -94,40 +92,56 @@ class Hierarchy:
         """Blocks in file order; FileFormatError at the first problem."""
         tokens = self.tokens
         if not tokens or tokens[0][0].upper() != "HIERARCHY":
-            self.fail("a BVH file must start with HIERARCHY",
-                      tokens[0][1] if tokens else self.end_line)
+            self.fail("a BVH file must start with HIERARCHY", tokens[0][1] if tokens else self.end_line)
         pos = self.rest_of_line(1, tokens[0][1])[1]
         if pos != 1:
             self.fail("HIERARCHY must stand alone on its line", tokens[0][1])
-        handlers = {"ROOT": self.block, "JOINT": self.block, "END": self.block,
-                    "OFFSET": self.offset, "CHANNELS": self.channels, "}": self.close}
+        handlers = {
+            "ROOT": self.block,
+            "JOINT": self.block,
+            "END": self.block,
+            "OFFSET": self.offset,
+            "CHANNELS": self.channels,
+            "}": self.close,
+        }
         while pos < len(tokens):
             word, line = tokens[pos]
             if self.nodes and not self.open:
-                self.fail(f"unexpected {_show(word)} after the ROOT block closed; a BVH file has "
-                          "one ROOT and MOTION starts its own line", line)
+                self.fail(
+                    f"unexpected {_show(word)} after the ROOT block closed; a BVH file has "
+                    "one ROOT and MOTION starts its own line",
+                    line,
+                )
             top = self.nodes[self.open[-1]] if self.open else None
             rest, pos = ([], pos + 1) if word in ("{", "}") else self.rest_of_line(pos + 1, line)
             handler = handlers.get(word.upper())
             if handler is None or (top is None and handler != self.block):
-                self.fail(f"unknown keyword {_show(word)} here; expected OFFSET, CHANNELS, JOINT, "
-                          "End Site or '}'" if top else f"unexpected {_show(word)}; expected ROOT",
-                          line)
+                self.fail(
+                    f"unknown keyword {_show(word)} here; expected OFFSET, CHANNELS, JOINT, End Site or '}}'"
+                    if top
+                    else f"unexpected {_show(word)}; expected ROOT",
+                    line,
+                )
             pos = handler(word, rest, line, top, pos)
         if not self.nodes:
             self.fail("the hierarchy has no ROOT", self.end_line)
         if self.open:
             node = self.nodes[self.open[-1]]
-            self.fail(f"the hierarchy ends inside {node.describe()} opened at line {node.line}: "
-                      "missing '}'", self.end_line)
+            self.fail(
+                f"the hierarchy ends inside {node.describe()} opened at line {node.line}: missing '}}'", self.end_line
+            )
         return self.nodes
 
     def block(self, word, rest, line, top, pos) -> int:
         """ROOT name / JOINT name / End Site, then '{': open a block."""
         key = word.upper()
         if (key == "ROOT") != (top is None):
-            self.fail("ROOT inside a joint: use JOINT" if key == "ROOT"
-                      else "ROOT must come first, once; JOINTs go inside it", line)
+            self.fail(
+                "ROOT inside a joint: use JOINT"
+                if key == "ROOT"
+                else "ROOT must come first, once; JOINTs go inside it",
+                line,
+            )
         if top is not None and top.is_site:
             self.fail("an End Site cannot have children", line)
         if key == "END" and [r.upper() for r in rest] != ["SITE"]:
@@ -136,8 +150,7 @@ class Hierarchy:
             self.fail(f"{word} needs one name on its line, found {len(rest)} words", line)
         name = top.name if key == "END" else rest[0]
         if key != "END" and name in self.first_line:
-            self.fail(f"duplicate joint name {_show(name)} (first at line "
-                      f"{self.first_line[name]})", line)
+            self.fail(f"duplicate joint name {_show(name)} (first at line {self.first_line[name]})", line)
         if pos >= len(self.tokens) or self.tokens[pos][0] != "{":
             self.fail(f"expected '{{' to open {word} {_show(name)}", line)
         if key != "END":
@@ -161,8 +174,12 @@ class Hierarchy:
     def channels(self, word, rest, line, top, pos) -> int:
         """CHANNELS n name... of the innermost joint, names made canonical."""
         if top.is_site or top.channels is not None:
-            self.fail(f"an End Site cannot have CHANNELS ({top.describe()})" if top.is_site
-                      else f"second CHANNELS in {top.describe()}", line)
+            self.fail(
+                f"an End Site cannot have CHANNELS ({top.describe()})"
+                if top.is_site
+                else f"second CHANNELS in {top.describe()}",
+                line,
+            )
         if not rest or not (rest[0].isascii() and rest[0].isdigit()):
             self.fail("CHANNELS needs a count then the channel names", line)
         count, names = int(rest[0]), rest[1:]
@@ -171,8 +188,7 @@ class Hierarchy:
         channels = []
         for name in names:
             if name.lower() not in CHANNEL_NAMES:
-                self.fail(f"unknown channel {_show(name)}; channels are {', '.join(CHANNELS)}",
-                          line)
+                self.fail(f"unknown channel {_show(name)}; channels are {', '.join(CHANNELS)}", line)
             if CHANNEL_NAMES[name.lower()] in channels:
                 self.fail(f"duplicate channel {name} in {top.describe()}", line)
             channels.append(CHANNEL_NAMES[name.lower()])

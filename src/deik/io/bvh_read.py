@@ -15,14 +15,21 @@ from pathlib import Path
 import numpy as np
 
 from deik.io.bvh_hierarchy import (
-    FRAME_TIME, FRAMES, MAX_MAGNITUDE, NUMBER_LINE, Hierarchy, Node, decode, number,
+    FRAME_TIME,
+    FRAMES,
+    MAX_MAGNITUDE,
+    NUMBER_LINE,
+    Hierarchy,
+    Node,
+    decode,
+    number,
 )
 from deik.io.clip import CHANNELS, Clip, JointChannels
 from deik.io.errors import FileFormatError
 from deik.io.files import read_input
 from deik.io.segments import estimate_segments, read_segment_table
-from deik.model.joints import ROTATE, Joint, Site, euler, translation
 from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
 
 
 def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np.ndarray:
@@ -44,8 +51,9 @@ def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np
 def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
     words = text.split()
     if len(words) != expected:
-        raise FileFormatError(source, f"frame has {len(words)} numbers, expected {expected} "
-                                      "(one per channel)", line=line)
+        raise FileFormatError(
+            source, f"frame has {len(words)} numbers, expected {expected} (one per channel)", line=line
+        )
     if NUMBER_LINE.fullmatch(text):
         try:
             row = [float(w) for w in words]
@@ -55,30 +63,35 @@ def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
             pass
     return [number(source, w, line, f"channel {k + 1}") for k, w in enumerate(words)]
 
+
 MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
 MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
 
 
 def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
     """(values (N, C) in file order and units, frame time in s) from lines after MOTION."""
+
     def fail(problem, line):
         raise FileFormatError(source, problem, line=line)
 
     if len(lines[motion - 1].split()) != 1:
         fail("MOTION must stand alone on its line", motion)
     body = [(n, text.strip()) for n, text in enumerate(lines[motion:], motion + 1) if text.strip()]
-    header = [FRAMES.fullmatch(body[0][1]) if body else None,
-              FRAME_TIME.fullmatch(body[1][1]) if len(body) > 1 else None]
+    header = [
+        FRAMES.fullmatch(body[0][1]) if body else None,
+        FRAME_TIME.fullmatch(body[1][1]) if len(body) > 1 else None,
+    ]
     if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit()):
-        fail("expected 'Frames: N' (N a whole number) after MOTION",
-             body[0][0] if body else motion)
+        fail("expected 'Frames: N' (N a whole number) after MOTION", body[0][0] if body else motion)
     if header[1] is None:
         fail("expected 'Frame Time: seconds' after 'Frames:'", body[min(1, len(body) - 1)][0])
     count, frames_line, time_line = int(header[0][1]), body[0][0], body[1][0]
     frame_time = number(source, header[1][1], time_line, "Frame Time")
     if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
-        fail(f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
-             time_line)
+        fail(
+            f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
+            time_line,
+        )
     rows = body[2:]
     if n_channels == 0 and rows:
         fail("frame numbers given but the hierarchy has no channels", rows[0][0])
@@ -90,8 +103,7 @@ def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
     if len(rows) > count:
         fail(f"more frame lines than 'Frames: {count}' (line {frames_line}) says", rows[count][0])
     if len(rows) < count:
-        fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)",
-             frames_line)
+        fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)", frames_line)
     return values.reshape(count, n_channels), frame_time
 
 
@@ -117,14 +129,12 @@ def _skeleton(source, nodes, site_names, limits, segments=()):
             sites.append(Site(site_names[k], parent, node.offset))
             continue
         channels = node.channels or ()
-        dofs = tuple(translation(c[0], *limits[(k, c)])[0]
-                     for c in channels if c.endswith("position"))
+        dofs = tuple(translation(c[0], *limits[(k, c)])[0] for c in channels if c.endswith("position"))
         rotations = "".join(c[0] for c in channels if c.endswith("rotation"))
         dofs += euler(rotations) if rotations else ()
         joints.append(Joint(node.name, parent, node.offset, dofs))
     try:  # a safety net: the checks above leave build_skeleton nothing to reject
-        return build_skeleton(joints, sites, segments, up=(0.0, 1.0, 0.0),
-                              name=Path(source).stem or "bvh")
+        return build_skeleton(joints, sites, segments, up=(0.0, 1.0, 0.0), name=Path(source).stem or "bvh")
     except ValueError as error:
         raise FileFormatError(source, f"invalid skeleton: {error}") from None
 
@@ -139,17 +149,17 @@ def parse_bvh(text: str | bytes, source: str = "<string>", segments=None) -> Cli
     lines = [line.removesuffix("\r") for line in decode(text, source).split("\n")]
     if not any(line.strip() for line in lines):
         raise FileFormatError(source, "empty file: a BVH file starts with HIERARCHY", line=1)
-    motion = next((n for n, line in enumerate(lines, 1)
-                   if [w.upper() for w in line.split()[:1]] == ["MOTION"]), None)
+    motion = next((n for n, line in enumerate(lines, 1) if [w.upper() for w in line.split()[:1]] == ["MOTION"]), None)
     last = max(n for n, line in enumerate(lines, 1) if line.strip())
-    nodes = Hierarchy(source, lines[:motion - 1] if motion else lines, motion or last).parse()
+    nodes = Hierarchy(source, lines[: motion - 1] if motion else lines, motion or last).parse()
     if motion is None:
         raise FileFormatError(source, "no MOTION section after the hierarchy", line=last)
     joint_nodes = [k for k, node in enumerate(nodes) if not node.is_site]
     columns = [(k, c) for k in joint_nodes for c in nodes[k].channels or ()]
     values, frame_time = _parse_motion(source, lines, motion, len(columns))
-    span = {key: (values[:, j].min(), values[:, j].max()) if len(values) else (0.0, 0.0)
-            for j, key in enumerate(columns)}
+    span = {
+        key: (values[:, j].min(), values[:, j].max()) if len(values) else (0.0, 0.0) for j, key in enumerate(columns)
+    }
     site_names = _site_names(nodes)
     bare = _skeleton(source, nodes, site_names, span)
     if segments is None:

@@ -32,16 +32,24 @@ def format_bvh(clip: Clip) -> str:
         if kind == "close":
             lines.append(f"{pad}}}")
         elif kind == "site":
-            lines += [f"{pad}End Site", f"{pad}{{",
-                      f"{pad}\tOFFSET {' '.join(map(_exact, site_offsets[name]))}", f"{pad}}}"]
+            lines += [
+                f"{pad}End Site",
+                f"{pad}{{",
+                f"{pad}\tOFFSET {' '.join(map(_exact, site_offsets[name]))}",
+                f"{pad}}}",
+            ]
         else:
             entry = entries[name]
-            lines += [f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {name}", f"{pad}{{",
-                      f"{pad}\tOFFSET {' '.join(map(_exact, offsets[name]))}",
-                      f"{pad}\tCHANNELS {len(entry.channels)} {' '.join(entry.channels)}".rstrip()]
+            lines += [
+                f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {name}",
+                f"{pad}{{",
+                f"{pad}\tOFFSET {' '.join(map(_exact, offsets[name]))}",
+                f"{pad}\tCHANNELS {len(entry.channels)} {' '.join(entry.channels)}".rstrip(),
+            ]
             stack.append(("close", name, depth))
-            stack += [("site" if child in site_offsets else "joint", child, depth + 1)
-                      for child in reversed(entry.children)]
+            stack += [
+                ("site" if child in site_offsets else "joint", child, depth + 1) for child in reversed(entry.children)
+            ]
     lines += ["MOTION", f"Frames: {clip.n_frames}", f"Frame Time: {_exact(clip.frame_time)}"]
     if clip.channel_dofs.size:
         lines += [" ".join(f"{v:.6f}" for v in row) for row in clip.channel_values()]

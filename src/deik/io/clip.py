@@ -22,9 +22,11 @@ from deik.model.skeleton import Skeleton
 TWO_PI = 2.0 * math.pi
 DEGREES_PER_RADIAN = 180.0 / math.pi
 # Channel name -> (DOF kind, axis index). BVH spells them e.g. "Xposition", "Zrotation".
-CHANNELS = {f"{axis}{word}": (kind, k)
-            for k, axis in enumerate("XYZ")
-            for word, kind in (("position", TRANSLATE), ("rotation", ROTATE))}
+CHANNELS = {
+    f"{axis}{word}": (kind, k)
+    for k, axis in enumerate("XYZ")
+    for word, kind in (("position", TRANSLATE), ("rotation", ROTATE))
+}
 AXIS_TOLERANCE = 1e-9
 
 
@@ -74,13 +76,20 @@ class Clip:
         dofs, scale = _channel_map(sk, layout)
         dofs.setflags(write=False)
         scale.setflags(write=False)
-        for key, value in (("frames", frames), ("frame_time", frame_time), ("layout", layout),
-                           ("channel_dofs", dofs), ("channel_scale", scale)):
+        for key, value in (
+            ("frames", frames),
+            ("frame_time", frame_time),
+            ("layout", layout),
+            ("channel_dofs", dofs),
+            ("channel_scale", scale),
+        ):
             object.__setattr__(self, key, value)
 
     def __repr__(self) -> str:
-        return (f"Clip({self.source!r}, {self.n_frames} frames x {self.skeleton.n_dofs} DOFs, "
-                f"frame_time={self.frame_time:g} s)")
+        return (
+            f"Clip({self.source!r}, {self.n_frames} frames x {self.skeleton.n_dofs} DOFs, "
+            f"frame_time={self.frame_time:g} s)"
+        )
 
     @property
     def n_frames(self) -> int:
@@ -110,7 +119,7 @@ class Clip:
         if pose.ndim != 1:
             raise ValueError(f"pose must have shape ({self.skeleton.n_dofs},), got {pose.shape}")
         frames = self.frames.copy()
-        frames[n] = continuous_angles(self.skeleton, pose[None], self.frames[n:n + 1])[0]
+        frames[n] = continuous_angles(self.skeleton, pose[None], self.frames[n : n + 1])[0]
         return replace(self, frames=frames)
 
     def with_frames(self, frames) -> Clip:
@@ -118,8 +127,7 @@ class Clip:
         the original frame it replaces (same rotations, nearest Euler values)."""
         frames = self.skeleton.check_angles(frames, "frames")
         if frames.shape != self.frames.shape:
-            raise ValueError(f"frames must have shape {self.frames.shape} like the clip's, "
-                             f"got {frames.shape}")
+            raise ValueError(f"frames must have shape {self.frames.shape} like the clip's, got {frames.shape}")
         return replace(self, frames=continuous_angles(self.skeleton, frames, self.frames))
 
     def channel_values(self) -> np.ndarray:
@@ -148,8 +156,7 @@ class Clip:
         if poses.ndim != 2:
             raise ValueError(f"poses must have shape (N, {skeleton.n_dofs}), got {poses.shape}")
         mass_source = f"skeleton {skeleton.name!r} ({skeleton.total_mass:g} kg)"
-        return cls(skeleton, poses, frame_time, layout,
-                   source or f"<poses of {skeleton.name}>", mass_source)
+        return cls(skeleton, poses, frame_time, layout, source or f"<poses of {skeleton.name}>", mass_source)
 
 
 def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
@@ -157,24 +164,21 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
     joint = {name: k for k, name in enumerate(sk.joint_names)}
     site = {name: s for s, name in enumerate(sk.site_names)}
     entries = {e.name: e for e in layout}
-    if (len(entries) != len(layout) or set(entries) != set(joint)
-            or layout[0].name != sk.joint_names[0]):
+    if len(entries) != len(layout) or set(entries) != set(joint) or layout[0].name != sk.joint_names[0]:
         raise ValueError("the layout must list every joint of the skeleton once, the root first")
     order, stack, sites = [], [layout[0].name], []
     while stack:
         name = stack.pop()
         order.append(name)
         for child in entries[name].children:
-            parent = (sk.parents[joint[child]] if child in joint
-                      else sk.site_joint[site[child]] if child in site else -1)
+            parent = sk.parents[joint[child]] if child in joint else sk.site_joint[site[child]] if child in site else -1
             if parent < 0 or sk.joint_names[parent] != name:
                 raise ValueError(f"layout lists {child!r} under {name!r}, which is not its parent")
             if child in site:
                 sites.append(child)
         stack.extend(reversed([c for c in entries[name].children if c in joint]))
     if order != [e.name for e in layout] or sorted(sites) != sorted(sk.site_names):
-        raise ValueError("the layout must be the depth-first walk of the skeleton with every "
-                         "site once")
+        raise ValueError("the layout must be the depth-first walk of the skeleton with every site once")
     dofs, scale = [], []
     for entry in layout:
         k = joint[entry.name]
@@ -185,15 +189,15 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
             kind, axis = CHANNELS.get(channel, (None, 0))
             sign = sk.dof_axis[d][axis]
             if kind != sk.dof_kind[d] or abs(abs(sign) - 1.0) > AXIS_TOLERANCE:
-                raise ValueError(f"channel {channel} of joint {entry.name!r} does not match DOF "
-                                 f"{sk.dof_names[d]!r}")
+                raise ValueError(f"channel {channel} of joint {entry.name!r} does not match DOF {sk.dof_names[d]!r}")
             dofs.append(d)
             scale.append(math.copysign(DEGREES_PER_RADIAN if kind == ROTATE else 1.0, sign))
         kinds = sk.dof_kind[own]
         rotations = [d for c, d in zip(entry.channels, entry.dofs) if CHANNELS[c][0] == ROTATE]
         if (np.diff(kinds) > 0).any() or rotations != sorted(rotations):
-            raise ValueError(f"joint {entry.name!r}: DOFs must be its translations, then its "
-                             "rotations in channel order")
+            raise ValueError(
+                f"joint {entry.name!r}: DOFs must be its translations, then its rotations in channel order"
+            )
     return np.array(dofs, dtype=np.intp), np.array(scale, dtype=np.float64)
 
 
@@ -201,15 +205,19 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
     """Depth-first BVH layout of `sk`; ValueError naming the first DOF or name BVH cannot carry."""
     for name in sk.frame_names:
         if not name or any(c.isspace() or c in "{}" for c in name):
-            raise ValueError(f"name {name!r} cannot be written to BVH: names need at least one "
-                             "character and no spaces or braces")
+            raise ValueError(
+                f"name {name!r} cannot be written to BVH: names need at least one character and no spaces or braces"
+            )
     turned = np.flatnonzero(np.abs(sk.joint_rotation - np.eye(3)).max(axis=(1, 2)) > AXIS_TOLERANCE)
     if turned.size:
-        raise ValueError(f"joint {sk.joint_names[turned[0]]!r} has a fixed rest rotation, which BVH "
-                         "cannot carry (OFFSETs only); write the pose as JSON instead")
+        raise ValueError(
+            f"joint {sk.joint_names[turned[0]]!r} has a fixed rest rotation, which BVH "
+            "cannot carry (OFFSETs only); write the pose as JSON instead"
+        )
     if sk.mimic_names:
-        raise ValueError(f"DOF {sk.mimic_names[0]!r} mimics another; BVH has no mimic channels, "
-                         "write the pose as JSON instead")
+        raise ValueError(
+            f"DOF {sk.mimic_names[0]!r} mimics another; BVH has no mimic channels, write the pose as JSON instead"
+        )
     children = [[] for _ in sk.joint_names]
     for k in range(1, sk.n_joints):
         children[sk.parents[k]].append(sk.joint_names[k])
@@ -223,22 +231,30 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
             axis = int(np.argmax(np.abs(sk.dof_axis[d])))
             word = "rotation" if sk.dof_kind[d] == ROTATE else "position"
             if abs(abs(sk.dof_axis[d][axis]) - 1.0) > AXIS_TOLERANCE:
-                raise ValueError(f"DOF {sk.dof_names[d]!r} moves along {tuple(sk.dof_axis[d])}, "
-                                 "not a coordinate axis: BVH channels are X/Y/Z only")
+                raise ValueError(
+                    f"DOF {sk.dof_names[d]!r} moves along {tuple(sk.dof_axis[d])}, "
+                    "not a coordinate axis: BVH channels are X/Y/Z only"
+                )
             if word == "position" and rotated:
-                raise ValueError(f"DOF {sk.dof_names[d]!r} translates after a rotation of its "
-                                 "joint; BVH position channels move along the parent's axes, so "
-                                 "a joint's translations must come before its rotations")
+                raise ValueError(
+                    f"DOF {sk.dof_names[d]!r} translates after a rotation of its "
+                    "joint; BVH position channels move along the parent's axes, so "
+                    "a joint's translations must come before its rotations"
+                )
             channel = f"{'XYZ'[axis]}{word}"
             if channel in channels:
-                raise ValueError(f"DOF {sk.dof_names[d]!r} repeats channel {channel} of its joint; "
-                                 "BVH allows each channel once per joint")
+                raise ValueError(
+                    f"DOF {sk.dof_names[d]!r} repeats channel {channel} of its joint; "
+                    "BVH allows each channel once per joint"
+                )
             channels.append(channel)
             rotated = rotated or word == "rotation"
         start = int(sk.joint_dof_start[k])
-        entries.append(JointChannels(sk.joint_names[k], tuple(channels),
-                                     tuple(range(start, start + len(channels))),
-                                     tuple(children[k])))
+        entries.append(
+            JointChannels(
+                sk.joint_names[k], tuple(channels), tuple(range(start, start + len(channels))), tuple(children[k])
+            )
+        )
         stack.extend(reversed([j for j in range(k + 1, sk.n_joints) if sk.parents[j] == k]))
     return tuple(entries)
 

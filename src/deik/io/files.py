@@ -42,8 +42,11 @@ def read_input(path, what: str) -> bytes:
         raise FileFormatError(source, f"is a device, pipe or socket, not a {what} file; give a regular file")
     limit = max_input_bytes()
     if info.st_size > limit:
-        raise FileFormatError(source, f"is {info.st_size} bytes, more than the {limit} a {what} file may have "
-                                      f"(set {INPUT_LIMIT_VARIABLE} to raise the limit)")
+        raise FileFormatError(
+            source,
+            f"is {info.st_size} bytes, more than the {limit} a {what} file may have "
+            f"(set {INPUT_LIMIT_VARIABLE} to raise the limit)",
+        )
     try:
         with open(path, "rb") as file:
             return file.read(limit + 1)
@@ -58,5 +61,6 @@ def read_input_text(path, what: str) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as error:
-        raise FileFormatError(str(path), f"not a text (UTF-8) {what} file: byte {error.start} cannot be "
-                                         "decoded") from None
+        raise FileFormatError(
+            str(path), f"not a text (UTF-8) {what} file: byte {error.start} cannot be decoded"
+        ) from None

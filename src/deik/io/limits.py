@@ -34,8 +34,9 @@ def with_limits(skeleton: Skeleton, limits: dict) -> Skeleton:
     lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
     for name, bounds in limits.items():
         if name not in skeleton.dof_names:
-            raise KeyError(f"DOF {name!r} not found in skeleton {skeleton.name!r}"
-                           f"{did_you_mean(name, skeleton.dof_names)}")
+            raise KeyError(
+                f"DOF {name!r} not found in skeleton {skeleton.name!r}{did_you_mean(name, skeleton.dof_names)}"
+            )
         low, high = (float(b) for b in bounds)
         if not (math.isfinite(low) and math.isfinite(high) and low <= high):
             raise ValueError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
@@ -56,11 +57,14 @@ def read_limits(path, skeleton: Skeleton) -> dict:
     except RecursionError:
         raise ValueError(f"{path}: JSON nested too deeply; a limits table is one level of [lower, upper]") from None
     if not isinstance(table, dict) or not table:
-        raise ValueError(f"{path}: must be a JSON object {{\"DOF name\": [lower, upper], ...}}")
+        raise ValueError(f'{path}: must be a JSON object {{"DOF name": [lower, upper], ...}}')
     limits = {}
     for name, bounds in table.items():
-        if not (isinstance(bounds, list) and len(bounds) == 2 and all(
-                isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)):
+        if not (
+            isinstance(bounds, list)
+            and len(bounds) == 2
+            and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)
+        ):
             raise ValueError(f"{path}: {name!r} must be [lower, upper] (two numbers), got {bounds!r}")
         if name in skeleton.dof_names and skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE:
             bounds = np.radians(bounds)
@@ -76,8 +80,9 @@ def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> 
     """{dof name: (lower, upper)} of `clip` (a deik.Clip): each DOF's smallest and largest
     value over the frames (rotations wrapped into [-pi, pi)), widened by the margins and kept
     within the skeleton's own limits."""
-    if not (math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(margin_length)
-            and margin_length >= 0):
+    if not (
+        math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(margin_length) and margin_length >= 0
+    ):
         raise ValueError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
     if clip.n_frames == 0:
@@ -100,7 +105,8 @@ def clip_within(clip, skeleton: Skeleton, source: str):
         raise ValueError(
             f"{source}: frame {n} has {skeleton.dof_names[d]} = {poses[n, d] * scale:.6g}, outside its limits "
             f"[{skeleton.lower[d] * scale:.6g}, {skeleton.upper[d] * scale:.6g}] ({len(outside)} values outside in "
-            "all); widen the table, or measure it from the clip with `deik limits`")
+            "all); widen the table, or measure it from the clip with `deik limits`"
+        )
     return replace(clip, skeleton=skeleton)
 
 

@@ -43,13 +43,13 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from deik.solver.engine import Settings
 from deik.io.files import read_input_text
-from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.limits import read_limits, with_limits
-from deik.objectives import goals as g
-from deik.solver.problem import LIMIT_MODES, Problem
+from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.problem_goals import goal_from_table, vector_field
+from deik.objectives import goals as g
+from deik.solver.engine import Settings
+from deik.solver.problem import LIMIT_MODES, Problem
 from deik.suggest import did_you_mean
 
 URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")
@@ -78,12 +78,15 @@ def load_problem(path) -> ProblemFile:
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{path}: not valid TOML: {error}") from None
     except RecursionError:
-        raise ValueError(f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
-                         "three levels (a 3x3 rotation)") from None
+        raise ValueError(
+            f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
+            "three levels (a 3x3 rotation)"
+        ) from None
     for key in data:
         if key not in TOP_LEVEL:
-            raise ValueError(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} "
-                             f"(keys: {', '.join(TOP_LEVEL)})")
+            raise ValueError(
+                f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} (keys: {', '.join(TOP_LEVEL)})"
+            )
     loaded, frame = _skeleton(data, path)
     skeleton = loaded.skeleton
     limits = data.get("limits", "reflect")
@@ -95,8 +98,10 @@ def load_problem(path) -> ProblemFile:
         raise ValueError(f"{path}: 'settings' must be a [settings] table")
     for key in settings:
         if key not in names:
-            raise ValueError(f"{path}: [settings]: unknown setting {key!r}{did_you_mean(key, names, 1)} "
-                             f"(settings: {', '.join(names)})")
+            raise ValueError(
+                f"{path}: [settings]: unknown setting {key!r}{did_you_mean(key, names, 1)} "
+                f"(settings: {', '.join(names)})"
+            )
     try:
         Settings(**settings)
     except (ValueError, TypeError) as error:
@@ -105,13 +110,17 @@ def load_problem(path) -> ProblemFile:
     if isinstance(tables, dict):
         raise ValueError(f"{path}: write each goal as a [[goal]] table (double brackets), not [goal]")
     if not isinstance(tables, list) or not tables:
-        raise ValueError(f"{path}: no goals; add at least one [[goal]] table, e.g. "
-                         "type = \"position\", frame = \"tip\", target = [x, y, z]")
+        raise ValueError(
+            f"{path}: no goals; add at least one [[goal]] table, e.g. "
+            'type = "position", frame = "tip", target = [x, y, z]'
+        )
     goals = [goal_from_table(skeleton, table, n, path) for n, table in enumerate(tables, start=1)]
     if frame is not None:
         pose = loaded.clip.pose(frame)
-        goals = [replace(goal, reference=pose) if isinstance(goal, g.Comfort) and goal.reference is None else goal
-                 for goal in goals]
+        goals = [
+            replace(goal, reference=pose) if isinstance(goal, g.Comfort) and goal.reference is None else goal
+            for goal in goals
+        ]
     try:
         return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame)
     except ValueError as error:
@@ -134,8 +143,9 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
             raise ValueError(f"{path}: field {key!r} only applies to {kind}, not skeleton = {spec!r}")
     folder = Path(path).parent
     tip = data.get("tip")
-    if tip is not None and not (isinstance(tip, str) or (isinstance(tip, list) and tip
-                                                          and all(isinstance(t, str) for t in tip))):
+    if tip is not None and not (
+        isinstance(tip, str) or (isinstance(tip, list) and tip and all(isinstance(t, str) for t in tip))
+    ):
         raise ValueError(f"{path}: field 'tip' must be a link name or a list of link names, got {tip!r}")
     if "base" in data and not isinstance(data["base"], str):
         raise ValueError(f"{path}: field 'base' must be a link name, got {data['base']!r}")
@@ -143,9 +153,13 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
     if segments is not None and not isinstance(segments, str):
         raise ValueError(f"{path}: field 'segments' must be the path of a segment table, got {segments!r}")
     try:
-        loaded = load_skeleton(str(folder / spec) if allowed else spec, base=data.get("base"), tip=tip,
-                               segments=str(folder / segments) if segments else None,
-                               up=vector_field(data["up"], (3,), path, "up") if "up" in data else None)
+        loaded = load_skeleton(
+            str(folder / spec) if allowed else spec,
+            base=data.get("base"),
+            tip=tip,
+            segments=str(folder / segments) if segments else None,
+            up=vector_field(data["up"], (3,), path, "up") if "up" in data else None,
+        )
     except (ValueError, KeyError, OSError) as error:
         raise ValueError(f"{path}: field 'skeleton': {error.args[0] if error.args else error}") from None
     table = data.get("joint_limits")
@@ -160,6 +174,8 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
     frame = data.get("frame")
     if frame is not None:
         if not (isinstance(frame, int) and not isinstance(frame, bool) and 0 <= frame < loaded.clip.n_frames):
-            raise ValueError(f"{path}: field 'frame' must be a frame number from 0 to "
-                             f"{loaded.clip.n_frames - 1} of {spec}, got {frame!r}")
+            raise ValueError(
+                f"{path}: field 'frame' must be a frame number from 0 to "
+                f"{loaded.clip.n_frames - 1} of {spec}, got {frame!r}"
+            )
     return loaded, frame

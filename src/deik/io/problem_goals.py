@@ -80,12 +80,14 @@ def _joint_weights(skeleton: Skeleton, value, where: str):
                 raise ValueError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
         return {name: float(weight) for name, weight in value.items()}
     if isinstance(value, list):
-        weights = vector_field(value, (skeleton.n_dofs,), where, field, f"a list of {skeleton.n_dofs} numbers (one per DOF)")
+        weights = vector_field(
+            value, (skeleton.n_dofs,), where, field, f"a list of {skeleton.n_dofs} numbers (one per DOF)"
+        )
         if (weights < 0).any():
             raise ValueError(f"{where}: field {field!r} must hold weights >= 0")
         return weights
     raise ValueError(
-        f"{where}: field {field!r} must be \"start\", \"end\", a table {{joint = weight}} or "
+        f'{where}: field {field!r} must be "start", "end", a table {{joint = weight}} or '
         f"{skeleton.n_dofs} numbers (one per DOF), got {value!r}"
     )
 
@@ -100,13 +102,18 @@ def _orientation_target(table: dict, where: str) -> np.ndarray:
         if field not in table:
             raise ValueError(
                 f"{where}: missing field {field!r}; give target = [[..], [..], [..]] (a 3x3 rotation) "
-                "or euler = \"XYZ\" with degrees = [a, b, c]"
+                'or euler = "XYZ" with degrees = [a, b, c]'
             )
     order = table["euler"]
     if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
         raise ValueError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
-    degrees = vector_field(table["degrees"], (len(order),), where, "degrees",
-                     f"a list of {len(order)} numbers (one angle per letter of euler {order!r})")
+    degrees = vector_field(
+        table["degrees"],
+        (len(order),),
+        where,
+        "degrees",
+        f"a list of {len(order)} numbers (one angle per letter of euler {order!r})",
+    )
     return euler_matrix(order, np.radians(degrees))
 
 
@@ -119,15 +126,17 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
     if kind is None:
         raise ValueError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
     if not isinstance(kind, str) or kind not in GOAL_TYPES:
-        raise ValueError(f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} "
-                         f"(types: {', '.join(GOAL_TYPES)})")
+        raise ValueError(
+            f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} (types: {', '.join(GOAL_TYPES)})"
+        )
     where = f"{where} ({kind})"
     cls, required, optional = GOAL_TYPES[kind]
     allowed = ("type",) + required + optional + COMMON_FIELDS
     for field in table:
         if field not in allowed:
-            raise ValueError(f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} "
-                             f"(fields: {', '.join(allowed[1:])})")
+            raise ValueError(
+                f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} (fields: {', '.join(allowed[1:])})"
+            )
     for field in required:
         if field not in table:
             raise ValueError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
@@ -145,7 +154,7 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
             kwargs[field] = vector_field(value, (3,), where, field)
         elif field == "mode":
             if value not in ("sum", "max"):
-                raise ValueError(f"{where}: field 'mode' must be \"sum\" or \"max\", got {value!r}")
+                raise ValueError(f'{where}: field \'mode\' must be "sum" or "max", got {value!r}')
             kwargs[field] = value
         elif field == "joint_weights":
             kwargs[field] = _joint_weights(skeleton, value, where)

@@ -16,9 +16,9 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.io.errors import FileFormatError
 from deik.io.files import read_input_text
+from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.joints import Segment
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -28,8 +28,7 @@ NOMINAL_MASS = 70.0  # kg; only mass fractions matter for the centre of mass
 
 def _trunk() -> tuple[float, float]:
     """de Leva's three trunk parts as one segment: (percent, COM fraction from its lower end)."""
-    parts = [("upper_trunk", UPPER_TRUNK), ("middle_trunk", MIDDLE_TRUNK),
-             ("lower_trunk", LOWER_TRUNK)]
+    parts = [("upper_trunk", UPPER_TRUNK), ("middle_trunk", MIDDLE_TRUNK), ("lower_trunk", LOWER_TRUNK)]
     length = sum(size for _, size in parts)
     percent, moment, top = 0.0, 0.0, 0.0  # moment: percent x COM distance below the top
     for name, size in parts:
@@ -44,9 +43,17 @@ TRUNK_PERCENT, TRUNK_COM = _trunk()
 BONE_CLASSES = {
     "head": (DE_LEVA["head"][0] / DE_LEVA_TOTAL, 1.0 - DE_LEVA["head"][1], False),
     "trunk": (TRUNK_PERCENT / DE_LEVA_TOTAL, TRUNK_COM, False),
-    **{name: (DE_LEVA[key][0] / DE_LEVA_TOTAL, DE_LEVA[key][1], True)
-       for name, key in (("upper_arm", "upper_arm"), ("forearm", "forearm"), ("hand", "hand"),
-                         ("thigh", "thigh"), ("shank", "shank"), ("foot", "foot"))},
+    **{
+        name: (DE_LEVA[key][0] / DE_LEVA_TOTAL, DE_LEVA[key][1], True)
+        for name, key in (
+            ("upper_arm", "upper_arm"),
+            ("forearm", "forearm"),
+            ("hand", "hand"),
+            ("thigh", "thigh"),
+            ("shank", "shank"),
+            ("foot", "foot"),
+        )
+    },
 }
 # First match wins, so "forearm" is tested before "arm" and "upleg" before "leg".
 KEYWORDS = (
@@ -62,12 +69,14 @@ KEYWORDS = (
 
 
 def bone_side(name: str) -> str:
-    """"left", "right" or "" from a joint name: Left/Right anywhere, or an L/R set off by a
+    """ "left", "right" or "" from a joint name: Left/Right anywhere, or an L/R set off by a
     separator or a change of case (lShldr, LHip, L_Hip, hip_r, ThighL)."""
     for side in ("left", "right"):
         letters = f"[{side[0]}{side[0].upper()}]"
-        pattern = (rf"^{letters}(?=[A-Z_.\-])|[_.\-]{letters}(?=$|[_.\-])"
-                   rf"|(?<=[a-z]){side[0].upper()}$")
+        pattern = (
+            rf"^{letters}(?=[A-Z_.\-])|[_.\-]{letters}(?=$|[_.\-])"
+            rf"|(?<=[a-z]){side[0].upper()}$"
+        )
         if side in name.lower() or re.search(pattern, name):
             return side
     return ""
@@ -95,8 +104,7 @@ def _bone_ends(sk: Skeleton) -> np.ndarray:
     return total / np.maximum(count, 1)[:, None]
 
 
-def estimate_segments(skeleton: Skeleton,
-                      total_mass: float = NOMINAL_MASS) -> tuple[tuple[Segment, ...], str]:
+def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> tuple[tuple[Segment, ...], str]:
     """Estimate segment masses (kg) and COM offsets (length units) from bone lengths.
 
     Each joint's bone runs from its origin to the mean of its children's origins. Classified
@@ -123,30 +131,37 @@ def estimate_segments(skeleton: Skeleton,
     if unclassified:
         share[unclassified] = rest * lengths[unclassified] / lengths[unclassified].sum()
     if share.sum() <= 0:
-        return ((Segment(names[0], float(total_mass), (0.0, 0.0, 0.0), "whole body"),),
-                f"no bone has a length: all {total_mass:g} kg (nominal) put at the root "
-                f"{names[0]!r}, so the centre of mass is the root's origin")
+        return (
+            (Segment(names[0], float(total_mass), (0.0, 0.0, 0.0), "whole body"),),
+            f"no bone has a length: all {total_mass:g} kg (nominal) put at the root "
+            f"{names[0]!r}, so the centre of mass is the root's origin",
+        )
     scale = 1.0 / share.sum()
     share *= scale
     along = [BONE_CLASSES[c][1] if c else 0.5 for c in classes]  # COM fraction along each bone
     segments = tuple(
-        Segment(names[k], float(total_mass * share[k]), tuple(float(v) for v in ends[k] * along[k]),
-                classes[k] or "unclassified")
-        for k in range(skeleton.n_joints) if share[k] > 0)
+        Segment(
+            names[k],
+            float(total_mass * share[k]),
+            tuple(float(v) for v in ends[k] * along[k]),
+            classes[k] or "unclassified",
+        )
+        for k in range(skeleton.n_joints)
+        if share[k] > 0
+    )
     counts = Counter(c for c in classes if c)
     missing = [c for c in BONE_CLASSES if not counts[c]]
     found = ", ".join(f"{counts[c]} {c}" for c in BONE_CLASSES if counts[c]) or "none"
-    notes = ["estimated from bone lengths with de Leva (1996) mass fractions",
-             f"classified bones: {found}"]
+    notes = ["estimated from bone lengths with de Leva (1996) mass fractions", f"classified bones: {found}"]
     if missing:
         notes.append(f"no {', '.join(missing)} bones")
     if unclassified:
-        notes.append(f"{len(unclassified)} unclassified bones share the remaining "
-                     f"{share[unclassified].sum():.1%} by length")
+        notes.append(
+            f"{len(unclassified)} unclassified bones share the remaining {share[unclassified].sum():.1%} by length"
+        )
     if abs(scale - 1.0) > 1e-9:
         notes.append(f"masses scaled by {scale:.4g} to add up to the total")
-    notes.append(f"total {total_mass:g} kg nominal "
-                 "(only the fractions matter for the centre of mass)")
+    notes.append(f"total {total_mass:g} kg nominal (only the fractions matter for the centre of mass)")
     return segments, "; ".join(notes)
 
 
@@ -188,15 +203,13 @@ def read_segment_table(path, joint_names) -> tuple[tuple[Segment, ...], str]:
         raise FileFormatError(source, "JSON nested too deeply") from None
     items = table.get("segments") if isinstance(table, dict) else None
     if not isinstance(items, list) or not items:
-        _fail(source, "segments",
-              'the top level must be an object with a non-empty "segments" list')
+        _fail(source, "segments", 'the top level must be an object with a non-empty "segments" list')
     known = list(joint_names)
     segments = []
     for k, item in enumerate(items):
         where = f"segments[{k}]"
         if not isinstance(item, dict):
-            _fail(source, where,
-                  "must be an object with bvh_frame (or joint), mass_kg and com_offset_m")
+            _fail(source, where, "must be an object with bvh_frame (or joint), mass_kg and com_offset_m")
         joints = [item[key] for key in ("joint", "bvh_frame") if key in item]
         if not joints or not all(isinstance(j, str) for j in joints) or len(set(joints)) != 1:
             _fail(source, where, 'needs one joint name (a string), as "bvh_frame" or "joint"')

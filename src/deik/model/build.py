@@ -40,7 +40,7 @@ def _topological_order(joints: list[Joint]) -> list[int]:
         while k not in path:
             path.append(k)
             k = by_name[joints[k].parent]
-        cycle = [joints[i].name for i in path[path.index(k):]] + [joints[k].name]
+        cycle = [joints[i].name for i in path[path.index(k) :]] + [joints[k].name]
         raise ValueError(f"joint parents form a cycle: {' -> '.join(cycle)}")
     return order
 

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import math
 
-from deik.model.joints import Joint, Site, euler, hinge
-
 from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Site, euler, hinge
 from deik.model.skeleton import Skeleton
-
 
 MAX_CHAIN_LINKS = 100_000  # far beyond any character; a larger chain only exhausts memory
 

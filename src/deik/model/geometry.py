@@ -17,7 +17,6 @@ def ground_frame(up: np.ndarray) -> np.ndarray:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-
 def segment_distance(point, a, b):
     """Distance from point (..., k) to segments a-b (..., k)."""
     u = b - a

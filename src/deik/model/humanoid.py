@@ -40,8 +40,7 @@ STERNOCLAVICULAR_HALF_SPAN = 0.017
 GRASP = 0.046  # palm centre below the wrist, about 8 cm at 1.75 m
 TOE_JOINT_HEIGHT = 0.010  # metatarsophalangeal joint centre above the sole
 # Along the foot, as fractions of its heel-to-toe-tip length measured from the heel.
-ANKLE_ALONG_FOOT, INNER_BALL_ALONG_FOOT, OUTER_BALL_ALONG_FOOT, TOE_JOINT_ALONG_FOOT = (
-    0.22, 0.73, 0.63, 0.70)
+ANKLE_ALONG_FOOT, INNER_BALL_ALONG_FOOT, OUTER_BALL_ALONG_FOOT, TOE_JOINT_ALONG_FOOT = (0.22, 0.73, 0.63, 0.70)
 
 # Ranges of motion (lower, upper) per Euler channel, radians, written for the LEFT side.
 # Signs: +X rotation bends the trunk and head forward, swings a limb backwards and points the
@@ -67,9 +66,7 @@ ELBOW_FLEXION, KNEE_FLEXION, TOE_EXTENSION = (0.0, 2.6), (0.0, 2.5), (-0.35, 0.7
 def _check_positive(name: str, value, example: str) -> float:
     if isinstance(value, numbers.Real) and math.isfinite(value) and value > 0:
         return float(value)
-    raise ValueError(
-        f"humanoid {name} must be a finite positive number, got {value!r}; pass e.g. {example}"
-    )
+    raise ValueError(f"humanoid {name} must be a finite positive number, got {value!r}; pass e.g. {example}")
 
 
 def _rom(joint: str, side_sign: float = 1.0):
@@ -110,8 +107,12 @@ def _axial(h: float):
     ]
     sites = [Site("head_top", "head", _scaled(h, 0, HEAD, 0))]
     # Each part runs from its upper end (listed first in the table) down to the joint carrying it.
-    parts = [("head", "head", HEAD), ("upper_trunk", "chest", UPPER_TRUNK),
-             ("middle_trunk", "spine", MIDDLE_TRUNK), ("lower_trunk", "pelvis", LOWER_TRUNK)]
+    parts = [
+        ("head", "head", HEAD),
+        ("upper_trunk", "chest", UPPER_TRUNK),
+        ("middle_trunk", "spine", MIDDLE_TRUNK),
+        ("lower_trunk", "pelvis", LOWER_TRUNK),
+    ]
     ends = [(name, joint, _scaled(h, 0, length, 0), ORIGIN) for name, joint, length in parts]
     return joints, sites, ends
 
@@ -121,8 +122,7 @@ def _limbs(h: float, side: str, s: float):
     elbow, wrist = _scaled(h, 0, -UPPER_ARM, 0), _scaled(h, 0, -FOREARM, 0)
     knee = _scaled(h, 0, KNEE_HEIGHT - HIP_HEIGHT, 0)
     ankle = _scaled(h, 0, ANKLE_HEIGHT - KNEE_HEIGHT, 0)
-    shoulder = _scaled(h, s * (SHOULDER_WIDTH / 2 - STERNOCLAVICULAR_HALF_SPAN),
-                       SHOULDER_HEIGHT - NECK_BASE, 0)
+    shoulder = _scaled(h, s * (SHOULDER_WIDTH / 2 - STERNOCLAVICULAR_HALF_SPAN), SHOULDER_HEIGHT - NECK_BASE, 0)
 
     def on_foot(x: float, y: float, fraction: float) -> tuple[float, float, float]:
         """Ankle-frame point at x, y (stature fractions), `fraction` of the foot from the heel."""
@@ -132,26 +132,23 @@ def _limbs(h: float, side: str, s: float):
     heel, toe_tip = on_foot(0, sole, 0.0), on_foot(0, sole, 1.0)
     toe_joint = on_foot(0, TOE_JOINT_HEIGHT - ANKLE_HEIGHT, TOE_JOINT_ALONG_FOOT)
     joints = [
-        Joint(f"{side}_clavicle", "chest",
-              _scaled(h, s * STERNOCLAVICULAR_HALF_SPAN, UPPER_TRUNK, 0), _rom("clavicle", s)),
+        Joint(
+            f"{side}_clavicle", "chest", _scaled(h, s * STERNOCLAVICULAR_HALF_SPAN, UPPER_TRUNK, 0), _rom("clavicle", s)
+        ),
         Joint(f"{side}_shoulder", f"{side}_clavicle", shoulder, _rom("shoulder", s)),
-        Joint(f"{side}_elbow", f"{side}_shoulder", elbow,
-              hinge((-1, 0, 0), *ELBOW_FLEXION, label="flexion")),
+        Joint(f"{side}_elbow", f"{side}_shoulder", elbow, hinge((-1, 0, 0), *ELBOW_FLEXION, label="flexion")),
         Joint(f"{side}_wrist", f"{side}_elbow", wrist, _rom("wrist", s)),
         Joint(f"{side}_hip", "pelvis", _scaled(h, s * HIP_HALF_SPAN, 0, 0), _rom("hip", s)),
-        Joint(f"{side}_knee", f"{side}_hip", knee,
-              hinge((1, 0, 0), *KNEE_FLEXION, label="flexion")),
+        Joint(f"{side}_knee", f"{side}_hip", knee, hinge((1, 0, 0), *KNEE_FLEXION, label="flexion")),
         Joint(f"{side}_ankle", f"{side}_knee", ankle, _rom("ankle", s)),
-        Joint(f"{side}_toes", f"{side}_ankle", toe_joint,
-              hinge((-1, 0, 0), *TOE_EXTENSION, label="extension")),
+        Joint(f"{side}_toes", f"{side}_ankle", toe_joint, hinge((-1, 0, 0), *TOE_EXTENSION, label="extension")),
     ]
     sites = [
         Site(f"{side}_hand", f"{side}_wrist", _scaled(h, 0, -GRASP, 0)),
         Site(f"{side}_heel", f"{side}_ankle", heel),
         Site(f"{side}_toe_inner", f"{side}_ankle", on_foot(-s * ball, sole, INNER_BALL_ALONG_FOOT)),
         Site(f"{side}_toe_outer", f"{side}_ankle", on_foot(s * ball, sole, OUTER_BALL_ALONG_FOOT)),
-        Site(f"{side}_toe_tip", f"{side}_toes",
-             tuple(tip - joint for tip, joint in zip(toe_tip, toe_joint))),
+        Site(f"{side}_toe_tip", f"{side}_toes", tuple(tip - joint for tip, joint in zip(toe_tip, toe_joint))),
     ]
     ends = [
         ("upper_arm", f"{side}_shoulder", ORIGIN, elbow),

@@ -77,8 +77,7 @@ def euler(order: str, lower=-math.pi, upper=math.pi, reference=0.0) -> tuple[Dof
     n = len(order)
     lo, hi, ref = (np.broadcast_to(np.asarray(v, float), (n,)) for v in (lower, upper, reference))
     return tuple(
-        Dof(ROTATE, AXES[c], float(lo[k]), float(hi[k]), float(ref[k]), f"{c}rotation")
-        for k, c in enumerate(order)
+        Dof(ROTATE, AXES[c], float(lo[k]), float(hi[k]), float(ref[k]), f"{c}rotation") for k, c in enumerate(order)
     )
 
 
@@ -95,7 +94,4 @@ def translation(axes: str = "XYZ", lower=-math.inf, upper=math.inf) -> tuple[Dof
     """Translation DOFs along the named axes, e.g. a free-floating root: translation("XYZ")."""
     if not axes or any(c not in AXES for c in axes.upper()):
         raise ValueError(f"translation axes {axes!r} must use only the letters X, Y and Z")
-    return tuple(
-        Dof(TRANSLATE, AXES[c], float(lower), float(upper), 0.0, f"{c}position")
-        for c in axes.upper()
-    )
+    return tuple(Dof(TRANSLATE, AXES[c], float(lower), float(upper), 0.0, f"{c}position") for c in axes.upper())

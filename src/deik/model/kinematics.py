@@ -62,9 +62,7 @@ def forward_kinematics(skeleton: Skeleton, angles) -> Kinematics:
             R[:, k] = R[:, parent] @ R_local
             p[:, k] = p[:, parent] + np.einsum("nij,nj->ni", R[:, parent], p_local)
     R_site = R[:, skeleton.site_joint] @ skeleton.site_rotation
-    p_site = p[:, skeleton.site_joint] + np.einsum(
-        "nsij,sj->nsi", R[:, skeleton.site_joint], skeleton.site_offset
-    )
+    p_site = p[:, skeleton.site_joint] + np.einsum("nsij,sj->nsi", R[:, skeleton.site_joint], skeleton.site_offset)
     R_all = np.concatenate([R, R_site], axis=1)
     p_all = np.concatenate([p, p_site], axis=1)
     com = centre_of_mass(skeleton, R, p)

@@ -16,7 +16,6 @@ import numpy as np
 from deik.model.joints import TRANSLATE
 from deik.suggest import did_you_mean
 
-
 MAX_LIMIT = 1e6  # radians or length units: beyond it float32 poses cannot resolve a millimetre or a degree
 MAX_MASS = 1e12  # kg per segment: keeps every total finite
 
@@ -72,9 +71,12 @@ class Skeleton:
     def __post_init__(self):
         defaults = dict(
             joint_rotation=np.tile(np.eye(3), (len(self.joint_names), 1, 1)),
-            mimic_joint=np.zeros(0, np.int32), mimic_kind=np.zeros(0, np.int32),
-            mimic_axis=np.zeros((0, 3)), mimic_source=np.zeros(0, np.int32),
-            mimic_scale=np.zeros(0), mimic_bias=np.zeros(0),
+            mimic_joint=np.zeros(0, np.int32),
+            mimic_kind=np.zeros(0, np.int32),
+            mimic_axis=np.zeros((0, 3)),
+            mimic_source=np.zeros(0, np.int32),
+            mimic_scale=np.zeros(0),
+            mimic_bias=np.zeros(0),
         )
         for key, value in defaults.items():
             if getattr(self, key) is None:
@@ -105,8 +107,12 @@ class Skeleton:
                     f"earlier joints (0 <= parent < {k}); a later or missing parent means a cycle "
                     "or a bad index; build with deik.model.build.build_skeleton to sort joints"
                 )
-        for label, arr in (("offsets", self.offsets), ("site_offset", self.site_offset),
-                           ("mass_offset", self.mass_offset), ("dof_axis", self.dof_axis)):
+        for label, arr in (
+            ("offsets", self.offsets),
+            ("site_offset", self.site_offset),
+            ("mass_offset", self.mass_offset),
+            ("dof_axis", self.dof_axis),
+        ):
             bad = ~np.isfinite(arr).all(axis=-1) if arr.size else np.zeros(0, bool)
             if bad.any():
                 _fail(f"{label} row {int(np.argmax(bad))} is not finite (NaN or infinite): {arr[bad][0]}")
@@ -127,8 +133,10 @@ class Skeleton:
         huge = np.flatnonzero(finite & (np.abs(np.concatenate([self.lower, self.upper])) > MAX_LIMIT))
         if huge.size:
             k = huge[0] % D
-            _fail(f"DOF {self.dof_names[k]!r} has limits [{self.lower[k]:.6g}, {self.upper[k]:.6g}] beyond "
-                  f"+-{MAX_LIMIT:g} (radians or length units), where poses lose all precision; give real limits")
+            _fail(
+                f"DOF {self.dof_names[k]!r} has limits [{self.lower[k]:.6g}, {self.upper[k]:.6g}] beyond "
+                f"+-{MAX_LIMIT:g} (radians or length units), where poses lose all precision; give real limits"
+            )
         if not np.isfinite(self.reference).all():
             _fail("the reference (comfort) pose must be finite")
         if not ((self.mass_value >= 0) & (self.mass_value <= MAX_MASS)).all():
@@ -258,10 +266,7 @@ class Skeleton:
         """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim == 0 or a.shape[-1] != self.n_dofs:
-            raise ValueError(
-                f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, "
-                f"got {a.shape}"
-            )
+            raise ValueError(f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, got {a.shape}")
         if not np.isfinite(a).all():
             raise ValueError(f"{name} contain NaN or infinite values")
         return a

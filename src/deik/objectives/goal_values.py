@@ -13,7 +13,7 @@ def vector(value, shape: tuple[int, ...], what: str) -> np.ndarray:
     """`value` of `shape` or (B, *shape) as a finite float64 array (B, *shape), B = 1 without
     a batch axis; a ValueError naming `what` otherwise."""
     a = np.asarray(value, dtype=np.float64)
-    if a.shape[-len(shape):] != shape or a.ndim > len(shape) + 1:
+    if a.shape[-len(shape) :] != shape or a.ndim > len(shape) + 1:
         raise ValueError(f"{what} must have shape {shape} or (batch, *{shape}), got {a.shape}")
     if not np.isfinite(a).all():
         raise ValueError(f"{what} contains NaN or infinite values: {value!r}")
@@ -28,7 +28,7 @@ def pack(*parts: np.ndarray) -> np.ndarray:
     column = 0
     for p in parts:
         width = p[0].size
-        out[:, column:column + width] = p.reshape(p.shape[0], width)  # a batch of 1 broadcasts
+        out[:, column : column + width] = p.reshape(p.shape[0], width)  # a batch of 1 broadcasts
         column += width
     return out
 

@@ -87,8 +87,18 @@ class Goal:
     def _row(self, kind, frames=(), scale=1.0, default_tol=-1.0, dof_weight=None):
         self._check_settings(self.label)
         tol = default_tol if self.tolerance is None else float(self.tolerance)
-        return TermRow(kind, self.label, tuple(frames), (), float(self.weight), float(self.mu),
-                       float(scale), tol, self.level, dof_weight)
+        return TermRow(
+            kind,
+            self.label,
+            tuple(frames),
+            (),
+            float(self.weight),
+            float(self.mu),
+            float(scale),
+            tol,
+            self.level,
+            dof_weight,
+        )
 
     def params(self, skeleton: Skeleton) -> np.ndarray:
         """Per-problem parameters (B, N_PARAMS); B = 1 when the goal has no batch axis."""

@@ -160,23 +160,50 @@ class GoalKind:
 
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
 KINDS = (
-    GoalKind(k.POSITION, "position", g.Position, position, LENGTH, True,
-             "position", ("frame", "target")),
-    GoalKind(k.ORIENTATION, "orientation", g.Orientation, orientation, ANGLE, True,
-             "orientation", ("frame",), ("target", "euler", "degrees")),
+    GoalKind(k.POSITION, "position", g.Position, position, LENGTH, True, "position", ("frame", "target")),
+    GoalKind(
+        k.ORIENTATION,
+        "orientation",
+        g.Orientation,
+        orientation,
+        ANGLE,
+        True,
+        "orientation",
+        ("frame",),
+        ("target", "euler", "degrees"),
+    ),
     GoalKind(k.AIM, "aim", g.Aim, aim, ANGLE, False, "aim", ("frame", "target"), ("axis",)),
     GoalKind(k.COM, "centre_of_mass", g.CentreOfMass, centre_of_mass, LENGTH, True, "com", ("target",)),
-    GoalKind(k.COM_GROUND, "com_over_support", g.ComOverSupport, com_over_support, LENGTH, True,
-             "com_over_support", ("point",)),
-    GoalKind(k.SUPPORT_POLYGON, "support_polygon", g.ComInPolygon, support_polygon, LENGTH, False,
-             "com_in_polygon", ("frames",)),
-    GoalKind(k.COMFORT_SUM, "comfort_sum", g.Comfort, comfort_sum, dof_unit, False,
-             "comfort", (), ("mode", "joint_weights")),
-    GoalKind(k.COMFORT_MAX, "comfort_max", g.Comfort, comfort_max, dof_unit, False,
-             "comfort", (), ("mode", "joint_weights")),
+    GoalKind(
+        k.COM_GROUND,
+        "com_over_support",
+        g.ComOverSupport,
+        com_over_support,
+        LENGTH,
+        True,
+        "com_over_support",
+        ("point",),
+    ),
+    GoalKind(
+        k.SUPPORT_POLYGON,
+        "support_polygon",
+        g.ComInPolygon,
+        support_polygon,
+        LENGTH,
+        False,
+        "com_in_polygon",
+        ("frames",),
+    ),
+    GoalKind(
+        k.COMFORT_SUM, "comfort_sum", g.Comfort, comfort_sum, dof_unit, False, "comfort", (), ("mode", "joint_weights")
+    ),
+    GoalKind(
+        k.COMFORT_MAX, "comfort_max", g.Comfort, comfort_max, dof_unit, False, "comfort", (), ("mode", "joint_weights")
+    ),
     GoalKind(k.LIMITS, "joint_limits", g.LimitsPenalty, joint_limits, dof_unit, False),
-    GoalKind(k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False,
-             "obstacle", ("centre", "radius"), ("bone_radius",)),
+    GoalKind(
+        k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False, "obstacle", ("centre", "radius"), ("bone_radius",)
+    ),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"
 

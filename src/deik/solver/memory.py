@@ -19,8 +19,9 @@ def physical_memory() -> int:
         return 0
 
 
-def solve_bytes(batch: int, population: int, n_dofs: int, n_terms: int, n_levels: int, itemsize: int,
-                generations: int) -> int:
+def solve_bytes(
+    batch: int, population: int, n_dofs: int, n_terms: int, n_levels: int, itemsize: int, generations: int
+) -> int:
     """Bytes a solve allocates on the host: the population buffers (pose, levels, total, raw
     errors, F and CR per individual) three times (the state and a launch's two ping-pong
     copies) and the float64 history of best and mean fitness per problem and generation."""
@@ -33,6 +34,8 @@ def check_memory(needed: int, limit: int | None, what: str) -> None:
     if limit is None:
         limit = int(MEMORY_FRACTION * physical_memory())
     if limit > 0 and needed > limit:
-        raise ValueError(f"{what} needs about {needed / 2**30:.3g} GiB, more than the {limit / 2**30:.3g} GiB allowed; "
-                         "use a smaller population, batch or generation budget, or raise the limit "
-                         "(Settings(memory_limit=BYTES), --memory-limit GIB)")
+        raise ValueError(
+            f"{what} needs about {needed / 2**30:.3g} GiB, more than the {limit / 2**30:.3g} GiB allowed; "
+            "use a smaller population, batch or generation budget, or raise the limit "
+            "(Settings(memory_limit=BYTES), --memory-limit GIB)"
+        )

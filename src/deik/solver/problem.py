@@ -53,7 +53,7 @@ class Problem:
         object.__setattr__(self, "parts", tuple(self.parts))
         if self._compiled is None:  # terms compiled before were checked then (Solver checks new targets)
             self._check()
-            self.table  # compile now so that bad goals fail here, not inside a solve
+            _ = self.table  # compile now so that bad goals fail here, not inside a solve
 
     def _check(self) -> None:
         if not isinstance(self.skeleton, Skeleton):
@@ -71,8 +71,11 @@ class Problem:
                 "another); choose a base and tip with moving joints between them"
             )
         first = self.parts[0] if self.parts else self
-        if not all(isinstance(p, Problem) for p in self.parts) or len(first.goals) != len(self.goals) or \
-                any(a is not b for a, b in zip(first.goals, self.goals)):
+        if (
+            not all(isinstance(p, Problem) for p in self.parts)
+            or len(first.goals) != len(self.goals)
+            or any(a is not b for a, b in zip(first.goals, self.goals))
+        ):
             raise ValueError("a stacked problem's parts must be Problems and its goals the first part's")
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
@@ -99,8 +102,14 @@ class Problem:
         their parameters `params` (B, T, N_PARAMS): the compiled rows are reused (Solver)."""
         compiled = self.compiled
         batched = compiled.batch_shape or any(g.batched() for g in goals)
-        return Problem(self.skeleton, goals, self.limits, _compiled=replace(
-            compiled, table=replace(compiled.table, params=params), batch_shape=(len(params),) if batched else ()))
+        return Problem(
+            self.skeleton,
+            goals,
+            self.limits,
+            _compiled=replace(
+                compiled, table=replace(compiled.table, params=params), batch_shape=(len(params),) if batched else ()
+            ),
+        )
 
     @cached_property
     def compiled(self) -> Compiled:
@@ -191,9 +200,21 @@ def _check_stackable(first, other, k: int) -> None:
     if len(other.rows) != len(first.rows):
         raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
     for t, (a, b) in enumerate(zip(first.rows, other.rows)):
-        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == \
-            (b.kind, b.label, b.frames, b.mu, b.scale, b.tolerance, b.level)
-        if not same or (a.dof_weight is None) != (b.dof_weight is None) or \
-                (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight)):
-            raise ValueError(f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
-                             f"({a.label}) in more than its target, weight, reference or active mask")
+        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == (
+            b.kind,
+            b.label,
+            b.frames,
+            b.mu,
+            b.scale,
+            b.tolerance,
+            b.level,
+        )
+        if (
+            not same
+            or (a.dof_weight is None) != (b.dof_weight is None)
+            or (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight))
+        ):
+            raise ValueError(
+                f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
+                f"({a.label}) in more than its target, weight, reference or active mask"
+            )

@@ -80,13 +80,23 @@ class Result:
             "skeleton": self.skeleton.name,
             "dof_names": list(self.skeleton.dof_names),
             "angles": self.angles.tolist(),
-            "angles_by_joint": ({k: v.tolist() for k, v in self.angles_by_joint.items()}
-                                if self.angles.ndim == 1 else None),
+            "angles_by_joint": (
+                {k: v.tolist() for k, v in self.angles_by_joint.items()} if self.angles.ndim == 1 else None
+            ),
             "fitness": self.fitness.tolist(),
             "goals": [
-                {"label": g.label, "kind": g.kind, "unit": g.unit, "error": g.error.tolist(),
-                 "normalised": g.normalised.tolist(), "weight": g.weight, "tolerance": g.tolerance, "level": g.level,
-                 "active": g.active.tolist(), "met": g.met.tolist()}
+                {
+                    "label": g.label,
+                    "kind": g.kind,
+                    "unit": g.unit,
+                    "error": g.error.tolist(),
+                    "normalised": g.normalised.tolist(),
+                    "weight": g.weight,
+                    "tolerance": g.tolerance,
+                    "level": g.level,
+                    "active": g.active.tolist(),
+                    "met": g.met.tolist(),
+                }
                 for g in self.goals
             ],
             "generations": self.generations.tolist(),

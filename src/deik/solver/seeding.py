@@ -21,8 +21,10 @@ def poses_around(skeleton: Skeleton, pose, count: int, spread=0.05, seed: int = 
     if outside.size:
         d = outside[0][-1]
         value = pose[tuple(outside[0])]
-        raise ValueError(f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
-                         f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]")
+        raise ValueError(
+            f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
+            f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]"
+        )
     if count < 1:
         raise ValueError(f"count must be at least 1, got {count}")
     rotation = skeleton.dof_kind == ROTATE

@@ -91,7 +91,7 @@ class SerialDE:
         self.generation, self._history = 0, []
 
     # -- setup and evaluation --------------------------------------------------------------
-    def init(self) -> "SerialDE":
+    def init(self) -> SerialDE:
         """Uniform random population inside the skeleton's limits, evaluated (in one batch)."""
         sk = self.problem.skeleton
         self.rng = np.random.default_rng(self.seed)
@@ -141,7 +141,7 @@ class SerialDE:
         self._history.append((self.best_total, float(self.total.mean())))
         return log if record else sum(it.accepted for it in log)
 
-    def run(self, generations: int, tolerance: float | None = None) -> "SerialDE":
+    def run(self, generations: int, tolerance: float | None = None) -> SerialDE:
         """Up to `generations` epochs (init() first if needed); with `tolerance`, stop once every
         raw error of the best pose (metres or radians) is at most `tolerance`."""
         if self.pop is None:

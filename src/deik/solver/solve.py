@@ -80,9 +80,17 @@ def make_result(problem: Problem, engine: Engine, state, wall_time: float) -> Re
         return a.reshape(shape + a.shape[1:])
 
     goals = tuple(
-        GoalReport(label, kind_of(kind).name, kind_of(kind).unit_for(problem.skeleton), batched(raw[:, t]),
-                   batched(norm[:, t]), float(table.term_float[t, WEIGHT]), float(table.term_float[t, TOLERANCE]),
-                   int(table.term_int[t, TERM_LEVEL]), batched(gain[:, t] > 0))
+        GoalReport(
+            label,
+            kind_of(kind).name,
+            kind_of(kind).unit_for(problem.skeleton),
+            batched(raw[:, t]),
+            batched(norm[:, t]),
+            float(table.term_float[t, WEIGHT]),
+            float(table.term_float[t, TOLERANCE]),
+            int(table.term_int[t, TERM_LEVEL]),
+            batched(gain[:, t] > 0),
+        )
         for t, (label, kind) in enumerate(zip(table.labels, table.kinds))
     )
     return Result(

@@ -34,8 +34,7 @@ class Solver:
         self._engine = Engine(problem, self.settings)
         self._labels = problem.table.labels[: len(problem.goals)]
 
-    def solve(self, targets: dict | None = None, *, initial=None, seed: int | None = None,
-              progress=None) -> Result:
+    def solve(self, targets: dict | None = None, *, initial=None, seed: int | None = None, progress=None) -> Result:
         """Solve with `targets` {goal: new target} replacing those goals' targets (a goal is
         named by its index in problem.goals or its label, e.g. "position tip"; a target has the
         goal's shape, with or without the problem's batch axis, and a batch axis makes the
@@ -57,9 +56,11 @@ class Solver:
             goals[t].row(skeleton)  # the checks a new goal gets
             rows = goals[t].params(skeleton)
             if rows.shape[0] not in (1, problem.batch_size):
-                raise ValueError(f"goal {t} ({self._labels[t]}): {rows.shape[0]} targets for a problem batch of "
-                                 f"{problem.batch_size}; give one target or {problem.batch_size}")
-            params[:, t, : GAIN] = rows[:, : GAIN]
+                raise ValueError(
+                    f"goal {t} ({self._labels[t]}): {rows.shape[0]} targets for a problem batch of "
+                    f"{problem.batch_size}; give one target or {problem.batch_size}"
+                )
+            params[:, t, :GAIN] = rows[:, :GAIN]
         return problem.with_goal_targets(tuple(goals), params)
 
     def _goal_index(self, key) -> int:

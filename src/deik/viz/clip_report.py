@@ -23,12 +23,15 @@ def plot_clip_report(series: dict, path, frame_time: float, title: str = "") -> 
     for name, (before, after) in series.items():
         before, after = np.asarray(before, float), np.asarray(after, float)
         if before.shape != after.shape or before.ndim != 1:
-            raise ValueError(f"series {name!r}: before and after must be (N,) arrays of one "
-                             f"length, got {before.shape} and {after.shape}")
+            raise ValueError(
+                f"series {name!r}: before and after must be (N,) arrays of one "
+                f"length, got {before.shape} and {after.shape}"
+            )
         lines[name] = before, after
     plt = require_matplotlib()
-    figure, axes = plt.subplots(len(lines), 1, sharex=True, squeeze=False, layout="constrained",
-                                figsize=(9.0, 1.2 + 2.0 * len(lines)))
+    figure, axes = plt.subplots(
+        len(lines), 1, sharex=True, squeeze=False, layout="constrained", figsize=(9.0, 1.2 + 2.0 * len(lines))
+    )
     for ax, (name, (before, after)) in zip(axes[:, 0], lines.items()):
         time = np.arange(len(before)) * frame_time
         # markers keep frames between NaN gaps (e.g. a sparse reach track) visible
@@ -38,8 +41,7 @@ def plot_clip_report(series: dict, path, frame_time: float, title: str = "") -> 
         ax.grid(alpha=0.3)
     top = axes[0, 0]
     top.legend(loc="upper right", fontsize="small")
-    top.secondary_xaxis("top", functions=(lambda t: t / frame_time, lambda n: n * frame_time)
-                        ).set_xlabel("frame")
+    top.secondary_xaxis("top", functions=(lambda t: t / frame_time, lambda n: n * frame_time)).set_xlabel("frame")
     axes[-1, 0].set_xlabel("time (s)")
     figure.suptitle(title or "clip errors before and after")
     try:

@@ -12,8 +12,8 @@ import numpy as np
 from deik.io.atomic import save_atomically
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
-from deik.objectives import goals as g
 from deik.model.skeleton import Skeleton
+from deik.objectives import goals as g
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 
@@ -55,8 +55,7 @@ def _views(skeleton: Skeleton):
     return [("front", across, up, (name(across), name(up))), ("side", depth, up, (name(depth), name(up)))]
 
 
-def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=None, title="",
-              obstacles=()) -> None:
+def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=None, title="", obstacles=()) -> None:
     """Draw one pose to PNG `path`.
 
     result_or_skeleton: a deik.Result (angles None takes its .angles) or a Skeleton; angles

@@ -9,4 +9,3 @@ def format_table(header: list[str], rows: list[list]) -> str:
     widths = [max(len(row[k]) for row in cells) for k in range(len(header))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells]
     return "\n".join([lines[0], "  ".join("-" * w for w in widths)] + lines[1:])
-
