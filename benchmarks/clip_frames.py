@@ -142,7 +142,7 @@ def main(argv=None) -> int:
     check_device(a.device)
     a.out.mkdir(parents=True, exist_ok=True)
     result, clip, fix, contacts = run(a.frames, a.device, a.repeats)
-    write_json_atomically(a.out / "clip_frames.json", result)
+    write_json_atomically(a.out / "clip_frames.json", result, missing_as_null=True)
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     title = (
         f"walk looped to {a.frames} frames: {result['seconds']:.2f} s on {a.device} "

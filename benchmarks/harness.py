@@ -157,7 +157,7 @@ def finish(name: str, args, opening: dict, result: dict, figure) -> dict:
         "seconds": time.perf_counter() - opening["t0"],
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / f"{name}.json", result)
+    write_json_atomically(args.out / f"{name}.json", result, missing_as_null=True)
     save_figure(figure, str(args.out / f"{name}.png"))
     return result
 

@@ -137,6 +137,7 @@ def main(argv=None) -> int:
     write_json_atomically(
         args.out / "run_all.json",
         {"device": args.device, "quick": args.quick, "seconds": seconds, "machine": machine_line(), "stages": stages},
+        missing_as_null=True,
     )
     write_text_atomically(args.out / "run_all.md", text)
     print("\n" + text)

@@ -20,7 +20,7 @@ from deik.clips.warmstart import position_jacobian
 from deik.kernels.pack import pack_skeleton
 from deik.model.joints import TRANSLATE
 from deik.objectives import reference
-from deik.objectives import table as tt
+from deik.objectives.registry import KIND_NAMES
 from helpers import BUILTIN_FRAMES, BUILTIN_SKELETONS, finite_difference_check, kernel_fitness, random_poses
 
 SKELETONS = sorted(BUILTIN_SKELETONS)
@@ -103,7 +103,7 @@ def _every_goal_problem(sk, end, middle, support):
 def test_every_goal_kind_kernel_equals_oracle(name):
     sk, end, middle, support = _skeleton(name)
     problem = _every_goal_problem(sk, end, middle, support)
-    assert set(problem.table.kinds.tolist()) == set(range(len(tt.KIND_NAMES))), "every term kind"
+    assert set(problem.table.kinds.tolist()) == set(range(len(KIND_NAMES))), "every term kind"
     rng = np.random.default_rng(3)
     span = sk.upper - sk.lower
     poses = np.vstack(

@@ -13,6 +13,7 @@ import contextlib
 import contextvars
 import glob
 import json
+import math
 import os
 
 PARTIAL = ".deik-partial-"
@@ -95,9 +96,12 @@ def write_text_atomically(path, text: str) -> None:
     save_atomically(path, write)
 
 
-def write_json_atomically(path, data) -> None:
-    """Write `data` as indented JSON to `path` atomically; NaN or infinity anywhere in it is refused
-    (bare NaN is not JSON) with a ValueError naming the file."""
+def write_json_atomically(path, data, missing_as_null: bool = False) -> None:
+    """Write `data` as indented JSON to `path` atomically. NaN or infinity is not JSON: with
+    `missing_as_null` (measurements that were not taken) it is written as null, else it is refused
+    with a ValueError naming the file (a result that holds it is a bug)."""
+    if missing_as_null:
+        data = _nulls_for_non_finite(data)
     try:
         text = json.dumps(data, indent=2, allow_nan=False)
     except ValueError:
@@ -106,3 +110,14 @@ def write_json_atomically(path, data) -> None:
             "this is a bug or an input beyond float range (report it with the command)"
         ) from None
     write_text_atomically(path, text + "\n")
+
+
+def _nulls_for_non_finite(value):
+    """`value` (nested dicts, lists, tuples, numbers) with every NaN or infinite float as None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _nulls_for_non_finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_nulls_for_non_finite(v) for v in value]
+    return value
