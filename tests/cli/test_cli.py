@@ -368,3 +368,10 @@ def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert err.startswith("deik experiments: error: unknown experiment 'fig99'") and err.count("\n") == 1
     assert main(["experiments", "fig7", "--quick", "--out", str(tmp_path / "y")]) == 0
     assert (tmp_path / "y" / "fig7.csv").stat().st_size > 0
+
+
+def test_version_is_printed_and_matches_the_package(capsys):
+    from importlib.metadata import version
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"deik {deik.__version__}" == f"deik {version('deik')}"

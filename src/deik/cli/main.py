@@ -23,6 +23,7 @@ import sys
 
 from deik.cli import clip as cli_clip
 from deik.cli import solve as cli_solve
+from deik import __version__
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
 
@@ -77,6 +78,7 @@ def run_experiments(argv: list[str]) -> int:
 
 def build_parser() -> Parser:
     parser = Parser(prog="deik", description="Inverse kinematics by parallel Differential Evolution.")
+    parser.add_argument("--version", action="version", version=f"deik {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     s = commands.add_parser("solve", help="pose one problem and report per-goal errors")
     cli_solve.add_arguments(s)
