@@ -5,7 +5,8 @@ Seeds: a small BVH clip, a small URDF arm and a TOML problem built here, plus th
 files of ../shared/data when present. Each case mutates one seed (a flipped byte, a deleted,
 doubled or truncated line, a number swapped for NaN, 1e308, 1_000, 0x10 or nothing, CR-only
 line endings, deep nesting) and runs `deik info` (BVH, URDF) or `deik solve --problem` (TOML)
-in this process, with an alarm as the time bound. The same seed gives the same cases.
+in this process, with an alarm as the time bound and an address-space limit as the memory bound.
+The same seed gives the same cases.
 
     PYTHONPATH=src python -m benchmarks.fuzz_cli --cases 3000     # results/fuzz_cli.json
 """
@@ -16,6 +17,7 @@ import contextlib
 import io
 import random
 import re
+import resource
 import signal
 import sys
 import tempfile
@@ -249,10 +251,14 @@ def fuzz(cases: int, seed: int, folder: Path) -> dict:
 def main(argv=None) -> int:
     p = parser(__doc__)
     p.add_argument("--cases", type=int, default=3000)
+    p.add_argument("--memory-gib", type=float, default=6.0, help="address-space bound of this process (GiB)")
     args = p.parse_args(argv)
+    # a case that allocates without bound fails with MemoryError (an internal error) instead of
+    # exhausting the machine
+    resource.setrlimit(resource.RLIMIT_AS, (int(args.memory_gib * 2**30), resource.RLIM_INFINITY))
     opening = start(args)
     with tempfile.TemporaryDirectory() as folder:
-        found = fuzz(200 if args.quick else args.cases, args.seed, Path(folder))
+        found = fuzz(args.cases, args.seed, Path(folder))
     targets = [target("cases that break the rules", 0, len(found["failures"]), "cases", True, at_most=True)]
     fig, axes = figure()
     axes[0, 0].bar(
