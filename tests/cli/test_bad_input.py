@@ -304,3 +304,23 @@ def test_piping_into_head_is_quiet():
         timeout=300,
     )
     assert run.stdout.startswith("chain:20000") and run.stderr == ""
+
+
+def test_a_bug_is_reported_as_an_internal_error_not_a_usage_error(monkeypatch, capsys):
+    import deik.cli.app as cli_main
+
+    def broken(args):
+        return [][1]  # an IndexError from deik's own code
+
+    real = cli_main.build_parser
+
+    def parser_with_broken_info():
+        parser = real()
+        parser.parse_args(["info", "chain:2"])  # the info subcommand exists
+        parser._subparsers._group_actions[0].choices["info"].set_defaults(run=broken)
+        return parser
+
+    monkeypatch.setattr(cli_main, "build_parser", parser_with_broken_info)
+    status, err = _cli(["info", "chain:2"], capsys)
+    assert status == 3 and err.startswith("deik: internal error: IndexError") and "please report it" in err
+    assert err.count("\n") == 1

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import deik
-from deik.cli.main import main
+from deik.cli.app import main
 from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.load import skeleton_from_spec
 from deik.io.problem_file import load_problem

@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import deik
-from deik.cli.main import main
+from deik.cli.app import main
 from deik.io.urdf import read_urdf
 
 ROBOT_CHAINS = {  # robot: (base, tip, up)

@@ -4,7 +4,7 @@ close to the performance; bad input is refused before anything is written."""
 import numpy as np
 import pytest
 
-from deik.cli.main import main
+from deik.cli.app import main
 from deik.clips.contacts import detect_contacts, foot_sites
 from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
 from deik.clips.problem import ClipGoals, Reach, neighbour_displacement

@@ -1,5 +1,5 @@
 """The `deik` command line: one module per command."""
 
-from deik.cli.main import main
+from deik.cli.app import main
 
 __all__ = ["main"]
