@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.io.urdf_elements import UrdfJoint, read_joint, read_link
+from deik.io.urdf_elements import UrdfJoint, read_joint, read_link, rpy_matrix
 from deik.io.urdf_tree import LinkTree
 from deik.io.urdf_xml import read_xml
 from deik.model.build import build_skeleton
@@ -93,11 +93,13 @@ def _build(tree: LinkTree, links: list[str], up, name: str):
     joints = [Joint(links[0], None)]
     sites, segments = [], []
     selected = set(links)
-    for link in links[1:]:
+    # one batched call: rotations one at a time were most of the reading time of long chains
+    origins = rpy_matrix(np.array([tree.joint_of[link].rpy for link in links[1:]]).reshape(-1, 3))
+    for link, R_origin in zip(links[1:], origins):
         joint = tree.joint_of[link]
         parent = frames[joint.parent]
-        R = parent.R @ joint.R
-        p = parent.p + parent.R @ joint.p
+        R = parent.R @ R_origin
+        p = parent.p + parent.R @ joint.xyz
         if joint.type in MOVING:
             if joint.mimic is not None and tree.joint_child(joint.mimic.joint) not in selected:
                 tree.failure(joint.name)(

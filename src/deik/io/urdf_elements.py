@@ -36,15 +36,15 @@ class Mimic:
 
 @dataclass(frozen=True)
 class UrdfJoint:
-    """A `<joint>`: its `<origin>` as rotation R (3, 3) and translation p (3,) of the joint frame
-    in the parent link's frame, axis (3,) as written (not normalised), limits or None where absent."""
+    """A `<joint>`: its `<origin>` as translation xyz (3,) and roll-pitch-yaw rpy (3,) of the joint
+    frame in the parent link's frame, axis (3,) as written (not normalised), limits or None where absent."""
 
     name: str
     type: str
     parent: str
     child: str
-    R: np.ndarray
-    p: np.ndarray
+    xyz: np.ndarray
+    rpy: np.ndarray
     axis: np.ndarray
     lower: float | None
     upper: float | None
@@ -75,11 +75,11 @@ def read_joint(element, source: str) -> UrdfJoint:
         if end is None or not end.get("link"):
             e.fail(f'needs <{part} link="..."/>')
         ends.append(end.get("link"))
-    R, p = e.origin(e.child(element, "origin"))
+    xyz, rpy = e.origin(e.child(element, "origin"))
     axis = e.numbers(e.child(element, "axis"), "xyz", 3, (1.0, 0.0, 0.0))
     limit = e.child(element, "limit")
     lower, upper = (e.numbers(limit, bound, 1, (None,))[0] for bound in ("lower", "upper"))
-    return UrdfJoint(name, kind, *ends, R, p, np.array(axis), lower, upper, e.mimic(), element.sourceline)
+    return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline)
 
 
 def read_link(element, source: str) -> UrdfLink:
@@ -87,7 +87,7 @@ def read_link(element, source: str) -> UrdfLink:
     name = _name(element, source)
     e = _Checked(element, source)
     inertial = e.child(element, "inertial")
-    _, com = e.origin(e.child(inertial, "origin"))
+    com, _ = e.origin(e.child(inertial, "origin"))
     mass_element = e.child(inertial, "mass")
     if mass_element is not None and mass_element.get("value") is None:
         e.fail('<mass> needs value="..." in kilograms', mass_element)
@@ -101,9 +101,8 @@ def read_link(element, source: str) -> UrdfLink:
 
 
 def rpy_matrix(rpy) -> np.ndarray:
-    """URDF's rotation of roll, pitch, yaw (3,) radians: Rz(yaw) Ry(pitch) Rx(roll), (3, 3)."""
-    roll, pitch, yaw = rpy
-    return euler_matrix("ZYX", np.array([yaw, pitch, roll]))
+    """URDF's rotations of roll, pitch, yaw (..., 3) radians: Rz(yaw) Ry(pitch) Rx(roll), (..., 3, 3)."""
+    return euler_matrix("ZYX", np.asarray(rpy, float)[..., ::-1])
 
 
 def _name(element, source: str) -> str:
@@ -154,10 +153,10 @@ class _Checked:
         return tuple(values)
 
     def origin(self, at) -> tuple[np.ndarray, np.ndarray]:
-        """`<origin xyz rpy>` as rotation (3, 3) and translation (3,); absent parts are zero."""
+        """`<origin xyz rpy>` as translation xyz (3,) and roll-pitch-yaw rpy (3,); absent parts are zero."""
         xyz = self.numbers(at, "xyz", 3, (0.0, 0.0, 0.0))
         rpy = self.numbers(at, "rpy", 3, (0.0, 0.0, 0.0))
-        return rpy_matrix(rpy), np.array(xyz)
+        return np.array(xyz), np.array(rpy)
 
     def mimic(self) -> Mimic | None:
         at = self.child(self.element, "mimic")
