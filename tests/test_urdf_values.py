@@ -10,8 +10,10 @@ from deik.io.errors import FileFormatError
 from deik.io.urdf import read_urdf
 
 # line 1: XML declaration, 2: <robot>, 3: links, 4: <joint ...>, 5: <parent>, 6: <origin>, 7: <axis>, 8: <limit>
-JOINT = ('<joint name="j" type="revolute">\n<parent link="a"/><child link="b"/>\n<origin xyz="0 0 1" rpy="0 0 0"/>\n'
-         '<axis xyz="0 0 1"/>\n<limit lower="-1" upper="1"/>\n</joint>')
+JOINT = (
+    '<joint name="j" type="revolute">\n<parent link="a"/><child link="b"/>\n<origin xyz="0 0 1" rpy="0 0 0"/>\n'
+    '<axis xyz="0 0 1"/>\n<limit lower="-1" upper="1"/>\n</joint>'
+)
 LINKS = '<link name="a"><inertial><origin xyz="0 0 0.5"/><mass value="2"/></inertial></link><link name="b"/>'
 
 
@@ -35,12 +37,16 @@ def _mass(value: str) -> str:
 
 
 # 10**9 letters once expanded
-BILLION_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE robot [\n<!ENTITY a "aaaaaaaaaa">\n'
-                  + "".join(f'<!ENTITY {b} "{("&" + a + ";") * 10}">\n' for a, b in zip("abcdefgh", "bcdefghi"))
-                  + ']>\n<robot name="&i;"><link name="a"/></robot>\n')
+BILLION_LAUGHS = (
+    '<?xml version="1.0"?>\n<!DOCTYPE robot [\n<!ENTITY a "aaaaaaaaaa">\n'
+    + "".join(f'<!ENTITY {b} "{("&" + a + ";") * 10}">\n' for a, b in zip("abcdefgh", "bcdefghi"))
+    + ']>\n<robot name="&i;"><link name="a"/></robot>\n'
+)
 BAD = {
-    "underscore": (_joint('upper="1"', 'upper="1_000"'),
-                   r"bad\.urdf:8: joint 'j': <limit upper=\"1_000\">: '1_000' is not a plain decimal number; write"),
+    "underscore": (
+        _joint('upper="1"', 'upper="1_000"'),
+        r"bad\.urdf:8: joint 'j': <limit upper=\"1_000\">: '1_000' is not a plain decimal number; write",
+    ),
     "hexadecimal": (_joint('lower="-1"', 'lower="0x10"'), r"bad\.urdf:8: joint 'j': .*'0x10' is not a plain decimal"),
     "bare exponent": (_joint('xyz="0 0 1" rpy', 'xyz="0 e5 1" rpy'), r"bad\.urdf:6: joint 'j': .*'e5' is not a plain"),
     "nan limit": (_joint('upper="1"', 'upper="nan"'), r"bad\.urdf:8: joint 'j': .*'nan' is not a plain decimal"),
@@ -53,20 +59,31 @@ BAD = {
     "two origins": (_joint("<axis", '<origin xyz="1 0 0"/><axis'), r"bad\.urdf:7: joint 'j': has 2 <origin> elements"),
     "no type": (_joint(' type="revolute"', ""), r"bad\.urdf:4: joint 'j': needs a type attribute"),
     "nameless mimic": (_joint("</joint>", '<mimic multiplier="2"/></joint>'), r"bad\.urdf:9: .*<mimic> needs joint="),
-    "mimic of fixed": (_robot(JOINT.replace("</joint>", '<mimic joint="k"/></joint>') + '<joint name="k" type="fixed">'
-                              '<parent link="b"/><child link="c"/></joint>', LINKS + '<link name="c"/>'),
-                       r"bad\.urdf:4: joint 'j': mimics 'k', a fixed joint; a mimic must follow"),
+    "mimic of fixed": (
+        _robot(
+            JOINT.replace("</joint>", '<mimic joint="k"/></joint>') + '<joint name="k" type="fixed">'
+            '<parent link="b"/><child link="c"/></joint>',
+            LINKS + '<link name="c"/>',
+        ),
+        r"bad\.urdf:4: joint 'j': mimics 'k', a fixed joint; a mimic must follow",
+    ),
     "bad multiplier": (_joint("</joint>", '<mimic joint="j" multiplier="2x"/></joint>'), r"'2x' is not a plain"),
     "nan mass": (_mass('value="nan"'), r"bad\.urdf:3: link 'a': <mass value=\"nan\">: 'nan' is not a plain decimal"),
     "infinite mass": (_mass('value="1e400"'), r"bad\.urdf:3: link 'a': .*1e400 is too large for a 64-bit float"),
     "huge mass": (_mass('value="1e13"'), r"bad\.urdf:3: link 'a': mass 1e\+13 kg is above the 1e\+12 kg"),
     "mass without value": (_mass(""), r"bad\.urdf:3: link 'a': <mass> needs value="),
-    "bad inertial origin": (_robot(links=LINKS.replace('xyz="0 0 0.5"', 'xyz="0 0 0.5" rpy="1,2,3"')),
-                            r"bad\.urdf:3: link 'a': <origin rpy=\"1,2,3\"> holds 1 numbers"),
+    "bad inertial origin": (
+        _robot(links=LINKS.replace('xyz="0 0 0.5"', 'xyz="0 0 0.5" rpy="1,2,3"')),
+        r"bad\.urdf:3: link 'a': <origin rpy=\"1,2,3\"> holds 1 numbers",
+    ),
     "billion laughs": (BILLION_LAUGHS, r"bad\.urdf:3: the <!DOCTYPE> declares entities .* remove the DOCTYPE"),
-    "external entity": (('<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n'
-                         '<robot name="r"><link name="&x;"/></robot>\n'),
-                        r"bad\.urdf:2: the <!DOCTYPE> declares entities"),
+    "external entity": (
+        (
+            '<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n'
+            '<robot name="r"><link name="&x;"/></robot>\n'
+        ),
+        r"bad\.urdf:2: the <!DOCTYPE> declares entities",
+    ),
 }
 
 
@@ -93,10 +110,18 @@ def test_cr_only_and_crlf_files_read_like_lf_files(tmp_path):
 
 def test_omitted_origin_and_axis_take_the_spec_defaults(tmp_path):
     """No <origin> is the identity and no <axis> is 1 0 0 (URDF spec)."""
-    explicit = _read(tmp_path, _joint('xyz="0 0 1" rpy="0 0 0"', 'xyz="0 0 0" rpy="0 0 0"')
-                     .replace('<axis xyz="0 0 1"/>', '<axis xyz="1 0 0"/>'), "explicit.urdf")
-    omitted = _read(tmp_path, _robot(JOINT.replace('<origin xyz="0 0 1" rpy="0 0 0"/>', "")
-                                     .replace('<axis xyz="0 0 1"/>', "")), "omitted.urdf")
+    explicit = _read(
+        tmp_path,
+        _joint('xyz="0 0 1" rpy="0 0 0"', 'xyz="0 0 0" rpy="0 0 0"').replace(
+            '<axis xyz="0 0 1"/>', '<axis xyz="1 0 0"/>'
+        ),
+        "explicit.urdf",
+    )
+    omitted = _read(
+        tmp_path,
+        _robot(JOINT.replace('<origin xyz="0 0 1" rpy="0 0 0"/>', "").replace('<axis xyz="0 0 1"/>', "")),
+        "omitted.urdf",
+    )
     partial = _read(tmp_path, _joint('xyz="0 0 1" rpy="0 0 0"', "").replace('xyz="0 0 1"', ""), "partial.urdf")
     for skeleton in (omitted, partial):
         np.testing.assert_array_equal(skeleton.dof_axis, [[1.0, 0.0, 0.0]])
@@ -105,8 +130,12 @@ def test_omitted_origin_and_axis_take_the_spec_defaults(tmp_path):
 
 
 def test_plain_decimals_in_every_spelling_are_read(tmp_path):
-    skeleton = _read(tmp_path, _joint('xyz="0 0 1" rpy="0 0 0"', 'xyz="+.5 -0. 1E-1" rpy="\t0  0\n0 "')
-                     .replace('lower="-1" upper="1"', 'lower="-1.5e+0" upper="2."'))
+    skeleton = _read(
+        tmp_path,
+        _joint('xyz="0 0 1" rpy="0 0 0"', 'xyz="+.5 -0. 1E-1" rpy="\t0  0\n0 "').replace(
+            'lower="-1" upper="1"', 'lower="-1.5e+0" upper="2."'
+        ),
+    )
     np.testing.assert_array_equal(skeleton.offsets[1], [0.5, 0.0, 0.1])
     assert (skeleton.lower[0], skeleton.upper[0]) == (-1.5, 2.0)
 

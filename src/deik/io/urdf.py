@@ -66,8 +66,10 @@ def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
         if source is None:
             fail(f"mimics unknown joint {joint.mimic.joint!r}{did_you_mean(joint.mimic.joint, tree.joints)}")
         if source.type not in MOVING or source.mimic is not None:
-            fail(f"mimics {source.name!r}, a {'mimic' if source.mimic else source.type} joint; "
-                 "a mimic must follow a revolute, continuous or prismatic joint that is not a mimic itself")
+            fail(
+                f"mimics {source.name!r}, a {'mimic' if source.mimic else source.type} joint; "
+                "a mimic must follow a revolute, continuous or prismatic joint that is not a mimic itself"
+            )
         return
     if joint.type in ("revolute", "prismatic"):
         if joint.lower is None or joint.upper is None:
@@ -80,8 +82,13 @@ def _dof(joint: UrdfJoint) -> Dof:
     kind = MOVING[joint.type]
     axis = tuple(joint.axis / np.linalg.norm(joint.axis))
     if joint.mimic is not None:
-        return Dof(kind, axis, name=joint.name, label=joint.type,
-                   mimic=(joint.mimic.joint, joint.mimic.multiplier, joint.mimic.offset))
+        return Dof(
+            kind,
+            axis,
+            name=joint.name,
+            label=joint.type,
+            mimic=(joint.mimic.joint, joint.mimic.multiplier, joint.mimic.offset),
+        )
     if joint.type == "continuous":
         return Dof(kind, axis, -math.pi, math.pi, 0.0, joint.type, joint.name)
     reference = min(max(0.0, joint.lower), joint.upper)

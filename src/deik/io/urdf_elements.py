@@ -95,8 +95,9 @@ def read_link(element, source: str) -> UrdfLink:
     if mass < 0:
         e.fail(f"mass {mass} must be a positive number of kg, or 0 for a massless link", mass_element)
     if mass > MAX_MASS:
-        e.fail(f"mass {mass:g} kg is above the {MAX_MASS:g} kg deik accepts; URDF masses are in kilograms",
-               mass_element)
+        e.fail(
+            f"mass {mass:g} kg is above the {MAX_MASS:g} kg deik accepts; URDF masses are in kilograms", mass_element
+        )
     return UrdfLink(name, mass, com, element.sourceline)
 
 

@@ -32,8 +32,10 @@ class LinkTree:
                 if end not in self.links:
                     fail(f"names unknown link {end!r}{did_you_mean(end, self.links)}")
             if joint.child in self.joint_of:
-                fail(f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; "
-                     "a URDF is a tree")
+                fail(
+                    f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; "
+                    "a URDF is a tree"
+                )
             self.joints[joint.name] = joint
             self.joint_of[joint.child] = joint
             self.children[joint.parent].append(joint.child)
@@ -47,6 +49,7 @@ class LinkTree:
 
     def failure(self, name: str, tag: str = "joint"):
         """A function that raises FileFormatError about element `name` at its line."""
+
         def fail(problem: str):
             raise FileFormatError(self.source, problem, line=self._lines.get((tag, name)), element=f"{tag} {name!r}")
 
@@ -80,8 +83,9 @@ class LinkTree:
         for name in [tip] if isinstance(tip, str) else list(tip):
             link = self._link(name, "tip")
             if link not in subtree:
-                raise KeyError(f"tip link {name!r} is not below base link {base!r}; "
-                               f"pick a base on its path from {self.root!r}")
+                raise KeyError(
+                    f"tip link {name!r} is not below base link {base!r}; pick a base on its path from {self.root!r}"
+                )
             while link != base:
                 keep.add(link)
                 link = self.joint_of[link].parent

@@ -28,8 +28,9 @@ def read_xml(path):
     # XML reads CR LF and a lone CR as LF anyway, so this changes no value, only the line count
     data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     _refuse_entity_declarations(data, source)
-    parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True, huge_tree=False,
-                             load_dtd=False)
+    parser = etree.XMLParser(
+        remove_comments=True, resolve_entities=False, no_network=True, huge_tree=False, load_dtd=False
+    )
     try:
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as error:
@@ -47,6 +48,8 @@ def _refuse_entity_declarations(data: bytes, source: str) -> None:
     declaration = data.find(b"<!ENTITY", doctype) if doctype >= 0 else -1
     if declaration >= 0:
         raise FileFormatError(
-            source, "the <!DOCTYPE> declares entities (<!ENTITY ...>), which deik refuses because they can expand "
-                    "to gigabytes or read other files; a URDF needs none: remove the DOCTYPE",
-            line=data.count(b"\n", 0, declaration) + 1)
+            source,
+            "the <!DOCTYPE> declares entities (<!ENTITY ...>), which deik refuses because they can expand "
+            "to gigabytes or read other files; a URDF needs none: remove the DOCTYPE",
+            line=data.count(b"\n", 0, declaration) + 1,
+        )
