@@ -168,3 +168,18 @@ def test_joint_types_outside_the_selected_chain_do_not_matter(tmp_path):
     with pytest.raises(FileFormatError, match="joint 'f': joint type 'floating' is not supported"):
         read_urdf(path)
     assert read_urdf(path, tip="b").dof_names == ("j",)
+
+
+def test_urdf_is_read_without_yourdfpy_or_trimesh(tmp_path):
+    """yourdfpy is a test-only oracle: deik itself must read URDF with neither it nor trimesh importable."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "robot.urdf"
+    path.write_text(_robot())
+    code = (
+        "import sys; sys.modules['yourdfpy'] = sys.modules['trimesh'] = None\n"
+        f"import deik; print(deik.read_urdf({str(path)!r}).dof_names)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout == "('j',)\n", done.stderr
