@@ -35,6 +35,62 @@ def test_fk_of_random_in_limit_poses_matches_yourdfpy(shared_data, robot):
             np.testing.assert_allclose(R[k], T[:3, :3], atol=1e-6, err_msg=link)
 
 
+# Rest rotations, a revolute joint without <origin>, one without <axis>, a prismatic joint, a
+# continuous joint, a mimic, a fixed tool frame with its own rotation and masses on fixed links.
+BUILT = """<?xml version="1.0"?>
+<robot name="built">
+  <link name="base"><inertial><origin xyz="0 0 0.05" rpy="0.1 0 0"/><mass value="3"/></inertial></link>
+  <link name="upper"><inertial><origin xyz="0.1 0.02 0.2"/><mass value="1.5"/></inertial></link>
+  <link name="slider"><inertial><mass value="0.4"/></inertial></link>
+  <link name="spin"/>
+  <link name="follower"><inertial><origin xyz="0 0.03 0.01"/><mass value="0.2"/></inertial></link>
+  <link name="flange"/>
+  <link name="tool"><inertial><origin xyz="0 0 0.04" rpy="0 1 0"/><mass value="0.7"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <axis xyz="0.6 0 0.8"/><limit lower="-2" upper="2.5" effort="1" velocity="1"/></joint>
+  <joint name="slide" type="prismatic"><parent link="upper"/><child link="slider"/>
+    <origin xyz="0.1 -0.2 0.3" rpy="0.3 -0.7 1.1"/><axis xyz="0 1 0"/><limit lower="-0.1" upper="0.4"/></joint>
+  <joint name="wrist" type="continuous"><parent link="slider"/><child link="spin"/>
+    <origin xyz="0 0 0.15" rpy="-1.2 0.4 0.2"/></joint>
+  <joint name="echo" type="revolute"><parent link="spin"/><child link="follower"/>
+    <origin xyz="0.05 0 0" rpy="0 1.5707963267948966 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/>
+    <mimic joint="shoulder" multiplier="-0.5" offset="0.25"/></joint>
+  <joint name="mount" type="fixed"><parent link="follower"/><child link="flange"/>
+    <origin xyz="0 0 0.08" rpy="3.0 -0.2 0.9"/></joint>
+  <joint name="tcp" type="fixed"><parent link="flange"/><child link="tool"/>
+    <origin xyz="0.02 0 0.1" rpy="0 0 -2.1"/><safety_controller k_velocity="1"/></joint>
+</robot>
+"""
+
+
+def _homogeneous(origin):
+    """The homogeneous point (4,) of an inertial <origin> (yourdfpy gives None when absent)."""
+    return np.array([0, 0, 0, 1.0]) if origin is None else origin[:, 3]
+
+
+def test_fk_and_com_of_a_built_robot_match_yourdfpy(tmp_path):
+    """Needs no shared data: every feature deik reads, checked against an independent reader."""
+    path = tmp_path / "built.urdf"
+    path.write_text(BUILT)
+    sk = read_urdf(path)
+    assert sk.dof_names == ("shoulder", "slide", "wrist") and sk.mimic_names == ("echo",)
+    assert sk.site_names == ("flange", "tool")
+    reference = _yourdfpy(path)
+    poses = np.random.default_rng(7).uniform(sk.lower, sk.upper, (30, sk.n_dofs))
+    kin = deik.forward_kinematics(sk, poses)
+    masses = {link.name: link.inertial for link in reference.robot.links if link.inertial is not None}
+    assert sk.total_mass == pytest.approx(sum(i.mass for i in masses.values()))
+    for q, R, p, com in zip(poses, kin.R_world_frame, kin.p_world_frame, kin.p_world_com):
+        reference.update_cfg(dict(zip(sk.dof_names, q)))
+        for link in reference.link_map:
+            T = reference.get_transform(link, reference.base_link)
+            np.testing.assert_allclose(p[sk.frame_index(link)], T[:3, 3], atol=1e-12, err_msg=link)
+            np.testing.assert_allclose(R[sk.frame_index(link)], T[:3, :3], atol=1e-12, err_msg=link)
+        centres = [reference.get_transform(name, reference.base_link)[:3] @ _homogeneous(i.origin) * i.mass
+                   for name, i in masses.items()]
+        np.testing.assert_allclose(com, np.sum(centres, axis=0) / sk.total_mass, atol=1e-12)
+
+
 @pytest.mark.parametrize("robot", sorted(ROBOTS))
 def test_centre_of_mass_matches_link_inertials(shared_data, robot):
     path = shared_data / "robots" / f"{robot}.urdf"
@@ -119,8 +175,10 @@ BAD_FILES = {
     "missing upper": (_robot(GOOD_JOINT.replace(' upper="1"', "")), r"joint 'j': a revolute joint needs <limit"),
     "inverted limits": (_robot(GOOD_JOINT.replace('lower="-1" upper="1"', 'lower="1" upper="-1"')),
                         r"joint 'j': lower limit 1\.0 is above upper limit -1\.0"),
-    "nan origin": (_robot(GOOD_JOINT.replace('rpy="0 0 0"', 'rpy="0 nan 0"')), r"bad\.urdf:4: joint 'j': origin or axis holds NaN"),
-    "zero axis": (_robot(GOOD_JOINT.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')), r"joint 'j': axis .* must be a finite non-zero"),
+    "nan origin": (_robot(GOOD_JOINT.replace('rpy="0 0 0"', 'rpy="0 nan 0"')),
+                   r"bad\.urdf:5: joint 'j': <origin rpy=\"0 nan 0\">: 'nan' is not a plain decimal"),
+    "zero axis": (_robot(GOOD_JOINT.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')),
+                  r"joint 'j': axis .* must be a non-zero vector"),
     "unknown link": (_robot(GOOD_JOINT.replace('child link="b"', 'child link="bb"')), r"joint 'j': names unknown link 'bb'; did you mean 'b'"),
     "no parent": (_robot(GOOD_JOINT.replace('<parent link="a"/>', "")), r"bad\.urdf:4: joint 'j': needs <parent link"),
     "two roots": (_robot(GOOD_JOINT, '<link name="a"/><link name="b"/><link name="c"/>'), r"one tree with one root, found roots \['a', 'c'\]"),

@@ -1,61 +1,30 @@
-"""The URDF file as XML (with line numbers for errors) and its link tree: the root, who is
-whose parent, and the sub-tree or chain a user picks by base and tip link names."""
+"""The link tree of a URDF robot: the root, who is whose parent, and the sub-tree or chain a
+user picks by base and tip link names."""
 
 from __future__ import annotations
 
-
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input
+from deik.io.urdf_elements import UrdfJoint, UrdfLink
 from deik.suggest import did_you_mean
-
-
-def read_xml(path):
-    """The `<robot>` element of the XML file at `path` (lxml, comments dropped, line numbers
-    kept). Unreadable, empty, binary or non-URDF files raise FileFormatError."""
-    from lxml import etree
-
-    source = str(path)
-    data = read_input(path, "URDF")
-    if not data.strip():
-        raise FileFormatError(source, "the file is empty; a URDF file holds a <robot> element")
-    if b"\0" in data:
-        raise FileFormatError(source, "not a text URDF (XML) file: it holds NUL bytes")
-    parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as error:
-        line = error.position[0] if error.position else None
-        raise FileFormatError(source, f"not well-formed XML: {error.msg}", line=line) from None
-    if root.tag != "robot":
-        raise FileFormatError(source, f"the top element is <{root.tag}>, a URDF needs <robot>", line=root.sourceline)
-    for tag in ("link", "joint"):
-        for element in root.findall(tag):
-            if not element.get("name"):
-                raise FileFormatError(source, f"a <{tag}> without a name attribute", line=element.sourceline)
-    for element in root.findall("joint"):
-        for part in ("parent", "child"):
-            child = element.find(part)
-            if child is None or not child.get("link"):
-                raise FileFormatError(source, f"needs <{part} link=\"...\"/>", line=element.sourceline,
-                                      element=f"joint {element.get('name')!r}")
-    return root
 
 
 class LinkTree:
     """Links and joints of a parsed robot by name, checked to form one tree."""
 
-    def __init__(self, robot, root_element, source: str):
+    def __init__(self, links: list[UrdfLink], joints: list[UrdfJoint], source: str):
         self.source = source
-        self._lines = {(e.tag, e.get("name")): e.sourceline for e in root_element if e.tag in ("link", "joint")}
+        self._lines = {}
         self.links = {}
-        for link in robot.links:
+        for link in links:
+            self._lines["link", link.name] = link.line
             if link.name in self.links:
                 self.failure(link.name, "link")("duplicate link name; every link needs its own name")
             self.links[link.name] = link
         if not self.links:
             raise FileFormatError(source, "the robot has no <link>")
         self.joints, self.joint_of, self.children = {}, {}, {name: [] for name in self.links}
-        for joint in robot.joints:
+        for joint in joints:
+            self._lines["joint", joint.name] = joint.line
             fail = self.failure(joint.name)
             if joint.name in self.joints:
                 fail("duplicate joint name; every joint needs its own name")
@@ -63,7 +32,10 @@ class LinkTree:
                 if end not in self.links:
                     fail(f"names unknown link {end!r}{did_you_mean(end, self.links)}")
             if joint.child in self.joint_of:
-                fail(f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; a URDF is a tree")
+                fail(
+                    f"link {joint.child!r} already has parent joint {self.joint_of[joint.child].name!r}; "
+                    "a URDF is a tree"
+                )
             self.joints[joint.name] = joint
             self.joint_of[joint.child] = joint
             self.children[joint.parent].append(joint.child)
@@ -77,6 +49,7 @@ class LinkTree:
 
     def failure(self, name: str, tag: str = "joint"):
         """A function that raises FileFormatError about element `name` at its line."""
+
         def fail(problem: str):
             raise FileFormatError(self.source, problem, line=self._lines.get((tag, name)), element=f"{tag} {name!r}")
 
@@ -110,7 +83,9 @@ class LinkTree:
         for name in [tip] if isinstance(tip, str) else list(tip):
             link = self._link(name, "tip")
             if link not in subtree:
-                raise KeyError(f"tip link {name!r} is not below base link {base!r}; pick a base on its path from {self.root!r}")
+                raise KeyError(
+                    f"tip link {name!r} is not below base link {base!r}; pick a base on its path from {self.root!r}"
+                )
             while link != base:
                 keep.add(link)
                 link = self.joint_of[link].parent
