@@ -324,3 +324,22 @@ def test_a_bug_is_reported_as_an_internal_error_not_a_usage_error(monkeypatch, c
     status, err = _cli(["info", "chain:2"], capsys)
     assert status == 3 and err.startswith("deik: internal error: IndexError") and "please report it" in err
     assert err.count("\n") == 1
+
+
+def test_info_on_a_robot_without_free_dofs_describes_it_and_solve_refuses_it(tmp_path, capsys):
+    path = _write(
+        tmp_path,
+        """<?xml version="1.0"?><robot name="r"><link name="a"><inertial><mass value="1"/>
+        </inertial></link><link name="b"/><joint name="j" type="fixed"><parent link="a"/><child link="b"/>
+        <origin xyz="0 0 1"/></joint></robot>""",
+    )
+    assert _cli(["info", path], capsys)[0] == 0
+    status, err = _cli(["solve", "--skeleton", path, "--reach", "b", 0, 0, 1], capsys)
+    assert status == 2 and "has no free DOF to solve for" in err and err.count("\n") == 1
+
+
+def test_a_problem_file_that_is_not_utf8_is_named(tmp_path, capsys):
+    path = tmp_path / "latin.toml"
+    path.write_bytes('skeleton = "chain:3"\n# r\xe9sum\xe9\n'.encode("latin-1"))
+    status, err = _cli(["solve", "--problem", path], capsys)
+    assert status == 2 and "latin.toml: not a text (UTF-8) problem (TOML) file" in err
