@@ -167,6 +167,6 @@ def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
     from deik.kernels.pack import pack_skeleton
 
     sk = read_urdf(shared_data / "robots" / "panda.urdf")
-    limits = pack_skeleton(sk, np.float32)[8].astype(np.float64)
+    limits = pack_skeleton(sk, np.float32).limits.astype(np.float64)
     assert np.all(limits[:, 0] >= sk.lower) and np.all(limits[:, 1] <= sk.upper)
     assert np.all(limits[:, 0] - sk.lower < 1e-6) and np.all(sk.upper - limits[:, 1] < 1e-6)

@@ -12,12 +12,27 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.kernels.layout import MAX_POLISH_COUNT
+from deik.kernels.layout import (
+    BEST_1,
+    CLIP,
+    CURRENT_TO_BEST_1,
+    MAX_POLISH_COUNT,
+    PAPER,
+    PENALTY,
+    RAND_1,
+    REFLECT,
+    Buffers,
+    Control,
+    KernelSettings,
+    Memetic,
+    Status,
+)
 from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.problem import Problem
 
-STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
-LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
+STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
+LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
 DEVICES = ("cpu", "gpu")
 STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
 
@@ -135,13 +150,12 @@ class EvolutionState:
     generation: int
 
     @property
-    def buffers(self):
-        return self.pop, self.levels, self.total, self.raw, self.rates
+    def buffers(self) -> Buffers:
+        return Buffers(*(getattr(self, name) for name in Buffers._fields))
 
     @property
-    def status(self):
-        return (self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved,
-                self.restarts, self.restarting, self.elite, self.leaders)
+    def status(self) -> Status:
+        return Status(*(getattr(self, name) for name in Status._fields))
 
 
 class Engine:
@@ -152,19 +166,20 @@ class Engine:
         dtype = np.dtype(settings.dtype)
         self.skel = pack_skeleton(problem.skeleton, dtype)
         self.terms = pack_terms(problem.table, problem.reference, dtype)
-        self.kernel_settings = (
-            np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
-            dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed), settings.adaptive,
-            np.int64(settings.islands),
+        self.kernel_settings = KernelSettings(
+            strategy=np.int64(STRATEGIES[settings.strategy]), limit_mode=np.int64(LIMIT_CODES[problem.limits]),
+            F=dtype.type(settings.F), CR=dtype.type(settings.CR), seed=np.uint64(settings.seed),
+            adaptive=bool(settings.adaptive), islands=np.int64(settings.islands),
         )
-        self.memetic = (np.int64(settings.polish), np.int64(settings.polish_every),
-                        np.int64(min(settings.polish_count, settings.population)))
+        self.memetic = Memetic(iterations=np.int64(settings.polish), every=np.int64(settings.polish_every),
+                               count=np.int64(min(settings.polish_count, settings.population)))
         stop = settings.stop_on_converged
         if stop is None:
-            weight, tolerance = problem.table.term_float[:, 0], problem.table.term_float[:, 3]
+            weight, tolerance = problem.table.term_float[:, WEIGHT], problem.table.term_float[:, TOLERANCE]
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
-        self.control = (np.int64(settings.patience), STAGNATION, stop, np.int64(settings.restarts),
-                        np.int64(settings.migration))
+        self.control = Control(patience=np.int64(settings.patience), rel_improvement=STAGNATION,
+                               stop_on_converged=bool(stop), max_restarts=np.int64(settings.restarts),
+                               migration=np.int64(settings.migration))
         if settings.device == "gpu":
             try:
                 from deik.kernels.cuda import CudaBackend
@@ -185,11 +200,10 @@ class Engine:
         parameters are packed again."""
         new = copy.copy(self)
         new.problem = problem
-        t = self.terms
-        new.terms = (t[0], t[1], np.ascontiguousarray(problem.table.params, t[2].dtype), t[3], t[4])
+        new.terms = self.terms._replace(params=np.ascontiguousarray(problem.table.params, self.terms.params.dtype))
         if seed is not None and seed != self.settings.seed:
             new.settings = replace(self.settings, seed=seed)
-            new.kernel_settings = self.kernel_settings[:4] + (np.uint64(seed),) + self.kernel_settings[5:]
+            new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
         return new
 
     def _initial(self, initial, B, D, dtype):
@@ -211,13 +225,15 @@ class Engine:
         init, n_init = self._initial(initial, B, D, dtype)
         pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
         total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
-        self.backend.initialise((pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings,
+        self.backend.initialise(Buffers(pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings,
                                 init, n_init)
         best = np.lexsort(np.moveaxis(levels, -1, 0)[::-1], axis=-1)[:, 0].astype(np.int64)
         return EvolutionState(
-            pop, levels, total, raw, rates, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
-            total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros(B, np.int64),
-            np.zeros(B, np.bool_), np.full(B, -1, np.int64), self._leaders(levels), np.zeros((B, 0, 2)), 0,
+            pop=pop, levels=levels, total=total, raw=raw, rates=rates, best=best, active=np.ones(B, np.bool_),
+            generations=np.zeros(B, np.int64), converged=np.zeros(B, np.bool_),
+            best_seen=total[np.arange(B), best].astype(np.float64), last_improved=np.zeros(B, np.int64),
+            restarts=np.zeros(B, np.int64), restarting=np.zeros(B, np.bool_), elite=np.full(B, -1, np.int64),
+            leaders=self._leaders(levels), history=np.zeros((B, 0, 2)), generation=0,
         )
 
     def _leaders(self, levels: np.ndarray) -> np.ndarray:
@@ -231,18 +247,19 @@ class Engine:
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
         B = state.pop.shape[0]
-        cur = tuple(a.copy() for a in state.buffers)
-        nxt = tuple(a.copy() for a in state.buffers)  # stopped problems must be in both
-        status = tuple(a.copy() for a in state.status)
+        cur = Buffers(*(a.copy() for a in state.buffers))
+        nxt = Buffers(*(a.copy() for a in state.buffers))  # stopped problems must be in both
+        status = Status(*(a.copy() for a in state.status))
         # generation-major and left unfilled: a launch touches only the rows it runs, however
         # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
         steps = np.empty((n_generations, B, 2))
         final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, self.memetic,
                                            status, self.control, steps, state.generation, n_generations)
         ran = state.generation + np.arange(advanced)  # rows a problem that had stopped did not write
-        new = np.where((ran[:, None] < status[2][None, :])[..., None], steps[:advanced], np.nan)
+        new = np.where((ran[:, None] < status.generations[None, :])[..., None], steps[:advanced], np.nan)
         history = np.concatenate([state.history, new.transpose(1, 0, 2)], axis=1)
-        return EvolutionState(*final, *status, history, state.generation + advanced)
+        return EvolutionState(**final._asdict(), **status._asdict(), history=history,
+                              generation=state.generation + advanced)
 
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
@@ -250,7 +267,7 @@ class Engine:
         from deik.kernels.cpu_backend import evaluate_poses
 
         skel, terms = self.skel, self.terms
-        if skel[1].dtype != np.float64:
+        if skel.joint_frame.dtype != np.float64:
             skel = pack_skeleton(self.problem.skeleton, np.float64)
             terms = pack_terms(self.problem.table, self.problem.reference, np.float64)
         return evaluate_poses(poses, np.arange(len(poses)), skel, terms, self.problem.table.n_levels)[2]
