@@ -108,7 +108,8 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
         dx, dy, dz = p[3 * f] - g[0], p[3 * f + 1] - g[1], p[3 * f + 2] - g[2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
     if kind == ORIENTATION:
-        return rotation_error(R, f, g)[3]
+        _, _, _, angle = rotation_error(R, f, g)
+        return angle
     if kind == AIM:
         ax, ay, az = rotate_point(R, 9 * f, g[0], g[1], g[2])
         vx, vy, vz = g[3] - p[3 * f], g[4] - p[3 * f + 1], g[5] - p[3 * f + 2]
