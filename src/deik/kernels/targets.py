@@ -8,15 +8,16 @@ target's compiled function; other imports (layout and term-kind constants) run a
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
 the device files, so kernel files get a locator whose stamp hashes every source in this folder
-and the deik modules outside it that they import constants from (Numba freezes those into the
-machine code): an edit to any of them recompiles all kernels instead of loading a stale one.
+and the values of the constants the device files import from outside it (Numba freezes them
+into the machine code): a change to any of them recompiles all kernels instead of loading a
+stale one.
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
-import importlib.util
+import importlib
 import inspect
 import sys
 import types
@@ -30,30 +31,27 @@ KERNEL_DIR = Path(__file__).resolve().parent
 DEVICE_PREFIX = "deik.kernels.device_"
 
 
-def _imported_deik_modules(tree: ast.Module) -> set[str]:
-    return {node.module for node in ast.walk(tree)
-            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("deik.")}
-
-
 @lru_cache(maxsize=1)
-def _kernel_sources() -> tuple[Path, ...]:
-    """Every source in this folder, then the outside deik modules the device files and layout.py
-    import from."""
-    inside = sorted(KERNEL_DIR.glob("*.py"))
-    outside = set()
-    for path in inside:
+def _outside_constants() -> bytes:
+    """The module-level numbers of the deik modules outside this folder that the device files and
+    layout.py import (term kinds, motion kinds): their values, not their files, so that an edit
+    elsewhere in those modules keeps the cache."""
+    modules = set()
+    for path in KERNEL_DIR.glob("*.py"):
         if path.name.startswith("device_") or path.name == "layout.py":
-            for module in _imported_deik_modules(ast.parse(path.read_text())):
-                origin = Path(importlib.util.find_spec(module).origin).resolve()
-                if origin.parent != KERNEL_DIR:
-                    outside.add(origin)
-    return tuple(inside) + tuple(sorted(outside))
+            modules |= {node.module for node in ast.walk(ast.parse(path.read_text()))
+                        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("deik.")
+                        and not node.module.startswith("deik.kernels.")}
+    return repr([(module, key, value) for module in sorted(modules)
+                 for key, value in sorted(vars(importlib.import_module(module)).items())
+                 if isinstance(value, (int, float))]).encode()
 
 
 def _kernel_sources_stamp() -> bytes:
     digest = hashlib.sha256()
-    for path in _kernel_sources():
+    for path in sorted(KERNEL_DIR.glob("*.py")):
         digest.update(path.read_bytes())
+    digest.update(_outside_constants())
     return digest.digest()
 
 
