@@ -1,8 +1,9 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
-Every generation reads the current buffers (pop, levels, total, raw) and writes the next;
-individuals are split into chunks, one scratch allocation per chunk. Results do not depend on
-the thread count: each individual's trial depends only on (seed, problem, generation,
+Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.kernels.layout)
+and writes the next; individuals are split into chunks, one scratch allocation per chunk, and
+each individual's work is device_driver.py's, the same code the GPU kernels run. Results do not
+depend on the thread count: each individual's trial depends only on (seed, problem, generation,
 individual) and the current population, and the per-problem bookkeeping runs in index order.
 """
 

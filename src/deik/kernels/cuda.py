@@ -2,9 +2,10 @@
 
 Threads stride over the population, so any population size fits one block; the block
 ping-pongs its problem's buffers in global memory and synchronises between generations, and
-thread 0 does the per-problem bookkeeping (device.update_status) in between. The maths is the
-same source as the CPU kernels (deik.kernels.device_*.py compiled with cuda.jit). Runs in Numba's
-CUDA simulator when NUMBA_ENABLE_CUDASIM=1 (how CI tests it).
+thread 0 does the per-problem bookkeeping (device_evolution.update_status) in between. What one
+thread does for one individual is the CPU kernels' own code (device_driver.py, compiled with
+cuda.jit); the kernels here take the NamedTuples of deik.kernels.layout, device arrays inside.
+Runs in Numba's CUDA simulator when NUMBA_ENABLE_CUDASIM=1 (how CI tests it).
 """
 
 from __future__ import annotations
