@@ -60,8 +60,9 @@ def test_throughput_rows_are_joint_evaluations_per_second(results):
 def test_headline_compares_the_engine_with_the_serial_reference(results):
     rows = load(results, "headline")["rows"]
     assert [r["engine"].split(" (")[0] for r in rows] == ["serial", "parallel CPU"]
-    assert rows[0]["speedup"] == 1.0 and all(positive(r["seconds_per_generation"]) and positive(r["speedup"])
-                                             for r in rows)
+    assert rows[0]["speedup"] == 1.0 and all(
+        positive(r["seconds_per_generation"]) and positive(r["speedup"]) for r in rows
+    )
 
 
 @pytest.mark.slow
@@ -95,14 +96,15 @@ def test_run_all_summarises_every_stage(results):
 
 
 def test_changing_values_never_recompiles_the_cpu_kernels():
-    kernels = (cpu.initialise, cpu.run_generations, cpu.evaluate_poses)
+    kernels = (cpu.initialise, cpu.run_generations, cpu._breed, cpu._polish, cpu.evaluate_poses)
     sk = deik.chain(6)
     rng = np.random.default_rng(0)
 
     def problem(batch=1, weight=1.0):
         targets = deik.forward_kinematics(sk, rng.uniform(sk.lower, sk.upper, (batch, sk.n_dofs))).position("tip")
-        return deik.Problem(sk, [deik.Position("tip", targets if batch > 1 else targets[0], weight=weight,
-                                               tolerance=0.01 * sk.reach)])
+        return deik.Problem(
+            sk, [deik.Position("tip", targets if batch > 1 else targets[0], weight=weight, tolerance=0.01 * sk.reach)]
+        )
 
     def solve(p=None, **changes):
         return deik.solve(p or problem(), **{"population": 16, "generations": 20, "seed": 0, **changes})

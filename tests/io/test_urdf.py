@@ -13,8 +13,9 @@ ROBOTS = {"panda": (0, 0, 1), "kuka_iiwa": (0, 0, 1), "human": (0, 1, 0)}
 
 
 def _yourdfpy(path):
-    return yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False,
-                              load_collision_meshes=False)
+    return yourdfpy.URDF.load(
+        str(path), load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
+    )
 
 
 @pytest.mark.parametrize("robot", sorted(ROBOTS))
@@ -23,7 +24,8 @@ def test_fk_of_random_in_limit_poses_matches_yourdfpy(shared_data, robot):
     sk = read_urdf(path, up=ROBOTS[robot])
     reference = _yourdfpy(path)
     assert len(sk.dof_names) + len(sk.mimic_names) == len(reference.actuated_joint_names) + len(
-        [j for j in reference.robot.joints if j.mimic is not None])
+        [j for j in reference.robot.joints if j.mimic is not None]
+    )
     poses = np.random.default_rng(len(robot)).uniform(sk.lower, sk.upper, (25, sk.n_dofs))
     kin = deik.forward_kinematics(sk, poses)
     for q, R, p in zip(poses, kin.R_world_frame, kin.p_world_frame):
@@ -86,8 +88,10 @@ def test_fk_and_com_of_a_built_robot_match_yourdfpy(tmp_path):
             T = reference.get_transform(link, reference.base_link)
             np.testing.assert_allclose(p[sk.frame_index(link)], T[:3, 3], atol=1e-12, err_msg=link)
             np.testing.assert_allclose(R[sk.frame_index(link)], T[:3, :3], atol=1e-12, err_msg=link)
-        centres = [reference.get_transform(name, reference.base_link)[:3] @ _homogeneous(i.origin) * i.mass
-                   for name, i in masses.items()]
+        centres = [
+            reference.get_transform(name, reference.base_link)[:3] @ _homogeneous(i.origin) * i.mass
+            for name, i in masses.items()
+        ]
         np.testing.assert_allclose(com, np.sum(centres, axis=0) / sk.total_mass, atol=1e-12)
 
 
@@ -96,13 +100,16 @@ def test_centre_of_mass_matches_link_inertials(shared_data, robot):
     path = shared_data / "robots" / f"{robot}.urdf"
     sk = read_urdf(path)
     reference = _yourdfpy(path)
-    masses = {link.name: link.inertial for link in reference.robot.links
-              if link.inertial is not None and link.inertial.mass}
+    masses = {
+        link.name: link.inertial for link in reference.robot.links if link.inertial is not None and link.inertial.mass
+    }
     assert sk.total_mass == pytest.approx(sum(i.mass for i in masses.values()))
     q = np.random.default_rng(3).uniform(sk.lower, sk.upper)
     reference.update_cfg(dict(zip(sk.dof_names, q)))
-    points = [(reference.get_transform(name, reference.base_link) @ inertial.origin)[:3, 3] * inertial.mass
-              for name, inertial in masses.items()]
+    points = [
+        (reference.get_transform(name, reference.base_link) @ inertial.origin)[:3, 3] * inertial.mass
+        for name, inertial in masses.items()
+    ]
     expected = np.sum(points, axis=0) / sk.total_mass
     np.testing.assert_allclose(deik.forward_kinematics(sk, q).p_world_com, expected, atol=1e-9)
 
@@ -152,7 +159,9 @@ def test_unknown_base_suggests_close_names(shared_data):
 
 def test_pybullet_only_source_is_refused_with_the_joint_and_line(shared_data):
     path = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"
-    with pytest.raises(FileFormatError, match=r"humanoid_deepmimic_source\.urdf:\d+: joint 'chest': joint type 'spherical'"):
+    with pytest.raises(
+        FileFormatError, match=r"humanoid_deepmimic_source\.urdf:\d+: joint 'chest': joint type 'spherical'"
+    ):
         read_urdf(path)
 
 
@@ -160,8 +169,10 @@ def _robot(joint_xml: str, links: str = '<link name="a"/><link name="b"/>') -> s
     return f'<?xml version="1.0"?>\n<robot name="r">\n{links}\n{joint_xml}\n</robot>\n'
 
 
-GOOD_JOINT = ('<joint name="j" type="revolute">\n<parent link="a"/><child link="b"/>'
-              '<origin xyz="0 0 1" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>')
+GOOD_JOINT = (
+    '<joint name="j" type="revolute">\n<parent link="a"/><child link="b"/>'
+    '<origin xyz="0 0 1" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>'
+)
 
 BAD_FILES = {
     "empty": ("", r"bad\.urdf: the file is empty"),
@@ -169,22 +180,44 @@ BAD_FILES = {
     "truncated": (_robot(GOOD_JOINT)[:-20], r"bad\.urdf:\d+: not well-formed XML"),
     "not a robot": ('<?xml version="1.0"?>\n<scene/>\n', r"bad\.urdf:2: the top element is <scene>"),
     "unknown type": (_robot(GOOD_JOINT.replace("revolute", "ball")), r"bad\.urdf:4: joint 'j': joint type 'ball'"),
-    "floating": (_robot(GOOD_JOINT.replace("revolute", "floating")), r"joint 'j': joint type 'floating' is not supported"),
-    "missing limits": (_robot(GOOD_JOINT.replace('<limit lower="-1" upper="1"/>', "")),
-                       r"bad\.urdf:4: joint 'j': a revolute joint needs <limit lower=\.\.\. upper=\.\.\.>"),
+    "floating": (
+        _robot(GOOD_JOINT.replace("revolute", "floating")),
+        r"joint 'j': joint type 'floating' is not supported",
+    ),
+    "missing limits": (
+        _robot(GOOD_JOINT.replace('<limit lower="-1" upper="1"/>', "")),
+        r"bad\.urdf:4: joint 'j': a revolute joint needs <limit lower=\.\.\. upper=\.\.\.>",
+    ),
     "missing upper": (_robot(GOOD_JOINT.replace(' upper="1"', "")), r"joint 'j': a revolute joint needs <limit"),
-    "inverted limits": (_robot(GOOD_JOINT.replace('lower="-1" upper="1"', 'lower="1" upper="-1"')),
-                        r"joint 'j': lower limit 1\.0 is above upper limit -1\.0"),
-    "nan origin": (_robot(GOOD_JOINT.replace('rpy="0 0 0"', 'rpy="0 nan 0"')),
-                   r"bad\.urdf:5: joint 'j': <origin rpy=\"0 nan 0\">: 'nan' is not a plain decimal"),
-    "zero axis": (_robot(GOOD_JOINT.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')),
-                  r"joint 'j': axis .* must be a non-zero vector"),
-    "unknown link": (_robot(GOOD_JOINT.replace('child link="b"', 'child link="bb"')), r"joint 'j': names unknown link 'bb'; did you mean 'b'"),
+    "inverted limits": (
+        _robot(GOOD_JOINT.replace('lower="-1" upper="1"', 'lower="1" upper="-1"')),
+        r"joint 'j': lower limit 1\.0 is above upper limit -1\.0",
+    ),
+    "nan origin": (
+        _robot(GOOD_JOINT.replace('rpy="0 0 0"', 'rpy="0 nan 0"')),
+        r"bad\.urdf:5: joint 'j': <origin rpy=\"0 nan 0\">: 'nan' is not a plain decimal",
+    ),
+    "zero axis": (
+        _robot(GOOD_JOINT.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')),
+        r"joint 'j': axis .* must be a non-zero vector",
+    ),
+    "unknown link": (
+        _robot(GOOD_JOINT.replace('child link="b"', 'child link="bb"')),
+        r"joint 'j': names unknown link 'bb'; did you mean 'b'",
+    ),
     "no parent": (_robot(GOOD_JOINT.replace('<parent link="a"/>', "")), r"bad\.urdf:4: joint 'j': needs <parent link"),
-    "two roots": (_robot(GOOD_JOINT, '<link name="a"/><link name="b"/><link name="c"/>'), r"one tree with one root, found roots \['a', 'c'\]"),
-    "unknown mimic": (_robot(GOOD_JOINT.replace("</joint>", '<mimic joint="zz"/></joint>')), r"joint 'j': mimics unknown joint 'zz'"),
-    "negative mass": (_robot(GOOD_JOINT, '<link name="a"><inertial><mass value="-2"/></inertial></link><link name="b"/>'),
-                      r"bad\.urdf:3: link 'a': mass -2\.0 must be a positive"),
+    "two roots": (
+        _robot(GOOD_JOINT, '<link name="a"/><link name="b"/><link name="c"/>'),
+        r"one tree with one root, found roots \['a', 'c'\]",
+    ),
+    "unknown mimic": (
+        _robot(GOOD_JOINT.replace("</joint>", '<mimic joint="zz"/></joint>')),
+        r"joint 'j': mimics unknown joint 'zz'",
+    ),
+    "negative mass": (
+        _robot(GOOD_JOINT, '<link name="a"><inertial><mass value="-2"/></inertial></link><link name="b"/>'),
+        r"bad\.urdf:3: link 'a': mass -2\.0 must be a positive",
+    ),
     "nameless link": (_robot(GOOD_JOINT, '<link/><link name="b"/>'), r"bad\.urdf:3: a <link> without a name"),
 }
 
@@ -214,8 +247,10 @@ def test_missing_file_is_named(tmp_path):
 
 def test_meshes_are_never_loaded(tmp_path):
     """A visual mesh that does not exist must not matter: geometry is stripped before parsing."""
-    links = ('<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link>'
-             '<link name="b"/>')
+    links = (
+        '<link name="a"><visual><geometry><mesh filename="package://missing/arm.stl"/></geometry></visual></link>'
+        '<link name="b"/>'
+    )
     path = tmp_path / "mesh.urdf"
     path.write_text(_robot(GOOD_JOINT, links))
     assert read_urdf(path).n_dofs == 1
@@ -228,6 +263,6 @@ def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
     from deik.kernels.pack import pack_skeleton
 
     sk = read_urdf(shared_data / "robots" / "panda.urdf")
-    limits = pack_skeleton(sk, np.float32)[8].astype(np.float64)
+    limits = pack_skeleton(sk, np.float32).limits.astype(np.float64)
     assert np.all(limits[:, 0] >= sk.lower) and np.all(limits[:, 1] <= sk.upper)
     assert np.all(limits[:, 0] - sk.lower < 1e-6) and np.all(sk.upper - limits[:, 1] < 1e-6)

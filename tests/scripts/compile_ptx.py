@@ -31,10 +31,22 @@ def signature(*args):
     return tuple(typeof(a) for a in args)
 
 
-run_args = (buffers, buffers, engine.skel, engine.terms, engine.kernel_settings, engine.memetic, status, engine.control,
-            np.zeros((10, B, 2)), np.int64(0), np.int64(5), np.zeros(B, np.int64),
-            np.zeros((B, int(engine.memetic[2]), D * D), np.float32))
-init_args = (*buffers, engine.skel, engine.terms, engine.kernel_settings, np.zeros((B, 1, D), np.float32), np.int64(0))
+run_args = (
+    buffers,
+    buffers,
+    engine.skel,
+    engine.terms,
+    engine.kernel_settings,
+    engine.memetic,
+    status,
+    engine.control,
+    np.zeros((10, B, 2)),
+    np.int64(0),
+    np.int64(5),
+    np.zeros(B, np.int64),
+    np.zeros((B, int(engine.memetic.count), D * D), np.float32),
+)
+init_args = (buffers, engine.skel, engine.terms, engine.kernel_settings, np.zeros((B, 1, D), np.float32), np.int64(0))
 for name, kernel, args in (("run", run, run_args), ("initialise", initialise, init_args)):
     ptx, _ = cuda.compile_ptx(kernel.py_func, signature(*args), cc=(9, 0))
     print(name, "entry" if ".entry" in ptx else "missing", len(ptx))

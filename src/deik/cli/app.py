@@ -21,9 +21,9 @@ import argparse
 import os
 import sys
 
+from deik import __version__
 from deik.cli import clip as cli_clip
 from deik.cli import solve as cli_solve
-from deik import __version__
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
 

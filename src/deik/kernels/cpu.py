@@ -1,8 +1,9 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
-Every generation reads the current buffers (pop, levels, total, raw) and writes the next;
-individuals are split into chunks, one scratch allocation per chunk. Results do not depend on
-the thread count: each individual's trial depends only on (seed, problem, generation,
+Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.kernels.layout)
+and writes the next; individuals are split into chunks, one scratch allocation per chunk, and
+each individual's work is device_driver.py's, the same code the GPU kernels run. Results do not
+depend on the thread count: each individual's trial depends only on (seed, problem, generation,
 individual) and the current population, and the per-problem bookkeeping runs in index order.
 """
 
@@ -11,63 +12,53 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from deik.kernels.layout import WORK_SIZE, LmScratch, Scratch
 from deik.kernels.targets import cpu as dev
 
-INIT_GENERATION = -1
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
 
 
 @njit(cache=True)
 def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
-    frames = skel[0].shape[0] + skel[4].shape[0]
-    R = np.empty(frames * 9, dtype_probe.dtype)
-    p = np.empty(frames * 3, dtype_probe.dtype)
-    work = np.empty(32, dtype_probe.dtype)
-    return (R, p, work), np.empty(n_dofs, dtype_probe.dtype), np.empty(n_levels, dtype_probe.dtype), \
-        np.empty(n_terms, dtype_probe.dtype)
+    """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
+    frames, t = dev.frame_count(skel), dtype_probe.dtype
+    scratch = Scratch(np.empty(frames * 9, t), np.empty(frames * 3, t), np.empty(WORK_SIZE, t))
+    return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
 
 
 @njit(cache=True)
 def _polish_scratch(skel, dtype_probe, n_dofs):
-    """(axes (N*6,), lm = (A, gradient, jac, delta)) for device.polish."""
+    """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
-    lm = (np.empty(D * D, t), np.empty(D, t), np.empty(3 * D, t), np.empty(D, t))
-    return np.empty(6 * skel[2].shape[0], t), lm
+    lm = LmScratch(np.empty(D * D, t), np.empty(D, t), np.empty(3 * D, t), np.empty(D, t))
+    return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
 @njit(parallel=True, cache=True)
-def initialise(pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial, n_chunks):
-    """Fill pop (B, P, D) uniformly inside the limits (the first n_initial individuals of each
-    problem copy initial (B, n_initial, D)), set every individual's F, CR (rates (B, P, 2)) to
-    the settings' and evaluate it. n_chunks: work units (a few per thread; 1 runs in the
-    calling thread); it changes the split of work, never the result."""
-    n = pop.shape[0] * pop.shape[1]
+def initialise(state, skel, terms, settings, initial, n_initial, n_chunks):
+    """Fill the Buffers `state`: pop (B, P, D) uniformly inside the limits (the first n_initial
+    individuals of each problem copy initial (B, n_initial, D)), every individual's F and CR
+    the settings', then evaluated (device_driver.initialise_individual). n_chunks: work units
+    (a few per thread; 1 runs in the calling thread); it changes the split of work, never the
+    result."""
+    n = state.pop.shape[0] * state.pop.shape[1]
     n_chunks = max(1, min(n, n_chunks))
     if n_chunks == 1:
-        _initialise_chunk(0, 1, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial)
+        _initialise_chunk(0, 1, state, skel, terms, settings, initial, n_initial)
     else:
         for c in prange(n_chunks):
-            _initialise_chunk(c, n_chunks, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial)
+            _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial)
 
 
 @njit(cache=True)
-def _initialise_chunk(c, n_chunks, pop, levels, total, raw, rates, skel, terms, settings, initial, n_initial):
+def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `n_chunks` of initialise's individuals."""
-    B, P, D = pop.shape
-    limits, seed = skel[8], settings[4]
+    B, P, D = state.pop.shape
     n = B * P
-    scratch, _, lv, rw = _scratch(skel, pop, raw.shape[2], levels.shape[2], D)
+    scratch, _, _, _ = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-        b, i = idx // P, idx % P
-        for d in range(D):
-            if i < n_initial:
-                pop[b, i, d] = initial[b, i, d]
-            else:
-                u = dev.uniform(seed, b, INIT_GENERATION, i, d)
-                pop[b, i, d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * u
-        rates[b, i, 0], rates[b, i, 1] = settings[2], settings[3]
-        total[b, i] = dev.evaluate(pop[b, i], b, skel, terms, scratch, levels[b, i], raw[b, i])
+        dev.initialise_individual(idx // P, idx % P, state, skel, terms, settings, initial, n_initial, scratch)
 
 
 @njit(cache=True)
@@ -75,7 +66,7 @@ def _chunks(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
     a descheduled thread stalls the loop; else a few per thread."""
-    if n_jobs * work_per_job * (skel[0].shape[0] + skel[4].shape[0]) < SERIAL_WORK:
+    if n_jobs * work_per_job * dev.frame_count(skel) < SERIAL_WORK:
         return 1
     return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
 
@@ -92,53 +83,65 @@ def _active_problems(active):
     return order, n
 
 
+@njit(parallel=True, cache=True)
+def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
+    """One generation's trials over the n active individuals, in `chunks` work units. (A parallel
+    function of its own: Numba's parfors rebuild a NamedTuple argument of the loop body only
+    from a function argument, not from run_generations' swapped buffers.)"""
+    if chunks == 1:
+        _breed_chunk(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
+    else:
+        for c in prange(chunks):
+            _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
+
+
 @njit(cache=True)
-def _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
-    """Chunk c of `chunks` of one generation's trials over the active individuals."""
-    P, D = cur[0].shape[1], cur[0].shape[2]
-    best, restarting, leader = status[0], status[7], status[9]
-    island_size = P // settings[6]
-    pop, levels, rates = cur[0], cur[1], cur[4]
-    scratch, trial, lv, rw = _scratch(skel, pop, cur[3].shape[2], levels.shape[2], D)
-    trial_rates = np.empty(2, pop.dtype)
+def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
+    """Chunk c of `chunks` of _breed's individuals."""
+    P, D = cur.pop.shape[1], cur.pop.shape[2]
+    scratch, trial, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
+    trial_rates = np.empty(2, cur.pop.dtype)
     for idx in range(c * n // chunks, (c + 1) * n // chunks):
-        b, i = order[idx // P], idx % P
-        dev.make_trial(pop, rates, b, i, leader[b, i // island_size], gen, settings, skel[8], trial, trial_rates, restarting[b])
-        tot = dev.evaluate(trial, b, skel, terms, scratch, lv, rw)
-        if i != best[b] if restarting[b] else dev.not_worse(lv, levels[b, i]):
-            dev.keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
-        else:
-            dev.copy_individual(cur, nxt, b, i, i)
+        dev.breed_individual(
+            order[idx // P], idx % P, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
+        )
+
+
+@njit(parallel=True, cache=True)
+def _polish(chunks, n, state, skel, terms, status, memetic, order):
+    """A polish round over the n active problems in `chunks` work units (parallel on its own as
+    _breed)."""
+    if chunks == 1:
+        _polish_chunk(0, 1, n, state, skel, terms, status, memetic, order)
+    else:
+        for c in prange(chunks):
+            _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order)
 
 
 @njit(cache=True)
 def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
-    """Chunk c of `chunks` of a polish round over the n active problems: LM on up to `count`
-    individuals of each, in order, until one meets every tolerance (the GPU kernel polishes
-    them side by side and undoes those after the first that does: the same result)."""
-    P, D, T = state[0].shape[1], state[0].shape[2], state[3].shape[2]
-    iterations, _, count = memetic
-    scratch, q, lv, rw = _scratch(skel, state[0], T, state[1].shape[2], D)
-    axes, lm = _polish_scratch(skel, state[0], D)
+    """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
+    in order, until one meets every tolerance (the GPU kernel polishes them side by side and
+    undoes those after the first that does: the same result)."""
+    P, D = state.pop.shape[1], state.pop.shape[2]
+    scratch, q, lv, rw = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    axes, lm = _polish_scratch(skel, state.pop, D)
     for job in range(c * n // chunks, (c + 1) * n // chunks):
         b = order[job]
-        for k in range(count):
-            i = dev.polish_target(status[9][b], k, count, P)
-            dev.polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
-            if dev.within_tolerances(b, state[3][b, i], terms, T):
+        for k in range(memetic.count):
+            i = dev.polish_target(status.leaders[b], k, memetic.count, P)
+            if dev.polish_individual(b, i, state, skel, terms, memetic, scratch, axes, lm, q, lv, rw):
                 break
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
-    lies in `cur` when even, in `nxt` when odd). cur/nxt = (pop, levels, total, raw, rates)
-    must both hold every inactive problem: only active problems are worked on, and a problem
-    that stops is copied into both. memetic = (LM iterations, every how many generations,
-    individuals per problem). threads: the pool's size (small loops run on the caller's)."""
-    P = cur[0].shape[1]
-    active = status[1]
-    iterations, every, count = memetic
+    lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
+    every inactive problem: only active problems are worked on, and a problem that stops is
+    copied into both. threads: the pool's size (small loops run on the caller's)."""
+    P = cur.pop.shape[1]
+    active = status.active
     swaps = 0
     for g in range(n_gens):
         gen = gen_start + g
@@ -146,21 +149,12 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
         if n_active == 0:
             break
         n = n_active * P
-        chunks = _chunks(n, 1, skel, threads)
-        if chunks == 1:
-            _breed(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
-        else:
-            for c in prange(chunks):
-                _breed(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
+        _breed(_chunks(n, 1, skel, threads), n, cur, nxt, skel, terms, settings, status, order, gen)
         cur, nxt = nxt, cur
         swaps += 1
-        if iterations > 0 and gen % every == 0:
-            chunks = _chunks(n_active, 3 * iterations * count, skel, threads)
-            if chunks == 1:
-                _polish_chunk(0, 1, n_active, cur, skel, terms, status, memetic, order)
-            else:
-                for c in prange(chunks):
-                    _polish_chunk(c, chunks, n_active, cur, skel, terms, status, memetic, order)
+        if memetic.iterations > 0 and gen % memetic.every == 0:
+            chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
+            _polish(chunks, n_active, cur, skel, terms, status, memetic, order)
         for k in range(n_active):
             b = order[k]
             dev.update_status(b, gen, g, cur, terms, status, control, history)
@@ -196,7 +190,7 @@ def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, tota
 def forward_kinematics_batch(poses, skel, R, p):
     """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
     for n in prange(poses.shape[0]):
-        work = np.empty(32, poses.dtype)
+        work = np.empty(WORK_SIZE, poses.dtype)
         dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
@@ -220,10 +214,10 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
     """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
     N, D = poses.shape
     scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
-    R, p, work = scratch
-    axes, jac = np.empty(6 * skel[2].shape[0], poses.dtype), np.empty(3 * D, poses.dtype)
+    R, p = scratch.R, scratch.p
+    axes, jac = np.empty(6 * skel.motion_int.shape[0], poses.dtype), np.empty(3 * D, poses.dtype)
     for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
-        dev.forward_kinematics(poses[n], skel, R, p, work, axes, True)
+        dev.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
         for g in range(frames.shape[0]):
             f = frames[g]
             for e in range(3 * D):
@@ -247,12 +241,13 @@ def residual_rows(poses, problem_index, term, skel, terms):
     residual, jacobian = np.zeros((N, 3), poses.dtype), np.zeros((N, 3, D), poses.dtype)
     scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
     axes, lm = _polish_scratch(skel, poses, D)
-    jac = lm[2]
+    R, p, jac = scratch.R, scratch.p, lm.jac
     for n in range(N):
-        R, p, work = scratch
-        dev.forward_kinematics(poses[n], skel, R, p, work, axes, True)
+        dev.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
         cx, cy, cz = dev.centre_of_mass(skel, R, p)
-        residual[n, 0], residual[n, 1], residual[n, 2] = dev.term_rows(term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D)
+        residual[n, 0], residual[n, 1], residual[n, 2] = dev.term_rows(
+            term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D
+        )
         for row in range(3):
             for d in range(D):
                 jacobian[n, row, d] = jac[row * D + d]

@@ -1,9 +1,26 @@
 """Device maths, part 3: DE trial vectors, strict-priority comparison, per-problem bookkeeping.
 
-Compiled together with device_maths.py and device_terms.py (see deik.kernels.targets).
+Compiled together with the other device_*.py files (see deik.kernels.targets).
 """
 
 import math
+
+from deik.kernels.device_maths import randint, uniform
+from deik.kernels.device_terms import weight_of
+from deik.kernels.layout import (
+    BEST_1,
+    CLIP,
+    HISTORY_BEST,
+    HISTORY_MEAN,
+    LOWER,
+    PAPER,
+    RAND_1,
+    RATE_CR,
+    RATE_F,
+    REFLECT,
+    UPPER,
+)
+from deik.objectives.kinds import TOLERANCE
 
 _TWO_PI = 2.0 * math.pi
 _JDE_REDRAW = 0.1
@@ -40,54 +57,54 @@ def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, seed, b, gen, i, draw):
 def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates, restart):
     """DE trial vector for individual i of problem b (Figure 1: reads only the current
     population) and the F, CR it used (trial_rates); `best` is the leader of i's island, whose
-    members are its only donors. settings = (strategy, limit_mode, F, CR, seed, adaptive,
-    islands). Strategies: 0 rand/1/bin, 1 best/1/bin, 2 current-to-best/1/bin. Limit
-    modes: 0 reflect, 1 clip, 2 penalty (genes may leave their limits; a top-priority term
-    penalises it), 3 the paper's Algorithm 2. adaptive (jDE): each individual carries its own
-    F and CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
+    members are its only donors (settings: layout.KernelSettings). Limit modes: reflect and
+    clip fold or clamp genes into the limits, penalty lets them leave (a top-priority term
+    penalises it), paper is Algorithm 2. adaptive (jDE): each individual carries its own F and
+    CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
     inherited by the trial when it is accepted. restart: a uniform random pose instead."""
-    strategy, limit_mode, F, CR, seed, adaptive, islands = settings
+    seed = settings.seed
     P, D = pop.shape[1], pop.shape[2]
-    size = P // islands
+    size = P // settings.islands
     base = (i // size) * size
     if restart:
         for d in range(D):
-            trial[d] = limits[d, 0] + (limits[d, 1] - limits[d, 0]) * uniform(seed, b, gen, i, 4 + d)
-        trial_rates[0], trial_rates[1] = F, CR
+            trial[d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * uniform(seed, b, gen, i, 4 + d)
+        trial_rates[RATE_F], trial_rates[RATE_CR] = settings.F, settings.CR
         return
-    f, cr = F, CR
-    if adaptive:
-        f, cr = rates[b, i, 0], rates[b, i, 1]
+    f, cr = settings.F, settings.CR
+    if settings.adaptive:
+        f, cr = rates[b, i, RATE_F], rates[b, i, RATE_CR]
         if uniform(seed, b, gen, i, 4 + D) < _JDE_REDRAW:
             f = _JDE_F_MIN + (1.0 - _JDE_F_MIN) * uniform(seed, b, gen, i, 5 + D)
         if uniform(seed, b, gen, i, 6 + D) < _JDE_REDRAW:
             cr = uniform(seed, b, gen, i, 7 + D)
-    trial_rates[0], trial_rates[1] = f, cr
+    trial_rates[RATE_F], trial_rates[RATE_CR] = f, cr
     r1 = donor(size, i - base, 0, 0, 1, seed, b, gen, i, 0)
     r2 = donor(size, i - base, r1, 0, 2, seed, b, gen, i, 1)
     r3 = donor(size, i - base, r1, r2, 3, seed, b, gen, i, 2)
     r1, r2, r3 = r1 + base, r2 + base, r3 + base
     forced = randint(D, seed, b, gen, i, 3)
+    strategy, limit_mode = settings.strategy, settings.limit_mode
     for d in range(D):
         if d == forced or uniform(seed, b, gen, i, 4 + d) < cr:
-            if strategy == 0:
+            if strategy == RAND_1:
                 v = pop[b, r1, d] + f * (pop[b, r2, d] - pop[b, r3, d])
-            elif strategy == 1:
+            elif strategy == BEST_1:
                 v = pop[b, best, d] + f * (pop[b, r1, d] - pop[b, r2, d])
             else:
                 v = pop[b, i, d] + f * (pop[b, best, d] - pop[b, i, d]) + f * (pop[b, r1, d] - pop[b, r2, d])
         else:
             v = pop[b, i, d]
-        lo, hi = limits[d, 0], limits[d, 1]
-        if limit_mode == 0:
+        lo, hi = limits[d, LOWER], limits[d, UPPER]
+        if limit_mode == REFLECT:
             if v < lo:
                 v = lo + (lo - v)
             elif v > hi:
                 v = hi - (v - hi)
             v = min(max(v, lo), hi)
-        elif limit_mode == 1:
+        elif limit_mode == CLIP:
             v = min(max(v, lo), hi)
-        elif limit_mode == 3 and abs(v) > _TWO_PI:
+        elif limit_mode == PAPER and abs(v) > _TWO_PI:
             v = v * (1.0 / (abs(v) - _TWO_PI))
         trial[d] = v
 
@@ -103,30 +120,24 @@ def polish_target(leaders, k, count, P):
 
 
 def copy_individual(source, target, b, i, j):
-    """Copy individual i of problem b from one (pop, levels, total, raw, rates) buffer set
-    over individual j of another (or of the same)."""
-    for d in range(source[0].shape[2]):
-        target[0][b, j, d] = source[0][b, i, d]
-    for lv in range(source[1].shape[2]):
-        target[1][b, j, lv] = source[1][b, i, lv]
-    target[2][b, j] = source[2][b, i]
-    for t in range(source[3].shape[2]):
-        target[3][b, j, t] = source[3][b, i, t]
-    target[4][b, j, 0] = source[4][b, i, 0]
-    target[4][b, j, 1] = source[4][b, i, 1]
+    """Copy individual i of problem b from one Buffers set over individual j of another (or of
+    the same)."""
+    keep_trial(
+        target, b, j, source.pop[b, i], source.levels[b, i], source.raw[b, i], source.total[b, i], source.rates[b, i]
+    )
 
 
 def keep_trial(target, b, i, trial, lv, rw, tot, trial_rates):
     """Write an accepted trial (and its levels, raw errors, total, F and CR) into target."""
-    for d in range(target[0].shape[2]):
-        target[0][b, i, d] = trial[d]
-    for lvl in range(target[1].shape[2]):
-        target[1][b, i, lvl] = lv[lvl]
-    target[2][b, i] = tot
-    for t in range(target[3].shape[2]):
-        target[3][b, i, t] = rw[t]
-    target[4][b, i, 0] = trial_rates[0]
-    target[4][b, i, 1] = trial_rates[1]
+    for d in range(target.pop.shape[2]):
+        target.pop[b, i, d] = trial[d]
+    for lvl in range(target.levels.shape[2]):
+        target.levels[b, i, lvl] = lv[lvl]
+    target.total[b, i] = tot
+    for t in range(target.raw.shape[2]):
+        target.raw[b, i, t] = rw[t]
+    target.rates[b, i, RATE_F] = trial_rates[RATE_F]
+    target.rates[b, i, RATE_CR] = trial_rates[RATE_CR]
 
 
 def better_of(levels, b, a, c):
@@ -134,41 +145,41 @@ def better_of(levels, b, a, c):
     return a if not_worse(levels[b, a], levels[b, c]) else c
 
 
-def migrate(b, pop_state, elite, leader, islands):
+def migrate(b, state, elite, leaders, islands):
     """Ring migration: each island's leader replaces the worst individual (never the elite)
     of the next island."""
-    size = pop_state[0].shape[1] // islands
+    size = state.pop.shape[1] // islands
     for j in range(islands):
         base = ((j + 1) % islands) * size
         worst = -1
         for i in range(base, base + size):
-            if i != elite and (worst < 0 or better_of(pop_state[1], b, i, worst) == worst):
+            if i != elite and (worst < 0 or better_of(state.levels, b, i, worst) == worst):
                 worst = i
-        copy_individual(pop_state, pop_state, b, leader[b, j], worst)
+        copy_individual(state, state, b, leaders[b, j], worst)
 
 
 def within_tolerances(b, rw, terms, T):
     """Does every goal with a tolerance (and a weight in problem b) meet it, raw errors rw (T,)?"""
-    term_float, params = terms[1], terms[2]
+    term_float = terms.term_float
     for t in range(T):
-        if term_float[t, 3] >= 0.0 and term_float[t, 0] * params[b, t, 11] > 0.0 and rw[t] > term_float[t, 3]:
+        if term_float[t, TOLERANCE] >= 0.0 and weight_of(terms, b, t) > 0.0 and rw[t] > term_float[t, TOLERANCE]:
             return False
     return True
 
 
-def update_status(b, gen, row, pop_state, terms, status, control, history):
+def update_status(b, gen, row, state, terms, status, control, history):
     """After a generation: best index, island leaders, migration, history, convergence,
-    stagnation and restarts of problem b. A problem that stagnates unconverged with restarts
-    left is flagged to restart: its next generation replaces every individual but the best by
-    a random pose, and that best stays on as the elite, never worse, while the leaders that
-    guide mutation and polish are the best of the others in each island. The best and mean
-    total go to history[row, b] (generation-major (G, B, 2): a launch writes a prefix)."""
-    pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
-    best, active, generations, converged, best_seen, last_improved, restarts, restarting, elite, leader = status
-    patience, rel_improvement, stop_on_converged, max_restarts, migration = control
-    P, islands = pop.shape[1], leader.shape[1]
+    stagnation and restarts of problem b (status: layout.Status, control: layout.Control). A
+    problem that stagnates unconverged with restarts left is flagged to restart: its next
+    generation replaces every individual but the best by a random pose, and that best stays on
+    as the elite, never worse, while the leaders that guide mutation and polish are the best of
+    the others in each island. The best and mean total go to history[row, b] (generation-major
+    (G, B, 2): a launch writes a prefix)."""
+    levels, total, raw = state.levels, state.total, state.raw
+    elite, leaders, last_improved = status.elite, status.leaders, status.last_improved
+    P, islands = state.pop.shape[1], leaders.shape[1]
     size = P // islands
-    restarting[b] = False
+    status.restarting[b] = False
     k = 0
     mean = 0.0
     for i in range(P):
@@ -179,25 +190,26 @@ def update_status(b, gen, row, pop_state, terms, status, control, history):
         for i in range(j * size, (j + 1) * size):
             if i != elite[b]:
                 lead = better_of(levels, b, lead, i)
-        leader[b, j] = lead
-    if islands > 1 and (gen + 1) % migration == 0:
-        migrate(b, pop_state, elite[b], leader, islands)
-    best[b] = k
-    history[row, b, 0] = total[b, k]
-    history[row, b, 1] = mean / P
-    generations[b] += 1
+        leaders[b, j] = lead
+    if islands > 1 and (gen + 1) % control.migration == 0:
+        migrate(b, state, elite[b], leaders, islands)
+    status.best[b] = k
+    history[row, b, HISTORY_BEST] = total[b, k]
+    history[row, b, HISTORY_MEAN] = mean / P
+    status.generations[b] += 1
     met = within_tolerances(b, raw[b, k], terms, raw.shape[2])
-    converged[b] = met
-    if met and stop_on_converged:
-        active[b] = False
-    if total[b, k] < best_seen[b] - rel_improvement * abs(best_seen[b]) - 1e-30:
+    status.converged[b] = met
+    if met and control.stop_on_converged:
+        status.active[b] = False
+    best_seen = status.best_seen
+    if total[b, k] < best_seen[b] - control.rel_improvement * abs(best_seen[b]) - 1e-30:
         best_seen[b] = total[b, k]
         last_improved[b] = gen
-    elif gen - last_improved[b] >= patience:
-        if not met and restarts[b] < max_restarts:
-            restarts[b] += 1
-            restarting[b] = True
+    elif gen - last_improved[b] >= control.patience:
+        if not met and status.restarts[b] < control.max_restarts:
+            status.restarts[b] += 1
+            status.restarting[b] = True
             elite[b] = k
             last_improved[b] = gen
         else:
-            active[b] = False
+            status.active[b] = False

@@ -5,10 +5,24 @@ minimises the scaled residuals of device_polish.py over the terms on the levels 
 individual's first unmet one, with steps clamped into the joint limits (a DOF at a limit that
 the gradient pushes outwards is held fixed). A step is kept only if the full strict-priority
 fitness improves, so the polish never trades a higher level for a lower one and never leaves
-the limits. lm = (A (D*D,), gradient (D,), jac (3*D,), delta (D,)).
+the limits. lm is a layout.LmScratch.
 """
 
 import math
+
+from deik.kernels.device_evolution import keep_trial, within_tolerances
+from deik.kernels.device_maths import centre_of_mass, forward_kinematics
+from deik.kernels.device_polish import term_rows
+from deik.kernels.device_terms import evaluate, uses_centre_of_mass, weight_of
+from deik.kernels.layout import LOWER, UPPER
+from deik.objectives.kinds import (
+    COMFORT_MAX,
+    COMFORT_SUM,
+    MU,
+    SCALE,
+    TERM_KIND,
+    TERM_LEVEL,
+)
 
 _MAX_DAMPING = 1e8
 _DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
@@ -28,22 +42,22 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D):
     """A = J^T J and gradient = J^T r at pose q of the smooth terms on levels <= top and of
     every comfort term (a weak pull towards its reference on any level, so that steps for a
     higher level take the smallest move); returns the cost r^T r."""
-    R, p, work = scratch
-    A, gradient, jac = lm[0], lm[1], lm[2]
-    forward_kinematics(q, skel, R, p, work, axes, True)
+    R, p, term_int = scratch.R, scratch.p, terms.term_int
+    A, gradient, jac = lm.A, lm.gradient, lm.jac
+    forward_kinematics(q, skel, R, p, scratch.work, axes, True)
     cx, cy, cz = 0.0, 0.0, 0.0
-    if uses_centre_of_mass(terms[0]):
+    if uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)
     for e in range(D * D):
         A[e] = 0.0
     for d in range(D):
         gradient[d] = 0.0
     cost = 0.0
-    for t in range(terms[0].shape[0]):
-        if terms[0][t, 0] == 6 or terms[0][t, 0] == 7:
+    for t in range(term_int.shape[0]):
+        if term_int[t, TERM_KIND] == COMFORT_SUM or term_int[t, TERM_KIND] == COMFORT_MAX:
             cost += add_comfort(t, b, q, terms, A, gradient, D)
             continue
-        if terms[0][t, 1] > top:
+        if term_int[t, TERM_LEVEL] > top:
             continue
         r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D)
         cost += r0 * r0 + r1 * r1 + r2 * r2
@@ -63,11 +77,11 @@ def add_comfort(t, b, q, terms, A, gradient, D):
     added to A's diagonal and the gradient: the polish then prefers the smallest move from the
     reference among poses that meet the other goals (the comfort's own L1/max form is left to
     DE and to the acceptance test). Returns their cost."""
-    term_float, dof_weight, reference = terms[1], terms[3], terms[4]
-    w = term_float[t, 0] * terms[2][b, t, 11]
+    term_float, dof_weight, reference = terms.term_float, terms.dof_weight, terms.reference
+    w = weight_of(terms, b, t)
     if w <= 0.0:
         return 0.0
-    unit = term_float[t, 1] / term_float[t, 2]
+    unit = term_float[t, MU] / term_float[t, SCALE]
     cost = 0.0
     for d in range(D):
         c2 = w * dof_weight[t, d] * unit * unit
@@ -82,14 +96,14 @@ def damped_step(lm, D, damping, q, limits):
     """delta = -(A + damping * diag(A))^-1 gradient by an in-place Cholesky factorisation of A,
     DOFs held at their limits where the gradient pushes outwards; False if the matrix is not
     positive definite."""
-    A, gradient, delta = lm[0], lm[1], lm[3]
+    A, gradient, delta = lm.A, lm.gradient, lm.delta
     peak = 0.0
     for a in range(D):
         peak = max(peak, A[a * D + a])
     for a in range(D):
         A[a * D + a] += damping * max(A[a * D + a], _DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30
         delta[a] = -gradient[a]
-        if (q[a] <= limits[a, 0] and gradient[a] > 0.0) or (q[a] >= limits[a, 1] and gradient[a] < 0.0):
+        if (q[a] <= limits[a, LOWER] and gradient[a] > 0.0) or (q[a] >= limits[a, UPPER] and gradient[a] < 0.0):
             for c in range(D):
                 A[a * D + c] = 0.0
                 A[c * D + a] = 0.0
@@ -121,13 +135,12 @@ def damped_step(lm, D, damping, q, limits):
     return True
 
 
-def polish(b, i, pop_state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
     """Up to `iterations` LM steps on individual i of problem b, until every tolerance is met,
-    in place in pop_state =
-    (pop, levels, total, raw, rates); q (D,), lv (L,), rw (T,) are scratch."""
-    pop, levels, total, raw = pop_state[0], pop_state[1], pop_state[2], pop_state[3]
-    D, L, T = pop.shape[2], levels.shape[2], raw.shape[2]
-    limits = skel[8]
+    in place in the Buffers `state`; q (D,), lv (L,), rw (T,) are scratch."""
+    pop, levels, total = state.pop, state.levels, state.total
+    D, L, T = pop.shape[2], levels.shape[2], state.raw.shape[2]
+    limits = skel.limits
     top = L - 1
     for lvl in range(L - 1, -1, -1):
         if levels[b, i, lvl] > 0.0:
@@ -137,18 +150,12 @@ def polish(b, i, pop_state, iterations, skel, terms, scratch, axes, lm, q, lv, r
         if normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D) == 0.0:
             return
         if damped_step(lm, D, damping, pop[b, i], limits):
-            delta = lm[3]
+            delta = lm.delta
             for d in range(D):
-                q[d] = min(max(pop[b, i, d] + delta[d], limits[d, 0]), limits[d, 1])
+                q[d] = min(max(pop[b, i, d] + delta[d], limits[d, LOWER]), limits[d, UPPER])
             tot = evaluate(q, b, skel, terms, scratch, lv, rw)
             if improves(lv, tot, levels[b, i], total[b, i]):
-                for d in range(D):
-                    pop[b, i, d] = q[d]
-                for lvl in range(L):
-                    levels[b, i, lvl] = lv[lvl]
-                for t in range(T):
-                    raw[b, i, t] = rw[t]
-                total[b, i] = tot
+                keep_trial(state, b, i, q, lv, rw, tot, state.rates[b, i])
                 if within_tolerances(b, rw, terms, T):
                     return
                 damping = max(damping * 0.3, 1e-7)

@@ -1,22 +1,34 @@
 """Device maths, part 1: counter-based random numbers, 3x3 algebra, forward kinematics, COM.
 
 The device_*.py files are written once and compiled for the CPU (numba.njit) and the GPU
-(numba-cuda): `deik.kernels.targets` execs all three into one namespace per target, so their
-functions call each other by name on the same target (they are not meant to be called as
-plain Python). Nothing here may allocate; callers pass scratch arrays. Matrices are flat,
-row-major, 9 floats per frame.
-Tuples group the arrays: skel = (joint_int (J, 4): parent, motion start, motion end, 1 if the rest rotation is the identity;
-joint_frame (J, 12): offset then rest rotation; motion_int (N, 3): kind, source DOF, coordinate
-axis 0-2 when the axis is +-x, +-y or +-z (else -1);
-motion_float (N, 5): axis, scale, bias (value = scale * q[source] + bias); site_joint (S,); site_frame (S, 12): offset then
-rotation; mass_joint (M,); mass_data (M, 4): offset then mass fraction; limits (D, 2);
-ground (3, 3): two horizontal axes then up), terms = (term_int, term_float, params,
-dof_weight, reference (B, T, D)), scratch = (R (F*9,), p (F*3,), work (32,)).
+(numba-cuda): `deik.kernels.targets` execs them all into one namespace per target, dropping
+their imports of each other, so their functions call each other on the same target (they are
+not meant to be called as plain Python). Nothing here may allocate; callers pass scratch
+arrays. Matrices are flat, row-major, 9 floats per frame. The data they read (skel, terms,
+scratch, ...) are the NamedTuples of deik.kernels.layout.
 """
 
 import math
 
 import numpy as np
+
+from deik.kernels.layout import (
+    AXIS,
+    COORDINATE_AXIS,
+    MASS_FRACTION,
+    MASS_OFFSET,
+    MOTION_BIAS,
+    MOTION_END,
+    MOTION_KIND,
+    MOTION_SCALE,
+    MOTION_START,
+    OFFSET,
+    PARENT,
+    PLAIN_ROTATION,
+    ROTATE_MOTION,
+    ROTATION,
+    SOURCE,
+)
 
 _K1 = np.uint64(0x9E3779B97F4A7C15)
 _K2 = np.uint64(0xBF58476D1CE4E5B9)
@@ -54,14 +66,17 @@ def matmul3(A, a, B, b, C, c):
     """C[c:c+9] = A[a:a+9] @ B[b:b+9] for flat row-major 3x3 matrices (C must not alias)."""
     for r in range(3):
         for k in range(3):
-            C[c + 3 * r + k] = A[a + 3 * r] * B[b + k] + A[a + 3 * r + 1] * B[b + 3 + k] + A[a + 3 * r + 2] * B[b + 6 + k]
+            row = a + 3 * r
+            C[c + 3 * r + k] = A[row] * B[b + k] + A[row + 1] * B[b + 3 + k] + A[row + 2] * B[b + 6 + k]
 
 
 def rotate_point(A, a, x, y, z):
     """A[a:a+9] @ (x, y, z)."""
-    return (A[a] * x + A[a + 1] * y + A[a + 2] * z,
-            A[a + 3] * x + A[a + 4] * y + A[a + 5] * z,
-            A[a + 6] * x + A[a + 7] * y + A[a + 8] * z)
+    return (
+        A[a] * x + A[a + 1] * y + A[a + 2] * z,
+        A[a + 3] * x + A[a + 4] * y + A[a + 5] * z,
+        A[a + 6] * x + A[a + 7] * y + A[a + 8] * z,
+    )
 
 
 def axis_angle_into(ax, ay, az, angle, M, m):
@@ -84,39 +99,45 @@ def turn_columns(R, r, i, angle):
         R[r + 3 * row + b] = c * v - s * u
 
 
+def frame_count(skel):
+    """F: the joints, then the sites."""
+    return skel.joint_int.shape[0] + skel.site_joint.shape[0]
+
+
 def forward_kinematics(q, skel, R, p, work, axes, record):
     """World rotations R (F*9,) and positions p (F*3,) of every joint then site for pose q.
     Each joint's frame starts as parent @ (offset, rest rotation) and each of its motions then
     turns or slides it in place. With `record`, axes (N*6,) also receives each motion's world
     axis and pivot (the point a rotation turns about), what the analytic Jacobians need
     (device_polish.py). work needs 18 floats (general-axis rotations only)."""
-    joint_int, joint_frame, motion_int, motion_float, site_joint, site_frame = skel[0], skel[1], skel[2], skel[3], skel[4], skel[5]
+    joint_int, joint_frame, site_joint, site_frame = skel.joint_int, skel.joint_frame, skel.site_joint, skel.site_frame
+    motion_int, motion_float = skel.motion_int, skel.motion_float
     J = joint_int.shape[0]
     for k in range(J):
-        parent, r = joint_int[k, 0], 9 * k
-        tx, ty, tz = joint_frame[k, 0], joint_frame[k, 1], joint_frame[k, 2]
+        parent, r = joint_int[k, PARENT], 9 * k
+        tx, ty, tz = joint_frame[k, OFFSET], joint_frame[k, OFFSET + 1], joint_frame[k, OFFSET + 2]
         if parent < 0:
             for e in range(9):
-                R[r + e] = joint_frame[k, 3 + e]
+                R[r + e] = joint_frame[k, ROTATION + e]
         else:
-            if joint_int[k, 3] == 1:
+            if joint_int[k, PLAIN_ROTATION] == 1:
                 for e in range(9):
                     R[r + e] = R[9 * parent + e]
             else:
-                matmul3(R, 9 * parent, joint_frame[k], 3, R, r)
+                matmul3(R, 9 * parent, joint_frame[k], ROTATION, R, r)
             dx, dy, dz = rotate_point(R, 9 * parent, tx, ty, tz)
             tx, ty, tz = p[3 * parent] + dx, p[3 * parent + 1] + dy, p[3 * parent + 2] + dz
-        for n in range(joint_int[k, 1], joint_int[k, 2]):
-            ax, ay, az = motion_float[n, 0], motion_float[n, 1], motion_float[n, 2]
-            value = motion_float[n, 3] * q[motion_int[n, 1]] + motion_float[n, 4]
+        for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
+            ax, ay, az = motion_float[n, AXIS], motion_float[n, AXIS + 1], motion_float[n, AXIS + 2]
+            value = motion_float[n, MOTION_SCALE] * q[motion_int[n, SOURCE]] + motion_float[n, MOTION_BIAS]
             if record:
                 axes[6 * n], axes[6 * n + 1], axes[6 * n + 2] = rotate_point(R, r, ax, ay, az)
                 axes[6 * n + 3], axes[6 * n + 4], axes[6 * n + 5] = tx, ty, tz
-            if motion_int[n, 0] != 0:
+            if motion_int[n, MOTION_KIND] != ROTATE_MOTION:
                 dx, dy, dz = rotate_point(R, r, ax * value, ay * value, az * value)
                 tx, ty, tz = tx + dx, ty + dy, tz + dz
-            elif motion_int[n, 2] >= 0:
-                turn_columns(R, r, motion_int[n, 2], value * (ax + ay + az))
+            elif motion_int[n, COORDINATE_AXIS] >= 0:
+                turn_columns(R, r, motion_int[n, COORDINATE_AXIS], value * (ax + ay + az))
             else:
                 axis_angle_into(ax, ay, az, value, work, 0)
                 matmul3(R, r, work, 0, work, 9)
@@ -125,20 +146,27 @@ def forward_kinematics(q, skel, R, p, work, axes, record):
         p[3 * k], p[3 * k + 1], p[3 * k + 2] = tx, ty, tz
     for s in range(site_joint.shape[0]):
         j, f = site_joint[s], J + s
-        matmul3(R, 9 * j, site_frame[s], 3, R, 9 * f)
-        dx, dy, dz = rotate_point(R, 9 * j, site_frame[s, 0], site_frame[s, 1], site_frame[s, 2])
+        matmul3(R, 9 * j, site_frame[s], ROTATION, R, 9 * f)
+        dx, dy, dz = rotate_point(R, 9 * j, site_frame[s, OFFSET], site_frame[s, OFFSET + 1], site_frame[s, OFFSET + 2])
         p[3 * f], p[3 * f + 1], p[3 * f + 2] = p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz
+
+
+def mass_point(skel, R, p, m):
+    """World position of mass point m (from its joint's frame)."""
+    j, mass_data = skel.mass_joint[m], skel.mass_data
+    dx, dy, dz = rotate_point(
+        R, 9 * j, mass_data[m, MASS_OFFSET], mass_data[m, MASS_OFFSET + 1], mass_data[m, MASS_OFFSET + 2]
+    )
+    return p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz
 
 
 def centre_of_mass(skel, R, p):
     """Whole-body centre of mass (Eq. 3) from joint frames; mass_data holds mass fractions."""
-    mass_joint, mass_data = skel[6], skel[7]
     cx, cy, cz = 0.0, 0.0, 0.0
-    for m in range(mass_joint.shape[0]):
-        j = mass_joint[m]
-        dx, dy, dz = rotate_point(R, 9 * j, mass_data[m, 0], mass_data[m, 1], mass_data[m, 2])
-        w = mass_data[m, 3]
-        cx += w * (p[3 * j] + dx)
-        cy += w * (p[3 * j + 1] + dy)
-        cz += w * (p[3 * j + 2] + dz)
+    for m in range(skel.mass_joint.shape[0]):
+        x, y, z = mass_point(skel, R, p, m)
+        w = skel.mass_data[m, MASS_FRACTION]
+        cx += w * x
+        cy += w * y
+        cz += w * z
     return cx, cy, cz

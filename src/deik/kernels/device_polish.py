@@ -12,30 +12,54 @@ world axis; mimic motions add scale times that to their source DOF's column.
 
 import math
 
+from deik.kernels.device_maths import mass_point
+from deik.kernels.device_terms import rotation_error, weight_of
+from deik.kernels.layout import (
+    MASS_FRACTION,
+    MOTION_END,
+    MOTION_KIND,
+    MOTION_SCALE,
+    MOTION_START,
+    PARENT,
+    ROTATE_MOTION,
+    SOURCE,
+    UP,
+)
+from deik.objectives.kinds import (
+    AIM,
+    COM_GROUND,
+    ORIENTATION,
+    POSITION,
+    SCALE,
+    TERM_FRAMES,
+    TERM_KIND,
+    TOLERANCE,
+)
+
 
 def is_ancestor(k, j, joint_int):
     """Is joint k joint j or one of its ancestors? (Parents come before children.)"""
     while j > k:
-        j = joint_int[j, 0]
+        j = joint_int[j, PARENT]
     return j == k
 
 
 def frame_joint(f, skel):
     """The joint that carries frame f (a joint, or a site's joint)."""
-    J = skel[0].shape[0]
-    return f if f < J else skel[4][f - J]
+    J = skel.joint_int.shape[0]
+    return f if f < J else skel.site_joint[f - J]
 
 
 def point_rows(x, y, z, j, skel, axes, weight, jac, D):
     """jac[0:3*D] += weight * d(point)/dq for a world point (x, y, z) carried by joint j."""
-    joint_int, motion_int, motion_float = skel[0], skel[2], skel[3]
+    joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
     for k in range(j + 1):
         if not is_ancestor(k, j, joint_int):
             continue
-        for n in range(joint_int[k, 1], joint_int[k, 2]):
-            d, s = motion_int[n, 1], weight * motion_float[n, 3]
+        for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
+            d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
             ax, ay, az = axes[6 * n], axes[6 * n + 1], axes[6 * n + 2]
-            if motion_int[n, 0] == 0:
+            if motion_int[n, MOTION_KIND] == ROTATE_MOTION:
                 vx, vy, vz = x - axes[6 * n + 3], y - axes[6 * n + 4], z - axes[6 * n + 5]
                 ax, ay, az = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
             jac[d] += s * ax
@@ -45,13 +69,13 @@ def point_rows(x, y, z, j, skel, axes, weight, jac, D):
 
 def rotation_rows(j, skel, axes, weight, jac, D):
     """jac[0:3*D] += weight * (angular velocity of joint j's frame per unit dq)."""
-    joint_int, motion_int, motion_float = skel[0], skel[2], skel[3]
+    joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
     for k in range(j + 1):
         if not is_ancestor(k, j, joint_int):
             continue
-        for n in range(joint_int[k, 1], joint_int[k, 2]):
-            if motion_int[n, 0] == 0:
-                d, s = motion_int[n, 1], weight * motion_float[n, 3]
+        for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
+            if motion_int[n, MOTION_KIND] == ROTATE_MOTION:
+                d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
                 jac[d] += s * axes[6 * n]
                 jac[D + d] += s * axes[6 * n + 1]
                 jac[2 * D + d] += s * axes[6 * n + 2]
@@ -83,39 +107,37 @@ def log_derivative(rx, ry, rz, jac, D):
 
 
 def com_rows(skel, R, p, axes, weight, jac, D):
-    """jac[0:3*D] += weight * d(centre of mass)/dq (mass fractions in mass_data[:, 3])."""
-    mass_joint, mass_data = skel[6], skel[7]
-    for m in range(mass_joint.shape[0]):
-        j = mass_joint[m]
-        dx, dy, dz = rotate_point(R, 9 * j, mass_data[m, 0], mass_data[m, 1], mass_data[m, 2])
-        point_rows(p[3 * j] + dx, p[3 * j + 1] + dy, p[3 * j + 2] + dz, j, skel, axes, weight * mass_data[m, 3], jac, D)
+    """jac[0:3*D] += weight * d(centre of mass)/dq (mass fractions in mass_data)."""
+    for m in range(skel.mass_joint.shape[0]):
+        x, y, z = mass_point(skel, R, p, m)
+        point_rows(x, y, z, skel.mass_joint[m], skel, axes, weight * skel.mass_data[m, MASS_FRACTION], jac, D)
 
 
 def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
     """Scaled residual (3,) of smooth term t, its Jacobian rows in jac[0:3*D]; (0, 0, 0) and
     zero rows for terms the polish leaves to DE."""
-    term_int, term_float, params = terms[0], terms[1], terms[2]
+    term_int, term_float = terms.term_int, terms.term_float
     for e in range(3 * D):
         jac[e] = 0.0
-    kind, f = term_int[t, 0], term_int[t, 3]
-    g = params[b, t]
-    w = term_float[t, 0] * g[11]
-    if w <= 0.0 or kind == 2 or kind > 4:
+    kind, f = term_int[t, TERM_KIND], term_int[t, TERM_FRAMES]
+    g = terms.params[b, t]
+    w = weight_of(terms, b, t)
+    if w <= 0.0 or kind == AIM or kind > COM_GROUND:
         return 0.0, 0.0, 0.0
-    unit = term_float[t, 3] if term_float[t, 3] > 0.0 else term_float[t, 2]
+    unit = term_float[t, TOLERANCE] if term_float[t, TOLERANCE] > 0.0 else term_float[t, SCALE]
     s = math.sqrt(w) / unit
-    if kind == 0:
+    if kind == POSITION:
         point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], frame_joint(f, skel), skel, axes, s, jac, D)
         return s * (p[3 * f] - g[0]), s * (p[3 * f + 1] - g[1]), s * (p[3 * f + 2] - g[2])
-    if kind == 1:
+    if kind == ORIENTATION:
         rotation_rows(frame_joint(f, skel), skel, axes, s, jac, D)
         rx, ry, rz = rotation_vector(R, f, g)
         log_derivative(rx, ry, rz, jac, D)
         return s * rx, s * ry, s * rz
     com_rows(skel, R, p, axes, s, jac, D)
     rx, ry, rz = s * (cx - g[0]), s * (cy - g[1]), s * (cz - g[2])
-    if kind == 4:
-        up = skel[9][2]
+    if kind == COM_GROUND:
+        up = skel.ground[UP]
         h = rx * up[0] + ry * up[1] + rz * up[2]
         rx, ry, rz = rx - h * up[0], ry - h * up[1], rz - h * up[2]
         for d in range(D):

@@ -1,10 +1,33 @@
 """Device maths, part 2: every objective term's raw error and the weighted fitness (Eqs. 1-7).
 
-Compiled together with device_maths.py and device_evolution.py (see deik.kernels.targets);
-term kinds are the constants of deik.objectives.table.
+Compiled together with the other device_*.py files (see deik.kernels.targets); term kinds and
+columns are the constants of deik.objectives.kinds.
 """
 
 import math
+
+from deik.kernels.device_maths import centre_of_mass, forward_kinematics, rotate_point
+from deik.kernels.layout import HORIZONTAL_U, HORIZONTAL_V, LOWER, PARENT, UP, UPPER
+from deik.objectives.kinds import (
+    AIM,
+    COM,
+    COM_GROUND,
+    COMFORT_MAX,
+    COMFORT_SUM,
+    GAIN,
+    LIMITS,
+    MU,
+    ORIENTATION,
+    POSITION,
+    PRIORITY_TOLERANCE,
+    SCALE,
+    SUPPORT_POLYGON,
+    TERM_FRAME_COUNT,
+    TERM_FRAMES,
+    TERM_KIND,
+    TERM_LEVEL,
+    WEIGHT,
+)
 
 
 def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
@@ -21,21 +44,24 @@ def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
 def polygon_distance(cx, cy, cz, frames, n, ground, p, work):
     """Distance of the COM's ground projection outside the hull of frames' projections: zero
     inside some non-degenerate triangle of the points, else the nearest point-pair segment."""
-    qx = cx * ground[0, 0] + cy * ground[0, 1] + cz * ground[0, 2]
-    qy = cx * ground[1, 0] + cy * ground[1, 1] + cz * ground[1, 2]
+    u, v = ground[HORIZONTAL_U], ground[HORIZONTAL_V]
+    qx = cx * u[0] + cy * u[1] + cz * u[2]
+    qy = cx * v[0] + cy * v[1] + cz * v[2]
     for k in range(n):
         f = frames[k]
-        work[2 * k] = p[3 * f] * ground[0, 0] + p[3 * f + 1] * ground[0, 1] + p[3 * f + 2] * ground[0, 2]
-        work[2 * k + 1] = p[3 * f] * ground[1, 0] + p[3 * f + 1] * ground[1, 1] + p[3 * f + 2] * ground[1, 2]
+        work[2 * k] = p[3 * f] * u[0] + p[3 * f + 1] * u[1] + p[3 * f + 2] * u[2]
+        work[2 * k + 1] = p[3 * f] * v[0] + p[3 * f + 1] * v[1] + p[3 * f + 2] * v[2]
     for a in range(n):
+        xa, ya = work[2 * a], work[2 * a + 1]
         for b in range(a + 1, n):
+            xb, yb = work[2 * b], work[2 * b + 1]
             for c in range(b + 1, n):
-                area = (work[2 * b] - work[2 * a]) * (work[2 * c + 1] - work[2 * a + 1]) - (work[2 * b + 1] - work[2 * a + 1]) * (work[2 * c] - work[2 * a])
-                if area == 0.0:
+                xc, yc = work[2 * c], work[2 * c + 1]
+                if (xb - xa) * (yc - ya) - (yb - ya) * (xc - xa) == 0.0:
                     continue
-                d1 = (work[2 * b] - work[2 * a]) * (qy - work[2 * a + 1]) - (work[2 * b + 1] - work[2 * a + 1]) * (qx - work[2 * a])
-                d2 = (work[2 * c] - work[2 * b]) * (qy - work[2 * b + 1]) - (work[2 * c + 1] - work[2 * b + 1]) * (qx - work[2 * b])
-                d3 = (work[2 * a] - work[2 * c]) * (qy - work[2 * c + 1]) - (work[2 * a + 1] - work[2 * c + 1]) * (qx - work[2 * c])
+                d1 = (xb - xa) * (qy - ya) - (yb - ya) * (qx - xa)
+                d2 = (xc - xb) * (qy - yb) - (yc - yb) * (qx - xb)
+                d3 = (xa - xc) * (qy - yc) - (ya - yc) * (qx - xc)
                 if (d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0) or (d1 <= 0.0 and d2 <= 0.0 and d3 <= 0.0):
                     return 0.0
     best = 1e30
@@ -58,7 +84,8 @@ def rotation_error(R, f, target):
     e21 = R[9 * f + 6] * target[3] + R[9 * f + 7] * target[4] + R[9 * f + 8] * target[5]
     trace = 0.0
     for i in range(3):
-        trace += R[9 * f + 3 * i] * target[3 * i] + R[9 * f + 3 * i + 1] * target[3 * i + 1] + R[9 * f + 3 * i + 2] * target[3 * i + 2]
+        m = 9 * f + 3 * i
+        trace += R[m] * target[3 * i] + R[m + 1] * target[3 * i + 1] + R[m + 2] * target[3 * i + 2]
     vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
     return vx, vy, vz, math.atan2(math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (trace - 1.0))
 
@@ -66,60 +93,75 @@ def rotation_error(R, f, target):
 def uses_centre_of_mass(term_int):
     """Whether any term (COM, COM over ground point, support polygon) reads the COM."""
     for t in range(term_int.shape[0]):
-        if term_int[t, 0] >= 3 and term_int[t, 0] <= 5:
+        if term_int[t, TERM_KIND] >= COM and term_int[t, TERM_KIND] <= SUPPORT_POLYGON:
             return True
     return False
 
 
 def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     """Raw error of term t (metres or radians) for pose q of problem b."""
-    term_int, params, dof_weight, reference = terms[0], terms[2], terms[3], terms[4]
-    limits, ground, joint_int, site_joint = skel[8], skel[9], skel[0], skel[4]
-    kind, f = term_int[t, 0], term_int[t, 3]
-    g = params[b, t]
-    if kind == 0:
+    term_int, dof_weight, reference = terms.term_int, terms.dof_weight, terms.reference
+    limits, ground = skel.limits, skel.ground
+    kind, f = term_int[t, TERM_KIND], term_int[t, TERM_FRAMES]
+    g = terms.params[b, t]
+    if kind == POSITION:
         dx, dy, dz = p[3 * f] - g[0], p[3 * f + 1] - g[1], p[3 * f + 2] - g[2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
-    if kind == 1:
-        return rotation_error(R, f, g)[3]
-    if kind == 2:
+    if kind == ORIENTATION:
+        _, _, _, angle = rotation_error(R, f, g)
+        return angle
+    if kind == AIM:
         ax, ay, az = rotate_point(R, 9 * f, g[0], g[1], g[2])
         vx, vy, vz = g[3] - p[3 * f], g[4] - p[3 * f + 1], g[5] - p[3 * f + 2]
         kx, ky, kz = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
         return math.atan2(math.sqrt(kx * kx + ky * ky + kz * kz), ax * vx + ay * vy + az * vz)
-    if kind == 3 or kind == 4:
+    if kind == COM or kind == COM_GROUND:
         dx, dy, dz = cx - g[0], cy - g[1], cz - g[2]
-        if kind == 4:
-            h = dx * ground[2, 0] + dy * ground[2, 1] + dz * ground[2, 2]
-            dx, dy, dz = dx - h * ground[2, 0], dy - h * ground[2, 1], dz - h * ground[2, 2]
+        if kind == COM_GROUND:
+            h = dx * ground[UP, 0] + dy * ground[UP, 1] + dz * ground[UP, 2]
+            dx, dy, dz = dx - h * ground[UP, 0], dy - h * ground[UP, 1], dz - h * ground[UP, 2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
-    if kind == 5:
-        return polygon_distance(cx, cy, cz, term_int[t, 3:], term_int[t, 2], ground, p, work)
-    if kind == 6 or kind == 7:
+    if kind == SUPPORT_POLYGON:
+        return polygon_distance(cx, cy, cz, term_int[t, TERM_FRAMES:], term_int[t, TERM_FRAME_COUNT], ground, p, work)
+    if kind == COMFORT_SUM or kind == COMFORT_MAX:
         total = 0.0
         for d in range(dof_weight.shape[1]):
             e = dof_weight[t, d] * abs(q[d] - reference[b, t, d])
-            total = total + e if kind == 6 else max(total, e)
+            total = total + e if kind == COMFORT_SUM else max(total, e)
         return total
-    if kind == 8:
+    if kind == LIMITS:
         total = 0.0
         for d in range(limits.shape[0]):
-            total += max(limits[d, 0] - q[d], 0.0) + max(q[d] - limits[d, 1], 0.0)
+            total += max(limits[d, LOWER] - q[d], 0.0) + max(q[d] - limits[d, UPPER], 0.0)
         return total
+    return obstacle_error(g, skel, p)
+
+
+def obstacle_error(g, skel, p):
+    """Summed depth (metres) of every bone segment inside the sphere of centre g[0:3] and radius
+    g[3] plus margin g[4]."""
+    joint_int, site_joint = skel.joint_int, skel.site_joint
     total = 0.0
     J = joint_int.shape[0]
     for k in range(1, J + site_joint.shape[0]):
-        a = joint_int[k, 0] if k < J else site_joint[k - J]
-        d = segment_distance(g[0], g[1], g[2], p[3 * a], p[3 * a + 1], p[3 * a + 2], p[3 * k], p[3 * k + 1], p[3 * k + 2])
+        a = joint_int[k, PARENT] if k < J else site_joint[k - J]
+        d = segment_distance(
+            g[0], g[1], g[2], p[3 * a], p[3 * a + 1], p[3 * a + 2], p[3 * k], p[3 * k + 1], p[3 * k + 2]
+        )
         total += max(g[3] + g[4] - d, 0.0)
     return total
+
+
+def weight_of(terms, b, t):
+    """Term t's effective weight in problem b: its weight times the problem's gain (0: off)."""
+    return terms.term_float[t, WEIGHT] * terms.params[b, t, GAIN]
 
 
 def evaluate(q, b, skel, terms, scratch, levels, raw):
     """Fitness of pose q for problem b: fills levels (L,) and raw (T,); returns the total
     weighted sum of normalised terms (Eqs. 1, 2)."""
-    R, p, work = scratch
-    term_int, term_float, params = terms[0], terms[1], terms[2]
+    R, p, work = scratch.R, scratch.p, scratch.work
+    term_int, term_float = terms.term_int, terms.term_float
     forward_kinematics(q, skel, R, p, work, work, False)
     cx, cy, cz = 0.0, 0.0, 0.0
     if uses_centre_of_mass(term_int):
@@ -130,10 +172,10 @@ def evaluate(q, b, skel, terms, scratch, levels, raw):
     for t in range(term_int.shape[0]):
         e = term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz)
         raw[t] = e
-        f = -math.expm1(-term_float[t, 1] * e / term_float[t, 2])
-        w = term_float[t, 0] * params[b, t, 11]
+        f = -math.expm1(-term_float[t, MU] * e / term_float[t, SCALE])
+        w = weight_of(terms, b, t)
         total += w * f
-        if term_float[t, 4] >= 0.0:
-            f = max(f - term_float[t, 4], 0.0)
-        levels[term_int[t, 1]] += w * f
+        if term_float[t, PRIORITY_TOLERANCE] >= 0.0:
+            f = max(f - term_float[t, PRIORITY_TOLERANCE], 0.0)
+        levels[term_int[t, TERM_LEVEL]] += w * f
     return total

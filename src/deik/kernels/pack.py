@@ -1,4 +1,5 @@
-"""Pack a Skeleton and a TermTable into the array tuples the kernels read (see device.py)."""
+"""Pack a Skeleton and a TermTable into the arrays the kernels read: layout.PackedSkeleton and
+layout.PackedTerms (shapes and columns there), in the engine's dtype."""
 
 from __future__ import annotations
 
@@ -6,26 +7,28 @@ from functools import lru_cache
 
 import numpy as np
 
-from deik.objectives.table import TermTable
+from deik.kernels.layout import PackedSkeleton, PackedTerms
 from deik.model.geometry import ground_frame
 from deik.model.skeleton import Skeleton
+from deik.objectives.kinds import MU, PRIORITY_TOLERANCE, SCALE, TOLERANCE
+from deik.objectives.table import TermTable
 
 
-def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> tuple:
-    """The `skel` tuple; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi).
-    Without an override the tuple is cached per (frozen) skeleton and dtype: callers must not
-    write into it."""
+def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> PackedSkeleton:
+    """The skeleton's arrays; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi).
+    Without an override they are cached per (frozen) skeleton and dtype: callers must not
+    write into them."""
     if limits is None:
         return _packed(skeleton, np.dtype(dtype))
     return _pack(skeleton, dtype, limits)
 
 
 @lru_cache(maxsize=32)
-def _packed(skeleton: Skeleton, dtype: np.dtype) -> tuple:
+def _packed(skeleton: Skeleton, dtype: np.dtype) -> PackedSkeleton:
     return _pack(skeleton, dtype, None)
 
 
-def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> tuple:
+def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleton:
     s = skeleton
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
     m = s.motions
@@ -41,12 +44,17 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> tuple:
     if limits is None:
         limits = np.stack([s.lower, s.upper], axis=1)
     limits = inward(np.asarray(limits, np.float64), dtype)
-    return (
-        np.ascontiguousarray(joint_int, np.int32), f(joint_frame.reshape(-1, 12)),
-        np.ascontiguousarray(motion_int, np.int32), f(motion_float),
-        np.ascontiguousarray(s.site_joint, np.int32), f(site_frame.reshape(-1, 12)),
-        np.ascontiguousarray(s.mass_joint, np.int32), f(mass_data.reshape(-1, 4)), f(limits),
-        f(ground_frame(s.up)),
+    return PackedSkeleton(
+        joint_int=np.ascontiguousarray(joint_int, np.int32),
+        joint_frame=f(joint_frame.reshape(-1, 12)),
+        motion_int=np.ascontiguousarray(motion_int, np.int32),
+        motion_float=f(motion_float),
+        site_joint=np.ascontiguousarray(s.site_joint, np.int32),
+        site_frame=f(site_frame.reshape(-1, 12)),
+        mass_joint=np.ascontiguousarray(s.mass_joint, np.int32),
+        mass_data=f(mass_data.reshape(-1, 4)),
+        limits=f(limits),
+        ground=f(ground_frame(s.up)),
     )
 
 
@@ -75,19 +83,21 @@ def _kernel_term_float(table: TermTable, dtype) -> np.ndarray:
     """term_float with tolerances tightened by a relative margin for the dtype, so a pose the
     kernels accept as within tolerance is also within it when re-measured in float64."""
     term_float = table.term_float.copy()
-    tightened = term_float[:, 3] > 0
-    term_float[tightened, 3] *= 1.0 - TOLERANCE_MARGIN[np.dtype(dtype)]
-    prioritised = term_float[:, 4] >= 0
-    weight_mu, scale = term_float[prioritised, 1], term_float[prioritised, 2]
-    term_float[prioritised, 4] = -np.expm1(-weight_mu * term_float[prioritised, 3] / scale)
+    tightened = term_float[:, TOLERANCE] > 0
+    term_float[tightened, TOLERANCE] *= 1.0 - TOLERANCE_MARGIN[np.dtype(dtype)]
+    prioritised = term_float[:, PRIORITY_TOLERANCE] >= 0
+    mu, scale = term_float[prioritised, MU], term_float[prioritised, SCALE]
+    term_float[prioritised, PRIORITY_TOLERANCE] = -np.expm1(-mu * term_float[prioritised, TOLERANCE] / scale)
     return term_float
 
 
-def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> tuple:
-    """The `terms` tuple: term_int, term_float, params (B, T, 12), dof_weight (T, D), and
-    reference (B, T, D), each comfort term's reference pose."""
+def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> PackedTerms:
+    """The table's arrays, with reference (B, T, D) each comfort term's reference pose."""
     f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
-    return (
-        np.ascontiguousarray(table.term_int, np.int32), f(_kernel_term_float(table, dtype)), f(table.params),
-        f(table.dof_weight), f(reference),
+    return PackedTerms(
+        term_int=np.ascontiguousarray(table.term_int, np.int32),
+        term_float=f(_kernel_term_float(table, dtype)),
+        params=f(table.params),
+        dof_weight=f(table.dof_weight),
+        reference=f(reference),
     )

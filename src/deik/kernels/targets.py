@@ -2,16 +2,22 @@
 
 `cpu` is the device maths compiled with numba.njit(cache=True, _nrt=False); `cuda_device()` compiles the
 same sources with numba.cuda.jit(device=True) on first use. Each compile execs the sources into
-one fresh module, so calls between device functions stay on one target.
+one fresh module without their imports of each other (`from deik.kernels.device_x import f`,
+there for linters and readers), so every call between device functions resolves to the same
+target's compiled function; other imports (layout and term-kind constants) run as written.
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
-device.py, so kernel files get a locator whose stamp hashes every source in this folder: an
-edit to any of them recompiles all of them instead of loading a stale kernel.
+the device files, so kernel files get a locator whose stamp hashes every source in this folder
+and the values of the constants the device files import from outside it (Numba freezes them
+into the machine code): a change to any of them recompiles all kernels instead of loading a
+stale one.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import importlib
 import inspect
 import sys
 import types
@@ -22,12 +28,39 @@ from numba import njit
 from numba.core import caching
 
 KERNEL_DIR = Path(__file__).resolve().parent
+DEVICE_PREFIX = "deik.kernels.device_"
+
+
+@lru_cache(maxsize=1)
+def _outside_constants() -> bytes:
+    """The module-level numbers of the deik modules outside this folder that the device files and
+    layout.py import (term kinds, motion kinds): their values, not their files, so that an edit
+    elsewhere in those modules keeps the cache."""
+    modules = set()
+    for path in KERNEL_DIR.glob("*.py"):
+        if path.name.startswith("device_") or path.name == "layout.py":
+            modules |= {
+                node.module
+                for node in ast.walk(ast.parse(path.read_text()))
+                if isinstance(node, ast.ImportFrom)
+                and (node.module or "").startswith("deik.")
+                and not node.module.startswith("deik.kernels.")
+            }
+    return repr(
+        [
+            (module, key, value)
+            for module in sorted(modules)
+            for key, value in sorted(vars(importlib.import_module(module)).items())
+            if isinstance(value, (int, float))
+        ]
+    ).encode()
 
 
 def _kernel_sources_stamp() -> bytes:
     digest = hashlib.sha256()
     for path in sorted(KERNEL_DIR.glob("*.py")):
         digest.update(path.read_bytes())
+    digest.update(_outside_constants())
     return digest.digest()
 
 
@@ -57,13 +90,24 @@ for _locator in (_UserWideKernelLocator, _InTreeKernelLocator):
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
 
+def _without_device_imports(tree: ast.Module) -> ast.Module:
+    """The module without its `from deik.kernels.device_* import ...` statements."""
+    tree.body = [
+        node
+        for node in tree.body
+        if not (isinstance(node, ast.ImportFrom) and (node.module or "").startswith(DEVICE_PREFIX))
+    ]
+    return tree
+
+
 def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
-    """Exec the source files of modules `sources` into one new module `name`, wrapping every
-    function they define in `decorate`."""
+    """Exec the source files of modules `sources` into one new module `name`, without their
+    imports of each other, wrapping every function they define in `decorate`."""
     module = types.ModuleType(name)
     for source in sources:
         path = source.__file__
-        exec(compile(Path(path).read_text(), path, "exec"), module.__dict__)
+        tree = _without_device_imports(ast.parse(Path(path).read_text(), path))
+        exec(compile(tree, path, "exec"), module.__dict__)
     for key, value in list(module.__dict__.items()):
         if inspect.isfunction(value) and value.__module__ == name:
             setattr(module, key, decorate(value))
@@ -71,9 +115,16 @@ def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
     return module
 
 
-from deik.kernels import device_evolution, device_lm, device_maths, device_polish, device_terms  # noqa: E402
+from deik.kernels import (  # noqa: E402
+    device_driver,
+    device_evolution,
+    device_lm,
+    device_maths,
+    device_polish,
+    device_terms,
+)
 
-DEVICE_SOURCES = (device_maths, device_terms, device_evolution, device_polish, device_lm)
+DEVICE_SOURCES = (device_maths, device_terms, device_evolution, device_polish, device_lm, device_driver)
 # The device maths never allocates, so it is compiled without Numba's reference counting: every
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep

@@ -12,13 +12,29 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.kernels.layout import MAX_POLISH_COUNT
+from deik.kernels.layout import (
+    BEST_1,
+    CLIP,
+    CURRENT_TO_BEST_1,
+    MAX_POLISH_COUNT,
+    PAPER,
+    PENALTY,
+    RAND_1,
+    REFLECT,
+    Buffers,
+    Control,
+    KernelSettings,
+    Memetic,
+    PackedTerms,
+    Status,
+)
 from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 
-STRATEGIES = {"rand/1/bin": 0, "best/1/bin": 1, "current-to-best/1/bin": 2}
-LIMIT_CODES = {"reflect": 0, "clip": 1, "penalty": 2, "paper": 3}
+STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
+LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
 DEVICES = ("cpu", "gpu")
 STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
 
@@ -63,11 +79,21 @@ class Settings:
     memory_limit: int | None = None
 
     @classmethod
-    def paper(cls, **changes) -> "Settings":
+    def paper(cls, **changes) -> Settings:
         """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
         CR, no polish, no restarts."""
-        return cls(**{"strategy": "rand/1/bin", "F": 0.5, "CR": 0.5, "population": 500, "adaptive": False,
-                      "polish": 0, "restarts": 0, **changes})
+        return cls(
+            **{
+                "strategy": "rand/1/bin",
+                "F": 0.5,
+                "CR": 0.5,
+                "population": 500,
+                "adaptive": False,
+                "polish": 0,
+                "restarts": 0,
+                **changes,
+            }
+        )
 
     def __post_init__(self):
         _choice("strategy", self.strategy, tuple(STRATEGIES))
@@ -89,12 +115,16 @@ class Settings:
         _integer("polish_every", self.polish_every, 1)
         _integer("polish_count", self.polish_count, 1)
         if self.polish_count > MAX_POLISH_COUNT:
-            raise ValueError(f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
-                             f"got {self.polish_count}")
+            raise ValueError(
+                f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
+                f"got {self.polish_count}"
+            )
         _integer("islands", self.islands, 1)
         if self.population % self.islands or self.population // self.islands < 4:
-            raise ValueError(f"islands must divide the population into groups of at least 4 individuals, "
-                             f"got {self.islands!r} islands for population {self.population}")
+            raise ValueError(
+                f"islands must divide the population into groups of at least 4 individuals, "
+                f"got {self.islands!r} islands for population {self.population}"
+            )
         _integer("migration", self.migration, 1)
         if self.stop_on_converged is not None:
             _boolean("stop_on_converged", self.stop_on_converged)
@@ -117,8 +147,11 @@ def _integer(name: str, value, minimum: int, note: str = "") -> None:
 
 def _number(name: str, value, meaning: str) -> None:
     """ValueError unless `value` is a finite real number (not a bool or a string)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not math.isfinite(value)
+    ):
         raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
 
 
@@ -163,13 +196,12 @@ class EvolutionState:
     generation: int
 
     @property
-    def buffers(self):
-        return self.pop, self.levels, self.total, self.raw, self.rates
+    def buffers(self) -> Buffers:
+        return Buffers(*(getattr(self, name) for name in Buffers._fields))
 
     @property
-    def status(self):
-        return (self.best, self.active, self.generations, self.converged, self.best_seen, self.last_improved,
-                self.restarts, self.restarting, self.elite, self.leaders)
+    def status(self) -> Status:
+        return Status(*(getattr(self, name) for name in Status._fields))
 
 
 class Engine:
@@ -184,19 +216,31 @@ class Engine:
         wide = dtype == np.float64
         self.skel64 = self.skel if wide else pack_skeleton(problem.skeleton, np.float64)
         self.terms64 = self.terms if wide else pack_terms(problem.table, problem.reference, np.float64)
-        self.kernel_settings = (
-            np.int64(STRATEGIES[settings.strategy]), np.int64(LIMIT_CODES[problem.limits]),
-            dtype.type(settings.F), dtype.type(settings.CR), np.uint64(settings.seed), settings.adaptive,
-            np.int64(settings.islands),
+        self.kernel_settings = KernelSettings(
+            strategy=np.int64(STRATEGIES[settings.strategy]),
+            limit_mode=np.int64(LIMIT_CODES[problem.limits]),
+            F=dtype.type(settings.F),
+            CR=dtype.type(settings.CR),
+            seed=np.uint64(settings.seed),
+            adaptive=bool(settings.adaptive),
+            islands=np.int64(settings.islands),
         )
-        self.memetic = (np.int64(settings.polish), np.int64(settings.polish_every),
-                        np.int64(min(settings.polish_count, settings.population)))
+        self.memetic = Memetic(
+            iterations=np.int64(settings.polish),
+            every=np.int64(settings.polish_every),
+            count=np.int64(min(settings.polish_count, settings.population)),
+        )
         stop = settings.stop_on_converged
         if stop is None:
-            weight, tolerance = problem.table.term_float[:, 0], problem.table.term_float[:, 3]
+            weight, tolerance = problem.table.term_float[:, WEIGHT], problem.table.term_float[:, TOLERANCE]
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
-        self.control = (np.int64(settings.patience), STAGNATION, stop, np.int64(settings.restarts),
-                        np.int64(settings.migration))
+        self.control = Control(
+            patience=np.int64(settings.patience),
+            rel_improvement=STAGNATION,
+            stop_on_converged=bool(stop),
+            max_restarts=np.int64(settings.restarts),
+            migration=np.int64(settings.migration),
+        )
         if settings.device == "gpu":
             try:
                 from deik.kernels.cuda import CudaBackend
@@ -211,7 +255,7 @@ class Engine:
 
             self.backend = CpuBackend()
 
-    def for_problem(self, problem: Problem, seed: int | None = None) -> "Engine":
+    def for_problem(self, problem: Problem, seed: int | None = None) -> Engine:
         """A copy bound to `problem`, which shares this engine's skeleton and terms and differs
         only in targets (Problem.with_goal_targets), and to `seed` if given: only the target
         parameters are packed again."""
@@ -221,7 +265,7 @@ class Engine:
         new.terms64 = new.terms if self.terms64 is self.terms else _with_params(self.terms64, problem.table.params)
         if seed is not None and seed != self.settings.seed:
             new.settings = replace(self.settings, seed=seed)
-            new.kernel_settings = self.kernel_settings[:4] + (np.uint64(seed),) + self.kernel_settings[5:]
+            new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
         return new
 
     def _initial(self, initial, B, D, dtype):
@@ -245,13 +289,28 @@ class Engine:
         init, n_init = self._initial(initial, B, D, dtype)
         pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
         total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
-        self.backend.initialise((pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings,
-                                init, n_init)
+        self.backend.initialise(
+            Buffers(pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings, init, n_init
+        )
         best = np.lexsort(np.moveaxis(levels, -1, 0)[::-1], axis=-1)[:, 0].astype(np.int64)
         return EvolutionState(
-            pop, levels, total, raw, rates, best, np.ones(B, np.bool_), np.zeros(B, np.int64), np.zeros(B, np.bool_),
-            total[np.arange(B), best].astype(np.float64), np.zeros(B, np.int64), np.zeros(B, np.int64),
-            np.zeros(B, np.bool_), np.full(B, -1, np.int64), self._leaders(levels), np.zeros((B, 0, 2)), 0,
+            pop=pop,
+            levels=levels,
+            total=total,
+            raw=raw,
+            rates=rates,
+            best=best,
+            active=np.ones(B, np.bool_),
+            generations=np.zeros(B, np.int64),
+            converged=np.zeros(B, np.bool_),
+            best_seen=total[np.arange(B), best].astype(np.float64),
+            last_improved=np.zeros(B, np.int64),
+            restarts=np.zeros(B, np.int64),
+            restarting=np.zeros(B, np.bool_),
+            elite=np.full(B, -1, np.int64),
+            leaders=self._leaders(levels),
+            history=np.zeros((B, 0, 2)),
+            generation=0,
         )
 
     def _leaders(self, levels: np.ndarray) -> np.ndarray:
@@ -265,18 +324,31 @@ class Engine:
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
         B = state.pop.shape[0]
-        cur = tuple(a.copy() for a in state.buffers)
-        nxt = tuple(a.copy() for a in state.buffers)  # stopped problems must be in both
-        status = tuple(a.copy() for a in state.status)
+        cur = Buffers(*(a.copy() for a in state.buffers))
+        nxt = Buffers(*(a.copy() for a in state.buffers))  # stopped problems must be in both
+        status = Status(*(a.copy() for a in state.status))
         # generation-major and left unfilled: a launch touches only the rows it runs, however
         # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
         steps = np.empty((n_generations, B, 2))
-        final, advanced = self.backend.run(cur, nxt, self.skel, self.terms, self.kernel_settings, self.memetic,
-                                           status, self.control, steps, state.generation, n_generations)
+        final, advanced = self.backend.run(
+            cur,
+            nxt,
+            self.skel,
+            self.terms,
+            self.kernel_settings,
+            self.memetic,
+            status,
+            self.control,
+            steps,
+            state.generation,
+            n_generations,
+        )
         ran = state.generation + np.arange(advanced)  # rows a problem that had stopped did not write
-        new = np.where((ran[:, None] < status[2][None, :])[..., None], steps[:advanced], np.nan)
+        new = np.where((ran[:, None] < status.generations[None, :])[..., None], steps[:advanced], np.nan)
         history = np.concatenate([state.history, new.transpose(1, 0, 2)], axis=1)
-        return EvolutionState(*final, *status, history, state.generation + advanced)
+        return EvolutionState(
+            **final._asdict(), **status._asdict(), history=history, generation=state.generation + advanced
+        )
 
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
@@ -290,6 +362,6 @@ class Engine:
         return self.run(state, 1)
 
 
-def _with_params(terms: tuple, params: np.ndarray) -> tuple:
+def _with_params(terms: PackedTerms, params: np.ndarray) -> PackedTerms:
     """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced."""
-    return terms[:2] + (np.ascontiguousarray(params, terms[2].dtype),) + terms[3:]
+    return terms._replace(params=np.ascontiguousarray(params, terms.params.dtype))
