@@ -20,7 +20,7 @@ import numpy as np
 
 import deik
 from deik.model.kinematics import forward_kinematics
-from deik.solver.serial import SerialDE
+from deik.solver.serial import CompiledSerialDE, SerialDE
 
 
 def make_problem(n_links: int, seed: int) -> deik.Problem:
@@ -42,6 +42,25 @@ def time_serial(problem, population: int, epochs: int, seed: int) -> dict:
         de.epoch()
     seconds = (time.perf_counter() - start) / epochs
     return {"seconds_per_generation": seconds, "epochs_timed": epochs, "best_tip_error": float(de.best_errors[0])}
+
+
+def time_serial_compiled(problem, population: int, generations: int, repeats: int, seed: int, dtype: str) -> dict:
+    """Seconds per generation of the compiled serial Algorithm 1 (one CPU thread, the kernels'
+    maths): best of `repeats` runs of `generations` epochs after a warm-up epoch (compilation
+    excluded); "all_seconds_per_generation" lists every repeat."""
+    de = CompiledSerialDE(problem, population=population, F=0.5, CR=0.5, seed=seed, dtype=dtype).run(1)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        de.run(generations)
+        times.append(time.perf_counter() - start)
+    return {
+        "seconds_per_generation": min(times) / generations,
+        "generations_timed": generations,
+        "repeats": repeats,
+        "all_seconds_per_generation": [t / generations for t in times],
+        "best_tip_error": float(de.best_errors[0]),
+    }
 
 
 def time_parallel(

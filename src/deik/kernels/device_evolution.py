@@ -95,18 +95,24 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
                 v = pop[b, i, d] + f * (pop[b, best, d] - pop[b, i, d]) + f * (pop[b, r1, d] - pop[b, r2, d])
         else:
             v = pop[b, i, d]
-        lo, hi = limits[d, LOWER], limits[d, UPPER]
-        if limit_mode == REFLECT:
-            if v < lo:
-                v = lo + (lo - v)
-            elif v > hi:
-                v = hi - (v - hi)
-            v = min(max(v, lo), hi)
-        elif limit_mode == CLIP:
-            v = min(max(v, lo), hi)
-        elif limit_mode == PAPER and abs(v) > _TWO_PI:
-            v = v * (1.0 / (abs(v) - _TWO_PI))
-        trial[d] = v
+        trial[d] = within_limits(v, limits[d, LOWER], limits[d, UPPER], limit_mode)
+
+
+def within_limits(v, lo, hi, limit_mode):
+    """Gene v after the limit mode: reflect folds it into [lo, hi], clip clamps it, penalty
+    leaves it (a top-priority term penalises it), paper applies Algorithm 2 (beyond +-2 pi it is
+    scaled by 1 / (|v| - 2 pi))."""
+    if limit_mode == REFLECT:
+        if v < lo:
+            v = lo + (lo - v)
+        elif v > hi:
+            v = hi - (v - hi)
+        return min(max(v, lo), hi)
+    if limit_mode == CLIP:
+        return min(max(v, lo), hi)
+    if limit_mode == PAPER and abs(v) > _TWO_PI:
+        return v * (1.0 / (abs(v) - _TWO_PI))
+    return v
 
 
 def polish_target(leaders, k, count, P):
