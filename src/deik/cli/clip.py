@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from deik.cli.common import UsageError, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 from deik.viz.text import format_table
@@ -164,6 +164,7 @@ def run_clip(args) -> int:
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
+    announce_compile(args.device or "cpu", "float32")
     fix = fix_clip(clip, goals, passes=args.passes, **overrides)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     summary = clip_report(clip, fix.clip, contacts, reach_tracks)

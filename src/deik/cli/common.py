@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 
 
 class UsageError(Exception):
@@ -80,3 +81,14 @@ def check_device(device: str) -> None:
         raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
     if not cuda.is_available():
         raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
+
+
+def announce_compile(device: str, dtype: str) -> None:
+    """Print one line on stderr before a solve when the CPU kernels for `dtype` must be compiled
+    first (deik.kernels.readiness), so nobody waits minutes in silence."""
+    if device != "cpu":
+        return
+    from deik.kernels.readiness import compile_note, kernels_ready
+
+    if not kernels_ready(dtype):
+        print(compile_note(dtype), file=sys.stderr, flush=True)

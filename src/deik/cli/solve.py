@@ -16,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, check_device, check_outputs, numbers
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
@@ -312,6 +312,7 @@ def run_solve(args) -> int:
         print(f"note: masses {loaded.mass_source}", file=sys.stderr)
     terminal = sys.stderr.isatty()
     progress = _progress(settings.generations, terminal) if args.progress or terminal else None
+    announce_compile(settings.device, settings.dtype)
     result = solve(problem, settings, initial=initial, progress=progress)
     if progress and terminal:
         print(file=sys.stderr)

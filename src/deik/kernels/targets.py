@@ -56,7 +56,9 @@ def _outside_constants() -> bytes:
     ).encode()
 
 
+@lru_cache(maxsize=1)
 def _kernel_sources_stamp() -> bytes:
+    """Hash of every kernel source and of the outside constants they use (read once a process)."""
     digest = hashlib.sha256()
     for path in sorted(KERNEL_DIR.glob("*.py")):
         digest.update(path.read_bytes())
@@ -85,7 +87,13 @@ class _UserWideKernelLocator(_KernelStampMixin, caching.UserWideCacheLocator):
     pass
 
 
-for _locator in (_UserWideKernelLocator, _InTreeKernelLocator):
+class _UserProvidedKernelLocator(_KernelStampMixin, caching.UserProvidedCacheLocator):
+    pass
+
+
+# Numba tries locators in order and takes the first whose folder it can write: NUMBA_CACHE_DIR
+# when set, else the package's __pycache__, else (a read-only install) the user's cache folder.
+for _locator in (_UserWideKernelLocator, _InTreeKernelLocator, _UserProvidedKernelLocator):
     if _locator not in caching.CacheImpl._locator_classes:
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
