@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 import deik
+from benchmarks.peer_process import PEERS_PYTHON, ROOT
 from benchmarks.robot_targets import ROBOTS, export_chain, load_case, pose_errors
-from benchmarks.robots import PEERS_PYTHON, ROOT
 from benchmarks.serial_vs_parallel import RESULTS, write_atomic
 from deik.experiments.timing import environment
 

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 import deik
+from benchmarks.peers.common import LIMIT_SLACK
 from deik.model.joints import ROTATE
 
 ROBOTS = Path(__file__).resolve().parents[2] / "shared" / "data" / "robots"
-LIMIT_SLACK = 1e-6  # rad (or m): a joint this close outside its limit still counts as inside
 
 
 @dataclass(frozen=True)

@@ -1,16 +1,18 @@
 """Robot IK benchmark on the TRAC-IK protocol: deik and peer IK libraries on the same targets.
 
-    PYTHONPATH=src python -m benchmarks.robots [--targets 500] [--cases panda iiwa human]
+    PYTHONPATH=src python -m benchmarks.robots [--targets 500] [--chunks 10] [--cases panda iiwa human]
                                               [--peers all|none|ikpy,pk,...] [--out benchmarks/results]
 
 Per case (benchmarks.robot_targets): N random in-limit poses of the tip, every solver starting
-from the mid-limit pose. deik solves each target alone (timed per call: building the Problem
-and deik.solve), again through one reused deik.Solver that swaps the targets (timed per call),
-and then all of them in one batched call (throughput). Each peer runs in .venv-peers through
-benchmarks.peers.run_peer (skipped, with the reason recorded, when that venv is missing or the
-peer fails). Every answer is scored by robot_targets.pose_errors (deik's float64 FK): success
-= within 1e-5 m and 1e-4 rad with every joint in its limits; also at 1e-3 m / 1e-2 rad, and the
-strict success reached within 5 ms. Writes results/robots.{json,md,png} atomically.
+from the mid-limit pose. The targets are split into chunks and the solvers take turns on each
+chunk (benchmarks.robot_turns): deik one target per call (building the Problem and deik.solve),
+deik through one reused deik.Solver that swaps the targets, deik on the chunk as one batch, then
+each peer, a long-lived process in .venv-peers (benchmarks.peer_process) whose local solvers
+restart from random in-limit poses within 5 ms per target. Peers are skipped, with the reason
+recorded, when that venv is missing or the peer fails. Every answer is scored by
+robot_targets.pose_errors (deik's float64 FK): success = within 1e-5 m and 1e-4 rad with every
+joint in its limits; also at 1e-3 m / 1e-2 rad, and the strict success reached within 5 ms.
+Writes results/robots.{json,md,png} atomically.
 """
 
 from __future__ import annotations
@@ -18,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -27,16 +28,17 @@ from pathlib import Path
 import numpy as np
 
 import deik
+from benchmarks.peer_process import PeerFailed, PeerProcess
+from benchmarks.peers.run_peer import PEERS
+from benchmarks.robot_report import markdown, plot
 from benchmarks.robot_targets import CASES, ROBOTS, load_case, make_targets, pose_errors, save_targets
+from benchmarks.robot_turns import run_turns
 from benchmarks.serial_vs_parallel import RESULTS, write_atomic
-from deik.experiments.timing import environment
+from deik.experiments.timing import cpu_model, environment
 
-ROOT = Path(__file__).resolve().parents[1]
-PEERS_PYTHON = ROOT / ".venv-peers" / "bin" / "python"
-PEERS = ("ikpy", "pk", "placo", "pink", "mink", "pybullet")
 STRICT, LOOSE, BUDGET_S = (1e-5, 1e-4), (1e-3, 1e-2), 0.005
 DEIK = {"population": 32, "polish_count": 32, "generations": 2000, "patience": 50, "dtype": "float64"}  # retune here
-PEER_TIMEOUT_S = 900
+DEIK_TURNS = ("deik", "deik-solver", "deik-batch")
 
 
 def deik_problem(skeleton, tip, positions, rotations) -> deik.Problem:
@@ -53,29 +55,52 @@ def solve_deik_single(skeleton, tip, position, rotation, start, seed) -> np.ndar
     return result.angles
 
 
-def solve_deik_reused(skeleton, tip, positions, rotations, start, seed) -> tuple[np.ndarray, list[float]]:
-    """Every target through one deik.Solver (set up once, untimed), one timed call each, seeds
-    as the single solves: (angles (N, D), seconds per call)."""
-    solver = deik.Solver(deik_problem(skeleton, tip, positions[0], rotations[0]), **DEIK)
-    labels = solver.problem.table.labels
-    angles, seconds = [], []
-    for k in range(len(positions)):
-        t0 = time.perf_counter()
-        angles.append(
-            solver.solve({labels[0]: positions[k], labels[1]: rotations[k]}, initial=start[None], seed=seed + k).angles
-        )
-        seconds.append(time.perf_counter() - t0)
-    return np.array(angles), seconds
-
-
 def solve_deik_batch(skeleton, tip, positions, rotations, start, seed) -> np.ndarray:
     """B targets in one call: positions (B, 3), rotations (B, 3, 3), start (D,) -> angles (B, D)."""
     result = deik.solve(deik_problem(skeleton, tip, positions, rotations), seed=seed, initial=start[None], **DEIK)
     return result.angles
 
 
+def deik_runners(skeleton, targets: dict, seed: int) -> dict:
+    """deik's three turns as runners (start, stop) -> {"angles", "seconds"} (+ "wall" per batch).
+    Compilation and the reused Solver's set-up happen here, untimed. Target k gets seed + k in
+    the single and reused solves; a batch gets seed + its first index."""
+    tip, start = targets["tip"], targets["start"]
+    P, R = targets["positions"], targets["rotations"]
+    solve_deik_single(skeleton, tip, P[0], R[0], start, seed)
+    solve_deik_batch(skeleton, tip, P[:2], R[:2], start, seed)
+    solver = deik.Solver(deik_problem(skeleton, tip, P[0], R[0]), **DEIK)
+    labels = solver.problem.table.labels
+    solver.solve({labels[0]: P[0], labels[1]: R[0]}, initial=start[None], seed=seed)
+
+    def timed(solve_one):
+        def run(a: int, b: int) -> dict:
+            angles, seconds = [], []
+            for k in range(a, b):
+                t0 = time.perf_counter()
+                angles.append(solve_one(k))
+                seconds.append(time.perf_counter() - t0)
+            return {"angles": angles, "seconds": seconds}
+
+        return run
+
+    def batch(a: int, b: int) -> dict:
+        t0 = time.perf_counter()
+        angles = solve_deik_batch(skeleton, tip, P[a:b], R[a:b], start, seed + a)
+        wall = time.perf_counter() - t0
+        return {"angles": list(angles), "seconds": [wall / (b - a)] * (b - a), "wall": [wall]}
+
+    return {
+        "deik": timed(lambda k: solve_deik_single(skeleton, tip, P[k], R[k], start, seed + k)),
+        "deik-solver": timed(
+            lambda k: solver.solve({labels[0]: P[k], labels[1]: R[k]}, initial=start[None], seed=seed + k).angles
+        ),
+        "deik-batch": batch,
+    }
+
+
 def score(skeleton, targets: dict, angles, seconds) -> dict:
-    """Success rates and time statistics of solutions (N, D) with per-solve seconds (N,)."""
+    """Success rates and time statistics of solutions (N, D) with per-target seconds (N,)."""
     pos, rot, inside = pose_errors(skeleton, targets["tip"], angles, targets["positions"], targets["rotations"])
     strict = (pos <= STRICT[0]) & (rot <= STRICT[1]) & inside
     loose = (pos <= LOOSE[0]) & (rot <= LOOSE[1]) & inside
@@ -94,146 +119,85 @@ def score(skeleton, targets: dict, angles, seconds) -> dict:
     }
 
 
-def run_deik(skeleton, targets: dict, seed: int) -> dict:
-    """deik one target at a time (timed per call), then all targets in one batched call."""
-    tip, start = targets["tip"], targets["start"]
-    P, R = targets["positions"], targets["rotations"]
-    solve_deik_single(skeleton, tip, P[0], R[0], start, seed)  # compile, not timed
-    solve_deik_batch(skeleton, tip, P[:2], R[:2], start, seed)
-    angles, seconds = [], []
-    for k in range(len(P)):
-        t0 = time.perf_counter()
-        angles.append(solve_deik_single(skeleton, tip, P[k], R[k], start, seed + k))
-        seconds.append(time.perf_counter() - t0)
-    reused = solve_deik_reused(skeleton, tip, P, R, start, seed)
-    t0 = time.perf_counter()
-    batch = solve_deik_batch(skeleton, tip, P, R, start, seed)
-    wall = time.perf_counter() - t0
+def deik_row(skeleton, targets: dict, outputs: dict) -> dict:
+    """deik's result: the single solves' score, with the batch and the reused Solver beside it."""
+    single, reused, batch = (outputs[name] for name in DEIK_TURNS)
+    n, wall = len(targets["positions"]), float(np.sum(batch["wall"]))
     row = {
         "version": deik.__version__,
-        "settings": {**DEIK, "seed": "seed + target index (single); seed (batch)"},
-        **score(skeleton, targets, np.array(angles), seconds),
+        "settings": {**DEIK, "seed": "seed + target index (single, Solver); seed + first index (batch)"},
+        **score(skeleton, targets, np.array(single["angles"]), single["seconds"]),
     }
-    batch_score = score(skeleton, targets, batch, np.full(len(P), wall / len(P)))
+    batch_score = score(skeleton, targets, np.array(batch["angles"]), batch["seconds"])
     row["batch"] = {
         "seconds": wall,
-        "problems_per_second": len(P) / wall,
+        "problems_per_second": n / wall,
+        "batch_size": int(np.ceil(n / len(batch["wall"]))),
+        "batches": len(batch["wall"]),
         "success_strict": batch_score["success_strict"],
         "success_loose": batch_score["success_loose"],
     }
-    solver_score = score(skeleton, targets, reused[0], reused[1])
-    row["solver"] = {k: solver_score[k] for k in ("success_strict", "median_ms", "p95_ms")}
+    solver_score = score(skeleton, targets, np.array(reused["angles"]), reused["seconds"])
+    keep = ("success_strict", "success_loose", "success_strict_within_budget", "median_ms", "p95_ms", "mean_ms")
+    row["solver"] = {k: solver_score[k] for k in keep}
     return row
 
 
-def run_peer(name: str, skeleton, targets: dict, targets_file: Path) -> dict:
-    """One peer in the peers venv; its answers rescored here. {"skipped": reason} when it cannot run."""
-    if not PEERS_PYTHON.exists():
-        return {"skipped": f"{PEERS_PYTHON} is missing (make bench-peers creates it)"}
-    out = targets_file.with_name(f"{name}.json")
-    cmd = [str(PEERS_PYTHON), "-m", "benchmarks.peers.run_peer", name, str(targets_file), str(out)]
-    try:
-        proc = subprocess.run(
-            cmd,
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=PEER_TIMEOUT_S,
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
-        )
-    except subprocess.TimeoutExpired:
-        return {"skipped": f"timed out after {PEER_TIMEOUT_S} s"}
-    if not out.exists():
-        return {"skipped": f"exit {proc.returncode}: {(proc.stderr or proc.stdout).strip()[-800:]}"}
-    raw = json.loads(out.read_text())
-    if "error" in raw:
-        return {"skipped": raw["error"], "traceback": raw.get("traceback")}
+def peer_row(skeleton, targets: dict, info: dict, output: dict) -> dict:
+    """A peer's result, its answers rescored here; attempts = local solves per target."""
+    if "skipped" in output:
+        return output
     keep = ("package", "version", "settings", "setup_s", "frame_check")
-    return {**{k: raw[k] for k in keep}, **score(skeleton, targets, np.array(raw["angles"]), raw["seconds"])}
+    attempts = np.asarray(output["attempts"])
+    return {
+        **{k: info[k] for k in keep},
+        **score(skeleton, targets, np.array(output["angles"]), output["seconds"]),
+        "attempts": {
+            "mean": float(attempts.mean()),
+            "max": int(attempts.max()),
+            "restarted": float((attempts > 1).mean()),
+        },
+    }
 
 
-def markdown(result: dict) -> str:
-    """One table per case: success rates and times per solver."""
-    lines = [
-        f"Robot IK, TRAC-IK protocol: {result['settings']['targets']} random in-limit targets per case, "
-        "start at mid-limits, scored by deik's float64 FK. strict = 1e-5 m and 1e-4 rad with joints in "
-        "limits; loose = 1e-3 m and 1e-2 rad; ≤5 ms = strict within 5 ms. Times per solve call; CPU shared, "
-        "timings noisy."
-    ]
-    for case, data in result["cases"].items():
-        lines += [
-            "",
-            f"### {case} ({data['dofs']} DOF, {data['base']} -> {data['tip']})",
-            "",
-            "| solver | version | strict | loose | ≤5 ms | median ms | p95 ms | note |",
-            "|---|---|---:|---:|---:|---:|---:|---|",
-        ]
-        for name, row in data["solvers"].items():
-            if "skipped" in row:
-                lines.append(f"| {name} | | | | | | | skipped: {row['skipped'][:120]} |")
-                continue
-            note = ""
-            if "batch" in row:
-                b = row["batch"]
-                note = (
-                    f"batch of {row['n']}: {b['problems_per_second']:.0f} problems/s, "
-                    f"strict {100 * b['success_strict']:.1f} %, loose {100 * b['success_loose']:.1f} %"
-                )
-            if "solver" in row:
-                s = row["solver"]
-                note += (
-                    f"; deik.Solver reused: median {s['median_ms']:.2f} ms, p95 {s['p95_ms']:.2f} ms, "
-                    f"strict {100 * s['success_strict']:.1f} %"
-                )
-            lines.append(
-                f"| {name} | {row['version']} | {100 * row['success_strict']:.1f} % | "
-                f"{100 * row['success_loose']:.1f} % | {100 * row['success_strict_within_budget']:.1f} % | "
-                f"{row['median_ms']:.2f} | {row['p95_ms']:.2f} | {note} |"
-            )
-    return "\n".join(lines) + "\n"
-
-
-def plot(result: dict, path: Path) -> None:
-    """Strict success rate against median time per solve (bar to the 95th percentile), per case."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    cases = result["cases"]
-    fig, axes = plt.subplots(1, len(cases), figsize=(4.6 * len(cases), 4.0), squeeze=False)
-    for ax, (case, data) in zip(axes[0], cases.items()):
-        for k, (name, row) in enumerate((n, r) for n, r in data["solvers"].items() if "skipped" not in r):
-            colour = f"C{k}"
-            y = 100 * row["success_strict"]
-            ax.plot([row["median_ms"], row["p95_ms"]], [y, y], "-", color=colour, alpha=0.5)
-            ax.plot(row["median_ms"], y, "o", color=colour, label=name)
-            if "batch" in row:
-                per = 1e3 / row["batch"]["problems_per_second"]
-                ax.plot(
-                    per,
-                    100 * row["batch"]["success_strict"],
-                    "*",
-                    ms=11,
-                    color=colour,
-                    label=f"{name} batch (amortised)",
-                )
-        ax.axvline(BUDGET_S * 1e3, color="grey", ls=":", lw=1)
-        ax.set_xscale("log")
-        ax.set_ylim(-3, 103)
-        ax.set_xlabel("time per solve, ms (median; line to p95)")
-        ax.set_ylabel("success 1e-5 m / 1e-4 rad, %")
-        ax.set_title(f"{case} ({data['dofs']} DOF)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
-    plt.close(fig)
+def run_case(case: str, targets: dict, folder: Path, peers: tuple, chunks: int, seed: int, robots: Path) -> dict:
+    """Every solver on the case's targets in turns; the per-solver rows."""
+    skeleton = load_case(case, robots)[0]
+    save_targets(targets, folder / "targets.npz")
+    processes, skipped = {}, {}
+    for name in peers:  # start them all first: they load while deik compiles
+        try:
+            processes[name] = PeerProcess(name, folder / "targets.npz")
+        except PeerFailed as error:
+            skipped[name] = {"skipped": str(error)}
+    runners = deik_runners(skeleton, targets, seed)
+    for name, process in processes.items():
+        try:
+            process.ready()
+            runners[name] = process.solve
+        except PeerFailed as error:
+            skipped[name] = {"skipped": str(error)}
+    try:
+        outputs = run_turns(runners, len(targets["positions"]), chunks, label=case)
+    finally:
+        for process in processes.values():
+            process.close()
+    solvers = {"deik": deik_row(skeleton, targets, outputs)}
+    for name in peers:
+        solvers[name] = skipped.get(name) or peer_row(skeleton, targets, processes[name].info, outputs[name])
+    return {
+        "dofs": skeleton.n_dofs,
+        "base": targets["base"],
+        "tip": targets["tip"],
+        "dof_names": list(skeleton.dof_names),
+        "solvers": solvers,
+    }
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--targets", type=int, default=500, help="targets per case")
+    p.add_argument("--chunks", type=int, default=10, help="chunks of targets the solvers take turns on")
     p.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     p.add_argument("--peers", default="all", help="all, none, or a comma list of " + ",".join(PEERS))
     p.add_argument("--seed", type=int, default=0)
@@ -250,39 +214,30 @@ def main(argv=None) -> int:
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "settings": {
             "targets": a.targets,
+            "chunks": a.chunks,
             "seed": a.seed,
             "strict": STRICT,
             "loose": LOOSE,
             "budget_s": BUDGET_S,
             "deik": DEIK,
             "peers": list(peers),
+            "turns": "per chunk: " + ", ".join(DEIK_TURNS + peers),
         },
         "cases": {},
     }
     with tempfile.TemporaryDirectory() as work:
         for case in a.cases:
-            skeleton = load_case(case, a.robots)[0]
             targets = make_targets(case, a.targets, a.seed, a.robots)
             folder = Path(work) / case
             folder.mkdir()
-            save_targets(targets, folder / "targets.npz")
-            solvers = {"deik": run_deik(skeleton, targets, a.seed)}
-            for name in peers:
-                solvers[name] = run_peer(name, skeleton, targets, folder / "targets.npz")
-                print(f"{case}: {name} done", file=sys.stderr, flush=True)
-            result["cases"][case] = {
-                "dofs": skeleton.n_dofs,
-                "base": targets["base"],
-                "tip": targets["tip"],
-                "dof_names": list(skeleton.dof_names),
-                "solvers": solvers,
-            }
-    result["environment"] = {**environment(), "load_average_before": load_before}
+            result["cases"][case] = run_case(case, targets, folder, peers, a.chunks, a.seed, a.robots)
+            print(f"{case} done", file=sys.stderr, flush=True)
+    result["environment"] = {**environment(), "cpu_model": cpu_model(), "load_average_before": load_before}
     result["wall_s"] = time.perf_counter() - began
     write_atomic(a.out / "robots.json", lambda tmp: Path(tmp).write_text(json.dumps(result, indent=2) + "\n"))
     text = markdown(result)
     write_atomic(a.out / "robots.md", lambda tmp: Path(tmp).write_text(text))
-    plot(result, a.out / "robots.png")
+    plot(result, a.out / "robots.png", BUDGET_S)
     print(text)
     print(f"wall {result['wall_s']:.0f} s; wrote {a.out / 'robots.json'}, robots.md, robots.png")
     return 0

@@ -12,7 +12,7 @@ import warnings
 
 import numpy as np
 
-from benchmarks.peers.common import index_map
+from benchmarks.peers.common import BUDGET_S, index_map
 
 PACKAGE = "ikpy"
 
@@ -43,7 +43,7 @@ class Peer:
         T = self.chain.forward_kinematics(self._full(q))
         return T[:3, 3].copy(), T[:3, :3].copy()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         target = np.eye(4)
         target[:3, :3], target[:3, 3] = rotation, position
         full = self.chain.inverse_kinematics_frame(target, initial_position=self._full(start), orientation_mode="all")

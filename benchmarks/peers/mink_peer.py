@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, reached
+from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, pose_gap
 
 PACKAGE = "mink"
 DT, DAMPING, QP_SOLVER = 1.0, 1e-6, "daqp"
@@ -67,7 +67,7 @@ class Peer:
         self._set(q)
         return self._pose()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         mink = self.mink
         self.task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rotation), position))
         self._set(start)
@@ -82,5 +82,5 @@ class Peer:
                 raise StopIteration from None
             configuration.integrate_inplace(velocity, DT)
 
-        iterate(step, lambda: reached(self._pose(), position, rotation))
+        iterate(step, lambda: pose_gap(self._pose(), position, rotation), budget)
         return configuration.q[self.idx].copy()

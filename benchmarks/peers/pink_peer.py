@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, reached
+from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, pose_gap
 
 PACKAGE = "pin-pink"
 DT, DAMPING, QP_SOLVER = 1.0, 1e-6, "daqp"
@@ -55,7 +55,7 @@ class Peer:
         self._set(q)
         return self._pose()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         self.task.set_target(self.pin.SE3(rotation, position))
         self._set(start)
         configuration = self.configuration
@@ -75,5 +75,5 @@ class Peer:
                 raise StopIteration from None
             configuration.integrate_inplace(velocity, DT)
 
-        iterate(step, lambda: reached(self._pose(), position, rotation))
+        iterate(step, lambda: pose_gap(self._pose(), position, rotation), budget)
         return configuration.q[self.idx].copy()

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.peers.common import POS_TOL, ROT_TOL, index_map
+from benchmarks.peers.common import BUDGET_S, POS_TOL, ROT_TOL, index_map
 
 PACKAGE = "pytorch-kinematics"
 RETRIES, MAX_ITERATIONS = 10, 50
@@ -49,7 +49,7 @@ class Peer:
         T = self.chain.forward_kinematics(self._pk(q)[None]).get_matrix()[0].numpy()
         return T[:3, 3].copy(), T[:3, :3].copy()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         configs = self._pk(np.vstack([start[None], self.retries]))
         ik = self.pk.PseudoInverseIK(
             self.chain,

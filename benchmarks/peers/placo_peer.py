@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, reached
+from benchmarks.peers.common import BUDGET_S, MAX_ITERATIONS, index_map, iterate, pose_gap
 
 PACKAGE = "placo"
 
@@ -45,7 +45,7 @@ class Peer:
         self._set(q)
         return self._pose()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         target = np.eye(4)
         target[:3, :3], target[:3, 3] = rotation, position
         self.task.T_world_frame = target
@@ -55,5 +55,5 @@ class Peer:
             self.solver.solve(True)
             self.robot.update_kinematics()
 
-        iterate(step, lambda: reached(self._pose(), position, rotation))
+        iterate(step, lambda: pose_gap(self._pose(), position, rotation), budget)
         return np.array([self.robot.get_joint(n) for n in self.names])

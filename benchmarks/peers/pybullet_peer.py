@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from benchmarks.peers.common import BUDGET_S, index_map, iterate, reached
+from benchmarks.peers.common import BUDGET_S, index_map, iterate, pose_gap
 
 PACKAGE = "pybullet"
 INNER_ITERATIONS, RESIDUAL = 200, 1e-10
@@ -54,7 +54,7 @@ class Peer:
         self._set(q)
         return self._pose()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray) -> np.ndarray:
+    def solve(self, position: np.ndarray, rotation: np.ndarray, start: np.ndarray, budget: float = BUDGET_S):
         quat = Rotation.from_matrix(rotation).as_quat()  # x, y, z, w as pybullet wants
         q = np.array(start, dtype=float)
         self._set(q)
@@ -72,5 +72,5 @@ class Peer:
             q[:] = np.asarray(out)[self.order]
             self._set(q)
 
-        iterate(step, lambda: reached(self._pose(), position, rotation))
+        iterate(step, lambda: pose_gap(self._pose(), position, rotation), budget)
         return q
