@@ -24,6 +24,7 @@ import sys
 from deik import __version__
 from deik.cli import clip as cli_clip
 from deik.cli import solve as cli_solve
+from deik.cli import warmup as cli_warmup
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
 
@@ -117,6 +118,9 @@ def build_parser() -> Parser:
         help="added to each translation's range on both sides (default 0)",
     )
     lim.set_defaults(run=run_limits)
+    w = commands.add_parser("warmup", help="compile the kernels ahead of time (minutes, once after an install)")
+    cli_warmup.add_arguments(w)
+    w.set_defaults(run=cli_warmup.run_warmup)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
     d.set_defaults(run=run_demo)

@@ -85,10 +85,10 @@ def check_device(device: str) -> None:
 
 def announce_compile(device: str, dtype: str) -> None:
     """Print one line on stderr before a solve when the CPU kernels for `dtype` must be compiled
-    first (deik.kernels.readiness), so nobody waits minutes in silence."""
+    first (deik.solver.readiness), so nobody waits minutes in silence."""
     if device != "cpu":
         return
-    from deik.kernels.readiness import compile_note, kernels_ready
+    from deik.solver.readiness import compile_note, kernels_ready
 
     if not kernels_ready(dtype):
         print(compile_note(dtype), file=sys.stderr, flush=True)

@@ -10,8 +10,8 @@ count as not ready (the worst outcome is a note that turns out unneeded).
 from __future__ import annotations
 
 COMPILE_NOTE = (
-    "deik: compiling the CPU kernels for {dtype} (first use after an install or upgrade: about {minutes} "
-    "on this machine's {cores} cores; `deik warmup` does it ahead of time)"
+    "deik: compiling the CPU kernels for {dtype} first (once after an install or upgrade: 1-2 minutes on "
+    "2 cores, measured by `deik warmup`, which does it ahead of time)"
 )
 
 
@@ -31,9 +31,5 @@ def kernels_ready(dtype: str) -> bool:
 
 
 def compile_note(dtype: str) -> str:
-    """The one line to print before compiling, with the expected time for this machine."""
-    import os
-
-    cores = os.cpu_count() or 1
-    minutes = "1-2 minutes" if cores >= 8 else "2-4 minutes"
-    return COMPILE_NOTE.format(dtype=dtype, minutes=minutes, cores=cores)
+    """The one line to print before compiling."""
+    return COMPILE_NOTE.format(dtype=dtype)

@@ -1,0 +1,67 @@
+"""`deik warmup`: compile every CPU kernel a command uses, ahead of time, with a progress bar.
+
+The kernels are compiled on first use and cached on disk (deik.kernels.targets), which takes
+minutes on a small machine; running this once after an install or upgrade moves that wait to a
+moment of the user's choosing. Each step solves or evaluates a tiny problem so that exactly the
+kernels real work needs are compiled: the DE loop with its polish for each dtype, the float64
+error report, and the clip fix's float64 Jacobians.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+DTYPES = ("float32", "float64")
+
+
+def _solve(dtype: str) -> None:
+    """A small solve with every stage (initialise, generations, polish, report) in `dtype`."""
+    import deik
+
+    sk = deik.chain(3, dims=3)
+    target = deik.forward_kinematics(sk, np.full(sk.n_dofs, 0.3)).position("tip")
+    problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-3), deik.Comfort(level=1)])
+    deik.solve(problem, population=8, generations=2, dtype=dtype, seed=0)
+
+
+def _jacobians() -> None:
+    """The clip warm start's point Jacobians (float64)."""
+    import deik
+    from deik.kernels.cpu_backend import point_jacobians
+    from deik.kernels.pack import pack_skeleton
+
+    sk = deik.chain(3, dims=3)
+    point_jacobians(np.zeros((1, sk.n_dofs)), np.array([sk.frame_index("tip")]), pack_skeleton(sk, np.float64))
+
+
+def steps(dtypes=DTYPES) -> list[tuple[str, object]]:
+    """(description, function) of every compile step for these dtypes."""
+    out = [(f"DE, polish and report ({dtype})", lambda dtype=dtype: _solve(dtype)) for dtype in dtypes]
+    return out + [("clip warm start Jacobians (float64)", _jacobians)]
+
+
+def run_warmup(args) -> int:
+    """Compile the kernels for args.dtype (default both) and report how long it took."""
+    from tqdm import tqdm
+
+    from deik.solver.readiness import kernels_ready
+
+    dtypes = args.dtype or list(DTYPES)
+    began = time.perf_counter()
+    todo = steps(dtypes)
+    ready = all(kernels_ready(d) for d in dtypes)
+    bar = tqdm(todo, desc="deik warmup", unit="step", file=sys.stderr, disable=args.quiet)
+    for description, step in bar:
+        bar.set_postfix_str(description)
+        step()
+    state = "were already compiled (loaded from the cache)" if ready else "are compiled and cached"
+    print(f"deik's CPU kernels for {', '.join(dtypes)} {state}: {time.perf_counter() - began:.1f} s")
+    return 0
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--dtype", action="append", choices=DTYPES, help="only this precision (repeatable)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")

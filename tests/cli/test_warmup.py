@@ -1,0 +1,50 @@
+"""Cold start: the kernel cache follows NUMBA_CACHE_DIR and survives a read-only install, a command
+says when it must compile first, and `deik warmup` compiles ahead of time."""
+
+import os
+import subprocess
+import sys
+
+import deik.solver.readiness as readiness
+from deik.cli.app import main
+
+CHECK_LOCATION = "from deik.kernels import cpu; print(cpu.run_generations._cache._cache_path)"
+
+
+def _python(code: str, **env) -> str:
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env={**os.environ, **env}
+    )
+    assert run.returncode == 0, run.stderr
+    return run.stdout.strip()
+
+
+def test_kernel_cache_goes_to_numba_cache_dir_when_set(tmp_path):
+    assert _python(CHECK_LOCATION, NUMBA_CACHE_DIR=str(tmp_path)).startswith(str(tmp_path))
+    assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "kernels", "__pycache__"))
+
+
+def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
+    # as root every folder is writable, so the package folder is made to refuse the cache
+    code = (
+        "from deik.kernels import targets\n"
+        "def refuse(self): raise PermissionError('read-only')\n"
+        "targets._InTreeKernelLocator.ensure_cache_path = refuse\n" + CHECK_LOCATION
+    )
+    path = _python(code, NUMBA_CACHE_DIR="", XDG_CACHE_HOME=str(tmp_path), HOME=str(tmp_path))
+    assert path.startswith(str(tmp_path)) and "kernels" in path
+
+
+def test_no_compile_note_once_the_kernels_are_compiled(capsys):
+    assert main(["warmup", "--dtype", "float64", "--quiet"]) == 0
+    assert "float64 are" in capsys.readouterr().out
+    assert readiness.kernels_ready("float64")
+    assert main(["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--dtype", "float64"]) == 0
+    assert "compiling" not in capsys.readouterr().err
+
+
+def test_a_fresh_cache_folder_gets_the_compile_note_before_any_compiling(tmp_path):
+    code = "import deik.solver.readiness as r; print(r.kernels_ready('float32'), r.compile_note('float32'))"
+    ready, note = _python(code, NUMBA_CACHE_DIR=str(tmp_path)).split(" ", 1)
+    assert ready == "False" and note.startswith("deik: compiling the CPU kernels for float32 first")
+    assert "deik warmup" in note and not any(tmp_path.rglob("*.nbc"))  # nothing was compiled
