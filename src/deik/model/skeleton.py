@@ -20,6 +20,15 @@ MAX_LIMIT = 1e6  # radians or length units: beyond it float32 poses cannot resol
 MAX_MASS = 1e12  # kg per segment: keeps every total finite
 
 
+def _improper(R: np.ndarray) -> np.ndarray:
+    """Indices of the matrices in R (N, 3, 3) that are not proper rotations (R R^T = I within
+    1e-6, determinant +1, finite), checked all at once."""
+    finite = np.isfinite(R).all(axis=(1, 2))
+    safe = np.where(finite[:, None, None], R, 0.0)
+    orthonormal = np.all(np.abs(safe @ np.swapaxes(safe, 1, 2) - np.eye(3)) <= 1e-6 + 1e-5 * np.eye(3), axis=(1, 2))
+    return np.flatnonzero(~(finite & orthonormal & (np.linalg.det(safe) > 0)))
+
+
 def _fail(message: str) -> None:
     raise ValueError(message)
 
@@ -145,16 +154,14 @@ class Skeleton:
             _fail(f"mass {float(self.mass_value[k])} kg on joint {joint!r} must lie between 0 and {MAX_MASS:g} kg")
         if self.site_rotation.shape != (len(self.site_names), 3, 3):
             _fail("site_rotation must be (S, 3, 3)")
-        for k, R in enumerate(self.site_rotation):
-            if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-                _fail(f"site {self.site_names[k]!r} rotation is not a proper rotation matrix")
+        for k in _improper(self.site_rotation)[:1]:
+            _fail(f"site {self.site_names[k]!r} rotation is not a proper rotation matrix")
         if not np.isfinite(self.up).all() or abs(np.linalg.norm(self.up) - 1.0) > 1e-6:
             _fail(f"up must be a unit vector, got {self.up}")
         if self.joint_rotation.shape != (J, 3, 3):
             _fail(f"joint_rotation must be ({J}, 3, 3)")
-        for k, R in enumerate(self.joint_rotation):
-            if not np.isfinite(R).all() or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-                _fail(f"joint {self.joint_names[k]!r} rotation is not a proper rotation matrix")
+        for k in _improper(self.joint_rotation)[:1]:
+            _fail(f"joint {self.joint_names[k]!r} rotation is not a proper rotation matrix")
         self._validate_mimics(J, D)
 
     def _validate_mimics(self, J: int, D: int) -> None:
