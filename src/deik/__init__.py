@@ -20,10 +20,11 @@ from deik.objectives.goals import (
     Orientation,
     Position,
 )
-from deik.solver.engine import Engine, EvolutionState, Settings
+from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
 from deik.solver.seeding import poses_around
+from deik.solver.settings import Settings
 from deik.solver.solve import solve, solve_batch
 from deik.solver.solver import Solver
 

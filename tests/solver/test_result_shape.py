@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import deik
-from deik.solver.engine import Engine, Settings
+from deik.solver.engine import Engine
+from deik.solver.settings import Settings
 from deik.solver.solve import make_result
 
 SETTINGS = {"population": 16, "generations": 30, "seed": 2}

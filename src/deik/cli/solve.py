@@ -23,9 +23,9 @@ from deik.io.load import load_skeleton
 from deik.io.problem_file import load_problem
 from deik.model.rotations import euler_matrix
 from deik.objectives import goals as g
-from deik.solver.engine import STRATEGIES, Settings
 from deik.solver.problem import Problem
 from deik.solver.seeding import poses_around
+from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
 from deik.viz import plot
 from deik.viz.text import format_table

@@ -35,8 +35,8 @@ from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
 from deik.objectives.reference import raw_errors
-from deik.solver.engine import Settings
 from deik.solver.seeding import poses_around
+from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, solve
 
 # a repair is a local search among the DOFs its goals need: no restart from random poses (it

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from deik.io.atomic import save_atomically, write_text_atomically
-from deik.solver.engine import Settings
+from deik.solver.settings import Settings
 from deik.viz.plot import plot_result, require_matplotlib
 
 CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's reach

@@ -32,8 +32,9 @@ from deik.experiments.common import (
 from deik.experiments.demo import chain_target
 from deik.model.builders import chain
 from deik.objectives.goals import Position
-from deik.solver.engine import Engine, Settings
+from deik.solver.engine import Engine
 from deik.solver.problem import Problem
+from deik.solver.settings import Settings
 from deik.solver.solve import make_result
 from deik.viz.plot import require_matplotlib
 

@@ -28,8 +28,9 @@ from deik.experiments.common import (
 )
 from deik.model.builders import chain
 from deik.objectives.goals import Comfort
-from deik.solver.engine import Engine, Settings
+from deik.solver.engine import Engine
 from deik.solver.problem import Problem
+from deik.solver.settings import Settings
 from deik.viz.plot import require_matplotlib
 
 NAME = "fig6"

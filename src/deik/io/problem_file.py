@@ -48,8 +48,8 @@ from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.problem_goals import goal_from_table, vector_field
 from deik.objectives import goals as g
-from deik.solver.engine import Settings
 from deik.solver.problem import LIMIT_MODES, Problem
+from deik.solver.settings import Settings
 from deik.suggest import did_you_mean
 
 URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")

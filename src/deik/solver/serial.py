@@ -29,8 +29,9 @@ import numpy as np
 
 from deik.kernels.layout import Buffers
 from deik.objectives.reference import fitness
-from deik.solver.engine import LIMIT_CODES, Engine, Settings
+from deik.solver.engine import Engine
 from deik.solver.problem import Problem
+from deik.solver.settings import LIMIT_CODES, Settings
 
 _TWO_PI = 2.0 * np.pi
 

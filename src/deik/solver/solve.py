@@ -9,10 +9,11 @@ import numpy as np
 
 from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
 from deik.objectives.registry import kind_of
-from deik.solver.engine import Engine, Settings
+from deik.solver.engine import Engine
 from deik.solver.launches import Launches
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
+from deik.solver.settings import Settings
 
 
 def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:

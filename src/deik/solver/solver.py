@@ -16,9 +16,10 @@ from dataclasses import replace
 import numpy as np
 
 from deik.objectives.kinds import GAIN
-from deik.solver.engine import Engine, Settings
+from deik.solver.engine import Engine
 from deik.solver.problem import Problem
 from deik.solver.result import Result
+from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, run_engine
 
 

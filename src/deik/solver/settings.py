@@ -1,0 +1,154 @@
+"""DE settings: `Settings`, every field checked by name and type when it is made.
+
+The strategy, limit-mode and device names map to the kernels' codes (deik.kernels.layout).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.kernels.layout import (
+    BEST_1,
+    CLIP,
+    CURRENT_TO_BEST_1,
+    MAX_POLISH_COUNT,
+    PAPER,
+    PENALTY,
+    RAND_1,
+    REFLECT,
+)
+
+STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
+LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
+DEVICES = ("cpu", "gpu")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """DE settings. The defaults converge on IK problems: current-to-best/1/bin with jDE
+    self-adaptive F and CR (`adaptive`; F and CR are then only the starting values), an LM
+    polish of up to `polish_count` individuals per problem (the best first, stopping at the
+    first that meets every tolerance) with `polish` steps every `polish_every` generations
+    (0 turns it off), and up to `restarts` restarts of a
+    search that stagnates unconverged. `islands` > 1 splits each population into that many
+    groups that breed apart and pass their leader to the next group every `migration`
+    generations. `Settings.paper()` is the paper's plain rand/1/bin for
+    reproducing its figures. `patience`: generations without improvement that count as
+    stagnation. `stop_on_converged`: stop a problem once every goal with a tolerance is met;
+    None (default) stops then unless a goal without tolerance (comfort) is left to improve,
+    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
+    between kernel launches, so it may overrun by about a quarter of the time left or one
+    generation, and always runs at least one generation; the first call in a process also
+    loads or compiles the kernels). `memory_limit`: bytes a solve may allocate (None: 80 % of
+    the machine's memory); a larger solve is refused before anything is allocated."""
+
+    population: int = 256
+    generations: int = 2000
+    strategy: str = "current-to-best/1/bin"
+    F: float = 0.5
+    CR: float = 0.9
+    adaptive: bool = True
+    polish: int = 10
+    polish_every: int = 10
+    polish_count: int = 16
+    restarts: int = 20
+    islands: int = 1
+    migration: int = 25
+    seed: int = 0
+    patience: int = 300
+    stop_on_converged: bool | None = None
+    time_limit: float | None = None
+    device: str = "cpu"
+    dtype: str = "float32"
+    memory_limit: int | None = None
+
+    @classmethod
+    def paper(cls, **changes) -> Settings:
+        """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
+        CR, no polish, no restarts."""
+        return cls(
+            **{
+                "strategy": "rand/1/bin",
+                "F": 0.5,
+                "CR": 0.5,
+                "population": 500,
+                "adaptive": False,
+                "polish": 0,
+                "restarts": 0,
+                **changes,
+            }
+        )
+
+    def __post_init__(self):
+        _choice("strategy", self.strategy, tuple(STRATEGIES))
+        _integer("population", self.population, 4, "DE needs 3 donors")
+        _integer("generations", self.generations, 1)
+        _number("F", self.F, "the differential weight, in (0, 2]")
+        if not 0 < self.F <= 2:
+            raise ValueError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
+        _number("CR", self.CR, "the crossover probability, in [0, 1]")
+        if not 0 <= self.CR <= 1:
+            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
+        _boolean("adaptive", self.adaptive)
+        _integer("seed", self.seed, 0)
+        if self.seed >= 2**64:
+            raise ValueError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
+        _integer("patience", self.patience, 1)
+        _integer("polish", self.polish, 0, "0 turns it off")
+        _integer("restarts", self.restarts, 0, "0 turns them off")
+        _integer("polish_every", self.polish_every, 1)
+        _integer("polish_count", self.polish_count, 1)
+        if self.polish_count > MAX_POLISH_COUNT:
+            raise ValueError(
+                f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
+                f"got {self.polish_count}"
+            )
+        _integer("islands", self.islands, 1)
+        if self.population % self.islands or self.population // self.islands < 4:
+            raise ValueError(
+                f"islands must divide the population into groups of at least 4 individuals, "
+                f"got {self.islands!r} islands for population {self.population}"
+            )
+        _integer("migration", self.migration, 1)
+        if self.stop_on_converged is not None:
+            _boolean("stop_on_converged", self.stop_on_converged)
+        if self.time_limit is not None:
+            _number("time_limit", self.time_limit, "seconds, or None for no limit")
+            if not self.time_limit > 0:
+                raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
+        _choice("device", self.device, DEVICES)
+        _choice("dtype", self.dtype, ("float32", "float64"))
+        if self.memory_limit is not None:
+            _integer("memory_limit", self.memory_limit, 1, "bytes; None: 80 % of physical memory")
+
+
+def _integer(name: str, value, minimum: int, note: str = "") -> None:
+    """ValueError unless `value` is an integer (not a bool) >= minimum."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
+        hint = f" ({note})" if note else ""
+        raise ValueError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
+
+
+def _number(name: str, value, meaning: str) -> None:
+    """ValueError unless `value` is a finite real number (not a bool or a string)."""
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not math.isfinite(value)
+    ):
+        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
+
+
+def _boolean(name: str, value) -> None:
+    """ValueError unless `value` is True or False."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
+
+
+def _choice(name: str, value, choices: tuple) -> None:
+    """ValueError unless `value` is one of `choices` (strings)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
