@@ -343,3 +343,12 @@ def test_a_problem_file_that_is_not_utf8_is_named(tmp_path, capsys):
     path.write_bytes('skeleton = "chain:3"\n# r\xe9sum\xe9\n'.encode("latin-1"))
     status, err = _cli(["solve", "--problem", path], capsys)
     assert status == 2 and "latin.toml: not a text (UTF-8) problem (TOML) file" in err
+
+
+def test_an_error_about_a_huge_input_is_cut_to_one_short_line(tmp_path, capsys):
+    path = tmp_path / "huge.toml"
+    target = ", ".join(["1.0"] * 100_000)
+    path.write_text(f'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [{target}]\n')
+    status, err = _cli(["solve", "--problem", path], capsys)
+    assert status == 2 and err.count("\n") == 1 and len(err) <= 520
+    assert "huge.toml" in err and "characters)" in err
