@@ -1,6 +1,8 @@
 """fix_clip and `deik clip` on the real clips: planted feet stop sliding while the pose stays
 close to the performance; bad input is refused before anything is written."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -162,3 +164,5 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     assert "contacts (detected)" in captured.err and "foot sliding mean (mm/frame)" in captured.out
     assert read_bvh(out).n_frames == 25
     assert (tmp_path / "report.png").stat().st_size > 0 and (tmp_path / "report.json").stat().st_size > 0
+    far = json.loads((tmp_path / "report.json").read_text())["joints_far_from_capture"]
+    assert far["degrees"] == 30.0 and all(d["degrees"] > 30.0 for d in far["joint_frames"])

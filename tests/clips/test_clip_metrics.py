@@ -177,3 +177,16 @@ def test_plot_clip_report_writes_one_png_atomically(tmp_path):
     with pytest.raises(ValueError, match="one length"):
         plot_clip_report({"bad": (np.zeros(3), np.zeros(4))}, tmp_path / "bad.png", 0.1)
     assert os.listdir(tmp_path) == ["report.png"]
+
+
+def test_large_deviations_lists_each_joint_frame_beyond_the_threshold():
+    from deik.clips.metrics import large_deviations
+
+    poses = np.zeros((5, 4))  # body X, Y, Z, arm Z
+    original = stage(poses)
+    turned = poses.copy()
+    turned[2, 3], turned[3, 3] = np.radians(45.0), np.radians(20.0)
+    far = large_deviations(original, stage(turned), 30.0)
+    assert [(f["frame"], f["joint"]) for f in far] == [(2, "arm")]
+    assert abs(far[0]["degrees"] - 45.0) < 1e-9
+    assert large_deviations(original, original, 30.0) == []

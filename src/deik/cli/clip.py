@@ -18,6 +18,7 @@ from deik.suggest import did_you_mean
 from deik.viz.text import format_table
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
+FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
 
 
 def add_arguments(c) -> None:
@@ -127,7 +128,7 @@ def _reaches(args, clip):
 
 def run_clip(args) -> int:
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
-    from deik.clips.metrics import clip_report, per_frame_errors
+    from deik.clips.metrics import clip_report, large_deviations, per_frame_errors
     from deik.clips.problem import ClipGoals
     from deik.clips.solver import fix_clip
     from deik.io.bvh import read_bvh, write_bvh
@@ -189,6 +190,15 @@ def run_clip(args) -> int:
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
         f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal"
     )
+    far = large_deviations(clip, fix.clip, FAR_DEGREES)
+    if far:
+        worst = max(far, key=lambda d: d["degrees"])
+        frames = sorted({d["frame"] for d in far})
+        print(
+            f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+            f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
+            f"({worst['degrees']:.0f} degrees); --json lists them"
+        )
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
@@ -198,6 +208,7 @@ def run_clip(args) -> int:
                     "metrics": summary,
                     "frames": clip.n_frames,
                     "wall_time_s": fix.wall_time,
+                    "joints_far_from_capture": {"degrees": FAR_DEGREES, "joint_frames": far},
                     "frames_met": int(fix.met.sum()),
                     "stages": list(fix.stages),
                 },

@@ -84,11 +84,16 @@ def com_outside_support(clip, contacts) -> np.ndarray:
     return _outside(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask, clip.skeleton.up)
 
 
+def _turning_joints(sk) -> list[int]:
+    """Indices of the joints with rotation DOFs."""
+    m = sk.motions
+    return [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
+
+
 def _joint_angles(original, fixed) -> np.ndarray:
     """(N, K) angle in radians between the local rotations of each joint with rotation DOFs."""
     sk = original.skeleton
-    m = sk.motions
-    turning = [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
+    turning = _turning_joints(sk)
     parents = sk.parents[turning]
     rotations = []
     for clip in (original, fixed):
@@ -107,6 +112,15 @@ def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
     if angles.shape[1] == 0:
         return np.zeros(len(angles)), np.zeros(len(angles))
     return angles.mean(axis=1), angles.max(axis=1)
+
+
+def large_deviations(original, fixed, degrees: float = 30.0) -> list[dict]:
+    """Every (frame, joint) whose rotation relative to its parent is more than `degrees` away
+    from the capture's, in frame order: [{"frame", "joint", "degrees"}]."""
+    angles = np.degrees(_joint_angles(original, fixed))
+    names = [original.skeleton.joint_names[k] for k in _turning_joints(original.skeleton)]
+    frames, joints = np.nonzero(angles > degrees)
+    return [{"frame": int(f), "joint": names[j], "degrees": float(angles[f, j])} for f, j in zip(frames, joints)]
 
 
 def _largest(values: np.ndarray, labels, offset: int) -> tuple[float, int | None, str | None]:
