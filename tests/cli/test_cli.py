@@ -205,11 +205,15 @@ def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
     out = tmp_path / "pose.json"
     assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
     rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
-    # a rotation-only chain's joint-limit violation is in radians, not metres
+    # a rotation-only chain's joint-limit violation is an angle, not metres; the CLI shows angles in
+    # degrees while the JSON keeps the Python API's radians
     assert rows["position tip"].split()[3:6] == ["m", "0.01", "m"]
-    assert rows["aim tip"].split()[3] == "rad" and rows["joint limits"].split()[3] == "rad"
-    goals = json.loads(out.read_text())["goals"]
+    assert rows["aim tip"].split()[3] == "deg" and rows["joint limits"].split()[3] == "deg"
+    data = json.loads(out.read_text())
+    goals = data["goals"]
     assert [(g["kind"], g["unit"]) for g in goals] == [("position", "m"), ("aim", "rad"), ("joint_limits", "rad")]
+    shown = float(rows["aim tip"].split()[2])
+    assert abs(shown - np.degrees(goals[1]["error"])) <= 1e-5 * max(1.0, abs(shown))
 
 
 GOAL = '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\n'

@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 import deik
 from deik.cli.app import main
 from deik.io.urdf import read_urdf
+from deik.model.joints import ROTATE
 
 ROBOT_CHAINS = {  # robot: (base, tip, up)
     "panda": ("panda_link0", "panda_hand_tcp", None),
@@ -346,7 +347,7 @@ def test_cli_start_pose_seeds_the_search_and_keeps_the_answer_near_it(shared_dat
                 tip,
                 *map(str, deik.forward_kinematics(sk, start).position(tip)),
                 "--start",
-                *map(str, start),
+                *map(str, np.where(sk.dof_kind == ROTATE, np.degrees(start), start)),  # degrees at the CLI
                 "--tolerance",
                 "0.0001",
                 "--out",

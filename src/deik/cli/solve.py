@@ -18,9 +18,11 @@ import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
 from deik.io.atomic import all_or_nothing, write_json_atomically
+from deik.io.files import read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.problem_file import load_problem
+from deik.model.joints import ROTATE
 from deik.model.rotations import euler_matrix
 from deik.objectives import goals as g
 from deik.solver.problem import Problem
@@ -151,7 +153,7 @@ def add_arguments(s) -> None:
         "--start",
         nargs="+",
         metavar="VALUE|pose.json",
-        help="start near this pose: one value per DOF (radians / length units, `deik info` order) or a "
+        help="start near this pose: one value per DOF (degrees / length units, `deik info` order) or a "
         "pose.json written by --out; comfort then keeps the result near it unless --comfort is given",
     )
 
@@ -175,23 +177,32 @@ def _goals(args, frame_pose) -> list:
 
 
 def _start_pose(values: list[str], skeleton) -> np.ndarray:
-    """The --start pose (D,): numbers in DOF order, or the "angles" of a pose.json."""
+    """The --start pose (D,) in radians and length units: numbers in DOF order on the command line
+    (degrees for rotations, as `deik info` shows them), or the "angles" (radians) of a pose.json."""
     if len(values) == 1 and values[0].lower().endswith(".json"):
         try:
-            with open(values[0]) as f:
-                pose = np.asarray(json.load(f)["angles"], np.float64)
-        except (OSError, ValueError, KeyError, TypeError) as error:
+            pose = np.asarray(json.loads(read_input_text(values[0], "pose (JSON)"))["angles"], np.float64)
+        except (ValueError, KeyError, TypeError) as error:
             raise UsageError(
                 f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
                 'an "angles" list, as `deik solve --out pose.json` writes'
             ) from None
-    else:
-        pose = np.asarray(numbers("--start", values), np.float64)
+        if pose.shape != (skeleton.n_dofs,):
+            raise UsageError(
+                f"--start {values[0]}: its angles hold {pose.size} values, the skeleton has {skeleton.n_dofs} DOFs"
+            )
+        return pose
+    pose = np.asarray(numbers("--start", values), np.float64)
     if pose.shape != (skeleton.n_dofs,):
         raise UsageError(
             f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); got {pose.size}"
         )
-    return pose  # poses_around refuses a pose outside the limits, naming the DOF
+    return np.where(skeleton.dof_kind == ROTATE, np.radians(pose), pose)  # poses_around checks the limits
+
+
+def _shown(value: float, unit: str) -> str:
+    """A report value in the CLI's units: degrees for angles, the raw unit otherwise."""
+    return f"{np.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
 
 
 def _file_flags_used(args) -> bool:
@@ -319,8 +330,8 @@ def run_solve(args) -> int:
     rows = [
         [
             r.label,
-            f"{float(r.error):.6g} {r.unit}",
-            f"{r.tolerance:.6g} {r.unit}" if r.tolerance >= 0 else "-",
+            _shown(float(r.error), r.unit),
+            _shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals
