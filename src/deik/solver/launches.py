@@ -4,8 +4,9 @@ A kernel launch cannot be interrupted: Python sees Ctrl-C, the time limit and pr
 only between launches. So a solve runs in launches of about LAUNCH_SECONDS each. The first is
 sized from an estimate of its work (individuals x frames per generation over an assumed rate),
 later ones from the measured pace of the one before, growing at most GROWTH-fold per launch so
-that a first launch slowed by compilation does not set the pace. A time limit caps each launch
-at a quarter of the time left, and progress reports at PROGRESS_CHUNK generations.
+that a first launch slowed by compilation does not set the pace. A time limit makes the first
+launch a probe of TIME_PROBE generations and caps each later one at a quarter of the time left;
+progress reports come every PROGRESS_CHUNK generations.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ LAUNCH_SECONDS = 0.25
 FRAME_EVALUATIONS_PER_SECOND = {"cpu": 2e7, "gpu": 1e9}  # conservative first guesses, before any measurement
 GROWTH = 4
 PROGRESS_CHUNK = 100
+TIME_PROBE = 4  # generations of the first launch under a time limit
 
 
 class Launches:
@@ -39,8 +41,10 @@ class Launches:
     def next(self, done: int) -> int:
         """Generations for the next launch, after `done` generations."""
         count = min(self.size, self.chunk, self.budget - done)
-        if self.pace is not None and math.isfinite(self.deadline):
-            count = min(count, int(0.25 * (self.deadline - time.perf_counter()) / self.pace))
+        if math.isfinite(self.deadline):
+            # unmeasured, a launch could overrun the limit: probe a few generations first
+            left = 0.25 * (self.deadline - time.perf_counter())
+            count = min(count, TIME_PROBE if self.pace is None else int(left / self.pace))
         return max(1, count)
 
     def ran(self, count: int, seconds: float) -> None:
