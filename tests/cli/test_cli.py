@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import subprocess
 import sys
 
 import numpy as np
@@ -379,3 +380,16 @@ def test_version_is_printed_and_matches_the_package(capsys):
 
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"deik {deik.__version__}" == f"deik {version('deik')}"
+
+
+def test_demo_prints_its_table_without_matplotlib(tmp_path):
+    code = (
+        "import sys; sys.modules['matplotlib'] = None\n"  # as if deik[viz] were not installed
+        "from deik.experiments.demo import chain_scenarios, run_demo\n"
+        f"run_demo({str(tmp_path)!r}, chain_scenarios(n_links=3, seed=1))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert "every scenario met its targets" in run.stdout and "no pictures" in run.stdout
+    assert "position tip" in run.stdout and not list(tmp_path.glob("*.png"))
+    assert (tmp_path / "demo.json").exists()

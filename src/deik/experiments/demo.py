@@ -147,6 +147,14 @@ def _print_table(rows: list[dict]) -> None:
     print(format_table(["scenario", "goal", "error", "% reach", "bound", "met", "generations", "time"], cells))
 
 
+def _has_matplotlib() -> bool:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
     """Solve `scenarios` (default: the paper's four), print the table, write one PNG each and
     demo.json into `out_dir` (created if missing). Returns the rows; a row's "passed" is False
@@ -155,10 +163,12 @@ def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
     os.makedirs(out_dir, exist_ok=True)
     start = time.perf_counter()
     rows, summary = [], []
+    pictures = _has_matplotlib()  # without it: the table and demo.json only
     for scenario in scenarios:
         result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
-        image = f"{scenario.key}.png"
-        plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
+        image = f"{scenario.key}.png" if pictures else None
+        if pictures:
+            plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
         rows += scenario_rows(scenario, result)
         summary.append(
             {
@@ -177,5 +187,6 @@ def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
     _print_table(rows)
     missed = [s["key"] for s in summary if not s["passed"]]
     verdict = f"MISSED: {', '.join(missed)}" if missed else "every scenario met its targets"
-    print(f"\n{verdict}; {total:.1f} s in all; pictures and demo.json in {out_dir}")
+    written = "pictures and demo.json" if pictures else 'demo.json (no pictures: pip install "deik[viz]")'
+    print(f"\n{verdict}; {total:.1f} s in all; {written} in {out_dir}")
     return rows
