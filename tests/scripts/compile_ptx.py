@@ -44,9 +44,17 @@ run_args = (
     np.int64(0),
     np.int64(5),
     np.zeros(B, np.int64),
-    np.zeros((B, int(engine.memetic.count), D * D), np.float32),
+    np.zeros((B, int(engine.memetic.count), 2 * D * D), np.float32),
 )
-init_args = (buffers, engine.skel, engine.terms, engine.kernel_settings, np.zeros((B, 1, D), np.float32), np.int64(0))
+init_args = (
+    buffers,
+    status,
+    engine.skel,
+    engine.terms,
+    engine.kernel_settings,
+    np.zeros((B, 1, D), np.float32),
+    np.int64(0),
+)
 for name, kernel, args in (("run", run, run_args), ("initialise", initialise, init_args)):
     ptx, _ = cuda.compile_ptx(kernel.py_func, signature(*args), cc=(9, 0))
     print(name, "entry" if ".entry" in ptx else "missing", len(ptx))

@@ -174,6 +174,10 @@ def test_engine_init_step_run():
     np.testing.assert_array_equal(stepped.history, s25.history)
     assert stepped.generation == 25
 
+    started = engine.start(25)  # set-up and generations in one call: the same state
+    for name in ("pop", "total", "best", "leaders", "best_seen", "generations", "history"):
+        np.testing.assert_array_equal(getattr(started, name), getattr(s25, name))
+
     more = engine.run(s25, 15)
     assert more.generation == 40 and more.generations.tolist() == [40]
     np.testing.assert_array_equal(more.history[:, :25], s25.history)
@@ -307,12 +311,13 @@ def test_batch_solves_each_problem():
 # --- (h) initial poses --------------------------------------------------------------------------
 
 
-def test_exact_initial_pose_converges_in_one_generation():
+def test_exact_initial_pose_converges_without_a_generation():
+    """The polish round before generation 0 finds the seeded pose meets the goal: no breeding."""
     sk = deik.chain(10)
     target, q = fk_target(sk, 31)
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-3)])
     r = deik.solve(problem, initial=q, seed=0)
-    assert r.converged and r.generations == 1
+    assert r.converged and r.generations == 0 and r.history.shape == (0, 2)
     assert tip_error(sk, r.angles, target) < 1e-4
     cold = deik.solve(problem, seed=0, polish=0)  # without the hint, DE alone takes a while
     assert cold.generations > 1

@@ -31,17 +31,17 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
 def _polish_scratch(skel, dtype_probe, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
-    lm = LmScratch(np.empty(D * D, t), np.empty(D, t), np.empty(3 * D, t), np.empty(D, t))
+    lm = LmScratch(np.empty(D * D, t), np.empty(D * D, t), np.empty(D, t), np.empty(3 * D, t), np.empty(D, t))
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
 @njit(parallel=True, cache=True)
-def initialise(state, skel, terms, settings, initial, n_initial, n_chunks):
+def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunks):
     """Fill the Buffers `state`: pop (B, P, D) uniformly inside the limits (the first n_initial
     individuals of each problem copy initial (B, n_initial, D)), every individual's F and CR
-    the settings', then evaluated (device_driver.initialise_individual). n_chunks: work units
-    (a few per thread; 1 runs in the calling thread); it changes the split of work, never the
-    result."""
+    the settings', then evaluated (device_driver.initialise_individual); then each problem's
+    best, leaders and best total in the Status `status`. n_chunks: work units (a few per
+    thread; 1 runs in the calling thread); it changes the split of work, never the result."""
     n = state.pop.shape[0] * state.pop.shape[1]
     n_chunks = max(1, min(n, n_chunks))
     if n_chunks == 1:
@@ -49,6 +49,17 @@ def initialise(state, skel, terms, settings, initial, n_initial, n_chunks):
     else:
         for c in prange(n_chunks):
             _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial)
+    for b in range(state.pop.shape[0]):
+        dev.rank_first(b, state, status)
+
+
+@njit(cache=True)
+def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
+    """initialise(cur) then run_generations from generation 0: a whole solve in one call;
+    returns the buffer swaps (as run_generations)."""
+    chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
+    initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
+    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
 
 
 @njit(cache=True)
@@ -146,15 +157,23 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     for g in range(n_gens):
         gen = gen_start + g
         order, n_active = _active_problems(active)
+        if n_active and memetic.iterations > 0 and gen % memetic.every == 0:
+            # polish before breeding, so a problem the polish solves stops without a generation
+            chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
+            _polish(chunks, n_active, cur, skel, terms, status, memetic, order)
+            for k in range(n_active):
+                b = order[k]
+                dev.settle(b, cur, terms, status, control)
+                if not active[b]:
+                    for i in range(P):
+                        dev.copy_individual(cur, nxt, b, i, i)
+            order, n_active = _active_problems(active)
         if n_active == 0:
             break
         n = n_active * P
         _breed(_chunks(n, 1, skel, threads), n, cur, nxt, skel, terms, settings, status, order, gen)
         cur, nxt = nxt, cur
         swaps += 1
-        if memetic.iterations > 0 and gen % memetic.every == 0:
-            chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
-            _polish(chunks, n_active, cur, skel, terms, status, memetic, order)
         for k in range(n_active):
             b = order[k]
             dev.update_status(b, gen, g, cur, terms, status, control, history)

@@ -16,9 +16,31 @@ def _chunks_for(n_individuals: int, skel) -> int:
 class CpuBackend:
     name = "cpu"
 
-    def initialise(self, buffers, skel, terms, settings, initial, n_initial):
+    def initialise(self, buffers, status, skel, terms, settings, initial, n_initial):
+        """Fill buffers with a first population and status with its best and leaders."""
         chunks = _chunks_for(buffers.pop.shape[0] * buffers.pop.shape[1], skel)
-        cpu.initialise(buffers, skel, terms, settings, initial, np.int64(n_initial), chunks)
+        cpu.initialise(buffers, status, skel, terms, settings, initial, np.int64(n_initial), chunks)
+
+    def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
+        """initialise then run from generation 0 in one compiled call (cpu.start); returns as run."""
+        swaps = int(
+            cpu.start(
+                cur,
+                nxt,
+                status,
+                skel,
+                terms,
+                settings,
+                memetic,
+                control,
+                history,
+                initial,
+                np.int64(n_initial),
+                np.int64(n_gens),
+                numba.get_num_threads(),
+            )
+        )
+        return (cur if swaps % 2 == 0 else nxt), swaps
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and the first `advanced` rows

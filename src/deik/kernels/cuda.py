@@ -33,19 +33,23 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         dev.breed_individual,
         dev.polish_individual,
     )
-    update_status, copy_individual, polish_target = dev.update_status, dev.copy_individual, dev.polish_target
+    update_status, settle, rank_first = dev.update_status, dev.settle, dev.rank_first
+    copy_individual, polish_target = dev.copy_individual, dev.polish_target
     ftype = float32 if dtype_name == "float32" else float64
     n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
     n_jac = 3 * n_dofs
 
     @cuda.jit
-    def initialise(state, skel, terms, settings, initial, n_initial):
+    def initialise(state, status, skel, terms, settings, initial, n_initial):
         b = cuda.blockIdx.x
         scratch = Scratch(
             cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
         )
         for i in range(cuda.threadIdx.x, state.pop.shape[1], cuda.blockDim.x):
             initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch)
+        cuda.syncthreads()
+        if cuda.threadIdx.x == 0:
+            rank_first(b, state, status)
 
     @cuda.jit
     def run(
@@ -57,10 +61,13 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         )
         trial, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
         trial_rates, axes = cuda.local.array(2, ftype), cuda.local.array(n_a, ftype)
-        # the polish's D x D matrix lives in global memory, one per polishing thread: as a local
-        # array every resident thread would reserve it (64 KiB each at the 128-DOF bucket)
+        # the polish's two D x D matrices live in global memory, one pair per polishing thread: as
+        # local arrays every resident thread would reserve them (64 KiB each at the 128-DOF bucket)
+        matrices = polish_matrix[b, min(tid, polish_matrix.shape[1] - 1)]
+        half = matrices.shape[0] // 2
         lm = LmScratch(
-            polish_matrix[b, min(tid, polish_matrix.shape[1] - 1)],
+            matrices[:half],
+            matrices[half:],
             cuda.local.array(n_d, ftype),
             cuda.local.array(n_jac, ftype),
             cuda.local.array(n_d, ftype),
@@ -72,16 +79,10 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
             cuda.syncthreads()
             if not status.active[b]:
                 break
-            for i in range(tid, P, stride):
-                breed_individual(
-                    b, i, gen_start + g, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
-                )
-            cur, nxt = nxt, cur
-            swaps += 1
-            cuda.syncthreads()
             if memetic.iterations > 0 and (gen_start + g) % memetic.every == 0:
-                # polish side by side, then undo every polish after the first that meets all
-                # tolerances: the CPU's in-order round with its early stop (nxt is scratch here)
+                # polish side by side before breeding, then undo every polish after the first
+                # that meets all tolerances: the CPU's in-order round with its early stop (nxt
+                # is scratch until the breeding writes it)
                 target = polish_target(status.leaders[b], tid, memetic.count, P)
                 if tid < memetic.count:
                     copy_individual(cur, nxt, b, target, target)
@@ -93,6 +94,18 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                             copy_individual(nxt, cur, b, target, target)
                             break
                 cuda.syncthreads()
+                if tid == 0:
+                    settle(b, cur, terms, status, control)
+                cuda.syncthreads()
+                if not status.active[b]:
+                    break
+            for i in range(tid, P, stride):
+                breed_individual(
+                    b, i, gen_start + g, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
+                )
+            cur, nxt = nxt, cur
+            swaps += 1
+            cuda.syncthreads()
             if tid == 0:
                 update_status(b, gen_start + g, g, cur, terms, status, control, history)
         if swaps % 2 == 1:
@@ -136,15 +149,27 @@ class CudaBackend:
     def _threads(self, population: int) -> int:
         return min(THREADS_PER_BLOCK, 32 * -(-population // 32))
 
-    def initialise(self, buffers, skel, terms, settings, initial, n_initial):
+    def initialise(self, buffers, status, skel, terms, settings, initial, n_initial):
+        """Fill buffers with a first population and status with its best and leaders."""
         initialise, _ = kernels_for(skel, buffers)
-        d_buf = self._to_device(buffers)
+        d_buf, d_status = self._to_device(buffers), self._to_device(status)
         B, P = buffers.pop.shape[:2]
         initialise[B, self._threads(P)](
-            d_buf, self._to_device(skel), self._to_device(terms), settings, cuda.to_device(initial), np.int64(n_initial)
+            d_buf,
+            d_status,
+            self._to_device(skel),
+            self._to_device(terms),
+            settings,
+            cuda.to_device(initial),
+            np.int64(n_initial),
         )
-        for host, device in zip(buffers, d_buf):
+        for host, device in zip(buffers + status, d_buf + d_status):
             device.copy_to_host(host)
+
+    def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
+        """initialise then run from generation 0 (two launches on the GPU)."""
+        self.initialise(cur, status, skel, terms, settings, initial, n_initial)
+        return self.run(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and the first `advanced` rows
@@ -154,7 +179,7 @@ class CudaBackend:
         d_history = cuda.device_array(history.shape, history.dtype)  # written by the kernel, never read
         B, P, D = cur.pop.shape
         advanced = cuda.to_device(np.zeros(B, np.int64))
-        shape = (B, int(memetic.count), D * D) if memetic.iterations > 0 else (B, 1, 1)
+        shape = (B, int(memetic.count), 2 * D * D) if memetic.iterations > 0 else (B, 1, 2)
         polish_matrix = cuda.device_array(shape, cur.pop.dtype)
         run[B, self._threads(P)](
             d_cur,

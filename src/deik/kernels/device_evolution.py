@@ -173,6 +173,40 @@ def within_tolerances(b, rw, terms, T):
     return True
 
 
+def rank_problem(b, state, status):
+    """Problem b's best individual (set as status.best[b] and returned) and its island leaders
+    (status.leaders[b]): the best of each island but the elite."""
+    levels, elite, leaders = state.levels, status.elite, status.leaders
+    P, islands = state.pop.shape[1], leaders.shape[1]
+    size = P // islands
+    k = 0
+    for i in range(P):
+        k = better_of(levels, b, k, i)
+    for j in range(islands):
+        lead = j * size if j * size != elite[b] else j * size + 1
+        for i in range(j * size, (j + 1) * size):
+            if i != elite[b]:
+                lead = better_of(levels, b, lead, i)
+        leaders[b, j] = lead
+    status.best[b] = k
+    return k
+
+
+def rank_first(b, state, status):
+    """A first population's best and leaders (rank_problem) and best total seen, problem b."""
+    status.best_seen[b] = state.total[b, rank_problem(b, state, status)]
+
+
+def settle(b, state, terms, status, control):
+    """After a polish round: problem b's best, leaders and convergence (status.converged); a
+    converged problem stops (status.active) when control.stop_on_converged."""
+    k = rank_problem(b, state, status)
+    met = within_tolerances(b, state.raw[b, k], terms, state.raw.shape[2])
+    status.converged[b] = met
+    if met and control.stop_on_converged:
+        status.active[b] = False
+
+
 def update_status(b, gen, row, state, terms, status, control, history):
     """After a generation: best index, island leaders, migration, history, convergence,
     stagnation and restarts of problem b (status: layout.Status, control: layout.Control). A
@@ -181,25 +215,16 @@ def update_status(b, gen, row, state, terms, status, control, history):
     as the elite, never worse, while the leaders that guide mutation and polish are the best of
     the others in each island. The best and mean total go to history[row, b] (generation-major
     (G, B, 2): a launch writes a prefix)."""
-    levels, total, raw = state.levels, state.total, state.raw
+    total, raw = state.total, state.raw
     elite, leaders, last_improved = status.elite, status.leaders, status.last_improved
     P, islands = state.pop.shape[1], leaders.shape[1]
-    size = P // islands
     status.restarting[b] = False
-    k = 0
     mean = 0.0
     for i in range(P):
         mean += total[b, i]
-        k = better_of(levels, b, k, i)
-    for j in range(islands):
-        lead = j * size if j * size != elite[b] else j * size + 1
-        for i in range(j * size, (j + 1) * size):
-            if i != elite[b]:
-                lead = better_of(levels, b, lead, i)
-        leaders[b, j] = lead
+    k = rank_problem(b, state, status)
     if islands > 1 and (gen + 1) % control.migration == 0:
         migrate(b, state, elite[b], leaders, islands)
-    status.best[b] = k
     history[row, b, HISTORY_BEST] = total[b, k]
     history[row, b, HISTORY_MEAN] = mean / P
     status.generations[b] += 1

@@ -13,7 +13,7 @@ import math
 from deik.kernels.device_evolution import keep_trial, within_tolerances
 from deik.kernels.device_maths import centre_of_mass, forward_kinematics
 from deik.kernels.device_polish import term_rows
-from deik.kernels.device_terms import evaluate, uses_centre_of_mass, weight_of
+from deik.kernels.device_terms import score, uses_centre_of_mass, weight_of
 from deik.kernels.layout import LOWER, UPPER
 from deik.objectives.kinds import (
     COMFORT_MAX,
@@ -38,13 +38,15 @@ def improves(lv, tot, levels, total):
     return tot < total
 
 
-def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D):
-    """A = J^T J and gradient = J^T r at pose q of the smooth terms on levels <= top and of
-    every comfort term (a weak pull towards its reference on any level, so that steps for a
-    higher level take the smallest move); returns the cost r^T r."""
+def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready):
+    """lm.normal = J^T J and lm.gradient = J^T r at pose q of the smooth terms on levels <=
+    top and of every comfort term (a weak pull towards its reference on any level, so that
+    steps for a higher level take the smallest move); returns the cost r^T r. frames_ready:
+    scratch.R, scratch.p and axes already hold pose q's frames (else they are computed)."""
     R, p, term_int = scratch.R, scratch.p, terms.term_int
-    A, gradient, jac = lm.A, lm.gradient, lm.jac
-    forward_kinematics(q, skel, R, p, scratch.work, axes, True)
+    A, gradient, jac = lm.normal, lm.gradient, lm.jac
+    if not frames_ready:
+        forward_kinematics(q, skel, R, p, scratch.work, axes, True)
     cx, cy, cz = 0.0, 0.0, 0.0
     if uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)
@@ -93,10 +95,13 @@ def add_comfort(t, b, q, terms, A, gradient, D):
 
 
 def damped_step(lm, D, damping, q, limits):
-    """delta = -(A + damping * diag(A))^-1 gradient by an in-place Cholesky factorisation of A,
-    DOFs held at their limits where the gradient pushes outwards; False if the matrix is not
-    positive definite."""
+    """delta = -(N + damping * diag(N))^-1 gradient for the normal matrix N = lm.normal, by a
+    Cholesky factorisation in lm.A (N is kept for retries with other damping), DOFs held at
+    their limits where the gradient pushes outwards; False if the matrix is not positive
+    definite."""
     A, gradient, delta = lm.A, lm.gradient, lm.delta
+    for e in range(D * D):
+        A[e] = lm.normal[e]
     peak = 0.0
     for a in range(D):
         peak = max(peak, A[a * D + a])
@@ -146,19 +151,26 @@ def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
         if levels[b, i, lvl] > 0.0:
             top = lvl
     damping = 1e-3
+    # the normal equations change only when a step is kept; a kept step's frames (computed with
+    # the axes, to score it) are then the new pose's, so each iteration runs one FK
+    formed, frames_ready = False, False
     for _ in range(iterations):
-        if normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D) == 0.0:
-            return
+        if not formed:
+            if normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready) == 0.0:
+                return
+            formed = True
         if damped_step(lm, D, damping, pop[b, i], limits):
             delta = lm.delta
             for d in range(D):
                 q[d] = min(max(pop[b, i, d] + delta[d], limits[d, LOWER]), limits[d, UPPER])
-            tot = evaluate(q, b, skel, terms, scratch, lv, rw)
+            forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
+            tot = score(q, b, skel, terms, scratch, lv, rw)
             if improves(lv, tot, levels[b, i], total[b, i]):
                 keep_trial(state, b, i, q, lv, rw, tot, state.rates[b, i])
                 if within_tolerances(b, rw, terms, T):
                     return
                 damping = max(damping * 0.3, 1e-7)
+                formed, frames_ready = False, True
                 continue
         damping *= 10.0
         if damping > _MAX_DAMPING:

@@ -160,9 +160,15 @@ def weight_of(terms, b, t):
 def evaluate(q, b, skel, terms, scratch, levels, raw):
     """Fitness of pose q for problem b: fills levels (L,) and raw (T,); returns the total
     weighted sum of normalised terms (Eqs. 1, 2)."""
+    forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, scratch.work, False)
+    return score(q, b, skel, terms, scratch, levels, raw)
+
+
+def score(q, b, skel, terms, scratch, levels, raw):
+    """evaluate() for a pose q whose world frames are already in scratch.R and scratch.p (the
+    polish computes them with the axes its Jacobians need, and scores the same frames)."""
     R, p, work = scratch.R, scratch.p, scratch.work
     term_int, term_float = terms.term_int, terms.term_float
-    forward_kinematics(q, skel, R, p, work, work, False)
     cx, cy, cz = 0.0, 0.0, 0.0
     if uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)

@@ -137,7 +137,8 @@ class Scratch(NamedTuple):
 class LmScratch(NamedTuple):
     """Per-thread scratch of the LM polish (device_lm.py)."""
 
-    A: np.ndarray  # (D*D,) the normal matrix, factorised in place
+    A: np.ndarray  # (D*D,) the damped normal matrix, factorised in place
+    normal: np.ndarray  # (D*D,) the undamped normal matrix J^T J, kept while the pose stands
     gradient: np.ndarray  # (D,)
     jac: np.ndarray  # (3*D,) one term's three Jacobian rows
     delta: np.ndarray  # (D,) the step

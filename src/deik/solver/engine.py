@@ -142,46 +142,63 @@ class Engine:
         init = np.broadcast_to(init, (B,) + init.shape[1:])
         return np.ascontiguousarray(init, dtype), init.shape[1]
 
-    def init(self, initial=None) -> EvolutionState:
-        """Random first population inside the limits (seeded with `initial` poses), evaluated."""
+    def _fresh(self, initial):
+        """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
         B, P, D = self.problem.batch_size, self.settings.population, self.problem.skeleton.n_dofs
         T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
         init, n_init = self._initial(initial, B, D, dtype)
-        pop, levels = np.empty((B, P, D), dtype), np.empty((B, P, L), dtype)
-        total, raw, rates = np.empty((B, P), dtype), np.empty((B, P, T), dtype), np.empty((B, P, 2), dtype)
-        self.backend.initialise(
-            Buffers(pop, levels, total, raw, rates), self.skel, self.terms, self.kernel_settings, init, n_init
+        buffers = Buffers(
+            np.empty((B, P, D), dtype),
+            np.empty((B, P, L), dtype),
+            np.empty((B, P), dtype),
+            np.empty((B, P, T), dtype),
+            np.empty((B, P, 2), dtype),
         )
-        best = np.lexsort(np.moveaxis(levels, -1, 0)[::-1], axis=-1)[:, 0].astype(np.int64)
-        return EvolutionState(
-            pop=pop,
-            levels=levels,
-            total=total,
-            raw=raw,
-            rates=rates,
-            best=best,
+        status = Status(
+            best=np.zeros(B, np.int64),
             active=np.ones(B, np.bool_),
             generations=np.zeros(B, np.int64),
             converged=np.zeros(B, np.bool_),
-            best_seen=total[np.arange(B), best].astype(np.float64),
+            best_seen=np.zeros(B, np.float64),
             last_improved=np.zeros(B, np.int64),
             restarts=np.zeros(B, np.int64),
             restarting=np.zeros(B, np.bool_),
             elite=np.full(B, -1, np.int64),
-            leaders=self._leaders(levels),
-            history=np.zeros((B, 0, 2)),
-            generation=0,
+            leaders=np.zeros((B, self.settings.islands), np.int64),
+        )
+        return buffers, status, init, n_init
+
+    def init(self, initial=None) -> EvolutionState:
+        """Random first population inside the limits (seeded with `initial` poses), evaluated."""
+        buffers, status, init, n_init = self._fresh(initial)
+        self.backend.initialise(buffers, status, self.skel, self.terms, self.kernel_settings, init, n_init)
+        return EvolutionState(
+            **buffers._asdict(), **status._asdict(), history=np.zeros((len(status.best), 0, 2)), generation=0
         )
 
-    def _leaders(self, levels: np.ndarray) -> np.ndarray:
-        """(B, islands) index of the best individual of each island (levels (B, P, L))."""
-        B, P, L = levels.shape
-        islands = self.settings.islands
-        groups = levels.reshape(B, islands, P // islands, L)
-        first = np.lexsort(np.moveaxis(groups, -1, 0)[::-1], axis=-1)[..., 0]
-        return (first + np.arange(islands) * (P // islands)).astype(np.int64)
+    def start(self, n_generations: int, initial=None) -> EvolutionState:
+        """init(initial) then run(state, n_generations) as one backend call (on the CPU one
+        compiled call: no Python between set-up, generations, polish and stopping)."""
+        cur, status, init, n_init = self._fresh(initial)
+        nxt = Buffers(*(np.empty_like(a) for a in cur))
+        steps = np.empty((n_generations, len(status.best), 2))
+        final, advanced = self.backend.start(
+            cur,
+            nxt,
+            status,
+            self.skel,
+            self.terms,
+            self.kernel_settings,
+            self.memetic,
+            self.control,
+            steps,
+            init,
+            n_init,
+            n_generations,
+        )
+        return _advanced(final, status, np.zeros((len(status.best), 0, 2)), 0, steps, advanced)
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
@@ -205,12 +222,7 @@ class Engine:
             state.generation,
             n_generations,
         )
-        ran = state.generation + np.arange(advanced)  # rows a problem that had stopped did not write
-        new = np.where((ran[:, None] < status.generations[None, :])[..., None], steps[:advanced], np.nan)
-        history = np.concatenate([state.history, new.transpose(1, 0, 2)], axis=1)
-        return EvolutionState(
-            **final._asdict(), **status._asdict(), history=history, generation=state.generation + advanced
-        )
+        return _advanced(final, status, state.history, state.generation, steps, advanced)
 
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
@@ -227,3 +239,13 @@ class Engine:
 def _with_params(terms: PackedTerms, params: np.ndarray) -> PackedTerms:
     """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced."""
     return terms._replace(params=np.ascontiguousarray(params, terms.params.dtype))
+
+
+def _advanced(final: Buffers, status: Status, history, generation: int, steps, advanced: int) -> EvolutionState:
+    """The state after a launch that ran `advanced` generations from `generation`: its final
+    buffers and status, and the history (B, G, 2) grown by the rows steps (n, B, 2) it wrote
+    (NaN where a problem had stopped)."""
+    ran = generation + np.arange(advanced)
+    new = np.where((ran[:, None] < status.generations[None, :])[..., None], steps[:advanced], np.nan)
+    history = np.concatenate([history, new.transpose(1, 0, 2)], axis=1)
+    return EvolutionState(**final._asdict(), **status._asdict(), history=history, generation=generation + advanced)

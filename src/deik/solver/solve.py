@@ -33,14 +33,15 @@ def run_engine(problem: Problem, engine: Engine, initial=None, progress=None) ->
     Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly."""
     settings = engine.settings
     start = time.perf_counter()
-    state = engine.init(initial)
     skeleton = problem.skeleton
     frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
     launches = Launches(settings, frame_work, progress is not None, start)
-    while launches.more(state.generation, state.active.any()):
-        count = launches.next(state.generation)
+    state = None
+    while state is None or launches.more(state.generation, state.active.any()):
+        count = launches.next(0 if state is None else state.generation)
         began = time.perf_counter()
-        state = engine.run(state, count)
+        # the first launch sets up the population in the same call
+        state = engine.start(count, initial) if state is None else engine.run(state, count)
         launches.ran(count, time.perf_counter() - began)
         if progress:
             progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
