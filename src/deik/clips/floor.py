@@ -6,10 +6,9 @@ at its own height above it when planted (an ankle joint about 5 cm above the sol
 Heights of contact sites are measured above floor + clearance, so that floating and skating
 mean the same for an ankle joint and a toe tip.
 
-- skating (Zhang et al.'s foot-skating ratio, as motion-synthesis papers report it): the share
-  of contact frames (a site in contact in frames n and n+1) in which a site in contact in both
-  slides horizontally more than SKATE_SLIDE (2.5 cm) while lower than SKATE_HEIGHT (5 cm) in
-  both;
+- skating (the foot-skating ratio motion-synthesis papers report): the share of contact
+  steps (a site in contact in frames n and n+1) in which a site in contact in both slides
+  horizontally more than SKATE_SLIDE (2.5 cm) while lower than SKATE_HEIGHT (5 cm) in both;
 - penetration: per frame, the depth of the deepest body point (every joint and end site)
   below the floor, 0 when none is below;
 - floating: per contact site and frame in contact, its height above floor + clearance (0 when
