@@ -28,8 +28,8 @@ import numpy as np
 
 from deik.cli.common import check_device
 from deik.clips.contacts import detect_contacts
-from deik.clips.metrics import clip_report, per_frame_errors
 from deik.clips.problem import ClipGoals
+from deik.clips.report import clip_report, per_frame_errors
 from deik.clips.solver import fix_clip
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
@@ -148,7 +148,11 @@ def main(argv=None) -> int:
         f"walk looped to {a.frames} frames: {result['seconds']:.2f} s on {a.device} "
         f"({result['frames_per_second']:.0f} frames/s), warm start + {passes}"
     )
-    plot_clip_report(per_frame_errors(clip, fix.clip, contacts), a.out / "clip_frames.png", clip.frame_time, title)
+    series = {
+        f"{v['label']} ({v['unit']})": (v["before"], v["after"])
+        for v in per_frame_errors(clip, fix.clip, contacts).values()
+    }
+    plot_clip_report(series, a.out / "clip_frames.png", clip.frame_time, title)
     env = result["environment"]
     print(
         f"{a.frames} frames on {a.device} ({env['cpu_model']}, {numba.get_num_threads()} Numba threads): "
@@ -164,14 +168,14 @@ def main(argv=None) -> int:
         )
         print(f"  {stage['stage']}: {stage['seconds']:.2f} s{extra}")
     for name in (
-        "foot sliding mean (mm/frame)",
-        "foot sliding max (mm/frame)",
-        "joint deviation mean (deg)",
-        "joint deviation max (deg)",
-        "max position acceleration (m/s^2)",
+        "foot_sliding_mean_mm_per_frame",
+        "foot_sliding_max_mm_per_frame",
+        "joint_angle_deviation_mean_deg",
+        "joint_angle_deviation_max_deg",
+        "position_acceleration_max_m_per_s2",
     ):
         row = result["metrics"][name]
-        print(f"  {name}: {row['before']:.3g} -> {row['after']:.3g}")
+        print(f"  {row['label']} ({row['unit']}): {row['before']:.3g} -> {row['after']:.3g}")
     target = result["target"]
     print(
         f"{result['frames_met']}/{a.frames} frames meet every contact; target (< {target['seconds']:.3g} s): "

@@ -38,7 +38,7 @@ def test_benchmark_smoke_run_writes_json_and_png(shared_data, tmp_path, capsys):
     assert result["settings"]["population"] > 0 and result["settings"]["device"] == "cpu"
     assert result["stages"][0]["stage"] == "warm start" and result["passes"] == len(result["stages"]) - 1
     assert result["frames_met"] == 60
-    sliding = result["metrics"]["foot sliding mean (mm/frame)"]
+    sliding = result["metrics"]["foot_sliding_mean_mm_per_frame"]
     assert sliding["before"] > 1.0 and sliding["after"] < 1.0
     assert result["environment"]["numba_threads"] >= 1 and result["target"]["per_1000_frames"] == 10.0
     assert (tmp_path / "clip_frames.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 
 from deik.cli.app import main
-from deik.clips.contacts import detect_contacts, foot_sites
+from deik.clips.contacts import contacts_from_ranges, detect_contacts, foot_sites
 from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
 from deik.clips.problem import ClipGoals, Reach, neighbour_displacement
 from deik.clips.solver import fix_clip
-from deik.io.bvh import read_bvh
+from deik.io.bvh import Clip, read_bvh
+from deik.model.build import build_skeleton
+from deik.model.joints import Joint, Site, euler, translation
 from deik.model.kinematics import forward_kinematics
 from helpers import shared_path
 
@@ -70,6 +72,25 @@ def test_warm_start_balances_most_frames_and_de_repairs_the_rest():
     assert fix.met.all() and np.nanmean(com_outside_support(fix.clip, contacts)) < np.nanmean(
         com_outside_support(warm.clip, contacts)
     )
+
+
+def test_the_fixed_clip_keeps_its_euler_channels_continuous_across_a_wrap():
+    joints = [
+        Joint("body", None, dofs=translation("XYZ", -1.0, 1.0), mass=1.0),
+        Joint("arm", "body", (0.0, 1.0, 0.0), dofs=euler("ZXY"), mass=1.0),
+    ]
+    sk = build_skeleton(joints, [Site("foot", "body"), Site("hand", "arm", (1.0, 0.0, 0.0))])
+    poses = np.zeros((12, 6))
+    poses[:, 0] = np.linspace(0.0, 0.011, 12)  # the planted foot slides 1 mm a frame
+    turn = np.radians(np.linspace(160.0, 215.0, 12))
+    poses[:, 3] = (turn + np.pi) % (2 * np.pi) - np.pi  # the arm's Z channel jumps from 175 to -175
+    clip = Clip.from_poses(sk, poses, 1 / 30)
+    fix = fix_clip(clip, ClipGoals(contacts_from_ranges(clip, {"foot": [(0, 12)]})), seed=0)
+    arm = np.degrees(fix.clip.frames[:, 3:])
+    assert np.abs(np.diff(arm, axis=0)).max() < 5.1  # 5 degrees a frame as performed, no 360
+    before, after = (forward_kinematics(sk, c.frames).R_world_frame for c in (clip, fix.clip))
+    np.testing.assert_allclose(after[:, 1], before[:, 1], atol=1e-6)  # the arm turns as captured
+    assert np.nanmax(foot_sliding(fix.clip, contacts_from_ranges(clip, {"foot": [(0, 12)]}))) < 1e-3
 
 
 def test_neighbour_displacement_is_the_mean_of_both_sides():
@@ -161,8 +182,26 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     ]
     assert main(argv) == 0, capsys.readouterr().err
     captured = capsys.readouterr()
-    assert "contacts (detected)" in captured.err and "foot sliding mean (mm/frame)" in captured.out
+    assert "contacts (detected)" in captured.err and "deik clip" in captured.err  # the notes, the bar
+    assert "foot sliding mean" in captured.out and "coherence: how far" in captured.out
     assert read_bvh(out).n_frames == 25
-    assert (tmp_path / "report.png").stat().st_size > 0 and (tmp_path / "report.json").stat().st_size > 0
-    far = json.loads((tmp_path / "report.json").read_text())["joints_far_from_capture"]
-    assert far["degrees"] == 30.0 and all(d["degrees"] > 30.0 for d in far["joint_frames"])
+    assert (tmp_path / "report.png").stat().st_size > 0
+    data = json.loads((tmp_path / "report.json").read_text())
+    assert data["length_unit"] == "m" and data["frames"] == 25
+    metric = data["metrics"]["penetration_max_mm"]
+    assert metric["unit"] == "mm" and metric["after"] >= 0.0
+    assert 0.0 <= data["metrics"]["foot_skating_ratio_share"]["after"] <= 1.0
+    keys = [goal["key"] for goal in data["goals"]]
+    assert len(keys) == len(set(keys)) and keys[-2:] == ["fidelity", "coherence"]
+    assert all(len(goal["after"]) == 25 for goal in data["goals"])
+    assert all(len(entry["after"]) == 25 for entry in data["per_frame"].values())
+    contacts = data["contacts"]
+    assert len(contacts["count_per_frame"]) == 25 and contacts["detected"]
+    plant = contacts["sites"][0]["contacts"][0]
+    assert plant["first_frame"] <= plant["last_frame"] and len(plant["plant"]) == 3
+    far = data["joints_far_from_capture"]
+    assert far["threshold_deg"] == 30.0 and all(d["deviation_deg"] > 30.0 for d in far["joint_frames"])
+    assert sum(far["count_per_frame"]) == len(far["joint_frames"])
+    assert main(argv + ["--quiet", "--overwrite"]) == 0
+    quiet = capsys.readouterr()
+    assert quiet.err == "" and "foot sliding mean" in quiet.out and "coherence: how far" not in quiet.out

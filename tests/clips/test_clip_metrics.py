@@ -7,14 +7,8 @@ import numpy as np
 import pytest
 
 from deik.clips.contacts import contacts_from_ranges, detect_contacts
-from deik.clips.metrics import (
-    clip_report,
-    com_outside_support,
-    foot_sliding,
-    joint_deviation,
-    per_frame_errors,
-    velocity_spikes,
-)
+from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
+from deik.clips.report import clip_report, per_frame_errors
 from deik.io.bvh import Clip, read_bvh
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
@@ -56,8 +50,11 @@ def test_foot_sliding_is_zero_while_pinned_and_the_step_length_otherwise():
     cut = contacts_from_ranges(clip, {"foot": [(0, 2), (4, 6)]})
     assert np.isnan(foot_sliding(clip, cut)[1:3, 0]).all()  # not in contact in both frames
     report = clip_report(clip, clip, contacts)
-    assert report["foot sliding mean (mm/frame)"]["before"] == pytest.approx(1.4)
-    assert report["foot sliding max (mm/frame)"]["after"] == pytest.approx(3.0)
+    assert report["foot_sliding_mean_mm_per_frame"]["before"] == pytest.approx(1.4)
+    assert report["foot_sliding_max_mm_per_frame"]["after"] == pytest.approx(3.0)
+    assert report["foot_sliding_max_mm_per_frame"]["unit"] == "mm/frame"
+    in_cm = clip_report(clip, clip, contacts, metres=0.01)  # the same numbers read as centimetres
+    assert in_cm["foot_sliding_max_mm_per_frame"]["after"] == pytest.approx(0.03)
 
 
 def test_com_outside_a_hand_made_triangle():
@@ -147,24 +144,32 @@ def test_report_and_series_of_an_unchanged_clip():
     report = clip_report(clip, clip, contacts, reach)
     for name, row in report.items():
         assert row["before"] == pytest.approx(row["after"], nan_ok=True), name
-    assert report["joint deviation max (deg)"]["after"] == 0.0
-    assert report["reach RightElbow_end max (mm)"]["before"] == 0.0
-    assert report["foot sliding max (mm/frame)"]["before"] > 1.0
+        assert name == name.lower() or "RightElbow_end" in name, name  # machine keys
+    assert report["joint_angle_deviation_max_deg"]["after"] == 0.0
+    assert report["reach_RightElbow_end_max_mm"]["before"] == 0.0
+    assert report["foot_sliding_max_mm_per_frame"]["before"] > 1.0
     series = per_frame_errors(clip, clip, contacts, reach)
     assert set(series) == {
-        "foot sliding (mm/frame)",
-        "COM outside support (mm)",
-        "joint deviation max (deg)",
-        "joint acceleration (deg/s^2)",
-        "position acceleration (m/s^2)",
-        "reach RightElbow_end (mm)",
+        "foot_sliding_mm_per_frame",
+        "com_outside_support_mm",
+        "penetration_mm",
+        "floating_mm",
+        "joint_angle_deviation_deg",
+        "joint_position_deviation_mm",
+        "jerk_m_per_s3",
+        "joint_velocity_deg_per_s",
+        "joint_acceleration_deg_per_s2",
+        "position_acceleration_m_per_s2",
+        "reach_RightElbow_end_mm",
+        "contacts_count",
     }
-    for before, after in series.values():
-        assert before.shape == after.shape == (clip.n_frames,)
-    sliding = series["foot sliding (mm/frame)"][0]
+    for entry in series.values():
+        assert entry["before"].shape == entry["after"].shape == (clip.n_frames,)
+    sliding = series["foot_sliding_mm_per_frame"]["before"]
     assert np.isnan(sliding[0])
-    assert np.nanmax(sliding) == pytest.approx(report["foot sliding max (mm/frame)"]["before"])
-    assert np.isnan(series["reach RightElbow_end (mm)"][0][10:]).all()
+    assert np.nanmax(sliding) == pytest.approx(report["foot_sliding_max_mm_per_frame"]["before"])
+    assert np.isnan(series["reach_RightElbow_end_mm"]["before"][10:]).all()
+    np.testing.assert_array_equal(series["contacts_count"]["after"], contacts.mask.sum(axis=1))
 
 
 @pytest.mark.shared_data
@@ -172,7 +177,7 @@ def test_plot_clip_report_writes_one_png_atomically(tmp_path):
     clip = walk()
     series = per_frame_errors(clip, clip, detect_contacts(clip))
     path = tmp_path / "report.png"
-    plot_clip_report(series, path, clip.frame_time, "walk")
+    plot_clip_report({k: (v["before"], v["after"]) for k, v in series.items()}, path, clip.frame_time, "walk")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(ValueError, match="one length"):
         plot_clip_report({"bad": (np.zeros(3), np.zeros(4))}, tmp_path / "bad.png", 0.1)
@@ -188,5 +193,5 @@ def test_large_deviations_lists_each_joint_frame_beyond_the_threshold():
     turned[2, 3], turned[3, 3] = np.radians(45.0), np.radians(20.0)
     far = large_deviations(original, stage(turned), 30.0)
     assert [(f["frame"], f["joint"]) for f in far] == [(2, "arm")]
-    assert abs(far[0]["degrees"] - 45.0) < 1e-9
+    assert abs(far[0]["deviation_deg"] - 45.0) < 1e-9
     assert large_deviations(original, original, 30.0) == []

@@ -13,6 +13,7 @@ import sys
 import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.clips.units import METRES
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 from deik.viz.text import format_table
@@ -69,7 +70,13 @@ def add_arguments(c) -> None:
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
     c.add_argument("--report", metavar="report.png", help="plot of the errors over time, before and after")
-    c.add_argument("--json", metavar="report.json", help="the before/after metrics as JSON")
+    c.add_argument("--json", metavar="report.json", help="the before/after metrics, goals and contacts as JSON")
+    c.add_argument(
+        "--units",
+        choices=sorted(METRES),
+        help="the clip's length unit (default: guessed from the skeleton's size, and said)",
+    )
+    c.add_argument("--quiet", action="store_true", help="no progress bar and no notes on stderr (errors still print)")
 
 
 def _check_site(clip, site: str, flag: str) -> None:
@@ -126,11 +133,57 @@ def _reaches(args, clip):
     return tuple(out)
 
 
+def _note(args, text: str) -> None:
+    """An informational line on stderr, unless --quiet."""
+    if not args.quiet:
+        print(text, file=sys.stderr)
+
+
+def _shown(values, pick) -> str:
+    """`pick` (np.nanmean or np.nanmax) of `values` to 4 digits, "-" when none is finite."""
+    values = np.asarray(values, float)
+    return f"{pick(values):.4g}" if np.isfinite(values).any() else "-"
+
+
+def _print_tables(document: dict, quiet: bool) -> None:
+    """The goal table (mean error per frame where the goal applies), its notes and the metrics."""
+    rows = [
+        [
+            goal["label"],
+            goal["unit"],
+            _shown(goal["before"], np.nanmean),
+            _shown(goal["after"], np.nanmean),
+            _shown(goal["after"], np.nanmax),
+            "-" if goal["tolerance"] is None else f"{goal['tolerance']:.4g}",
+        ]
+        for goal in document["goals"]
+    ]
+    print(format_table(["goal (error per frame)", "unit", "before mean", "after mean", "after max", "tolerance"], rows))
+    if not quiet:
+        for name, note in document["goal_notes"].items():
+            print(f"  {name}: {note}")
+    rows = [[v["label"], v["unit"], f"{v['before']:.4g}", f"{v['after']:.4g}"] for v in document["metrics"].values()]
+    print(format_table(["metric", "unit", "before", "after"], rows))
+
+
+def _summary_notes(metrics: dict) -> list[str]:
+    """Lines for the report picture: the summary numbers that are no per-frame series."""
+    keys = ("foot_skating_ratio_share", "penetration_max_mm", "jerk_mean_m_per_s3", "joint_angle_deviation_max_deg")
+    lines = []
+    for key in (k for k in keys if k in metrics):
+        m = metrics[key]
+        lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
+    return lines
+
+
 def run_clip(args) -> int:
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
-    from deik.clips.metrics import clip_report, large_deviations, per_frame_errors
+    from tqdm import tqdm
+
+    from deik.clips.document import clip_document
     from deik.clips.problem import ClipGoals
     from deik.clips.solver import fix_clip
+    from deik.clips.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
 
     check_outputs(
@@ -154,68 +207,49 @@ def run_clip(args) -> int:
     contacts = _contacts(args, clip)
     reach = _reaches(args, clip)
     goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence)
+    unit = args.units or guess_unit(clip.skeleton)
+    if not args.units:
+        _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
     if contacts is not None:
-        print(
-            "contacts"
-            + (" (detected)" if contacts.detected else "")
-            + ":\n  "
-            + contacts.describe().replace("\n", "\n  "),
-            file=sys.stderr,
-        )
+        described = contacts.describe().replace("\n", "\n  ")
+        _note(args, "contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
-    announce_compile(args.device or "cpu", "float32")
-    fix = fix_clip(clip, goals, passes=args.passes, **overrides)
+    if not args.quiet:
+        announce_compile(args.device or "cpu", "float32")
+    with tqdm(total=clip.n_frames, desc="deik clip", unit="frame", file=sys.stderr, disable=args.quiet) as bar:
+
+        def progress(met: int, stage: str) -> None:
+            bar.set_postfix_str(f"{stage}: frames meeting every goal", refresh=False)
+            bar.update(met - bar.n)
+
+        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
-    summary = clip_report(clip, fix.clip, contacts, reach_tracks)
-    rows = [
-        [
-            label,
-            f"{np.nanmean(b):.4g}" if np.isfinite(b).any() else "-",
-            f"{np.nanmean(a):.4g}" if np.isfinite(a).any() else "-",
-            f"{np.nanmax(a):.4g}" if np.isfinite(a).any() else "-",
-        ]
-        for label, b, a in zip(fix.labels, fix.before.T, fix.after.T)
-    ]
-    print(format_table(["goal (mean error)", "before", "after", "after max"], rows))
-    print(
-        format_table(
-            ["metric", "before", "after"],
-            [[name, f"{v['before']:.4g}", f"{v['after']:.4g}"] for name, v in summary.items()],
-        )
-    )
+    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES)
+    _print_tables(document, args.quiet)
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
         f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal"
     )
-    far = large_deviations(clip, fix.clip, FAR_DEGREES)
+    far = document["joints_far_from_capture"]["joint_frames"]
     if far:
-        worst = max(far, key=lambda d: d["degrees"])
+        worst = max(far, key=lambda d: d["deviation_deg"])
         frames = sorted({d["frame"] for d in far})
         print(
             f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
             f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
-            f"({worst['degrees']:.0f} degrees); --json lists them"
+            f"({worst['deviation_deg']:.0f} degrees); --json lists them"
         )
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
-            write_json_atomically(
-                args.json,
-                {
-                    "metrics": summary,
-                    "frames": clip.n_frames,
-                    "wall_time_s": fix.wall_time,
-                    "joints_far_from_capture": {"degrees": FAR_DEGREES, "joint_frames": far},
-                    "frames_met": int(fix.met.sum()),
-                    "stages": list(fix.stages),
-                },
-            )
+            write_json_atomically(args.json, document, missing_as_null=True)
         if args.report:
             from deik.viz.clip_report import plot_clip_report
 
-            series = per_frame_errors(clip, fix.clip, contacts, reach_tracks)
-            plot_clip_report(series, args.report, clip.frame_time, title=f"deik clip {os.path.basename(args.clip)}")
+            series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
+            title = f"deik clip {os.path.basename(args.clip)}"
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]))
     return 0

@@ -1,7 +1,7 @@
 """Numbers animators read about a clip, computed the same way before and after it is fixed.
 
-Lengths come out in mm, i.e. length units x 1000 (the clips are taken to be in metres);
-angles in degrees. Per-frame values are NaN where a metric does not apply to a frame.
+Lengths come out in the clip's length units (clips/report.py converts them to mm), angles in
+degrees. Per-frame values are NaN where a metric does not apply to a frame.
 
 - foot sliding: how far a site moves between two consecutive frames that are both in its
   contact (mm per frame); a planted foot should not move.
@@ -9,6 +9,10 @@ angles in degrees. Per-frame values are NaN where a metric does not apply to a f
   convex support polygon of the sites in contact (mm; 0 inside, NaN with no contact).
 - joint deviation: per joint with rotation DOFs, the angle of R_original^T R_fixed of its
   rotation relative to its parent (degrees), so two Euler triples of one rotation count as 0.
+- joint position deviation: per joint, the distance between its world positions in the
+  original and the fixed clip.
+- jitter: jerk, the third difference of each joint's world position over dt^3 (length units
+  per s^3), row n at frame n + 2 (between the four frames n..n+3 it spans).
 - velocity spikes: a pop is a one-frame spike of the second difference. Rotation DOFs are
   differenced as stored (continuous Euler angles): velocity (q[n+1] - q[n]) / dt between
   frames, acceleration (q[n+1] - 2 q[n] + q[n-1]) / dt^2 at frame n. World positions of every
@@ -28,8 +32,6 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import rotation_angle
 
-MM = 1000.0  # mm per length unit (metres)
-
 
 def _kinematics(clip) -> Kinematics:
     return forward_kinematics(clip.skeleton, clip.frames)
@@ -39,20 +41,9 @@ def _site_index(clip, sites) -> list[int]:
     return [clip.skeleton.frame_index(name) for name in sites]
 
 
-def _stats(values: np.ndarray) -> tuple[float, float]:
-    """(mean, max) of the finite values, NaN when there are none."""
-    finite = values[np.isfinite(values)]
-    return (float(finite.mean()), float(finite.max())) if finite.size else (math.nan, math.nan)
-
-
-def _row_max(values: np.ndarray) -> np.ndarray:
-    """(M,) largest finite value of each row of (M, K), NaN for rows without one."""
-    filled = np.where(np.isfinite(values), values, -np.inf)
-    best = filled.max(axis=1, initial=-np.inf)
-    return np.where(np.isfinite(best), best, np.nan)
-
-
-def _sliding(kin: Kinematics, index, mask: np.ndarray) -> np.ndarray:
+def sliding_steps(kin: Kinematics, index, mask: np.ndarray) -> np.ndarray:
+    """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S)
+    holds in both; NaN elsewhere; length units."""
     step = np.linalg.norm(np.diff(kin.p_world_frame[:, index], axis=0), axis=-1)
     return np.where(mask[1:] & mask[:-1], step, np.nan)
 
@@ -60,10 +51,12 @@ def _sliding(kin: Kinematics, index, mask: np.ndarray) -> np.ndarray:
 def foot_sliding(clip, contacts) -> np.ndarray:
     """(N-1, S) displacement of each contact site from frame n to n+1 in length units per
     frame (x 1000 for mm in metres), where the site is in contact in both frames; NaN elsewhere."""
-    return _sliding(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask)
+    return sliding_steps(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask)
 
 
-def _outside(kin: Kinematics, index, mask: np.ndarray, up: np.ndarray) -> np.ndarray:
+def outside_support(kin: Kinematics, index, mask: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """(N,) distance of the projected centre of mass outside the support of frames `index`
+    (S,) where `mask` (N, S); 0 inside, NaN without support; length units."""
     plane = ground_frame(up)[:2].T
     com = kin.p_world_com @ plane
     feet = kin.p_world_frame[:, index] @ plane
@@ -81,7 +74,7 @@ def com_outside_support(clip, contacts) -> np.ndarray:
     """(N,) distance in length units of the centre of mass, projected on the ground, outside
     the convex support polygon of the sites in contact in each frame: 0 inside, NaN when no
     site is in contact (or the skeleton has no mass)."""
-    return _outside(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask, clip.skeleton.up)
+    return outside_support(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask, clip.skeleton.up)
 
 
 def _turning_joints(sk) -> list[int]:
@@ -90,8 +83,9 @@ def _turning_joints(sk) -> list[int]:
     return [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
 
 
-def _joint_angles(original, fixed) -> np.ndarray:
-    """(N, K) angle in radians between the local rotations of each joint with rotation DOFs."""
+def joint_angles(original, fixed) -> np.ndarray:
+    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs in
+    `original` and in `fixed`."""
     sk = original.skeleton
     turning = _turning_joints(sk)
     parents = sk.parents[turning]
@@ -100,7 +94,7 @@ def _joint_angles(original, fixed) -> np.ndarray:
         R = _kinematics(clip).R_world_frame
         parent = np.where(parents[None, :, None, None] >= 0, R[:, np.maximum(parents, 0)], np.eye(3))
         rotations.append(np.swapaxes(parent, -1, -2) @ R[:, turning])
-    return rotation_angle(*rotations)
+    return np.degrees(rotation_angle(*rotations))
 
 
 def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
@@ -108,19 +102,33 @@ def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
     the joint's rotation in `original` and in `fixed` (relative to its parent), degrees."""
     if fixed.frames.shape != original.frames.shape:
         raise ValueError(f"the clips differ: {original.frames.shape} and {fixed.frames.shape} frames x DOFs")
-    angles = np.degrees(_joint_angles(original, fixed))
+    angles = joint_angles(original, fixed)
     if angles.shape[1] == 0:
         return np.zeros(len(angles)), np.zeros(len(angles))
     return angles.mean(axis=1), angles.max(axis=1)
 
 
+def position_deviation(original, fixed) -> np.ndarray:
+    """(N, J) distance between each joint's world position in `original` and in `fixed`,
+    length units."""
+    J = original.skeleton.n_joints
+    before, after = (_kinematics(clip).p_world_frame[:, :J] for clip in (original, fixed))
+    return np.linalg.norm(after - before, axis=-1)
+
+
+def jerk(kin: Kinematics, n_joints: int, frame_time: float) -> np.ndarray:
+    """(N-3, J) size of each joint's jerk, |third difference of its world position| /
+    frame_time^3 (length units per s^3), row n at frame n + 2; `kin` of N frames."""
+    return np.linalg.norm(np.diff(kin.p_world_frame[:, :n_joints], 3, axis=0), axis=-1) / frame_time**3
+
+
 def large_deviations(original, fixed, degrees: float = 30.0) -> list[dict]:
     """Every (frame, joint) whose rotation relative to its parent is more than `degrees` away
-    from the capture's, in frame order: [{"frame", "joint", "degrees"}]."""
-    angles = np.degrees(_joint_angles(original, fixed))
+    from the capture's, in frame order: [{"frame", "joint", "deviation_deg"}]."""
+    angles = joint_angles(original, fixed)
     names = [original.skeleton.joint_names[k] for k in _turning_joints(original.skeleton)]
     frames, joints = np.nonzero(angles > degrees)
-    return [{"frame": int(f), "joint": names[j], "degrees": float(angles[f, j])} for f, j in zip(frames, joints)]
+    return [{"frame": int(f), "joint": names[j], "deviation_deg": float(angles[f, j])} for f, j in zip(frames, joints)]
 
 
 def _largest(values: np.ndarray, labels, offset: int) -> tuple[float, int | None, str | None]:
@@ -142,10 +150,11 @@ def velocity_spikes(clip) -> dict:
     "max_position_acceleration_frame" and "max_position_acceleration_site". Maxima are NaN
     (frames and names None) for clips of fewer than 3 frames (2 for velocities).
     """
-    return _spikes(clip, _kinematics(clip))
+    return spikes(clip, _kinematics(clip))
 
 
-def _spikes(clip, kin: Kinematics) -> dict:
+def spikes(clip, kin: Kinematics) -> dict:
+    """velocity_spikes of `clip` from its kinematics `kin`."""
     sk = clip.skeleton
     dt = clip.frame_time
     rotation = np.flatnonzero(sk.dof_kind == ROTATE)
@@ -171,88 +180,3 @@ def _spikes(clip, kin: Kinematics) -> dict:
         "max_position_acceleration_frame": top_position[1],
         "max_position_acceleration_site": top_position[2],
     }
-
-
-def _reach_names(reach) -> list[str]:
-    names = []
-    for site, _, _ in reach:
-        name = f"reach {site}"
-        names.append(name if name not in names else f"{name} #{names.count(name) + 1}")
-    return names
-
-
-def _measure(clip, contacts, reach) -> dict:
-    """Raw per-frame measurements of one clip: sliding (N-1, S), outside (N,), spikes, reach."""
-    kin = _kinematics(clip)
-    out = {"spikes": _spikes(clip, kin), "reach": []}
-    if contacts is not None:
-        index = _site_index(clip, contacts.sites)
-        out["sliding"] = _sliding(kin, index, contacts.mask)
-        out["outside"] = _outside(kin, index, contacts.mask, clip.skeleton.up)
-    for site, mask, targets in reach:
-        distance = np.linalg.norm(kin.position(site) - targets, axis=-1)
-        out["reach"].append(np.where(mask, distance, np.nan))
-    return out
-
-
-def clip_report(original, fixed, contacts=None, reach=None) -> dict:
-    """{metric: {"before": value for original, "after": value for fixed}} for the CLI table.
-
-    Metrics (names carry the units): foot sliding mean/max (mm/frame) and COM outside support
-    mean/max (mm) when `contacts` are given; joint deviation mean/max (deg; before is 0);
-    max joint velocity (deg/s), max joint acceleration (deg/s^2), max position acceleration
-    (m/s^2); per reach track (site, mask (N,), targets (N, 3)) the distance mean/max (mm).
-    """
-    reach = list(reach or ())
-    before, after = _measure(original, contacts, reach), _measure(fixed, contacts, reach)
-    report = {}
-
-    def add(name, pick):
-        report[name] = {"before": pick(before), "after": pick(after)}
-
-    if contacts is not None:
-        for k, word in enumerate(("mean", "max")):
-            add(f"foot sliding {word} (mm/frame)", lambda m, k=k: MM * _stats(m["sliding"])[k])
-        for k, word in enumerate(("mean", "max")):
-            add(f"COM outside support {word} (mm)", lambda m, k=k: MM * _stats(m["outside"])[k])
-    mean, top = joint_deviation(original, fixed)
-    report["joint deviation mean (deg)"] = {"before": 0.0, "after": _stats(mean)[0]}
-    report["joint deviation max (deg)"] = {"before": 0.0, "after": _stats(top)[1]}
-    add("max joint velocity (deg/s)", lambda m: m["spikes"]["max_dof_velocity"])
-    add("max joint acceleration (deg/s^2)", lambda m: m["spikes"]["max_dof_acceleration"])
-    add("max position acceleration (m/s^2)", lambda m: m["spikes"]["max_position_acceleration"])
-    for k, name in enumerate(_reach_names(reach)):
-        for j, word in enumerate(("mean", "max")):
-            add(f"{name} {word} (mm)", lambda m, k=k, j=j: MM * _stats(m["reach"][k])[j])
-    return report
-
-
-def per_frame_errors(original, fixed, contacts=None, reach=None) -> dict:
-    """{series name (with units): (before (N,), after (N,))} for the report plot: foot sliding
-    into each frame, largest over the sites (mm/frame) and COM outside support (mm) when
-    `contacts` are given; joint deviation, largest over the joints (deg); largest |joint
-    acceleration| (deg/s^2) and position acceleration (m/s^2) at each frame; distance to each
-    reach track (mm). NaN where a series does not apply."""
-    reach = list(reach or ())
-    N = original.n_frames
-    runs = (_measure(original, contacts, reach), _measure(fixed, contacts, reach))
-
-    def padded(values, front):
-        out = np.full(N, np.nan)
-        out[front : front + len(values)] = values
-        return out
-
-    series = {}
-    if contacts is not None:
-        series["foot sliding (mm/frame)"] = tuple(MM * padded(_row_max(m["sliding"]), 1) for m in runs)
-        series["COM outside support (mm)"] = tuple(MM * m["outside"] for m in runs)
-    series["joint deviation max (deg)"] = (np.zeros(N), joint_deviation(original, fixed)[1])
-    series["joint acceleration (deg/s^2)"] = tuple(
-        padded(_row_max(np.abs(m["spikes"]["dof_acceleration"])), 1) for m in runs
-    )
-    series["position acceleration (m/s^2)"] = tuple(
-        padded(_row_max(m["spikes"]["position_acceleration"]), 1) for m in runs
-    )
-    for k, name in enumerate(_reach_names(reach)):
-        series[f"{name} (mm)"] = tuple(MM * m["reach"][k] for m in runs)
-    return series

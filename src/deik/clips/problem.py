@@ -103,6 +103,27 @@ class ClipGoals:
             raise ValueError("nothing to fix: plant contacts, add a reach track or ask for balance")
 
 
+def reach_names(sites) -> list[str]:
+    """ "reach SITE" per reach track of `sites`, "reach SITE #2" and on for a site's later tracks."""
+    names = []
+    for site in sites:
+        name = f"reach {site}"
+        names.append(name if name not in names else f"{name} #{sum(n.startswith(name) for n in names) + 1}")
+    return names
+
+
+def goal_names(goals: ClipGoals) -> list[str]:
+    """The name of each goal clip_problem poses for `goals`, in its order: "contact SITE" per
+    site with a contact, reach_names, "balance" (one goal per pattern of sites in contact, so
+    the name repeats), "fidelity", "coherence" (where their weights are > 0)."""
+    contacts = goals.contacts
+    names = [] if contacts is None else [f"contact {s}" for s, on in zip(contacts.sites, contacts.mask.T) if on.any()]
+    names += reach_names(r.site for r in goals.reach)
+    if goals.balance:
+        names += ["balance"] * len({tuple(row) for row in contacts.mask if row.any()})
+    return names + ["fidelity"] * (goals.fidelity > 0) + ["coherence"] * (goals.coherence > 0)
+
+
 def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
     """(N, D) mean displacement of each frame's neighbours (one neighbour at the ends)."""
     d = np.asarray(displacement)

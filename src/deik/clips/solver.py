@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.clips.coherence import ease, searched_dofs
-from deik.clips.problem import ClipGoals, clip_problem, fixed_goals
+from deik.clips.problem import ClipGoals, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
@@ -53,17 +53,20 @@ SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and wid
 
 @dataclass(frozen=True)
 class ClipFix:
-    """The outcome of fix_clip: `clip` the fixed clip (same layout as the input), `original`,
-    `labels` of the goals and their raw errors `before`/`after` (N, T) in length units or
-    radians (NaN where a goal does not apply to a frame), `met` (N,) whether every level-0
-    goal of each frame is within tolerance, `passes`, `wall_time` seconds, `settings`, and
-    `stages`: where the time went, one dict per stage (the warm start, then each DE pass with
-    the frames it repaired, their generations, mean and max, and pose evaluations: population
-    x (generations + 1) summed over them)."""
+    """The outcome of fix_clip: `clip` the fixed clip (same layout as the input, its Euler
+    channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
+    `labels` of the goals (problem.goal_names), their `tolerances` (T,) (-1: none) and raw
+    errors `before`/`after` (N, T) in length units or radians (NaN where a goal does not
+    apply to a frame), `met` (N,) whether every level-0 goal of each frame is within
+    tolerance, `passes`, `wall_time` seconds, `settings`, and `stages`: where the time went,
+    one dict per stage (the warm start, then each DE pass with the frames it repaired, their
+    generations, mean and max, and pose evaluations: population x (generations + 1) summed
+    over them)."""
 
     clip: object
     original: object
     labels: tuple[str, ...]
+    tolerances: np.ndarray
     before: np.ndarray
     after: np.ndarray
     met: np.ndarray
@@ -71,16 +74,6 @@ class ClipFix:
     wall_time: float
     settings: Settings
     stages: tuple[dict, ...]
-
-
-def _labels(problem) -> tuple[str, ...]:
-    """Goal labels with the two comfort terms told apart."""
-    names = []
-    for label in problem.table.labels[: len(problem.goals)]:
-        if label.startswith("comfort"):
-            label = "fidelity" if not any(n == "fidelity" for n in names) else "coherence"
-        names.append(label)
-    return tuple(names)
 
 
 def _errors(problem, poses) -> np.ndarray:
@@ -114,14 +107,27 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return errors, np.all(np.isnan(errors[:, level0]) | within, axis=1)
 
 
+def _pass_progress(progress, met: int, stage: str):
+    """solve()'s progress callback during a DE pass: progress(met, "STAGE, generation G")."""
+    return lambda generation, best: progress(met, f"{stage}, generation {generation}")
+
+
 def fix_clip(
-    clip, goals: ClipGoals, passes: int | None = None, settings: Settings | None = None, **overrides
+    clip,
+    goals: ClipGoals,
+    passes: int | None = None,
+    settings: Settings | None = None,
+    *,
+    progress=None,
+    **overrides,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance) over the frames
     that still miss a level-0 goal; settings default to CLIP_SETTINGS (BALANCE_SETTINGS with
     balance) and may be overridden by keyword (population, generations, seed, device, ...).
-    `wall_time` counts all but measuring the result; `passes` those that ran."""
+    `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
+    stage)`, if given, is called with the number of frames that meet their goals after the
+    warm start and each DE pass, during a pass every 100 generations, and once at the end."""
     if not isinstance(goals, ClipGoals):
         raise TypeError(f"goals must be a deik.clips.problem.ClipGoals, got {type(goals).__name__}")
     if passes is None:
@@ -142,22 +148,26 @@ def fix_clip(
     displacement = warm_start(sk, original, fixed_part, searched, weights)
     displacement = _inside(sk, original, ease(displacement, searched, EASE))
     stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
+    report = progress or (lambda met, stage: None)
     for k in range(passes):
         began = time.perf_counter()
         problem = clip_problem(clip, goals, displacement, weights, fixed_part)
         current = wrap_rotations(original + displacement, rotation)
         unmet = ~_met(problem, current)[1]
+        report(int((~unmet).sum()), stages[-1]["stage"])
         if not unmet.any():
             break
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
-        result = solve(problem, settings, initial=initial)
+        stage = f"DE pass {k + 1}"
+        during = _pass_progress(progress, int((~unmet).sum()), stage) if progress else None
+        result = solve(problem, settings, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
         displacement = _inside(sk, original, ease(np.where(unmet[:, None], found, displacement), searched, EASE))
         generations = result.generations[unmet]
         stages.append(
             {
-                "stage": f"DE pass {k + 1}",
+                "stage": stage,
                 "seconds": time.perf_counter() - began,
                 "frames": int(unmet.sum()),
                 "generations_mean": float(generations.mean()),
@@ -168,10 +178,12 @@ def fix_clip(
     wall = time.perf_counter() - start
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
+    report(int(met.sum()), "done")
     return ClipFix(
-        clip.with_frames(clip.frames + displacement),
+        clip.with_frames(clip.frames + displacement).with_continuous_channels(),
         clip,
-        _labels(problem),
+        tuple(goal_names(goals)),
+        problem.table.term_float[: len(problem.goals), 3].copy(),
         _errors(problem, original),
         after,
         met,

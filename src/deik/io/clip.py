@@ -4,7 +4,8 @@ Frames hold skeleton DOF values in skeleton order: radians for rotations, the fi
 for translations. The layout keeps, per joint, its channels in file order and the skeleton DOF
 each one carries, so a clip read from BVH is written back with the same columns. Euler angles
 are kept as given (they may leave [-pi, pi]); `pose` wraps them, `with_pose`/`with_frames` keep
-new angles continuous with the frames they replace.
+new angles continuous with the frames they replace, `with_continuous_channels` with the frame
+before (deik.io.euler).
 """
 
 from __future__ import annotations
@@ -15,11 +16,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from deik.io.euler import AXIS_TOLERANCE, continuous_angles, continuous_frames
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
 
-TWO_PI = 2.0 * math.pi
 DEGREES_PER_RADIAN = 180.0 / math.pi
 # Channel name -> (DOF kind, axis index). BVH spells them e.g. "Xposition", "Zrotation".
 CHANNELS = {
@@ -27,7 +28,6 @@ CHANNELS = {
     for k, axis in enumerate("XYZ")
     for word, kind in (("position", TRANSLATE), ("rotation", ROTATE))
 }
-AXIS_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -129,6 +129,11 @@ class Clip:
         if frames.shape != self.frames.shape:
             raise ValueError(f"frames must have shape {self.frames.shape} like the clip's, got {frames.shape}")
         return replace(self, frames=continuous_angles(self.skeleton, frames, self.frames))
+
+    def with_continuous_channels(self) -> Clip:
+        """A new clip with the same rotations whose Euler channels move the least from frame
+        to frame (deik.io.euler.continuous_frames: whole turns, the flipped triple, gimbal lock)."""
+        return replace(self, frames=continuous_frames(self.skeleton, self.frames))
 
     def channel_values(self) -> np.ndarray:
         """Frames in file layout (N, C): degrees for rotation channels, length units for
@@ -257,40 +262,3 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
         )
         stack.extend(reversed([j for j in range(k + 1, sk.n_joints) if sk.parents[j] == k]))
     return tuple(entries)
-
-
-def _nearest_turn(angles: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """`angles` shifted by whole turns (2 pi) to lie nearest `reference`, elementwise."""
-    return angles + TWO_PI * np.round((reference - angles) / TWO_PI)
-
-
-def _tait_bryan_triples(sk: Skeleton) -> list[np.ndarray]:
-    """DOF indices (3,) of each joint with exactly three rotations about perpendicular axes."""
-    triples = []
-    for k in range(sk.n_joints):
-        own = np.arange(sk.joint_dof_start[k], sk.joint_dof_start[k + 1])
-        rotations = own[sk.dof_kind[own] == ROTATE]
-        if len(rotations) == 3:
-            axes = sk.dof_axis[rotations]
-            if np.allclose(axes @ axes.T, np.eye(3), atol=AXIS_TOLERANCE):
-                triples.append(rotations)
-    return triples
-
-
-def continuous_angles(sk: Skeleton, new: np.ndarray, old: np.ndarray) -> np.ndarray:
-    """`new` poses (N, D) re-expressed nearest `old` (N, D) without changing any rotation.
-
-    Each rotation DOF moves by whole turns; each Tait-Bryan triple (a, b, c) may also become
-    (a + pi, pi - b, c + pi), the same rotation, when that lies nearer (sum of squares) to old.
-    """
-    out = np.array(new, dtype=np.float64)
-    rotation = sk.dof_kind == ROTATE
-    out[:, rotation] = _nearest_turn(out[:, rotation], old[:, rotation])
-    for triple in _tait_bryan_triples(sk):
-        angles, reference = new[:, triple], old[:, triple]
-        flipped = angles + math.pi
-        flipped[:, 1] = math.pi - angles[:, 1]
-        direct, flipped = _nearest_turn(angles, reference), _nearest_turn(flipped, reference)
-        closer = ((flipped - reference) ** 2).sum(1) < ((direct - reference) ** 2).sum(1)
-        out[:, triple] = np.where(closer[:, None], flipped, direct)
-    return out

@@ -12,9 +12,10 @@ from deik.io.atomic import save_atomically
 from deik.viz.plot import require_matplotlib
 
 
-def plot_clip_report(series: dict, path, frame_time: float, title: str = "") -> None:
-    """Draw `series` {name: (before (N,), after (N,))} (e.g. metrics.per_frame_errors; NaN
-    frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis."""
+def plot_clip_report(series: dict, path, frame_time: float, title: str = "", notes=()) -> None:
+    """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
+    NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
+    `notes`: lines of text under the title (numbers that are not series)."""
     if not series:
         raise ValueError("there is no error series to plot")
     if not frame_time > 0:
@@ -43,7 +44,7 @@ def plot_clip_report(series: dict, path, frame_time: float, title: str = "") -> 
     top.legend(loc="upper right", fontsize="small")
     top.secondary_xaxis("top", functions=(lambda t: t / frame_time, lambda n: n * frame_time)).set_xlabel("frame")
     axes[-1, 0].set_xlabel("time (s)")
-    figure.suptitle(title or "clip errors before and after")
+    figure.suptitle("\n".join([title or "clip errors before and after", *notes]))
     try:
         save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
     finally:

@@ -1,0 +1,112 @@
+"""The record of a clip fix: its goal table and the JSON document `deik clip --json` writes.
+
+Goals are grouped by name (clips/problem.goal_names; the balance goals, one per pattern of
+sites in contact, make one row). Contacts, reach and balance errors are distances in mm;
+fidelity and coherence are the clip's level-1 terms (GOAL_NOTES), sums over the DOFs in
+degrees. The JSON's keys are snake_case and every number says its unit, in its key or beside
+it; per-frame lists hold null where a value does not apply to a frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.clips.contacts import planted_targets
+from deik.clips.metrics import large_deviations
+from deik.clips.report import clip_report, per_frame_errors, row_max
+
+LEVEL1 = ("fidelity", "coherence")
+GOAL_NOTES = {
+    "fidelity": (
+        "how far each frame's pose lies from the capture's, summed over the DOFs in degrees "
+        "(a root translation counts as the root turn that moves the body as far); 0 for the capture"
+    ),
+    "coherence": (
+        "how far each frame's change from the capture lies from the mean change of its two "
+        "neighbours, summed likewise: 0 where the correction varies linearly over time, so it "
+        "counts the pops and jitter the fix adds; 0 for the capture"
+    ),
+}
+
+
+def goal_table(fix, metres: float = 1.0) -> list[dict]:
+    """One row per goal name of `fix` (a ClipFix): {"key", "label", "unit", "tolerance" (in
+    unit, None without one), "before" (N,), "after" (N,)} with each frame's error (NaN where
+    the goal does not apply); `metres` per length unit."""
+    rows = []
+    for name in dict.fromkeys(fix.labels):
+        columns = [t for t, label in enumerate(fix.labels) if label == name]
+        scale, unit = (np.degrees(1.0), "deg") if name in LEVEL1 else (1000.0 * metres, "mm")
+        tolerance = float(fix.tolerances[columns].max())
+        after = scale * row_max(fix.after[:, columns])
+        before = np.zeros_like(after) if name in LEVEL1 else scale * row_max(fix.before[:, columns])
+        rows.append(
+            {
+                "key": name.replace(" #", "_").replace(" ", "_"),
+                "label": name,
+                "unit": unit,
+                "tolerance": scale * tolerance if tolerance >= 0 else None,
+                "before": before,
+                "after": after,
+            }
+        )
+    return rows
+
+
+def contacts_record(original, contacts) -> dict:
+    """The contacts as JSON: how they were found, the floor height and thresholds (length
+    units, per second for the speed), the sites in contact per frame, and per site each
+    contact's first and last frame (inclusive) and plant position (length units)."""
+    plants = planted_targets(original, contacts)
+    return {
+        "detected": contacts.detected,
+        "ground_height": contacts.ground,
+        "height_threshold": contacts.height,
+        "speed_threshold_per_s": contacts.speed,
+        "count_per_frame": contacts.mask.sum(axis=1).tolist(),
+        "sites": [
+            {
+                "site": site,
+                "contacts": [
+                    {"first_frame": a, "last_frame": b - 1, "plant": plants[a, s].tolist()}
+                    for a, b in contacts.intervals(s)
+                ],
+            }
+            for s, site in enumerate(contacts.sites)
+        ],
+    }
+
+
+def _far(original, fixed, degrees: float) -> dict:
+    far = large_deviations(original, fixed, degrees)
+    count = np.bincount([d["frame"] for d in far], minlength=original.n_frames)
+    return {"threshold_deg": degrees, "count_per_frame": count.tolist(), "joint_frames": far}
+
+
+def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: float) -> dict:
+    """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
+    mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
+    (clips/report.py), the goal table per frame with GOAL_NOTES, the contacts, the joints
+    turned more than `far_degrees` from the capture frame by frame, and where the time went."""
+    original, fixed = fix.original, fix.clip
+
+    def listed(entry):
+        return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in entry.items()}
+
+    return {
+        "source": original.source,
+        "frames": original.n_frames,
+        "frame_time_s": original.frame_time,
+        "length_unit": unit,
+        "metres_per_length_unit": metres,
+        "metrics": clip_report(original, fixed, contacts, reach, metres),
+        "per_frame": {k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres).items()},
+        "goals": [listed(row) for row in goal_table(fix, metres)],
+        "goal_notes": GOAL_NOTES,
+        "frames_met": int(fix.met.sum()),
+        "met_per_frame": fix.met.tolist(),
+        "contacts": None if contacts is None else contacts_record(original, contacts),
+        "joints_far_from_capture": _far(original, fixed, far_degrees),
+        "wall_time_s": fix.wall_time,
+        "stages": list(fix.stages),
+    }
