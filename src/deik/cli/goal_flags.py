@@ -45,7 +45,7 @@ def add_goal_arguments(s) -> None:
         nargs="+",
         action="append",
         default=[],
-        metavar="FRAME FORM VALUE",
+        metavar=("FRAME", "FORM VALUE"),
         help=f"turn FRAME to an orientation given as FORM and its numbers (repeatable): {ORIENT_HELP}",
     )
     s.add_argument(
