@@ -20,6 +20,7 @@ from deik.objectives.goals import (
     Orientation,
     Position,
 )
+from deik.objectives.pose_goals import pose_goals
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -58,6 +59,7 @@ __all__ = [
     "hinge",
     "humanoid",
     "load_skeleton",
+    "pose_goals",
     "poses_around",
     "read_bvh",
     "read_urdf",

@@ -268,7 +268,21 @@ GOAL = '[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [1, 1, 0]\n'
             "target = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n",
             ["goal 1 (orientation)", "not a rotation matrix"],
         ),
-        ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n', ["missing field 'euler'"]),
+        ('skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n', ["exactly one orientation"]),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\n'
+            "quaternion_wxyz = [1, 0, 0, 0]\nrpy_degrees = [0, 0, 0]\n",
+            ["exactly one orientation", "both 'quaternion_wxyz' and 'rpy_degrees'"],
+        ),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\nquaternion_xyzw = [0, 0, 0, 2]\n',
+            ["goal 1 (orientation)", "length 2", "unit quaternion"],
+        ),
+        (
+            'skeleton = "chain3d:3"\n[[goal]]\ntype = "orientation"\nframe = "tip"\nrpy_degrees = [0, 0, 0]\n'
+            "degrees = [1, 2, 3]\n",
+            ["'degrees' goes with 'euler'"],
+        ),
         ('skeleton = "chian:3"\n' + GOAL, ["field 'skeleton'", "chain:N"]),
         ('skelton = "chain:3"\n' + GOAL, ["unknown top-level key 'skelton'", "did you mean 'skeleton'"]),
         ('skeleton = "chain:3"\nlimits = "bounce"\n' + GOAL, ["field 'limits'", "reflect"]),

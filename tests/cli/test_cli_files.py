@@ -23,16 +23,23 @@ def _target(path, base, tip, seed):
     sk = read_urdf(path, base, tip)
     q = np.random.default_rng(seed).uniform(sk.lower, sk.upper)
     kin = deik.forward_kinematics(sk, q)
-    xyz = kin.position(tip)
-    angles = np.degrees(Rotation.from_matrix(kin.rotation(tip)).as_euler("XYZ"))
-    return sk, xyz, angles
+    return sk, kin.position(tip), Rotation.from_matrix(kin.rotation(tip))
+
+
+# each robot's --orient in another form, its numbers read from scipy's Rotation
+ORIENT_FORMS = {
+    "panda": ("rpy", lambda r: np.degrees(r.as_euler("xyz"))),  # URDF roll, pitch, yaw (fixed axes)
+    "kuka_iiwa": ("quat-wxyz", lambda r: r.as_quat()[[3, 0, 1, 2]]),
+    "human": ("xyz", lambda r: np.degrees(r.as_euler("XYZ"))),  # intrinsic
+}
 
 
 @pytest.mark.parametrize("robot", sorted(ROBOT_CHAINS))
 def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys, robot):
     base, tip, up = ROBOT_CHAINS[robot]
     path = shared_data / "robots" / f"{robot}.urdf"
-    sk, xyz, angles = _target(path, base, tip, seed=7)
+    sk, xyz, rotation = _target(path, base, tip, seed=7)
+    form, numbers = ORIENT_FORMS[robot]
     out = tmp_path / "pose.json"
     argv = [
         "solve",
@@ -47,7 +54,8 @@ def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys,
         *map(str, xyz),
         "--orient",
         tip,
-        *map(str, angles),
+        form,
+        *map(str, numbers(rotation)),
         "--tolerance",
         "0.001",
         "--angle-tolerance",
@@ -68,8 +76,8 @@ def test_cli_poses_urdf_chain_to_a_reachable_pose(shared_data, tmp_path, capsys,
     assert np.all(q >= sk.lower) and np.all(q <= sk.upper)
     kin = deik.forward_kinematics(sk, q)
     assert np.linalg.norm(kin.position(tip) - xyz) <= 0.001
-    target = Rotation.from_euler("XYZ", np.radians(angles)).as_matrix()
-    assert Rotation.from_matrix(kin.rotation(tip).T @ target).magnitude() <= np.radians(0.5)
+    assert Rotation.from_matrix(kin.rotation(tip).T @ rotation.as_matrix()).magnitude() <= np.radians(0.5)
+    assert list(data["angles_by_joint"]) == list(sk.dof_names)  # URDF joint names, as dof_names
 
 
 def test_info_on_every_shared_file(shared_data, capsys):

@@ -266,3 +266,29 @@ def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
     limits = pack_skeleton(sk, np.float32).limits.astype(np.float64)
     assert np.all(limits[:, 0] >= sk.lower) and np.all(limits[:, 1] <= sk.upper)
     assert np.all(limits[:, 0] - sk.lower < 1e-6) and np.all(sk.upper - limits[:, 1] < 1e-6)
+
+
+def test_poses_by_name_use_the_urdf_joint_names(tmp_path):
+    """angles_by_joint, Comfort's weights and limits tables all key a URDF pose by its joint
+    names (dof_names); yourdfpy, configured by those keys, poses the robot the same way."""
+    from deik.io.limits import read_limits
+    from deik.objectives.goal_values import dof_weights
+
+    path = tmp_path / "built.urdf"
+    path.write_text(BUILT)
+    sk = read_urdf(path)
+    q = np.random.default_rng(4).uniform(sk.lower, sk.upper)
+    by_joint = sk.angles_by_joint(q)
+    assert list(by_joint) == list(sk.dof_names) == ["shoulder", "slide", "wrist"]
+    reference = _yourdfpy(path)
+    reference.update_cfg({name: float(values[0]) for name, values in by_joint.items()})
+    tool = reference.get_transform("tool", reference.base_link)
+    np.testing.assert_allclose(deik.forward_kinematics(sk, q).position("tool"), tool[:3, 3], atol=1e-12)
+    with pytest.raises(
+        KeyError, match=r"'upper' is a link \(a frame\); its degrees of freedom belong to joint 'shoulder'"
+    ):
+        sk.joint_dofs("upper")
+    np.testing.assert_array_equal(dof_weights(sk, {"slide": 2.0}), [0.0, 2.0, 0.0])
+    table = tmp_path / "limits.json"
+    table.write_text('{"shoulder": [-30, 45]}')
+    assert read_limits(table, sk) == {"shoulder": (pytest.approx(-np.pi / 6), pytest.approx(np.pi / 4))}

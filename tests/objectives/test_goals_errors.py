@@ -44,7 +44,7 @@ def test_non_finite_or_misshapen_targets_of_other_goals(chain3):
         problem(chain3, deik.CentreOfMass([math.nan, 0, 0]))
     with pytest.raises(ValueError, match=r"aim target must have shape \(3,\)"):
         problem(chain3, deik.Aim("tip", [1.0, 0.0]))
-    with pytest.raises(ValueError, match=r"tip orientation must have shape \(3, 3\)"):
+    with pytest.raises(ValueError, match=r"orientation target for 'tip' in form 'matrix' must have shape \(3, 3\)"):
         problem(chain3, deik.Orientation("tip", np.eye(2)))
     with pytest.raises(ValueError, match=r"support point contains NaN"):
         problem(chain3, deik.ComOverSupport([0, math.inf, 0]))

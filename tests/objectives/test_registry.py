@@ -8,7 +8,7 @@ import numpy as np
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.io.problem_goals import GOAL_TYPES
+from deik.io.problem_goals import GOAL_TYPES, ORIENTATION_KEYS
 from deik.kernels import cpu
 from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.objectives import kinds, registry
@@ -41,7 +41,7 @@ def test_every_kind_has_a_row_a_goal_class_an_oracle_and_a_file_schema():
         assert callable(row.oracle) and row.oracle is getattr(registry, row.name), row.name
         if row.goal is getattr(deik, row.goal.__name__, None):  # a user goal: written in problem files
             cls, required, optional = GOAL_TYPES[row.file_type]
-            fields = {f.name for f in dataclasses.fields(cls)} | {"euler", "degrees"}  # orientation's Euler form
+            fields = {f.name for f in dataclasses.fields(cls)} | set(ORIENTATION_KEYS) | {"degrees"}  # its forms
             assert cls is row.goal and set(required) | set(optional) <= fields, row.name
         else:  # the internal joint-limits penalty: no file type
             assert row.kind == kinds.LIMITS and row.file_type is None

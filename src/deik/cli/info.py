@@ -25,7 +25,8 @@ def _dof_cells(skeleton, d: int) -> list[str]:
 
 
 def joint_tree(skeleton) -> list[str]:
-    """One line per joint, indented by depth, with its DOF count and sites."""
+    """One line per joint (frame), indented by depth, with the URDF joint that moves it where its
+    name differs (the key of its values in a pose), its DOF count and sites."""
     depth = np.zeros(skeleton.n_joints, int)
     lines = []
     for k, name in enumerate(skeleton.joint_names):
@@ -34,8 +35,10 @@ def joint_tree(skeleton) -> list[str]:
         dofs = skeleton.joint_dof_start[k + 1] - skeleton.joint_dof_start[k]
         mimics = int((skeleton.mimic_joint == k).sum())
         sites = [s for s, j in zip(skeleton.site_names, skeleton.site_joint) if j == k]
+        label = skeleton.joint_labels[k]
         notes = (
-            [f"{dofs} DOF"]
+            ([f"moved by joint {label}"] if label != name else [])
+            + [f"{dofs} DOF"]
             + ([f"{mimics} mimic"] if mimics else [])
             + ([f"sites: {', '.join(sites)}"] if sites else [])
         )

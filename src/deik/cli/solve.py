@@ -4,7 +4,7 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
     deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
     deik solve --skeleton panda.urdf --base panda_link0 --tip panda_hand_tcp \\
-        --reach panda_hand_tcp 0.4 0.2 0.5 --orient panda_hand_tcp 180 0 0 --out pose.json
+        --reach panda_hand_tcp 0.4 0.2 0.5 --orient panda_hand_tcp rpy 180 0 0 --out pose.json
 """
 
 from __future__ import annotations
@@ -17,14 +17,13 @@ from dataclasses import replace
 import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
+from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.files import read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.problem_file import load_problem
 from deik.model.joints import ROTATE
-from deik.model.rotations import euler_matrix
-from deik.objectives import goals as g
 from deik.solver.problem import Problem
 from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
@@ -44,7 +43,6 @@ SETTING_FLAGS = (
     "restarts",
     "islands",
 )
-FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame" when posing a BVH frame
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
 
 
@@ -69,55 +67,7 @@ def add_arguments(s) -> None:
         metavar="FILE.json",
         help='joint limits table {"DOF": [lower, upper]} (degrees / length units), e.g. from `deik limits`',
     )
-    s.add_argument(
-        "--reach",
-        nargs=4,
-        action="append",
-        default=[],
-        metavar=("FRAME", "X", "Y", "Z"),
-        help="put joint or site FRAME at X Y Z (repeatable)",
-    )
-    s.add_argument(
-        "--orient",
-        nargs=4,
-        action="append",
-        default=[],
-        metavar=("FRAME", "RX", "RY", "RZ"),
-        help="turn FRAME to intrinsic XYZ Euler angles in degrees (repeatable)",
-    )
-    s.add_argument(
-        "--tolerance",
-        type=float,
-        metavar="LENGTH",
-        help="--reach goals are met within this distance (default 1%% of the reach)",
-    )
-    s.add_argument(
-        "--angle-tolerance",
-        type=float,
-        metavar="DEGREES",
-        help="--orient goals are met within this angle (default 0.57 degrees = 0.01 rad)",
-    )
-    s.add_argument(
-        "--com-over",
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="keep the centre of mass over this support point (horizontally)",
-    )
-    s.add_argument(
-        "--obstacle",
-        nargs=4,
-        action="append",
-        default=[],
-        metavar=("X", "Y", "Z", "RADIUS"),
-        help="keep every bone out of this sphere (repeatable)",
-    )
-    s.add_argument(
-        "--comfort",
-        type=float,
-        metavar="WEIGHT",
-        help="stay near the rest pose (BVH: near the frame's pose, default weight 1) with this "
-        "weight in [-1, 1], below the other goals in priority; 0 turns it off",
-    )
+    add_goal_arguments(s)
     s.add_argument("--seed", type=int, help="random seed (same seed, same answer)")
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
@@ -158,31 +108,15 @@ def add_arguments(s) -> None:
     )
 
 
-def _goals(args, frame_pose) -> list:
-    """Goals from the goal flags: targets on priority level 0, comfort below them on level 1."""
-    angle_tolerance = None if args.angle_tolerance is None else float(np.radians(args.angle_tolerance))
-    goals = [g.Position(frame, numbers("--reach", xyz), tolerance=args.tolerance) for frame, *xyz in args.reach]
-    for frame, *angles in args.orient:
-        rotation = euler_matrix("XYZ", np.radians(numbers("--orient", angles)))
-        goals.append(g.Orientation(frame, rotation, tolerance=angle_tolerance))
-    if args.com_over:
-        goals.append(g.ComOverSupport(numbers("--com-over", args.com_over)))
-    for values in args.obstacle:
-        *centre, radius = numbers("--obstacle", values)
-        goals.append(g.Obstacle(centre, radius))
-    weight = args.comfort if args.comfort is not None else (FRAME_COMFORT if frame_pose is not None else None)
-    if weight:
-        goals.append(g.Comfort(weight=weight, level=1, reference=frame_pose))
-    return goals
-
-
 def _start_pose(values: list[str], skeleton) -> np.ndarray:
     """The --start pose (D,) in radians and length units: numbers in DOF order on the command line
     (degrees for rotations, as `deik info` shows them), or the "angles" (radians) of a pose.json."""
     if len(values) == 1 and values[0].lower().endswith(".json"):
         try:
-            pose = np.asarray(json.loads(read_input_text(values[0], "pose (JSON)"))["angles"], np.float64)
-        except (ValueError, KeyError, TypeError) as error:
+            data = json.loads(read_input_text(values[0], "pose (JSON)"))
+            pose = np.asarray(data["angles"], np.float64)
+            names = data.get("dof_names", list(skeleton.dof_names))
+        except (ValueError, KeyError, TypeError, AttributeError) as error:
             raise UsageError(
                 f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
                 'an "angles" list, as `deik solve --out pose.json` writes'
@@ -190,6 +124,11 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
         if pose.shape != (skeleton.n_dofs,):
             raise UsageError(
                 f"--start {values[0]}: its angles hold {pose.size} values, the skeleton has {skeleton.n_dofs} DOFs"
+            )
+        if names != list(skeleton.dof_names):
+            raise UsageError(
+                f"--start {values[0]}: its dof_names {names} are not this skeleton's "
+                f"{list(skeleton.dof_names)}; give a pose written for the same skeleton, base and tips"
             )
         return pose
     pose = np.asarray(numbers("--start", values), np.float64)
@@ -212,12 +151,11 @@ def _file_flags_used(args) -> bool:
 def _problem(args):
     """(problem, settings dict, loaded skeleton or None, start pose or None, BVH frame number or
     None) from the flags or the --problem file."""
-    has_goals = bool(args.reach or args.orient or args.com_over or args.obstacle) or args.comfort is not None
     spec = args.skeleton_flag or args.skeleton
     if args.skeleton_flag and args.skeleton:
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
     if args.problem:
-        if spec or has_goals or _file_flags_used(args) or args.start:
+        if spec or has_goals(args) or _file_flags_used(args) or args.start:
             raise UsageError(
                 "--problem FILE already names the skeleton and goals; "
                 "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file"
@@ -240,9 +178,9 @@ def _problem(args):
         raise UsageError("--frame only applies to a BVH clip")
     if args.start:
         frame_pose = _start_pose(args.start, loaded.skeleton)
-    if not has_goals:
+    if not has_goals(args):
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
-    return Problem(loaded.skeleton, _goals(args, frame_pose)), {}, loaded, frame_pose, args.frame
+    return Problem(loaded.skeleton, goals_from_flags(args, frame_pose)), {}, loaded, frame_pose, args.frame
 
 
 def _clip_pose(clip, frame: int):

@@ -1,7 +1,7 @@
 """Problems written as TOML files, and the skeleton specs shared with the command line.
 
 A problem file names a skeleton, optional solver settings and one `[[goal]]` table per goal
-(lengths in metres or the skeleton's length unit, angles as noted)::
+(lengths in metres or the skeleton's length unit, angles as noted; docs/conventions.md)::
 
     skeleton = "humanoid"        # "chain:N" (planar, N links), "chain3d:N", "humanoid", or a
                                  # .bvh / .urdf file (relative to this file's folder)
@@ -16,13 +16,14 @@ A problem file names a skeleton, optional solver settings and one `[[goal]]` tab
     frame = "left_hand"
     target = [0.23, 1.0, 0.25]
     level = 1                    # every goal may set weight, mu, level and tolerance
-    tolerance = 0.01
+    tolerance = 0.01             # length units (default 0.001) or radians (default 0.1 degree)
 
     [[goal]]
-    type = "orientation"         # `target` as a 3x3 rotation matrix [[..], [..], [..]], or
-    frame = "head"               # intrinsic Euler angles: euler = "XYZ", degrees = [a, b, c]
-    euler = "XYZ"
-    degrees = [0, 20, 0]
+    type = "orientation"         # exactly one of: target = 3x3 rotation matrix, pose = 4x4
+    frame = "head"               # homogeneous pose, quaternion_wxyz = [w, x, y, z],
+    rpy_degrees = [0, 20, 0]     # quaternion_xyzw = [x, y, z, w], rpy_degrees = URDF roll,
+    tolerance = 0.002            # pitch, yaw (R = Rz Ry Rx), or euler = "XYZ" (intrinsic)
+                                 # with degrees = [a, b, c]; tolerance in radians
 
 Other types and their fields (optional ones in brackets): "aim" frame, target [axis];
 "com" target; "com_over_support" point; "com_in_polygon" frames (a list of names);

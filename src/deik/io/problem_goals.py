@@ -73,9 +73,10 @@ def _joint_weights(skeleton: Skeleton, value, where: str):
         return value
     if isinstance(value, dict):
         for name, weight in value.items():
-            _frame(skeleton, name, field, where)
-            if name not in skeleton.joint_names:
-                raise ValueError(f"{where}: field {field!r}: {name!r} is a site; weights go on joints")
+            try:
+                skeleton.joint_dofs(name)
+            except KeyError as error:
+                raise ValueError(f"{where}: field {field!r}: {error.args[0]}; weights go on joints") from None
             if not (_is_number(weight) and math.isfinite(weight) and weight >= 0):
                 raise ValueError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
         return {name: float(weight) for name, weight in value.items()}
@@ -92,18 +93,34 @@ def _joint_weights(skeleton: Skeleton, value, where: str):
     )
 
 
-def _orientation_target(table: dict, where: str) -> np.ndarray:
-    if "target" in table:
-        extra = [f for f in ("euler", "degrees") if f in table]
-        if extra:
-            raise ValueError(f"{where}: give either 'target' (a 3x3 matrix) or 'euler' + 'degrees', not both")
-        return vector_field(table["target"], (3, 3), where, "target")
-    for field in ("euler", "degrees"):
-        if field not in table:
-            raise ValueError(
-                f"{where}: missing field {field!r}; give target = [[..], [..], [..]] (a 3x3 rotation) "
-                'or euler = "XYZ" with degrees = [a, b, c]'
-            )
+# orientation table key -> (Python form, shape of the value, what it is); the form is named by the key
+ORIENTATION_KEYS = {
+    "target": ("matrix", (3, 3), "a 3x3 rotation matrix [[..], [..], [..]]"),
+    "pose": ("matrix", (4, 4), "a 4x4 homogeneous pose [[..], [..], [..], [0, 0, 0, 1]]"),
+    "quaternion_wxyz": ("quat-wxyz", (4,), "a unit quaternion [w, x, y, z]"),
+    "quaternion_xyzw": ("quat-xyzw", (4,), "a unit quaternion [x, y, z, w]"),
+    "rpy_degrees": ("rpy", (3,), "URDF roll, pitch, yaw [r, p, y] in degrees"),
+    "euler": ("matrix", None, 'intrinsic Euler letters such as "XYZ", with degrees = [a, b, c]'),
+}
+
+
+def _orientation_target(table: dict, where: str) -> tuple:
+    """(target, form) of an orientation table, which gives exactly one of ORIENTATION_KEYS."""
+    given = [key for key in ORIENTATION_KEYS if key in table]
+    forms = "; ".join(f"{key} = {text}" for key, (_, _, text) in ORIENTATION_KEYS.items())
+    if len(given) != 1:
+        which = f"both {given[0]!r} and {given[1]!r}" if given else "none"
+        raise ValueError(f"{where}: give exactly one orientation ({which} given): {forms}")
+    key = given[0]
+    if "degrees" in table and key != "euler":
+        raise ValueError(f"{where}: field 'degrees' goes with 'euler'; {key!r} needs no 'degrees'")
+    form, shape, text = ORIENTATION_KEYS[key]
+    if key == "rpy_degrees":
+        return np.radians(vector_field(table[key], shape, where, key, text)), form
+    if key != "euler":
+        return vector_field(table[key], shape, where, key, text), form
+    if "degrees" not in table:
+        raise ValueError(f"{where}: missing field 'degrees'; euler = \"XYZ\" needs degrees = [a, b, c]")
     order = table["euler"]
     if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
         raise ValueError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
@@ -114,7 +131,7 @@ def _orientation_target(table: dict, where: str) -> np.ndarray:
         "degrees",
         f"a list of {len(order)} numbers (one angle per letter of euler {order!r})",
     )
-    return euler_matrix(order, np.radians(degrees))
+    return euler_matrix(order, np.radians(degrees)), form
 
 
 def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
@@ -142,7 +159,7 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
             raise ValueError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
     kwargs = {}
     for field, value in table.items():
-        if field in ("type", "euler", "degrees") or (kind == "orientation" and field == "target"):
+        if field == "type" or (kind == "orientation" and (field in ORIENTATION_KEYS or field == "degrees")):
             continue
         if field == "frame":
             kwargs[field] = _frame(skeleton, value, field, where)
@@ -163,7 +180,7 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
     if "axis" in kwargs:
         kwargs["axis"] = tuple(kwargs["axis"])
     if kind == "orientation":
-        kwargs["target"] = _orientation_target(table, where)
+        kwargs["target"], kwargs["form"] = _orientation_target(table, where)
     goal = cls(**kwargs)
     try:
         goal.row(skeleton)

@@ -19,11 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.io.urdf_elements import UrdfJoint, read_joint, read_link, rpy_matrix
+from deik.io.urdf_elements import UrdfJoint, read_joint, read_link
 from deik.io.urdf_tree import LinkTree
 from deik.io.urdf_xml import read_xml
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
+from deik.model.orientations import rpy_matrix
 from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
@@ -113,7 +114,7 @@ def _build(tree: LinkTree, links: list[str], up, name: str):
                     f"mimics {joint.mimic.joint!r}, which is outside the selected chain; "
                     "choose a base and tip that include it"
                 )
-            joints.append(Joint(link, parent.carrier, tuple(p), (_dof(joint),), rotation=_rows(R)))
+            joints.append(Joint(link, parent.carrier, tuple(p), (_dof(joint),), rotation=_rows(R), label=joint.name))
             frames[link] = _Rigid(link, np.eye(3), np.zeros(3))
         else:
             sites.append(Site(link, parent.carrier, tuple(p), _rows(R)))

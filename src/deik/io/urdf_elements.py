@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.model.rotations import euler_matrix
 from deik.model.skeleton import MAX_MASS
 
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
@@ -99,11 +98,6 @@ def read_link(element, source: str) -> UrdfLink:
             f"mass {mass:g} kg is above the {MAX_MASS:g} kg deik accepts; URDF masses are in kilograms", mass_element
         )
     return UrdfLink(name, mass, com, element.sourceline)
-
-
-def rpy_matrix(rpy) -> np.ndarray:
-    """URDF's rotations of roll, pitch, yaw (..., 3) radians: Rz(yaw) Ry(pitch) Rx(roll), (..., 3, 3)."""
-    return euler_matrix("ZYX", np.asarray(rpy, float)[..., ::-1])
 
 
 def _name(element, source: str) -> str:

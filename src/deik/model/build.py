@@ -89,6 +89,7 @@ def build_skeleton(joints, sites=(), segments=(), up=(0.0, 1.0, 0.0), name="skel
         mass_value=np.array([m[2] for m in masses], np.float64),
         up=np.asarray(up, np.float64),
         joint_rotation=np.array([j.rotation for j in joints], np.float64).reshape(-1, 3, 3),
+        joint_labels=tuple(j.label or j.name for j in joints),
         **_mimic_arrays(joints, mimics, dof_names),
     )
 

@@ -39,7 +39,8 @@ class Dof:
 class Joint:
     """A joint: `parent` name (None for the root), `offset` (3,) and fixed `rotation` (3, 3) of
     its rest frame in the parent frame, its DOFs, and an optional point mass (kg) at its origin
-    (the paper's Eq. 3)."""
+    (the paper's Eq. 3). `label`: the name a pose keys its DOF values by when it is not `name`
+    (a URDF link's frame is `name`, the URDF joint that moves it the label); default `name`."""
 
     name: str
     parent: str | None
@@ -47,6 +48,7 @@ class Joint:
     dofs: tuple[Dof, ...] = ()
     mass: float = 0.0
     rotation: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    label: str = ""
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,9 @@ class Skeleton:
     by default). K mimic DOFs (not variables; applied after their joint's free DOFs), value =
     mimic_scale * q[mimic_source] + mimic_bias: mimic_names, mimic_joint (K,), mimic_kind (K,),
     mimic_axis (K, 3), mimic_source (K,) DOF index, mimic_scale (K,), mimic_bias (K,).
+    joint_labels (J,): the names poses are keyed by (angles_by_joint, joint_dofs, Comfort's
+    joint_weights): the joint names, except for a URDF robot, whose skeleton joints are its
+    links (the frames goals name) and whose labels are the URDF joints that move them.
     """
 
     name: str
@@ -76,8 +79,11 @@ class Skeleton:
     mimic_source: np.ndarray | None = None
     mimic_scale: np.ndarray | None = None
     mimic_bias: np.ndarray | None = None
+    joint_labels: tuple[str, ...] = ()
 
     def __post_init__(self):
+        if not self.joint_labels:
+            object.__setattr__(self, "joint_labels", tuple(self.joint_names))
         defaults = dict(
             joint_rotation=np.tile(np.eye(3), (len(self.joint_names), 1, 1)),
             mimic_joint=np.zeros(0, np.int32),
@@ -105,6 +111,8 @@ class Skeleton:
         dupes = sorted(name for name, count in Counter(names).items() if count > 1)
         if dupes:
             _fail(f"duplicate joint/site names {dupes}; joints and sites share one namespace")
+        if len(self.joint_labels) != J or len(set(self.joint_labels)) != J:
+            _fail(f"joint_labels must be {J} distinct names, one per joint")
         if self.parents.shape != (J,) or self.offsets.shape != (J, 3):
             _fail(f"parents must be ({J},) and offsets ({J}, 3)")
         for k, p in enumerate(self.parents):
@@ -254,20 +262,25 @@ class Skeleton:
         raise KeyError(f"joint or site {name!r} not found in skeleton {self.name!r}{did_you_mean(name, frames)}")
 
     def joint_dofs(self, name: str) -> slice:
-        """The slice of the angle vector that belongs to joint `name`."""
-        k = self.frame_index(name)
-        if k >= self.n_joints:
+        """The slice of the angle vector that belongs to joint `name`, a joint label (for a URDF
+        robot the URDF joint's name; joint_labels). A site, a link or an unknown name raises a
+        KeyError that says which name to give."""
+        if name in self.joint_labels:
+            k = self.joint_labels.index(name)
+            return slice(int(self.joint_dof_start[k]), int(self.joint_dof_start[k + 1]))
+        if name in self.site_names:
             raise KeyError(f"{name!r} is a site, not a joint: sites have no degrees of freedom")
-        return slice(int(self.joint_dof_start[k]), int(self.joint_dof_start[k + 1]))
+        if name in self.joint_names:
+            label = self.joint_labels[self.joint_names.index(name)]
+            raise KeyError(f"{name!r} is a link (a frame); its degrees of freedom belong to joint {label!r}")
+        raise KeyError(f"joint {name!r} not found in skeleton {self.name!r}{did_you_mean(name, self.joint_labels)}")
 
     def angles_by_joint(self, angles: np.ndarray) -> dict[str, np.ndarray]:
-        """Split a pose (D,) into {joint name: its DOF values}, joints without DOFs left out."""
+        """Split a pose (D,) into {joint label: its DOF values} (radians / length units), joints
+        without DOFs left out; for a URDF robot the keys are its joint names, as dof_names."""
         angles = np.asarray(angles)
-        return {
-            n: angles[self.joint_dofs(n)].copy()
-            for n in self.joint_names
-            if self.joint_dofs(n).stop > self.joint_dofs(n).start
-        }
+        slices = {n: self.joint_dofs(n) for n in self.joint_labels}
+        return {n: angles[s].copy() for n, s in slices.items() if s.stop > s.start}
 
     def check_angles(self, angles, name: str = "angles") -> np.ndarray:
         """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""

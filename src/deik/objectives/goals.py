@@ -2,7 +2,9 @@
 
 Targets may carry a leading batch axis (B, ...) to pose B problems at once. Weights lie in
 [-1, 1] (Eq. 2); `level` sets strict priority (0 highest; a lower level never buys a higher
-one's error beyond its tolerance); `tolerance` is in metres / radians and decides convergence.
+one's error beyond its tolerance); `tolerance` is in length units / radians and decides
+convergence. A goal with a target defaults to absolute tolerances, LENGTH_TOLERANCE (1 mm when
+the skeleton's unit is the metre) and ANGLE_TOLERANCE (0.1 degree): docs/conventions.md.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from deik.model.orientations import FORMS, rotation_from
 from deik.model.skeleton import Skeleton
 from deik.objectives.goal_values import (
     check_reachable,
@@ -35,6 +38,9 @@ from deik.objectives.kinds import (
     SUPPORT_POLYGON,
 )
 from deik.objectives.table import TermRow
+
+LENGTH_TOLERANCE = 1e-3  # length units: 1 mm for metres (URDF, deik.humanoid, most BVH)
+ANGLE_TOLERANCE = math.radians(0.1)  # radians
 
 
 @dataclass(frozen=True)
@@ -107,7 +113,8 @@ class Goal:
 
 @dataclass(frozen=True)
 class Position(Goal):
-    """Place joint or site `frame` at `target` (3,) (Eq. 5). Default tolerance: 1 % of reach."""
+    """Place joint or site `frame` at `target` (3,) length units (Eq. 5). Default tolerance:
+    LENGTH_TOLERANCE."""
 
     LABEL = "position {frame}"
     BATCH_FIELDS = (("target", 1),)
@@ -117,7 +124,7 @@ class Position(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         f = skeleton.frame_index(self.frame)
         check_reachable(skeleton, vector(self.target, (3,), f"{self.frame} target"), f, self.label)
-        return self._row(POSITION, (f,), skeleton.reach, 0.01 * skeleton.reach)
+        return self._row(POSITION, (f,), skeleton.reach, LENGTH_TOLERANCE)
 
     def params(self, skeleton):
         return pack(vector(self.target, (3,), f"{self.frame} target"))
@@ -125,28 +132,38 @@ class Position(Goal):
 
 @dataclass(frozen=True)
 class Orientation(Goal):
-    """Turn `frame` to world rotation `target` (3, 3); error = angle between rotations (rad)."""
+    """Turn `frame` to a world rotation; error = angle between rotations (rad). `target` is in
+    orientation `form` (deik.model.orientations.FORMS, always named): "matrix" a 3x3 rotation
+    or a 4x4 pose (its rotation part), "quat-wxyz" / "quat-xyzw" a unit quaternion (4,), "rpy"
+    URDF roll, pitch, yaw (3,) radians (R = Rz Ry Rx), "xyz" intrinsic Euler XYZ (3,) radians.
+    A target may carry a batch axis. Default tolerance: ANGLE_TOLERANCE."""
 
     LABEL = "orientation {frame}"
-    BATCH_FIELDS = (("target", 2),)
     frame: str
     target: object
+    form: str = "matrix"
+
+    @property
+    def BATCH_FIELDS(self):  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
+        return (("target", FORMS.get(self.form, 2)),)
+
+    def rotation(self) -> np.ndarray:
+        """The target as rotation matrices (B, 3, 3), B = 1 without a batch axis; checked."""
+        R = rotation_from(self.form, self.target, f"orientation target for {self.frame!r}")
+        return vector(R, (3, 3), f"{self.frame} orientation")
 
     def row(self, skeleton):
-        R = vector(self.target, (3, 3), f"{self.frame} orientation")
-        eye = np.eye(3)
-        # R R^T = I within 1e-5 (2e-5 on the diagonal, as np.allclose), and no reflection
-        if not (np.abs(R @ np.swapaxes(R, -1, -2) - eye) <= 1e-5 * (1 + eye)).all() or (np.linalg.det(R) < 0).any():
-            raise ValueError(f"orientation target for {self.frame!r} is not a rotation matrix")
-        return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, 0.01)
+        self.rotation()
+        return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
 
     def params(self, skeleton):
-        return pack(vector(self.target, (3, 3), f"{self.frame} orientation"))
+        return pack(self.rotation())
 
 
 @dataclass(frozen=True)
 class Aim(Goal):
-    """Point `frame`'s local `axis` (3,) at world point `target` (3,); error in radians."""
+    """Point `frame`'s local `axis` (3,) at world point `target` (3,); error in radians.
+    Default tolerance: ANGLE_TOLERANCE."""
 
     LABEL = "aim {frame}"
     BATCH_FIELDS = (("target", 1),)
@@ -157,7 +174,7 @@ class Aim(Goal):
     def row(self, skeleton):
         if not np.linalg.norm(self.axis) > 0:
             raise ValueError(f"aim axis for {self.frame!r} must be non-zero")
-        return self._row(AIM, (skeleton.frame_index(self.frame),), 1.0, 0.01)
+        return self._row(AIM, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
 
     def params(self, skeleton):
         axis = np.asarray(self.axis, float)
@@ -168,7 +185,8 @@ class Aim(Goal):
 
 @dataclass(frozen=True)
 class CentreOfMass(Goal):
-    """Bring the whole-body centre of mass to `target` (3,) (Eqs. 3, 4)."""
+    """Bring the whole-body centre of mass to `target` (3,) (Eqs. 3, 4). Default tolerance:
+    LENGTH_TOLERANCE."""
 
     LABEL = "centre of mass"
     BATCH_FIELDS = (("target", 1),)
@@ -177,7 +195,7 @@ class CentreOfMass(Goal):
     def row(self, skeleton):
         need_mass(skeleton, "centre_of_mass")
         check_reachable(skeleton, vector(self.target, (3,), "centre-of-mass target"), None, self.label)
-        return self._row(COM, (), skeleton.reach, 0.01 * skeleton.reach)
+        return self._row(COM, (), skeleton.reach, LENGTH_TOLERANCE)
 
     def params(self, skeleton):
         return pack(vector(self.target, (3,), "centre-of-mass target"))
@@ -185,7 +203,8 @@ class CentreOfMass(Goal):
 
 @dataclass(frozen=True)
 class ComOverSupport(Goal):
-    """Keep the centre of mass's ground projection over `point` (3,): horizontal distance."""
+    """Keep the centre of mass's ground projection over `point` (3,): horizontal distance.
+    Default tolerance: LENGTH_TOLERANCE."""
 
     LABEL = "com over support"
     BATCH_FIELDS = (("point", 1),)
@@ -193,7 +212,7 @@ class ComOverSupport(Goal):
 
     def row(self, skeleton):
         need_mass(skeleton, "com_over_support")
-        return self._row(COM_GROUND, (), skeleton.reach, 0.01 * skeleton.reach)
+        return self._row(COM_GROUND, (), skeleton.reach, LENGTH_TOLERANCE)
 
     def params(self, skeleton):
         return pack(vector(self.point, (3,), "support point"))

@@ -170,7 +170,7 @@ KINDS = (
         True,
         "orientation",
         ("frame",),
-        ("target", "euler", "degrees"),
+        ("target", "pose", "quaternion_wxyz", "quaternion_xyzw", "rpy_degrees", "euler", "degrees"),
     ),
     GoalKind(k.AIM, "aim", g.Aim, aim, ANGLE, False, "aim", ("frame", "target"), ("axis",)),
     GoalKind(k.COM, "centre_of_mass", g.CentreOfMass, centre_of_mass, LENGTH, True, "com", ("target",)),

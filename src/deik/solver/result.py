@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
+from deik.model.orientations import matrix_quaternion
 from deik.model.skeleton import Skeleton
 
 
@@ -74,15 +77,39 @@ class Result:
         """{goal label: raw error (*batch,)}."""
         return {g.label: g.error for g in self.goals}
 
+    def world_frames(self) -> dict:
+        """Where the solved pose puts every frame, by forward kinematics: {"joints": {name:
+        frame}, "sites": {name: frame}}, each frame {"position": (*batch, 3) length units,
+        "quaternion_wxyz": (*batch, 4) unit, w >= 0} in world coordinates."""
+        kin = forward_kinematics(self.skeleton, self.angles)
+        q = matrix_quaternion(kin.R_world_frame, "wxyz")
+        frames = [
+            {"position": kin.p_world_frame[..., f, :], "quaternion_wxyz": q[..., f, :]}
+            for f in range(self.skeleton.n_frames)
+        ]
+        J = self.skeleton.n_joints
+        return {
+            "joints": dict(zip(self.skeleton.joint_names, frames[:J])),
+            "sites": dict(zip(self.skeleton.site_names, frames[J:])),
+        }
+
     def to_dict(self) -> dict:
-        """JSON-ready summary: pose by joint and DOF name, per-goal errors, run facts."""
+        """JSON-ready summary: the pose by joint and DOF name (radians / length units), every
+        joint's and site's world position and quaternion (world_frames), per-goal errors (in
+        each goal's unit), run facts."""
+        frames = {
+            group: {name: {key: value.tolist() for key, value in frame.items()} for name, frame in named.items()}
+            for group, named in self.world_frames().items()
+        }
         return {
             "skeleton": self.skeleton.name,
             "dof_names": list(self.skeleton.dof_names),
+            "dof_units": ["rad" if kind == ROTATE else "m" for kind in self.skeleton.dof_kind],
             "angles": self.angles.tolist(),
             "angles_by_joint": (
                 {k: v.tolist() for k, v in self.angles_by_joint.items()} if self.angles.ndim == 1 else None
             ),
+            **frames,
             "fitness": self.fitness.tolist(),
             "goals": [
                 {

@@ -38,7 +38,8 @@ class Solver:
     def solve(self, targets: dict | None = None, *, initial=None, seed: int | None = None, progress=None) -> Result:
         """Solve with `targets` {goal: new target} replacing those goals' targets (a goal is
         named by its index in problem.goals or its label, e.g. "position tip"; a target has the
-        goal's shape, with or without the problem's batch axis, and a batch axis makes the
+        goal's shape in the goal's own form (a quaternion for an Orientation built with form
+        "quat-wxyz"; docs/conventions.md), with or without the problem's batch axis, and a batch axis makes the
         Result batched as for deik.solve); other goals keep theirs.
         `initial` and `progress` as in deik.solve; `seed` overrides the settings' seed. Each
         new target is checked as a new goal would be (shape, NaN, reach, rotation)."""
