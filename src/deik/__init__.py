@@ -20,6 +20,7 @@ from deik.objectives.goals import (
     Orientation,
     Position,
 )
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -47,6 +48,7 @@ __all__ = [
     "Problem",
     "Result",
     "Segment",
+    "SelfCollision",
     "Settings",
     "Site",
     "Skeleton",

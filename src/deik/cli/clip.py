@@ -42,6 +42,12 @@ def add_arguments(c) -> None:
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
     c.add_argument(
+        "--self-collision",
+        type=float,
+        metavar="MARGIN",
+        help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
+    )
+    c.add_argument(
         "--reach",
         action="append",
         default=[],
@@ -153,7 +159,7 @@ def run_clip(args) -> int:
         )
     contacts = _contacts(args, clip)
     reach = _reaches(args, clip)
-    goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence)
+    goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence, self_collision=args.self_collision)
     if contacts is not None:
         print(
             "contacts"
@@ -188,7 +194,7 @@ def run_clip(args) -> int:
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal"
+        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance/self-collision goal"
     )
     far = large_deviations(clip, fix.clip, FAR_DEGREES)
     if far:

@@ -25,6 +25,7 @@ from deik.io.problem_file import load_problem
 from deik.model.joints import ROTATE
 from deik.model.rotations import euler_matrix
 from deik.objectives import goals as g
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.problem import Problem
 from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
@@ -112,6 +113,12 @@ def add_arguments(s) -> None:
         help="keep every bone out of this sphere (repeatable)",
     )
     s.add_argument(
+        "--self-collision",
+        type=float,
+        metavar="MARGIN",
+        help="keep the bone capsules apart by MARGIN (length units, e.g. 0), above every other goal in priority",
+    )
+    s.add_argument(
         "--comfort",
         type=float,
         metavar="WEIGHT",
@@ -159,7 +166,8 @@ def add_arguments(s) -> None:
 
 
 def _goals(args, frame_pose) -> list:
-    """Goals from the goal flags: targets on priority level 0, comfort below them on level 1."""
+    """Goals from the goal flags: targets on priority level 0, comfort below them on level 1; with
+    --self-collision, that goal on level 0 and every other one level lower."""
     angle_tolerance = None if args.angle_tolerance is None else float(np.radians(args.angle_tolerance))
     goals = [g.Position(frame, numbers("--reach", xyz), tolerance=args.tolerance) for frame, *xyz in args.reach]
     for frame, *angles in args.orient:
@@ -173,6 +181,8 @@ def _goals(args, frame_pose) -> list:
     weight = args.comfort if args.comfort is not None else (FRAME_COMFORT if frame_pose is not None else None)
     if weight:
         goals.append(g.Comfort(weight=weight, level=1, reference=frame_pose))
+    if args.self_collision is not None:  # a target inside the body never buys a penetration
+        goals = [SelfCollision(margin=args.self_collision)] + [replace(goal, level=goal.level + 1) for goal in goals]
     return goals
 
 
@@ -212,7 +222,8 @@ def _file_flags_used(args) -> bool:
 def _problem(args):
     """(problem, settings dict, loaded skeleton or None, start pose or None, BVH frame number or
     None) from the flags or the --problem file."""
-    has_goals = bool(args.reach or args.orient or args.com_over or args.obstacle) or args.comfort is not None
+    has_goals = bool(args.reach or args.orient or args.com_over or args.obstacle)
+    has_goals = has_goals or args.comfort is not None or args.self_collision is not None
     spec = args.skeleton_flag or args.skeleton
     if args.skeleton_flag and args.skeleton:
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")

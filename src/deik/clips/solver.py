@@ -6,7 +6,8 @@
    goal of a frame needs are eased in from the neighbouring frames (coherence.py), so nothing
    pops and an idle arm keeps its performance.
 2. DE passes repair the frames that still miss a level-0 goal (goals the warm start cannot
-   all meet, such as balance over a single contact point). Each pass is one batched solve of all N frame
+   all meet, such as balance over a single contact point, or self-collision, which lets a frame's
+   repair move every DOF). Each pass is one batched solve of all N frame
    problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
    population of copies of its pose, which DE cannot move, and stops at once; the others are
    seeded around their current pose, moving only the DOFs their goals need, and run until
@@ -28,13 +29,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.clips.coherence import ease, searched_dofs
+from deik.clips.coherence import ease, hinge_channels, searched_dofs
 from deik.clips.problem import ClipGoals, clip_problem, fixed_goals
 from deik.clips.warmstart import dof_weights, warm_start
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
 from deik.objectives.reference import raw_errors
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.seeding import poses_around
 from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, solve
@@ -114,6 +116,12 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return errors, np.all(np.isnan(errors[:, level0]) | within, axis=1)
 
 
+def _colliding(problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) frames whose self-collision goal (if any) misses its tolerance."""
+    terms = [t for t, goal in enumerate(problem.goals) if isinstance(goal, SelfCollision)]
+    return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
+
+
 def fix_clip(
     clip, goals: ClipGoals, passes: int | None = None, settings: Settings | None = None, **overrides
 ) -> ClipFix:
@@ -146,9 +154,12 @@ def fix_clip(
         began = time.perf_counter()
         problem = clip_problem(clip, goals, displacement, weights, fixed_part)
         current = wrap_rotations(original + displacement, rotation)
-        unmet = ~_met(problem, current)[1]
+        errors, met = _met(problem, current)
+        unmet = ~met
         if not unmet.any():
             break
+        # a frame in collision may move every DOF but the hinge channels
+        searched = searched | (_colliding(problem, errors)[:, None] & ~hinge_channels(clip)[None, :])
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         result = solve(problem, settings, initial=initial)
