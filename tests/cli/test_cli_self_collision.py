@@ -5,9 +5,11 @@ passes through the chest; penetration measured by the NumPy oracle on what was w
 import json
 
 import numpy as np
+import pytest
 
 import deik
 from deik.cli.app import main
+from deik.io.problem_file import load_problem
 from deik.objectives import reference
 
 SMALL = ["--population", "64", "--generations", "300", "--seed", "1", "--restarts", "2"]
@@ -48,3 +50,27 @@ def test_clip_flag_repairs_the_frames_in_collision(tmp_path, capsys):
     assert (penetration(before.skeleton, before.poses()) > 0.3).sum() == 2  # the hand in the chest
     assert (penetration(after.skeleton, after.poses()) == 0).all()
     assert "6/6 frames meet" in capsys.readouterr().out
+
+
+SELF_COLLISION_TOML = """
+skeleton = "humanoid"
+
+[[goal]]
+type = "self_collision"
+margin = 0.01
+radii = { left_wrist = 0.06 }
+skip = 3
+"""
+
+
+def test_problem_file_reads_self_collision(tmp_path):
+    path = tmp_path / "problem.toml"
+    path.write_text(SELF_COLLISION_TOML)
+    goal = load_problem(path).problem.goals[0]
+    assert goal == deik.SelfCollision(margin=0.01, radii={"left_wrist": 0.06}, skip=3)
+    path.write_text(SELF_COLLISION_TOML.replace("skip = 3", "skip = 1.5"))
+    with pytest.raises(ValueError, match="goal 1 \\(self_collision\\): field 'skip' must be an integer >= 1"):
+        load_problem(path)
+    path.write_text(SELF_COLLISION_TOML.replace("left_wrist", "left_hand"))
+    with pytest.raises(ValueError, match="goal 1 \\(self_collision\\): self collision: 'left_hand' is a site"):
+        load_problem(path)

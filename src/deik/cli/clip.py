@@ -67,7 +67,7 @@ def add_arguments(c) -> None:
     c.add_argument(
         "--passes",
         type=int,
-        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance)",
+        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
     )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")

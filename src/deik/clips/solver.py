@@ -126,14 +126,14 @@ def fix_clip(
     clip, goals: ClipGoals, passes: int | None = None, settings: Settings | None = None, **overrides
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
-    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance) over the frames
+    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision) over the frames
     that still miss a level-0 goal; settings default to CLIP_SETTINGS (BALANCE_SETTINGS with
     balance) and may be overridden by keyword (population, generations, seed, device, ...).
     `wall_time` counts all but measuring the result; `passes` those that ran."""
     if not isinstance(goals, ClipGoals):
         raise TypeError(f"goals must be a deik.clips.problem.ClipGoals, got {type(goals).__name__}")
-    if passes is None:
-        passes = BALANCE_PASSES if goals.balance else PASSES
+    if passes is None:  # a collision repair eased into its neighbours can push them into collision
+        passes = BALANCE_PASSES if goals.balance or goals.self_collision is not None else PASSES
     if not (isinstance(passes, int) and passes >= 0):
         raise ValueError(f"passes must be an integer >= 0, got {passes!r}")
     if clip.n_frames == 0:

@@ -12,12 +12,12 @@ from deik.model.geometry import ground_frame
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.kinds import (
     GAIN,
-    PRIORITY_TOLERANCE,
-    TERM_FRAME_COUNT,
-    TERM_FRAMES,
     PAIR_A,
     PAIR_B,
     PAIR_TERM,
+    PRIORITY_TOLERANCE,
+    TERM_FRAME_COUNT,
+    TERM_FRAMES,
     TERM_LEVEL,
     WEIGHT,
 )
@@ -37,7 +37,9 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
         frames = table.term_int[t, TERM_FRAMES : TERM_FRAMES + table.term_int[t, TERM_FRAME_COUNT]]
         mine = table.pair_int[:, PAIR_TERM] == t
         pairs = table.pair_int[mine][:, [PAIR_A, PAIR_B]]
-        term = Term(frames, table.params[idx, t], table.dof_weight[t], problem.reference[idx, t], pairs, table.pair_radius[mine])
+        term = Term(
+            frames, table.params[idx, t], table.dof_weight[t], problem.reference[idx, t], pairs, table.pair_radius[mine]
+        )
         out[:, t] = kind_of(kind).oracle(posed, term)
     return out
 

@@ -42,11 +42,12 @@ class TermTable:
     term_int (T, 3 + MAX_TERM_FRAMES) int32: kind, level, frame count, frames;
     term_float (T, 5): weight, mu, scale, tolerance, priority tolerance; params
     (B, T, N_PARAMS); dof_weight (T, D); pair_int (K, 3) int32: term, bone a, bone b (columns
-    PAIR_* of deik.objectives.kinds) and pair_radius (K,) their capsule radii's sum. With more than one level, a term with a tolerance adds
-    only its excess w * max(f - f(tolerance), 0) to its level: a level is met (zero) exactly
-    when each of its goals is within its own tolerance, and only then does the next level
-    decide. The priority tolerance column holds f(tolerance), or -1 where the plain w * f
-    counts (single-level problems, the paper's weighted sum, and terms without tolerance).
+    PAIR_* of deik.objectives.kinds) and pair_radius (K,) their capsule radii's sum. With
+    more than one level, a term with a tolerance adds only its excess w * max(f - f(tolerance),
+    0) to its level: a level is met (zero) exactly when each of its goals is within its own
+    tolerance, and only then does the next level decide. The priority tolerance column holds
+    f(tolerance), or -1 where the plain w * f counts (single-level problems, the paper's
+    weighted sum, and terms without tolerance).
     """
 
     labels: tuple[str, ...]
