@@ -21,6 +21,7 @@ from deik.objectives.goals import (
     Position,
 )
 from deik.objectives.pose_goals import pose_goals
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -48,6 +49,7 @@ __all__ = [
     "Problem",
     "Result",
     "Segment",
+    "SelfCollision",
     "Settings",
     "Site",
     "Skeleton",

@@ -94,6 +94,7 @@ def _every_goal_problem(sk, end, middle, support):
             deik.Comfort("sum", joint_weights="start", level=2),
             deik.Comfort("max", weight=-0.3, level=2),
             deik.Obstacle(centre, 0.05, bone_radius=0.02, level=1),
+            deik.SelfCollision(margin=0.02, level=1),
         ],
         limits="penalty",
     )

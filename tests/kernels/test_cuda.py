@@ -65,6 +65,20 @@ def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
     np.testing.assert_allclose(np.array(cpu["pop"]), np.array(sim["pop"]), atol=1e-5)
 
 
+def test_simulated_cuda_self_collision_equals_cpu_and_the_oracle():
+    from deik.objectives import reference
+
+    cpu = json.loads(_run("self_collision_run.py", "cpu"))
+    sim = json.loads(_run("self_collision_run.py", "gpu", simulator=True))
+    np.testing.assert_array_equal(np.array(cpu["pop"]), np.array(sim["pop"]))
+    np.testing.assert_array_equal(np.array(cpu["raw"]), np.array(sim["raw"]))
+    h = deik.humanoid()
+    problem = deik.Problem(h, [deik.SelfCollision(margin=0.01)])
+    pop, raw = np.array(sim["pop"])[0], np.array(sim["raw"])[0, :, 0]
+    assert (raw > 0).any()  # random in-limit poses collide: the comparison is not of zeros
+    np.testing.assert_allclose(raw, reference.raw_errors(problem, pop)[:, 0], rtol=0, atol=1e-9)
+
+
 @pytest.mark.slow
 def test_cuda_kernels_compile_to_ptx_for_hopper():
     pytest.importorskip("cuda.bindings", reason="numba-cuda's CUDA bindings are not installed")

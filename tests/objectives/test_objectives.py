@@ -43,7 +43,7 @@ def test_every_goal_kind_kernel_equals_oracle():
     np.testing.assert_allclose(tot_k, tot_r, rtol=0, atol=1e-9)
     # the comparison covers the interesting branches, not only zeros
     t = {label: k for k, label in enumerate(problem.table.labels)}
-    for label in ("obstacle", "com in support polygon", "joint limits"):
+    for label in ("obstacle", "self collision", "com in support polygon", "joint limits"):
         assert (raw_r[:, t[label]] == 0).any() and (raw_r[:, t[label]] > 0).any(), label
     assert problem.table.n_levels == 4  # penalty level + 0, 1, 2
 

@@ -43,6 +43,12 @@ def add_arguments(c) -> None:
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
     c.add_argument(
+        "--self-collision",
+        type=float,
+        metavar="MARGIN",
+        help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
+    )
+    c.add_argument(
         "--reach",
         action="append",
         default=[],
@@ -62,7 +68,7 @@ def add_arguments(c) -> None:
     c.add_argument(
         "--passes",
         type=int,
-        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance)",
+        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
     )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
@@ -206,7 +212,7 @@ def run_clip(args) -> int:
         )
     contacts = _contacts(args, clip)
     reach = _reaches(args, clip)
-    goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence)
+    goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence, self_collision=args.self_collision)
     unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
         _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
@@ -231,7 +237,7 @@ def run_clip(args) -> int:
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance goal"
+        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance/self-collision goal"
     )
     far = document["joints_far_from_capture"]["joint_frames"]
     if far:

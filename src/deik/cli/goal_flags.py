@@ -1,5 +1,5 @@
 """The goal flags of `deik solve` (--reach, --orient, tolerances, --com-over, --obstacle,
---comfort) and the goals they make. Angles on the command line are degrees; the orientation
+--self-collision, --comfort) and the goals they make. Angles on the command line are degrees; the orientation
 form is always named (docs/conventions.md):
 
     --orient FRAME rpy R P Y               URDF roll, pitch, yaw: R = Rz(Y) Ry(P) Rx(R)
@@ -12,11 +12,13 @@ form is always named (docs/conventions.md):
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from deik.cli.common import UsageError, numbers
 from deik.objectives import goals as g
+from deik.objectives.self_collision import SelfCollision
 
 # CLI form -> (numbers it takes, whether they are degrees, what they are)
 ORIENT_FORMS = {
@@ -76,6 +78,12 @@ def add_goal_arguments(s) -> None:
         help="keep every bone out of this sphere (repeatable)",
     )
     s.add_argument(
+        "--self-collision",
+        type=float,
+        metavar="MARGIN",
+        help="keep the bone capsules apart by MARGIN (length units, e.g. 0), above every other goal in priority",
+    )
+    s.add_argument(
         "--comfort",
         type=float,
         metavar="WEIGHT",
@@ -86,7 +94,8 @@ def add_goal_arguments(s) -> None:
 
 def has_goals(args) -> bool:
     """Whether any goal flag was given."""
-    return bool(args.reach or args.orient or args.com_over or args.obstacle) or args.comfort is not None
+    flags = (args.reach, args.orient, args.com_over, args.obstacle)
+    return any(flags) or args.comfort is not None or args.self_collision is not None
 
 
 def orientation_goal(words: list[str], tolerance: float | None) -> g.Orientation:
@@ -116,7 +125,8 @@ def orientation_goal(words: list[str], tolerance: float | None) -> g.Orientation
 
 def goals_from_flags(args, frame_pose) -> list:
     """Goals from the goal flags: targets on priority level 0, comfort below them on level 1
-    (its reference `frame_pose` (D,), radians / length units, or None for the rest pose)."""
+    (its reference `frame_pose` (D,), radians / length units, or None for the rest pose); with
+    --self-collision, that goal on level 0 and every other one level lower."""
     angle_tolerance = None if args.angle_tolerance is None else math.radians(args.angle_tolerance)
     goals = [g.Position(frame, numbers("--reach", xyz), tolerance=args.tolerance) for frame, *xyz in args.reach]
     goals += [orientation_goal(words, angle_tolerance) for words in args.orient]
@@ -128,4 +138,6 @@ def goals_from_flags(args, frame_pose) -> list:
     weight = args.comfort if args.comfort is not None else (FRAME_COMFORT if frame_pose is not None else None)
     if weight:
         goals.append(g.Comfort(weight=weight, level=1, reference=frame_pose))
+    if args.self_collision is not None:  # a target inside the body never buys a penetration
+        goals = [SelfCollision(margin=args.self_collision)] + [replace(goal, level=goal.level + 1) for goal in goals]
     return goals

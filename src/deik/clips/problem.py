@@ -2,7 +2,8 @@
 
 Level 0 (strict priority, each within its tolerance): planted contacts (a site pinned where the
 original clip put it during each contact), reach tracks (a site follows targets over a frame
-range), balance (the centre of mass over the support polygon of the sites in contact).
+range), balance (the centre of mass over the support polygon of the sites in contact), and
+self-collision (the bone capsules apart; only the DE repairs, not the warm start, pursue it).
 Level 1: fidelity (stay near the original frame's pose) and coherence (move like the
 neighbouring frames do, so the displacement from the original is smooth: no pops, no jitter),
 each counting a DOF's change by its weight (warmstart.dof_weights).
@@ -21,6 +22,7 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.problem import Problem
 
 CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
@@ -79,9 +81,10 @@ def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True)
 class ClipGoals:
     """What to fix in a clip. `contacts`: sites to plant (None: none); `reach`: tracks;
-    `balance`: keep the centre of mass over the support of the contacts; `fidelity` and
-    `coherence`: weights in [0, 1] of staying near the original pose and moving like the
-    neighbouring frames; tolerances in length units."""
+    `balance`: keep the centre of mass over the support of the contacts; `self_collision`:
+    keep the bone capsules this margin apart (None: off); `fidelity` and `coherence`: weights
+    in [0, 1] of staying near the original pose and moving like the neighbouring frames;
+    tolerances in length units."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
@@ -90,6 +93,7 @@ class ClipGoals:
     coherence: float = 0.5
     contact_tolerance: float = CONTACT_TOLERANCE
     balance_tolerance: float = BALANCE_TOLERANCE
+    self_collision: float | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "reach", tuple(self.reach))
@@ -99,8 +103,8 @@ class ClipGoals:
                 raise ValueError(f"{name} weight must lie in [0, 1], got {value}")
         if self.balance and self.contacts is None:
             raise ValueError("balance needs contacts: the support polygon is made of the sites in contact")
-        if not (self.contacts or self.reach or self.balance):
-            raise ValueError("nothing to fix: plant contacts, add a reach track or ask for balance")
+        if not (self.contacts or self.reach or self.balance or self.self_collision is not None):
+            raise ValueError("nothing to fix: plant contacts, add a reach track, ask for balance or self-collision")
 
 
 def reach_names(sites) -> list[str]:
@@ -177,6 +181,8 @@ def clip_problem(
     computed."""
     sk = clip.skeleton
     goal_list = list(fixed_goals(clip, goals, weights) if fixed is None else fixed)
+    if goals.self_collision is not None:
+        goal_list.insert(0, SelfCollision(margin=goals.self_collision))
     if goals.coherence > 0:
         smooth = wrap_rotations(clip.poses() + neighbour_displacement(displacement), sk.dof_kind == ROTATE)
         goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth, joint_weights=weights))

@@ -6,7 +6,8 @@
    goal of a frame needs are eased in from the neighbouring frames (coherence.py), so nothing
    pops and an idle arm keeps its performance.
 2. DE passes repair the frames that still miss a level-0 goal (goals the warm start cannot
-   all meet, such as balance over a single contact point). Each pass is one batched solve of all N frame
+   all meet, such as balance over a single contact point, or self-collision, which lets a frame's
+   repair move every DOF). Each pass is one batched solve of all N frame
    problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
    population of copies of its pose, which DE cannot move, and stops at once; the others are
    seeded around their current pose, moving only the DOFs their goals need, and run until
@@ -28,13 +29,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.clips.coherence import ease, searched_dofs
+from deik.clips.coherence import ease, hinge_channels, searched_dofs
 from deik.clips.problem import ClipGoals, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
 from deik.objectives.reference import raw_errors
+from deik.objectives.self_collision import SelfCollision
 from deik.solver.seeding import poses_around
 from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, solve
@@ -112,6 +114,12 @@ def _pass_progress(progress, met: int, stage: str):
     return lambda generation, best: progress(met, f"{stage}, generation {generation}")
 
 
+def _colliding(problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) frames whose self-collision goal (if any) misses its tolerance."""
+    terms = [t for t, goal in enumerate(problem.goals) if isinstance(goal, SelfCollision)]
+    return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
+
+
 def fix_clip(
     clip,
     goals: ClipGoals,
@@ -122,7 +130,7 @@ def fix_clip(
     **overrides,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
-    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance) over the frames
+    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision) over the frames
     that still miss a level-0 goal; settings default to CLIP_SETTINGS (BALANCE_SETTINGS with
     balance) and may be overridden by keyword (population, generations, seed, device, ...).
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
@@ -130,8 +138,8 @@ def fix_clip(
     warm start and each DE pass, during a pass every 100 generations, and once at the end."""
     if not isinstance(goals, ClipGoals):
         raise TypeError(f"goals must be a deik.clips.problem.ClipGoals, got {type(goals).__name__}")
-    if passes is None:
-        passes = BALANCE_PASSES if goals.balance else PASSES
+    if passes is None:  # a collision repair eased into its neighbours can push them into collision
+        passes = BALANCE_PASSES if goals.balance or goals.self_collision is not None else PASSES
     if not (isinstance(passes, int) and passes >= 0):
         raise ValueError(f"passes must be an integer >= 0, got {passes!r}")
     if clip.n_frames == 0:
@@ -153,10 +161,13 @@ def fix_clip(
         began = time.perf_counter()
         problem = clip_problem(clip, goals, displacement, weights, fixed_part)
         current = wrap_rotations(original + displacement, rotation)
-        unmet = ~_met(problem, current)[1]
-        report(int((~unmet).sum()), stages[-1]["stage"])
+        errors, met = _met(problem, current)
+        unmet = ~met
+        report(int(met.sum()), stages[-1]["stage"])
         if not unmet.any():
             break
+        # a frame in collision may move every DOF but the hinge channels
+        searched = searched | (_colliding(problem, errors)[:, None] & ~hinge_channels(clip)[None, :])
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         stage = f"DE pass {k + 1}"

@@ -47,7 +47,7 @@ def vector_field(value, shape: tuple[int, ...], where: str, field: str, form: st
 
 
 def _scalar(value, field: str, where: str):
-    """weight, mu, tolerance, radius, bone_radius: finite numbers; level: an integer >= 0."""
+    """weight, mu, tolerance, radius, bone_radius, margin, radii: finite numbers; level: an integer >= 0."""
     if field == "level":
         if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
             return value
@@ -175,6 +175,12 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
             kwargs[field] = value
         elif field == "joint_weights":
             kwargs[field] = _joint_weights(skeleton, value, where)
+        elif field == "skip":
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ValueError(f"{where}: field 'skip' must be an integer >= 1 (links), got {value!r}")
+            kwargs[field] = value
+        elif field == "radii" and isinstance(value, dict):
+            kwargs[field] = value  # {joint = radius}: the goal checks the names and numbers
         else:
             kwargs[field] = _scalar(value, field, where)
     if "axis" in kwargs:

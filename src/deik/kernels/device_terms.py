@@ -6,6 +6,7 @@ columns are the constants of deik.objectives.kinds.
 
 import math
 
+from deik.kernels.device_collision import self_collision_error
 from deik.kernels.device_maths import centre_of_mass, forward_kinematics, rotate_point
 from deik.kernels.layout import HORIZONTAL_U, HORIZONTAL_V, LOWER, PARENT, UP, UPPER
 from deik.objectives.kinds import (
@@ -17,6 +18,7 @@ from deik.objectives.kinds import (
     GAIN,
     LIMITS,
     MU,
+    OBSTACLE,
     ORIENTATION,
     POSITION,
     PRIORITY_TOLERANCE,
@@ -134,7 +136,9 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
         for d in range(limits.shape[0]):
             total += max(limits[d, LOWER] - q[d], 0.0) + max(q[d] - limits[d, UPPER], 0.0)
         return total
-    return obstacle_error(g, skel, p)
+    if kind == OBSTACLE:
+        return obstacle_error(g, skel, p)
+    return self_collision_error(t, g[0], terms, skel, p)
 
 
 def obstacle_error(g, skel, p):

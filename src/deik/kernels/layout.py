@@ -68,6 +68,8 @@ class PackedTerms(NamedTuple):
     params: np.ndarray  # (B, T, N_PARAMS): each problem's targets, GAIN last
     dof_weight: np.ndarray  # (T, D): comfort terms' weight per DOF
     reference: np.ndarray  # (B, T, D): comfort terms' reference pose
+    pair_int: np.ndarray  # (K, 3) int32: PAIR_TERM, PAIR_A, PAIR_B: the bone pairs self-collision terms test
+    pair_radius: np.ndarray  # (K,): the pair's capsule radii's sum
 
 
 class KernelSettings(NamedTuple):

@@ -100,4 +100,6 @@ def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> Pac
         params=f(table.params),
         dof_weight=f(table.dof_weight),
         reference=f(reference),
+        pair_int=np.ascontiguousarray(table.pair_int, np.int32),
+        pair_radius=f(table.pair_radius),
     )

@@ -124,6 +124,7 @@ def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
 
 
 from deik.kernels import (  # noqa: E402
+    device_collision,
     device_driver,
     device_evolution,
     device_lm,
@@ -132,7 +133,15 @@ from deik.kernels import (  # noqa: E402
     device_terms,
 )
 
-DEVICE_SOURCES = (device_maths, device_terms, device_evolution, device_polish, device_lm, device_driver)
+DEVICE_SOURCES = (
+    device_maths,
+    device_collision,
+    device_terms,
+    device_evolution,
+    device_polish,
+    device_lm,
+    device_driver,
+)
 # The device maths never allocates, so it is compiled without Numba's reference counting: every
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep

@@ -1,4 +1,5 @@
-"""Ground frames and point-to-segment and point-to-polygon distances, in NumPy (batched).
+"""Ground frames and point-to-segment, segment-to-segment and point-to-polygon distances, in
+NumPy (batched).
 
 The kernels compute the same quantities in device code (kernels/device_terms.py); these are the
 readable versions that the oracle, the clip metrics and the balance track use.
@@ -24,6 +25,24 @@ def segment_distance(point, a, b):
     t = np.where(length2 > 0, np.sum((point - a) * u, axis=-1) / np.where(length2 > 0, length2, 1), 0)
     t = np.clip(t, 0.0, 1.0)
     return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
+
+
+def segments_distance(a0, a1, b0, b1):
+    """Distance between segments a0-a1 and b0-b1 (..., 3): the closest points' parameters s on
+    a and t on b minimise |a0 + s (a1 - a0) - b0 - t (b1 - b0)| over [0, 1]^2 (Ericson,
+    Real-Time Collision Detection, 5.1.9); a segment of zero length is its point."""
+    u, v, w = a1 - a0, b1 - b0, a0 - b0
+    a, e = np.sum(u * u, axis=-1), np.sum(v * v, axis=-1)
+    b, c, f = np.sum(u * v, axis=-1), np.sum(u * w, axis=-1), np.sum(v * w, axis=-1)
+    safe = lambda x: np.where(x > 0, x, 1.0)  # noqa: E731
+    denom = a * e - b * b
+    s = np.where((a > 0) & (e > 0) & (denom > 0), np.clip((b * f - c * e) / safe(denom), 0, 1), 0.0)
+    s = np.where((a > 0) & (e <= 0), np.clip(-c / safe(a), 0, 1), s)
+    t = np.where(e > 0, (b * s + f) / safe(e), 0.0)
+    s = np.where((a > 0) & (t < 0), np.clip(-c / safe(a), 0, 1), s)
+    s = np.where((a > 0) & (t > 1), np.clip((b - c) / safe(a), 0, 1), s)
+    t = np.clip(t, 0, 1)
+    return np.linalg.norm(w + s[..., None] * u - t[..., None] * v, axis=-1)
 
 
 def polygon_distance(q, pts):

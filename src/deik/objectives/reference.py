@@ -12,6 +12,9 @@ from deik.model.geometry import ground_frame
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.kinds import (
     GAIN,
+    PAIR_A,
+    PAIR_B,
+    PAIR_TERM,
     PRIORITY_TOLERANCE,
     TERM_FRAME_COUNT,
     TERM_FRAMES,
@@ -32,7 +35,11 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
     out = np.zeros((len(poses), table.n_terms))
     for t, kind in enumerate(table.kinds):
         frames = table.term_int[t, TERM_FRAMES : TERM_FRAMES + table.term_int[t, TERM_FRAME_COUNT]]
-        term = Term(frames, table.params[idx, t], table.dof_weight[t], problem.reference[idx, t])
+        mine = table.pair_int[:, PAIR_TERM] == t
+        pairs = table.pair_int[mine][:, [PAIR_A, PAIR_B]]
+        term = Term(
+            frames, table.params[idx, t], table.dof_weight[t], problem.reference[idx, t], pairs, table.pair_radius[mine]
+        )
         out[:, t] = kind_of(kind).oracle(posed, term)
     return out
 

@@ -19,12 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.model.geometry import polygon_distance, segment_distance
+from deik.model.capsules import bone_starts
+from deik.model.geometry import polygon_distance, segment_distance, segments_distance
 from deik.model.joints import TRANSLATE
 from deik.model.rotations import direction_angle, rotation_angle
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
 from deik.objectives import kinds as k
+from deik.objectives.self_collision import SelfCollision
 
 LENGTH, ANGLE = "m", "rad"  # "m" stands for metres or the skeleton's length unit
 
@@ -53,12 +55,15 @@ class Posed:
 @dataclass(frozen=True)
 class Term:
     """One term row as each pose sees it: frames (k,) frame indices, params (N, N_PARAMS) the
-    targets of each pose's problem, dof_weight (D,), reference (N, D) comfort reference poses."""
+    targets of each pose's problem, dof_weight (D,), reference (N, D) comfort reference poses,
+    pairs (K, 2) the bone pairs of a self-collision term and pair_radius (K,) their radii's sum."""
 
     frames: np.ndarray
     params: np.ndarray
     dof_weight: np.ndarray
     reference: np.ndarray
+    pairs: np.ndarray
+    pair_radius: np.ndarray
 
     @property
     def frame(self) -> int:
@@ -129,6 +134,14 @@ def obstacle(x: Posed, term: Term) -> np.ndarray:
     ends = np.arange(1, sk.n_frames)
     dist = segment_distance(g[:, None, :3], x.p[:, starts], x.p[:, ends])
     return np.maximum(g[:, None, 3] + g[:, None, 4] - dist, 0).sum(axis=1)
+
+
+def self_collision(x: Posed, term: Term) -> np.ndarray:
+    """Summed penetration of the bone-pair capsules: radius a + radius b + margin params[0]
+    minus the distance between the two bone segments, where positive."""
+    start, a, b = bone_starts(x.skeleton), term.pairs[:, 0], term.pairs[:, 1]
+    dist = segments_distance(x.p[:, start[a]], x.p[:, a], x.p[:, start[b]], x.p[:, b])
+    return np.maximum(term.pair_radius + term.params[:, None, 0] - dist, 0).sum(axis=1)
 
 
 @dataclass(frozen=True)
@@ -203,6 +216,17 @@ KINDS = (
     GoalKind(k.LIMITS, "joint_limits", g.LimitsPenalty, joint_limits, dof_unit, False),
     GoalKind(
         k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False, "obstacle", ("centre", "radius"), ("bone_radius",)
+    ),
+    GoalKind(
+        k.SELF_COLLISION,
+        "self_collision",
+        SelfCollision,
+        self_collision,
+        LENGTH,
+        False,
+        "self_collision",
+        (),
+        ("margin", "radii", "skip"),
     ),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"

@@ -2,7 +2,8 @@
 
 A problem compiles to T rows. Each row: kind, level (0 = highest priority), up to MAX_TERM_FRAMES
 frame indices, weight in [-1, 1], mu, the distance scale, the tolerance (raw units; -1 = none),
-per-problem parameters (targets) and per-DOF weights. Raw errors are metres (or the skeleton's
+per-problem parameters (targets) and per-DOF weights; self-collision terms add the bone pairs
+they test to one pair list. Raw errors are metres (or the skeleton's
 length unit) or radians; the normalised value is 1 - exp(-mu * raw / scale) (Eqs. 4-7),
 computed as -expm1 so that float32 keeps small errors.
 """
@@ -18,7 +19,8 @@ from deik.objectives.kinds import MAX_LEVELS, MAX_TERM_FRAMES, MU, SCALE, TERM_K
 
 @dataclass(frozen=True)
 class TermRow:
-    """One compiled objective term (see the module docstring); params (N_PARAMS,)."""
+    """One compiled objective term (see the module docstring); params (N_PARAMS,); pairs: the
+    bone pairs a self-collision term tests, (bone a, bone b, radius a + radius b) each."""
 
     kind: int
     label: str
@@ -30,6 +32,7 @@ class TermRow:
     tolerance: float = -1.0
     level: int = 0
     dof_weight: np.ndarray | None = None
+    pairs: tuple[tuple[int, int, float], ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,11 +41,13 @@ class TermTable:
 
     term_int (T, 3 + MAX_TERM_FRAMES) int32: kind, level, frame count, frames;
     term_float (T, 5): weight, mu, scale, tolerance, priority tolerance; params
-    (B, T, N_PARAMS); dof_weight (T, D). With more than one level, a term with a tolerance adds
-    only its excess w * max(f - f(tolerance), 0) to its level: a level is met (zero) exactly
-    when each of its goals is within its own tolerance, and only then does the next level
-    decide. The priority tolerance column holds f(tolerance), or -1 where the plain w * f
-    counts (single-level problems, the paper's weighted sum, and terms without tolerance).
+    (B, T, N_PARAMS); dof_weight (T, D); pair_int (K, 3) int32: term, bone a, bone b (columns
+    PAIR_* of deik.objectives.kinds) and pair_radius (K,) their capsule radii's sum. With
+    more than one level, a term with a tolerance adds only its excess w * max(f - f(tolerance),
+    0) to its level: a level is met (zero) exactly when each of its goals is within its own
+    tolerance, and only then does the next level decide. The priority tolerance column holds
+    f(tolerance), or -1 where the plain w * f counts (single-level problems, the paper's
+    weighted sum, and terms without tolerance).
     """
 
     labels: tuple[str, ...]
@@ -51,6 +56,8 @@ class TermTable:
     params: np.ndarray
     dof_weight: np.ndarray
     n_levels: int
+    pair_int: np.ndarray
+    pair_radius: np.ndarray
 
     @property
     def n_terms(self) -> int:
@@ -86,6 +93,8 @@ def compile_rows(rows: list[TermRow], params_batch: np.ndarray, n_dofs: int) -> 
         term_float[t] = (r.weight, r.mu, r.scale, r.tolerance, f_tolerance)
         if r.dof_weight is not None:
             dof_weight[t] = r.dof_weight
+    pairs = [(t, a, b, radius) for t, r in enumerate(rows) for a, b, radius in r.pairs]
+    pair_int = np.array([p[:3] for p in pairs], np.int32).reshape(-1, 3)
     return TermTable(
         labels=tuple(r.label for r in rows),
         term_int=term_int,
@@ -93,4 +102,6 @@ def compile_rows(rows: list[TermRow], params_batch: np.ndarray, n_dofs: int) -> 
         params=np.ascontiguousarray(params_batch, dtype=np.float64),
         dof_weight=dof_weight,
         n_levels=len(levels),
+        pair_int=pair_int,
+        pair_radius=np.array([p[3] for p in pairs], np.float64),
     )

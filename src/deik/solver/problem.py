@@ -200,7 +200,7 @@ def _check_stackable(first, other, k: int) -> None:
     if len(other.rows) != len(first.rows):
         raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
     for t, (a, b) in enumerate(zip(first.rows, other.rows)):
-        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level) == (
+        same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level, a.pairs) == (
             b.kind,
             b.label,
             b.frames,
@@ -208,6 +208,7 @@ def _check_stackable(first, other, k: int) -> None:
             b.scale,
             b.tolerance,
             b.level,
+            b.pairs,
         )
         if (
             not same

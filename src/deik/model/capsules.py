@@ -1,0 +1,77 @@
+"""Bones as capsules, for self-collision: which frame each bone starts from, how many links apart
+two bones are, and default capsule radii from the segment masses.
+
+A bone ends at every frame but the root (F - 1 bones) and starts at its parent joint (a joint)
+or at the joint it hangs from (a site); bone k is named by its end frame k. Its capsule is the
+segment between the two frame origins, swept by a sphere of the radius of the joint it starts
+from (every bone leaving a joint shares that joint's radius). Lengths are the skeleton's units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
+
+# Volume of the whole body over its height cubed: a 70 kg, 1.75 m adult (the humanoid's
+# defaults) at a typical whole-body density of 1,060 kg/m^3. Scale-free, so it holds in any
+# length unit; masses count only as fractions of the total.
+BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
+MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
+
+
+def bone_starts(skeleton: Skeleton) -> np.ndarray:
+    """(F,) the frame each bone starts from: bone k runs from bone_starts[k] to frame k; -1 for
+    the root, which ends no bone."""
+    return np.concatenate([[-1], skeleton.parents[1:], skeleton.site_joint]).astype(np.int64)
+
+
+def bone_lengths(skeleton: Skeleton) -> np.ndarray:
+    """(F,) each bone's rest length (0 for the root)."""
+    start = bone_starts(skeleton)
+    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
+    return np.where(start >= 0, np.linalg.norm(p - p[np.maximum(start, 0)], axis=-1), 0.0)
+
+
+def link_distance(skeleton: Skeleton) -> np.ndarray:
+    """(F, F) how many links apart bones are: 0 for a bone and itself, 1 for bones that share a
+    frame (parent and child, siblings), 2 for bones joined through one other bone, ...; F for
+    the root's row and column (it ends no bone)."""
+    start = bone_starts(skeleton)
+    F = skeleton.n_frames
+    # ancestor[i, k]: frame i lies on the path from the root to frame k (itself included); the
+    # ancestors of a frame form one chain, so two frames share as many as their lowest common
+    # ancestor's depth + 1, and their distance along the tree follows from the depths
+    ancestor = np.zeros((F, F), np.float32)
+    for k in range(F):
+        if start[k] >= 0:
+            ancestor[:, k] = ancestor[:, start[k]]
+        ancestor[k, k] = 1.0
+    depth = ancestor.sum(axis=0) - 1
+    common = np.rint(ancestor.T @ ancestor) - 1
+    tree = (depth[:, None] + depth[None, :] - 2 * common).astype(np.int64)
+    ends = np.maximum(start, 0)
+    nearest = np.minimum.reduce([tree[ends][:, ends], tree[ends][:, :], tree[:, ends], tree])
+    distance = np.where(np.eye(F, dtype=bool), 0, nearest + 1)
+    distance[0, :] = distance[:, 0] = F
+    return distance
+
+
+def default_radii(skeleton: Skeleton) -> np.ndarray:
+    """(J,) capsule radius of the bones leaving each joint (length units). With masses: the
+    joint's share of the body volume (BODY_VOLUME times the height cubed, the height being the
+    rest pose's extent along `up`) as a cylinder along its longest bone, so a thigh is about
+    8 cm and an upper arm 4 cm on a 1.75 m humanoid and a massless joint (a neck, a clavicle)
+    gets 0. Without masses: MASSLESS_RADIUS times that bone's length."""
+    J = skeleton.n_joints
+    start, length = bone_starts(skeleton), bone_lengths(skeleton)
+    longest = np.zeros(J)
+    np.maximum.at(longest, start[1:], length[1:])
+    if skeleton.total_mass <= 0:
+        return MASSLESS_RADIUS * longest
+    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
+    height = np.ptp(p @ skeleton.up) or skeleton.reach
+    fraction = np.bincount(skeleton.mass_joint, skeleton.mass_value, J) / skeleton.total_mass
+    volume = fraction * BODY_VOLUME * height**3
+    return np.sqrt(np.divide(volume, np.pi * longest, out=np.zeros(J), where=longest > 0))
