@@ -30,7 +30,9 @@ class PeerProcess:
     """One peer adapter serving chunks: PeerProcess(name, targets.npz); .info (version, settings,
     setup_s, frame_check) once ready(); .solve(start, stop) -> dict of lists; .close()."""
 
-    def __init__(self, name: str, targets_file: Path, python: Path = PEERS_PYTHON):
+    def __init__(self, name: str, targets_file: Path, python: Path = PEERS_PYTHON, path_first: Path | None = None):
+        """path_first: a folder put before the repository on the process's PYTHONPATH (an older
+        deik's src/ for the deik peer)."""
         if not Path(python).exists():
             raise PeerFailed(f"{python} is missing (make bench-peers creates it)")
         self.name, self.info = name, None
@@ -42,7 +44,7 @@ class PeerProcess:
             stdout=subprocess.PIPE,
             stderr=self.log,
             text=True,
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            env={**os.environ, "PYTHONPATH": os.pathsep.join(str(p) for p in (path_first, ROOT) if p)},
         )
 
     def _receive(self, timeout: float) -> dict:

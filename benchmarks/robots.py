@@ -1,7 +1,8 @@
 """Robot IK benchmark on the TRAC-IK protocol: deik and peer IK libraries on the same targets.
 
     PYTHONPATH=src python -m benchmarks.robots [--targets 500] [--chunks 10] [--cases panda iiwa human]
-                                              [--peers all|none|ikpy,pk,...] [--out benchmarks/results]
+                                              [--peers all|none|ikpy,pk,...] [--before TREE]
+                                              [--out benchmarks/results]
 
 Per case (benchmarks.robot_targets): N random in-limit poses of the tip, every solver starting
 from the mid-limit pose. The targets are split into chunks and the solvers take turns on each
@@ -12,6 +13,9 @@ restart from random in-limit poses within 5 ms per target. Peers are skipped, wi
 recorded, when that venv is missing or the peer fails. Every answer is scored by
 robot_targets.pose_errors (deik's float64 FK): success = within 1e-5 m and 1e-4 rad with every
 joint in its limits; also at 1e-3 m / 1e-2 rad, and the strict success reached within 5 ms.
+--before TREE adds "deik-before": the deik of another checkout (e.g. `git worktree add
+../before COMMIT`) through a reused Solver in its own process (benchmarks.peers.deik_peer),
+taking its turn on every chunk beside the current deik: before and after in one run.
 Writes results/robots.{json,md,png} atomically.
 """
 
@@ -29,6 +33,7 @@ import numpy as np
 
 import deik
 from benchmarks.peer_process import PeerFailed, PeerProcess
+from benchmarks.peers.deik_peer import SETTINGS as DEIK
 from benchmarks.peers.run_peer import PEERS
 from benchmarks.robot_report import markdown, plot
 from benchmarks.robot_targets import CASES, ROBOTS, load_case, make_targets, pose_errors, save_targets
@@ -37,7 +42,8 @@ from benchmarks.serial_vs_parallel import RESULTS, write_atomic
 from deik.experiments.timing import cpu_model, environment
 
 STRICT, LOOSE, BUDGET_S = (1e-5, 1e-4), (1e-3, 1e-2), 0.005
-DEIK = {"population": 32, "polish_count": 32, "generations": 2000, "patience": 50, "dtype": "float64"}  # retune here
+LIBRARY_PEERS = tuple(name for name in PEERS if name != "deik")  # in .venv-peers; deik's own is --before
+BEFORE = "deik-before"
 DEIK_TURNS = ("deik", "deik-solver", "deik-batch")
 
 
@@ -160,14 +166,20 @@ def peer_row(skeleton, targets: dict, info: dict, output: dict) -> dict:
     }
 
 
-def run_case(case: str, targets: dict, folder: Path, peers: tuple, chunks: int, seed: int, robots: Path) -> dict:
-    """Every solver on the case's targets in turns; the per-solver rows."""
+def run_case(
+    case: str, targets: dict, folder: Path, peers: tuple, chunks: int, seed: int, robots: Path, before=None
+) -> dict:
+    """Every solver on the case's targets in turns; the per-solver rows. before: a checkout
+    whose deik runs as the peer "deik-before"."""
     skeleton = load_case(case, robots)[0]
     save_targets(targets, folder / "targets.npz")
     processes, skipped = {}, {}
     for name in peers:  # start them all first: they load while deik compiles
         try:
-            processes[name] = PeerProcess(name, folder / "targets.npz")
+            if name == BEFORE:
+                processes[name] = PeerProcess("deik", folder / "targets.npz", Path(sys.executable), before / "src")
+            else:
+                processes[name] = PeerProcess(name, folder / "targets.npz")
         except PeerFailed as error:
             skipped[name] = {"skipped": str(error)}
     runners = deik_runners(skeleton, targets, seed)
@@ -194,20 +206,33 @@ def run_case(case: str, targets: dict, folder: Path, peers: tuple, chunks: int, 
     }
 
 
+def _describe(tree: Path) -> str:
+    """The checkout's commit (git rev-parse) or its path."""
+    import subprocess
+
+    done = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    return f"{tree} at {done.stdout.strip()}" if done.returncode == 0 else str(tree)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--targets", type=int, default=500, help="targets per case")
     p.add_argument("--chunks", type=int, default=10, help="chunks of targets the solvers take turns on")
     p.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
-    p.add_argument("--peers", default="all", help="all, none, or a comma list of " + ",".join(PEERS))
+    p.add_argument("--peers", default="all", help="all, none, or a comma list of " + ",".join(LIBRARY_PEERS))
+    p.add_argument("--before", type=Path, help="a checkout of an earlier deik to run beside this one")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--robots", type=Path, default=ROBOTS, help="folder of the robot URDFs")
     p.add_argument("--out", type=Path, default=RESULTS, help="results folder")
     a = p.parse_args(argv)
-    peers = PEERS if a.peers == "all" else () if a.peers == "none" else tuple(a.peers.split(","))
-    unknown = sorted(set(peers) - set(PEERS))
+    peers = LIBRARY_PEERS if a.peers == "all" else () if a.peers == "none" else tuple(a.peers.split(","))
+    unknown = sorted(set(peers) - set(LIBRARY_PEERS))
     if unknown:
-        p.error(f"unknown peers {unknown}; choose from {PEERS}")
+        p.error(f"unknown peers {unknown}; choose from {LIBRARY_PEERS}")
+    if a.before:
+        if not (a.before / "src" / "deik").is_dir():
+            p.error(f"--before {a.before}: no src/deik there; give a checkout of deik (git worktree add DIR COMMIT)")
+        peers = (BEFORE,) + peers
     began, load_before = time.perf_counter(), list(os.getloadavg())
     result = {
         "benchmark": "robots",
@@ -221,6 +246,7 @@ def main(argv=None) -> int:
             "budget_s": BUDGET_S,
             "deik": DEIK,
             "peers": list(peers),
+            "before": None if a.before is None else _describe(a.before),
             "turns": "per chunk: " + ", ".join(DEIK_TURNS + peers),
         },
         "cases": {},
@@ -230,7 +256,7 @@ def main(argv=None) -> int:
             targets = make_targets(case, a.targets, a.seed, a.robots)
             folder = Path(work) / case
             folder.mkdir()
-            result["cases"][case] = run_case(case, targets, folder, peers, a.chunks, a.seed, a.robots)
+            result["cases"][case] = run_case(case, targets, folder, peers, a.chunks, a.seed, a.robots, a.before)
             print(f"{case} done", file=sys.stderr, flush=True)
     result["environment"] = {**environment(), "cpu_model": cpu_model(), "load_average_before": load_before}
     result["wall_s"] = time.perf_counter() - began

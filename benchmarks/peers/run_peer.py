@@ -39,7 +39,7 @@ if __package__ in (None, ""):  # run by file path: make the `benchmarks` package
 from benchmarks.peers.chain_urdf import cut_urdf
 from benchmarks.peers.common import BUDGET_S, RESTART_SEED, rotation_angle, solve_with_restarts
 
-PEERS = ("ikpy", "pk", "placo", "pink", "mink", "pybullet", "rtb", "tracik")
+PEERS = ("ikpy", "pk", "placo", "pink", "mink", "pybullet", "rtb", "tracik", "deik")  # deik: --before (robots.py)
 
 
 def frame_check(peer, targets: dict, count: int = 3) -> dict:

@@ -11,6 +11,7 @@ import deik
 from deik.cli.app import main
 from deik.io.problem_file import load_problem
 from deik.objectives import reference
+from deik.objectives.goals import LENGTH_TOLERANCE
 
 SMALL = ["--population", "64", "--generations", "300", "--seed", "1", "--restarts", "2"]
 
@@ -25,7 +26,7 @@ def _solve(tmp_path, name, *extra):
     rest = deik.forward_kinematics(h, h.reference)
     pelvis, chest = rest.position("pelvis"), rest.position("chest") + [0.0, 0.0, 0.03]
     out = tmp_path / f"{name}.json"
-    argv = ["solve", "humanoid", "--reach", "pelvis", *map(str, pelvis), "--orient", "pelvis", "0", "0", "0"]
+    argv = ["solve", "humanoid", "--reach", "pelvis", *map(str, pelvis), "--orient", "pelvis", "xyz", "0", "0", "0"]
     argv += ["--reach", "left_hand", *map(str, chest), *SMALL, "--dtype", "float64", "--out", str(out), *extra]
     assert main(argv) == 0
     return np.array(json.loads(out.read_text())["angles"])
@@ -34,7 +35,7 @@ def _solve(tmp_path, name, *extra):
 def test_solve_flag_keeps_the_hand_out_of_the_torso(tmp_path, capsys):
     h = deik.humanoid()
     assert penetration(h, _solve(tmp_path, "free"))[0] > 0.1
-    assert penetration(h, _solve(tmp_path, "kept", "--self-collision", "0"))[0] == 0.0
+    assert penetration(h, _solve(tmp_path, "kept", "--self-collision", "0"))[0] <= LENGTH_TOLERANCE
     assert "self collision" in capsys.readouterr().out
 
 
@@ -48,7 +49,7 @@ def test_clip_flag_repairs_the_frames_in_collision(tmp_path, capsys):
     assert main([*argv, "--population", "48", "--generations", "200", "--seed", "0"]) == 0
     before, after = deik.read_bvh(source), deik.read_bvh(fixed)
     assert (penetration(before.skeleton, before.poses()) > 0.3).sum() == 2  # the hand in the chest
-    assert (penetration(after.skeleton, after.poses()) == 0).all()
+    assert (penetration(after.skeleton, after.poses()) <= LENGTH_TOLERANCE).all()
     assert "6/6 frames meet" in capsys.readouterr().out
 
 

@@ -6,6 +6,7 @@ import numpy as np
 
 import deik
 from deik.objectives import reference
+from deik.objectives.goals import LENGTH_TOLERANCE
 
 SETTINGS = {"population": 64, "generations": 300, "seed": 1, "restarts": 2}
 
@@ -34,6 +35,6 @@ def test_a_reach_into_the_torso_stops_at_its_surface_with_self_collision():
     goals = [*pins, deik.SelfCollision(), deik.Position("left_hand", target, tolerance=0.01, level=1)]
     kept = deik.solve(deik.Problem(h, goals), **SETTINGS)
     hand = deik.forward_kinematics(h, kept.angles).position("left_hand")
-    assert penetration(h, kept.angles) == 0.0 and kept.goals[2].error == 0.0
+    assert penetration(h, kept.angles) <= LENGTH_TOLERANCE and kept.goals[2].error <= LENGTH_TOLERANCE
     assert np.linalg.norm(hand - target) > 0.02  # the torso is in the way: the reach is not met
     assert all(goal.met for goal in kept.goals[:3])  # the pelvis stays pinned

@@ -77,14 +77,20 @@ def inward(limits: np.ndarray, dtype) -> np.ndarray:
 
 
 TOLERANCE_MARGIN = {np.dtype(np.float32): 1e-3, np.dtype(np.float64): 1e-12}
+# the rounding of a kernel's FK and errors, in units of the term's scale (the reach for lengths):
+# a Panda tip in float32 lands about 1e-7 m from its float64 position
+ROUNDING_MARGIN = {np.dtype(np.float32): 16 * float(np.finfo(np.float32).eps), np.dtype(np.float64): 0.0}
 
 
 def _kernel_term_float(table: TermTable, dtype) -> np.ndarray:
-    """term_float with tolerances tightened by a relative margin for the dtype, so a pose the
-    kernels accept as within tolerance is also within it when re-measured in float64."""
+    """term_float with tolerances tightened for the dtype by the larger of a relative margin
+    and the rounding of its maths (at most half the tolerance), so a pose the kernels accept as
+    within tolerance is also within it when re-measured in float64."""
     term_float = table.term_float.copy()
     tightened = term_float[:, TOLERANCE] > 0
-    term_float[tightened, TOLERANCE] *= 1.0 - TOLERANCE_MARGIN[np.dtype(dtype)]
+    tolerance, scale = term_float[tightened, TOLERANCE], term_float[tightened, SCALE]
+    margin = np.maximum(TOLERANCE_MARGIN[np.dtype(dtype)] * tolerance, ROUNDING_MARGIN[np.dtype(dtype)] * scale)
+    term_float[tightened, TOLERANCE] = tolerance - np.minimum(margin, 0.5 * tolerance)
     prioritised = term_float[:, PRIORITY_TOLERANCE] >= 0
     mu, scale = term_float[prioritised, MU], term_float[prioritised, SCALE]
     term_float[prioritised, PRIORITY_TOLERANCE] = -np.expm1(-mu * term_float[prioritised, TOLERANCE] / scale)

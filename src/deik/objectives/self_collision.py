@@ -15,7 +15,7 @@ from deik.model.geometry import segments_distance
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goal_values import pack
-from deik.objectives.goals import Goal
+from deik.objectives.goals import LENGTH_TOLERANCE, Goal
 from deik.objectives.kinds import SELF_COLLISION
 from deik.objectives.table import TermRow
 
@@ -29,7 +29,9 @@ def _radius(value, what: str) -> float:
 @dataclass(frozen=True)
 class SelfCollision(Goal):
     """Keep every bone's capsule out of the others'; error = summed penetration depth (length
-    units) of the tested pairs closer than radius a + radius b + `margin`, met at 0.
+    units) of the tested pairs closer than radius a + radius b + `margin`; met within its
+    tolerance, by default LENGTH_TOLERANCE like every length goal (a float32 solve cannot tell
+    a few nanometres of depth from none).
 
     A bone runs from a joint to a child joint or site, its capsule radius is its start joint's:
     `radii` None takes deik.model.capsules.default_radii (from the segment masses: a thigh is
@@ -82,7 +84,7 @@ class SelfCollision(Goal):
                 f"self collision: skeleton {skeleton.name!r} has no bone pair to test (every pair is within "
                 f"{self.skip} links or overlaps in the reference pose); lower skip or the radii"
             )
-        return replace(self._row(SELF_COLLISION, (), skeleton.reach, 0.0), pairs=pairs)
+        return replace(self._row(SELF_COLLISION, (), skeleton.reach, LENGTH_TOLERANCE), pairs=pairs)
 
     def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(np.full((1, 1), _radius(self.margin, "margin")))
