@@ -21,6 +21,7 @@ from deik.objectives.goals import (
     Position,
 )
 from deik.objectives.pose_goals import pose_goals
+from deik.retarget.api import retarget
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -63,6 +64,7 @@ __all__ = [
     "poses_around",
     "read_bvh",
     "read_urdf",
+    "retarget",
     "solve",
     "solve_batch",
     "translation",
