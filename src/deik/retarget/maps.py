@@ -158,7 +158,8 @@ def check_map(joint_map: JointMap, source_skeleton, target_skeleton) -> None:
             if name not in skeleton.frame_names:
                 raise FileFormatError(
                     joint_map.source,
-                    f"no joint or site {name!r} in the {side} {skeleton.name!r}{did_you_mean(name, skeleton.frame_names)}",
+                    f"no joint or site {name!r} in the {side} {skeleton.name!r}"
+                    f"{did_you_mean(name, skeleton.frame_names)}",
                     element=key,
                 )
     if joint_map.pelvis and joint_map.pelvis[1] != target_skeleton.joint_names[0]:

@@ -19,7 +19,6 @@ import time
 
 import numpy as np
 
-from deik.clips.coherence import hinge_channels
 from deik.clips.contacts import Contacts, detect_contacts
 from deik.clips.floor import clearance
 from deik.clips.problem import ClipGoals
