@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -68,6 +69,15 @@ def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np
     return frames
 
 
+def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:
+    """`target` with each translation's limits widened to the `frames` (N, D) plus its reach (a
+    BVH target's limits come from its own clip, which may travel less than the source)."""
+    slide = target.dof_kind == TRANSLATE
+    lower = np.where(slide, np.minimum(target.lower, frames.min(axis=0) - target.reach), target.lower)
+    upper = np.where(slide, np.maximum(target.upper, frames.max(axis=0) + target.reach), target.upper)
+    return replace(target, lower=lower, upper=upper)
+
+
 def retarget_proportions(clip: Clip, target: Skeleton, follow=None, **settings) -> Retarget:
     """Retarget `clip` onto `target`, the same rig with other bone lengths (see the module
     notes). `follow`: the sites that keep their scaled paths (default every site not in
@@ -77,6 +87,7 @@ def retarget_proportions(clip: Clip, target: Skeleton, follow=None, **settings) 
     contacts = detect_contacts(clip)
     ratio = leg_ratio(sk, target, contacts.sites)
     frames = scaled_root(clip, target, contacts.ground, ratio)
+    target = _room_to_travel(target, frames)
     scaled = Clip(target, frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
     follow = [s for s in sk.site_names if s not in contacts.sites] if follow is None else list(follow)
     kin = forward_kinematics(target, scaled.poses())
