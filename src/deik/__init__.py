@@ -22,6 +22,7 @@ from deik.objectives.goals import (
 )
 from deik.objectives.pose_goals import pose_goals
 from deik.objectives.self_collision import SelfCollision
+from deik.retarget.api import retarget
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -65,6 +66,7 @@ __all__ = [
     "poses_around",
     "read_bvh",
     "read_urdf",
+    "retarget",
     "solve",
     "solve_batch",
     "translation",

@@ -1,6 +1,7 @@
 """The `deik` command: `solve` poses one problem, `info` describes a skeleton, `clip` fixes a
-whole clip, `limits` measures joint limits from a clip, `demo` runs the paper's scenarios,
-`experiments` reproduces the paper's figures.
+whole clip, `retarget` moves one onto other proportions or another skeleton, `limits` measures
+joint limits from a clip, `demo` runs the paper's scenarios, `experiments` reproduces the paper's
+figures.
 
     deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
@@ -8,6 +9,7 @@ whole clip, `limits` measures joint limits from a clip, `demo` runs the paper's 
     deik info panda.urdf
     deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
     deik limits walk.bvh --margin 10 --out limits.json      (then --limits limits.json)
+    deik retarget walk.bvh --map map.toml --to human.urdf --out walk_human.csv --view walk_human.bvh
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
@@ -23,6 +25,7 @@ import sys
 
 from deik import __version__
 from deik.cli import clip as cli_clip
+from deik.cli import retarget as cli_retarget
 from deik.cli import solve as cli_solve
 from deik.cli import warmup as cli_warmup
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
@@ -94,6 +97,9 @@ def build_parser() -> Parser:
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
     c.set_defaults(run=cli_clip.run_clip)
+    r = commands.add_parser("retarget", help="move a BVH clip onto other bone lengths or another skeleton")
+    cli_retarget.add_arguments(r)
+    r.set_defaults(run=cli_retarget.run_retarget)
     e = commands.add_parser(
         "experiments",
         add_help=False,

@@ -160,7 +160,8 @@ def fix_clip(
     for k in range(passes):
         began = time.perf_counter()
         problem = clip_problem(clip, goals, displacement, weights, fixed_part)
-        current = wrap_rotations(original + displacement, rotation)
+        # wrapping rounds: a DOF at a limit short of a whole turn (a robot's) may land an ulp outside
+        current = np.clip(wrap_rotations(original + displacement, rotation), sk.lower, sk.upper)
         errors, met = _met(problem, current)
         unmet = ~met
         report(int(met.sum()), stages[-1]["stage"])

@@ -65,3 +65,19 @@ def direction_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Angle (radians) between vectors a and b, (*batch, 3) each -> (*batch,)."""
     cross = np.linalg.norm(np.cross(a, b), axis=-1)
     return np.arctan2(cross, np.sum(a * b, axis=-1))
+
+
+def euler_angles(order: str, R: np.ndarray) -> np.ndarray:
+    """Intrinsic Euler angles (*batch, 3) radians of rotations R (*batch, 3, 3) for a Tait-Bryan
+    `order` of three different axes such as "ZXY", the inverse of euler_matrix: the middle angle
+    in [-pi/2, pi/2], the others in (-pi, pi]."""
+    order = order.upper()
+    if len(order) != 3 or set(order) - set(AXES) or len(set(order)) != 3:
+        raise ValueError(f"euler order {order!r} must be three different letters of X, Y and Z")
+    i, j, k = ("XYZ".index(c) for c in order)
+    sign = 1.0 if (j - i) % 3 == 1 else -1.0  # cyclic orders (XYZ, YZX, ZXY) and the others
+    R = np.asarray(R, dtype=np.float64)
+    middle = np.arcsin(np.clip(sign * R[..., i, k], -1.0, 1.0))
+    first = np.arctan2(-sign * R[..., j, k], R[..., k, k])
+    last = np.arctan2(-sign * R[..., i, j], R[..., i, i])
+    return np.stack([first, middle, last], axis=-1)

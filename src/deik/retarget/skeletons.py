@@ -1,0 +1,107 @@
+"""Skeleton edits a retarget needs: bones scaled below joints, a floating root for a robot fixed
+in the world, and sites at offsets from frames (key points a target has no frame for).
+
+Each returns a new Skeleton (the arrays of the old one, changed); lengths are the skeleton's
+length unit, angles radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from deik.model.joints import ROTATE, TRANSLATE
+from deik.model.skeleton import Skeleton
+from deik.suggest import did_you_mean
+
+ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+ROOT_AXES = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0], [0, 1, 0]], float)
+
+
+def bone_scales(skeleton: Skeleton, factors: dict[str, float]) -> np.ndarray:
+    """(J,) the scale of the bones hanging from each joint: the product of the `factors`
+    {joint name: factor > 0} of the joint and its ancestors. ValueError naming a bad factor or
+    an unknown joint (with close names)."""
+    scale = np.ones(skeleton.n_joints)
+    for name, factor in factors.items():
+        if name not in skeleton.joint_names:
+            raise ValueError(
+                f"--scale: no joint {name!r} in {skeleton.name!r}{did_you_mean(name, skeleton.joint_names)}; "
+                f"the joints are {', '.join(skeleton.joint_names)}"
+            )
+        if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
+            raise ValueError(f"--scale {name}={factor!r}: a factor must be a finite number > 0, e.g. {name}=1.1")
+        scale[skeleton.joint_names.index(name)] *= float(factor)
+    for k in range(1, skeleton.n_joints):
+        scale[k] *= scale[skeleton.parents[k]]
+    return scale
+
+
+def scaled_bones(skeleton: Skeleton, factors: dict[str, float]) -> Skeleton:
+    """`skeleton` with every bone below each joint of `factors` {joint: factor} scaled by it
+    (nested factors multiply): the offsets of its descendants, its subtree's sites and mass
+    centres. The joint's own offset from its parent keeps its length (LeftHip=1.1 lengthens
+    the left leg, not the pelvis)."""
+    scale = bone_scales(skeleton, factors)
+    parents = np.maximum(skeleton.parents, 0)
+    offsets = skeleton.offsets * np.where(skeleton.parents >= 0, scale[parents], 1.0)[:, None]
+    return replace(
+        skeleton,
+        offsets=offsets,
+        site_offset=skeleton.site_offset * scale[skeleton.site_joint][:, None],
+        mass_offset=skeleton.mass_offset * scale[skeleton.mass_joint][:, None],
+    )
+
+
+def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
+    """`skeleton`, whose root joint has no DOFs (a robot fixed in the world), with six on it:
+    translations along X, Y, Z within `lower`/`upper` (3,) length units, then rotations Z, X, Y
+    (intrinsic, over a whole turn), in the root joint's frame, named "ROOT.Xposition" and so on
+    as BVH names a root's channels. ValueError when the root already moves."""
+    if skeleton.joint_dof_start[1] != 0:
+        raise ValueError(f"the root joint {skeleton.joint_names[0]!r} of {skeleton.name!r} already has DOFs")
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    root = skeleton.joint_labels[0]
+    return replace(
+        skeleton,
+        joint_dof_start=np.concatenate([[0], skeleton.joint_dof_start[1:] + 6]),
+        dof_names=tuple(f"{root}.{c}" for c in ROOT_CHANNELS) + skeleton.dof_names,
+        dof_joint=np.concatenate([np.zeros(6, np.int32), skeleton.dof_joint]),
+        dof_kind=np.concatenate([[TRANSLATE] * 3 + [ROTATE] * 3, skeleton.dof_kind]).astype(np.int32),
+        dof_axis=np.concatenate([ROOT_AXES, skeleton.dof_axis]),
+        lower=np.concatenate([lower, [-math.pi] * 3, skeleton.lower]),
+        upper=np.concatenate([upper, [math.pi] * 3, skeleton.upper]),
+        reference=np.concatenate([np.zeros(6), skeleton.reference]),
+        mimic_source=skeleton.mimic_source + 6,
+    )
+
+
+def with_sites(skeleton: Skeleton, sites) -> Skeleton:
+    """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
+    site on a site lands on that site's joint. ValueError when a name is taken."""
+    if not sites:
+        return skeleton
+    names, joints, offsets, rotations = [], [], [], []
+    for name, frame, offset in sites:
+        if name in skeleton.frame_names or name in names:
+            raise ValueError(f"site name {name!r} is already used in {skeleton.name!r}")
+        f = skeleton.frame_index(frame)
+        offset = np.asarray(offset, float)
+        if f < skeleton.n_joints:
+            joint, R, base = f, np.eye(3), np.zeros(3)
+        else:
+            s = f - skeleton.n_joints
+            joint, R, base = int(skeleton.site_joint[s]), skeleton.site_rotation[s], skeleton.site_offset[s]
+        names.append(name)
+        joints.append(joint)
+        offsets.append(base + R @ offset)
+        rotations.append(R)
+    return replace(
+        skeleton,
+        site_names=skeleton.site_names + tuple(names),
+        site_joint=np.concatenate([skeleton.site_joint, joints]).astype(np.int32),
+        site_offset=np.concatenate([skeleton.site_offset, offsets]),
+        site_rotation=np.concatenate([skeleton.site_rotation, rotations]),
+    )
