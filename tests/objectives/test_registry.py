@@ -27,6 +27,7 @@ KIND_CODES = (
     "COMFORT_MAX",
     "LIMITS",
     "OBSTACLE",
+    "FLOOR",
 )
 
 

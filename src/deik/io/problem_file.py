@@ -28,7 +28,7 @@ A problem file names a skeleton, optional solver settings and one `[[goal]]` tab
 Other types and their fields (optional ones in brackets): "aim" frame, target [axis];
 "com" target; "com_over_support" point; "com_in_polygon" frames (a list of names);
 "comfort" [mode ("sum" | "max"), joint_weights ("start" | "end", a table {joint = weight} or
-one number per DOF)]; "obstacle" centre, radius [bone_radius]. Every mistake raises a
+one number per DOF)]; "obstacle" centre, radius [bone_radius]; "floor" height. Every mistake raises a
 ValueError naming the file, the goal and the field; nothing is guessed or defaulted silently.
 
 A URDF robot takes the top-level keys of `deik solve`'s flags: base = "link", tip = "link" or

@@ -9,6 +9,7 @@ PRIORITY_TOLERANCE of term_float (T, 5), and GAIN of params (B, T, N_PARAMS).
 # term kinds
 POSITION, ORIENTATION, AIM, COM, COM_GROUND, SUPPORT_POLYGON = 0, 1, 2, 3, 4, 5
 COMFORT_SUM, COMFORT_MAX, LIMITS, OBSTACLE = 6, 7, 8, 9
+FLOOR = 10
 
 # term_int columns: kind, priority level, frame count, then up to MAX_TERM_FRAMES frame indices
 TERM_KIND, TERM_LEVEL, TERM_FRAME_COUNT, TERM_FRAMES = 0, 1, 2, 3

@@ -131,6 +131,11 @@ def obstacle(x: Posed, term: Term) -> np.ndarray:
     return np.maximum(g[:, None, 3] + g[:, None, 4] - dist, 0).sum(axis=1)
 
 
+def floor(x: Posed, term: Term) -> np.ndarray:
+    """Summed depth of every joint and site below the floor at height params[0] along up."""
+    return np.maximum(term.params[:, None, 0] - x.p @ x.ground[2], 0).sum(axis=1)
+
+
 @dataclass(frozen=True)
 class GoalKind:
     """One term kind. `unit`: "m", "rad", or a function of the skeleton for kinds that sum over
@@ -204,6 +209,7 @@ KINDS = (
     GoalKind(
         k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False, "obstacle", ("centre", "radius"), ("bone_radius",)
     ),
+    GoalKind(k.FLOOR, "floor", g.Floor, floor, LENGTH, False, "floor", ("height",)),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"
 
