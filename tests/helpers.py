@@ -196,5 +196,6 @@ def every_goal_problem(batch=False):
         deik.Comfort("max", joint_weights={"left_shoulder": 2.0, "spine": 0.5}, weight=-0.3, level=2),
         deik.Obstacle(shin, 0.05, bone_radius=0.02, level=1),
         deik.SelfCollision(level=1),
+        deik.Floor(kin.position("left_knee")[1], level=1),
     ]
     return deik.Problem(h, goals, limits="penalty")

@@ -140,6 +140,10 @@ TRACKS = {
         ),
         (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
         (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
+        (["--contact", "LeftKnee-Hips@1-3"], "--contact 'LeftKnee-Hips@1-3' (a joint, an end site or a bone"),
+        (["--contact", "LeftKnee@3-1"], "frames 3-1 are outside the clip or reversed; valid frames: 0..38"),
+        (["--contact", "auto", "--contact", "none"], "--contact none cannot be combined"),
+        (["--floor", "low"], "--floor 'low': use a height (a finite number in length units), auto or none"),
     ],
 )
 def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fragment):
@@ -163,6 +167,25 @@ def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fra
     assert err.startswith("deik: error: ") and err.count("\n") == 1 and fragment in err, err
     assert [p.name for p in out.iterdir()] == ["fixed.bvh"]  # no report, no temporary file left
     assert (out / "fixed.bvh").read_text() == "an earlier result"
+
+
+@pytest.mark.shared_data
+def test_clip_cli_contacts_anywhere_floor_and_an_unreachable_reach(tmp_path, capsys):
+    argv = ["clip", str(shared_path("humanoid", "humanoid3d_walk.bvh")), "--out", str(tmp_path / "fixed.bvh")]
+    argv += ["--json", str(tmp_path / "report.json"), "--plant-feet", "none", "--contact", "auto"]
+    argv += ["--contact", "LeftElbow-LeftElbow_end@20-22", "--floor", "0.005"]
+    argv += ["--reach", "RightElbow_end=3,1,0@10:12"]  # 3 m ahead: out of reach of a planted body
+    assert main(argv) == 0, capsys.readouterr().err
+    captured = capsys.readouterr()
+    assert "floor at 0.005 m along up (given)" in captured.err
+    assert "reach_RightElbow_end: out of reach in" in captured.out
+    data = json.loads((tmp_path / "report.json").read_text())
+    assert data["floor"] == {"height": 0.005, "detected": False, "kept": True}
+    assert {10, 11, 12} <= set(data["reach_unreached"]["reach_RightElbow_end"]["frames"])
+    sites = {site["site"]: site["contacts"] for site in data["contacts"]["sites"]}
+    # the forearm hangs: its lowest end, the wrist, takes the contact given on the bone
+    assert [(c["first_frame"], c["last_frame"]) for c in sites["LeftElbow_end"]] == [(20, 22)]
+    assert "RightAnkle_end" in sites and data["metrics"]["penetration_max_mm"]["after"] <= 1.0
 
 
 @pytest.mark.shared_data

@@ -43,7 +43,7 @@ def test_every_goal_kind_kernel_equals_oracle():
     np.testing.assert_allclose(tot_k, tot_r, rtol=0, atol=1e-9)
     # the comparison covers the interesting branches, not only zeros
     t = {label: k for k, label in enumerate(problem.table.labels)}
-    for label in ("obstacle", "self collision", "com in support polygon", "joint limits"):
+    for label in ("obstacle", "self collision", "floor", "com in support polygon", "joint limits"):
         assert (raw_r[:, t[label]] == 0).any() and (raw_r[:, t[label]] > 0).any(), label
     assert problem.table.n_levels == 4  # penalty level + 0, 1, 2
 
@@ -174,6 +174,28 @@ def test_obstacle_penetration_by_hand(pose, centre, radius, bone_radius, expecte
     k, r = raw_of(problem, np.array(pose, float), "obstacle")
     assert r[0] == pytest.approx(expected, abs=1e-12)
     assert k[0] == pytest.approx(expected, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "pose, height, expected",
+    [
+        ((0, 0, 0), 0.0, 0.0),  # the chain lies on the floor: nothing below it
+        ((0, 0, 0), 0.25, 4 * 0.25),  # a floor above all four frames
+        ((-math.pi / 2, 0, 0), -0.5, 0.5 + 1.5 + 2.5),  # hanging down: link1, link2, tip below -0.5
+        ((0, math.pi / 2, 0), -0.1, 0.0),  # bent upwards at link1: all above
+    ],
+)
+def test_floor_depth_by_hand(pose, height, expected):
+    sk = deik.chain(3)  # y up, frames 1 apart along the chain
+    problem = deik.Problem(sk, [deik.Floor(height)])
+    k, r = raw_of(problem, np.array(pose, float), "floor")
+    assert r[0] == pytest.approx(expected, abs=1e-12)
+    assert k[0] == pytest.approx(expected, abs=1e-12)
+
+
+def test_a_floor_height_must_be_finite():
+    with pytest.raises(ValueError, match="floor height must be a finite number"):
+        deik.Problem(deik.chain(3), [deik.Floor(float("nan"))])
 
 
 def test_obstacle_parameters_hold_radius_and_bone_radius():

@@ -28,6 +28,7 @@ KIND_CODES = (
     "LIMITS",
     "OBSTACLE",
     "SELF_COLLISION",
+    "FLOOR",
 )
 
 

@@ -19,6 +19,11 @@ from deik.suggest import did_you_mean
 from deik.viz.text import format_table
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
+CONTACT_FORMS = (
+    "auto (every joint and end site, detected), none, or POINT[@A-B[,A-B...]] (repeatable): POINT a "
+    "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
+    "(inclusive) with it"
+)
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
 
 
@@ -39,7 +44,26 @@ def add_arguments(c) -> None:
         metavar="auto|none|SITE:A-B",
         help=f"contacts to plant: {PLANT_FORMS}; default auto",
     )
-    c.add_argument("--contact-height", type=float, metavar="LENGTH", help="auto contacts: height above the floor")
+    c.add_argument(
+        "--contact",
+        action="append",
+        default=[],
+        metavar="auto|none|POINT[@A-B]",
+        help=f"contacts anywhere on the body: {CONTACT_FORMS}; combines with --plant-feet",
+    )
+    c.add_argument(
+        "--floor",
+        default="auto",
+        metavar="HEIGHT|auto|none",
+        help="the floor every joint and end site stays at or above (length units along up); "
+        "default auto: detected from the clip and reported",
+    )
+    c.add_argument(
+        "--contact-height",
+        type=float,
+        metavar="LENGTH",
+        help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
+    )
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
     c.add_argument(
@@ -96,35 +120,105 @@ def _check_site(clip, site: str, flag: str) -> None:
         )
 
 
-def _contacts(args, clip):
+def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, int]]:
+    """(start, stop) ranges, stop exclusive, of A-B[,A-B...] (inclusive), else UsageError."""
+    out = []
+    for span in spans.split(","):
+        start, _, stop = span.partition("-")
+        if not (start.strip().isdigit() and stop.strip().isdigit()):
+            raise UsageError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
+        start, stop = int(start), int(stop)
+        if not start <= stop < n_frames:
+            raise UsageError(
+                f"{flag} {form!r}: frames {start}-{stop} are outside the clip or "
+                f"reversed; valid frames: 0..{n_frames - 1} (A-B, both inclusive)"
+            )
+        out.append((start, stop + 1))
+    return out
+
+
+def _feet(args, clip):
+    """The --plant-feet contacts (None for none); auto when neither it nor --contact is given."""
     from deik.clips.contacts import contacts_from_ranges, detect_contacts, foot_sites
 
-    forms = args.plant_feet or ["auto"]
-    if forms == ["none"]:
+    forms = args.plant_feet or ([] if args.contact else ["auto"])
+    if not forms or forms == ["none"]:
         return None
     if "auto" in forms:
         if len(forms) > 1:
             raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
         return detect_contacts(clip, foot_sites(clip.skeleton), height=args.contact_height, speed=args.contact_speed)
     ranges = {}
-    last = clip.n_frames - 1
     for form in forms:
         site, _, spans = form.partition(":")
         if not site or not spans:
             raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
         _check_site(clip, site, f"--plant-feet {form!r}")
-        for span in spans.split(","):
-            start, _, stop = span.partition("-")
-            if not (start.strip().isdigit() and stop.strip().isdigit()):
-                raise UsageError(f"--plant-feet {form!r}: frame range {span!r} must read A-B (inclusive)")
-            start, stop = int(start), int(stop)
-            if not start <= stop <= last:
-                raise UsageError(
-                    f"--plant-feet {form!r}: frames {start}-{stop} are outside the clip or "
-                    f"reversed; valid frames: 0..{last} (A-B, both inclusive)"
-                )
-            ranges.setdefault(site, []).append((start, stop + 1))
+        ranges.setdefault(site, []).extend(_frames(form, spans, clip.n_frames, "--plant-feet"))
     return contacts_from_ranges(clip, ranges)
+
+
+def _point(clip, point: str, form: str):
+    """(parent, child) of a bone PARENT-CHILD, or (point,) of a joint or site; else UsageError."""
+    from deik.clips.body_contacts import bone_ends
+
+    if point in clip.skeleton.frame_names:
+        return (point,)
+    ends = bone_ends(clip.skeleton, point)
+    if ends is None:
+        _check_site(clip, point, f"--contact {form!r} (a joint, an end site or a bone PARENT-CHILD)")
+    return ends
+
+
+def _body(args, clip, floor: float) -> list:
+    """The --contact contacts, one Contacts per form."""
+    from deik.clips.body_contacts import bone_contacts, detect_body_contacts
+    from deik.clips.contacts import Contacts
+
+    if args.contact == ["none"]:
+        return []
+    detect = dict(floor=floor, band=args.contact_height, speed=args.contact_speed)
+    parts = []
+    for form in args.contact:
+        if form in ("auto", "none"):
+            if form == "none":
+                raise UsageError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
+            parts.append(detect_body_contacts(clip, **detect))
+            continue
+        point, at, spans = form.partition("@")
+        ends = _point(clip, point.strip(), form)
+        if not at:
+            parts.append(detect_body_contacts(clip, ends, **detect))
+            continue
+        frames = np.zeros(clip.n_frames, bool)
+        for start, stop in _frames(form, spans, clip.n_frames, "--contact"):
+            frames[start:stop] = True
+        masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
+        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
+    return parts
+
+
+def _floor(args, clip) -> tuple[float, bool]:
+    """(floor height, whether it is kept as a goal): --floor auto, none or a number."""
+    from deik.clips.body_contacts import detect_floor
+
+    if args.floor in ("auto", "none"):
+        return detect_floor(clip), args.floor == "auto"
+    try:
+        height = float(args.floor)
+    except ValueError:
+        height = float("nan")
+    if not np.isfinite(height):
+        raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
+    return height, True
+
+
+def _contacts(args, clip, floor: float):
+    """Every contact the flags ask for, merged on the floor at `floor`; None for none."""
+    from deik.clips.body_contacts import merge_contacts
+
+    parts = [part for part in [_feet(args, clip), *_body(args, clip, floor)] if part is not None]
+    return merge_contacts(parts, floor) if parts else None
 
 
 def _reaches(args, clip):
@@ -172,6 +266,16 @@ def _print_tables(document: dict, quiet: bool) -> None:
     print(format_table(["metric", "unit", "before", "after"], rows))
 
 
+def _spans(frames: list[int]) -> str:
+    """Frames as inclusive ranges: [3, 4, 5, 9] -> "3-5, 9"."""
+    runs, start = [], frames[0]
+    for a, b in zip(frames, frames[1:] + [None]):
+        if b != a + 1:
+            runs.append(f"{start}-{a}" if a > start else f"{a}")
+            start = b
+    return ", ".join(runs)
+
+
 def _summary_notes(metrics: dict) -> list[str]:
     """Lines for the report picture: the summary numbers that are no per-frame series."""
     keys = ("foot_skating_ratio_share", "penetration_max_mm", "jerk_mean_m_per_s3", "joint_angle_deviation_max_deg")
@@ -210,12 +314,26 @@ def run_clip(args) -> int:
         clip = clip_within(
             clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
         )
-    contacts = _contacts(args, clip)
+    floor, keep_floor = _floor(args, clip)
+    contacts = _contacts(args, clip, floor)
     reach = _reaches(args, clip)
-    goals = ClipGoals(contacts, reach, args.balance, args.fidelity, args.coherence, self_collision=args.self_collision)
+    goals = ClipGoals(
+        contacts,
+        reach,
+        args.balance,
+        args.fidelity,
+        args.coherence,
+        self_collision=args.self_collision,
+        floor=floor if keep_floor else None,
+    )
     unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
         _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
+    _note(
+        args,
+        f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
+        f"{'' if keep_floor else ', not kept: --floor none'})",
+    )
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
         _note(args, "contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
@@ -232,12 +350,19 @@ def run_clip(args) -> int:
 
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
-    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES)
+    floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
+    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
     _print_tables(document, args.quiet)
+    for key, missed in document["reach_unreached"].items():
+        if missed["frames"]:
+            print(
+                f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
+                f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
+            )
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/reach/balance/self-collision goal"
+        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
     far = document["joints_far_from_capture"]["joint_frames"]
     if far:

@@ -17,7 +17,10 @@ from __future__ import annotations
 import numpy as np
 
 from deik.model.joints import TRANSLATE
-from deik.objectives.goals import Position
+from deik.model.kinematics import forward_kinematics
+from deik.objectives.goals import Comfort, Floor, Position
+
+NEAR_FLOOR = 0.03  # of reach: points this close above the floor may be pushed through it by a fix
 
 
 def moving_dofs(skeleton, name: str) -> np.ndarray:
@@ -56,14 +59,31 @@ def active_frames(goal, n_frames: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
 
 
+def near_floor(clip, height: float) -> np.ndarray:
+    """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
+    (or below it) in the frame or a neighbouring one: those a search may have to lift."""
+    sk = clip.skeleton
+    near = forward_kinematics(sk, clip.frames).p_world_frame @ sk.up <= height + NEAR_FLOOR * sk.reach
+    out = near.copy()
+    out[1:] |= near[:-1]
+    out[:-1] |= near[1:]
+    return out
+
+
 def searched_dofs(clip, goals) -> np.ndarray:
-    """(N, D) bool: the DOFs each frame's search may move for the level-0 `goals` (deik goal
-    objects): a Position goal moves its frame's chain, any other goal (the centre of mass over
-    the support) every DOF, in the frames where it is active; hinge_channels never move."""
+    """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
+    that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
+    chains of the points near it (near_floor), any other goal (the centre of mass over the
+    support) every DOF, in the frames where it is active; hinge_channels never move."""
     sk = clip.skeleton
     out = np.zeros((clip.n_frames, sk.n_dofs), bool)
     for goal in goals:
-        if goal.level != 0:
+        if isinstance(goal, Comfort):
+            continue
+        if isinstance(goal, Floor):
+            near = near_floor(clip, goal.height)
+            chains = np.array([moving_dofs(sk, name) for name in sk.frame_names])
+            out |= (near[:, :, None] & chains[None]).any(axis=1)
             continue
         chain = moving_dofs(sk, goal.frame) if isinstance(goal, Position) else True
         out |= active_frames(goal, clip.n_frames)[:, None] & chain

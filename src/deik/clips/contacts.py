@@ -31,6 +31,7 @@ HEIGHT_FRACTION = 0.06
 SPEED_FRACTION = 0.5
 MIN_FRAMES = 2
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
+SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
 
 
 def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
@@ -103,13 +104,14 @@ class Contacts:
         return "\n".join(lines)
 
 
-def _site_positions(clip, sites) -> np.ndarray:
+def site_positions(clip, sites) -> np.ndarray:
     """World positions (N, S, 3) of `sites` in every frame; KeyError for unknown names."""
     index = [clip.skeleton.frame_index(name) for name in sites]
     return forward_kinematics(clip.skeleton, clip.frames).p_world_frame[:, index]
 
 
-def _threshold(value, default: float, what: str) -> float:
+def threshold(value, default: float, what: str) -> float:
+    """`value` (default `default` when None) checked to be a number >= 0, else ValueError."""
     value = default if value is None else float(value)
     if not value >= 0:
         raise ValueError(f"the contact {what} threshold must be a number >= 0, got {value}")
@@ -130,22 +132,31 @@ def detect_contacts(clip, sites=None, height=None, speed=None) -> Contacts:
         raise ValueError("detect_contacts needs at least one site")
     if clip.n_frames == 0:
         raise ValueError("the clip has no frames: there are no contacts to detect")
-    height = _threshold(height, HEIGHT_FRACTION * sk.reach, "height")
-    speed = _threshold(speed, SPEED_FRACTION * sk.reach, "speed")
-    p = _site_positions(clip, sites)
+    height = threshold(height, HEIGHT_FRACTION * sk.reach, "height")
+    speed = threshold(speed, SPEED_FRACTION * sk.reach, "speed")
+    p = site_positions(clip, sites)
     heights = p @ sk.up
-    if clip.n_frames > 1:
-        velocity = np.gradient(p, clip.frame_time, axis=0)
-    else:
-        velocity = np.zeros_like(p)
-    slow = np.linalg.norm(velocity, axis=-1) <= speed
+    slow = speeds(p, clip.frame_time) <= speed
     ground = float(heights[slow].min() if slow.any() else heights.min())
-    mask = slow & (heights <= ground + height)
-    for s in range(len(sites)):
+    return Contacts(sites, drop_short(slow & (heights <= ground + height)), True, height, speed, ground)
+
+
+def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
+    """(N, S) speed of points p (N, S, 3) by central differences over `frame_time` (one-sided
+    at the ends; 0 for a single frame), length units per second."""
+    if len(p) < 2:
+        return np.zeros(p.shape[:2])
+    return np.linalg.norm(np.gradient(p, frame_time, axis=0), axis=-1)
+
+
+def drop_short(mask: np.ndarray) -> np.ndarray:
+    """(N, S) contact `mask` without its runs shorter than MIN_FRAMES frames."""
+    mask = np.array(mask, bool)
+    for s in range(mask.shape[1]):
         for a, b in _runs(mask[:, s]):
             if b - a < MIN_FRAMES:
                 mask[a:b, s] = False
-    return Contacts(sites, mask, True, height, speed, ground)
+    return mask
 
 
 def contacts_from_ranges(clip, ranges: dict) -> Contacts:
@@ -168,7 +179,7 @@ def contacts_from_ranges(clip, ranges: dict) -> Contacts:
                     f"valid frames: {valid}"
                 )
             mask[start:stop, s] = True
-    heights = _site_positions(clip, sites) @ clip.skeleton.up
+    heights = site_positions(clip, sites) @ clip.skeleton.up
     chosen = heights[mask] if mask.any() else heights.ravel()
     ground = float(chosen.min()) if chosen.size else math.nan
     return Contacts(sites, mask, False, None, None, ground)
@@ -202,24 +213,45 @@ def _keep_distance(a: np.ndarray, b: np.ndarray, distance: float, up: np.ndarray
     return a + shift, b - shift
 
 
+def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
+    """(N, S) heights of the contact sites, each frame's raised by the depth below `floor` of
+    the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then: a
+    foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
+    its toe is above the sole."""
+    depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
+    lift = depth.copy()
+    for s, t, _ in pairs:
+        lift[:, s] = np.maximum(lift[:, s], depth[:, t])
+        lift[:, t] = np.maximum(lift[:, t], depth[:, s])
+    return heights + lift
+
+
 def planted_targets(clip, contacts: Contacts) -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
     Per contact interval, the mean world position of the site over the interval in `clip` (the
-    original), with its height along up set to the lowest height it reaches there. Two sites a
-    fixed distance apart (an ankle and its toe) whose intervals overlap get targets that
-    distance apart, so both can be met at once.
+    original), at the median of its heights along up there (a one-frame dip does not lower
+    it), each frame's height first raised by how far the site or a site rigidly linked to it
+    is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
+    is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
+    overlap get targets that distance apart, so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
-    p = _site_positions(clip, contacts.sites)
+    p = site_positions(clip, contacts.sites)
+    pairs = _rigid_pairs(p, clip.skeleton.reach)
+    floor = contacts.ground
+    heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
             mean = p[a:b, s].mean(axis=0)
-            plants[s, a, b] = mean + ((p[a:b, s] @ up).min() - mean @ up) * up
-    for s, t, distance in _rigid_pairs(p, clip.skeleton.reach):
+            height = float(np.median(heights[a:b, s]))
+            if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
+                height = floor
+            plants[s, a, b] = mean + (height - mean @ up) * up
+    for s, t, distance in pairs:
         for s1, a1, b1 in [key for key in plants if key[0] == s]:
             for t1, a2, b2 in [key for key in plants if key[0] == t]:
                 if max(a1, a2) < min(b1, b2):

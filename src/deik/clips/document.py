@@ -2,7 +2,7 @@
 
 Goals are grouped by name (clips/problem.goal_names; the balance goals, one per pattern of
 sites in contact, make one row). Contacts, reach and balance errors are distances in mm;
-fidelity and coherence are the clip's level-1 terms (GOAL_NOTES), sums over the DOFs in
+fidelity and coherence are the clip's last-level terms (GOAL_NOTES), sums over the DOFs in
 degrees. The JSON's keys are snake_case and every number says its unit, in its key or beside
 it; per-frame lists hold null where a value does not apply to a frame.
 """
@@ -77,18 +77,34 @@ def contacts_record(original, contacts) -> dict:
     }
 
 
+def unreached(goals: list[dict]) -> dict:
+    """{reach goal key: {"frames": [...], "distance_mm": [...]}}: the frames in which each reach
+    goal of the goal table `goals` (goal_table rows) ends farther than its tolerance from its
+    target (out of reach without moving a contact), with that distance."""
+    out = {}
+    for row in goals:
+        if row["label"].startswith("reach "):
+            after = np.asarray(row["after"], float)
+            frames = np.flatnonzero(after > row["tolerance"])
+            out[row["key"]] = {"frames": frames.tolist(), "distance_mm": after[frames].tolist()}
+    return out
+
+
 def _far(original, fixed, degrees: float) -> dict:
     far = large_deviations(original, fixed, degrees)
     count = np.bincount([d["frame"] for d in far], minlength=original.n_frames)
     return {"threshold_deg": degrees, "count_per_frame": count.tolist(), "joint_frames": far}
 
 
-def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: float) -> dict:
+def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: float, floor=None) -> dict:
     """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
-    (clips/report.py), the goal table per frame with GOAL_NOTES, the contacts, the joints
-    turned more than `far_degrees` from the capture frame by frame, and where the time went."""
+    (clips/report.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
+    (unreached), the contacts, the `floor` ({"height" length units, "detected", "kept"} or
+    None), the joints turned more than `far_degrees` from the capture frame by frame, and
+    where the time went."""
     original, fixed = fix.original, fix.clip
+    goals = goal_table(fix, metres)
 
     def listed(entry):
         return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in entry.items()}
@@ -101,7 +117,9 @@ def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: f
         "metres_per_length_unit": metres,
         "metrics": clip_report(original, fixed, contacts, reach, metres),
         "per_frame": {k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres).items()},
-        "goals": [listed(row) for row in goal_table(fix, metres)],
+        "goals": [listed(row) for row in goals],
+        "reach_unreached": unreached(goals),
+        "floor": floor,
         "goal_notes": GOAL_NOTES,
         "frames_met": int(fix.met.sum()),
         "met_per_frame": fix.met.tolist(),

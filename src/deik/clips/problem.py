@@ -1,12 +1,15 @@
 """The clip problem: one IK problem per frame, all in one batch, with goals over frame ranges.
 
-Level 0 (strict priority, each within its tolerance): planted contacts (a site pinned where the
-original clip put it during each contact), reach tracks (a site follows targets over a frame
-range), balance (the centre of mass over the support polygon of the sites in contact), and
-self-collision (the bone capsules apart; only the DE repairs, not the warm start, pursue it).
-Level 1: fidelity (stay near the original frame's pose) and coherence (move like the
-neighbouring frames do, so the displacement from the original is smooth: no pops, no jitter),
-each counting a DOF's change by its weight (warmstart.dof_weights).
+Levels, in strict priority (each goal within its tolerance before the next level counts):
+0, the floor (every joint and site at or above it) and self-collision (the bone capsules
+apart; only the DE repairs, not the warm start, pursue it), so no search trades a penetration
+for anything; 1, planted contacts (a site pinned where the original clip put it during each
+contact, at or above the floor by construction) and balance (the centre of mass over the
+support polygon of the sites in contact); 2, reach tracks (a site follows targets over a
+frame range), so a reach never moves a planted contact or sinks a point through the floor;
+3, fidelity (stay near the original frame's pose) and coherence (move like the neighbouring
+frames do, so the displacement from the original is smooth: no pops, no jitter), each
+counting a DOF's change by its weight (warmstart.dof_weights).
 Angles work as displacements `d` (N, D) from the original frames, so clips whose Euler channels
 leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 """
@@ -28,6 +31,8 @@ from deik.solver.problem import Problem
 CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
 REACH_TOLERANCE = 0.005
 BALANCE_TOLERANCE = 0.01
+FLOOR_TOLERANCE = 0.0005  # summed depth below the floor, length units (0.5 mm in metres)
+FLOOR_LEVEL, CONTACT_LEVEL, REACH_LEVEL, FIDELITY_LEVEL = 0, 1, 2, 3
 BLEND = 8  # frames over which a reach eases in and out
 
 
@@ -84,7 +89,8 @@ class ClipGoals:
     `balance`: keep the centre of mass over the support of the contacts; `self_collision`:
     keep the bone capsules this margin apart (None: off); `fidelity` and `coherence`: weights
     in [0, 1] of staying near the original pose and moving like the neighbouring frames;
-    tolerances in length units."""
+    `floor`: the height along up (length units) every joint and site stays at or above (None:
+    no floor); tolerances in length units."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
@@ -94,6 +100,8 @@ class ClipGoals:
     contact_tolerance: float = CONTACT_TOLERANCE
     balance_tolerance: float = BALANCE_TOLERANCE
     self_collision: float | None = None
+    floor: float | None = None
+    floor_tolerance: float = FLOOR_TOLERANCE
 
     def __post_init__(self):
         object.__setattr__(self, "reach", tuple(self.reach))
@@ -103,8 +111,14 @@ class ClipGoals:
                 raise ValueError(f"{name} weight must lie in [0, 1], got {value}")
         if self.balance and self.contacts is None:
             raise ValueError("balance needs contacts: the support polygon is made of the sites in contact")
-        if not (self.contacts or self.reach or self.balance or self.self_collision is not None):
-            raise ValueError("nothing to fix: plant contacts, add a reach track, ask for balance or self-collision")
+        if self.floor is not None and not np.isfinite(self.floor):
+            raise ValueError(f"the floor height must be a finite number, got {self.floor}")
+        if not (
+            self.contacts or self.reach or self.balance or self.floor is not None or self.self_collision is not None
+        ):
+            raise ValueError(
+                "nothing to fix: plant contacts, give a floor, add a reach track, ask for balance or self-collision"
+            )
 
 
 def reach_names(sites) -> list[str]:
@@ -118,13 +132,15 @@ def reach_names(sites) -> list[str]:
 
 def goal_names(goals: ClipGoals) -> list[str]:
     """The name of each goal clip_problem poses for `goals`, in its order: "contact SITE" per
-    site with a contact, reach_names, "balance" (one goal per pattern of sites in contact, so
-    the name repeats), "fidelity", "coherence" (where their weights are > 0)."""
+    site with a contact, "floor" (with a floor), "balance" (one goal per pattern of sites in
+    contact, so the name repeats), reach_names, "fidelity", "coherence" (where their weights
+    are > 0)."""
     contacts = goals.contacts
     names = [] if contacts is None else [f"contact {s}" for s, on in zip(contacts.sites, contacts.mask.T) if on.any()]
-    names += reach_names(r.site for r in goals.reach)
+    names += ["floor"] * (goals.floor is not None)
     if goals.balance:
         names += ["balance"] * len({tuple(row) for row in contacts.mask if row.any()})
+    names += reach_names(r.site for r in goals.reach)
     return names + ["fidelity"] * (goals.fidelity > 0) + ["coherence"] * (goals.coherence > 0)
 
 
@@ -137,7 +153,8 @@ def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
     return 0.5 * (padded[:-2] + padded[2:])
 
 
-def _level0_goals(clip, goals: ClipGoals) -> list:
+def _held_goals(clip, goals: ClipGoals) -> list:
+    """Contacts, the floor, balance and the reach tracks, each on its level (module notes)."""
     out = []
     contacts = goals.contacts
     if contacts is not None:
@@ -146,11 +163,10 @@ def _level0_goals(clip, goals: ClipGoals) -> list:
             mask = contacts.mask[:, s]
             if mask.any():
                 track = np.where(mask[:, None], targets[:, s], 0.0)
-                out.append(g.Position(site, track, active=mask, tolerance=goals.contact_tolerance))
-    for reach in goals.reach:
-        mask, targets = blended_track(clip, reach)
-        track = np.where(mask[:, None], targets, 0.0)
-        out.append(g.Position(reach.site, track, active=mask, tolerance=reach.tolerance))
+                tolerance = goals.contact_tolerance
+                out.append(g.Position(site, track, active=mask, tolerance=tolerance, level=CONTACT_LEVEL))
+    if goals.floor is not None:
+        out.append(g.Floor(goals.floor, tolerance=goals.floor_tolerance, level=FLOOR_LEVEL))
     if goals.balance:
         supports = {}
         for n, row in enumerate(contacts.mask):
@@ -159,16 +175,22 @@ def _level0_goals(clip, goals: ClipGoals) -> list:
         for sites, frames in supports.items():
             active = np.zeros(clip.n_frames, bool)
             active[frames] = True
-            out.append(g.ComInPolygon(sites, active=active, tolerance=goals.balance_tolerance))
+            tolerance = goals.balance_tolerance
+            out.append(g.ComInPolygon(sites, active=active, tolerance=tolerance, level=CONTACT_LEVEL))
+    for reach in goals.reach:
+        mask, targets = blended_track(clip, reach)
+        track = np.where(mask[:, None], targets, 0.0)
+        out.append(g.Position(reach.site, track, active=mask, tolerance=reach.tolerance, level=REACH_LEVEL))
     return out
 
 
 def fixed_goals(clip, goals: ClipGoals, weights: np.ndarray) -> list:
-    """The goals that stay the same from pass to pass: level 0 and fidelity, which counts each
-    DOF's change by `weights` (D,) (warmstart.dof_weights)."""
-    out = _level0_goals(clip, goals)
+    """The goals that stay the same from pass to pass: contacts, floor, balance, reach and
+    fidelity, which counts each DOF's change by `weights` (D,) (warmstart.dof_weights)."""
+    out = _held_goals(clip, goals)
     if goals.fidelity > 0:
-        out.append(g.Comfort(weight=goals.fidelity, level=1, reference=clip.poses(), joint_weights=weights))
+        level = FIDELITY_LEVEL
+        out.append(g.Comfort(weight=goals.fidelity, level=level, reference=clip.poses(), joint_weights=weights))
     return out
 
 
@@ -185,5 +207,7 @@ def clip_problem(
         goal_list.insert(0, SelfCollision(margin=goals.self_collision))
     if goals.coherence > 0:
         smooth = wrap_rotations(clip.poses() + neighbour_displacement(displacement), sk.dof_kind == ROTATE)
-        goal_list.append(g.Comfort(weight=goals.coherence, level=1, reference=smooth, joint_weights=weights))
+        goal_list.append(
+            g.Comfort(weight=goals.coherence, level=FIDELITY_LEVEL, reference=smooth, joint_weights=weights)
+        )
     return Problem(sk, goal_list)

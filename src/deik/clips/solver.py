@@ -5,14 +5,14 @@
    change, frames pulled towards their neighbours where the goals in force change; DOFs no
    goal of a frame needs are eased in from the neighbouring frames (coherence.py), so nothing
    pops and an idle arm keeps its performance.
-2. DE passes repair the frames that still miss a level-0 goal (goals the warm start cannot
-   all meet, such as balance over a single contact point, or self-collision, which lets a frame's
-   repair move every DOF). Each pass is one batched solve of all N frame
+2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
+   reach goal (goals the warm start cannot all meet, such as balance over a single contact
+   point, or self-collision, which lets a frame's repair move every DOF). Each pass is one batched solve of all N frame
    problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
    population of copies of its pose, which DE cannot move, and stops at once; the others are
    seeded around their current pose, moving only the DOFs their goals need, and run until
-   every level-0 goal is within tolerance (stop_on_converged), the fidelity and coherence
-   terms (level 1) choosing among the poses that are.
+   every such goal is within tolerance (stop_on_converged), the fidelity and coherence
+   terms (the last level) choosing among the poses that are.
 
 Where the time goes: the warm start (about 0.1 s per 1000 humanoid frames on 2 cores), then
 per pass population x (generations + 1) pose evaluations per repaired frame, about
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.clips.coherence import ease, hinge_channels, searched_dofs
-from deik.clips.problem import ClipGoals, clip_problem, fixed_goals, goal_names
+from deik.clips.problem import FIDELITY_LEVEL, ClipGoals, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
@@ -59,7 +59,7 @@ class ClipFix:
     channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
     `labels` of the goals (problem.goal_names), their `tolerances` (T,) (-1: none) and raw
     errors `before`/`after` (N, T) in length units or radians (NaN where a goal does not
-    apply to a frame), `met` (N,) whether every level-0 goal of each frame is within
+    apply to a frame), `met` (N,) whether every floor, contact, balance and reach goal of each frame is within
     tolerance, `passes`, `wall_time` seconds, `settings`, and `stages`: where the time went,
     one dict per stage (the warm start, then each DE pass with the frames it repaired, their
     generations, mean and max, and pose evaluations: population x (generations + 1) summed
@@ -102,11 +102,12 @@ def _inside(skeleton, original: np.ndarray, displacement: np.ndarray) -> np.ndar
 
 
 def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(errors (N, T) as _errors, met (N,): every level-0 goal of the frame within tolerance)."""
+    """(errors (N, T) as _errors, met (N,): every contact, floor, balance and reach goal of the
+    frame (the levels above fidelity) within tolerance)."""
     errors = _errors(problem, poses)
-    level0 = np.array([goal.level == 0 for goal in problem.goals])
-    within = errors[:, level0] <= problem.table.term_float[level0, 3]
-    return errors, np.all(np.isnan(errors[:, level0]) | within, axis=1)
+    held = np.array([goal.level < FIDELITY_LEVEL for goal in problem.goals])
+    within = errors[:, held] <= problem.table.term_float[held, 3]
+    return errors, np.all(np.isnan(errors[:, held]) | within, axis=1)
 
 
 def _pass_progress(progress, met: int, stage: str):
@@ -130,9 +131,9 @@ def fix_clip(
     **overrides,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
-    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision) over the frames
-    that still miss a level-0 goal; settings default to CLIP_SETTINGS (BALANCE_SETTINGS with
-    balance) and may be overridden by keyword (population, generations, seed, device, ...).
+    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
+    over the frames that still miss a floor, self-collision, contact, balance or reach goal;
+    settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden by keyword (population, generations, seed, device, ...).
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
     stage)`, if given, is called with the number of frames that meet their goals after the
     warm start and each DE pass, during a pass every 100 generations, and once at the end."""

@@ -29,7 +29,7 @@ Other types and their fields (optional ones in brackets): "aim" frame, target [a
 "com" target; "com_over_support" point; "com_in_polygon" frames (a list of names);
 "comfort" [mode ("sum" | "max"), joint_weights ("start" | "end", a table {joint = weight} or
 one number per DOF)]; "obstacle" centre, radius [bone_radius]; "self_collision" [margin,
-radii (a number or a table {joint = radius}), skip (links)]. Every mistake raises a
+radii (a number or a table {joint = radius}), skip (links)]; "floor" height. Every mistake raises a
 ValueError naming the file, the goal and the field; nothing is guessed or defaulted silently.
 
 A URDF robot takes the top-level keys of `deik solve`'s flags: base = "link", tip = "link" or

@@ -15,6 +15,7 @@ from deik.objectives.kinds import (
     COM_GROUND,
     COMFORT_MAX,
     COMFORT_SUM,
+    FLOOR,
     GAIN,
     LIMITS,
     MU,
@@ -138,7 +139,19 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
         return total
     if kind == OBSTACLE:
         return obstacle_error(g, skel, p)
+    if kind == FLOOR:
+        return floor_error(g[0], skel, p)
     return self_collision_error(t, g[0], terms, skel, p)
+
+
+def floor_error(height, skel, p):
+    """Summed depth (metres) of every joint and site below the floor at `height` along up: a
+    bone, the segment from its joint to its child, reaches lowest at one of its ends."""
+    up = skel.ground[UP]
+    total = 0.0
+    for f in range(skel.joint_int.shape[0] + skel.site_joint.shape[0]):
+        total += max(height - (p[3 * f] * up[0] + p[3 * f + 1] * up[1] + p[3 * f + 2] * up[2]), 0.0)
+    return total
 
 
 def obstacle_error(g, skel, p):

@@ -29,6 +29,7 @@ from deik.objectives.kinds import (
     COM_GROUND,
     COMFORT_MAX,
     COMFORT_SUM,
+    FLOOR,
     LIMITS,
     MAX_TERM_FRAMES,
     N_PARAMS,
@@ -281,6 +282,26 @@ class Obstacle(Goal):
     def params(self, skeleton):
         centre = vector(self.centre, (3,), "obstacle centre")
         return pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
+
+
+@dataclass(frozen=True)
+class Floor(Goal):
+    """A floor at `height` (length units along skeleton.up) that every joint and site stays at
+    or above (so every bone does: a segment reaches lowest at one of its ends); error = summed
+    depth below it (length units), met at 0."""
+
+    LABEL = "floor"
+    BATCH_FIELDS = (("height", 0),)
+    height: object
+
+    def row(self, skeleton):
+        return self._row(FLOOR, (), skeleton.reach, 0.0)
+
+    def params(self, skeleton):
+        height = np.asarray(self.height, float)
+        if height.ndim > 1 or not np.isfinite(height).all():
+            raise ValueError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
+        return pack(height.reshape(-1, 1))
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ pair_int (K, 3), the bone pairs that self-collision terms test.
 # term kinds
 POSITION, ORIENTATION, AIM, COM, COM_GROUND, SUPPORT_POLYGON = 0, 1, 2, 3, 4, 5
 COMFORT_SUM, COMFORT_MAX, LIMITS, OBSTACLE, SELF_COLLISION = 6, 7, 8, 9, 10
+FLOOR = 11
 
 # term_int columns: kind, priority level, frame count, then up to MAX_TERM_FRAMES frame indices
 TERM_KIND, TERM_LEVEL, TERM_FRAME_COUNT, TERM_FRAMES = 0, 1, 2, 3

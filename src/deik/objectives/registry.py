@@ -144,6 +144,11 @@ def self_collision(x: Posed, term: Term) -> np.ndarray:
     return np.maximum(term.pair_radius + term.params[:, None, 0] - dist, 0).sum(axis=1)
 
 
+def floor(x: Posed, term: Term) -> np.ndarray:
+    """Summed depth of every joint and site below the floor at height params[0] along up."""
+    return np.maximum(term.params[:, None, 0] - x.p @ x.ground[2], 0).sum(axis=1)
+
+
 @dataclass(frozen=True)
 class GoalKind:
     """One term kind. `unit`: "m", "rad", or a function of the skeleton for kinds that sum over
@@ -228,6 +233,7 @@ KINDS = (
         (),
         ("margin", "radii", "skip"),
     ),
+    GoalKind(k.FLOOR, "floor", g.Floor, floor, LENGTH, False, "floor", ("height",)),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"
 
