@@ -7,8 +7,8 @@
    pops and an idle arm keeps its performance.
 2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
    reach goal (goals the warm start cannot all meet, such as balance over a single contact
-   point, or self-collision, which lets a frame's repair move every DOF). Each pass is one batched solve of all N frame
-   problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
+   point, or self-collision, which lets a frame's repair move every DOF). Each pass is one
+   batched solve of all N frame problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
    population of copies of its pose, which DE cannot move, and stops at once; the others are
    seeded around their current pose, moving only the DOFs their goals need, and run until
    every such goal is within tolerance (stop_on_converged), the fidelity and coherence
