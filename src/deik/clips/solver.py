@@ -133,7 +133,8 @@ def fix_clip(
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
-    settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden by keyword (population, generations, seed, device, ...).
+    settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
+    by keyword (population, generations, seed, device, ...).
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
     stage)`, if given, is called with the number of frames that meet their goals after the
     warm start and each DE pass, during a pass every 100 generations, and once at the end."""
