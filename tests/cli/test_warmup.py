@@ -24,6 +24,12 @@ def test_kernel_cache_goes_to_numba_cache_dir_when_set(tmp_path):
     assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "kernels", "__pycache__"))
 
 
+def test_import_deik_loads_no_numba():
+    """`import deik` stays light: Numba and the kernels load on the first solve."""
+    code = "import sys, deik; print(sorted(m for m in ('numba', 'scipy', 'deik.kernels.cpu') if m in sys.modules))"
+    assert _python(code) == "[]"
+
+
 def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
     # as root every folder is writable, so the package folder is made to refuse the cache
     code = (

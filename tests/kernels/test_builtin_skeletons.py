@@ -95,6 +95,7 @@ def _every_goal_problem(sk, end, middle, support):
             deik.Comfort("max", weight=-0.3, level=2),
             deik.Obstacle(centre, 0.05, bone_radius=0.02, level=1),
             deik.SelfCollision(margin=0.02, level=1),
+            deik.Floor(float(kin.position(middle) @ sk.up), level=1),  # the lower half of the body beneath
         ],
         limits="penalty",
     )

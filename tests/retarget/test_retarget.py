@@ -41,9 +41,11 @@ def test_longer_legs_keep_the_contacts_on_the_floor():
     for s, site in enumerate(contacts.sites):
         for a, b in contacts.intervals(s):
             height = kin.position(site)[a:b] @ sk.up - contacts.ground
-            # planted where the source's site stood lowest in the contact, that height times the leg ratio
-            lowest = (source.position(site)[a:b] @ sk.up).min() - contacts.ground
-            assert np.abs(height - 1.1 * lowest).max() < 0.003, (site, a, b)
+            # planted at the source's median height in the contact times the leg ratio, or on the
+            # floor when that is within the snap distance of it (deik.clips contacts)
+            plant = 1.1 * np.median(source.position(site)[a:b] @ sk.up - contacts.ground)
+            gap = np.minimum(np.abs(height - plant), np.abs(height))
+            assert gap.max() < 0.003, (site, a, b)
             steps = np.linalg.norm(np.diff(kin.position(site)[a:b], axis=0), axis=-1)
             assert steps.max() < 0.002, (site, a, b)  # metres per frame: planted
     naive = deik.forward_kinematics(sk, clip.poses())  # the angles alone: the feet sink

@@ -21,7 +21,6 @@ import numpy as np
 from deik.clips.balance import balance_track, horizontal_axes
 from deik.clips.coherence import active_frames
 from deik.clips.problem import REACH_LEVEL, neighbour_displacement
-from deik.kernels.cpu_backend import point_jacobians
 from deik.kernels.pack import pack_skeleton
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
@@ -40,6 +39,8 @@ def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> t
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
     both (deik.kernels.cpu_backend.point_jacobians)."""
+    from deik.kernels.cpu_backend import point_jacobians  # loads Numba: `import deik` stays light
+
     frames = [skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass
     return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
 

@@ -288,14 +288,14 @@ class Obstacle(Goal):
 class Floor(Goal):
     """A floor at `height` (length units along skeleton.up) that every joint and site stays at
     or above (so every bone does: a segment reaches lowest at one of its ends); error = summed
-    depth below it (length units), met at 0."""
+    depth below it (length units). Default tolerance: LENGTH_TOLERANCE."""
 
     LABEL = "floor"
     BATCH_FIELDS = (("height", 0),)
     height: object
 
     def row(self, skeleton):
-        return self._row(FLOOR, (), skeleton.reach, 0.0)
+        return self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
 
     def params(self, skeleton):
         height = np.asarray(self.height, float)
