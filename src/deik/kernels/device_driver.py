@@ -14,7 +14,7 @@ from deik.kernels.device_evolution import (
     not_worse,
     within_tolerances,
 )
-from deik.kernels.device_lm import polish
+from deik.kernels.device_lm import open_ended, polish
 from deik.kernels.device_maths import uniform
 from deik.kernels.device_terms import evaluate
 from deik.kernels.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
@@ -62,6 +62,8 @@ def breed_individual(b, i, gen, cur, nxt, skel, terms, settings, status, scratch
 
 def polish_individual(b, target, state, skel, terms, memetic, scratch, axes, lm, q, lv, rw):
     """LM polish of individual `target` of problem b in place (see device_lm.polish); returns
-    whether it then meets every tolerance."""
+    whether the round may stop there: it meets every tolerance and no goal without one
+    (comfort) is left to improve, which every polished individual then pursues."""
     polish(b, target, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw)
-    return within_tolerances(b, state.raw[b, target], terms, state.raw.shape[2])
+    T = state.raw.shape[2]
+    return within_tolerances(b, state.raw[b, target], terms, T) and not open_ended(b, terms, T)

@@ -193,8 +193,29 @@ def rank_problem(b, state, status):
 
 
 def rank_first(b, state, status):
-    """A first population's best and leaders (rank_problem) and best total seen, problem b."""
-    status.best_seen[b] = state.total[b, rank_problem(b, state, status)]
+    """A first population's best and leaders (rank_problem) and best levels seen, problem b."""
+    remember_best(b, rank_problem(b, state, status), state, status)
+
+
+def remember_best(b, k, state, status):
+    """Keep individual k's levels and total as problem b's best seen."""
+    for lvl in range(status.best_levels.shape[1]):
+        status.best_levels[b, lvl] = state.levels[b, k, lvl]
+    status.best_seen[b] = state.total[b, k]
+
+
+def improved(b, k, state, status, rel):
+    """Is individual k better than problem b's best seen by more than the fraction rel, judged
+    by strict priority: the first level that differs by more than that decides, and the total
+    only where no level does (a lower level's gain may raise the total; it still counts)?"""
+    seen, lv = status.best_levels[b], state.levels[b, k]
+    for lvl in range(seen.shape[0]):
+        margin = rel * abs(seen[lvl]) + 1e-30
+        if lv[lvl] < seen[lvl] - margin:
+            return True
+        if lv[lvl] > seen[lvl] + margin:
+            return False
+    return state.total[b, k] < status.best_seen[b] - rel * abs(status.best_seen[b]) - 1e-30
 
 
 def settle(b, state, terms, status, control):
@@ -232,9 +253,8 @@ def update_status(b, gen, row, state, terms, status, control, history):
     status.converged[b] = met
     if met and control.stop_on_converged:
         status.active[b] = False
-    best_seen = status.best_seen
-    if total[b, k] < best_seen[b] - control.rel_improvement * abs(best_seen[b]) - 1e-30:
-        best_seen[b] = total[b, k]
+    if improved(b, k, state, status, control.rel_improvement):
+        remember_best(b, k, state, status)
         last_improved[b] = gen
     elif gen - last_improved[b] >= control.patience:
         if not met and status.restarts[b] < control.max_restarts:

@@ -2,8 +2,9 @@
 
 Compiled together with the other device_*.py files (see deik.kernels.targets). The polish
 minimises the scaled residuals of device_polish.py over the terms on the levels up to the
-individual's first unmet one, with steps clamped into the joint limits (a DOF at a limit that
-the gradient pushes outwards is held fixed). A step is kept only if the full strict-priority
+individual's first unmet one and moves towards comfort's reference in their null space, with
+steps clamped into the joint limits (a DOF at a limit that the gradient pushes outwards is
+held fixed). A step is kept only if the full strict-priority
 fitness improves, so the polish never trades a higher level for a lower one and never leaves
 the limits. lm is a layout.LmScratch.
 """
@@ -18,14 +19,15 @@ from deik.kernels.layout import LOWER, UPPER
 from deik.objectives.kinds import (
     COMFORT_MAX,
     COMFORT_SUM,
-    MU,
-    SCALE,
     TERM_KIND,
     TERM_LEVEL,
+    TOLERANCE,
 )
 
 _MAX_DAMPING = 1e8
 _DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
+_PULL_STIFFNESS = 1e-6  # comfort's weight against the goals' J^T J (its largest diagonal)
+_MIN_PULL = 1.0 / 64.0  # a comfort pull is shortened 4-fold per rejected step down to this
 
 
 def improves(lv, tot, levels, total):
@@ -40,9 +42,9 @@ def improves(lv, tot, levels, total):
 
 def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready):
     """lm.normal = J^T J and lm.gradient = J^T r at pose q of the smooth terms on levels <=
-    top and of every comfort term (a weak pull towards its reference on any level, so that
-    steps for a higher level take the smallest move); returns the cost r^T r. frames_ready:
-    scratch.R, scratch.p and axes already hold pose q's frames (else they are computed)."""
+    top (comfort is not among them: comfort_step moves towards its reference in their null
+    space); returns the cost r^T r. frames_ready: scratch.R, scratch.p and axes already hold
+    pose q's frames (else they are computed)."""
     R, p, term_int = scratch.R, scratch.p, terms.term_int
     A, gradient, jac = lm.normal, lm.gradient, lm.jac
     if not frames_ready:
@@ -56,9 +58,6 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
         gradient[d] = 0.0
     cost = 0.0
     for t in range(term_int.shape[0]):
-        if term_int[t, TERM_KIND] == COMFORT_SUM or term_int[t, TERM_KIND] == COMFORT_MAX:
-            cost += add_comfort(t, b, q, terms, A, gradient, D)
-            continue
         if term_int[t, TERM_LEVEL] > top:
             continue
         r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D)
@@ -74,24 +73,81 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
     return cost
 
 
-def add_comfort(t, b, q, terms, A, gradient, D):
-    """Comfort term t as quadratic rows sqrt(weight * dof weight) * mu / scale * (q - reference)
-    added to A's diagonal and the gradient: the polish then prefers the smallest move from the
-    reference among poses that meet the other goals (the comfort's own L1/max form is left to
-    DE and to the acceptance test). Returns their cost."""
-    term_float, dof_weight, reference = terms.term_float, terms.dof_weight, terms.reference
-    w = weight_of(terms, b, t)
-    if w <= 0.0:
-        return 0.0
-    unit = term_float[t, MU] / term_float[t, SCALE]
-    cost = 0.0
+def comfort_step(b, q, terms, lm, D, pull, limits):
+    """Add to the step lm.delta a move towards the comfort terms' reference that leaves the
+    polished terms' errors unchanged to first order: the minimiser of (x - v)^T W (x - v) +
+    |J x|^2 / stiffness, (J^T J + stiffness W)^-1 stiffness W v, with W the comfort's DOF
+    weights, v = pull * (reference - (q + delta)) and a stiffness far below J^T J's scale (the
+    acceptance test catches what the curvature adds). Overwrites lm.A (damped_step refills it).
+    Returns whether problem b has a comfort term with weight (else nothing is added)."""
+    term_int, dof_weight, reference = terms.term_int, terms.dof_weight, terms.reference
+    A, normal = lm.A, lm.normal
+    v, w = lm.jac[0:D], lm.jac[D : 2 * D]
+    any_comfort, peak, heaviest = False, 0.0, 0.0
     for d in range(D):
-        c2 = w * dof_weight[t, d] * unit * unit
-        e = q[d] - reference[b, t, d]
-        A[d * D + d] += c2
-        gradient[d] += c2 * e
-        cost += c2 * e * e
-    return cost
+        target, weight = 0.0, 0.0
+        for t in range(term_int.shape[0]):
+            if term_int[t, TERM_KIND] == COMFORT_SUM or term_int[t, TERM_KIND] == COMFORT_MAX:
+                wt = weight_of(terms, b, t) * dof_weight[t, d]
+                if wt > 0.0:
+                    target += wt * reference[b, t, d]
+                    weight += wt
+        v[d], w[d] = 0.0, weight
+        peak = max(peak, normal[d * D + d])
+        heaviest = max(heaviest, weight)
+        if weight > 0.0:
+            any_comfort = True
+            at = q[d] + lm.delta[d]
+            v[d] = pull * (target / weight - at)
+            if (at <= limits[d, LOWER] and v[d] < 0.0) or (at >= limits[d, UPPER] and v[d] > 0.0):
+                v[d] = 0.0
+    if not any_comfort:
+        return False
+    stiffness = _PULL_STIFFNESS * peak / heaviest + 1e-30
+    for e in range(D * D):
+        A[e] = normal[e]
+    for d in range(D):
+        A[d * D + d] += stiffness * w[d] + 1e-9 * peak + 1e-30
+        v[d] *= stiffness * w[d]
+    if not cholesky(A, D):
+        return False
+    cholesky_solve(A, v, D)
+    for d in range(D):
+        lm.delta[d] += v[d]
+    return True
+
+
+def cholesky(A, D):
+    """Factorise the symmetric A (D*D,) in place into L (lower triangle) with L L^T = A;
+    False if A is not positive definite."""
+    for j in range(D):
+        s = A[j * D + j]
+        for k in range(j):
+            s -= A[j * D + k] * A[j * D + k]
+        if not s > 0.0:
+            return False
+        s = math.sqrt(s)
+        A[j * D + j] = s
+        for i in range(j + 1, D):
+            v = A[i * D + j]
+            for k in range(j):
+                v -= A[i * D + k] * A[j * D + k]
+            A[i * D + j] = v / s
+    return True
+
+
+def cholesky_solve(A, x, D):
+    """x <- (L L^T)^-1 x in place for the Cholesky factor L in A's lower triangle (D*D,)."""
+    for i in range(D):
+        v = x[i]
+        for k in range(i):
+            v -= A[i * D + k] * x[k]
+        x[i] = v / A[i * D + i]
+    for i in range(D - 1, -1, -1):
+        v = x[i]
+        for k in range(i + 1, D):
+            v -= A[k * D + i] * x[k]
+        x[i] = v / A[i * D + i]
 
 
 def damped_step(lm, D, damping, q, limits):
@@ -114,35 +170,25 @@ def damped_step(lm, D, damping, q, limits):
                 A[c * D + a] = 0.0
             A[a * D + a] = 1.0
             delta[a] = 0.0
-    for j in range(D):
-        s = A[j * D + j]
-        for k in range(j):
-            s -= A[j * D + k] * A[j * D + k]
-        if not s > 0.0:
-            return False
-        s = math.sqrt(s)
-        A[j * D + j] = s
-        for i in range(j + 1, D):
-            v = A[i * D + j]
-            for k in range(j):
-                v -= A[i * D + k] * A[j * D + k]
-            A[i * D + j] = v / s
-    for i in range(D):
-        v = delta[i]
-        for k in range(i):
-            v -= A[i * D + k] * delta[k]
-        delta[i] = v / A[i * D + i]
-    for i in range(D - 1, -1, -1):
-        v = delta[i]
-        for k in range(i + 1, D):
-            v -= A[k * D + i] * delta[k]
-        delta[i] = v / A[i * D + i]
+    if not cholesky(A, D):
+        return False
+    cholesky_solve(A, delta, D)
     return True
 
 
+def open_ended(b, terms, T):
+    """Has problem b a weighted goal without a tolerance (comfort), left to improve once every
+    tolerance is met?"""
+    for t in range(T):
+        if terms.term_float[t, TOLERANCE] < 0.0 and weight_of(terms, b, t) > 0.0:
+            return True
+    return False
+
+
 def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
-    """Up to `iterations` LM steps on individual i of problem b, until every tolerance is met,
-    in place in the Buffers `state`; q (D,), lv (L,), rw (T,) are scratch."""
+    """Up to `iterations` LM steps on individual i of problem b, in place in the Buffers
+    `state`, until every tolerance is met (or on to the smallest move from comfort's reference
+    where a goal without tolerance is left); q (D,), lv (L,), rw (T,) are scratch."""
     pop, levels, total = state.pop, state.levels, state.total
     D, L, T = pop.shape[2], levels.shape[2], state.raw.shape[2]
     limits = skel.limits
@@ -151,15 +197,21 @@ def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
         if levels[b, i, lvl] > 0.0:
             top = lvl
     damping = 1e-3
+    finish = not open_ended(b, terms, T)
+    pull = 1.0
     # the normal equations change only when a step is kept; a kept step's frames (computed with
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
     formed, frames_ready = False, False
     for _ in range(iterations):
         if not formed:
-            if normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready) == 0.0:
+            cost = normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready)
+            if cost == 0.0 and finish:
                 return
             formed = True
+        pulled = False
         if damped_step(lm, D, damping, pop[b, i], limits):
+            if pull > 0.0:
+                pulled = comfort_step(b, pop[b, i], terms, lm, D, pull, limits)
             delta = lm.delta
             for d in range(D):
                 q[d] = min(max(pop[b, i, d] + delta[d], limits[d, LOWER]), limits[d, UPPER])
@@ -167,11 +219,15 @@ def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
             tot = score(q, b, skel, terms, scratch, lv, rw)
             if improves(lv, tot, levels[b, i], total[b, i]):
                 keep_trial(state, b, i, q, lv, rw, tot, state.rates[b, i])
-                if within_tolerances(b, rw, terms, T):
+                if finish and within_tolerances(b, rw, terms, T):
                     return
                 damping = max(damping * 0.3, 1e-7)
+                pull = min(2.0 * pull, 1.0)
                 formed, frames_ready = False, True
                 continue
+        if pulled and pull > _MIN_PULL:
+            pull *= 0.25  # first a shorter pull towards the reference, then more damping
+            continue
         damping *= 10.0
         if damping > _MAX_DAMPING:
             return

@@ -100,7 +100,8 @@ class Status(NamedTuple):
     active: np.ndarray  # bool: still evolving
     generations: np.ndarray  # int64 generations used
     converged: np.ndarray  # bool: the best meets every tolerance
-    best_seen: np.ndarray  # float64 best total so far
+    best_seen: np.ndarray  # float64 total of the best so far
+    best_levels: np.ndarray  # (B, L) float64 levels of the best so far (stagnation is judged on them)
     last_improved: np.ndarray  # int64 generation of the last improvement
     restarts: np.ndarray  # int64 restarts used
     restarting: np.ndarray  # bool: the next generation restarts

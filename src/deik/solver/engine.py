@@ -25,14 +25,14 @@ from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.settings import LIMIT_CODES, STRATEGIES, Settings
 
-STAGNATION = 1e-3  # a best total that falls by less than this fraction in `patience` generations stagnates
+STAGNATION = 1e-3  # a best that improves by less than this fraction in `patience` generations stagnates
 
 
 @dataclass(frozen=True, eq=False)
 class EvolutionState:
     """Population (B, P, D), levels (B, P, L), total (B, P), raw (B, P, T), rates (B, P, 2)
     (each individual's F and CR); per problem: best index, active, generations used,
-    converged, best total seen, generation of last improvement, restarts used, restart due,
+    converged, best total and levels (B, L) seen, generation of last improvement, restarts used, restart due,
     the elite kept through the last restart (-1: none), leaders (B, islands): the best of each
     island but the elite;
     history (B, G, 2) of best and mean total fitness (NaN once a problem of a batch has
@@ -48,6 +48,7 @@ class EvolutionState:
     generations: np.ndarray
     converged: np.ndarray
     best_seen: np.ndarray
+    best_levels: np.ndarray
     last_improved: np.ndarray
     restarts: np.ndarray
     restarting: np.ndarray
@@ -162,6 +163,7 @@ class Engine:
             generations=np.zeros(B, np.int64),
             converged=np.zeros(B, np.bool_),
             best_seen=np.zeros(B, np.float64),
+            best_levels=np.zeros((B, L), np.float64),
             last_improved=np.zeros(B, np.int64),
             restarts=np.zeros(B, np.int64),
             restarting=np.zeros(B, np.bool_),
