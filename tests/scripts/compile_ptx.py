@@ -24,7 +24,7 @@ engine = deik.Engine(problem, deik.Settings(population=64))
 state = engine.init()
 B, D = 1, human.n_dofs
 buffers, status = state.buffers, state.status
-initialise, run = kernels.kernels_for(engine.skel, buffers)
+initialise, start, run = kernels.kernels_for(engine.skel, buffers)
 
 
 def signature(*args):
@@ -55,6 +55,19 @@ init_args = (
     np.zeros((B, 1, D), np.float32),
     np.int64(0),
 )
-for name, kernel, args in (("run", run, run_args), ("initialise", initialise, init_args)):
+start_args = (
+    buffers,
+    status,
+    engine.skel,
+    engine.terms,
+    engine.kernel_settings,
+    engine.memetic,
+    engine.control,
+    np.zeros((B, 1, D), np.float32),
+    np.int64(0),
+    np.zeros((B, 1, 2 * D * D), np.float32),
+)
+kernels_and_args = (("run", run, run_args), ("initialise", initialise, init_args), ("start", start, start_args))
+for name, kernel, args in kernels_and_args:
     ptx, _ = cuda.compile_ptx(kernel.py_func, signature(*args), cc=(9, 0))
     print(name, "entry" if ".entry" in ptx else "missing", len(ptx))

@@ -77,7 +77,7 @@ def add_arguments(s) -> None:
         "--polish",
         type=int,
         metavar="N",
-        help="Levenberg-Marquardt steps per polish of the best individuals (default 10; 0: DE only)",
+        help="Levenberg-Marquardt steps per polish of the best individuals (default 30; 0: DE only)",
     )
     s.add_argument("--restarts", type=int, metavar="N", help="restarts of a stagnating unconverged search (default 20)")
     s.add_argument(

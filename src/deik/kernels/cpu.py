@@ -28,10 +28,20 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
 
 
 @njit(cache=True)
-def _polish_scratch(skel, dtype_probe, n_dofs):
+def _polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
-    lm = LmScratch(np.empty(D * D, t), np.empty(D * D, t), np.empty(D, t), np.empty(3 * D, t), np.empty(D, t))
+    matrices, vectors = np.empty((2, D * D), t), np.empty((3, D), t)
+    lm = LmScratch(
+        matrices[0],
+        matrices[1],
+        vectors[0],
+        np.empty(3 * D, t),
+        vectors[1],
+        vectors[2],
+        np.empty(n_levels, t),
+        np.empty(n_terms, t),
+    )
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
@@ -55,11 +65,72 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
 
 @njit(cache=True)
 def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
-    """initialise(cur) then run_generations from generation 0: a whole solve in one call;
-    returns the buffer swaps (as run_generations)."""
-    chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
-    initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
+    """A whole solve in one call: the first population, then run_generations from generation
+    0; returns the buffer swaps (as run_generations). When the polish is on and problems stop
+    once every tolerance is met, the first population is lazy: each problem's individual 0 is
+    polished first (device_driver.polish_first) and the rest of the population is sampled and
+    evaluated only for the problems it leaves unmet (most robot targets never need it);
+    otherwise as initialise."""
+    B, P = cur.pop.shape[0], cur.pop.shape[1]
+    if memetic.iterations > 0 and control.stop_on_converged:
+        met = np.empty(B, np.bool_)
+        chunks = _chunks(B, 3 * memetic.iterations, skel, threads)
+        _polish_first(chunks, cur, skel, terms, settings, memetic, initial, n_initial, met)
+        n = B * (P - 1)
+        _complete(_chunks(n, 1, skel, threads), n, cur, skel, terms, settings, initial, n_initial, met)
+        for b in range(B):
+            dev.rank_first(b, cur, status)
+            dev.settle(b, cur, terms, status, control)
+            if not status.active[b]:
+                for i in range(P):
+                    dev.copy_individual(cur, nxt, b, i, i)  # a stopped problem lies in both buffers
+    else:
+        initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
     return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
+
+
+@njit(parallel=True, cache=True)
+def _polish_first(chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
+    """Every problem's individual 0 initialised and polished (device_driver.polish_first);
+    met (B,) receives whether it meets every tolerance."""
+    if chunks == 1:
+        _polish_first_chunk(0, 1, state, skel, terms, settings, memetic, initial, n_initial, met)
+    else:
+        for c in prange(chunks):
+            _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initial, n_initial, met)
+
+
+@njit(cache=True)
+def _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
+    """Chunk c of `chunks` of _polish_first's problems."""
+    B, D = state.pop.shape[0], state.pop.shape[2]
+    scratch, q, lv, rw = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    axes, lm = _polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    for b in range(c * B // chunks, (c + 1) * B // chunks):
+        met[b] = dev.polish_first(
+            b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
+        )
+
+
+@njit(parallel=True, cache=True)
+def _complete(chunks, n, state, skel, terms, settings, initial, n_initial, met):
+    """Individuals 1.. of every problem after _polish_first (device_driver.complete_individual),
+    n = B * (P - 1) of them in `chunks` work units."""
+    if chunks == 1:
+        _complete_chunk(0, 1, n, state, skel, terms, settings, initial, n_initial, met)
+    else:
+        for c in prange(chunks):
+            _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initial, met)
+
+
+@njit(cache=True)
+def _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initial, met):
+    """Chunk c of `chunks` of _complete's individuals."""
+    P, D = state.pop.shape[1], state.pop.shape[2]
+    scratch, _, _, _ = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    for idx in range(c * n // chunks, (c + 1) * n // chunks):
+        b = idx // (P - 1)
+        dev.complete_individual(b, 1 + idx % (P - 1), met[b], state, skel, terms, settings, initial, n_initial, scratch)
 
 
 @njit(cache=True)
@@ -136,7 +207,7 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
     undoes those after the first that does: the same result)."""
     P, D = state.pop.shape[1], state.pop.shape[2]
     scratch, q, lv, rw = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    axes, lm = _polish_scratch(skel, state.pop, D)
+    axes, lm = _polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     for job in range(c * n // chunks, (c + 1) * n // chunks):
         b = order[job]
         for k in range(memetic.count):
@@ -259,7 +330,7 @@ def residual_rows(poses, problem_index, term, skel, terms):
     N, D = poses.shape
     residual, jacobian = np.zeros((N, 3), poses.dtype), np.zeros((N, 3, D), poses.dtype)
     scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
-    axes, lm = _polish_scratch(skel, poses, D)
+    axes, lm = _polish_scratch(skel, poses, terms.term_int.shape[0], 1, D)
     R, p, jac = scratch.R, scratch.p, lm.jac
     for n in range(N):
         dev.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)

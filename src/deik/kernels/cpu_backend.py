@@ -13,6 +13,25 @@ def _chunks_for(n_individuals: int, skel) -> int:
     return int(cpu._chunks(n_individuals, 1, skel, numba.get_num_threads()))
 
 
+_ENTRIES = {}  # (kernel, dtype) -> the compiled entry point Numba's dispatch chose for them
+
+
+def _call(kernel, *args):
+    """kernel(*args) through the compiled entry point of its overload for this dtype (that of
+    args[0], a Buffers). Numba's dispatcher types every argument on every call (some 40 arrays
+    in NamedTuples: 6 us of a 40 us robot solve), while an Engine's arguments are always the
+    same types for a dtype: the same NamedTuples of C-contiguous, writable arrays and the same
+    scalar types (solver/engine.py builds them so). The first call per kernel and dtype in a
+    process dispatches (compiling or loading) and keeps the overload's entry point."""
+    key = (kernel, args[0].pop.dtype)
+    entry = _ENTRIES.get(key)
+    if entry is not None:
+        return entry(*args)
+    out = kernel(*args)
+    _ENTRIES[key] = kernel.overloads[tuple(numba.typeof(a) for a in args)].entry_point
+    return out
+
+
 class CpuBackend:
     name = "cpu"
 
@@ -24,7 +43,8 @@ class CpuBackend:
     def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
         """initialise then run from generation 0 in one compiled call (cpu.start); returns as run."""
         swaps = int(
-            cpu.start(
+            _call(
+                cpu.start,
                 cur,
                 nxt,
                 status,
@@ -46,7 +66,8 @@ class CpuBackend:
         """Returns (final buffers, generations advanced); status and the first `advanced` rows
         of history (n_gens, B, 2) are updated."""
         swaps = int(
-            cpu.run_generations(
+            _call(
+                cpu.run_generations,
                 cur,
                 nxt,
                 skel,

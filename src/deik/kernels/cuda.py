@@ -26,13 +26,14 @@ def _bucket(n: int) -> int:
 
 @lru_cache(maxsize=16)
 def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_motions: int, dtype_name: str):
-    """Compile (initialise, run) for local arrays of these (bucketed) sizes and dtype."""
+    """Compile (initialise, start, run) for local arrays of these (bucketed) sizes and dtype."""
     dev = cuda_device()
     initialise_individual, breed_individual, polish_individual = (
         dev.initialise_individual,
         dev.breed_individual,
         dev.polish_individual,
     )
+    polish_first, complete_individual = dev.polish_first, dev.complete_individual
     update_status, settle, rank_first = dev.update_status, dev.settle, dev.rank_first
     copy_individual, polish_target = dev.copy_individual, dev.polish_target
     ftype = float32 if dtype_name == "float32" else float64
@@ -50,6 +51,40 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         cuda.syncthreads()
         if cuda.threadIdx.x == 0:
             rank_first(b, state, status)
+
+    @cuda.jit
+    def start(state, status, skel, terms, settings, memetic, control, initial, n_initial, polish_matrix):
+        """A lazy first population (cpu.start): thread 0 polishes individual 0, then the block
+        completes the population (copies of it when it met every tolerance) and settles."""
+        b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
+        scratch = Scratch(
+            cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
+        )
+        met = cuda.shared.array(1, int32)
+        if tid == 0:
+            q, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
+            axes, matrices = cuda.local.array(n_a, ftype), polish_matrix[b, 0]
+            half = matrices.shape[0] // 2
+            lm = LmScratch(
+                matrices[:half],
+                matrices[half:],
+                cuda.local.array(n_d, ftype),
+                cuda.local.array(n_jac, ftype),
+                cuda.local.array(n_d, ftype),
+                cuda.local.array(n_d, ftype),
+                cuda.local.array(n_l, ftype),
+                cuda.local.array(n_t, ftype),
+            )
+            met[0] = polish_first(
+                b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
+            )
+        cuda.syncthreads()
+        for i in range(1 + tid, state.pop.shape[1], stride):
+            complete_individual(b, i, met[0], state, skel, terms, settings, initial, n_initial, scratch)
+        cuda.syncthreads()
+        if tid == 0:
+            rank_first(b, state, status)
+            settle(b, state, terms, status, control)
 
     @cuda.jit
     def run(
@@ -71,6 +106,9 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
             cuda.local.array(n_d, ftype),
             cuda.local.array(n_jac, ftype),
             cuda.local.array(n_d, ftype),
+            cuda.local.array(n_d, ftype),
+            cuda.local.array(n_l, ftype),
+            cuda.local.array(n_t, ftype),
         )
         met = cuda.shared.array(THREADS_PER_BLOCK, int32)
         P = cur.pop.shape[1]
@@ -114,11 +152,11 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         if tid == 0:
             advanced[b] = swaps
 
-    return initialise, run
+    return initialise, start, run
 
 
 def kernels_for(skel, buffers):
-    """(initialise, run) compiled for this skeleton's and these buffers' bucketed sizes."""
+    """(initialise, start, run) compiled for this skeleton's and these buffers' bucketed sizes."""
     frames = skel.joint_int.shape[0] + skel.site_joint.shape[0]
     return make_kernels(
         _bucket(frames),
@@ -151,7 +189,7 @@ class CudaBackend:
 
     def initialise(self, buffers, status, skel, terms, settings, initial, n_initial):
         """Fill buffers with a first population and status with its best and leaders."""
-        initialise, _ = kernels_for(skel, buffers)
+        initialise, _, _ = kernels_for(skel, buffers)
         d_buf, d_status = self._to_device(buffers), self._to_device(status)
         B, P = buffers.pop.shape[:2]
         initialise[B, self._threads(P)](
@@ -167,14 +205,34 @@ class CudaBackend:
             device.copy_to_host(host)
 
     def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
-        """initialise then run from generation 0 (two launches on the GPU)."""
-        self.initialise(cur, status, skel, terms, settings, initial, n_initial)
+        """The first population (lazy as cpu.start's when the polish is on and problems stop
+        once met), then run from generation 0: two launches."""
+        if memetic.iterations > 0 and control.stop_on_converged:
+            _, start, _ = kernels_for(skel, cur)
+            d_buf, d_status = self._to_device(cur), self._to_device(status)
+            B, P, D = cur.pop.shape
+            start[B, self._threads(P)](
+                d_buf,
+                d_status,
+                self._to_device(skel),
+                self._to_device(terms),
+                settings,
+                memetic,
+                control,
+                cuda.to_device(initial),
+                np.int64(n_initial),
+                cuda.device_array((B, 1, 2 * D * D), cur.pop.dtype),
+            )
+            for host, device in zip(cur + status, d_buf + d_status):
+                device.copy_to_host(host)
+        else:
+            self.initialise(cur, status, skel, terms, settings, initial, n_initial)
         return self.run(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
         """Returns (final buffers, generations advanced); status and the first `advanced` rows
         of history (n_gens, B, 2) are updated."""
-        _, run = kernels_for(skel, cur)
+        _, _, run = kernels_for(skel, cur)
         d_cur, d_nxt, d_status = self._to_device(cur), self._to_device(nxt), self._to_device(status)
         d_history = cuda.device_array(history.shape, history.dtype)  # written by the kernel, never read
         B, P, D = cur.pop.shape

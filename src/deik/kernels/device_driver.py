@@ -34,6 +34,25 @@ def initialise_individual(b, i, state, skel, terms, settings, initial, n_initial
     state.total[b, i] = evaluate(pop[b, i], b, skel, terms, scratch, state.levels[b, i], state.raw[b, i])
 
 
+def polish_first(b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw):
+    """The start of a lazy first population: individual 0 of problem b (initial[b, 0], else
+    its uniform pose) evaluated and polished; returns whether it meets every tolerance, in
+    which case the problem stops and the rest of its population is never sampled."""
+    initialise_individual(b, 0, state, skel, terms, settings, initial, n_initial, scratch)
+    polish(b, 0, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+    return within_tolerances(b, state.raw[b, 0], terms, state.raw.shape[2])
+
+
+def complete_individual(b, i, met, state, skel, terms, settings, initial, n_initial, scratch):
+    """Individual i >= 1 of a lazy first population whose individual 0 was polished
+    (polish_first): a copy of individual 0 when that met every tolerance (the stopped
+    problem's population stays consistent at no cost), else as initialise_individual."""
+    if met:
+        copy_individual(state, state, b, 0, i)
+    else:
+        initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch)
+
+
 def breed_individual(b, i, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw):
     """Generation `gen` for individual i of problem b: its trial from cur, evaluated, goes to nxt
     if not worse (strict priority), else the individual is copied over. In a restart generation

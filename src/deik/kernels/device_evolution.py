@@ -193,7 +193,11 @@ def rank_problem(b, state, status):
 
 
 def rank_first(b, state, status):
-    """A first population's best and leaders (rank_problem) and best levels seen, problem b."""
+    """A first population's bookkeeping for problem b: every Status field reset (active, no
+    generations, restarts or elite), then its best and leaders (rank_problem) and best levels
+    seen. The Status arrays can therefore be reused from solve to solve unfilled."""
+    status.active[b], status.converged[b], status.restarting[b] = True, False, False
+    status.generations[b], status.last_improved[b], status.restarts[b], status.elite[b] = 0, 0, 0, -1
     remember_best(b, rank_problem(b, state, status), state, status)
 
 

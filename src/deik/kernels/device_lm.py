@@ -2,23 +2,26 @@
 
 Compiled together with the other device_*.py files (see deik.kernels.targets). The polish
 minimises the scaled residuals of device_polish.py over the terms on the levels up to the
-individual's first unmet one and moves towards comfort's reference in their null space, with
-steps clamped into the joint limits (a DOF at a limit that the gradient pushes outwards is
-held fixed). A step is kept only if the full strict-priority
-fitness improves, so the polish never trades a higher level for a lower one and never leaves
-the limits. lm is a layout.LmScratch.
+individual's first unmet one, with steps clamped into the joint limits (a DOF at a limit that
+the gradient pushes outwards is held fixed). Where every goal has a tolerance it converges on a
+copy of the individual, judging steps by the cost it minimises, and the individual takes the
+result only if it is better or meets every tolerance (converge); where comfort is left to
+improve it also moves towards comfort's reference in their null space, judging each step by
+the full strict-priority fitness (relax). Either way the polish never trades a higher level
+for a lower one and never leaves the limits. lm is a layout.LmScratch.
 """
 
 import math
 
 from deik.kernels.device_evolution import keep_trial, within_tolerances
 from deik.kernels.device_maths import centre_of_mass, forward_kinematics
-from deik.kernels.device_polish import term_rows
+from deik.kernels.device_polish import is_polished, term_rows
 from deik.kernels.device_terms import score, uses_centre_of_mass, weight_of
 from deik.kernels.layout import LOWER, UPPER
 from deik.objectives.kinds import (
     COMFORT_MAX,
     COMFORT_SUM,
+    SCALE,
     TERM_KIND,
     TERM_LEVEL,
     TOLERANCE,
@@ -28,6 +31,7 @@ _MAX_DAMPING = 1e8
 _DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
 _PULL_STIFFNESS = 1e-6  # comfort's weight against the goals' J^T J (its largest diagonal)
 _MIN_PULL = 1.0 / 64.0  # a comfort pull is shortened 4-fold per rejected step down to this
+STALL_ITERATIONS = 8  # converge gives up when its cost has not halved in this many iterations
 
 
 def improves(lv, tot, levels, total):
@@ -186,27 +190,143 @@ def open_ended(b, terms, T):
 
 
 def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
-    """Up to `iterations` LM steps on individual i of problem b, in place in the Buffers
-    `state`, until every tolerance is met (or on to the smallest move from comfort's reference
-    where a goal without tolerance is left); q (D,), lv (L,), rw (T,) are scratch."""
-    pop, levels, total = state.pop, state.levels, state.total
-    D, L, T = pop.shape[2], levels.shape[2], state.raw.shape[2]
-    limits = skel.limits
-    top = L - 1
-    for lvl in range(L - 1, -1, -1):
-        if levels[b, i, lvl] > 0.0:
+    """Up to `iterations` LM steps on individual i of problem b, in the Buffers `state`, towards
+    every tolerance (converge), or where a goal without tolerance is left, on to the smallest
+    move from comfort's reference (relax); q (D,), lv (L,), rw (T,) are scratch."""
+    if open_ended(b, terms, state.raw.shape[2]):
+        relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+    else:
+        converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+
+
+def first_unmet_level(levels):
+    """The first priority level with a positive value (the last level when all are zero):
+    the polish works on the goals of this level and those above it."""
+    top = levels.shape[0] - 1
+    for lvl in range(levels.shape[0] - 1, -1, -1):
+        if levels[lvl] > 0.0:
             top = lvl
+    return top
+
+
+def polished_cost(b, rw, terms, top):
+    """The LM cost r^T r of raw errors rw (T,): each polished goal on a level <= top adds
+    weight * gain * (error / unit)^2, unit its tolerance (else its distance scale), which is
+    what normal_equations sums over its scaled residual rows (device_polish.term_rows)."""
+    term_int, term_float = terms.term_int, terms.term_float
+    cost = 0.0
+    for t in range(term_int.shape[0]):
+        w = weight_of(terms, b, t)
+        if term_int[t, TERM_LEVEL] <= top and w > 0.0 and is_polished(term_int[t, TERM_KIND]):
+            unit = term_float[t, TOLERANCE] if term_float[t, TOLERANCE] > 0.0 else term_float[t, SCALE]
+            cost += w * (rw[t] / unit) * (rw[t] / unit)
+    return cost
+
+
+def keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
+    """May a step that lowers the polished cost be kept? Only if no level above `top` gets
+    worse and no goal of level `top` that the polish cannot differentiate (left to DE: support
+    polygon, aim, obstacles, ...) moves further from its target."""
+    for lvl in range(top):
+        if lv[lvl] > pose_levels[lvl]:
+            return False
+    term_int = terms.term_int
+    for t in range(term_int.shape[0]):
+        if (
+            term_int[t, TERM_LEVEL] == top
+            and not is_polished(term_int[t, TERM_KIND])
+            and weight_of(terms, b, t) > 0.0
+            and rw[t] > pose_raw[t]
+        ):
+            return False
+    return True
+
+
+def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+    """polish() when every weighted goal has a tolerance. LM runs on a copy of the individual
+    (lm.pose and its levels and raw errors) and keeps a step when it lowers the cost LM
+    minimises, the polished goals' squared errors in tolerances (polished_cost), without
+    worsening a higher level or an unpolished goal (keeps_the_rest): judged by the fitness
+    instead, which weighs errors by distance scales, not tolerances, a step LM proposes was
+    often refused and the damping grew until the search stalled. It stops at every tolerance
+    met, after `iterations`, or when the cost has not halved in STALL_ITERATIONS iterations (a
+    start stuck at a joint limit or in a local minimum: a restart is cheaper). The individual
+    takes the result only if it meets every tolerance or is better by strict priority, so the
+    polish never makes a population worse."""
+    pop, levels, total, raw = state.pop, state.levels, state.total, state.raw
+    D, T = pop.shape[2], raw.shape[2]
+    limits, x, pose_levels, pose_raw = skel.limits, lm.pose, lm.pose_levels, lm.pose_raw
+    for d in range(D):
+        x[d] = pop[b, i, d]
+    for lvl in range(levels.shape[2]):
+        pose_levels[lvl] = levels[b, i, lvl]
+    for t in range(T):
+        pose_raw[t] = raw[b, i, t]
+    pose_total = total[b, i]
+    top = first_unmet_level(levels[b, i])
+    cost = polished_cost(b, pose_raw, terms, top)
+    anchor, since = cost, 0
     damping = 1e-3
-    finish = not open_ended(b, terms, T)
+    met = within_tolerances(b, pose_raw, terms, T)
+    # the normal equations change only when a step is kept; a kept step's frames (computed with
+    # the axes, to score it) are then the new pose's, so each iteration runs one FK
+    formed, frames_ready = False, False
+    for _ in range(iterations):
+        if met or since >= STALL_ITERATIONS:
+            break
+        since += 1
+        if not formed:
+            normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
+            formed = True
+        if damped_step(lm, D, damping, x, limits):
+            for d in range(D):
+                q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
+            forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
+            tot = score(q, b, skel, terms, scratch, lv, rw)
+            trial_cost = polished_cost(b, rw, terms, top)
+            if trial_cost < cost and keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
+                keep_pose(x, pose_levels, pose_raw, q, lv, rw)
+                pose_total, cost = tot, trial_cost
+                met = within_tolerances(b, rw, terms, T)
+                if cost < 0.5 * anchor:
+                    anchor, since = cost, 0
+                damping = max(damping * 0.3, 1e-7)
+                formed, frames_ready = False, True
+                continue
+        damping *= 10.0
+        if damping > _MAX_DAMPING:
+            break
+    if met or improves(pose_levels, pose_total, levels[b, i], total[b, i]):
+        keep_trial(state, b, i, x, pose_levels, pose_raw, pose_total, state.rates[b, i])
+
+
+def keep_pose(x, pose_levels, pose_raw, q, lv, rw):
+    """Copy a kept step's pose q, levels lv and raw errors rw into the polished copy."""
+    for d in range(x.shape[0]):
+        x[d] = q[d]
+    for lvl in range(pose_levels.shape[0]):
+        pose_levels[lvl] = lv[lvl]
+    for t in range(pose_raw.shape[0]):
+        pose_raw[t] = rw[t]
+
+
+def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+    """polish() when a goal without tolerance (comfort) is left to improve: LM steps in place,
+    each kept only if the full strict-priority fitness improves (so the polish never trades a
+    higher level for a lower one), every step with a pull towards comfort's reference in the
+    polished goals' null space (comfort_step)."""
+    pop, levels, total = state.pop, state.levels, state.total
+    D = pop.shape[2]
+    limits = skel.limits
+    top = first_unmet_level(levels[b, i])
+    damping = 1e-3
     pull = 1.0
     # the normal equations change only when a step is kept; a kept step's frames (computed with
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
     formed, frames_ready = False, False
     for _ in range(iterations):
         if not formed:
-            cost = normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready)
-            if cost == 0.0 and finish:
-                return
+            normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready)
             formed = True
         pulled = False
         if damped_step(lm, D, damping, pop[b, i], limits):
@@ -219,8 +339,6 @@ def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
             tot = score(q, b, skel, terms, scratch, lv, rw)
             if improves(lv, tot, levels[b, i], total[b, i]):
                 keep_trial(state, b, i, q, lv, rw, tot, state.rates[b, i])
-                if finish and within_tolerances(b, rw, terms, T):
-                    return
                 damping = max(damping * 0.3, 1e-7)
                 pull = min(2.0 * pull, 1.0)
                 formed, frames_ready = False, True

@@ -113,6 +113,12 @@ def com_rows(skel, R, p, axes, weight, jac, D):
         point_rows(x, y, z, skel.mass_joint[m], skel, axes, weight * skel.mass_data[m, MASS_FRACTION], jac, D)
 
 
+def is_polished(kind):
+    """Has a term of this kind residual rows (position, orientation, centre of mass, COM over
+    a ground point)? The others are left to DE."""
+    return kind <= COM_GROUND and kind != AIM
+
+
 def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
     """Scaled residual (3,) of smooth term t, its Jacobian rows in jac[0:3*D]; (0, 0, 0) and
     zero rows for terms the polish leaves to DE."""
@@ -122,7 +128,7 @@ def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
     kind, f = term_int[t, TERM_KIND], term_int[t, TERM_FRAMES]
     g = terms.params[b, t]
     w = weight_of(terms, b, t)
-    if w <= 0.0 or kind == AIM or kind > COM_GROUND:
+    if w <= 0.0 or not is_polished(kind):
         return 0.0, 0.0, 0.0
     unit = term_float[t, TOLERANCE] if term_float[t, TOLERANCE] > 0.0 else term_float[t, SCALE]
     s = math.sqrt(w) / unit

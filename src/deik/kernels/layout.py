@@ -145,3 +145,6 @@ class LmScratch(NamedTuple):
     gradient: np.ndarray  # (D,)
     jac: np.ndarray  # (3*D,) one term's three Jacobian rows
     delta: np.ndarray  # (D,) the step
+    pose: np.ndarray  # (D,) the pose being polished (device_lm.converge works on a copy)
+    pose_levels: np.ndarray  # (L,) its levels
+    pose_raw: np.ndarray  # (T,) its raw errors

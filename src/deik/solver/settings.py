@@ -5,6 +5,7 @@ The strategy, limit-mode and device names map to the kernels' codes (deik.kernel
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -51,7 +52,7 @@ class Settings:
     F: float = 0.5
     CR: float = 0.9
     adaptive: bool = True
-    polish: int = 10
+    polish: int = 30
     polish_every: int = 10
     polish_count: int = 16
     restarts: int = 20
@@ -82,6 +83,13 @@ class Settings:
             }
         )
 
+    def with_seed(self, seed) -> Settings:
+        """These settings with another seed (checked; the rest is not checked again)."""
+        _seed(seed)
+        new = copy.copy(self)
+        object.__setattr__(new, "seed", seed)
+        return new
+
     def __post_init__(self):
         _choice("strategy", self.strategy, tuple(STRATEGIES))
         _integer("population", self.population, 4, "DE needs 3 donors")
@@ -93,9 +101,7 @@ class Settings:
         if not 0 <= self.CR <= 1:
             raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
         _boolean("adaptive", self.adaptive)
-        _integer("seed", self.seed, 0)
-        if self.seed >= 2**64:
-            raise ValueError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
+        _seed(self.seed)
         _integer("patience", self.patience, 1)
         _integer("polish", self.polish, 0, "0 turns it off")
         _integer("restarts", self.restarts, 0, "0 turns them off")
@@ -130,6 +136,13 @@ def _integer(name: str, value, minimum: int, note: str = "") -> None:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
         hint = f" ({note})" if note else ""
         raise ValueError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
+
+
+def _seed(value) -> None:
+    """ValueError unless `value` is an integer in [0, 2**64) (the kernels' counter-based seed)."""
+    _integer("seed", value, 0)
+    if value >= 2**64:
+        raise ValueError(f"seed must be an integer in [0, 2**64), got {value!r}")
 
 
 def _number(name: str, value, meaning: str) -> None:
