@@ -23,6 +23,8 @@ QUATERNION_ORDERS = ("wxyz", "xyzw")
 QUATERNION_TOLERANCE = 1e-3  # |length - 1| a quaternion may be off by (values typed to 3 decimals)
 ROTATION_TOLERANCE = 1e-5  # R R^T = I within this (2x on the diagonal, as np.allclose)
 POSE_TOLERANCE = 1e-9  # a 4x4 pose's last row is 0 0 0 1 within this
+_EYE = np.eye(3)
+_ORTHONORMAL_BOUND = ROTATION_TOLERANCE * (1 + _EYE)  # R R^T - I, entry by entry
 
 
 def rpy_matrix(rpy) -> np.ndarray:
@@ -33,9 +35,8 @@ def rpy_matrix(rpy) -> np.ndarray:
 def check_rotation(R: np.ndarray, what: str) -> np.ndarray:
     """`R` (..., 3, 3) unchanged when every matrix is a proper rotation (R R^T = I within
     ROTATION_TOLERANCE, determinant > 0); a ValueError naming `what` otherwise."""
-    eye = np.eye(3)
-    orthonormal = (np.abs(R @ np.swapaxes(R, -1, -2) - eye) <= ROTATION_TOLERANCE * (1 + eye)).all()
-    if not orthonormal or (np.linalg.det(R) <= 0).any():
+    off = np.abs(R @ np.swapaxes(R, -1, -2) - _EYE) > _ORTHONORMAL_BOUND
+    if off.any() or (np.linalg.det(R) <= 0).any():
         raise ValueError(
             f"{what} is not a rotation matrix (rows must be orthonormal within {ROTATION_TOLERANCE:g}, "
             "determinant +1); give a proper rotation"

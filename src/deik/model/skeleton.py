@@ -236,7 +236,12 @@ class Skeleton:
         return longest if longest > 0 else 1.0
 
     def root_box(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (3,) of where the root joint's origin can be."""
+        """Lower and upper corners (3,) of where the root joint's origin can be (read-only;
+        computed once: every checked target asks)."""
+        return self._root_box
+
+    @cached_property
+    def _root_box(self) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self.offsets[0].copy(), self.offsets[0].copy()
         rotated = False
         for d in range(self.joint_dof_start[0], self.joint_dof_start[1]):
@@ -252,6 +257,8 @@ class Skeleton:
                     ends = np.stack([axis * self.lower[d], axis * self.upper[d]])
                 ends = np.nan_to_num(ends, nan=0.0)
             lo, hi = lo + ends.min(axis=0), hi + ends.max(axis=0)
+        lo.setflags(write=False)
+        hi.setflags(write=False)
         return lo, hi
 
     def frame_index(self, name: str) -> int:

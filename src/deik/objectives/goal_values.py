@@ -36,9 +36,11 @@ def pack(*parts: np.ndarray) -> np.ndarray:
 def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, label: str):
     """Raise when a target lies farther from every possible root position than the reach."""
     length = skeleton.path_length(frame) if frame is not None else skeleton.reach
-    gap = np.linalg.norm(target - np.clip(target, *skeleton.root_box()), axis=-1)
-    worst = int(np.argmax(gap))
-    if gap[worst] > length * (1 + 1e-9):
+    outside = target - np.clip(target, *skeleton.root_box())
+    squared = (outside * outside).sum(axis=-1)
+    if squared.max() > (length * (1 + 1e-9)) ** 2:
+        gap = np.sqrt(squared)
+        worst = int(np.argmax(gap))
         raise ValueError(
             f"{label}: target {target[worst].round(6).tolist()} is unreachable: it lies "
             f"{gap[worst]:.6g} from the root's range but the chain to it is only {length:.6g} long"

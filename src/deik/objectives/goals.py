@@ -10,7 +10,7 @@ the skeleton's unit is the metre) and ANGLE_TOLERANCE (0.1 degree): docs/convent
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -66,9 +66,10 @@ class Goal:
         """The term's label in tables and reports, e.g. "position left_hand"."""
         return self.LABEL.format_map(vars(self))
 
-    def batched(self) -> bool:
-        """Whether a target, reference or `active` mask carries a batch axis (even of one)."""
-        values = ((getattr(self, name), ndim) for name, ndim in self.BATCH_FIELDS)
+    def batched(self, **replaced) -> bool:
+        """Whether a target, reference or `active` mask carries a batch axis (even of one);
+        `replaced` values stand in for the fields of those names (a new target)."""
+        values = ((replaced.get(name, getattr(self, name)), ndim) for name, ndim in self.BATCH_FIELDS)
         return self.active is not None or any(v is not None and np.ndim(v) > ndim for v, ndim in values)
 
     def gain(self) -> np.ndarray:
@@ -111,6 +112,14 @@ class Goal:
         """Per-problem parameters (B, N_PARAMS); B = 1 when the goal has no batch axis."""
         return np.zeros((1, N_PARAMS))
 
+    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
+        """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,
+        checked as a new goal's would be (shape, NaN, reach, rotation): what deik.Solver swaps
+        in between solves. B = 1 when the target has no batch axis."""
+        goal = replace(self, target=target)
+        goal.row(skeleton)
+        return goal.params(skeleton), goal.batched()
+
 
 @dataclass(frozen=True)
 class Position(Goal):
@@ -130,6 +139,12 @@ class Position(Goal):
     def params(self, skeleton):
         return pack(vector(self.target, (3,), f"{self.frame} target"))
 
+    def target_params(self, skeleton, target):
+        """As Goal.target_params, checking the target once."""
+        values = vector(target, (3,), f"{self.frame} target")
+        check_reachable(skeleton, values, skeleton.frame_index(self.frame), self.label)
+        return pack(values), self.batched(target=target)
+
 
 @dataclass(frozen=True)
 class Orientation(Goal):
@@ -148,9 +163,12 @@ class Orientation(Goal):
     def BATCH_FIELDS(self):  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
         return (("target", FORMS.get(self.form, 2)),)
 
-    def rotation(self) -> np.ndarray:
-        """The target as rotation matrices (B, 3, 3), B = 1 without a batch axis; checked."""
-        R = rotation_from(self.form, self.target, f"orientation target for {self.frame!r}")
+    def rotation(self, target=None) -> np.ndarray:
+        """The target (or `target` in the goal's form) as rotation matrices (B, 3, 3), B = 1
+        without a batch axis; checked."""
+        R = rotation_from(
+            self.form, self.target if target is None else target, f"orientation target for {self.frame!r}"
+        )
         return vector(R, (3, 3), f"{self.frame} orientation")
 
     def row(self, skeleton):
@@ -159,6 +177,10 @@ class Orientation(Goal):
 
     def params(self, skeleton):
         return pack(self.rotation())
+
+    def target_params(self, skeleton, target):
+        """As Goal.target_params, checking the target once."""
+        return pack(self.rotation(target)), self.batched(target=target)
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,8 @@ a new EvolutionState; the one passed in is never changed.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from deik.kernels.pack import pack_skeleton, pack_terms
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
+from deik.solver.result import ReportTerms
 from deik.solver.settings import LIMIT_CODES, STRATEGIES, Settings
 
 STAGNATION = 1e-3  # a best that improves by less than this fraction in `patience` generations stagnates
@@ -118,20 +120,28 @@ class Engine:
 
             self.backend = CpuBackend()
 
-    def for_problem(self, problem: Problem, seed: int | None = None) -> Engine:
+    def for_problem(self, problem: Problem) -> Engine:
         """A copy bound to `problem`, which shares this engine's skeleton and terms and differs
-        only in targets (Problem.with_goal_targets), and to `seed` if given: only the target
-        parameters are packed again."""
+        only in targets (Problem.with_goal_targets): only the target parameters are packed
+        again, into arrays of the copy's own."""
         new = copy.copy(self)
+        new.__dict__.pop("report_terms", None)  # worked out again for the new problem when asked
         new.problem = problem
         new.terms = _with_params(self.terms, problem.table.params)
         new.terms64 = new.terms if self.terms64 is self.terms else _with_params(self.terms64, problem.table.params)
-        if seed is not None and seed != self.settings.seed:
-            new.settings = replace(self.settings, seed=seed)
-            new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
         return new
 
-    def _initial(self, initial, B, D, dtype):
+    def with_seed(self, seed: int) -> Engine:
+        """A copy that draws its random numbers from `seed` (and shares everything else)."""
+        new = copy.copy(self)
+        new.settings = self.settings.with_seed(seed)
+        new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
+        return new
+
+    def initial_poses(self, initial) -> tuple[np.ndarray, int]:
+        """(poses (B, n, D) in the engine's dtype, n) from `initial` poses (D,), (n, D) or
+        (B, n, D) (None: n = 0), checked against the skeleton and the population size."""
+        B, D, dtype = self.problem.batch_size, self.problem.skeleton.n_dofs, np.dtype(self.settings.dtype)
         if initial is None:
             return np.zeros((B, 1, D), dtype), 0
         init = self.problem.skeleton.check_angles(initial, "initial poses")
@@ -140,8 +150,10 @@ class Engine:
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
         if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
             raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
-        init = np.broadcast_to(init, (B,) + init.shape[1:])
-        return np.ascontiguousarray(init, dtype), init.shape[1]
+        # a fresh, writable C array: the kernels' entry points expect that type (cpu_backend._call)
+        poses = np.empty((B,) + init.shape[1:], dtype)
+        poses[...] = init
+        return poses, init.shape[1]
 
     def _fresh(self, initial):
         """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
@@ -149,7 +161,7 @@ class Engine:
         T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
-        init, n_init = self._initial(initial, B, D, dtype)
+        init, n_init = self.initial_poses(initial)
         buffers = Buffers(
             np.empty((B, P, D), dtype),
             np.empty((B, P, L), dtype),
@@ -226,6 +238,11 @@ class Engine:
         )
         return _advanced(final, status, state.history, state.generation, steps, advanced)
 
+    @cached_property
+    def report_terms(self) -> ReportTerms:
+        """What each Result reports per term (solver/result.py), worked out once."""
+        return ReportTerms.of(self.problem.table, self.problem.skeleton)
+
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
         measured against problem b by the CPU kernel's own maths in float64."""
@@ -239,8 +256,9 @@ class Engine:
 
 
 def _with_params(terms: PackedTerms, params: np.ndarray) -> PackedTerms:
-    """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced."""
-    return terms._replace(params=np.ascontiguousarray(params, terms.params.dtype))
+    """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced by a
+    copy of `params`."""
+    return terms._replace(params=np.array(params, terms.params.dtype, order="C"))
 
 
 def _advanced(final: Buffers, status: Status, history, generation: int, steps, advanced: int) -> EvolutionState:

@@ -10,6 +10,8 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.orientations import matrix_quaternion
 from deik.model.skeleton import Skeleton
+from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
+from deik.objectives.registry import kind_of
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,6 +37,66 @@ class GoalReport:
         """Bool array of the batch shape."""
         within = self.error <= self.tolerance if self.tolerance >= 0 else np.full(self.error.shape, True)
         return np.asarray(within | ~self.active)
+
+
+@dataclass(frozen=True, eq=False)
+class ReportTerms:
+    """What each Result of one problem reports per term (T terms, B problems), worked out once
+    per Engine: the problem's TermTable `table`; `goals` (label, kind name, unit, weight,
+    tolerance, level) per term; `weight_gain` (B, T) each term's weight times its per-problem
+    gain; `active` (B, T) read-only, whether a goal applies to a problem; `limit` (T,) the
+    tolerance (inf where none) and `counts` (T,) whether a term's weight is positive (only those
+    decide convergence)."""
+
+    table: object
+    goals: tuple
+    weight_gain: np.ndarray
+    active: np.ndarray
+    limit: np.ndarray
+    counts: np.ndarray
+
+    @classmethod
+    def of(cls, table, skeleton: Skeleton) -> ReportTerms:
+        """From a problem's TermTable (objectives/table.py) on `skeleton`."""
+        weight, tolerance = table.term_float[:, WEIGHT], table.term_float[:, TOLERANCE]
+        gain = table.params[:, :, GAIN]
+        active = gain > 0
+        active.setflags(write=False)
+        levels = table.term_int[:, TERM_LEVEL]
+        goals = tuple(
+            (label, kind_of(kind).name, kind_of(kind).unit_for(skeleton), float(w), float(tol), int(level))
+            for label, kind, w, tol, level in zip(table.labels, table.kinds, weight, tolerance, levels)
+        )
+        return cls(
+            table,
+            goals,
+            weight * gain,
+            active,
+            np.where(tolerance >= 0, tolerance, np.inf),
+            weight > 0,
+        )
+
+    def result(self, skeleton, angles, raw, generations, history, shape, wall_time, device, settings) -> Result:
+        """The Result of best poses `angles` (B, D) with raw errors `raw` (B, T) float64,
+        generations (B,) and history (B, G, 2), fields shaped `shape` + their own axes."""
+        norm = self.table.normalise(raw)
+        met = (raw <= self.limit) | ~self.active
+        goals = tuple(
+            GoalReport(label, kind, unit, error.reshape(shape), value.reshape(shape), w, tol, level, on.reshape(shape))
+            for (label, kind, unit, w, tol, level), error, value, on in zip(self.goals, raw.T, norm.T, self.active.T)
+        )
+        return Result(
+            skeleton=skeleton,
+            angles=angles.reshape(shape + angles.shape[1:]),
+            fitness=(norm * self.weight_gain).sum(axis=1).reshape(shape),
+            goals=goals,
+            generations=generations.reshape(shape),
+            converged=(met | ~self.counts).all(axis=1).reshape(shape),
+            history=history.reshape(shape + history.shape[1:]),
+            wall_time=wall_time,
+            device=device,
+            settings=settings,
+        )
 
 
 @dataclass(frozen=True, eq=False)

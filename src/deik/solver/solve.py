@@ -7,13 +7,12 @@ from dataclasses import fields
 
 import numpy as np
 
-from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
-from deik.objectives.registry import kind_of
 from deik.solver.engine import Engine
 from deik.solver.launches import Launches
 from deik.solver.problem import Problem
-from deik.solver.result import GoalReport, Result
+from deik.solver.result import Result
 from deik.solver.settings import Settings
+from deik.solver.workspace import Workspace
 
 
 def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
@@ -27,26 +26,36 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
     return run_engine(problem, Engine(problem, merge_settings("solve()", settings, overrides)), initial, progress)
 
 
-def run_engine(problem: Problem, engine: Engine, initial=None, progress=None) -> Result:
+def run_engine(
+    problem: Problem, engine: Engine, initial=None, progress=None, workspace=None, batch_shape=None
+) -> Result:
     """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
     budget, time limit, or every problem stopped; the Result (solve() without the set-up).
-    Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly."""
+    Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly,
+    all in the buffers of one Workspace (`workspace`: one kept from an earlier solve of the
+    same sizes, as a Solver does; else a new one). batch_shape: the Result's (default the
+    problem's; a Solver's new targets may add a batch axis)."""
     settings = engine.settings
     start = time.perf_counter()
     skeleton = problem.skeleton
     frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
     launches = Launches(settings, frame_work, progress is not None, start)
-    state = None
-    while state is None or launches.more(state.generation, state.active.any()):
-        count = launches.next(0 if state is None else state.generation)
+    work = Workspace() if workspace is None else workspace
+    first = True
+    while first or launches.more(work.generation, work.active.any()):
+        count = launches.next(work.generation)
         began = time.perf_counter()
         # the first launch sets up the population in the same call
-        state = engine.start(count, initial) if state is None else engine.run(state, count)
+        if first:
+            work.begin(engine, count, initial)
+            first = False
+        else:
+            work.advance(count)
         launches.ran(count, time.perf_counter() - began)
         if progress:
-            progress(state.generation, float(state.total[np.arange(len(state.best)), state.best].min()))
+            progress(work.generation, float(work.total[np.arange(len(work.best)), work.best].min()))
     wall = time.perf_counter() - start
-    return make_result(problem, engine, state, wall)
+    return make_result(problem, engine, work, wall, batch_shape)
 
 
 def solve_batch(problems, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
@@ -66,44 +75,23 @@ def merge_settings(caller: str, settings: Settings | None, overrides: dict, defa
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
-def make_result(problem: Problem, engine: Engine, state, wall_time: float) -> Result:
-    """Result from a final EvolutionState, shaped by problem.batch_shape. Errors are float64: a
-    float64 run reports the final state's raw errors of each problem's best individual, a
-    float32 run re-evaluates that individual in float64 (Engine.raw_errors)."""
-    B, table, shape = problem.batch_size, problem.table, problem.batch_shape
-    best_index = (np.arange(B), state.best)
+def make_result(problem: Problem, engine: Engine, state, wall_time: float, batch_shape=None) -> Result:
+    """Result from a final EvolutionState (or a Workspace), shaped by `batch_shape` (default
+    problem.batch_shape). Errors are float64: a float64 run reports the final state's raw
+    errors of each problem's best individual, a float32 run re-evaluates that individual in
+    float64 (Engine.raw_errors)."""
+    shape = problem.batch_shape if batch_shape is None else batch_shape
+    best_index = (np.arange(problem.batch_size), state.best)
     best = state.pop[best_index].astype(np.float64)
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
-    norm = table.normalise(raw)
-    gain = table.params[:, :, GAIN]
-
-    def batched(a: np.ndarray) -> np.ndarray:
-        """(B, ...) -> (*batch, ...)."""
-        return a.reshape(shape + a.shape[1:])
-
-    goals = tuple(
-        GoalReport(
-            label,
-            kind_of(kind).name,
-            kind_of(kind).unit_for(problem.skeleton),
-            batched(raw[:, t]),
-            batched(norm[:, t]),
-            float(table.term_float[t, WEIGHT]),
-            float(table.term_float[t, TOLERANCE]),
-            int(table.term_int[t, TERM_LEVEL]),
-            batched(gain[:, t] > 0),
-        )
-        for t, (label, kind) in enumerate(zip(table.labels, table.kinds))
-    )
-    return Result(
-        skeleton=problem.skeleton,
-        angles=batched(best),
-        fitness=batched((norm * table.term_float[:, WEIGHT] * gain).sum(axis=1)),
-        goals=goals,
-        generations=batched(state.generations.copy()),
-        converged=np.asarray(np.logical_and.reduce([g.met | (g.weight <= 0) for g in goals])),
-        history=batched(state.history.copy()),
-        wall_time=wall_time,
-        device=engine.settings.device,
-        settings=engine.settings,
+    return engine.report_terms.result(
+        problem.skeleton,
+        best,
+        raw,
+        state.generations.copy(),
+        state.history.copy(),
+        shape,
+        wall_time,
+        engine.settings.device,
+        engine.settings,
     )

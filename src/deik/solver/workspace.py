@@ -1,0 +1,158 @@
+"""Workspace: the buffers a solve works in, launch after launch, in place.
+
+`Engine.run` leaves the caller's EvolutionState unchanged, so every call copies both
+ping-pong buffer sets: 60 MB per launch for a batch of 10,000 Panda problems, which made a
+solve of many short launches (solver/launches.py) spend most of its time copying. A solve owns
+its buffers, so `run_engine` hands the back-end a Workspace's current and spare sets each
+launch and takes the set the kernel ended in as the current one; the history rows of each
+launch are kept and joined once at the end. A `Solver` keeps one Workspace from solve to solve:
+the first launch resets every Status field in the kernel (device_evolution.rank_first), so
+nothing is filled or allocated again while the sizes stay the same.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.kernels.layout import Buffers, Status
+from deik.solver.memory import check_memory, solve_bytes
+
+
+class Workspace:
+    """The buffers of solves of one size: `begin(engine, n, initial)` sets up a population and
+    runs its first n generations, `advance(n)` runs more. Between launches `pop`, `raw`,
+    `total` (the current Buffers'), `best`, `generations`, `active` (the Status') and
+    `generation` describe the state; `history` joins the launches' rows, (B, G, 2)."""
+
+    def __init__(self):
+        self._sizes, self.generation = None, 0
+
+    def _allocate(self, engine) -> None:
+        """Buffers and Status for engine's problem and settings, unless those of the last
+        solve have the same sizes."""
+        problem, settings = engine.problem, engine.settings
+        B, P, D = problem.batch_size, settings.population, problem.skeleton.n_dofs
+        T, L, dtype = problem.table.n_terms, problem.table.n_levels, np.dtype(settings.dtype)
+        sizes = (B, P, D, T, L, dtype, settings.islands)
+        if sizes == self._sizes:
+            return
+        check_memory(
+            solve_bytes(B, P, D, T, L, dtype.itemsize, settings.generations),
+            settings.memory_limit,
+            f"a solve of {B} problem(s) x population {P}",
+        )
+        self.cur, self.spare = (
+            Buffers(
+                np.empty((B, P, D), dtype),
+                np.empty((B, P, L), dtype),
+                np.empty((B, P), dtype),
+                np.empty((B, P, T), dtype),
+                np.empty((B, P, 2), dtype),
+            )
+            for _ in range(2)
+        )
+        self.status = Status(
+            best=np.empty(B, np.int64),
+            active=np.empty(B, np.bool_),
+            generations=np.empty(B, np.int64),
+            converged=np.empty(B, np.bool_),
+            best_seen=np.empty(B, np.float64),
+            best_levels=np.empty((B, L), np.float64),
+            last_improved=np.empty(B, np.int64),
+            restarts=np.empty(B, np.int64),
+            restarting=np.empty(B, np.bool_),
+            elite=np.empty(B, np.int64),
+            leaders=np.empty((B, settings.islands), np.int64),
+        )
+        self._steps = np.empty((0, B, 2))
+        self._sizes = sizes
+
+    def begin(self, engine, n_generations: int, initial=None) -> None:
+        """A first population for engine's problem (seeded with `initial` poses, checked as
+        Engine.init checks them), then up to n_generations, in one back-end call."""
+        self._allocate(engine)
+        init, n_init = engine.initial_poses(initial)
+        self.engine, self.generation, self._rows = engine, 0, []
+        steps = self._steps_for(n_generations)
+        final, advanced = engine.backend.start(
+            self.cur,
+            self.spare,
+            self.status,
+            engine.skel,
+            engine.terms,
+            engine.kernel_settings,
+            engine.memetic,
+            engine.control,
+            steps,
+            init,
+            n_init,
+            n_generations,
+        )
+        self._ran(final, steps, advanced)
+
+    def advance(self, n_generations: int) -> None:
+        """Up to n_generations more (each problem stops on convergence or stagnation)."""
+        engine, steps = self.engine, self._steps_for(n_generations)
+        final, advanced = engine.backend.run(
+            self.cur,
+            self.spare,
+            engine.skel,
+            engine.terms,
+            engine.kernel_settings,
+            engine.memetic,
+            self.status,
+            engine.control,
+            steps,
+            self.generation,
+            n_generations,
+        )
+        self._ran(final, steps, advanced)
+
+    def _steps_for(self, n_generations: int) -> np.ndarray:
+        """History rows (n, B, 2) for a launch: a prefix of a buffer kept between launches."""
+        if self._steps.shape[0] < n_generations:
+            self._steps = np.empty((n_generations,) + self._steps.shape[1:])
+        return self._steps[:n_generations]
+
+    def _ran(self, final: Buffers, steps: np.ndarray, advanced: int) -> None:
+        """After a launch: the buffers it ended in become the current ones (the kernels keep
+        every stopped problem in both sets), and its history rows are kept, NaN where a
+        problem had stopped."""
+        if final is not self.cur:
+            self.cur, self.spare = final, self.cur
+        if advanced:
+            ran = self.generation + np.arange(advanced)
+            stopped = ran[:, None] >= self.status.generations[None, :]
+            self._rows.append(np.where(stopped[..., None], np.nan, steps[:advanced]))
+        self.generation += advanced
+
+    @property
+    def pop(self) -> np.ndarray:
+        return self.cur.pop
+
+    @property
+    def raw(self) -> np.ndarray:
+        return self.cur.raw
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.cur.total
+
+    @property
+    def best(self) -> np.ndarray:
+        return self.status.best
+
+    @property
+    def generations(self) -> np.ndarray:
+        return self.status.generations
+
+    @property
+    def active(self) -> np.ndarray:
+        return self.status.active
+
+    @property
+    def history(self) -> np.ndarray:
+        """Best and mean total per generation, (B, G, 2), NaN once a problem had stopped."""
+        if not self._rows:
+            return np.empty((len(self.status.best), 0, 2))
+        return np.concatenate(self._rows).transpose(1, 0, 2)
