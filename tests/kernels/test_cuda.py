@@ -55,6 +55,19 @@ def test_simulated_cuda_kernel_equals_cpu_kernel_bit_for_bit_in_float64():
     np.testing.assert_array_equal(np.array(cpu["raw"]), np.array(sim["raw"]))
 
 
+def test_simulated_cuda_start_equals_cpu_bit_for_bit_in_float64():
+    # the lazy first population and the polish that converges on a copy (normal equations and
+    # the dual step), then generations, polish rounds and a restart for the unreachable problem
+    cpu = json.loads(_run("start_run.py", "cpu"))
+    sim = json.loads(_run("start_run.py", "gpu", simulator=True))
+    assert cpu["converged"] == [True, True, False] and cpu["generations"][:2] == [0, 0]
+    assert cpu["restarts"][2] == 1
+    for key in ("generations", "converged", "restarts"):
+        assert cpu[key] == sim[key], key
+    for key in ("pop", "raw", "history"):
+        np.testing.assert_array_equal(np.array(cpu[key]), np.array(sim[key]), err_msg=key)
+
+
 def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
     # Without the LM polish: Numba evaluates float32 * float-literal in float64 on the CPU while
     # the simulator (NumPy 2 scalars) stays in float32, and the polish's accept/reject steps

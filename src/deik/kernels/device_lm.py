@@ -77,6 +77,82 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
     return cost
 
 
+def polished_rows(b, terms, top):
+    """How many residual rows the polish forms for problem b: three per weighted goal with rows
+    (device_polish.is_polished) on a level <= top."""
+    term_int = terms.term_int
+    m = 0
+    for t in range(term_int.shape[0]):
+        if term_int[t, TERM_LEVEL] <= top and weight_of(terms, b, t) > 0.0 and is_polished(term_int[t, TERM_KIND]):
+            m += 3
+    return m
+
+
+def jacobian_rows(q, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready):
+    """normal_equations' rows kept as they are, for dual_step when there are fewer (m, from
+    polished_rows) than DOFs: J (m, D) row-major in lm.normal[0:m*D], the residual r (m,) in
+    lm.A[m*m:m*m+m], lm.gradient = J^T r; returns the cost r^T r."""
+    R, p, term_int = scratch.R, scratch.p, terms.term_int
+    J, r, gradient = lm.normal, lm.A[m * m : m * m + m], lm.gradient
+    if not frames_ready:
+        forward_kinematics(q, skel, R, p, scratch.work, axes, True)
+    cx, cy, cz = 0.0, 0.0, 0.0
+    if uses_centre_of_mass(term_int):
+        cx, cy, cz = centre_of_mass(skel, R, p)
+    row, cost = 0, 0.0
+    for t in range(term_int.shape[0]):
+        if term_int[t, TERM_LEVEL] <= top and weight_of(terms, b, t) > 0.0 and is_polished(term_int[t, TERM_KIND]):
+            r[row], r[row + 1], r[row + 2] = term_rows(
+                t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D
+            )
+            cost += r[row] * r[row] + r[row + 1] * r[row + 1] + r[row + 2] * r[row + 2]
+            row += 3
+    for d in range(D):
+        g = 0.0
+        for k in range(m):
+            g += J[k * D + d] * r[k]
+        gradient[d] = g
+    return cost
+
+
+def dual_step(lm, D, m, damping, q, limits):
+    """damped_step's step through an m x m system, for m < D rows J (m, D) and residual r of
+    jacobian_rows: with Lambda the damping diagonal, (J^T J + Lambda)^-1 J^T r =
+    Lambda^-1 J^T (I + J Lambda^-1 J^T)^-1 r (Woodbury), about m^2 D flops instead of
+    m D^2 + D^3 / 6: a 20-joint chain reaching for a point solves 3 x 3 instead of 20 x 20.
+    Damping and DOFs held at their limits as in damped_step; False if not positive definite."""
+    J, A, inverse, delta, gradient = lm.normal, lm.A, lm.jac, lm.delta, lm.gradient
+    r, y = A[m * m : m * m + m], A[m * m + m : m * m + 2 * m]
+    peak = 0.0
+    for d in range(D):
+        diagonal = 0.0
+        for k in range(m):
+            diagonal += J[k * D + d] * J[k * D + d]
+        inverse[d] = diagonal
+        peak = max(peak, diagonal)
+    for d in range(D):
+        if (q[d] <= limits[d, LOWER] and gradient[d] > 0.0) or (q[d] >= limits[d, UPPER] and gradient[d] < 0.0):
+            inverse[d] = 0.0
+        else:
+            inverse[d] = 1.0 / (damping * max(inverse[d], _DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30)
+    for i in range(m):
+        for k in range(i + 1):
+            v = 1.0 if i == k else 0.0
+            for d in range(D):
+                v += J[i * D + d] * inverse[d] * J[k * D + d]
+            A[i * m + k] = v
+        y[i] = r[i]
+    if not cholesky(A, m):
+        return False
+    cholesky_solve(A, y, m)
+    for d in range(D):
+        v = 0.0
+        for k in range(m):
+            v += J[k * D + d] * y[k]
+        delta[d] = -inverse[d] * v
+    return True
+
+
 def comfort_step(b, q, terms, lm, D, pull, limits):
     """Add to the step lm.delta a move towards the comfort terms' reference that leaves the
     polished terms' errors unchanged to first order: the minimiser of (x - v)^T W (x - v) +
@@ -265,6 +341,8 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
     pose_total = total[b, i]
     top = first_unmet_level(levels[b, i])
     cost = polished_cost(b, pose_raw, terms, top)
+    m = polished_rows(b, terms, top)
+    dual = m < D  # fewer residual rows than DOFs: solve m x m (dual_step)
     anchor, since = cost, 0
     damping = 1e-3
     met = within_tolerances(b, pose_raw, terms, T)
@@ -272,13 +350,16 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
     formed, frames_ready = False, False
     for _ in range(iterations):
-        if met or since >= STALL_ITERATIONS:
-            break
+        if met or cost == 0.0 or since >= STALL_ITERATIONS:
+            break  # (a zero cost leaves nothing the polish can move: the unmet goals are DE's)
         since += 1
         if not formed:
-            normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
+            if dual:
+                jacobian_rows(x, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready)
+            else:
+                normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
             formed = True
-        if damped_step(lm, D, damping, x, limits):
+        if dual_step(lm, D, m, damping, x, limits) if dual else damped_step(lm, D, damping, x, limits):
             for d in range(D):
                 q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
             forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)

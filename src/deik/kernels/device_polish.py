@@ -37,13 +37,6 @@ from deik.objectives.kinds import (
 )
 
 
-def is_ancestor(k, j, joint_int):
-    """Is joint k joint j or one of its ancestors? (Parents come before children.)"""
-    while j > k:
-        j = joint_int[j, PARENT]
-    return j == k
-
-
 def frame_joint(f, skel):
     """The joint that carries frame f (a joint, or a site's joint)."""
     J = skel.joint_int.shape[0]
@@ -51,11 +44,11 @@ def frame_joint(f, skel):
 
 
 def point_rows(x, y, z, j, skel, axes, weight, jac, D):
-    """jac[0:3*D] += weight * d(point)/dq for a world point (x, y, z) carried by joint j."""
+    """jac[0:3*D] += weight * d(point)/dq for a world point (x, y, z) carried by joint j (every
+    motion of j and of its ancestors moves it)."""
     joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
-    for k in range(j + 1):
-        if not is_ancestor(k, j, joint_int):
-            continue
+    k = j
+    while k >= 0:
         for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
             d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
             ax, ay, az = axes[6 * n], axes[6 * n + 1], axes[6 * n + 2]
@@ -65,20 +58,22 @@ def point_rows(x, y, z, j, skel, axes, weight, jac, D):
             jac[d] += s * ax
             jac[D + d] += s * ay
             jac[2 * D + d] += s * az
+        k = joint_int[k, PARENT]
 
 
 def rotation_rows(j, skel, axes, weight, jac, D):
-    """jac[0:3*D] += weight * (angular velocity of joint j's frame per unit dq)."""
+    """jac[0:3*D] += weight * (angular velocity of joint j's frame per unit dq): the rotations
+    of j and of its ancestors."""
     joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
-    for k in range(j + 1):
-        if not is_ancestor(k, j, joint_int):
-            continue
+    k = j
+    while k >= 0:
         for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
             if motion_int[n, MOTION_KIND] == ROTATE_MOTION:
                 d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
                 jac[d] += s * axes[6 * n]
                 jac[D + d] += s * axes[6 * n + 1]
                 jac[2 * D + d] += s * axes[6 * n + 2]
+        k = joint_int[k, PARENT]
 
 
 def rotation_vector(R, f, target):
