@@ -112,6 +112,11 @@ class Goal:
         """Per-problem parameters (B, N_PARAMS); B = 1 when the goal has no batch axis."""
         return np.zeros((1, N_PARAMS))
 
+    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
+        """row() and params() together (what Problem compiles): goals whose check and packing
+        share work override it, so a target is checked once."""
+        return self.row(skeleton), self.params(skeleton)
+
     def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
         """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,
         checked as a new goal's would be (shape, NaN, reach, rotation): what deik.Solver swaps
@@ -132,18 +137,24 @@ class Position(Goal):
     target: object
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        f = skeleton.frame_index(self.frame)
-        check_reachable(skeleton, vector(self.target, (3,), f"{self.frame} target"), f, self.label)
-        return self._row(POSITION, (f,), skeleton.reach, LENGTH_TOLERANCE)
+        return self.compile(skeleton)[0]
 
     def params(self, skeleton):
         return pack(vector(self.target, (3,), f"{self.frame} target"))
 
+    def compile(self, skeleton):
+        values = self._checked(skeleton, self.target)
+        return self._row(POSITION, (skeleton.frame_index(self.frame),), skeleton.reach, LENGTH_TOLERANCE), pack(values)
+
     def target_params(self, skeleton, target):
         """As Goal.target_params, checking the target once."""
+        return pack(self._checked(skeleton, target)), self.batched(target=target)
+
+    def _checked(self, skeleton: Skeleton, target) -> np.ndarray:
+        """`target` as (B, 3), checked: shape, NaN, within reach of the frame."""
         values = vector(target, (3,), f"{self.frame} target")
         check_reachable(skeleton, values, skeleton.frame_index(self.frame), self.label)
-        return pack(values), self.batched(target=target)
+        return values
 
 
 @dataclass(frozen=True)
@@ -172,11 +183,14 @@ class Orientation(Goal):
         return vector(R, (3, 3), f"{self.frame} orientation")
 
     def row(self, skeleton):
-        self.rotation()
-        return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
+        return self.compile(skeleton)[0]
 
     def params(self, skeleton):
         return pack(self.rotation())
+
+    def compile(self, skeleton):
+        R = self.rotation()
+        return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE), pack(R)
 
     def target_params(self, skeleton, target):
         """As Goal.target_params, checking the target once."""

@@ -122,13 +122,13 @@ class Engine:
 
     def for_problem(self, problem: Problem) -> Engine:
         """A copy bound to `problem`, which shares this engine's skeleton and terms and differs
-        only in targets (Problem.with_goal_targets): only the target parameters are packed
-        again, into arrays of the copy's own."""
+        only in targets and comfort reference poses: those are packed again, into arrays of the
+        copy's own (a Solver and a kept engine write new ones into them)."""
         new = copy.copy(self)
         new.__dict__.pop("report_terms", None)  # worked out again for the new problem when asked
         new.problem = problem
-        new.terms = _with_params(self.terms, problem.table.params)
-        new.terms64 = new.terms if self.terms64 is self.terms else _with_params(self.terms64, problem.table.params)
+        new.terms = _with_targets(self.terms, problem)
+        new.terms64 = new.terms if self.terms64 is self.terms else _with_targets(self.terms64, problem)
         return new
 
     def with_seed(self, seed: int) -> Engine:
@@ -255,10 +255,14 @@ class Engine:
         return self.run(state, 1)
 
 
-def _with_params(terms: PackedTerms, params: np.ndarray) -> PackedTerms:
-    """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced by a
-    copy of `params`."""
-    return terms._replace(params=np.array(params, terms.params.dtype, order="C"))
+def _with_targets(terms: PackedTerms, problem: Problem) -> PackedTerms:
+    """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) and comfort
+    reference poses (B, T, D) replaced by copies of the problem's."""
+    dtype = terms.params.dtype
+    return terms._replace(
+        params=np.array(problem.table.params, dtype, order="C"),
+        reference=np.array(problem.reference, dtype, order="C"),
+    )
 
 
 def _advanced(final: Buffers, status: Status, history, generation: int, steps, advanced: int) -> EvolutionState:

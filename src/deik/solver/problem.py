@@ -146,11 +146,13 @@ class Problem:
     def _compile(self) -> Compiled:
         sk = self.skeleton
         terms = list(self.goals)
-        rows = [g.row(sk) for g in terms]
+        compiled = [g.compile(sk) for g in terms]
+        rows = [row for row, _ in compiled]
         if self.limits == "penalty":  # a level above every goal's
             terms.append(LimitsPenalty(level=min(r.level for r in rows) - 1))
-            rows.append(terms[-1].row(sk))
-        targets = [(g.params(sk), g.gain()) for g in terms]
+            compiled.append(terms[-1].compile(sk))
+            rows.append(compiled[-1][0])
+        targets = [(params, g.gain()) for g, (_, params) in zip(terms, compiled)]
         references = [g.reference_pose(sk) if isinstance(g, Comfort) else None for g in terms]
         sizes = {p.shape[0] for p, _ in targets} | {gain.shape[0] for _, gain in targets}
         sizes |= {r.shape[0] for r in references if r is not None}

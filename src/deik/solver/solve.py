@@ -8,6 +8,7 @@ from dataclasses import fields
 import numpy as np
 
 from deik.solver.engine import Engine
+from deik.solver.kept import kept_engine
 from deik.solver.launches import Launches
 from deik.solver.problem import Problem
 from deik.solver.result import Result
@@ -23,7 +24,8 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
     given. Returns an immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
-    return run_engine(problem, Engine(problem, merge_settings("solve()", settings, overrides)), initial, progress)
+    with kept_engine(problem, merge_settings("solve()", settings, overrides)) as (engine, workspace):
+        return run_engine(problem, engine, initial, progress, workspace)
 
 
 def run_engine(

@@ -1,0 +1,94 @@
+"""Engines kept between deik.solve calls on problems of one structure.
+
+`deik.solve` builds an Engine (packed terms, kernel settings, the Result's per-term facts) and
+its buffers on every call: about 60 us of a 200 us robot solve. Calls in a loop usually pose
+the same structure again (skeleton, goal kinds, frames, weights, tolerances, levels, batch size
+and settings) with other targets. `kept_engine` keeps the last Engine and Workspace of each
+small structure: a later call takes them out (no other call can use them meanwhile), writes its
+own targets, gains and comfort references into the engine's arrays, and puts them back when
+done. A Result never refers to them (solve.make_result copies what it reports). Only solves of
+at most KEEP_BYTES of buffers are kept, and at most KEEP_STRUCTURES structures.
+"""
+
+from __future__ import annotations
+
+import threading
+from contextlib import contextmanager
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from deik.solver.engine import Engine
+from deik.solver.memory import solve_bytes
+from deik.solver.problem import Problem
+from deik.solver.settings import Settings
+from deik.solver.workspace import Workspace
+
+KEEP_BYTES = 1 << 20  # buffers of a kept solve: small problems, where set-up dominates
+KEEP_STRUCTURES = 16
+_SETTING_NAMES = tuple(f.name for f in fields(Settings) if f.name != "seed")  # a seed is set per call
+
+
+@dataclass
+class _Kept:
+    skeleton: object  # held, so that the key's id() cannot be reused by another skeleton
+    engine: Engine
+    workspace: Workspace
+
+
+_kept: dict = {}
+_lock = threading.Lock()
+
+
+def _structure(problem: Problem, settings: Settings) -> tuple:
+    """Everything an Engine is built from but the seed, the targets and the comfort reference
+    poses (which a kept engine takes in place): equal keys give engines that differ only in
+    those. The gains are in the key because the Result's per-term facts read them."""
+    table = problem.table
+    arrays = (table.term_int, table.term_float, table.dof_weight, table.pair_int, table.pair_radius)
+    return (
+        id(problem.skeleton),
+        problem.limits,
+        table.labels,
+        table.n_levels,
+        table.params.shape,
+        table.params[:, :, -1].tobytes(),  # the gains (objectives.kinds.GAIN): the report reads them
+        *(a.tobytes() for a in arrays),
+        *(getattr(settings, name) for name in _SETTING_NAMES),
+    )
+
+
+@contextmanager
+def kept_engine(problem: Problem, settings: Settings):
+    """(engine, workspace) for solving `problem` with `settings`: a kept pair of the same
+    structure with this problem's targets written in, else new ones (kept afterwards when
+    small)."""
+    key = _structure(problem, settings)
+    with _lock:
+        kept = _kept.pop(key, None)
+    if kept is not None and kept.skeleton is problem.skeleton:
+        engine = kept.engine
+        engine.problem = problem
+        for terms in {id(t): t for t in (engine.terms, engine.terms64)}.values():
+            terms.params[...] = problem.table.params
+            terms.reference[...] = problem.reference
+        if settings.seed != engine.settings.seed:
+            engine = engine.with_seed(settings.seed)
+    else:
+        kept = _Kept(problem.skeleton, Engine(problem, settings).for_problem(problem), Workspace())
+        engine = kept.engine
+    yield engine, kept.workspace
+    problem_size = solve_bytes(
+        problem.batch_size,
+        settings.population,
+        problem.skeleton.n_dofs,
+        problem.table.n_terms,
+        problem.table.n_levels,
+        np.dtype(settings.dtype).itemsize,
+        0,
+    )
+    if problem_size <= KEEP_BYTES:
+        with _lock:
+            _kept[key] = kept
+            while len(_kept) > KEEP_STRUCTURES:
+                del _kept[next(iter(_kept))]
