@@ -165,6 +165,21 @@ def _active_problems(active):
     return order, n
 
 
+@njit(cache=True)
+def _polish_due(order, n_active, fresh, round_due):
+    """(the active problems in order (n_active,) that a polish round refines now, their
+    count): all of them when the round is due (every polish_every generations), else those
+    whose last generation was a restart's, whose fresh random poses a round tries at once
+    instead of after DE has pulled them back towards the elite."""
+    due = np.empty(n_active, np.int64)
+    n = 0
+    for k in range(n_active):
+        if round_due or fresh[order[k]]:
+            due[n] = order[k]
+            n += 1
+    return due, n
+
+
 @njit(parallel=True, cache=True)
 def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """One generation's trials over the n active individuals, in `chunks` work units. (A parallel
@@ -224,23 +239,28 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     copied into both. threads: the pool's size (small loops run on the caller's)."""
     P = cur.pop.shape[1]
     active = status.active
+    fresh = np.zeros(active.shape[0], np.bool_)  # whose last generation restarted (random poses)
     swaps = 0
     for g in range(n_gens):
         gen = gen_start + g
         order, n_active = _active_problems(active)
-        if n_active and memetic.iterations > 0 and gen % memetic.every == 0:
+        if n_active and memetic.iterations > 0:
             # polish before breeding, so a problem the polish solves stops without a generation
-            chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
-            _polish(chunks, n_active, cur, skel, terms, status, memetic, order)
-            for k in range(n_active):
-                b = order[k]
-                dev.settle(b, cur, terms, status, control)
-                if not active[b]:
-                    for i in range(P):
-                        dev.copy_individual(cur, nxt, b, i, i)
-            order, n_active = _active_problems(active)
+            due, n_due = _polish_due(order, n_active, fresh, gen % memetic.every == 0)
+            if n_due:
+                chunks = _chunks(n_due, 3 * memetic.iterations * memetic.count, skel, threads)
+                _polish(chunks, n_due, cur, skel, terms, status, memetic, due)
+                for k in range(n_due):
+                    b = due[k]
+                    dev.settle(b, cur, terms, status, control)
+                    if not active[b]:
+                        for i in range(P):
+                            dev.copy_individual(cur, nxt, b, i, i)
+                order, n_active = _active_problems(active)
         if n_active == 0:
             break
+        for k in range(n_active):
+            fresh[order[k]] = status.restarting[order[k]]
         n = n_active * P
         _breed(_chunks(n, 1, skel, threads), n, cur, nxt, skel, terms, settings, status, order, gen)
         cur, nxt = nxt, cur

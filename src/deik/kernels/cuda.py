@@ -113,11 +113,12 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         met = cuda.shared.array(THREADS_PER_BLOCK, int32)
         P = cur.pop.shape[1]
         swaps = 0
+        fresh = False  # the last generation restarted (cpu.run_generations polishes it at once)
         for g in range(n_gens):
             cuda.syncthreads()
             if not status.active[b]:
                 break
-            if memetic.iterations > 0 and (gen_start + g) % memetic.every == 0:
+            if memetic.iterations > 0 and ((gen_start + g) % memetic.every == 0 or fresh):
                 # polish side by side before breeding, then undo every polish after the first
                 # that meets all tolerances: the CPU's in-order round with its early stop (nxt
                 # is scratch until the breeding writes it)
@@ -137,6 +138,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                 cuda.syncthreads()
                 if not status.active[b]:
                     break
+            fresh = status.restarting[b]
             for i in range(tid, P, stride):
                 breed_individual(
                     b, i, gen_start + g, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw

@@ -91,7 +91,7 @@ def make_result(problem: Problem, engine: Engine, state, wall_time: float, batch
         best,
         raw,
         state.generations.copy(),
-        state.history.copy(),
+        state.history if isinstance(state, Workspace) else state.history.copy(),  # a Workspace's is new
         shape,
         wall_time,
         engine.settings.device,

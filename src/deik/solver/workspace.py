@@ -73,7 +73,7 @@ class Workspace:
         self._allocate(engine)
         init, n_init = engine.initial_poses(initial)
         self.engine, self.generation, self._rows = engine, 0, []
-        steps = self._steps_for(n_generations)
+        steps, running = self._steps_for(n_generations), np.arange(len(self.status.best))
         final, advanced = engine.backend.start(
             self.cur,
             self.spare,
@@ -88,11 +88,12 @@ class Workspace:
             n_init,
             n_generations,
         )
-        self._ran(final, steps, advanced)
+        self._ran(final, steps, advanced, running)
 
     def advance(self, n_generations: int) -> None:
         """Up to n_generations more (each problem stops on convergence or stagnation)."""
         engine, steps = self.engine, self._steps_for(n_generations)
+        running = np.flatnonzero(self.status.active)  # only these write history rows
         final, advanced = engine.backend.run(
             self.cur,
             self.spare,
@@ -106,7 +107,7 @@ class Workspace:
             self.generation,
             n_generations,
         )
-        self._ran(final, steps, advanced)
+        self._ran(final, steps, advanced, running)
 
     def _steps_for(self, n_generations: int) -> np.ndarray:
         """History rows (n, B, 2) for a launch: a prefix of a buffer kept between launches."""
@@ -114,16 +115,18 @@ class Workspace:
             self._steps = np.empty((n_generations,) + self._steps.shape[1:])
         return self._steps[:n_generations]
 
-    def _ran(self, final: Buffers, steps: np.ndarray, advanced: int) -> None:
+    def _ran(self, final: Buffers, steps: np.ndarray, advanced: int, running: np.ndarray) -> None:
         """After a launch: the buffers it ended in become the current ones (the kernels keep
-        every stopped problem in both sets), and its history rows are kept, NaN where a
-        problem had stopped."""
+        every stopped problem in both sets), and the history rows it wrote for the problems
+        `running` at its start are kept, NaN from where each stopped (a batch's last launches
+        run few of its problems: the rows of the others are never read)."""
         if final is not self.cur:
             self.cur, self.spare = final, self.cur
         if advanced:
             ran = self.generation + np.arange(advanced)
-            stopped = ran[:, None] >= self.status.generations[None, :]
-            self._rows.append(np.where(stopped[..., None], np.nan, steps[:advanced]))
+            stopped = ran[:, None] >= self.status.generations[running][None, :]
+            rows = np.where(stopped[..., None], np.nan, steps[:advanced, running])
+            self._rows.append((self.generation, running, rows))
         self.generation += advanced
 
     @property
@@ -153,6 +156,7 @@ class Workspace:
     @property
     def history(self) -> np.ndarray:
         """Best and mean total per generation, (B, G, 2), NaN once a problem had stopped."""
-        if not self._rows:
-            return np.empty((len(self.status.best), 0, 2))
-        return np.concatenate(self._rows).transpose(1, 0, 2)
+        history = np.full((len(self.status.best), self.generation, 2), np.nan)
+        for first, running, rows in self._rows:
+            history[running, first : first + len(rows)] = rows.transpose(1, 0, 2)
+        return history
