@@ -106,21 +106,23 @@ def test_jde_rates_adapt_within_their_ranges_and_fixed_rates_do_not():
     np.testing.assert_array_equal(again.rates, state.rates)
 
 
-def _conflicting_problem():
+def _conflicting_problem(*more_goals):
     """Tip and elbow targets 4 apart with 2 links between them: no pose meets both, so the
-    search can only stagnate."""
+    search can only stagnate; `more_goals` are added."""
     sk = deik.chain(4)
     return deik.Problem(
         sk,
         [
             deik.Position("tip", [2.5, 0.0, 0.0], tolerance=1e-4),
             deik.Position("link2", [-1.5, 0.0, 0.0], tolerance=1e-4),
+            *more_goals,
         ],
     )
 
 
 def test_restarts_keep_the_best_and_are_reproducible():
-    problem = _conflicting_problem()
+    # an aim the polish cannot differentiate: restarts wait for `patience` generations of stagnation
+    problem = _conflicting_problem(deik.Aim("tip", [0.0, 3.0, 0.0], axis=(1.0, 0.0, 0.0), tolerance=1e-4))
     kw = dict(population=16, generations=400, patience=20, restarts=5, seed=4)
     result = deik.solve(problem, **kw)
     best = result.history[:, 0]
@@ -132,6 +134,20 @@ def test_restarts_keep_the_best_and_are_reproducible():
     np.testing.assert_array_equal(again.angles, result.angles)
     none = deik.Engine(problem, deik.Settings(**{**kw, "restarts": 0}))
     assert none.run(none.init(), 400).generation < state.generation
+
+
+def test_a_polish_round_that_meets_nothing_restarts_at_once():
+    # every goal has a tolerance and residual rows, so the polish sees the whole problem: a
+    # round whose 16 polished starts all miss restarts without waiting for `patience`
+    kw = dict(population=16, generations=400, patience=1000, restarts=3, seed=4, polish_every=10)
+    engine = deik.Engine(_conflicting_problem(), deik.Settings(**kw))
+    state = engine.run(engine.init(), 15)
+    assert state.restarts[0] >= 1 and state.active[0]
+    # with an aim the polish cannot differentiate, the same round waits for the patience
+    seeing_less = deik.Engine(
+        _conflicting_problem(deik.Aim("tip", [0.0, 3.0, 0.0], tolerance=1e-4)), deik.Settings(**kw)
+    )
+    assert seeing_less.run(seeing_less.init(), 15).restarts[0] == 0
 
 
 def test_time_limit_stops_a_search_that_cannot_converge():

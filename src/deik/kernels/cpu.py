@@ -80,7 +80,7 @@ def start(cur, nxt, status, skel, terms, settings, memetic, control, history, in
         _complete(_chunks(n, 1, skel, threads), n, cur, skel, terms, settings, initial, n_initial, met)
         for b in range(B):
             dev.rank_first(b, cur, status)
-            dev.settle(b, cur, terms, status, control)
+            dev.settle(b, 0, cur, terms, status, control, False)  # one polish, not a round
             if not status.active[b]:
                 for i in range(P):
                     dev.copy_individual(cur, nxt, b, i, i)  # a stopped problem lies in both buffers
@@ -252,7 +252,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
                 _polish(chunks, n_due, cur, skel, terms, status, memetic, due)
                 for k in range(n_due):
                     b = due[k]
-                    dev.settle(b, cur, terms, status, control)
+                    dev.settle(b, gen, cur, terms, status, control, True)
                     if not active[b]:
                         for i in range(P):
                             dev.copy_individual(cur, nxt, b, i, i)

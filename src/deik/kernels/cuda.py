@@ -84,7 +84,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         cuda.syncthreads()
         if tid == 0:
             rank_first(b, state, status)
-            settle(b, state, terms, status, control)
+            settle(b, 0, state, terms, status, control, False)
 
     @cuda.jit
     def run(
@@ -134,7 +134,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                             break
                 cuda.syncthreads()
                 if tid == 0:
-                    settle(b, cur, terms, status, control)
+                    settle(b, gen_start + g, cur, terms, status, control, True)
                 cuda.syncthreads()
                 if not status.active[b]:
                     break

@@ -6,6 +6,7 @@ Compiled together with the other device_*.py files (see deik.kernels.targets).
 import math
 
 from deik.kernels.device_maths import randint, uniform
+from deik.kernels.device_polish import is_polished
 from deik.kernels.device_terms import weight_of
 from deik.kernels.layout import (
     BEST_1,
@@ -20,7 +21,7 @@ from deik.kernels.layout import (
     REFLECT,
     UPPER,
 )
-from deik.objectives.kinds import TOLERANCE
+from deik.objectives.kinds import TERM_KIND, TOLERANCE
 
 _TWO_PI = 2.0 * math.pi
 _JDE_REDRAW = 0.1
@@ -222,14 +223,37 @@ def improved(b, k, state, status, rel):
     return state.total[b, k] < status.best_seen[b] - rel * abs(status.best_seen[b]) - 1e-30
 
 
-def settle(b, state, terms, status, control):
-    """After a polish round: problem b's best, leaders and convergence (status.converged); a
-    converged problem stops (status.active) when control.stop_on_converged."""
+def settle(b, gen, state, terms, status, control, full_round):
+    """After a polish: problem b's best, leaders and convergence (status.converged); a
+    converged problem stops (status.active) when control.stop_on_converged. After a full round
+    (full_round) that met nothing, a problem whose every weighted goal the polish sees
+    (polish_sees_all) restarts at once, restarts permitting: its round found only local minima
+    of those goals, along which DE crept for hundreds of generations before stagnating (the
+    stragglers of a Panda batch: 8 mm off in position while the orientation kept improving)."""
     k = rank_problem(b, state, status)
     met = within_tolerances(b, state.raw[b, k], terms, state.raw.shape[2])
     status.converged[b] = met
     if met and control.stop_on_converged:
         status.active[b] = False
+    elif full_round and not met and status.restarts[b] < control.max_restarts and polish_sees_all(b, terms):
+        restart(b, k, gen, status)
+
+
+def polish_sees_all(b, terms):
+    """Has every weighted goal of problem b a tolerance and residual rows (is_polished)?"""
+    term_int, term_float = terms.term_int, terms.term_float
+    for t in range(term_int.shape[0]):
+        if weight_of(terms, b, t) > 0.0 and (term_float[t, TOLERANCE] < 0.0 or not is_polished(term_int[t, TERM_KIND])):
+            return False
+    return True
+
+
+def restart(b, k, gen, status):
+    """Flag problem b to restart in its next breeding, individual k kept as the elite."""
+    status.restarts[b] += 1
+    status.restarting[b] = True
+    status.elite[b] = k
+    status.last_improved[b] = gen
 
 
 def update_status(b, gen, row, state, terms, status, control, history):
@@ -262,9 +286,6 @@ def update_status(b, gen, row, state, terms, status, control, history):
         last_improved[b] = gen
     elif gen - last_improved[b] >= control.patience:
         if not met and status.restarts[b] < control.max_restarts:
-            status.restarts[b] += 1
-            status.restarting[b] = True
-            elite[b] = k
-            last_improved[b] = gen
+            restart(b, k, gen, status)
         else:
             status.active[b] = False
