@@ -14,7 +14,6 @@ from deik.viz.marks import COLOURS
 from helpers import random_poses
 
 
-
 def _perspective_data(points):
     """Y up: the perspective view's (x, y, z) axes show world (x, -z, y), a right-handed frame with
     up vertical (the front view shows (x, y), the side view (z, y))."""
