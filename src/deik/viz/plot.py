@@ -16,7 +16,7 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.viz.marks import colour, frame_parents, goal_targets, length_unit
-from deik.viz.pose_axes import draw_skeleton
+from deik.viz.pose_axes import draw_skeleton, fit_axes
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 PROJECTIONS = ("2d", "3d")
@@ -58,7 +58,7 @@ def axis_name(v: np.ndarray) -> str:
     return ("-" if v[k] < 0 else "") + "xyz"[k] if np.isclose(abs(v[k]), 1.0) else "horizontal"
 
 
-def _views(skeleton: Skeleton, projection: str):
+def views(skeleton: Skeleton, projection: str):
     """[(title, basis (3, 2) or (3, 3) whose columns are the picture's axes in world coordinates)]."""
     if projection not in PROJECTIONS:
         raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
@@ -68,6 +68,25 @@ def _views(skeleton: Skeleton, projection: str):
     if is_planar(skeleton):
         return [("", np.eye(3)[:, :2])]
     return [("front", np.stack([across, up], axis=1)), ("side", np.stack([-depth, up], axis=1))]
+
+
+def add_pose_axes(container, skeleton: Skeleton, projection: str, unit: str) -> list:
+    """[(axes, basis)]: one row of views of `skeleton` (views) added to `container` (a matplotlib
+    Figure or SubFigure), each axis labelled with its direction and `unit`."""
+    out = []
+    chosen = views(skeleton, projection)
+    for k, (name, basis) in enumerate(chosen):
+        three = basis.shape[1] == 3
+        options = {"projection": "3d", "proj_type": "persp", "focal_length": 0.5} if three else {}
+        ax = container.add_subplot(1, len(chosen), k + 1, **options)
+        labels = [f"{axis_name(basis[:, j])} ({unit})" for j in range(basis.shape[1])]
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
+        if three:
+            ax.set_zlabel(labels[2])
+        ax.set_title(name)
+        out.append((ax, basis))
+    return out
 
 
 def pose_figure(
@@ -85,27 +104,20 @@ def pose_figure(
     angles = skeleton.check_angles(angles)
     if angles.ndim != 1:
         raise ValueError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
-    views = _views(skeleton, projection)
-    unit = unit or length_unit(skeleton)[0]
+    views(skeleton, projection)  # a bad projection fails before matplotlib is loaded
     plt = require_matplotlib()
     points = forward_kinematics(skeleton, angles).p_world_frame
     marks = {"target": targets, "support": [] if support is None else [support]}
     marks["centre of mass"] = [] if com is None else [com]
-    size = (5.5 * len(views), 5.5) if projection == "2d" else (7.0, 6.5)
-    figure = plt.figure(figsize=size, layout="constrained")
-    for k, (name, basis) in enumerate(views):
-        three = basis.shape[1] == 3
-        options = {"projection": "3d", "proj_type": "persp", "focal_length": 0.5} if three else {}
-        ax = figure.add_subplot(1, len(views), k + 1, **options)
-        draw_skeleton(ax, basis, points, frame_parents(skeleton), skeleton.n_joints, skeleton.frame_names, marks)
+    two = projection == "2d" and not is_planar(skeleton)
+    figure = plt.figure(figsize=(11.0, 5.5) if two else (7.0, 6.5) if projection == "3d" else (5.5, 5.5))
+    figure.set_layout_engine("constrained")
+    for k, (ax, basis) in enumerate(add_pose_axes(figure, skeleton, projection, unit or length_unit(skeleton)[0])):
+        parents = frame_parents(skeleton)
+        drawn = draw_skeleton(ax, basis, points, parents, skeleton.n_joints, skeleton.frame_names, marks)
         for centre, radius in obstacles:
             _sphere(ax, basis, np.asarray(centre, float), float(radius), plt)
-        labels = [f"{axis_name(basis[:, j])} ({unit})" for j in range(basis.shape[1])]
-        ax.set_xlabel(labels[0])
-        ax.set_ylabel(labels[1])
-        if three:
-            ax.set_zlabel(labels[2])
-        ax.set_title(name)
+        fit_axes(ax, drawn)
         if k == 0:
             ax.legend(loc="upper left", fontsize="x-small", markerscale=0.8)
     figure.suptitle(title or skeleton.name)

@@ -44,16 +44,18 @@ def draw_skeleton(
     marks: dict | None = None,
     bone_kind: str = "bone",
     legend: bool = True,
-) -> None:
+    bone_label: str | None = None,
+) -> np.ndarray:
     """Draw one pose: `points` (F, 3) world positions of its joints then sites, `parents` (F,)
     its tree (viz.marks.frame_parents), `n_joints` how many frames are joints, `names` (F,) the
     frame names (the tips are labelled with theirs); `marks` {kind: points (N, 3)} for kinds of
     MARKERS ("target", "support", "centre of mass", "contact"); `bone_kind` the colour of the
     bones ("compare" for an overlay, which then gets no joint, site, root or tip marks);
-    `legend` False leaves the entries out of the axes' legend (a second pose on one axes)."""
+    `legend` False leaves the entries out of the axes' legend (a second pose on one axes);
+    `bone_label` the bones' legend entry (default "bones", or "compared" for an overlay).
+    Returns the picture coordinates (N, k) of everything drawn, for fit_axes."""
     points = np.asarray(points, float)
     flat = points @ basis
-    three = basis.shape[1] == 3
 
     def label(text):
         return text if legend else None
@@ -64,7 +66,7 @@ def draw_skeleton(
             color=colour(bone_kind),
             lw=2.5,
             solid_capstyle="round",
-            label=label("bones" if bone_kind == "bone" else "compared") if k == 0 else None,
+            label=label(bone_label or ("bones" if bone_kind == "bone" else "compared")) if k == 0 else None,
         )
     drawn = [flat]
     if bone_kind == "bone":
@@ -79,26 +81,25 @@ def draw_skeleton(
         values = values[np.isfinite(values).all(axis=1)]
         _mark(ax, values @ basis, kind, label(kind))
         drawn.append(values @ basis)
-    drawn = np.concatenate(drawn)
-    if three:
-        _equal_cube(ax, drawn)
-    else:
+    return np.concatenate(drawn)
+
+
+def fit_axes(ax, drawn: np.ndarray) -> None:
+    """Equal lengths along every axis around everything `drawn` (N, k): a 2-D view keeps its
+    aspect; a 3-D view gets one cube (matplotlib would stretch each axis to its own range)."""
+    if drawn.shape[1] == 2:
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
-
-
-def _name_tips(ax, flat: np.ndarray, ends: np.ndarray, names) -> None:
-    """Label the tips with their names, those spread out enough to read (viz.marks.spread_out)."""
-    for end in spread_out(flat, ends):
-        ax.text(*flat[end], f"  {names[end]}", fontsize="x-small", color="0.2")
-
-
-def _equal_cube(ax, drawn: np.ndarray) -> None:
-    """3-D axes limits: one cube around everything drawn, so lengths look the same along each
-    axis (matplotlib would stretch each axis to its own range)."""
+        return
     low, high = drawn.min(axis=0), drawn.max(axis=0)
     centre, half = (low + high) / 2, max(float((high - low).max()) / 2, 1e-9) * 1.1
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_box_aspect((1, 1, 1))
+
+
+def _name_tips(ax, flat: np.ndarray, ends: np.ndarray, names) -> None:
+    """Label the tips with their names, those spread out enough to read (viz.marks.spread_out)."""
+    for end in spread_out(flat, ends):
+        ax.text(*flat[end], f"  {names[end]}", fontsize="x-small", color="0.2")

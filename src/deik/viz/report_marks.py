@@ -72,6 +72,23 @@ def _reach(path: str, tracks, steps: int) -> Marks | None:
     return Marks("target", tuple(labels), points)
 
 
+def _report_marks(document: dict, path: str, steps: int) -> list[Marks]:
+    """The report's contact and reach marks over a clip of `steps` frames."""
+    marks = (_contacts(path, document.get("contacts"), steps), _reach(path, document.get("reach_targets"), steps))
+    return [m for m in marks if m is not None]
+
+
+def marks_at(document: dict, frame: int, steps: int, path: str = "the clip report") -> dict:
+    """{kind: points (K, 3)} of the report's contacts and reach targets in `frame` of a clip of
+    `steps` frames (those that apply there; NaN rows are left out)."""
+    out = {}
+    for marks in _report_marks(document, path, steps):
+        points = marks.points[frame]
+        points = points[np.isfinite(points).all(axis=1)]
+        out[marks.kind] = np.concatenate([out[marks.kind], points]) if marks.kind in out else points
+    return out
+
+
 def with_clip_report(scene: Scene, document: dict, path) -> Scene:
     """`scene` (a clip's, one step per frame) with the report's contacts, reach targets, floor
     and length unit; ValueError naming `path` when the report is for a clip of another length."""
@@ -80,9 +97,7 @@ def with_clip_report(scene: Scene, document: dict, path) -> Scene:
         raise FileFormatError(
             path, f"reports a clip of {document['frames']} frames, the viewed clip has {scene.n_steps}; {FIX}"
         )
-    marks = [m for m in (_contacts(path, document.get("contacts"), scene.n_steps),) if m is not None]
-    reach = _reach(path, document.get("reach_targets"), scene.n_steps)
-    marks += [reach] if reach is not None else []
+    marks = _report_marks(document, path, scene.n_steps)
     floor = document.get("floor") or {}
     height = floor.get("height") if isinstance(floor, dict) else None
     notes = list(scene.notes)
