@@ -2,7 +2,12 @@
 before anything is served, a missing viser names the extra to install, and the server answers
 with the viewer page until it is stopped."""
 
+import contextlib
 import json
+import os
+import signal
+import socket
+import subprocess
 import sys
 import threading
 import urllib.request
@@ -13,6 +18,7 @@ import pytest
 import deik
 from deik.cli.app import build_parser, main
 from deik.cli.view import build_scene
+from helpers import ROOT
 
 pytest.importorskip("viser", reason='deik view needs viser: pip install "deik[view]"')
 
@@ -66,28 +72,63 @@ def test_a_missing_viser_names_the_extra(monkeypatch, capsys):
     assert 'the 3-D view needs viser: pip install "deik[view]"' in capsys.readouterr().err
 
 
-def test_the_server_answers_with_the_viewer_page_until_stopped(tmp_path):
+@contextlib.contextmanager
+def serving(scene, port=0):
+    """serve(scene) on a thread: yields its address once it answers, stops it on leaving."""
     from deik.viz.viewer import serve
 
-    args = build_parser().parse_args(["view", _clip(tmp_path / "clip.bvh", 5), "--units", "cm"])
-    scene = build_scene(args)
-    assert (
-        scene.n_steps == 5 and scene.step == "frame" and scene.unit == "cm" and scene.step_time == pytest.approx(1 / 30)
-    )
     ready, stop = [], threading.Event()
-    server = threading.Thread(
-        target=serve, args=(scene, "127.0.0.1", 0), kwargs={"on_ready": ready.append, "stop": stop}
-    )
+    options = {"on_ready": ready.append, "stop": stop}
+    server = threading.Thread(target=serve, args=(scene, "127.0.0.1", port), kwargs=options)
     server.start()
     try:
-        for _ in range(200):
-            if ready:
+        for _ in range(400):
+            if ready or not server.is_alive():
                 break
             stop.wait(0.05)
         (url,) = ready
-        with urllib.request.urlopen(url, timeout=10) as page:
-            assert page.status == 200 and b"<html" in page.read().lower()
+        yield url
     finally:
         stop.set()
         server.join(timeout=30)
     assert not server.is_alive()
+
+
+def test_the_server_answers_with_the_viewer_page_until_stopped(tmp_path):
+    scene = build_scene(build_parser().parse_args(["view", _clip(tmp_path / "clip.bvh", 5), "--units", "cm"]))
+    assert (scene.n_steps, scene.step, scene.unit) == (5, "frame", "cm") and scene.step_time == pytest.approx(1 / 30)
+    with serving(scene) as url, urllib.request.urlopen(url, timeout=10) as page:
+        assert page.status == 200 and b"<html" in page.read().lower()
+
+
+def test_a_taken_port_moves_to_the_next_free_one():
+    scene = build_scene(build_parser().parse_args(["view", "chain:3"]))
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with serving(scene, port) as url:
+            assert int(url.rsplit(":", 1)[1]) > port
+
+
+@pytest.mark.parametrize("no_browser", [False, True])
+def test_it_opens_the_browser_unless_told_not_to(tmp_path, no_browser):
+    record = tmp_path / "opened.txt"
+    script = tmp_path / "browser.py"
+    script.write_text(f"import sys, pathlib\npathlib.Path({str(record)!r}).write_text(sys.argv[1])\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(BROWSER=f"{sys.executable} {script} %s", PYTHONPATH=str(ROOT / "src"))
+    argv = [sys.executable, "-m", "deik", "view", "chain:3", "--port", "0"] + (["--no-browser"] if no_browser else [])
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = process.stdout.readline()
+        url = line.split(" at ")[1].split()[0]
+        for _ in range(100):
+            if record.exists() or no_browser:
+                break
+            threading.Event().wait(0.05)
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and "deik view: stopped" in err
+    assert (not record.exists()) if no_browser else record.read_text() == url

@@ -5,6 +5,7 @@ cleanly. Runs on Debian's chromium driven by playwright; skips, saying so, witho
 
 import json
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -15,8 +16,9 @@ import numpy as np
 import pytest
 
 import deik
+from deik.cli.app import main
 from deik.viz.marks import COLOURS
-from helpers import ROOT
+from helpers import ROOT, readme_commands
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(
@@ -44,29 +46,34 @@ DEIK = [sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(m
 
 
 class Viewer:
-    """`deik view ARGS --port 0 --no-browser` in a subprocess: `url` once it serves; leaving
-    the block sends Ctrl-C (SIGINT) and keeps the exit status and output."""
+    """`deik view ARGS` (by default with `--port 0 --no-browser`) in a subprocess, on a machine
+    without a display: `line` and `url` once it serves; leaving the block sends Ctrl-C (SIGINT)
+    and keeps the exit status and output."""
 
-    def __init__(self, *args, cwd=None):
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    def __init__(self, *args, extra=("--port", "0", "--no-browser"), cwd=None):
+        hidden = ("DISPLAY", "WAYLAND_DISPLAY", "BROWSER")
+        env = {**{k: v for k, v in os.environ.items() if k not in hidden}, "PYTHONPATH": str(ROOT / "src")}
         self.process = subprocess.Popen(
-            [*DEIK, "view", *map(str, args), "--port", "0", "--no-browser"],
+            [*DEIK, "view", *map(str, args), *extra],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
             cwd=cwd,
             env=env,
         )
-        first = []
-        reader = threading.Thread(target=lambda: first.append(self.process.stdout.readline()), daemon=True)
-        reader.start()
-        reader.join(timeout=120)
-        line = first[0] if first else ""
-        if " at http://" not in line:
+        self.line = self.next_line()
+        if " at http://" not in self.line:
             self.process.kill()
-            raise AssertionError(f"deik view did not start: {line!r} {self.process.communicate()[1][-2000:]}")
-        self.line = line
-        self.url = line.split(" at ")[1].split()[0]
+            raise AssertionError(f"deik view did not start: {self.line!r} {self.process.communicate()[1][-2000:]}")
+        self.url = self.line.split(" at ")[1].split()[0]
+
+    def next_line(self, timeout: float = 120) -> str:
+        """The next line it prints ("" when none comes within `timeout` seconds)."""
+        got = []
+        reader = threading.Thread(target=lambda: got.append(self.process.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(timeout=timeout)
+        return got[0] if got else ""
 
     def __enter__(self):
         return self
@@ -94,10 +101,11 @@ def _open(browser, url):
     page.goto(url)
     page.get_by_text("Connected").wait_for(timeout=60_000)
     page.get_by_label("names").uncheck()  # labels would cover the marks
-    for _ in range(100):
-        if _count(_shot(page), "bone") > 300:
+    for _ in range(100):  # until the scene has arrived over the websocket and been drawn
+        if _count(_shot(page), "bone") > 100:
             break
         page.wait_for_timeout(200)
+    page.wait_for_timeout(300)
     return page, console
 
 
@@ -181,3 +189,33 @@ def test_a_solved_pose_shows_its_target_and_centre_of_mass(tmp_path, browser):
         page.get_by_text("Lengths in m (the pose file)").wait_for()
         assert not _errors(console), console
     assert viewer.status == 0
+
+
+@pytest.mark.slow  # three browser sessions and a clip fix: 35 s with the machine loaded
+@pytest.mark.shared_data
+def test_the_readme_view_commands_run_as_written(tmp_path, browser, shared_data, monkeypatch):
+    """The README's `deik view` lines (a console block: they serve until Ctrl-C) run as written,
+    after the commands of its section that write their files, beside shared/ like a clone."""
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## Seeing results") :]
+    section = section[: section.index("\n## ")]
+    views = readme_commands(section, "console")
+    assert len(views) == 3 and all(v.startswith("deik view ") for v in views)
+    clone = tmp_path / "deik"
+    clone.mkdir()
+    (tmp_path / "shared").symlink_to(shared_data.parent)
+    monkeypatch.chdir(clone)
+    for command in readme_commands(section):  # in this process: tests/cli/test_readme runs them as commands
+        assert main(shlex.split(command)[1:]) == 0, command
+    for command in views:
+        with Viewer(*shlex.split(command)[2:], extra=(), cwd=clone) as viewer:
+            assert viewer.next_line(30).startswith("deik view: no browser to open here")
+            page, console = _open(browser, viewer.url)
+            picture = _shot(page)
+            assert _count(picture, "bone") > 100 and _count(picture, "tip") > 10, command
+            assert int(viewer.url.rsplit(":", 1)[1]) >= 8080  # the default port, or the next free one
+            # a robot arm starts with its tool frame's axes shown, a character without its many
+            assert page.get_by_label("frame axes").is_checked() == ("panda" in command), command
+            assert not _errors(console), (command, console)
+            page.close()
+        assert viewer.status == 0, (command, viewer.err)
