@@ -132,3 +132,23 @@ def test_it_opens_the_browser_unless_told_not_to(tmp_path, no_browser):
         out, err = process.communicate(timeout=30)
     assert process.returncode == 0 and "deik view: stopped" in err
     assert (not record.exists()) if no_browser else record.read_text() == url
+
+
+def test_a_batch_pose_file_is_one_step_per_problem(tmp_path):
+    human = deik.humanoid()
+    targets = np.array([[0.4, 1.2, 0.3], [0.3, 1.4, 0.1], [-0.2, 1.0, 0.4]])
+    problem = deik.Problem(human, [deik.Position("left_hand", targets)])
+    result = deik.solve(problem, population=16, generations=10, seed=0)
+    from deik.viz.marks import goal_targets
+
+    path = _pose(tmp_path / "batch.json", {**result.to_dict(), "targets": goal_targets(problem)})
+    scene = build_scene(build_parser().parse_args(["view", path]))
+    assert (scene.n_steps, scene.step) == (3, "problem") and scene.unit == "length units"
+    (marks,) = scene.marks
+    assert np.allclose(marks.points[:, 0], targets)
+    assert np.allclose(scene.figure.positions, deik.forward_kinematics(human, result.angles).p_world_frame)
+    posed = build_scene(build_parser().parse_args(["view", "humanoid", "--pose", path]))
+    assert (posed.n_steps, posed.step, posed.unit) == (3, "problem", "m")
+    assert np.allclose(posed.figure.positions, scene.figure.positions) and np.allclose(
+        posed.marks[0].points, marks.points
+    )

@@ -5,6 +5,7 @@ cleanly. Runs on Debian's chromium driven by playwright; skips, saying so, witho
 
 import json
 import os
+import re
 import shlex
 import shutil
 import signal
@@ -186,7 +187,7 @@ def test_a_solved_pose_shows_its_target_and_centre_of_mass(tmp_path, browser):
         picture = _shot(page)
         for kind, pixels in (("bone", 300), ("target", 20), ("centre of mass", 20), ("root", 10), ("tip", 30)):
             assert _count(picture, kind) > pixels, kind
-        page.get_by_text("Lengths in m (the pose file)").wait_for()
+        page.get_by_text(re.compile(r"Lengths in m \(the pose file\); grid cells 0\.[125] m\.")).wait_for()
         assert not _errors(console), console
     assert viewer.status == 0
 

@@ -44,7 +44,10 @@ def add_arguments(v) -> None:
     v.add_argument("--units", choices=sorted(METRES), help="the length unit the view states (default: the file's)")
     v.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     v.add_argument(
-        "--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; the next free one if taken)"
+        "--port",
+        type=int,
+        default=DEFAULT_PORT,
+        help=f"port (default {DEFAULT_PORT}; the next free one if taken; 0: any free port)",
     )
     v.add_argument("--no-browser", action="store_true", help="print the address instead of opening a browser")
 

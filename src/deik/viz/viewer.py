@@ -51,7 +51,7 @@ class _Player:
         last = scene.n_steps - 1
         self.slider = server.gui.add_slider(scene.step, min=0, max=last, step=1, initial_value=0)
         self.time = server.gui.add_markdown(self._time_text(0))
-        self.button = server.gui.add_button("Play", icon=None)
+        self.button = server.gui.add_button("Play")
         self.slider.on_update(lambda _: self._moved())
         self.button.on_click(lambda _: self.toggle())
 
