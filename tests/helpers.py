@@ -7,6 +7,7 @@ Test modules import from here (pyproject puts tests/ on the path), never from ea
 
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -199,3 +200,18 @@ def every_goal_problem(batch=False):
         deik.Floor(kin.position("left_knee")[1], level=1),
     ]
     return deik.Problem(h, goals, limits="penalty")
+
+
+# --- README commands -------------------------------------------------------------------------
+
+
+def readme_commands(markdown: str, language: str = "bash") -> list[str]:
+    """The `deik ...` lines of the ```language blocks of `markdown`, continuation lines joined and
+    comments dropped, in order."""
+    commands = []
+    for block in re.findall(rf"```{language}\n(.*?)```", markdown, flags=re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.split("  #")[0].strip()
+            if line.startswith("deik "):
+                commands.append(line)
+    return commands

@@ -1,7 +1,7 @@
 """The `deik` command: `solve` poses one problem, `info` describes a skeleton, `clip` fixes a
 whole clip, `retarget` moves one onto other proportions or another skeleton, `limits` measures
-joint limits from a clip, `demo` runs the paper's scenarios, `experiments` reproduces the paper's
-figures.
+joint limits from a clip, `view` shows a pose, clip or robot in 3-D in the browser, `demo` runs
+the paper's scenarios, `experiments` reproduces the paper's figures.
 
     deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
@@ -10,6 +10,7 @@ figures.
     deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
     deik limits walk.bvh --margin 10 --out limits.json      (then --limits limits.json)
     deik retarget walk.bvh --map map.toml --to human.urdf --out walk_human.csv --view walk_human.bvh
+    deik view walk_fixed.bvh --compare walk.bvh --report report.json   (a 3-D view in the browser)
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
@@ -27,6 +28,7 @@ from deik import __version__
 from deik.cli import clip as cli_clip
 from deik.cli import retarget as cli_retarget
 from deik.cli import solve as cli_solve
+from deik.cli import view as cli_view
 from deik.cli import warmup as cli_warmup
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
 from deik.io.load import load_skeleton
@@ -124,6 +126,9 @@ def build_parser() -> Parser:
         help="added to each translation's range on both sides (default 0)",
     )
     lim.set_defaults(run=run_limits)
+    v = commands.add_parser("view", help="a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
+    cli_view.add_arguments(v)
+    v.set_defaults(run=cli_view.run_view)
     w = commands.add_parser("warmup", help="compile the kernels ahead of time (minutes, once after an install)")
     cli_warmup.add_arguments(w)
     w.set_defaults(run=cli_warmup.run_warmup)

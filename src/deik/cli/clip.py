@@ -99,7 +99,12 @@ def add_arguments(c) -> None:
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
-    c.add_argument("--report", metavar="report.png", help="plot of the errors over time, before and after")
+    c.add_argument(
+        "--report",
+        metavar="report.png",
+        help="plot of the errors over time, before and after, under the frame the fix changed most",
+    )
+    c.add_argument("--report-3d", action="store_true", help="draw --report's frame as one 3-D perspective view")
     c.add_argument("--json", metavar="report.json", help="the before/after metrics, goals and contacts as JSON")
     c.add_argument(
         "--units",
@@ -303,6 +308,8 @@ def run_clip(args) -> int:
         args.overwrite,
     )
     check_device(args.device)
+    if args.report_3d and not args.report:
+        raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
     if args.report:
         from deik.viz.plot import require_matplotlib
 
@@ -378,9 +385,10 @@ def run_clip(args) -> int:
         if args.json:
             write_json_atomically(args.json, document, missing_as_null=True)
         if args.report:
-            from deik.viz.clip_report import plot_clip_report
+            from deik.viz.clip_report import plot_clip_report, pose_panel
 
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
             title = f"deik clip {os.path.basename(args.clip)}"
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]))
+            panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]), panel)
     return 0

@@ -90,6 +90,19 @@ def unreached(goals: list[dict]) -> dict:
     return out
 
 
+def reach_record(reach) -> list[dict]:
+    """The reach tracks as JSON: per track its site and, for each frame it applies to, the frame
+    and the target (length units), so a viewer can mark them (`deik view --report`)."""
+    return [
+        {
+            "site": site,
+            "frames": np.flatnonzero(mask).tolist(),
+            "targets": np.asarray(targets, float)[np.asarray(mask, bool)].tolist(),
+        }
+        for site, mask, targets in reach
+    ]
+
+
 def _far(original, fixed, degrees: float) -> dict:
     far = large_deviations(original, fixed, degrees)
     count = np.bincount([d["frame"] for d in far], minlength=original.n_frames)
@@ -100,8 +113,8 @@ def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: f
     """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
     (clips/report.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
-    (unreached), the contacts, the `floor` ({"height" length units, "detected", "kept"} or
-    None), the joints turned more than `far_degrees` from the capture frame by frame, and
+    (unreached) and its targets, the contacts, the `floor` ({"height" length units, "detected",
+    "kept"} or None), the joints turned more than `far_degrees` from the capture frame by frame, and
     where the time went."""
     original, fixed = fix.original, fix.clip
     goals = goal_table(fix, metres)
@@ -119,6 +132,7 @@ def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: f
         "per_frame": {k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres).items()},
         "goals": [listed(row) for row in goals],
         "reach_unreached": unreached(goals),
+        "reach_targets": reach_record(reach or ()),
         "floor": floor,
         "goal_notes": GOAL_NOTES,
         "frames_met": int(fix.met.sum()),

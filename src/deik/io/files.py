@@ -7,6 +7,7 @@ and a missing or unreadable file gets one line that names it and the reason.
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 
@@ -64,3 +65,15 @@ def read_input_text(path, what: str) -> str:
         raise FileFormatError(
             str(path), f"not a text (UTF-8) {what} file: byte {error.start} cannot be decoded"
         ) from None
+
+
+def read_input_json(path, what: str):
+    """read_input_text parsed as JSON; FileFormatError naming the file when it is not JSON (or is
+    nested too deeply to parse)."""
+    text = read_input_text(path, what)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise FileFormatError(str(path), f"not valid JSON ({error}); give a {what} file") from None
+    except RecursionError:
+        raise FileFormatError(str(path), f"JSON nested too deeply to be a {what} file") from None
