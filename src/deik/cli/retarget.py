@@ -47,6 +47,7 @@ def add_arguments(r) -> None:
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
     r.add_argument("--seed", type=int, help="random seed of the contact repairs")
     r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (default cpu)")
+    r.add_argument("--quiet", action="store_true", help="no progress bars and no notes on stderr (errors still print)")
 
 
 def _scale(text: str | None) -> dict | None:

@@ -76,8 +76,9 @@ def ray_events(jobs, task, address: str | None, in_flight: int | None, threads: 
                 job = running.pop(reference)
                 try:
                     status, value, seconds = ray.get(reference)
-                except ray.exceptions.RayError as error:
-                    reason = f"its Ray worker failed ({type(error).__name__}); rerun to redo it"
+                except ray.exceptions.RayError as error:  # the worker died, or could not load the task
+                    last = [line for line in str(error).splitlines() if line.strip()][-1:] or [type(error).__name__]
+                    reason = f"its Ray worker failed: {last[0].strip()}; rerun to redo it"
                     yield ("finished", Outcome(job, "failed", reason=reason))
                     continue
                 outcome = Outcome(job, status, seconds, *((value, "") if status == "done" else (None, value)))
