@@ -45,8 +45,8 @@ def add_arguments(r) -> None:
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
-    r.add_argument("--seed", type=int, help="random seed of the contact repairs")
-    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (default cpu)")
+    r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
+    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
     r.add_argument("--quiet", action="store_true", help="no progress bars and no notes on stderr (errors still print)")
 
 

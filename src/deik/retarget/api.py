@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 from deik.clips.coherence import hinge_channels
 from deik.io.bvh import read_bvh
 from deik.io.bvh_view import view_clip
@@ -67,11 +65,8 @@ def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=Non
     target, target_clip = _target(to, joint_map.up or up)
     hinges = None if target_clip is None else hinge_channels(target_clip)
     result = retarget_rig(clip, target, joint_map, hinges=hinges, **settings)
-    motion = result.motion
-    if target_clip is None:  # a robot's controller reads each angle as it is: inside its limits
-        motion = replace(motion, frames=within_limits(motion.skeleton, motion.frames))
     return Retarget(
-        motion,
+        result.motion,
         _bvh_clip(result, target_clip),
         result.source,
         result.contacts,
