@@ -143,20 +143,24 @@ def retarget_rig(source, target: Skeleton, joint_map: JointMap, hinges=None, **s
         def wanted(q):  # the torso's points are measured from its origin at the pose
             return np.concatenate([targets, _torso_targets(target, q, joint_map.torso[1], R_torso)], axis=1)
 
-    poses = solve_keypoints(target, poses, points, wanted, searched, weights, floor=0.0)  # the target's floor
+    # key points first: with the floor from the start, a point that must cross it on its way
+    # (a hand swinging down to the floor) refuses every step and stalls
+    poses = solve_keypoints(target, poses, points, wanted, searched, weights)
     progress = settings.get("progress") or (lambda met, stage: None)
     progress(len(poses), "key points")
     contacts = _target_contacts(source_contacts, joint_map)
-    if contacts is not None:  # planted where the key points put them, then held there
+    held, plants = np.ones((len(poses), len(points))), np.zeros((len(poses), 0, 3))
+    if contacts is not None:  # planted where the key points put them above the floor, then held there
+        poses = solve_keypoints(target, poses, points, wanted, searched, weights, floor=0.0)
         plants = planted_targets(Trajectory(target, poses, source.frame_time), contacts)
-        together = points + list(contacts.sites)
-        held = np.concatenate([np.ones((len(poses), len(points))), CONTACT_WEIGHT * contacts.mask], axis=1)
+        held = np.concatenate([held, CONTACT_WEIGHT * contacts.mask], axis=1)
 
-        def wanted_and_plants(q, wanted=wanted):
-            return np.concatenate([wanted(q) if callable(wanted) else wanted, plants], axis=1)
+    def wanted_and_plants(q):
+        return np.concatenate([wanted(q) if callable(wanted) else wanted, plants], axis=1)
 
-        poses = solve_keypoints(target, poses, together, wanted_and_plants, searched, weights, 0.0, held)
-        progress(len(poses), "contacts")
+    together = points + ([] if contacts is None else list(contacts.sites))
+    poses = solve_keypoints(target, poses, together, wanted_and_plants, searched, weights, 0.0, held)  # floor at 0
+    progress(len(poses), "contacts and the floor")
     motion = Trajectory(target, poses, source.frame_time, source.source)
     fix = None
     # the same rotations, written within the limits (continuous Euler channels may pick a twin outside)
