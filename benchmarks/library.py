@@ -1,15 +1,16 @@
 """Libraries of clips: throughput of `deik clip DIR` on 1 and 2 local workers and on Ray, and the
 retargeting quality of every shared clip onto human.urdf and deik.humanoid().
 
-    PYTHONPATH=src python -m benchmarks.library [--rounds 3] [--part both|throughput|quality]
+    PYTHONPATH=src python -m benchmarks.library [--rounds 2] [--part both|throughput|quality]
 
 Throughput: the folder of shared clips (../shared/data/humanoid, every *.bvh; the segment tables
 beside them are skipped) fixed as `deik clip DIR --out OUTDIR` fixes it (contacts detected and
-planted, the floor kept), into a fresh folder each time, through deik.library exactly as the
-command runs it. Three ways take turns in each round, in a rotated order: 1 local worker of 2
-Numba threads, 2 local workers of 1 thread, and Ray with 2 CPUs (the Ray instance is started
-once before the rounds and its start-up timed apart; every turn includes the workers' start).
-Clips per second and frames per second of wall time, and each round's ratios to 1 worker.
+planted, the floor kept) and retargeted onto deik.humanoid(), into a fresh folder each time,
+through deik.library exactly as the commands run it. Three ways take turns in each round, in a
+rotated order: 1 local worker of 2 Numba threads, 2 local workers of 1 thread, and Ray with 2
+CPUs (the Ray instance is started once before the rounds and its start-up timed apart; local
+workers are spawned by every run, Ray's are reused). Clips per second and frames per second of
+wall time, the clips' own seconds summed, and each round's ratios to 1 worker.
 
 Quality: `deik retarget DIR --map examples/maps/... --to TARGET --out OUTDIR` for both targets,
 2 local workers; per clip the report's summary (retarget/report.py): key-point error mean and
@@ -43,6 +44,7 @@ TARGETS = {
     "human.urdf": (str(DATA / "robots" / "human.urdf"), str(ROOT / "examples/maps/shared_bvh_to_human_urdf.toml")),
     "deik.humanoid()": ("humanoid", str(ROOT / "examples/maps/shared_bvh_to_humanoid.toml")),
 }
+JOBS = ("deik clip", "deik retarget onto deik.humanoid()")
 WAYS = {
     "1 local worker x 2 threads": ("local", 1),
     "2 local workers x 1 thread": ("local", 2),
@@ -65,42 +67,60 @@ def _jobs(argv: list[str]):
 
 
 def _library(argv: list[str], executor: str, workers) -> dict:
-    """One run of the library command `argv` (into its fresh --out): wall s, clips, frames."""
+    """One run of the library command `argv` (into its fresh --out): wall s, clips, frames, and
+    the clips' own seconds summed (in the workers, without their start)."""
     run = run_library(_jobs(argv), do_clip, executor=executor, workers=workers, quiet=True)
     failed = [f"{o.job.name}: {o.reason}" for o in run.outcomes if o.status != "done"]
     if failed:
         raise RuntimeError(f"clips not done: {failed}")
-    return {"seconds": run.wall_time, "clips": len(run.outcomes), "frames": run.frames_done()}
+    work = sum(o.seconds for o in run.outcomes)
+    return {"seconds": run.wall_time, "clips": len(run.outcomes), "frames": run.frames_done(), "clip_seconds": work}
+
+
+def _job(name: str, out: str) -> list[str]:
+    """The command line of job `name` (JOBS) into `out`."""
+    if name == "deik clip":
+        return ["clip", str(CLIPS), "--out", out, "--quiet"]
+    target, mapping = TARGETS["deik.humanoid()"]
+    return ["retarget", str(CLIPS), "--map", mapping, "--to", target, "--out", out, "--quiet"]
+
+
+def _summary(runs: dict) -> dict:
+    """Per way: medians over the rounds and each round's speed-up over the first way."""
+    first = next(iter(runs.values()))
+    return {
+        way: {
+            "clips_per_s_median": statistics.median(m["clips"] / m["seconds"] for m in measured),
+            "frames_per_s_median": statistics.median(m["frames"] / m["seconds"] for m in measured),
+            "clip_seconds_summed_median": statistics.median(m["clip_seconds"] for m in measured),
+            "speedup_vs_1_worker_per_round": [first[k]["seconds"] / m["seconds"] for k, m in enumerate(measured)],
+        }
+        for way, measured in runs.items()
+    }
 
 
 def throughput(rounds: int) -> dict:
-    """Each way's runs (rotated turns per round), their medians and per-round ratios to 1 worker."""
+    """Per job (JOBS): each way's runs (rotated turns per round), medians and ratios to 1 worker."""
     import ray
 
     began = time.perf_counter()
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     ray_start = time.perf_counter() - began
-    runs = {way: [] for way in WAYS}
+    jobs = {}
+    names = list(WAYS)
     with tempfile.TemporaryDirectory() as scratch:
-        _library(["clip", str(CLIPS), "--out", f"{scratch}/warm", "--quiet"], "local", 2)  # kernels compiled, cached
-        names = list(WAYS)
-        for r in range(rounds):
-            for way in names[r % len(names) :] + names[: r % len(names)]:
-                executor, workers = WAYS[way]
-                out = f"{scratch}/{r}-{executor}-{workers}"
-                runs[way].append(_library(["clip", str(CLIPS), "--out", out, "--quiet"], executor, workers))
-                print(f"round {r}: {way}: {runs[way][-1]['seconds']:.2f} s", flush=True)
+        for job in JOBS:
+            _library(_job(job, f"{scratch}/warm-{len(jobs)}"), "local", 2)  # kernels compiled and cached
+            runs = {way: [] for way in WAYS}
+            for r in range(rounds):
+                for way in names[r % len(names) :] + names[: r % len(names)]:
+                    executor, workers = WAYS[way]
+                    out = f"{scratch}/{len(jobs)}-{r}-{executor}-{workers}"
+                    runs[way].append(_library(_job(job, out), executor, workers))
+                    print(f"{job}, round {r}: {way}: {runs[way][-1]['seconds']:.2f} s", flush=True)
+            jobs[job] = {"runs": runs, "summary": _summary(runs)}
     ray.shutdown()
-    summary = {}
-    for way, measured in runs.items():
-        summary[way] = {
-            "clips_per_s_median": statistics.median(m["clips"] / m["seconds"] for m in measured),
-            "frames_per_s_median": statistics.median(m["frames"] / m["seconds"] for m in measured),
-            "speedup_vs_1_worker_per_round": [
-                runs[names[0]][k]["seconds"] / m["seconds"] for k, m in enumerate(measured)
-            ],
-        }
-    return {"ray_start_s": ray_start, "runs": runs, "summary": summary}
+    return {"ray_start_s": ray_start, "jobs": jobs}
 
 
 def quality() -> dict:
@@ -130,14 +150,17 @@ def markdown(result: dict) -> str:
     lines = ["# Libraries of clips (benchmarks/library.py)", "", f"Machine: {result['machine']['cpu_model']}", ""]
     if "throughput" in result:
         t = result["throughput"]
-        lines += ["## Throughput of `deik clip DIR` over the shared clips", ""]
-        rows = [
-            [way, f"{s['clips_per_s_median']:.3g}", f"{s['frames_per_s_median']:.4g}"]
-            + [", ".join(f"{v:.2f}" for v in s["speedup_vs_1_worker_per_round"])]
-            for way, s in t["summary"].items()
-        ]
-        lines += [markdown_table(["way", "clips/s (median)", "frames/s (median)", "speed-up vs 1 worker"], rows)]
-        lines += ["", f"Ray's start-up (once, not in the turns): {t['ray_start_s']:.1f} s", ""]
+        header = ["way", "clips/s (median)", "frames/s (median)", "clips' own s (median)", "speed-up vs 1 worker"]
+        for job, measured in t["jobs"].items():
+            lines += [f"## Throughput of `{job}` over the shared clips (8 clips, 741 frames)", ""]
+            rows = [
+                [way, f"{s['clips_per_s_median']:.3g}", f"{s['frames_per_s_median']:.4g}"]
+                + [f"{s['clip_seconds_summed_median']:.3g}"]
+                + [", ".join(f"{v:.2f}" for v in s["speedup_vs_1_worker_per_round"])]
+                for way, s in measured["summary"].items()
+            ]
+            lines += [markdown_table(header, rows), ""]
+        lines += [f"Ray's start-up (once, not in the turns): {t['ray_start_s']:.1f} s", ""]
     for target, rows in result.get("quality", {}).items():
         lines += [f"## Retargeting every shared clip onto {target}", ""]
         header = ["clip", "frames", "status", *(label for _, label in QUALITY)]
@@ -153,11 +176,16 @@ def figure(result: dict, path: str) -> None:
     axes = list(axes[0])
     if "throughput" in result:
         ax = axes.pop(0)
-        summary = result["throughput"]["summary"]
-        ax.bar(range(len(summary)), [s["frames_per_s_median"] for s in summary.values()], color="tab:blue")
-        ax.set_xticks(range(len(summary)), [w.replace(" x ", "\nx ") for w in summary], fontsize=8)
+        jobs = result["throughput"]["jobs"]
+        width = 0.8 / len(jobs)
+        for k, (job, measured) in enumerate(jobs.items()):
+            summary = measured["summary"]
+            x = [i + (k - (len(jobs) - 1) / 2) * width for i in range(len(summary))]
+            ax.bar(x, [s["frames_per_s_median"] for s in summary.values()], width, label=job)
+        ax.set_xticks(range(len(WAYS)), [w.replace(" x ", "\nx ") for w in WAYS], fontsize=8)
         ax.set_ylabel("frames per second (median)")
-        ax.set_title("deik clip DIR over the shared clips")
+        ax.set_title("a folder of the shared clips")
+        ax.legend(fontsize=8)
     if result.get("quality"):
         ax = axes.pop(0)
         width = 0.4
@@ -175,7 +203,7 @@ def figure(result: dict, path: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=3, help="turns of each way in the throughput part")
+    parser.add_argument("--rounds", type=int, default=2, help="turns of each way in the throughput part")
     parser.add_argument("--part", choices=("both", "throughput", "quality"), default="both")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args()

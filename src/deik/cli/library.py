@@ -32,13 +32,18 @@ INTERRUPTED = 130
 
 
 def add_arguments(parser) -> None:
-    """The folder flags of `deik clip` and `deik retarget`."""
+    """The folder flags of `deik clip` and `deik retarget`, and a note on folders in --help."""
+    parser.epilog = (
+        "IN may be a folder: every *.bvh in it is done (a rerun skips the clips done before with the same "
+        "settings and input), and --out, --json, --report and --view then name folders (docs/retarget.md, "
+        '"Whole libraries").'
+    )
     parser.add_argument(
         "--workers",
         type=int,
         metavar="N",
-        help="with a folder: clips at once (local processes, default one per core, the cores shared "
-        "out as Numba threads; with Ray, tasks in flight, default all)",
+        help="with a folder: clips at once (local processes, default one per core, one with --device gpu, "
+        "the cores shared out as Numba threads; with Ray, tasks in flight, default all)",
     )
     parser.add_argument(
         "--executor",
@@ -214,7 +219,7 @@ def run_folder(args) -> int:
             jobs,
             do_clip,
             executor=args.executor or "local",
-            workers=args.workers,
+            workers=args.workers or (1 if args.device == "gpu" and args.executor != "ray" else None),  # one GPU
             address=args.address,
             quiet=args.quiet,
         )
