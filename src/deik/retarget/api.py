@@ -49,7 +49,9 @@ def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=Non
     - Another skeleton: `joint_map` (a JointMap or a TOML/JSON path) and `to` a BVH or URDF
       path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it.
     `frames` = (start, stop) cuts the source first (stop exclusive); `settings` go to the clip
-    fix (population, generations, seed, device). ValueError for a mistake in the inputs."""
+    fix of a same-rig retarget (population, generations, seed, device); a joint-map retarget
+    runs no DE and takes only `progress(met, stage)` from them. ValueError for a mistake in
+    the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     if joint_map is None:
         if (to is None) == (scale is None):
