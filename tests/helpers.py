@@ -215,3 +215,29 @@ def readme_commands(markdown: str, language: str = "bash") -> list[str]:
             if line.startswith("deik "):
                 commands.append(line)
     return commands
+
+
+# --- a library task the library tests control ---------------------------------------------
+
+
+def library_task(payload, progress):
+    """A deik.library task for the tests (it runs in the library's worker processes, which import
+    this module by name): writes payload["text"] to each of payload["outputs"] atomically and
+    returns {"frames": 2}; with payload["mode"] "fail" it fails with a reason, with "hang" it
+    writes its process id to payload["pid_file"] and waits until it is killed."""
+    import time
+
+    from deik.io.atomic import write_text_atomically
+    from deik.library.jobs import JobFailed
+
+    progress(0, 2)
+    if payload.get("mode") == "fail":
+        raise JobFailed("this clip is broken on purpose")
+    if payload.get("mode") == "hang":
+        write_text_atomically(payload["pid_file"], str(os.getpid()))
+        while True:
+            time.sleep(0.05)
+    for path in payload["outputs"]:
+        write_text_atomically(path, payload["text"])
+    progress(2, 2)
+    return {"frames": 2, "metrics": {"pid": os.getpid()}}

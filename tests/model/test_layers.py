@@ -6,7 +6,7 @@ from pathlib import Path
 
 import deik
 
-LAYERS = ["suggest", "model", "objectives", "kernels", "solver", "io", "clips", "retarget", "viz", "experiments", "cli"]
+LAYERS = "suggest model objectives kernels solver io clips retarget viz library experiments cli".split()
 SOURCE = Path(deik.__file__).parent
 
 

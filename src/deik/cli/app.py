@@ -11,6 +11,7 @@ the paper's scenarios, `experiments` reproduces the paper's figures.
     deik limits walk.bvh --margin 10 --out limits.json      (then --limits limits.json)
     deik retarget walk.bvh --map map.toml --to human.urdf --out walk_human.csv --view walk_human.bvh
     deik view walk_fixed.bvh --compare walk.bvh --report report.json   (a 3-D view in the browser)
+    deik clip clips/ --out fixed/ --workers 2      (every *.bvh of a folder; a rerun skips the clips done)
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
@@ -26,18 +27,18 @@ import sys
 
 from deik import __version__
 from deik.cli import clip as cli_clip
+from deik.cli import library as cli_library
 from deik.cli import retarget as cli_retarget
 from deik.cli import solve as cli_solve
 from deik.cli import view as cli_view
 from deik.cli import warmup as cli_warmup
-from deik.cli.common import Parser, UsageError, check_outputs, numbers
+from deik.cli.common import USER_ERRORS, Parser, check_outputs, error_line, numbers
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
 INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 BROKEN_PIPE = 141  # 128 + SIGPIPE
-MESSAGE_LIMIT = 500
 
 
 def run_demo(args) -> int:
@@ -98,10 +99,12 @@ def build_parser() -> Parser:
     i.set_defaults(run=run_info)
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
-    c.set_defaults(run=cli_clip.run_clip)
+    cli_library.add_arguments(c)
+    c.set_defaults(run=cli_library.run)
     r = commands.add_parser("retarget", help="move a BVH clip onto other bone lengths or another skeleton")
     cli_retarget.add_arguments(r)
-    r.set_defaults(run=cli_retarget.run_retarget)
+    cli_library.add_arguments(r)
+    r.set_defaults(run=cli_library.run)
     e = commands.add_parser(
         "experiments",
         add_help=False,
@@ -152,10 +155,8 @@ def main(argv=None) -> int:
         # the reader (e.g. `| head`) has gone: stay quiet, and keep Python from complaining at exit
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return BROKEN_PIPE
-    except (UsageError, ValueError, ImportError, OSError, KeyError) as error:
-        # KeyError (unknown joint) keeps its message in args[0]; str() would add quotes.
-        message = error.args[0] if isinstance(error, KeyError) else error
-        print(f"deik: error: {_shortened(str(message))}", file=sys.stderr)
+    except USER_ERRORS as error:
+        print(f"deik: error: {error_line(error)}", file=sys.stderr)
         return USAGE_ERROR
     except KeyboardInterrupt:
         print("deik: interrupted; nothing was written", file=sys.stderr)
@@ -164,17 +165,11 @@ def main(argv=None) -> int:
         if os.environ.get("DEIK_DEBUG"):
             raise
         print(
-            f"deik: internal error: {type(error).__name__}: {_shortened(str(error))}. This is a bug in deik; "
+            f"deik: internal error: {type(error).__name__}: {error_line(error)}. This is a bug in deik; "
             "please report it with the command line (rerun with DEIK_DEBUG=1 for the traceback)",
             file=sys.stderr,
         )
         return INTERNAL_ERROR
-
-
-def _shortened(message: str, limit: int = MESSAGE_LIMIT) -> str:
-    """`message` on one line and at most `limit` characters (a whole echoed input is cut)."""
-    line = " ".join(message.split())
-    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
 
 
 if __name__ == "__main__":

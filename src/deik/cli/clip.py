@@ -29,8 +29,10 @@ FAR_DEGREES = 30.0  # a joint turned further than this from the capture is repor
 
 def add_arguments(c) -> None:
     """The `deik clip` flags on subparser `c`."""
-    c.add_argument("clip", metavar="IN.bvh", help="the clip to fix")
-    c.add_argument("--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout)")
+    c.add_argument("clip", metavar="IN.bvh", help="the clip to fix, or a folder of clips (every *.bvh in it)")
+    c.add_argument(
+        "--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout); a folder for a folder"
+    )
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
     c.add_argument(
         "--limits",
@@ -291,8 +293,10 @@ def _summary_notes(metrics: dict) -> list[str]:
     return lines
 
 
-def run_clip(args) -> int:
-    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
+def run_clip(args, on_frames=None, record=None) -> int:
+    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
+    For a library (deik.cli.library): `on_frames(done, total)` follows the frames that meet
+    their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
     from tqdm import tqdm
 
     from deik.clips.document import clip_document
@@ -354,11 +358,16 @@ def run_clip(args) -> int:
         def progress(met: int, stage: str) -> None:
             bar.set_postfix_str(f"{stage}: frames meeting every goal", refresh=False)
             bar.update(met - bar.n)
+            if on_frames is not None:
+                on_frames(met, clip.n_frames)
 
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
     document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
+    if record is not None:
+        metrics = {key: value["after"] for key, value in document["metrics"].items()}
+        record.update(frames=clip.n_frames, frames_met=document["frames_met"], metrics=metrics)
     _print_tables(document, args.quiet)
     for key, missed in document["reach_unreached"].items():
         if missed["frames"]:

@@ -7,9 +7,24 @@ import math
 import os
 import sys
 
+MESSAGE_LIMIT = 500
+
 
 class UsageError(Exception):
     """A mistake in the command line or its inputs: reported in one line, exit status 2."""
+
+
+# what a user's mistake raises (deik's own errors are ValueError or UsageError; a missing
+# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
+USER_ERRORS = (UsageError, ValueError, ImportError, OSError, KeyError)
+
+
+def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
+    """The message of `error` on one line and at most `limit` characters (a whole echoed input is
+    cut); a KeyError's message is its args[0] (str() would add quotes)."""
+    message = error.args[0] if isinstance(error, KeyError) and error.args else error
+    line = " ".join(str(message).split())
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
 
 
 class Parser(argparse.ArgumentParser):

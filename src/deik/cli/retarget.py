@@ -30,20 +30,24 @@ SHOWN = (
 
 def add_arguments(r) -> None:
     """The `deik retarget` flags on subparser `r`."""
-    r.add_argument("clip", metavar="IN.bvh", help="the source clip")
+    r.add_argument("clip", metavar="IN.bvh", help="the source clip, or a folder of clips (every *.bvh in it)")
     r.add_argument(
         "--to", metavar="TARGET", help="the target: a .bvh (same rig, or with --map any rig), .urdf, humanoid"
     )
     r.add_argument("--scale", metavar="JOINT=FACTOR,...", help="scale the bones below these joints (same rig)")
     r.add_argument("--map", metavar="MAP.toml", help="joint map onto another skeleton (TOML or JSON, docs/retarget.md)")
     r.add_argument(
-        "--out", required=True, metavar="OUT", help="OUT.bvh (a BVH target), or .csv/.json (joint trajectory)"
+        "--out",
+        required=True,
+        metavar="OUT",
+        help="OUT.bvh (a BVH target), or .csv/.json (joint trajectory); a folder for a folder of clips",
     )
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
-    r.add_argument("--seed", type=int, help="random seed of the contact repairs")
-    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (default cpu)")
+    r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
+    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
+    r.add_argument("--quiet", action="store_true", help="no progress bars and no notes on stderr (errors still print)")
 
 
 def _scale(text: str | None) -> dict | None:
@@ -71,12 +75,15 @@ def _frames(text: str | None):
     return int(match[1]), int(match[2])
 
 
-def run_retarget(args) -> int:
-    """`deik retarget`: read, retarget, report, write (all outputs or none)."""
-    from deik.io.bvh import write_bvh
+def run_retarget(args, on_frames=None, record=None) -> int:
+    """`deik retarget`: read, retarget, report, write (all outputs or none). For a library
+    (deik.cli.library): `on_frames(done, total)` follows the frames that meet their contacts,
+    and `record` (a dict) receives the frames and the report's summary."""
+    from deik.io.bvh import read_bvh, write_bvh
     from deik.io.clip import Clip
     from deik.io.trajectory import write_trajectory
     from deik.retarget.api import retarget
+    from deik.retarget.result import frame_range
 
     check_outputs(
         {"--out": args.out, "--view": args.view, "--json": args.json},
@@ -85,13 +92,16 @@ def run_retarget(args) -> int:
     )
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    result = retarget(
-        args.clip, args.to, scale=_scale(args.scale), joint_map=args.map, frames=_frames(args.frames), **settings
-    )
+    source = frame_range(read_bvh(args.clip), _frames(args.frames))
+    if on_frames is not None:
+        settings["progress"] = lambda met, stage: on_frames(met, source.n_frames)
+    result = retarget(source, args.to, scale=_scale(args.scale), joint_map=args.map, **settings)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")
     summary = result.report["summary"]
+    if record is not None:
+        record.update(frames=summary["frames_count"], metrics=dict(summary))
     rows = [[label, unit, f"{summary[key]:.4g}"] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
     print(

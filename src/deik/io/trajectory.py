@@ -7,7 +7,8 @@ whose joints BVH cannot carry (rest rotations, mimics) go through the same clip 
 
 Files, one row per frame (written atomically):
 - CSV: a header `frame,time_s,<DOF name>,...` (URDF joint names for a robot), then the frame
-  index, its time in seconds and the DOF values (radians / metres), 9 significant digits.
+  index, its time in seconds and the DOF values (radians / metres), each in the fewest digits
+  that read back as the same float64 (9 digits put a value at a joint limit up to 5e-9 past it).
 - JSON: {"dof_names": [...], "dof_units": ["rad" | "m", ...], "frame_time_s": t,
   "frames": [[...], ...]} with the same numbers.
 """
@@ -75,7 +76,7 @@ def format_trajectory_csv(trajectory: Trajectory) -> str:
     header = ["frame", "time_s", *trajectory.skeleton.dof_names]
     rows = [",".join(header)]
     for n, values in enumerate(trajectory.frames):
-        numbers = ",".join(f"{v:.9g}" for v in values)
+        numbers = ",".join(repr(float(v)) for v in values)
         rows.append(f"{n},{n * trajectory.frame_time:.9g}" + (f",{numbers}" if numbers else ""))
     return "\n".join(rows) + "\n"
 

@@ -46,6 +46,72 @@ def mapped_points(source_clip, names, origin: np.ndarray, scale: float, rotation
     return ((p - origin) * scale) @ rotation.T
 
 
+def limb_tree(source: Skeleton, source_names, root: int) -> list[int]:
+    """(K,) each key point's parent key point: the nearest of its source frame's ancestors that
+    is mapped, else `root` (the root point's own entry is -1)."""
+    index = {source.frame_index(name): k for k, name in enumerate(source_names)}
+    parents = []
+    for k, name in enumerate(source_names):
+        f = source.frame_index(name)
+        f = f if f < source.n_joints else int(source.site_joint[f - source.n_joints])
+        parent = root
+        if f in index and index[f] != k:  # a site of a mapped joint hangs from that joint's point
+            parent = index[f]
+        else:
+            f = int(source.parents[f]) if f < source.n_joints else f
+            while f >= 0 and f not in index:
+                f = int(source.parents[f])
+            parent = index.get(f, root)
+        parents.append(-1 if k == root else parent)
+    return parents
+
+
+def limb_scales(source: Skeleton, target: Skeleton, source_names, target_names, root: int, fallback: float):
+    """(root scale, (K,) limb scales) at rest: the root key point's height above the skeleton's
+    lowest joint or site, and each point's distance from its parent point (limb_tree), target over
+    source (a point within 1 % of the source's reach of its parent takes `fallback`)."""
+    rest = [forward_kinematics(sk, np.zeros(sk.n_dofs)).p_world_frame for sk in (source, target)]
+    P, Q = (
+        X[[sk.frame_index(n) for n in names]]
+        for X, sk, names in zip(rest, (source, target), (source_names, target_names))
+    )
+    # the root's height above the sole (the lowest joint or site), which stands on the floor
+    legs = [X[root] @ sk.up - (frames @ sk.up).min() for X, frames, sk in zip((P, Q), rest, (source, target))]
+    if not legs[0] > 1e-2 * source.reach:
+        raise ValueError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
+    parents = np.array(limb_tree(source, source_names, root))
+    up = np.where(parents >= 0, parents, root)
+    far = [np.linalg.norm(X - X[up], axis=1) for X in (P, Q)]
+    scales = np.where(far[0] > 1e-2 * source.reach, far[1] / np.maximum(far[0], 1e-12), fallback)
+    return float(legs[1] / legs[0]), scales
+
+
+def limb_points(source_clip, names, origin, root: int, root_scale: float, scales, rotation) -> np.ndarray:
+    """(N, K, 3) source frames `names` mapped limb by limb: the root point's path about
+    `origin` by `root_scale`, then each point at its parent point (limb_tree) plus its offset
+    from the parent in the source, scaled by its limb scale (K,) (limb_scales): the source's
+    pose with the target's limb lengths."""
+    kin = forward_kinematics(source_clip.skeleton, source_clip.poses())
+    p = np.stack([kin.position(name) for name in names], axis=1)
+    parents = limb_tree(source_clip.skeleton, names, root)
+    out = np.empty_like(p)
+    done = [False] * len(names)
+
+    def place(k: int) -> None:
+        if done[k]:
+            return
+        if parents[k] < 0:
+            out[:, k] = (p[:, k] - origin) * root_scale
+        else:
+            place(parents[k])
+            out[:, k] = out[:, parents[k]] + (p[:, k] - p[:, parents[k]]) * scales[k]
+        done[k] = True
+
+    for k in range(len(names)):
+        place(k)
+    return out @ rotation.T
+
+
 def mapped_rotations(source_clip, source_name: str, target: Skeleton, target_name: str, rotation) -> np.ndarray:
     """(N, 3, 3) the world orientation target frame `target_name` should have in each frame (see
     the module notes)."""
