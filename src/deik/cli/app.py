@@ -29,6 +29,7 @@ from deik.cli import retarget as cli_retarget
 from deik.cli import solve as cli_solve
 from deik.cli import warmup as cli_warmup
 from deik.cli.common import Parser, UsageError, check_outputs, numbers
+from deik.console import add_output_flags, configure_logging, show_progress
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -42,7 +43,7 @@ def run_demo(args) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
     from deik.experiments import demo
 
-    rows = demo.run_demo(args.out)
+    rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
 
 
@@ -93,6 +94,7 @@ def build_parser() -> Parser:
     i.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_output_flags(i, progress=False)
     i.set_defaults(run=run_info)
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
@@ -123,12 +125,14 @@ def build_parser() -> Parser:
         metavar="LENGTH",
         help="added to each translation's range on both sides (default 0)",
     )
+    add_output_flags(lim, progress=False)
     lim.set_defaults(run=run_limits)
     w = commands.add_parser("warmup", help="compile the kernels ahead of time (minutes, once after an install)")
     cli_warmup.add_arguments(w)
     w.set_defaults(run=cli_warmup.run_warmup)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
+    add_output_flags(d)
     d.set_defaults(run=run_demo)
     return parser
 
@@ -140,6 +144,7 @@ def main(argv=None) -> int:
         return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
+        configure_logging(args)
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
-import sys
 
 
 class UsageError(Exception):
@@ -84,11 +84,11 @@ def check_device(device: str) -> None:
 
 
 def announce_compile(device: str, dtype: str) -> None:
-    """Print one line on stderr before a solve when the CPU kernels for `dtype` must be compiled
-    first (deik.solver.readiness), so nobody waits minutes in silence."""
+    """Say in one note on stderr (the "deik" logger) before a solve when the CPU kernels for
+    `dtype` must be compiled first (deik.solver.readiness), so nobody waits minutes in silence."""
     if device != "cpu":
         return
     from deik.solver.readiness import compile_note, kernels_ready
 
     if not kernels_ready(dtype):
-        print(compile_note(dtype), file=sys.stderr, flush=True)
+        logging.getLogger(__name__).info(compile_note(dtype))

@@ -11,7 +11,8 @@ from __future__ import annotations
 import os
 import re
 
-from deik.cli.common import UsageError, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
@@ -44,6 +45,7 @@ def add_arguments(r) -> None:
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
     r.add_argument("--seed", type=int, help="random seed of the contact repairs")
     r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (default cpu)")
+    add_output_flags(r)
 
 
 def _scale(text: str | None) -> dict | None:
@@ -73,10 +75,11 @@ def _frames(text: str | None):
 
 def run_retarget(args) -> int:
     """`deik retarget`: read, retarget, report, write (all outputs or none)."""
-    from deik.io.bvh import write_bvh
+    from deik.io.bvh import read_bvh, write_bvh
     from deik.io.clip import Clip
     from deik.io.trajectory import write_trajectory
     from deik.retarget.api import retarget
+    from deik.retarget.result import frame_range
 
     check_outputs(
         {"--out": args.out, "--view": args.view, "--json": args.json},
@@ -85,9 +88,16 @@ def run_retarget(args) -> int:
     )
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    result = retarget(
-        args.clip, args.to, scale=_scale(args.scale), joint_map=args.map, frames=_frames(args.frames), **settings
-    )
+    clip = frame_range(read_bvh(args.clip), _frames(args.frames))
+    announce_compile(args.device or "cpu", "float32")
+    # the bar counts the frames that meet their contacts, after the warm start and each repair pass
+    with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
+
+        def progress(met: int, stage: str) -> None:
+            bar.set_postfix_str(f"{stage}: frames meeting their contacts", refresh=False)
+            bar.update(met - bar.n)
+
+        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")

@@ -10,14 +10,15 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
 from __future__ import annotations
 
 import json
+import logging
 import os
-import sys
 from dataclasses import replace
 
 import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
+from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.files import read_input_text
 from deik.io.limits import read_limits, with_limits
@@ -44,6 +45,7 @@ SETTING_FLAGS = (
     "islands",
 )
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
+log = logging.getLogger(__name__)
 
 
 def add_arguments(s) -> None:
@@ -98,7 +100,6 @@ def add_arguments(s) -> None:
     )
     s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
     s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
-    s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
     s.add_argument(
         "--start",
         nargs="+",
@@ -106,6 +107,7 @@ def add_arguments(s) -> None:
         help="start near this pose: one value per DOF (degrees / length units, `deik info` order) or a "
         "pose.json written by --out; comfort then keeps the result near it unless --comfort is given",
     )
+    add_output_flags(s)
 
 
 def _start_pose(values: list[str], skeleton) -> np.ndarray:
@@ -191,16 +193,6 @@ def _clip_pose(clip, frame: int):
         raise UsageError(f"--frame: {error}") from None
 
 
-def _progress(generations: int, terminal: bool):
-    """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
-
-    def report(generation, best):
-        line = f"generation {generation}/{generations}  best fitness {best:.6g}"
-        print(f"\r{line}" if terminal else line, end="" if terminal else "\n", file=sys.stderr, flush=True)
-
-    return report
-
-
 def _write_pose(path, result, loaded, frame) -> None:
     """JSON summary, or BVH: the input clip with `frame` replaced, else a one-frame clip."""
     if os.path.splitext(path)[1].lower() != ".bvh":
@@ -252,19 +244,16 @@ def run_solve(args) -> int:
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
-            print(
+            log.info(
                 f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
-                "targets); --comfort 0 turns it off",
-                file=sys.stderr,
+                "targets); --comfort 0 turns it off"
             )
     if loaded is not None and loaded.kind == "bvh":
-        print(f"note: masses {loaded.mass_source}", file=sys.stderr)
-    terminal = sys.stderr.isatty()
-    progress = _progress(settings.generations, terminal) if args.progress or terminal else None
+        log.info(f"note: masses {loaded.mass_source}")
     announce_compile(settings.device, settings.dtype)
-    result = solve(problem, settings, initial=initial, progress=progress)
-    if progress and terminal:
-        print(file=sys.stderr)
+    with progress_bar(settings.generations, "deik solve", "gen", show_progress(args)) as bar:
+        progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
+        result = solve(problem, settings, initial=initial, progress=progress)
     rows = [
         [
             r.label,

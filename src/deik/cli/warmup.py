@@ -9,10 +9,11 @@ error report, and the clip fix's float64 Jacobians.
 
 from __future__ import annotations
 
-import sys
 import time
 
 import numpy as np
+
+from deik.console import add_output_flags, progress_bar
 
 DTYPES = ("float32", "float64")
 
@@ -45,23 +46,24 @@ def steps(dtypes=DTYPES) -> list[tuple[str, object]]:
 
 def run_warmup(args) -> int:
     """Compile the kernels for args.dtype (default both) and report how long it took."""
-    from tqdm import tqdm
-
     from deik.solver.readiness import kernels_ready
 
     dtypes = args.dtype or list(DTYPES)
     began = time.perf_counter()
     todo = steps(dtypes)
     ready = all(kernels_ready(d) for d in dtypes)
-    bar = tqdm(todo, desc="deik warmup", unit="step", file=sys.stderr, disable=args.quiet)
-    for description, step in bar:
-        bar.set_postfix_str(description)
-        step()
+    # the bar shows at once: every step takes seconds to minutes
+    with progress_bar(len(todo), "deik warmup", "step", show=not args.quiet) as bar:
+        for description, step in todo:
+            bar.set_postfix_str(description)
+            step()
+            bar.update()
     state = "were already compiled (loaded from the cache)" if ready else "are compiled and cached"
     print(f"deik's CPU kernels for {', '.join(dtypes)} {state}: {time.perf_counter() - began:.1f} s")
     return 0
 
 
 def add_arguments(parser) -> None:
+    """The `deik warmup` flags on subparser `parser`."""
     parser.add_argument("--dtype", action="append", choices=DTYPES, help="only this precision (repeatable)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_output_flags(parser, progress=False)

@@ -24,6 +24,7 @@ and BALANCE_PASSES.
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 
@@ -190,6 +191,9 @@ def fix_clip(
             }
         )
     wall = time.perf_counter() - start
+    logging.getLogger(__name__).debug(
+        "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
+    )
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
     report(int(met.sum()), "done")

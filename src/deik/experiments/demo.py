@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.console import progress_bar
 from deik.io.atomic import write_json_atomically
 from deik.model.builders import chain
 from deik.model.humanoid import humanoid
@@ -155,31 +156,35 @@ def _has_matplotlib() -> bool:
     return True
 
 
-def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
+def run_demo(out_dir: str, scenarios: list[Scenario] | None = None, show: bool | None = None) -> list[dict]:
     """Solve `scenarios` (default: the paper's four), print the table, write one PNG each and
-    demo.json into `out_dir` (created if missing). Returns the rows; a row's "passed" is False
-    when its scenario missed one of its goals' tolerances."""
+    demo.json into `out_dir` (created if missing), with a progress bar over the scenarios
+    (`show` as in deik.console.progress_bar). Returns the rows; a row's "passed" is False when
+    its scenario missed one of its goals' tolerances."""
     scenarios = chain_scenarios() + [humanoid_scenario()] if scenarios is None else scenarios
     os.makedirs(out_dir, exist_ok=True)
     start = time.perf_counter()
     rows, summary = [], []
     pictures = _has_matplotlib()  # without it: the table and demo.json only
-    for scenario in scenarios:
-        result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
-        image = f"{scenario.key}.png" if pictures else None
-        if pictures:
-            plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
-        rows += scenario_rows(scenario, result)
-        summary.append(
-            {
-                "key": scenario.key,
-                "title": scenario.title,
-                "image": image,
-                "settings": scenario.settings,
-                "passed": rows[-1]["passed"],
-                "result": result.to_dict(),
-            }
-        )
+    with progress_bar(len(scenarios), "deik demo", "scenario", show) as bar:
+        for scenario in scenarios:
+            bar.set_postfix_str(scenario.key)
+            result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
+            bar.update()
+            image = f"{scenario.key}.png" if pictures else None
+            if pictures:
+                plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
+            rows += scenario_rows(scenario, result)
+            summary.append(
+                {
+                    "key": scenario.key,
+                    "title": scenario.title,
+                    "image": image,
+                    "settings": scenario.settings,
+                    "passed": rows[-1]["passed"],
+                    "result": result.to_dict(),
+                }
+            )
     total = time.perf_counter() - start
     write_json_atomically(
         os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,14 +38,29 @@ def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> 
         from deik.io.bvh import read_bvh
 
         clip = read_bvh(spec, segments=segments)
-        return Loaded(clip.skeleton, "bvh", clip, clip.mass_source)
+        return _loaded(Loaded(clip.skeleton, "bvh", clip, clip.mass_source))
     if suffix == ".urdf":
         from deik.io.urdf import read_urdf
 
         skeleton = read_urdf(spec, base=base, tip=tip or None, up=URDF_UP if up is None else up)
-        return Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)")
+        return _loaded(Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)"))
     skeleton = skeleton_from_spec(spec)
-    return Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)")
+    return _loaded(Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)"))
+
+
+def _loaded(loaded: Loaded) -> Loaded:
+    """`loaded`, described on the "deik" logger's debug level."""
+    sk = loaded.skeleton
+    logging.getLogger(__name__).debug(
+        "loaded %s (%s): %d joints, %d DOFs, %d sites; masses: %s",
+        sk.name,
+        loaded.kind,
+        sk.n_joints,
+        sk.n_dofs,
+        len(sk.site_names),
+        loaded.mass_source,
+    )
+    return loaded
 
 
 def skeleton_from_spec(spec: str) -> Skeleton:
