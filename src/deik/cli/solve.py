@@ -30,7 +30,7 @@ from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
 from deik.viz import plot
-from deik.viz.text import format_table
+from deik.viz.text import format_table, shown
 
 SETTING_FLAGS = (
     "seed",
@@ -139,11 +139,6 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
             f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); got {pose.size}"
         )
     return np.where(skeleton.dof_kind == ROTATE, np.radians(pose), pose)  # poses_around checks the limits
-
-
-def _shown(value: float, unit: str) -> str:
-    """A report value in the CLI's units: degrees for angles, the raw unit otherwise."""
-    return f"{np.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
 
 
 def _file_flags_used(args) -> bool:
@@ -257,8 +252,8 @@ def run_solve(args) -> int:
     rows = [
         [
             r.label,
-            _shown(float(r.error), r.unit),
-            _shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
+            shown(float(r.error), r.unit),
+            shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals

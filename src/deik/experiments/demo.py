@@ -29,7 +29,7 @@ from deik.objectives.registry import LENGTH
 from deik.solver.problem import Problem
 from deik.solver.solve import solve
 from deik.viz.plot import plot_result
-from deik.viz.text import format_table
+from deik.viz.text import format_table, shown
 
 CHAIN_SETTINGS = {"population": 256, "strategy": "best/1/bin", "seed": 0}
 HUMANOID_SETTINGS = {"population": 256, "generations": 1500, "seed": 1}
@@ -137,9 +137,9 @@ def _print_table(rows: list[dict]) -> None:
             [
                 row["scenario"] if first else "",
                 row["goal"],
-                f"{row['error']:.4g} {row['unit']}",
+                shown(row["error"], row["unit"]),
                 "" if row["percent_of_reach"] is None else f"{row['percent_of_reach']:.3f} %",
-                "-" if row["bound"] is None else f"{row['bound']:.4g} {row['unit']}",
+                "-" if row["bound"] is None else shown(row["bound"], row["unit"]),
                 {None: "-", True: "yes", False: "NO"}[row["met"]],
                 row["generations"] if first else "",
                 f"{row['time_s']:.2f} s" if first else "",

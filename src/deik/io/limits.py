@@ -34,15 +34,26 @@ def with_limits(skeleton: Skeleton, limits: dict) -> Skeleton:
     lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
     for name, bounds in limits.items():
         if name not in skeleton.dof_names:
-            raise KeyError(
-                f"DOF {name!r} not found in skeleton {skeleton.name!r}{did_you_mean(name, skeleton.dof_names)}"
-            )
+            raise KeyError(_not_a_dof(skeleton, name))
         low, high = (float(b) for b in bounds)
         if not (math.isfinite(low) and math.isfinite(high) and low <= high):
             raise ValueError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
         d = skeleton.dof_names.index(name)
         lower[d], upper[d] = low, high
     return replace(skeleton, lower=lower, upper=upper)
+
+
+def _not_a_dof(skeleton: Skeleton, name: str) -> str:
+    """Why `name` keys no DOF, and which key to give: a joint's own DOF names, the joint that
+    moves a link (URDF), or close matches."""
+    try:
+        dofs = skeleton.joint_dofs(name)
+    except KeyError as error:
+        if name in skeleton.frame_names:  # a link or a site: the skeleton says which name to give
+            return f"{error.args[0]}; a limits table is keyed by DOF names"
+        return f"DOF {name!r} not found in skeleton {skeleton.name!r}{did_you_mean(name, skeleton.dof_names)}"
+    names = ", ".join(skeleton.dof_names[dofs]) or "none"
+    return f"{name!r} is a joint; a limits table is keyed by its DOF names ({names})"
 
 
 def read_limits(path, skeleton: Skeleton) -> dict:

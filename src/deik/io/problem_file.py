@@ -22,8 +22,9 @@ A problem file names a skeleton, optional solver settings and one `[[goal]]` tab
     type = "orientation"         # exactly one of: target = 3x3 rotation matrix, pose = 4x4
     frame = "head"               # homogeneous pose, quaternion_wxyz = [w, x, y, z],
     rpy_degrees = [0, 20, 0]     # quaternion_xyzw = [x, y, z, w], rpy_degrees = URDF roll,
-    tolerance = 0.002            # pitch, yaw (R = Rz Ry Rx), or euler = "XYZ" (intrinsic)
-                                 # with degrees = [a, b, c]; tolerance in radians
+    tolerance_degrees = 0.1      # pitch, yaw (R = Rz Ry Rx), or euler = "XYZ" (intrinsic)
+                                 # with degrees = [a, b, c]; tolerance in radians, or
+                                 # tolerance_degrees (orientation and aim goals)
 
 Other types and their fields (optional ones in brackets): "aim" frame, target [axis];
 "com" target; "com_over_support" point; "com_in_polygon" frames (a list of names);
