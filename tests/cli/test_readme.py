@@ -2,10 +2,13 @@
 command may read what an earlier one wrote), from a folder laid out like a clone beside shared/,
 and every Python block. A bash line that is neither a `deik` command nor an example script must
 be in benchmarks.readme_commands.EXCLUDED with the reason it cannot run here and what runs it
-instead, so no line goes unchecked unnoticed. tests/cli/test_wheel.py runs the same lines
+instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every goal
+within its tolerances. tests/cli/test_wheel.py runs the same lines
 against a fresh wheel install."""
 
+import json
 import os
+import shlex
 import sys
 
 import pytest
@@ -43,6 +46,10 @@ def test_every_readme_line_runs_as_written(tmp_path, shared_data):
             run = run_line(line, clone, deik, sys.executable, env)
             assert run.returncode == 0, f"{line}\n{run.stderr[-2000:]}"
             ran += 1
+            words = shlex.split(line)
+            out = words[words.index("--out") + 1] if "--out" in words else ""
+            if words[:2] == ["deik", "solve"] and out.endswith(".json"):  # each meets its tolerances
+                assert json.loads((clone / out).read_text())["converged"], f"{line}: a README solve misses a goal"
     assert ran >= 13
 
 
