@@ -22,6 +22,10 @@ import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # tqdm is imported when a bar is made
+    from tqdm import tqdm
 
 DELAY = 1.0  # seconds of work before a bar appears on a terminal: shorter work shows none
 LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}
@@ -30,7 +34,7 @@ LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNI
 Progress = bool | Callable[[int, float], object] | None
 
 
-def progress_bar(total: int | None, description: str, unit: str, show: bool | None = None):
+def progress_bar(total: int | None, description: str, unit: str, show: bool | None = None) -> tqdm:
     """A tqdm bar on stderr over `total` steps of `unit` (None: a count without an end).
     `show`: True always and at once, None on a terminal after DELAY seconds, False never (a
     disabled bar still takes updates)."""
@@ -47,7 +51,7 @@ def progress_bar(total: int | None, description: str, unit: str, show: bool | No
     )
 
 
-def show_generation(bar, generation: int, best: float, running: int = 1, problems: int = 1) -> None:
+def show_generation(bar: tqdm, generation: int, best: float, running: int = 1, problems: int = 1) -> None:
     """Move a solve's `bar` to `generation`, with the best fitness and, for a batch of
     `problems`, how many still run."""
     batch = f", {running}/{problems} problems running" if problems > 1 else ""

@@ -39,7 +39,7 @@ BROKEN_PIPE = 141  # 128 + SIGPIPE
 MESSAGE_LIMIT = 500
 
 
-def run_demo(args) -> int:
+def run_demo(args: argparse.Namespace) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
     from deik.experiments import demo
 
@@ -47,7 +47,7 @@ def run_demo(args) -> int:
     return 0 if all(row["passed"] for row in rows) else 1
 
 
-def run_info(args) -> int:
+def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
     from deik.cli.info import describe
 
@@ -57,7 +57,7 @@ def run_info(args) -> int:
     return 0
 
 
-def run_limits(args) -> int:
+def run_limits(args: argparse.Namespace) -> int:
     """`deik limits IN.bvh --out limits.json`: each DOF's range over the clip plus margins."""
     from deik.io.bvh import read_bvh
     from deik.io.limits import range_of_motion, write_limits
@@ -137,7 +137,7 @@ def build_parser() -> Parser:
     return parser
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["experiments"]:

@@ -7,6 +7,7 @@ stay close to the performance; write the fixed clip, a before/after table and a 
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 
@@ -29,7 +30,7 @@ FAR_DEGREES = 30.0  # a joint turned further than this from the capture is repor
 log = logging.getLogger(__name__)
 
 
-def add_arguments(c) -> None:
+def add_arguments(c: argparse.ArgumentParser) -> None:
     """The `deik clip` flags on subparser `c`."""
     c.add_argument("clip", metavar="IN.bvh", help="the clip to fix")
     c.add_argument("--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout)")
@@ -282,7 +283,7 @@ def _summary_notes(metrics: dict) -> list[str]:
     return lines
 
 
-def run_clip(args) -> int:
+def run_clip(args: argparse.Namespace) -> int:
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
     from deik.clips.document import clip_document
     from deik.clips.problem import ClipGoals

@@ -6,6 +6,8 @@ import argparse
 import logging
 import math
 import os
+from collections.abc import Iterable
+from typing import NoReturn
 
 
 class UsageError(Exception):
@@ -15,11 +17,11 @@ class UsageError(Exception):
 class Parser(argparse.ArgumentParser):
     """argparse that raises UsageError instead of printing usage and exiting."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
-def numbers(flag: str, words) -> list[float]:
+def numbers(flag: str, words: Iterable[str]) -> list[float]:
     """Finite floats from command-line words; UsageError naming `flag` otherwise."""
     values = []
     for word in words:
@@ -33,7 +35,12 @@ def numbers(flag: str, words) -> list[float]:
     return values
 
 
-def check_outputs(outputs: dict, suffixes: dict, inputs=(), overwrite: bool = False) -> None:
+def check_outputs(
+    outputs: dict[str, str | None],
+    suffixes: dict[str, tuple[str, ...]],
+    inputs: Iterable[str | None] = (),
+    overwrite: bool = False,
+) -> None:
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 
@@ -29,7 +30,7 @@ SHOWN = (
 )
 
 
-def add_arguments(r) -> None:
+def add_arguments(r: argparse.ArgumentParser) -> None:
     """The `deik retarget` flags on subparser `r`."""
     r.add_argument("clip", metavar="IN.bvh", help="the source clip")
     r.add_argument(
@@ -73,7 +74,7 @@ def _frames(text: str | None):
     return int(match[1]), int(match[2])
 
 
-def run_retarget(args) -> int:
+def run_retarget(args: argparse.Namespace) -> int:
     """`deik retarget`: read, retarget, report, write (all outputs or none)."""
     from deik.io.bvh import read_bvh, write_bvh
     from deik.io.clip import Clip

@@ -9,6 +9,7 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
 
 from __future__ import annotations
 
+import argparse
 import json
 import logging
 import os
@@ -48,7 +49,7 @@ SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
 log = logging.getLogger(__name__)
 
 
-def add_arguments(s) -> None:
+def add_arguments(s: argparse.ArgumentParser) -> None:
     """The `deik solve` flags on subparser `s`."""
     s.add_argument("skeleton", nargs="?", help="chain:N (planar), chain3d:N, humanoid, or a .bvh/.urdf file")
     s.add_argument("--skeleton", dest="skeleton_flag", metavar="FILE", help="same as SKELETON: a .bvh or .urdf file")
@@ -206,7 +207,7 @@ def _write_pose(path, result, loaded, frame) -> None:
     write_bvh(path, clip)
 
 
-def run_solve(args) -> int:
+def run_solve(args: argparse.Namespace) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
     inputs = (
         args.skeleton_flag,

@@ -9,7 +9,9 @@ error report, and the clip fix's float64 Jacobians.
 
 from __future__ import annotations
 
+import argparse
 import time
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -38,13 +40,13 @@ def _jacobians() -> None:
     point_jacobians(np.zeros((1, sk.n_dofs)), np.array([sk.frame_index("tip")]), pack_skeleton(sk, np.float64))
 
 
-def steps(dtypes=DTYPES) -> list[tuple[str, object]]:
+def steps(dtypes: Iterable[str] = DTYPES) -> list[tuple[str, Callable[[], None]]]:
     """(description, function) of every compile step for these dtypes."""
     out = [(f"DE, polish and report ({dtype})", lambda dtype=dtype: _solve(dtype)) for dtype in dtypes]
     return out + [("clip warm start Jacobians (float64)", _jacobians)]
 
 
-def run_warmup(args) -> int:
+def run_warmup(args: argparse.Namespace) -> int:
     """Compile the kernels for args.dtype (default both) and report how long it took."""
     from deik.solver.readiness import kernels_ready
 
@@ -63,7 +65,7 @@ def run_warmup(args) -> int:
     return 0
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The `deik warmup` flags on subparser `parser`."""
     parser.add_argument("--dtype", action="append", choices=DTYPES, help="only this precision (repeatable)")
     add_output_flags(parser, progress=False)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +34,7 @@ import numpy as np
 from deik.clips.coherence import ease, hinge_channels, searched_dofs
 from deik.clips.problem import FIDELITY_LEVEL, ClipGoals, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -123,13 +125,13 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
 
 
 def fix_clip(
-    clip,
+    clip: Motion,
     goals: ClipGoals,
     passes: int | None = None,
     settings: Settings | None = None,
     *,
-    progress=None,
-    **overrides,
+    progress: Callable[[int, str], object] | None = None,
+    **overrides: object,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)

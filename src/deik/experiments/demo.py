@@ -24,9 +24,11 @@ from deik.io.atomic import write_json_atomically
 from deik.model.builders import chain
 from deik.model.humanoid import humanoid
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, ComOverSupport, Position
 from deik.objectives.registry import LENGTH
 from deik.solver.problem import Problem
+from deik.solver.result import Result
 from deik.solver.solve import solve
 from deik.viz.plot import plot_result
 from deik.viz.text import format_table, shown
@@ -52,7 +54,7 @@ class Scenario:
     initial: np.ndarray | None = None
 
 
-def chain_target(skeleton, seed: int) -> np.ndarray:
+def chain_target(skeleton: Skeleton, seed: int) -> np.ndarray:
     """Tip position (3,) of a pose drawn uniformly inside the joint limits."""
     pose = np.random.default_rng(seed).uniform(skeleton.lower, skeleton.upper)
     return forward_kinematics(skeleton, pose).position("tip")
@@ -100,7 +102,7 @@ def humanoid_scenario() -> Scenario:
     )
 
 
-def scenario_rows(scenario: Scenario, result) -> list[dict]:
+def scenario_rows(scenario: Scenario, result: Result) -> list[dict]:
     """One row per goal: error in its unit (and % of reach for chains), its tolerance and
     whether the Result reports it met (None for goals without a tolerance), run facts;
     "passed" when every toleranced goal is met."""

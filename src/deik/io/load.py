@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from numpy.typing import ArrayLike
+
+from deik.io.files import FilePath
 from deik.model.skeleton import Skeleton
 
 URDF_UP = (0.0, 0.0, 1.0)
@@ -23,7 +27,14 @@ class Loaded:
     mass_source: str = ""
 
 
-def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> Loaded:
+def load_skeleton(
+    spec: str,
+    *,
+    base: str | None = None,
+    tip: str | Sequence[str] | None = None,
+    segments: FilePath | None = None,
+    up: ArrayLike | None = None,
+) -> Loaded:
     """Load `spec`: a path ending in .bvh or .urdf, or "chain:N", "chain3d:N", "humanoid".
     `base`/`tip` (link names) and `up` (3,) apply to URDF only; `segments` (a segment table
     path) to BVH only; giving one for another kind is a ValueError."""

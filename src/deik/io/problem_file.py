@@ -46,7 +46,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.problem_goals import goal_from_table, vector_field
@@ -71,7 +71,7 @@ class ProblemFile:
     frame: int | None = None
 
 
-def load_problem(path) -> ProblemFile:
+def load_problem(path: FilePath) -> ProblemFile:
     """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)

@@ -31,7 +31,7 @@ def _is_number(value) -> bool:
 VECTOR_FORMS = {(3,): "[x, y, z]", (3, 3): "[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]"}
 
 
-def vector_field(value, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
+def vector_field(value: object, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
     """A finite float64 array of `shape` from nested TOML lists, or a ValueError saying why;
     `form` describes the expected value (default: a 3-vector or 3x3 matrix template)."""
 
@@ -137,7 +137,7 @@ def _orientation_target(table: dict, where: str) -> tuple:
     return euler_matrix(order, np.radians(degrees)), form
 
 
-def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
+def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -> g.Goal:
     """Build and check goal `number` (1-based) from its TOML table."""
     where = f"{path}: goal {number}"
     if not isinstance(table, dict):

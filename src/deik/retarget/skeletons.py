@@ -8,9 +8,11 @@ length unit, angles radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
@@ -55,7 +57,7 @@ def scaled_bones(skeleton: Skeleton, factors: dict[str, float]) -> Skeleton:
     )
 
 
-def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
+def with_floating_root(skeleton: Skeleton, lower: ArrayLike, upper: ArrayLike) -> Skeleton:
     """`skeleton`, whose root joint has no DOFs (a robot fixed in the world), with six on it:
     translations along X, Y, Z within `lower`/`upper` (3,) length units, then rotations Z, X, Y
     (intrinsic, over a whole turn), in the root joint's frame, named "ROOT.Xposition" and so on
@@ -78,7 +80,7 @@ def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
     )
 
 
-def with_sites(skeleton: Skeleton, sites) -> Skeleton:
+def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
     """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
     site on a site lands on that site's joint. ValueError when a name is taken."""
     if not sites:

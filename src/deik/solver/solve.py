@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import fields
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.console import Progress, generation_reporter
 from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
 from deik.objectives.registry import kind_of
-from deik.solver.engine import Engine
+from deik.solver.engine import Engine, EvolutionState
 from deik.solver.launches import Launches
 from deik.solver.problem import Problem
 from deik.solver.result import GoalReport, Result
@@ -21,7 +23,12 @@ log = logging.getLogger(__name__)
 
 
 def solve(
-    problem: Problem, settings: Settings | None = None, *, initial=None, progress: Progress = None, **overrides
+    problem: Problem,
+    settings: Settings | None = None,
+    *,
+    initial: ArrayLike | None = None,
+    progress: Progress = None,
+    **overrides: object,
 ) -> Result:
     """Solve `problem`; settings from `settings` and/or keyword overrides (population,
     generations, time_limit, strategy, F, CR, adaptive, polish, restarts, seed, patience,
@@ -35,7 +42,7 @@ def solve(
     return run_engine(problem, Engine(problem, merge_settings("solve()", settings, overrides)), initial, progress)
 
 
-def run_engine(problem: Problem, engine: Engine, initial=None, progress: Progress = None) -> Result:
+def run_engine(problem: Problem, engine: Engine, initial: ArrayLike | None = None, progress: Progress = None) -> Result:
     """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
     budget, time limit, or every problem stopped; the Result (solve() without the set-up).
     Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly."""
@@ -78,7 +85,12 @@ def run_engine(problem: Problem, engine: Engine, initial=None, progress: Progres
 
 
 def solve_batch(
-    problems, settings: Settings | None = None, *, initial=None, progress: Progress = None, **overrides
+    problems: Sequence[Problem],
+    settings: Settings | None = None,
+    *,
+    initial: ArrayLike | None = None,
+    progress: Progress = None,
+    **overrides: object,
 ) -> Result:
     """Solve several problems on one skeleton in one launch: `problems` differ only in
     targets, weights, reference poses and active masks (see Problem.stack). The Result is
@@ -86,7 +98,9 @@ def solve_batch(
     return solve(Problem.stack(problems), settings, initial=initial, progress=progress, **overrides)
 
 
-def merge_settings(caller: str, settings: Settings | None, overrides: dict, defaults: dict | None = None) -> Settings:
+def merge_settings(
+    caller: str, settings: Settings | None, overrides: dict[str, object], defaults: dict[str, object] | None = None
+) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
     names = {f.name for f in fields(Settings)}
@@ -96,7 +110,7 @@ def merge_settings(caller: str, settings: Settings | None, overrides: dict, defa
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
-def make_result(problem: Problem, engine: Engine, state, wall_time: float) -> Result:
+def make_result(problem: Problem, engine: Engine, state: EvolutionState, wall_time: float) -> Result:
     """Result from a final EvolutionState, shaped by problem.batch_shape. Errors are float64: a
     float64 run reports the final state's raw errors of each problem's best individual, a
     float32 run re-evaluates that individual in float64 (Engine.raw_errors)."""

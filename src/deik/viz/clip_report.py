@@ -6,13 +6,23 @@ frame numbers above), atomically: a reader sees the old file or the complete new
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import save_atomically
+from deik.io.files import FilePath
 from deik.viz.plot import require_matplotlib
 
 
-def plot_clip_report(series: dict, path, frame_time: float, title: str = "", notes=()) -> None:
+def plot_clip_report(
+    series: dict[str, tuple[ArrayLike, ArrayLike]],
+    path: FilePath,
+    frame_time: float,
+    title: str = "",
+    notes: Sequence[str] = (),
+) -> None:
     """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
     NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
     `notes`: lines of text under the title (numbers that are not series)."""

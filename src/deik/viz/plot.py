@@ -7,18 +7,25 @@ the complete new one, never a half-written one.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from types import ModuleType
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import save_atomically
+from deik.io.files import FilePath
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
+from deik.solver.problem import Problem
+from deik.solver.result import Result
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 
 
-def require_matplotlib():
+def require_matplotlib() -> ModuleType:
     """pyplot on the file-only Agg backend; ImportError with the install command if missing."""
     try:
         import matplotlib
@@ -55,7 +62,16 @@ def _views(skeleton: Skeleton):
     return [("front", across, up, (name(across), name(up))), ("side", depth, up, (name(depth), name(up)))]
 
 
-def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=None, title="", obstacles=()) -> None:
+def plot_pose(
+    result_or_skeleton: Result | Skeleton,
+    angles: ArrayLike | None,
+    path: FilePath,
+    targets: Sequence[ArrayLike] = (),
+    com: ArrayLike | None = None,
+    support: ArrayLike | None = None,
+    title: str = "",
+    obstacles: Sequence[tuple[ArrayLike, float]] = (),
+) -> None:
     """Draw one pose to PNG `path`.
 
     result_or_skeleton: a deik.Result (angles None takes its .angles) or a Skeleton; angles
@@ -109,7 +125,7 @@ def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=No
         plt.close(figure)
 
 
-def goal_marks(problem) -> dict:
+def goal_marks(problem: Problem) -> dict:
     """plot_pose's marks from a Problem's goals: targets of Position / Aim / CentreOfMass goals,
     the support point of a ComOverSupport goal and obstacle spheres."""
     marks = {"targets": [], "support": None, "obstacles": []}
@@ -123,7 +139,7 @@ def goal_marks(problem) -> dict:
     return marks
 
 
-def plot_result(problem, result, path, title: str = "") -> None:
+def plot_result(problem: Problem, result: Result, path: FilePath, title: str = "") -> None:
     """plot_pose of an unbatched Result with `problem`'s targets, its support point and the
     pose's centre of mass (when the skeleton has mass)."""
     com = forward_kinematics(result.skeleton, result.angles).p_world_com if result.skeleton.total_mass > 0 else None
