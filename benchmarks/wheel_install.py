@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -26,6 +27,7 @@ from benchmarks.readme_commands import ROOT
 RESULTS = ROOT / "benchmarks" / "results"
 MAX_PACKAGES, MAX_MEGABYTES = 10, 200.0  # issue 19 item 1
 MB = 1e6
+BUILD_FILES = ("pyproject.toml", "README.md", "LICENSE")  # with src/: all a build of deik reads
 
 # run inside the new environment: each installed distribution's name, version and bytes on disk
 SIZES = """
@@ -62,7 +64,7 @@ def index_reachable(python: str = sys.executable) -> tuple[bool, str]:
     """(whether pip can fetch a small package from the package index, pip's last line if not)."""
     with tempfile.TemporaryDirectory() as folder:
         try:
-            pip(python, "download", "--no-deps", "--dest", folder, "--timeout", "20", "tqdm")
+            pip(python, "download", "--no-deps", "--dest", folder, "--timeout", "20", "--retries", "0", "tqdm")
         except subprocess.CalledProcessError as error:
             lines = (error.stderr or error.stdout or "no output").strip().splitlines()
             return False, lines[-1] if lines else "no output"
@@ -70,9 +72,16 @@ def index_reachable(python: str = sys.executable) -> tuple[bool, str]:
 
 
 def build_wheel(folder: Path) -> Path:
-    """Build deik's wheel from the checkout into `folder` (an isolated build, as pip does for
-    `pip install .`); returns its path."""
-    pip(sys.executable, "wheel", "--no-deps", "--wheel-dir", str(folder), str(ROOT))
+    """Build deik's wheel into `folder` from a copy of what the build reads (pyproject.toml,
+    README.md, LICENSE, src/ without caches), so no build/ or egg-info is left in the checkout
+    and no stale build/ can slip a deleted module into the wheel; an isolated build, as pip
+    does for `pip install .`. Returns the wheel's path."""
+    source = folder / "source"
+    source.mkdir(parents=True)
+    for name in BUILD_FILES:
+        shutil.copy2(ROOT / name, source / name)
+    shutil.copytree(ROOT / "src", source / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    pip(sys.executable, "wheel", "--no-deps", "--wheel-dir", str(folder), str(source))
     (wheel,) = folder.glob("deik-*.whl")
     return wheel
 
