@@ -9,6 +9,7 @@ runs it instead; SLOW names the `deik` commands left out and where they are test
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 import subprocess
@@ -65,11 +66,55 @@ def clone_beside_shared(folder: Path, shared_data: Path) -> Path:
 
 
 def run_line(line: str, clone: Path, deik: list[str], python: str, env: dict) -> subprocess.CompletedProcess:
-    """Run README line `line` in `clone`: `deik ...` through the argv prefix `deik`, `python
-    examples/...` through `python`."""
+    """Run README line `line` in `clone` in a process of its own: `deik ...` through the argv
+    prefix `deik` (e.g. an installed console script), `python examples/...` through `python`."""
     words = shlex.split(line)
     argv = deik + words[1:] if words[0] == "deik" else [python, *words[1:]]
     return subprocess.run(argv, cwd=clone, capture_output=True, text=True, timeout=900, env=env)
+
+
+# Runs README lines one after another in one process of the Python under test: each `deik` line
+# through deik.cli.main, each example through runpy as `python examples/X.py` would. One line of
+# JSON per README line: its exit status, the end of its stderr, and for a solve that wrote a pose
+# JSON whether it met every goal. (A process per line costs seconds of imports and kernel loads.)
+DRIVER = r"""
+import contextlib, io, json, runpy, shlex, sys
+from deik.cli.app import main
+for line in json.load(sys.stdin):
+    words, err = shlex.split(line), io.StringIO()
+    record = {"line": line}
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            if words[0] == "deik":
+                record["status"] = main(words[1:])
+            else:
+                sys.argv = words[1:]
+                try:
+                    runpy.run_path(words[1], run_name="__main__")
+                    record["status"] = 0
+                except SystemExit as done:
+                    record["status"] = done.code or 0
+        except BaseException as error:
+            record["status"] = f"{type(error).__name__}: {error}"
+    out = words[words.index("--out") + 1] if "--out" in words else ""
+    if words[:2] == ["deik", "solve"] and out.endswith(".json") and record["status"] == 0:
+        record["converged"] = json.load(open(out))["converged"]
+    record["stderr"] = err.getvalue()[-2000:]
+    print(json.dumps(record), flush=True)
+"""
+
+
+def run_lines(lines: list[str], clone: Path, python: str, env: dict) -> list[dict]:
+    """Run README `lines` in order in `clone`, all in one process of `python` (DRIVER): one
+    record per line that ran ({"line", "status", "stderr"}, "converged" for a solve that wrote
+    a pose JSON); a line missing from the end means the process died there."""
+    run = subprocess.run(
+        [python, "-c", DRIVER], input=json.dumps(lines), cwd=clone, env=env, capture_output=True, text=True
+    )
+    records = [json.loads(text) for text in run.stdout.splitlines() if text.startswith("{")]
+    if len(records) < len(lines):
+        records.append({"line": lines[len(records)], "status": "the process died", "stderr": run.stderr[-2000:]})
+    return records
 
 
 def gpu_available(python: str) -> bool:

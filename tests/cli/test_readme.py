@@ -1,14 +1,13 @@
 """README.md runs as written, from a clone: every line of its bash blocks in order (a later
-command may read what an earlier one wrote), from a folder laid out like a clone beside shared/,
-and every Python block. A bash line that is neither a `deik` command nor an example script must
-be in benchmarks.readme_commands.EXCLUDED with the reason it cannot run here and what runs it
-instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every goal
-within its tolerances. tests/cli/test_wheel.py runs the same lines
-against a fresh wheel install."""
+command may read what an earlier one wrote), from a folder laid out like a clone beside shared/
+(in one process: benchmarks.readme_commands.run_lines), and every Python block. A bash line
+that is neither a `deik` command nor an example script must be in
+benchmarks.readme_commands.EXCLUDED with the reason it cannot run here and what runs it
+instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every
+goal within its tolerances. tests/cli/test_wheel.py runs the same lines against a fresh wheel
+install."""
 
-import json
 import os
-import shlex
 import sys
 
 import pytest
@@ -21,7 +20,7 @@ from benchmarks.readme_commands import (
     blocks,
     clone_beside_shared,
     gpu_available,
-    run_line,
+    run_lines,
     runnable,
 )
 
@@ -38,19 +37,13 @@ def test_every_bash_line_is_run_or_excluded_with_a_reason():
 @pytest.mark.shared_data
 def test_every_readme_line_runs_as_written(tmp_path, shared_data):
     clone = clone_beside_shared(tmp_path, shared_data)
-    deik = [sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())"]
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    gpu, ran = gpu_available(sys.executable), 0
-    for line in bash_lines():
-        if runnable(line, gpu):
-            run = run_line(line, clone, deik, sys.executable, env)
-            assert run.returncode == 0, f"{line}\n{run.stderr[-2000:]}"
-            ran += 1
-            words = shlex.split(line)
-            out = words[words.index("--out") + 1] if "--out" in words else ""
-            if words[:2] == ["deik", "solve"] and out.endswith(".json"):  # each meets its tolerances
-                assert json.loads((clone / out).read_text())["converged"], f"{line}: a README solve misses a goal"
-    assert ran >= 13
+    lines = [line for line in bash_lines() if runnable(line, gpu_available(sys.executable))]
+    records = run_lines(lines, clone, sys.executable, env)
+    for record in records:
+        assert record["status"] == 0, f"{record['line']}\n{record['stderr']}"
+        assert record.get("converged", True), f"{record['line']}: a README solve misses a goal"
+    assert len(records) == len(lines) >= 13
 
 
 def test_every_python_block_runs_and_the_first_meets_its_goals(capsys):
