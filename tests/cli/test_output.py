@@ -77,7 +77,7 @@ def test_every_command_that_works_a_while_takes_quiet_and_verbose():
     for name in ("solve", "clip", "retarget", "demo", "warmup", "info", "limits"):
         flags = {flag for action in commands[name]._actions for flag in action.option_strings}
         assert {"--quiet", "--verbose"} <= flags, name
-    for name in ("solve", "clip", "retarget", "demo"):
+    for name in ("solve", "clip", "retarget", "demo", "warmup"):
         assert "--progress" in {f for a in commands[name]._actions for f in a.option_strings}, name
     flags = {flag for action in runner.build_parser()._actions for flag in action.option_strings}
     assert {"--quiet", "--verbose", "--progress"} <= flags

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from deik.console import add_output_flags, progress_bar
+from deik.console import add_output_flags, progress_bar, show_progress
 
 DTYPES = ("float32", "float64")
 
@@ -54,8 +54,7 @@ def run_warmup(args: argparse.Namespace) -> int:
     began = time.perf_counter()
     todo = steps(dtypes)
     ready = all(kernels_ready(d) for d in dtypes)
-    # the bar shows at once: every step takes seconds to minutes
-    with progress_bar(len(todo), "deik warmup", "step", show=not args.quiet) as bar:
+    with progress_bar(len(todo), "deik warmup", "step", show_progress(args)) as bar:
         for description, step in todo:
             bar.set_postfix_str(description)
             step()
@@ -68,4 +67,4 @@ def run_warmup(args: argparse.Namespace) -> int:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The `deik warmup` flags on subparser `parser`."""
     parser.add_argument("--dtype", action="append", choices=DTYPES, help="only this precision (repeatable)")
-    add_output_flags(parser, progress=False)
+    add_output_flags(parser)
