@@ -1,5 +1,7 @@
 """deik: inverse kinematics by massively parallel Differential Evolution, on CPU or GPU."""
 
+import logging
+
 from deik.io.bvh import read_bvh, write_bvh
 from deik.io.clip import Clip
 from deik.io.load import load_skeleton
@@ -75,3 +77,6 @@ __all__ = [
     "write_bvh",
 ]
 __version__ = "0.1.0"
+
+# diagnostics go to the "deik" logger; a library adds no handler of its own (the CLI does: deik.console)
+logging.getLogger("deik").addHandler(logging.NullHandler())

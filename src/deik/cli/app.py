@@ -33,6 +33,7 @@ from deik.cli import solve as cli_solve
 from deik.cli import view as cli_view
 from deik.cli import warmup as cli_warmup
 from deik.cli.common import USER_ERRORS, Parser, check_outputs, error_line, numbers
+from deik.console import add_output_flags, configure_logging, show_progress
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -41,15 +42,15 @@ INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 BROKEN_PIPE = 141  # 128 + SIGPIPE
 
 
-def run_demo(args) -> int:
+def run_demo(args: argparse.Namespace) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
     from deik.experiments import demo
 
-    rows = demo.run_demo(args.out)
+    rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
 
 
-def run_info(args) -> int:
+def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
     from deik.cli.info import describe
 
@@ -59,7 +60,7 @@ def run_info(args) -> int:
     return 0
 
 
-def run_limits(args) -> int:
+def run_limits(args: argparse.Namespace) -> int:
     """`deik limits IN.bvh --out limits.json`: each DOF's range over the clip plus margins."""
     from deik.io.bvh import read_bvh
     from deik.io.limits import range_of_motion, write_limits
@@ -96,6 +97,7 @@ def build_parser() -> Parser:
     i.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_output_flags(i, progress=False)
     i.set_defaults(run=run_info)
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
@@ -128,6 +130,7 @@ def build_parser() -> Parser:
         metavar="LENGTH",
         help="added to each translation's range on both sides (default 0)",
     )
+    add_output_flags(lim, progress=False)
     lim.set_defaults(run=run_limits)
     v = commands.add_parser("view", help="a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
     cli_view.add_arguments(v)
@@ -137,17 +140,19 @@ def build_parser() -> Parser:
     w.set_defaults(run=cli_warmup.run_warmup)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
+    add_output_flags(d)
     d.set_defaults(run=run_demo)
     return parser
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["experiments"]:
         return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
+        configure_logging(args)
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code

@@ -7,13 +7,16 @@ stay close to the performance; write the fixed clip, a before/after table and a 
 
 from __future__ import annotations
 
+import argparse
+import logging
 import os
-import sys
+from collections.abc import Callable
 
 import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
 from deik.clips.units import METRES
+from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 from deik.viz.text import format_table
@@ -25,9 +28,10 @@ CONTACT_FORMS = (
     "(inclusive) with it"
 )
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
+log = logging.getLogger(__name__)
 
 
-def add_arguments(c) -> None:
+def add_arguments(c: argparse.ArgumentParser) -> None:
     """The `deik clip` flags on subparser `c`."""
     c.add_argument("clip", metavar="IN.bvh", help="the clip to fix, or a folder of clips (every *.bvh in it)")
     c.add_argument(
@@ -113,7 +117,7 @@ def add_arguments(c) -> None:
         choices=sorted(METRES),
         help="the clip's length unit (default: guessed from the skeleton's size, and said)",
     )
-    c.add_argument("--quiet", action="store_true", help="no progress bar and no notes on stderr (errors still print)")
+    add_output_flags(c)
 
 
 def _check_site(clip, site: str, flag: str) -> None:
@@ -240,12 +244,6 @@ def _reaches(args, clip):
     return tuple(out)
 
 
-def _note(args, text: str) -> None:
-    """An informational line on stderr, unless --quiet."""
-    if not args.quiet:
-        print(text, file=sys.stderr)
-
-
 def _shown(values, pick) -> str:
     """`pick` (np.nanmean or np.nanmax) of `values` to 4 digits, "-" when none is finite."""
     values = np.asarray(values, float)
@@ -293,12 +291,14 @@ def _summary_notes(metrics: dict) -> list[str]:
     return lines
 
 
-def run_clip(args, on_frames=None, record=None) -> int:
+def run_clip(
+    args: argparse.Namespace,
+    on_frames: Callable[[int, int], None] | None = None,
+    record: dict | None = None,
+) -> int:
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
     For a library (deik.cli.library): `on_frames(done, total)` follows the frames that meet
     their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
-    from tqdm import tqdm
-
     from deik.clips.document import clip_document
     from deik.clips.problem import ClipGoals
     from deik.clips.solver import fix_clip
@@ -339,21 +339,19 @@ def run_clip(args, on_frames=None, record=None) -> int:
     )
     unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
-        _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
-    _note(
-        args,
+        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
+    log.info(
         f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
         f"{'' if keep_floor else ', not kept: --floor none'})",
     )
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
-        _note(args, "contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
+        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
-    if not args.quiet:
-        announce_compile(args.device or "cpu", "float32")
-    with tqdm(total=clip.n_frames, desc="deik clip", unit="frame", file=sys.stderr, disable=args.quiet) as bar:
+    announce_compile(args.device or "cpu", "float32")
+    with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
 
         def progress(met: int, stage: str) -> None:
             bar.set_postfix_str(f"{stage}: frames meeting every goal", refresh=False)
@@ -384,8 +382,8 @@ def run_clip(args, on_frames=None, record=None) -> int:
     if far:
         worst = max(far, key=lambda d: d["deviation_deg"])
         frames = sorted({d["frame"] for d in far})
-        print(
-            f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+        log.warning(
+            f"{len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
             f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
             f"({worst['deviation_deg']:.0f} degrees); --json lists them"
         )

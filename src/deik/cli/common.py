@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
-import sys
+from collections.abc import Iterable
+from typing import NoReturn
 
 MESSAGE_LIMIT = 500
 
@@ -30,11 +32,11 @@ def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
 class Parser(argparse.ArgumentParser):
     """argparse that raises UsageError instead of printing usage and exiting."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
-def numbers(flag: str, words) -> list[float]:
+def numbers(flag: str, words: Iterable[str]) -> list[float]:
     """Finite floats from command-line words; UsageError naming `flag` otherwise."""
     values = []
     for word in words:
@@ -48,7 +50,12 @@ def numbers(flag: str, words) -> list[float]:
     return values
 
 
-def check_outputs(outputs: dict, suffixes: dict, inputs=(), overwrite: bool = False) -> None:
+def check_outputs(
+    outputs: dict[str, str | None],
+    suffixes: dict[str, tuple[str, ...]],
+    inputs: Iterable[str | None] = (),
+    overwrite: bool = False,
+) -> None:
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one
@@ -99,11 +106,11 @@ def check_device(device: str) -> None:
 
 
 def announce_compile(device: str, dtype: str) -> None:
-    """Print one line on stderr before a solve when the CPU kernels for `dtype` must be compiled
-    first (deik.solver.readiness), so nobody waits minutes in silence."""
+    """Say in one note on stderr (the "deik" logger) before a solve when the CPU kernels for
+    `dtype` must be compiled first (deik.solver.readiness), so nobody waits minutes in silence."""
     if device != "cpu":
         return
     from deik.solver.readiness import compile_note, kernels_ready
 
     if not kernels_ready(dtype):
-        print(compile_note(dtype), file=sys.stderr, flush=True)
+        logging.getLogger(__name__).info(compile_note(dtype))

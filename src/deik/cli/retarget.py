@@ -8,10 +8,13 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
+from collections.abc import Callable
 
-from deik.cli.common import UsageError, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
@@ -28,7 +31,7 @@ SHOWN = (
 )
 
 
-def add_arguments(r) -> None:
+def add_arguments(r: argparse.ArgumentParser) -> None:
     """The `deik retarget` flags on subparser `r`."""
     r.add_argument("clip", metavar="IN.bvh", help="the source clip, or a folder of clips (every *.bvh in it)")
     r.add_argument(
@@ -47,7 +50,7 @@ def add_arguments(r) -> None:
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
     r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
     r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
-    r.add_argument("--quiet", action="store_true", help="no progress bars and no notes on stderr (errors still print)")
+    add_output_flags(r)
 
 
 def _scale(text: str | None) -> dict | None:
@@ -75,7 +78,11 @@ def _frames(text: str | None):
     return int(match[1]), int(match[2])
 
 
-def run_retarget(args, on_frames=None, record=None) -> int:
+def run_retarget(
+    args: argparse.Namespace,
+    on_frames: Callable[[int, int], None] | None = None,
+    record: dict | None = None,
+) -> int:
     """`deik retarget`: read, retarget, report, write (all outputs or none). For a library
     (deik.cli.library): `on_frames(done, total)` follows the frames that meet their contacts,
     and `record` (a dict) receives the frames and the report's summary."""
@@ -92,10 +99,18 @@ def run_retarget(args, on_frames=None, record=None) -> int:
     )
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    source = frame_range(read_bvh(args.clip), _frames(args.frames))
-    if on_frames is not None:
-        settings["progress"] = lambda met, stage: on_frames(met, source.n_frames)
-    result = retarget(source, args.to, scale=_scale(args.scale), joint_map=args.map, **settings)
+    clip = frame_range(read_bvh(args.clip), _frames(args.frames))
+    announce_compile(args.device or "cpu", "float32")
+    # the bar counts the frames that meet their contacts, after the warm start and each repair pass
+    with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
+
+        def progress(met: int, stage: str) -> None:
+            bar.set_postfix_str(f"{stage}: frames meeting their contacts", refresh=False)
+            bar.update(met - bar.n)
+            if on_frames is not None:
+                on_frames(met, clip.n_frames)
+
+        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")

@@ -9,14 +9,16 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
 
 from __future__ import annotations
 
+import argparse
+import logging
 import os
-import sys
 from dataclasses import replace
 
 import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
+from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
@@ -29,7 +31,7 @@ from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
 from deik.viz import plot
 from deik.viz.marks import goal_targets, length_unit
-from deik.viz.text import format_table
+from deik.viz.text import format_table, shown
 
 SETTING_FLAGS = (
     "seed",
@@ -44,9 +46,10 @@ SETTING_FLAGS = (
     "islands",
 )
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
+log = logging.getLogger(__name__)
 
 
-def add_arguments(s) -> None:
+def add_arguments(s: argparse.ArgumentParser) -> None:
     """The `deik solve` flags on subparser `s`."""
     s.add_argument("skeleton", nargs="?", help="chain:N (planar), chain3d:N, humanoid, or a .bvh/.urdf file")
     s.add_argument("--skeleton", dest="skeleton_flag", metavar="FILE", help="same as SKELETON: a .bvh or .urdf file")
@@ -104,7 +107,6 @@ def add_arguments(s) -> None:
     )
     s.add_argument("--plot-3d", action="store_true", help="draw --plot as one 3-D perspective view instead")
     s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
-    s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
     s.add_argument(
         "--start",
         nargs="+",
@@ -112,6 +114,7 @@ def add_arguments(s) -> None:
         help="start near this pose: one value per DOF (degrees / length units, `deik info` order) or a "
         "pose.json written by --out; comfort then keeps the result near it unless --comfort is given",
     )
+    add_output_flags(s)
 
 
 def _start_pose(values: list[str], skeleton) -> np.ndarray:
@@ -131,11 +134,6 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
             f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); got {pose.size}"
         )
     return np.where(skeleton.dof_kind == ROTATE, np.radians(pose), pose)  # poses_around checks the limits
-
-
-def _shown(value: float, unit: str) -> str:
-    """A report value in the CLI's units: degrees for angles, the raw unit otherwise."""
-    return f"{np.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
 
 
 def _file_flags_used(args) -> bool:
@@ -185,17 +183,7 @@ def _clip_pose(clip, frame: int):
         raise UsageError(f"--frame: {error}") from None
 
 
-def _progress(generations: int, terminal: bool):
-    """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
-
-    def report(generation, best):
-        line = f"generation {generation}/{generations}  best fitness {best:.6g}"
-        print(f"\r{line}" if terminal else line, end="" if terminal else "\n", file=sys.stderr, flush=True)
-
-    return report
-
-
-def _write_pose(path, problem, result, loaded, frame, unit: str) -> None:
+def _write_pose(path: str, problem: Problem, result, loaded: object, frame: int | None, unit: str) -> None:
     """JSON summary (Result.to_dict with the length unit and the goals' target points,
     viz.marks.goal_targets; `unit` the skeleton's length unit), or
     BVH: the input clip with `frame` replaced, else a one-frame clip."""
@@ -215,7 +203,7 @@ def _write_pose(path, problem, result, loaded, frame, unit: str) -> None:
     write_bvh(path, clip)
 
 
-def run_solve(args) -> int:
+def run_solve(args: argparse.Namespace) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
     inputs = (
         args.skeleton_flag,
@@ -250,24 +238,21 @@ def run_solve(args) -> int:
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
-            print(
+            log.info(
                 f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
-                "targets); --comfort 0 turns it off",
-                file=sys.stderr,
+                "targets); --comfort 0 turns it off"
             )
     if loaded is not None and loaded.kind == "bvh":
-        print(f"note: masses {loaded.mass_source}", file=sys.stderr)
-    terminal = sys.stderr.isatty()
-    progress = _progress(settings.generations, terminal) if args.progress or terminal else None
+        log.info(f"note: masses {loaded.mass_source}")
     announce_compile(settings.device, settings.dtype)
-    result = solve(problem, settings, initial=initial, progress=progress)
-    if progress and terminal:
-        print(file=sys.stderr)
+    with progress_bar(settings.generations, "deik solve", "gen", show_progress(args)) as bar:
+        progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
+        result = solve(problem, settings, initial=initial, progress=progress)
     rows = [
         [
             r.label,
-            _shown(float(r.error), r.unit),
-            _shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
+            shown(float(r.error), r.unit),
+            shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals

@@ -20,12 +20,13 @@ import numpy as np
 
 from deik.clips.coherence import ease
 from deik.model.geometry import ground_frame
+from deik.model.skeleton import Skeleton
 
 # frames (about a third of the fade) over which a COM shift eases in before and out after the frames that need it
 EASE = 3.0
 
 
-def horizontal_axes(skeleton) -> np.ndarray:
+def horizontal_axes(skeleton: Skeleton) -> np.ndarray:
     """(2, 3) the two ground axes of `skeleton` (perpendicular to its up direction)."""
     return ground_frame(np.asarray(skeleton.up, float))[:2]
 

@@ -14,16 +14,20 @@ then fades back to the original over about L frames, with no kink in value or ra
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
+from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
-from deik.objectives.goals import Comfort, Floor, Position
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import Comfort, Floor, Goal, Position
 
 NEAR_FLOOR = 0.03  # of reach: points this close above the floor may be pushed through it by a fix
 
 
-def moving_dofs(skeleton, name: str) -> np.ndarray:
+def moving_dofs(skeleton: Skeleton, name: str) -> np.ndarray:
     """(D,) bool: the free DOFs that move joint or site `name` (its ancestors' DOFs, and a
     joint's own translations; mimic DOFs count through their source). KeyError if unknown."""
     f = skeleton.frame_index(name)
@@ -41,7 +45,7 @@ def moving_dofs(skeleton, name: str) -> np.ndarray:
     return out
 
 
-def hinge_channels(clip) -> np.ndarray:
+def hinge_channels(clip: Motion) -> np.ndarray:
     """(D,) bool: DOFs that stay exactly 0 in every frame while another DOF of their joint
     moves (the X and Y channels of a knee that bends about Z): the performance uses the joint
     as a hinge, so the fix keeps it one."""
@@ -54,12 +58,12 @@ def hinge_channels(clip) -> np.ndarray:
     return zero & joint_moves[sk.dof_joint]
 
 
-def active_frames(goal, n_frames: int) -> np.ndarray:
+def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
     """(N,) bool: the frames where deik goal `goal` applies (its `active` mask; all if None)."""
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
 
 
-def near_floor(clip, height: float) -> np.ndarray:
+def near_floor(clip: Motion, height: float) -> np.ndarray:
     """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
     (or below it) in the frame or a neighbouring one: those a search may have to lift."""
     sk = clip.skeleton
@@ -70,7 +74,7 @@ def near_floor(clip, height: float) -> np.ndarray:
     return out
 
 
-def searched_dofs(clip, goals) -> np.ndarray:
+def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
     """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
     that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
     chains of the points near it (near_floor), any other goal (the centre of mass over the

@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
@@ -104,13 +106,13 @@ class Contacts:
         return "\n".join(lines)
 
 
-def site_positions(clip, sites) -> np.ndarray:
+def site_positions(clip: Motion, sites: Sequence[str]) -> np.ndarray:
     """World positions (N, S, 3) of `sites` in every frame; KeyError for unknown names."""
     index = [clip.skeleton.frame_index(name) for name in sites]
     return forward_kinematics(clip.skeleton, clip.frames).p_world_frame[:, index]
 
 
-def threshold(value, default: float, what: str) -> float:
+def threshold(value: float | None, default: float, what: str) -> float:
     """`value` (default `default` when None) checked to be a number >= 0, else ValueError."""
     value = default if value is None else float(value)
     if not value >= 0:
@@ -118,7 +120,9 @@ def threshold(value, default: float, what: str) -> float:
     return value
 
 
-def detect_contacts(clip, sites=None, height=None, speed=None) -> Contacts:
+def detect_contacts(
+    clip: Motion, sites: Sequence[str] | None = None, height: float | None = None, speed: float | None = None
+) -> Contacts:
     """Contacts of `sites` (default foot_sites) found in `clip` (see the module notes).
 
     A site touches the ground in frame n when its height along up is at most ground + `height`
@@ -159,7 +163,7 @@ def drop_short(mask: np.ndarray) -> np.ndarray:
     return mask
 
 
-def contacts_from_ranges(clip, ranges: dict) -> Contacts:
+def contacts_from_ranges(clip: Motion, ranges: dict[str, list[tuple[int, int]]]) -> Contacts:
     """Contacts given by the user: {site: [(start, stop), ...]} with 0 <= start < stop <= N
     (stop exclusive). ValueError naming the site and range when a range leaves the clip; KeyError
     with suggestions for unknown sites. `ground` is the lowest height of a site in contact."""
@@ -226,7 +230,7 @@ def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) 
     return heights + lift
 
 
-def planted_targets(clip, contacts: Contacts) -> np.ndarray:
+def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
     Per contact interval, the mean world position of the site over the interval in `clip` (the

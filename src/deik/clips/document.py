@@ -9,11 +9,18 @@ it; per-frame lists hold null where a value does not apply to a frame.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from deik.clips.contacts import planted_targets
+from deik.clips.contacts import Contacts, planted_targets
 from deik.clips.metrics import large_deviations
-from deik.clips.report import clip_report, per_frame_errors, row_max
+from deik.clips.report import ReachTrack, clip_report, per_frame_errors, row_max
+from deik.io.trajectory import Motion
+
+if TYPE_CHECKING:  # clips.solver loads the solver; the report needs only the type
+    from deik.clips.solver import ClipFix
 
 LEVEL1 = ("fidelity", "coherence")
 GOAL_NOTES = {
@@ -29,7 +36,7 @@ GOAL_NOTES = {
 }
 
 
-def goal_table(fix, metres: float = 1.0) -> list[dict]:
+def goal_table(fix: ClipFix, metres: float = 1.0) -> list[dict]:
     """One row per goal name of `fix` (a ClipFix): {"key", "label", "unit", "tolerance" (in
     unit, None without one), "before" (N,), "after" (N,)} with each frame's error (NaN where
     the goal does not apply); `metres` per length unit."""
@@ -53,7 +60,7 @@ def goal_table(fix, metres: float = 1.0) -> list[dict]:
     return rows
 
 
-def contacts_record(original, contacts) -> dict:
+def contacts_record(original: Motion, contacts: Contacts | None) -> dict:
     """The contacts as JSON: how they were found, the floor height and thresholds (length
     units, per second for the speed), the sites in contact per frame, and per site each
     contact's first and last frame (inclusive) and plant position (length units)."""
@@ -109,7 +116,15 @@ def _far(original, fixed, degrees: float) -> dict:
     return {"threshold_deg": degrees, "count_per_frame": count.tolist(), "joint_frames": far}
 
 
-def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: float, floor=None) -> dict:
+def clip_document(
+    fix: ClipFix,
+    contacts: Contacts | None,
+    reach: Sequence[ReachTrack],
+    unit: str,
+    metres: float,
+    far_degrees: float,
+    floor: dict | None = None,
+) -> dict:
     """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
     (clips/report.py), the goal table per frame with GOAL_NOTES, the frames each reach missed

@@ -16,11 +16,13 @@ leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
 from deik.clips.contacts import Contacts, planted_targets
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
@@ -48,7 +50,7 @@ class Reach:
     blend: int = BLEND
 
 
-def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: int):
+def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: int) -> tuple[np.ndarray, np.ndarray]:
     """(mask (N,), targets (N, 3)): a track `targets` (N, 3) over the frames where `mask` (N,)
     is True, widened by `blend` frames on each side of each run, where the target eases
     (smoothstep) from the site's original `path` (N, 3) to the track's nearest end; a gap
@@ -76,7 +78,7 @@ def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: 
     return widened, out
 
 
-def blended_track(clip, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
+def blended_track(clip: Motion, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
     """(mask (N,), targets (N, 3)): the reach track eased in and out over `reach.blend`
     frames from the site's original path (eased_track)."""
     path = forward_kinematics(clip.skeleton, clip.poses()).position(reach.site)
@@ -121,7 +123,7 @@ class ClipGoals:
             )
 
 
-def reach_names(sites) -> list[str]:
+def reach_names(sites: Iterable[str]) -> list[str]:
     """ "reach SITE" per reach track of `sites`, "reach SITE #2" and on for a site's later tracks."""
     names = []
     for site in sites:
@@ -184,7 +186,7 @@ def _held_goals(clip, goals: ClipGoals) -> list:
     return out
 
 
-def fixed_goals(clip, goals: ClipGoals, weights: np.ndarray) -> list:
+def fixed_goals(clip: Motion, goals: ClipGoals, weights: np.ndarray) -> list[g.Goal]:
     """The goals that stay the same from pass to pass: contacts, floor, balance, reach and
     fidelity, which counts each DOF's change by `weights` (D,) (warmstart.dof_weights)."""
     out = _held_goals(clip, goals)
@@ -195,7 +197,7 @@ def fixed_goals(clip, goals: ClipGoals, weights: np.ndarray) -> list:
 
 
 def clip_problem(
-    clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed: list | None = None
+    clip: Motion, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed: list[g.Goal] | None = None
 ) -> Problem:
     """The batch of N frame problems for `clip` given the current displacement (N, D) of every
     frame from the original (coherence pulls each frame towards its neighbours' displacement,

@@ -11,10 +11,12 @@ sliding need contacts.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from deik.clips import floor
+from deik.clips.contacts import Contacts
 from deik.clips.metrics import (
     jerk,
     joint_angles,
@@ -24,6 +26,7 @@ from deik.clips.metrics import (
     spikes,
 )
 from deik.clips.problem import reach_names
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 
 
@@ -116,7 +119,17 @@ def _keys(contacts, reach) -> dict:
     return keys | _reach_keys(reach)
 
 
-def per_frame_errors(original, fixed, contacts=None, reach=None, metres: float = 1.0) -> dict:
+# a reach track as reports take it: (site, mask (N,) bool, targets (N, 3) length units)
+ReachTrack = tuple[str, np.ndarray, np.ndarray]
+
+
+def per_frame_errors(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
     """{key: {"label", "unit", "before" (N,), "after" (N,)}}: per frame, the largest value
     over the joints, sites or DOFs of each SERIES entry (the floor ones with `contacts`) and
     the distance to each reach track (site, mask (N,), targets (N, 3)), in the key's unit, and
@@ -135,7 +148,13 @@ def per_frame_errors(original, fixed, contacts=None, reach=None, metres: float =
     return out
 
 
-def clip_report(original, fixed, contacts=None, reach=None, metres: float = 1.0) -> dict:
+def clip_report(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
     """{key: {"label", "unit", "before", "after"}}, one number per clip for `original` and
     `fixed`: "STEM_mean_SUFFIX" and "STEM_max_SUFFIX" over every joint, site or DOF and frame
     of each per_frame_errors series, and with `contacts` the foot-skating ratio (share of the

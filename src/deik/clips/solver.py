@@ -24,7 +24,9 @@ and BALANCE_PASSES.
 
 from __future__ import annotations
 
+import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +34,7 @@ import numpy as np
 from deik.clips.coherence import ease, hinge_channels, searched_dofs
 from deik.clips.problem import FIDELITY_LEVEL, ClipGoals, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -122,13 +125,13 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
 
 
 def fix_clip(
-    clip,
+    clip: Motion,
     goals: ClipGoals,
     passes: int | None = None,
     settings: Settings | None = None,
     *,
-    progress=None,
-    **overrides,
+    progress: Callable[[int, str], object] | None = None,
+    **overrides: object,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
@@ -190,6 +193,9 @@ def fix_clip(
             }
         )
     wall = time.perf_counter() - start
+    logging.getLogger(__name__).debug(
+        "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
+    )
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
     report(int(met.sum()), "done")

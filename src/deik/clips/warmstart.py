@@ -16,15 +16,19 @@ met are left to DE, with its priorities and tolerances.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from deik.clips.balance import balance_track, horizontal_axes
 from deik.clips.coherence import active_frames
 from deik.clips.problem import REACH_LEVEL, neighbour_displacement
+from deik.io.trajectory import Motion
 from deik.kernels.pack import pack_skeleton
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
-from deik.objectives.goals import ComInPolygon, Floor, Position
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import ComInPolygon, Floor, Goal, Position
 
 DAMPING = 1e-3  # radians (weighted DOF units): keeps a step finite at a straight knee
 STEPS = 2
@@ -34,7 +38,9 @@ SETTLE = 2  # last steps without the reach rows: its steps bend the contacts and
 FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
 
 
-def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def position_jacobian(
+    skeleton: Skeleton, poses: np.ndarray, names: Sequence[str], centre_of_mass: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
@@ -45,7 +51,7 @@ def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> t
     return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
 
 
-def dof_weights(clip) -> np.ndarray:
+def dof_weights(clip: Motion) -> np.ndarray:
     """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
     translation 1 / r, r the root-mean-square distance of the joints and sites from the root
     over the clip: moving the root counts like the root turn that moves the body as much. With
@@ -93,9 +99,9 @@ def _solve(B: np.ndarray, error: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def warm_start(
-    skeleton,
+    skeleton: Skeleton,
     original: np.ndarray,
-    goals,
+    goals: Sequence[Goal],
     searched: np.ndarray,
     weights: np.ndarray,
     steps: int = STEPS,

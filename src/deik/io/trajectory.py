@@ -19,9 +19,12 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import write_json_atomically, write_text_atomically
+from deik.io.clip import Clip
 from deik.io.euler import continuous_angles, continuous_frames
+from deik.io.files import FilePath
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
@@ -55,7 +58,7 @@ class Trajectory:
         """Every frame (N, D) with rotations wrapped into [-pi, pi)."""
         return wrap_rotations(self.frames, self.skeleton.dof_kind == ROTATE)
 
-    def with_frames(self, frames) -> Trajectory:
+    def with_frames(self, frames: ArrayLike) -> Trajectory:
         """A new trajectory of `frames` (N, D), each nearest (whole turns) the frame it replaces."""
         frames = self.skeleton.check_angles(frames, "frames")
         if frames.shape != self.frames.shape:
@@ -81,7 +84,11 @@ def format_trajectory_csv(trajectory: Trajectory) -> str:
     return "\n".join(rows) + "\n"
 
 
-def write_trajectory(path, trajectory: Trajectory) -> None:
+# what the clip machinery reads frames from: a BVH clip or any skeleton's joint trajectory
+Motion = Clip | Trajectory
+
+
+def write_trajectory(path: FilePath, trajectory: Trajectory) -> None:
     """Write `trajectory` to `path` as CSV (`.csv`) or JSON (`.json`), atomically; ValueError
     for another ending."""
     suffix = str(path).lower().rsplit(".", 1)[-1]

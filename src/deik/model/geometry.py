@@ -18,7 +18,7 @@ def ground_frame(up: np.ndarray) -> np.ndarray:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-def segment_distance(point, a, b):
+def segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance from point (..., k) to segments a-b (..., k)."""
     u = b - a
     length2 = np.sum(u * u, axis=-1)
@@ -27,7 +27,7 @@ def segment_distance(point, a, b):
     return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
 
 
-def segments_distance(a0, a1, b0, b1):
+def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
     """Distance between segments a0-a1 and b0-b1 (..., 3): the closest points' parameters s on
     a and t on b minimise |a0 + s (a1 - a0) - b0 - t (b1 - b0)| over [0, 1]^2 (Ericson,
     Real-Time Collision Detection, 5.1.9); a segment of zero length is its point."""
@@ -45,7 +45,7 @@ def segments_distance(a0, a1, b0, b1):
     return np.linalg.norm(w + s[..., None] * u - t[..., None] * v, axis=-1)
 
 
-def polygon_distance(q, pts):
+def polygon_distance(q: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
     non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
     n = pts.shape[1]

@@ -127,7 +127,7 @@ class Position(Goal):
         check_reachable(skeleton, vector(self.target, (3,), f"{self.frame} target"), f, self.label)
         return self._row(POSITION, (f,), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.target, (3,), f"{self.frame} target"))
 
 
@@ -145,7 +145,7 @@ class Orientation(Goal):
     form: str = "matrix"
 
     @property
-    def BATCH_FIELDS(self):  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
+    def BATCH_FIELDS(self) -> tuple[tuple[str, int], ...]:  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
         return (("target", FORMS.get(self.form, 2)),)
 
     def rotation(self) -> np.ndarray:
@@ -153,11 +153,11 @@ class Orientation(Goal):
         R = rotation_from(self.form, self.target, f"orientation target for {self.frame!r}")
         return vector(R, (3, 3), f"{self.frame} orientation")
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         self.rotation()
         return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(self.rotation())
 
 
@@ -172,12 +172,12 @@ class Aim(Goal):
     target: object
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if not np.linalg.norm(self.axis) > 0:
             raise ValueError(f"aim axis for {self.frame!r} must be non-zero")
         return self._row(AIM, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         axis = np.asarray(self.axis, float)
         if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
             raise ValueError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
@@ -193,12 +193,12 @@ class CentreOfMass(Goal):
     BATCH_FIELDS = (("target", 1),)
     target: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "centre_of_mass")
         check_reachable(skeleton, vector(self.target, (3,), "centre-of-mass target"), None, self.label)
         return self._row(COM, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.target, (3,), "centre-of-mass target"))
 
 
@@ -211,11 +211,11 @@ class ComOverSupport(Goal):
     BATCH_FIELDS = (("point", 1),)
     point: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_over_support")
         return self._row(COM_GROUND, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.point, (3,), "support point"))
 
 
@@ -227,7 +227,7 @@ class ComInPolygon(Goal):
     LABEL = "com in support polygon"
     frames: tuple[str, ...]
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_in_polygon")
         if not 1 <= len(self.frames) <= MAX_TERM_FRAMES:
             raise ValueError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
@@ -251,13 +251,13 @@ class Comfort(Goal):
     reference: object = None
     mu: float = field(default=0.1, kw_only=True)
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if self.mode not in ("sum", "max"):
             raise ValueError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
         kind = COMFORT_SUM if self.mode == "sum" else COMFORT_MAX
         return self._row(kind, (), 1.0, -1.0, dof_weights(skeleton, self.joint_weights))
 
-    def reference_pose(self, skeleton) -> np.ndarray | None:
+    def reference_pose(self, skeleton: Skeleton) -> np.ndarray | None:
         if self.reference is None:
             return None
         return vector(self.reference, (skeleton.n_dofs,), "comfort reference")
@@ -274,12 +274,12 @@ class Obstacle(Goal):
     radius: float
     bone_radius: float = 0.0
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if not (self.radius > 0 and self.bone_radius >= 0):
             raise ValueError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
         return self._row(OBSTACLE, (), skeleton.reach, 0.0)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         centre = vector(self.centre, (3,), "obstacle centre")
         return pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
 
@@ -294,10 +294,10 @@ class Floor(Goal):
     BATCH_FIELDS = (("height", 0),)
     height: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         return self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         height = np.asarray(self.height, float)
         if height.ndim > 1 or not np.isfinite(height).all():
             raise ValueError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
@@ -312,5 +312,5 @@ class LimitsPenalty(Goal):
 
     LABEL = "joint limits"
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         return TermRow(LIMITS, self.label, (), (), 1.0, 1.0, 1.0, 0.0, self.level)

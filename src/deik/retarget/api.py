@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from numpy.typing import ArrayLike
+
 from deik.clips.coherence import hinge_channels
 from deik.io.bvh import read_bvh
 from deik.io.bvh_view import view_clip
 from deik.io.clip import Clip
+from deik.io.files import FilePath
 from deik.io.load import load_skeleton
 from deik.model.skeleton import Skeleton
 from deik.retarget.maps import JointMap, read_map
@@ -40,7 +43,16 @@ def _bvh_clip(result: Retarget, target_clip: Clip | None) -> Clip:
         return view_clip(motion.skeleton, frames, motion.frame_time, motion.source)
 
 
-def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=None, **settings) -> Retarget:
+def retarget(
+    source: Clip | FilePath,
+    to: str | Clip | Skeleton | FilePath | None = None,
+    *,
+    scale: dict[str, float] | None = None,
+    joint_map: JointMap | FilePath | None = None,
+    frames: tuple[int, int] | None = None,
+    up: ArrayLike | None = None,
+    **settings: object,
+) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
 

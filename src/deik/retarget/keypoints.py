@@ -10,20 +10,23 @@ rest poses are taken to be the same stance (both shared rigs stand upright, arms
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import euler_angles
 from deik.model.skeleton import Skeleton
 
 
-def rest_heights(skeleton: Skeleton, names) -> np.ndarray:
+def rest_heights(skeleton: Skeleton, names: Sequence[str]) -> np.ndarray:
     """(K,) heights along skeleton.up of the frames `names` at rest (every DOF 0)."""
     kin = forward_kinematics(skeleton, np.zeros(skeleton.n_dofs))
     return np.array([kin.position(name) @ skeleton.up for name in names])
 
 
-def height_ratio(source: Skeleton, target: Skeleton, source_names, target_names) -> float:
+def height_ratio(source: Skeleton, target: Skeleton, source_names: Sequence[str], target_names: Sequence[str]) -> float:
     """Target length per source length: the ratio of the vertical spans at rest of the mapped
     frames (`target_names` on `target`, `source_names` on `source`, pairwise). ValueError when
     the source's mapped frames span no height (map a head and a foot)."""
@@ -39,7 +42,9 @@ def floor_origin(skeleton: Skeleton, first_pose: np.ndarray, ground: float) -> n
     return root + (ground - root @ skeleton.up) * skeleton.up
 
 
-def mapped_points(source_clip, names, origin: np.ndarray, scale: float, rotation: np.ndarray) -> np.ndarray:
+def mapped_points(
+    source_clip: Motion, names: Sequence[str], origin: np.ndarray, scale: float, rotation: np.ndarray
+) -> np.ndarray:
     """(N, K) source frames `names` over the clip mapped into the target world: (N, K, 3)."""
     kin = forward_kinematics(source_clip.skeleton, source_clip.poses())
     p = np.stack([kin.position(name) for name in names], axis=1)
@@ -122,7 +127,9 @@ def mapped_rotations(source_clip, source_name: str, target: Skeleton, target_nam
     return rotation @ R_s @ R_s_rest.T @ rotation.T @ R_t_rest
 
 
-def root_dofs(skeleton: Skeleton, site_position: np.ndarray, site_offset: np.ndarray, R_root: np.ndarray):
+def root_dofs(
+    skeleton: Skeleton, site_position: np.ndarray, site_offset: np.ndarray, R_root: np.ndarray
+) -> np.ndarray | None:
     """(N, 6) values of a root's X, Y, Z translations and three rotations about coordinate
     axes (in that DOF order, as BVH roots and with_floating_root have them) that put the root
     frame at orientation `R_root` (N, 3, 3) and a point `site_offset` (3,) of it at

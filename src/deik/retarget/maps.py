@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 KEYS = ("scale", "up", "rotation", "pelvis", "torso", "points")
@@ -94,7 +95,7 @@ def _point(source: str, name: str, value) -> PointPair:
     raise FileFormatError(source, 'must be "TARGET" or { target = "TARGET", offset = [x, y, z] }', element=key)
 
 
-def parse_map(data, source: str) -> JointMap:
+def parse_map(data: object, source: str) -> JointMap:
     """A JointMap from the parsed file `data` (a dict); FileFormatError naming the key."""
     if not isinstance(data, dict):
         raise FileFormatError(source, "must be a table of keys (scale, up, rotation, pelvis, torso, points)")
@@ -135,7 +136,7 @@ def parse_map(data, source: str) -> JointMap:
     )
 
 
-def read_map(path) -> JointMap:
+def read_map(path: FilePath) -> JointMap:
     """Read the joint map at `path` (TOML, or JSON for `.json`); FileFormatError when malformed."""
     source = str(path)
     text = read_input_text(path, "joint map")
@@ -148,7 +149,7 @@ def read_map(path) -> JointMap:
     return parse_map(data, source)
 
 
-def check_map(joint_map: JointMap, source_skeleton, target_skeleton) -> None:
+def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: Skeleton) -> None:
     """FileFormatError naming the map's key when a name is not a frame of its skeleton (with
     close names), or the pelvis target is not the target's root joint."""
     names = [(f"points.{p.source}", p.source, p.target) for p in joint_map.points]

@@ -18,19 +18,23 @@ Lengths come in the target's length unit and are converted with `metres` per uni
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from deik.clips import floor
+from deik.clips.contacts import Contacts
 from deik.clips.metrics import joint_angles, sliding_steps
 from deik.io.euler import tait_bryan_triples
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 
 LIMIT_SLACK = 1e-9  # radians or length units: rounding is no violation
 
 
-def limit_violations(skeleton, frames: np.ndarray) -> np.ndarray:
+def limit_violations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     """(N, D) bool: DOF values outside their limits; a rotation by its angle modulo 2 pi."""
     lower, upper = skeleton.lower - LIMIT_SLACK, skeleton.upper + LIMIT_SLACK
     rotation = skeleton.dof_kind == ROTATE
@@ -80,7 +84,16 @@ def _row_stat(values: np.ndarray, pick) -> np.ndarray:
     return out
 
 
-def retarget_report(motion, names, targets, contacts, clearance, metres: float, wall_time: float, scaled=None) -> dict:
+def retarget_report(
+    motion: Motion,
+    names: Sequence[str],
+    targets: np.ndarray,
+    contacts: Contacts | None,
+    clearance: np.ndarray,
+    metres: float,
+    wall_time: float,
+    scaled: Motion | None = None,
+) -> dict:
     """{"summary": {key: number}, "per_frame": {key: [N values, null where none]}} of the target
     `motion` (a Clip or Trajectory): key points `names` (K,) against `targets` (N, K, 3);
     `contacts` of target sites (or None) with their `clearance` (S,); `scaled` the source on the

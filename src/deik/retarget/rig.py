@@ -29,6 +29,7 @@ from deik.clips.contacts import Contacts, detect_contacts, planted_targets
 from deik.clips.floor import clearance
 from deik.clips.units import guess_unit, metres_per_unit
 from deik.clips.warmstart import dof_weights
+from deik.io.clip import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -103,7 +104,9 @@ def _target_contacts(source_contacts: Contacts, joint_map: JointMap) -> Contacts
     return Contacts(names, mask, source_contacts.detected, None, None, 0.0)
 
 
-def retarget_rig(source, target: Skeleton, joint_map: JointMap, hinges=None, **settings) -> Retarget:
+def retarget_rig(
+    source: Clip, target: Skeleton, joint_map: JointMap, hinges: np.ndarray | None = None, **settings: object
+) -> Retarget:
     """Retarget the clip `source` onto `target` through `joint_map` (see the module notes).
     `hinges` (D,) bool of the target's DOFs to keep at 0 (a BVH rig's hinge channels, from
     clips.coherence.hinge_channels of its own clip), default none. `settings` are those of a

@@ -11,6 +11,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
@@ -55,7 +56,7 @@ def scaled_bones(skeleton: Skeleton, factors: dict[str, float]) -> Skeleton:
     )
 
 
-def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
+def with_floating_root(skeleton: Skeleton, lower: ArrayLike, upper: ArrayLike) -> Skeleton:
     """`skeleton`, whose root joint has no DOFs (a robot fixed in the world), with six on it:
     translations along X, Y, Z within `lower`/`upper` (3,) length units, then rotations Z, X, Y
     (intrinsic, over a whole turn), in the root joint's frame, named "ROOT.Xposition" and so on

@@ -10,6 +10,7 @@ import copy
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.kernels.layout import (
     Buffers,
@@ -172,7 +173,7 @@ class Engine:
         )
         return buffers, status, init, n_init
 
-    def init(self, initial=None) -> EvolutionState:
+    def init(self, initial: ArrayLike | None = None) -> EvolutionState:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
         buffers, status, init, n_init = self._fresh(initial)
         self.backend.initialise(buffers, status, self.skel, self.terms, self.kernel_settings, init, n_init)
@@ -180,7 +181,7 @@ class Engine:
             **buffers._asdict(), **status._asdict(), history=np.zeros((len(status.best), 0, 2)), generation=0
         )
 
-    def start(self, n_generations: int, initial=None) -> EvolutionState:
+    def start(self, n_generations: int, initial: ArrayLike | None = None) -> EvolutionState:
         """init(initial) then run(state, n_generations) as one backend call (on the CPU one
         compiled call: no Python between set-up, generations, polish and stopping)."""
         cur, status, init, n_init = self._fresh(initial)

@@ -9,6 +9,8 @@ Files are written atomically: a reader sees the old file or the complete new one
 
 from __future__ import annotations
 
+from types import ModuleType
+
 import numpy as np
 
 from deik.io.atomic import save_atomically
@@ -22,7 +24,7 @@ VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 PROJECTIONS = ("2d", "3d")
 
 
-def require_matplotlib():
+def require_matplotlib() -> ModuleType:
     """pyplot on the file-only Agg backend; ImportError with the install command if missing."""
     try:
         import matplotlib
