@@ -19,8 +19,13 @@ import contextlib
 import io
 import os
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from deik.cli.common import USER_ERRORS, UsageError, check_device, error_line
+
+if TYPE_CHECKING:  # deik.library loads when a folder is run
+    from deik.library.jobs import Job
 
 FOLDER_FLAGS = ("workers", "executor", "address")
 OUTPUT_FLAGS = {"out": "--out", "json": "--json", "report": "--report", "view": "--view"}
@@ -31,7 +36,7 @@ FAILED = 1  # exit status when a clip failed
 INTERRUPTED = 130
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The folder flags of `deik clip` and `deik retarget`, and a note on folders in --help."""
     parser.epilog = (
         "IN may be a folder: every *.bvh in it is done (a rerun skips the clips done before with the same "
@@ -57,7 +62,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     """`deik clip` or `deik retarget` on one clip or, for a folder, on every clip in it."""
     from deik.cli import clip as cli_clip
     from deik.cli import retarget as cli_retarget
@@ -70,7 +75,7 @@ def run(args) -> int:
     return {"clip": cli_clip.run_clip, "retarget": cli_retarget.run_retarget}[args.command](args)
 
 
-def do_clip(payload: dict, progress) -> dict:
+def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
     """The library task (runs in a worker): the one-clip command on `payload["args"]`; its
     record holds the frames, the metrics and what it printed. JobFailed with the one-line
     reason for a mistake in the input or a bug."""
@@ -148,7 +153,7 @@ def _check_first(args) -> None:
         raise UsageError("--address names a Ray cluster: give it with --executor ray")
 
 
-def library_jobs(args) -> tuple[list, list[str]]:
+def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
     """(one deik.library.jobs.Job per clip of the folder `args.clip`, names of the entries skipped)."""
     from deik.library.folder import find_clips, output_folder
     from deik.library.jobs import Job, fingerprint, sidecar_path
@@ -201,7 +206,7 @@ COLUMNS = {
 }
 
 
-def run_folder(args) -> int:
+def run_folder(args: argparse.Namespace) -> int:
     """Every clip of the folder `args.clip`: skip those done, run the rest, print the summary;
     status 1 when a clip failed, 130 on Ctrl-C (the clips finished are kept)."""
     from deik.cli.common import announce_compile

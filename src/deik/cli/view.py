@@ -8,6 +8,7 @@ machine until Ctrl-C (needs deik[view]).
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import webbrowser
@@ -23,7 +24,7 @@ DEFAULT_PORT = 8080
 DEFAULT_UP = (0.0, 1.0, 0.0)
 
 
-def add_arguments(v) -> None:
+def add_arguments(v: argparse.ArgumentParser) -> None:
     """The `deik view` flags on subparser `v`."""
     v.add_argument(
         "file",
@@ -108,7 +109,7 @@ def _compared(path: str, args):
     return figure_from_poses(loaded.skeleton, loaded.clip.poses(), os.path.basename(path))
 
 
-def build_scene(args) -> Scene:
+def build_scene(args: argparse.Namespace) -> Scene:
     """The Scene the flags describe; UsageError or ValueError naming the flag or file at fault."""
     is_pose_file = args.file.lower().endswith(".json")
     if is_pose_file and any((args.pose, args.segments, args.base, args.tip, args.up)):
@@ -138,7 +139,7 @@ def _can_open_browser() -> bool:
     return bool(shown) or sys.platform in ("darwin", "win32")
 
 
-def run_view(args) -> int:
+def run_view(args: argparse.Namespace) -> int:
     """`deik view`: build the scene (every input checked first), serve it, open the browser."""
     from deik.viz.viewer import require_viser, serve
 

@@ -9,7 +9,7 @@ it; per-frame lists hold null where a value does not apply to a frame.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -97,7 +97,7 @@ def unreached(goals: list[dict]) -> dict:
     return out
 
 
-def reach_record(reach) -> list[dict]:
+def reach_record(reach: Iterable[ReachTrack]) -> list[dict]:
     """The reach tracks as JSON: per track its site and, for each frame it applies to, the frame
     and the target (length units), so a viewer can mark them (`deik view --report`)."""
     return [

@@ -68,7 +68,7 @@ def read_input_text(path: FilePath, what: str) -> str:
         ) from None
 
 
-def read_input_json(path, what: str):
+def read_input_json(path: FilePath, what: str) -> object:
     """read_input_text parsed as JSON; FileFormatError naming the file when it is not JSON (or is
     nested too deeply to parse)."""
     text = read_input_text(path, what)

@@ -13,7 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_json
+from deik.io.files import FilePath, read_input_json
+from deik.model.skeleton import Skeleton
 
 WHAT = "pose (JSON)"
 REWRITE = "write it again with `deik solve --out pose.json`"
@@ -60,7 +61,7 @@ def _numbers(path: str, value, shape_end: tuple[int, ...], what: str, batch: int
     return np.array(array)
 
 
-def read_pose_json(path) -> PoseFile:
+def read_pose_json(path: FilePath) -> PoseFile:
     """The pose JSON at `path`, checked: its "angles" and "dof_names" always; its world frames,
     tree, centre of mass, up and targets where present (older files and hand-written poses
     carry only the angles)."""
@@ -146,7 +147,7 @@ def _targets(path: str, records, batch: int) -> tuple[dict, ...]:
     return tuple(out)
 
 
-def pose_angles(pose: PoseFile, skeleton, flag: str) -> np.ndarray:
+def pose_angles(pose: PoseFile, skeleton: Skeleton, flag: str) -> np.ndarray:
     """`pose`'s angles (B, D) for `skeleton`; ValueError naming `flag` and the file when its DOF
     names are not the skeleton's (a pose of another robot, or of other --base/--tip links)."""
     if pose.angles.shape[1] != skeleton.n_dofs:

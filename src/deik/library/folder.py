@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import os
 
+from deik.io.files import FilePath
+
 CLIP_SUFFIX = ".bvh"
 
 
-def find_clips(folder) -> tuple[list[str], list[str]]:
+def find_clips(folder: FilePath) -> tuple[list[str], list[str]]:
     """(paths of every *.bvh file directly in `folder`, sorted by name; names of the other
     entries, which are skipped: other files, sub-folders (not searched), hidden files).
     ValueError naming the folder when it holds no clip."""

@@ -14,10 +14,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from deik import __version__
 from deik.io.atomic import write_json_atomically
+from deik.io.files import FilePath
 
 SIDECAR = ".deik.json"
 
@@ -55,7 +57,15 @@ class Outcome:
     reason: str = ""
 
 
-def file_digest(path) -> str:
+# a task's frame progress: progress(frames done, frames in the clip)
+FrameProgress = Callable[[int, int], None]
+# a library task (deik.library.run): task(job.payload, progress) -> record
+Task = Callable[[dict, FrameProgress], dict]
+# what an executor yields: ("started", job), ("progress", job, done, total), ("finished", outcome)
+Event = tuple[str, Job] | tuple[str, Job, int, int] | tuple[str, Outcome]
+
+
+def file_digest(path: FilePath) -> str:
     """SHA-256 hex digest of a file's bytes."""
     digest = hashlib.sha256()
     with open(path, "rb") as file:
@@ -64,7 +74,7 @@ def file_digest(path) -> str:
     return digest.hexdigest()
 
 
-def fingerprint(command: str, settings: dict, source: str, files: dict, outputs) -> str:
+def fingerprint(command: str, settings: dict, source: str, files: dict, outputs: Iterable[FilePath]) -> str:
     """SHA-256 hex of `command`, `settings` (JSON-able), deik's version, the bytes of `source`
     and of `files` {setting: path} and the `outputs` paths."""
     record = {
@@ -78,7 +88,7 @@ def fingerprint(command: str, settings: dict, source: str, files: dict, outputs)
     return hashlib.sha256(json.dumps(record, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def sidecar_path(folder, name: str) -> str:
+def sidecar_path(folder: FilePath, name: str) -> str:
     """OUTDIR/STEM.deik.json for the clip file `name`."""
     return os.path.join(os.path.abspath(folder), os.path.splitext(name)[0] + SIDECAR)
 

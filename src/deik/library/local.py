@@ -15,9 +15,10 @@ import os
 import signal
 import time
 from collections import deque
+from collections.abc import Iterable, Iterator
 from multiprocessing.connection import wait
 
-from deik.library.jobs import JobFailed, Outcome, write_sidecar
+from deik.library.jobs import Event, FrameProgress, Job, JobFailed, Outcome, Task, write_sidecar
 
 THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 STOP_WAIT_S = 5.0  # how long workers get to finish cleaning up after Ctrl-C before they are ended
@@ -33,7 +34,7 @@ def threads_per_worker(workers: int, cores: int | None = None) -> int:
     return max(1, (cores or os.cpu_count() or 1) // max(workers, 1))
 
 
-def perform(task, job, progress) -> tuple[dict, float]:
+def perform(task: Task, job: Job, progress: FrameProgress) -> tuple[dict, float]:
     """Run `task(job.payload, progress)` and record the job as done: (record, seconds)."""
     began = time.perf_counter()
     record = task(job.payload, progress)
@@ -42,7 +43,7 @@ def perform(task, job, progress) -> tuple[dict, float]:
     return record, seconds
 
 
-def attempt(task, job, progress) -> tuple:
+def attempt(task: Task, job: Job, progress: FrameProgress) -> tuple:
     """("done", record, seconds) or ("failed", reason, seconds) of one job; KeyboardInterrupt
     passes."""
     began = time.perf_counter()
@@ -99,7 +100,7 @@ class _Worker:
         return f"its worker process ended (exit status {code}); rerun to redo it"
 
 
-def local_events(jobs, task, workers: int, threads: int):
+def local_events(jobs: Iterable[Job], task: Task, workers: int, threads: int) -> Iterator[Event]:
     """Run `jobs` on `workers` local processes of `threads` threads each; yield ("started",
     job), ("progress", job, done, total) and ("finished", Outcome) events as they happen."""
     context = multiprocessing.get_context("spawn")

@@ -14,15 +14,17 @@ from __future__ import annotations
 
 import contextlib
 import logging
+from collections.abc import Iterator, Sequence
+from types import ModuleType
 
-from deik.library.jobs import Outcome
+from deik.library.jobs import Event, Job, Outcome, Task
 from deik.library.local import THREAD_VARIABLES, attempt
 
 RAY_MISSING = 'the Ray executor needs Ray, an optional extra: pip install "deik[ray]"'
 POLL_S = 0.25  # how often the driver looks for progress while tasks run
 
 
-def require_ray():
+def require_ray() -> ModuleType:
     """The ray module, else ImportError naming the extra to install."""
     try:
         import ray
@@ -41,7 +43,9 @@ def _run_on_worker(task, job, queue) -> tuple:
     return attempt(task, job, progress)
 
 
-def ray_events(jobs, task, address: str | None, in_flight: int | None, threads: int = 1):
+def ray_events(
+    jobs: Sequence[Job], task: Task, address: str | None, in_flight: int | None, threads: int = 1
+) -> Iterator[Event]:
     """Run `jobs` as Ray tasks (at most `in_flight` at once, None: all) of `threads` CPUs each
     on the cluster at `address` (None or "local": a Ray started here for the run); yield
     ("started", job), ("progress", job, done, total) and ("finished", Outcome) events."""

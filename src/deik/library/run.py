@@ -15,9 +15,10 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from deik.library.jobs import Outcome, skipped
+from deik.library.jobs import Job, Outcome, Task, skipped
 from deik.library.local import default_workers, local_events, threads_per_worker
 from deik.library.ray_cluster import ray_events, require_ray
 from deik.viz.text import format_table
@@ -66,7 +67,16 @@ def _check(executor: str, workers, address) -> None:
         require_ray()
 
 
-def run_library(jobs, task, *, executor="local", workers=None, address=None, quiet=False, note=None) -> LibraryRun:
+def run_library(
+    jobs: Sequence[Job],
+    task: Task,
+    *,
+    executor: str = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    quiet: bool = False,
+    note: Callable[[str], object] | None = None,
+) -> LibraryRun:
     """Run every job of `jobs` that is not done yet (jobs.read_sidecar) with `task`, on
     `executor` "local" (`workers` processes, default one per core) or "ray" (`address` of the
     cluster, default a local instance; `workers` tasks in flight at most). Progress bars go to
@@ -120,7 +130,7 @@ def _follow(events, total: int, initial: int, outcomes: dict, quiet: bool, note)
             clips.set_postfix_str(", ".join(running), refresh=True)
 
 
-def summary_table(run: LibraryRun, columns) -> str:
+def summary_table(run: LibraryRun, columns: Sequence[tuple[str, Callable[[dict], str]]]) -> str:
     """One row per clip: its name, frames, status, time (s) and `columns` [(header, pick)]
     where pick(record) gives the cell ("-" when the clip has no record)."""
     header = ["clip", "frames", "status", "time s", *(name for name, _ in columns)]

@@ -12,11 +12,14 @@ the limits stalled knees and ankles at a limit, toes pointing down, 10-30 cm fro
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
+
 import numpy as np
 
 from deik.clips.warmstart import position_jacobian
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
+from deik.model.skeleton import Skeleton
 
 ITERATIONS = 20  # 40 gave the same errors on the shared clips (within 1 mm) in 1.5x the time
 LONGEST_STEP = 0.1  # of reach: the longest error a point's row asks for in one step
@@ -51,15 +54,15 @@ def _floor_depth(x: np.ndarray, up: np.ndarray, floor: float) -> np.ndarray:
 
 
 def solve_keypoints(
-    skeleton,
+    skeleton: Skeleton,
     poses: np.ndarray,
-    names,
-    targets,
+    names: Iterable[str],
+    targets: np.ndarray | Callable[[np.ndarray], np.ndarray],
     searched: np.ndarray,
     weights: np.ndarray,
     floor: float | None = None,
     point_weights: np.ndarray | None = None,
-):
+) -> np.ndarray:
     """(N, D) poses near `poses` (N, D) whose frames `names` (K,) meet `targets` as nearly as
     the limits allow: `targets` (N, K, 3), or a function of the poses giving them (points
     whose targets follow the pose, such as orientation points measured from a frame), moving

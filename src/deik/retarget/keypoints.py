@@ -51,7 +51,7 @@ def mapped_points(
     return ((p - origin) * scale) @ rotation.T
 
 
-def limb_tree(source: Skeleton, source_names, root: int) -> list[int]:
+def limb_tree(source: Skeleton, source_names: Sequence[str], root: int) -> list[int]:
     """(K,) each key point's parent key point: the nearest of its source frame's ancestors that
     is mapped, else `root` (the root point's own entry is -1)."""
     index = {source.frame_index(name): k for k, name in enumerate(source_names)}
@@ -71,7 +71,14 @@ def limb_tree(source: Skeleton, source_names, root: int) -> list[int]:
     return parents
 
 
-def limb_scales(source: Skeleton, target: Skeleton, source_names, target_names, root: int, fallback: float):
+def limb_scales(
+    source: Skeleton,
+    target: Skeleton,
+    source_names: Sequence[str],
+    target_names: Sequence[str],
+    root: int,
+    fallback: float,
+) -> tuple[float, np.ndarray]:
     """(root scale, (K,) limb scales) at rest: the root key point's height above the skeleton's
     lowest joint or site, and each point's distance from its parent point (limb_tree), target over
     source (a point within 1 % of the source's reach of its parent takes `fallback`)."""
@@ -91,7 +98,15 @@ def limb_scales(source: Skeleton, target: Skeleton, source_names, target_names, 
     return float(legs[1] / legs[0]), scales
 
 
-def limb_points(source_clip, names, origin, root: int, root_scale: float, scales, rotation) -> np.ndarray:
+def limb_points(
+    source_clip: Motion,
+    names: Sequence[str],
+    origin: np.ndarray,
+    root: int,
+    root_scale: float,
+    scales: np.ndarray,
+    rotation: np.ndarray,
+) -> np.ndarray:
     """(N, K, 3) source frames `names` mapped limb by limb: the root point's path about
     `origin` by `root_scale`, then each point at its parent point (limb_tree) plus its offset
     from the parent in the source, scaled by its limb scale (K,) (limb_scales): the source's
@@ -117,7 +132,9 @@ def limb_points(source_clip, names, origin, root: int, root_scale: float, scales
     return out @ rotation.T
 
 
-def mapped_rotations(source_clip, source_name: str, target: Skeleton, target_name: str, rotation) -> np.ndarray:
+def mapped_rotations(
+    source_clip: Motion, source_name: str, target: Skeleton, target_name: str, rotation: np.ndarray
+) -> np.ndarray:
     """(N, 3, 3) the world orientation target frame `target_name` should have in each frame (see
     the module notes)."""
     sk = source_clip.skeleton

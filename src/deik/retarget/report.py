@@ -50,7 +50,7 @@ def _turned_in(skeleton, frames: np.ndarray) -> np.ndarray:
     return np.where(rotation & (shifted <= skeleton.upper + LIMIT_SLACK), shifted, frames)
 
 
-def within_limits(skeleton, frames: np.ndarray) -> np.ndarray:
+def within_limits(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     """`frames` (N, D) with the same rotations written within the limits where that is possible
     (a robot controller reads the values as they are): each rotation moved by whole turns, and
     a Tait-Bryan triple (a, b, c) outside them replaced by its twin (a + pi, pi - b, c + pi)

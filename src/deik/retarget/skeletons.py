@@ -8,6 +8,7 @@ length unit, angles radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -98,7 +99,7 @@ def with_free_root(skeleton: Skeleton, points: np.ndarray) -> Skeleton:
     return replace(skeleton, lower=lower, upper=upper)
 
 
-def with_sites(skeleton: Skeleton, sites) -> Skeleton:
+def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
     """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
     site on a site lands on that site's joint. ValueError when a name is taken."""
     if not sites:

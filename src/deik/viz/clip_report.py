@@ -8,11 +8,15 @@ frame numbers above), atomically: a reader sees the old file or the complete new
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from deik.io.atomic import save_atomically
+from deik.io.clip import Clip
+from deik.io.files import FilePath
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.viz.marks import frame_parents
@@ -38,7 +42,7 @@ class PosePanel:
     unit: str = "m"
 
 
-def most_changed_frame(original, fixed) -> int:
+def most_changed_frame(original: Motion, fixed: Motion) -> int:
     """The frame of two clips (deik.Clip, same skeleton and length) whose joints and sites lie
     farthest apart on average: where the fix did the most."""
     before = forward_kinematics(original.skeleton, original.poses()).p_world_frame
@@ -46,7 +50,7 @@ def most_changed_frame(original, fixed) -> int:
     return int(np.argmax(np.linalg.norm(after - before, axis=-1).mean(axis=1)))
 
 
-def pose_panel(original, fixed, document: dict, projection: str = "2d", unit: str = "m") -> PosePanel:
+def pose_panel(original: Clip, fixed: Clip, document: dict, projection: str = "2d", unit: str = "m") -> PosePanel:
     """The PosePanel of a fix's most changed frame, marked with the contacts and reach targets
     of its report `document` (deik.clips.document.clip_document)."""
     frame = most_changed_frame(original, fixed)
@@ -69,7 +73,14 @@ def _draw_pose(container, panel: PosePanel) -> None:
     container.suptitle(f"frame {panel.frame}, where the fix moved the body most: before (grey) and after")
 
 
-def plot_clip_report(series: dict, path, frame_time: float, title: str = "", notes=(), pose=None) -> None:
+def plot_clip_report(
+    series: dict,
+    path: FilePath,
+    frame_time: float,
+    title: str = "",
+    notes: Sequence[str] = (),
+    pose: PosePanel | None = None,
+) -> None:
     """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
     NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
     `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel

@@ -8,10 +8,14 @@ Frames are joints then sites, as in Skeleton.frame_names; a frame's parent is it
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
+from deik.solver.problem import Problem
 
 CHAIN_UNIT = "link lengths"
 
@@ -42,19 +46,19 @@ def frame_parents(skeleton: Skeleton) -> np.ndarray:
     return np.concatenate([skeleton.parents, skeleton.site_joint]).astype(np.int64)
 
 
-def bones(parents) -> np.ndarray:
+def bones(parents: ArrayLike) -> np.ndarray:
     """(K, 2) int: [parent, child] frame indices of every bone of a tree `parents` (F,)."""
     parents = np.asarray(parents, np.int64)
     children = np.flatnonzero(parents >= 0)
     return np.stack([parents[children], children], axis=1)
 
 
-def roots(parents) -> np.ndarray:
+def roots(parents: ArrayLike) -> np.ndarray:
     """Indices of the frames without a parent (one for a skeleton)."""
     return np.flatnonzero(np.asarray(parents) < 0)
 
 
-def tips(parents, points) -> np.ndarray:
+def tips(parents: ArrayLike, points: ArrayLike) -> np.ndarray:
     """Indices of the ends of every chain (end effectors, end sites, a robot's tool frame), from
     the tree `parents` (F,) and one pose's frame positions `points` (F, 3): the frames no bone
     leaves, less those on the way from their parent to a farther child of it (a URDF's fixed
@@ -78,7 +82,7 @@ def tips(parents, points) -> np.ndarray:
     return np.asarray(out, np.int64)
 
 
-def spread_out(points, indices, fraction: float = 0.06) -> list[int]:
+def spread_out(points: ArrayLike, indices: Iterable[int], fraction: float = 0.06) -> list[int]:
     """Of `indices` into `points` (F, k), those that lie at least `fraction` of the points' size
     from every one kept before them: the tips to name, so that labels never print over each
     other (a foot's heel and toes get one name)."""
@@ -112,7 +116,7 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
     return "length units", "the skeleton's own"
 
 
-def goal_targets(problem) -> list[dict]:
+def goal_targets(problem: Problem) -> list[dict]:
     """Every point a problem's goals aim for, as JSON-ready records in the skeleton's length
     units: {"goal": label, "kind": "target" | "support", "position": (*batch, 3)} for Position,
     Aim and CentreOfMass targets and a ComOverSupport point; {"goal", "kind": "obstacle",

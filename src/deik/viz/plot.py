@@ -9,16 +9,25 @@ Files are written atomically: a reader sees the old file or the complete new one
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import save_atomically
+from deik.io.files import FilePath
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
+from deik.solver.problem import Problem
+from deik.solver.result import Result
 from deik.viz.marks import colour, frame_parents, goal_targets, length_unit
 from deik.viz.pose_axes import draw_skeleton, fit_axes
+
+if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
+    from matplotlib.figure import Figure, SubFigure
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
 PROJECTIONS = ("2d", "3d")
@@ -44,7 +53,7 @@ def is_planar(skeleton: Skeleton) -> bool:
     return bool(rotations_about_z and np.all(offsets[:, 2] == 0))
 
 
-def view_axes(up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def view_axes(up: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(across, depth, up) unit vectors (3,) of a right-handed frame whose vertical is `up`:
     across is world X unless up is nearly X (then world Z), with its component along up removed."""
     up = np.asarray(up, float) / np.linalg.norm(up)
@@ -60,7 +69,7 @@ def axis_name(v: np.ndarray) -> str:
     return ("-" if v[k] < 0 else "") + "xyz"[k] if np.isclose(abs(v[k]), 1.0) else "horizontal"
 
 
-def views(skeleton: Skeleton, projection: str):
+def views(skeleton: Skeleton, projection: str) -> list[tuple[str, np.ndarray]]:
     """[(title, basis (3, 2) or (3, 3) whose columns are the picture's axes in world coordinates)]."""
     if projection not in PROJECTIONS:
         raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
@@ -72,7 +81,7 @@ def views(skeleton: Skeleton, projection: str):
     return [("front", np.stack([across, up], axis=1)), ("side", np.stack([-depth, up], axis=1))]
 
 
-def add_pose_axes(container, skeleton: Skeleton, projection: str, unit: str) -> list:
+def add_pose_axes(container: Figure | SubFigure, skeleton: Skeleton, projection: str, unit: str) -> list:
     """[(axes, basis)]: one row of views of `skeleton` (views) added to `container` (a matplotlib
     Figure or SubFigure), each axis labelled with its direction and `unit`."""
     out = []
@@ -93,15 +102,15 @@ def add_pose_axes(container, skeleton: Skeleton, projection: str, unit: str) -> 
 
 def pose_figure(
     skeleton: Skeleton,
-    angles,
-    targets=(),
-    com=None,
-    support=None,
-    obstacles=(),
+    angles: ArrayLike,
+    targets: ArrayLike = (),
+    com: ArrayLike | None = None,
+    support: ArrayLike | None = None,
+    obstacles: Iterable[tuple[ArrayLike, float]] = (),
     title: str = "",
     projection: str = "2d",
     unit: str | None = None,
-):
+) -> Figure:
     """The matplotlib Figure plot_pose saves (see there); the caller closes it."""
     angles = skeleton.check_angles(angles)
     if angles.ndim != 1:
@@ -138,14 +147,14 @@ def _sphere(ax, basis, centre, radius, plt) -> None:
 
 
 def plot_pose(
-    result_or_skeleton,
-    angles,
-    path,
-    targets=(),
-    com=None,
-    support=None,
-    title="",
-    obstacles=(),
+    result_or_skeleton: Result | Skeleton,
+    angles: ArrayLike | None,
+    path: FilePath,
+    targets: ArrayLike = (),
+    com: ArrayLike | None = None,
+    support: ArrayLike | None = None,
+    title: str = "",
+    obstacles: Iterable[tuple[ArrayLike, float]] = (),
     projection: str = "2d",
     unit: str | None = None,
 ) -> None:
@@ -173,7 +182,7 @@ def plot_pose(
         plt.close(figure)
 
 
-def goal_marks(problem) -> dict:
+def goal_marks(problem: Problem) -> dict:
     """plot_pose's marks from a Problem's goals (viz.marks.goal_targets): targets of Position /
     Aim / CentreOfMass goals, the support point of a ComOverSupport goal and obstacle spheres."""
     marks = {"targets": [], "support": None, "obstacles": []}
@@ -187,7 +196,9 @@ def goal_marks(problem) -> dict:
     return marks
 
 
-def plot_result(problem, result, path, title: str = "", projection: str = "2d", unit: str | None = None) -> None:
+def plot_result(
+    problem: Problem, result: Result, path: FilePath, title: str = "", projection: str = "2d", unit: str | None = None
+) -> None:
     """plot_pose of an unbatched Result with `problem`'s targets, its support point and the
     pose's centre of mass (when the skeleton has mass)."""
     com = forward_kinematics(result.skeleton, result.angles).p_world_com if result.skeleton.total_mass > 0 else None

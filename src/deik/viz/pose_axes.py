@@ -8,9 +8,16 @@ coordinates: a point p is drawn at p @ basis.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.viz.marks import bones, colour, roots, spread_out, tips
+
+if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
+    from matplotlib.axes import Axes
 
 # marker, size (points), filled: one style per kind of mark
 MARKERS = {
@@ -35,12 +42,12 @@ def _mark(ax, flat: np.ndarray, kind: str, label: str | None) -> None:
 
 
 def draw_skeleton(
-    ax,
+    ax: Axes,
     basis: np.ndarray,
     points: np.ndarray,
-    parents,
+    parents: ArrayLike,
     n_joints: int,
-    names,
+    names: Sequence[str],
     marks: dict | None = None,
     bone_kind: str = "bone",
     legend: bool = True,
@@ -84,7 +91,7 @@ def draw_skeleton(
     return np.concatenate(drawn)
 
 
-def fit_axes(ax, drawn: np.ndarray) -> None:
+def fit_axes(ax: Axes, drawn: np.ndarray) -> None:
     """Equal lengths along every axis around everything `drawn` (N, k): a 2-D view keeps its
     aspect; a 3-D view gets one cube (matplotlib would stretch each axis to its own range)."""
     if drawn.shape[1] == 2:

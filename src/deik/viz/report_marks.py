@@ -11,14 +11,14 @@ from dataclasses import replace
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_json
+from deik.io.files import FilePath, read_input_json
 from deik.viz.scene import Marks, Scene
 
 WHAT = "clip report (JSON)"
 FIX = "give the file `deik clip --json` wrote for this clip"
 
 
-def read_clip_report(path) -> dict:
+def read_clip_report(path: FilePath) -> dict:
     """The report at `path`, checked for the keys the view reads."""
     path = str(path)
     document = read_input_json(path, WHAT)
@@ -89,7 +89,7 @@ def marks_at(document: dict, frame: int, steps: int, path: str = "the clip repor
     return out
 
 
-def with_clip_report(scene: Scene, document: dict, path) -> Scene:
+def with_clip_report(scene: Scene, document: dict, path: FilePath) -> Scene:
     """`scene` (a clip's, one step per frame) with the report's contacts, reach targets, floor
     and length unit; ValueError naming `path` when the report is for a clip of another length."""
     path = str(path)

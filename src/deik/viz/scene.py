@@ -8,10 +8,13 @@ Built from a Skeleton and its poses, from a pose JSON (deik.io.pose_json) and fr
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from deik.io.pose_json import PoseFile
 from deik.model.kinematics import forward_kinematics
 from deik.model.orientations import matrix_quaternion
 from deik.model.skeleton import Skeleton
@@ -82,7 +85,7 @@ class Scene:
         return points.min(axis=0), points.max(axis=0)
 
 
-def figure_from_poses(skeleton: Skeleton, angles, name: str = "") -> Figure:
+def figure_from_poses(skeleton: Skeleton, angles: ArrayLike, name: str = "") -> Figure:
     """The Figure of `skeleton` in poses `angles` (T, D) (radians / length units), by forward
     kinematics."""
     angles = skeleton.check_angles(np.atleast_2d(angles))
@@ -98,7 +101,7 @@ def figure_from_poses(skeleton: Skeleton, angles, name: str = "") -> Figure:
     )
 
 
-def figure_from_pose_file(pose, name: str = "") -> Figure:
+def figure_from_pose_file(pose: PoseFile, name: str = "") -> Figure:
     """The Figure drawn by a pose JSON alone (deik.io.pose_json.PoseFile) from its world frames
     and tree; ValueError naming the file when it lacks them (a file from an older deik, or a
     hand-written pose with angles only), saying how to view it with its skeleton instead."""
@@ -119,7 +122,7 @@ def figure_from_pose_file(pose, name: str = "") -> Figure:
     )
 
 
-def target_marks(targets, steps: int) -> tuple[tuple[Marks, ...], tuple]:
+def target_marks(targets: Iterable[dict], steps: int) -> tuple[tuple[Marks, ...], tuple]:
     """(marks, obstacles) from goal target records (viz.marks.goal_targets as read by
     deik.io.pose_json: points (B, 3)) for a scene of `steps` steps, one step per problem."""
     groups: dict[str, tuple[list, list]] = {}

@@ -13,6 +13,8 @@ import contextlib
 import io
 import threading
 import time
+from collections.abc import Callable
+from types import ModuleType
 
 from deik.viz.scene import Scene
 from deik.viz.viewer_nodes import SceneNodes
@@ -27,7 +29,7 @@ LEGEND = (
 )
 
 
-def require_viser():
+def require_viser() -> ModuleType:
     """The viser module; ImportError with the install command when it is missing."""
     try:
         import viser
@@ -100,7 +102,7 @@ def serve(
     scene: Scene,
     host: str = "127.0.0.1",
     port: int = 8080,
-    on_ready=None,
+    on_ready: Callable[[str], object] | None = None,
     stop: threading.Event | None = None,
 ) -> None:
     """Serve `scene` at http://host:port (the next free port when that one is taken; 0: any

@@ -7,12 +7,16 @@ states. `SceneNodes.show(step)` moves every node to one step of the scene.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from deik.viz.marks import COLOURS, bones, roots, spread_out, tips
 from deik.viz.plot import view_axes
 from deik.viz.scene import Figure, Scene
+
+if TYPE_CHECKING:  # viser is imported by viz.viewer, when a view is served
+    from viser import ViserServer
 
 BONE_PIXELS = 5.0  # bone lines keep this width on screen at any zoom
 # Frame axes start shown on a figure with this few tips (a robot arm, whose tool frame's
@@ -40,7 +44,7 @@ def turn_z_to(up: np.ndarray) -> np.ndarray:
 class SceneNodes:
     """Every node of `scene` in `server` (a viser.ViserServer), shown at step 0."""
 
-    def __init__(self, server, scene: Scene):
+    def __init__(self, server: ViserServer, scene: Scene):
         self.server, self.scene = server, scene
         low, high = scene.bounds()
         self.size = max(float((high - low).max()), 1e-6)
