@@ -197,20 +197,49 @@ def _rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
     return pairs
 
 
-def _keep_distance(a: np.ndarray, b: np.ndarray, distance: float, up: np.ndarray):
-    """Targets a, b (3,) moved apart or together along the ground, about their midpoint and
-    keeping their heights, to lie `distance` apart (in 3-D about the midpoint when their
-    heights alone differ by more); unchanged when they coincide (no direction to move in)."""
-    delta = a - b
-    if not np.linalg.norm(delta) > 0:
-        return a, b
+def _at_distance(point: np.ndarray, anchor: np.ndarray, distance: float, up: np.ndarray) -> np.ndarray:
+    """`point` (3,) moved to lie `distance` from `anchor` (3,): along the ground, keeping its
+    height, when their heights differ by less than `distance`, else along the line between
+    them; unchanged when they coincide (no direction to move in)."""
+    delta = point - anchor
     rise = delta @ up
     flat = delta - rise * up
     if abs(rise) < distance and np.linalg.norm(flat) > 0:
-        shift = (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat) - 1.0) * flat / 2
-    else:
-        shift = (distance / np.linalg.norm(delta) - 1.0) * delta / 2
-    return a + shift, b - shift
+        return anchor + rise * up + flat * (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat))
+    if np.linalg.norm(delta) > 0:
+        return anchor + delta * (distance / np.linalg.norm(delta))
+    return point
+
+
+def _linked_plants(plants: dict, pairs, up: np.ndarray) -> dict:
+    """`plants` {(site, start, stop): target (3,)} with the plants of two rigidly linked sites
+    (`pairs`) whose intervals overlap put their distance apart. Linked plants form groups (a toe
+    planted through two plants of its ankle, a heel lifting and landing again): each group's
+    longest plant stays, and the others are placed in turn at their distance from the one
+    placed before them they are linked to (_at_distance), so every link of a chain holds; a
+    link closing a loop holds only approximately."""
+    links = {key: [] for key in plants}
+    for s, t, distance in pairs:
+        for first in [key for key in plants if key[0] == s]:
+            for second in [key for key in plants if key[0] == t]:
+                if max(first[1], second[1]) < min(first[2], second[2]):
+                    links[first].append((second, distance))
+                    links[second].append((first, distance))
+    out = dict(plants)
+    placed = set()
+    for root in sorted(plants, key=lambda key: (key[1] - key[2], key[1], key[0])):  # longest first
+        if root in placed:
+            continue
+        placed.add(root)
+        queue = [root]
+        while queue:
+            anchor = queue.pop(0)
+            for key, distance in links[anchor]:
+                if key not in placed:
+                    out[key] = _at_distance(out[key], out[anchor], distance, up)
+                    placed.add(key)
+                    queue.append(key)
+    return out
 
 
 def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
@@ -234,7 +263,7 @@ def planted_targets(clip, contacts: Contacts) -> np.ndarray:
     it), each frame's height first raised by how far the site or a site rigidly linked to it
     is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
     is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
-    overlap get targets that distance apart, so both can be met at once.
+    overlap get targets that distance apart (_linked_plants), so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
@@ -251,13 +280,7 @@ def planted_targets(clip, contacts: Contacts) -> np.ndarray:
             if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
                 height = floor
             plants[s, a, b] = mean + (height - mean @ up) * up
-    for s, t, distance in pairs:
-        for s1, a1, b1 in [key for key in plants if key[0] == s]:
-            for t1, a2, b2 in [key for key in plants if key[0] == t]:
-                if max(a1, a2) < min(b1, b2):
-                    plants[s1, a1, b1], plants[t1, a2, b2] = _keep_distance(
-                        plants[s1, a1, b1], plants[t1, a2, b2], distance, up
-                    )
+    plants = _linked_plants(plants, pairs, up)
     targets = np.full(p.shape, np.nan)
     for (s, a, b), target in plants.items():
         targets[a:b, s] = target
