@@ -12,7 +12,8 @@ Detection defaults, chosen on the shared humanoid clips (Y up, metres, reach 1.0
 - ground: the lowest height any site reaches while no faster than the speed threshold (the
   lowest overall when none is ever that slow), so a glitch that drops a moving foot through
   the floor (the run's last frame, 5 cm down) does not lower the floor.
-Contact runs shorter than MIN_FRAMES frames are then dropped.
+Gaps shorter than MIN_FRAMES frames between two contact runs are filled and runs shorter than
+MIN_FRAMES frames then dropped.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ SPEED_FRACTION = 0.5
 MIN_FRAMES = 2
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
 SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
+HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
 
 
 def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
@@ -138,7 +140,7 @@ def detect_contacts(clip, sites=None, height=None, speed=None) -> Contacts:
     heights = p @ sk.up
     slow = speeds(p, clip.frame_time) <= speed
     ground = float(heights[slow].min() if slow.any() else heights.min())
-    return Contacts(sites, drop_short(slow & (heights <= ground + height)), True, height, speed, ground)
+    return Contacts(sites, drop_short(fill_gaps(slow & (heights <= ground + height))), True, height, speed, ground)
 
 
 def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
@@ -147,6 +149,19 @@ def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     if len(p) < 2:
         return np.zeros(p.shape[:2])
     return np.linalg.norm(np.gradient(p, frame_time, axis=0), axis=-1)
+
+
+def fill_gaps(mask: np.ndarray) -> np.ndarray:
+    """(N, S) contact `mask` with its gaps shorter than MIN_FRAMES frames between two contact
+    runs filled: a point that is slow and low on both sides of one frame never left the floor,
+    and two plants either side would make it jump."""
+    mask = np.array(mask, bool)
+    for s in range(mask.shape[1]):
+        runs = _runs(mask[:, s])
+        for (_, stop), (start, _) in zip(runs, runs[1:]):
+            if start - stop < MIN_FRAMES:
+                mask[stop:start, s] = True
+    return mask
 
 
 def drop_short(mask: np.ndarray) -> np.ndarray:
@@ -211,20 +226,45 @@ def _at_distance(point: np.ndarray, anchor: np.ndarray, distance: float, up: np.
     return point
 
 
-def _linked_plants(plants: dict, pairs, up: np.ndarray) -> dict:
-    """`plants` {(site, start, stop): target (3,)} with the plants of two rigidly linked sites
-    (`pairs`) whose intervals overlap put their distance apart. Linked plants form groups (a toe
-    planted through two plants of its ankle, a heel lifting and landing again): each group's
-    longest plant stays, and the others are placed in turn at their distance from the one
-    placed before them they are linked to (_at_distance), so every link of a chain holds; a
-    link closing a loop holds only approximately."""
+def _links(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
+    """{plant: [(other plant, place)]}: how each plant of a rigidly linked site (`pairs`) is put
+    relative to the other's, place(anchor) -> target (3,). Overlapping intervals: their
+    distance apart (_at_distance). Intervals that hand over (one starts at most HANDOVER frames
+    after the other stops, a heel lifting as the toe lands): the capture's offset between the
+    two at the handover, along the ground (each keeps its height), so the foot does not jump
+    where one plant ends and the other begins. `p` (N, S, 3): the sites' capture positions."""
     links = {key: [] for key in plants}
     for s, t, distance in pairs:
         for first in [key for key in plants if key[0] == s]:
             for second in [key for key in plants if key[0] == t]:
                 if max(first[1], second[1]) < min(first[2], second[2]):
-                    links[first].append((second, distance))
-                    links[second].append((first, distance))
+                    links[first].append((second, lambda a, key=second, d=distance: _at_distance(plants[key], a, d, up)))
+                    links[second].append((first, lambda a, key=first, d=distance: _at_distance(plants[key], a, d, up)))
+                    continue
+                for early, late in ((first, second), (second, first)):
+                    if 0 <= late[1] - early[2] < HANDOVER:
+                        offset = p[early[2] - 1, late[0]] - p[early[2] - 1, early[0]]
+                        offset -= (offset @ up) * up
+                        for key, other, sign in ((late, early, 1.0), (early, late, -1.0)):
+                            links[other].append(
+                                (key, lambda anchor, key=key, o=sign * offset: _on_level(anchor + o, plants[key], up))
+                            )
+    return links
+
+
+def _on_level(point: np.ndarray, height_of: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """`point` (3,) at the height of `height_of` (3,) along up."""
+    return point + ((height_of - point) @ up) * up
+
+
+def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
+    """`plants` {(site, start, stop): target (3,)} with the plants of two rigidly linked sites
+    (`pairs`) placed relative to each other (_links). Linked plants form groups (a toe planted
+    through two plants of its ankle, a heel lifting and landing again): each group's longest
+    plant stays, and the others are placed in turn relative to the one placed before them they
+    are linked to, so every link of a chain holds; a link closing a loop holds only
+    approximately."""
+    links = _links(plants, pairs, p, up)
     out = dict(plants)
     placed = set()
     for root in sorted(plants, key=lambda key: (key[1] - key[2], key[1], key[0])):  # longest first
@@ -234,9 +274,9 @@ def _linked_plants(plants: dict, pairs, up: np.ndarray) -> dict:
         queue = [root]
         while queue:
             anchor = queue.pop(0)
-            for key, distance in links[anchor]:
+            for key, place in links[anchor]:
                 if key not in placed:
-                    out[key] = _at_distance(out[key], out[anchor], distance, up)
+                    out[key] = place(out[anchor])
                     placed.add(key)
                     queue.append(key)
     return out
@@ -280,7 +320,7 @@ def planted_targets(clip, contacts: Contacts) -> np.ndarray:
             if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
                 height = floor
             plants[s, a, b] = mean + (height - mean @ up) * up
-    plants = _linked_plants(plants, pairs, up)
+    plants = _linked_plants(plants, pairs, p, up)
     targets = np.full(p.shape, np.nan)
     for (s, a, b), target in plants.items():
         targets[a:b, s] = target

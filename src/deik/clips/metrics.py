@@ -163,6 +163,7 @@ def spikes(clip, kin: Kinematics) -> dict:
     velocity = np.diff(q, axis=0) / dt
     acceleration = np.diff(q, 2, axis=0) / dt**2
     position = np.linalg.norm(np.diff(kin.p_world_frame, 2, axis=0), axis=-1) / dt**2
+    speed = np.linalg.norm(np.diff(kin.p_world_frame, axis=0), axis=-1) / dt
     top_velocity = _largest(velocity, names, 0)[0]
     top_dof = _largest(acceleration, names, 1)
     top_position = _largest(position, sk.frame_names, 1)
@@ -175,6 +176,8 @@ def spikes(clip, kin: Kinematics) -> dict:
         "max_dof_acceleration_frame": top_dof[1],
         "max_dof_acceleration_dof": top_dof[2],
         "frame_names": sk.frame_names,
+        "position_velocity": speed,
+        "max_position_velocity": _largest(speed, sk.frame_names, 0)[0],
         "position_acceleration": position,
         "max_position_acceleration": top_position[0],
         "max_position_acceleration_frame": top_position[1],
