@@ -24,7 +24,6 @@ CONTACT_FORMS = (
     "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
     "(inclusive) with it"
 )
-FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
 
 
 def add_arguments(c) -> None:
@@ -276,13 +275,54 @@ def _spans(frames: list[int]) -> str:
     return ", ".join(runs)
 
 
-def _summary_notes(metrics: dict) -> list[str]:
-    """Lines for the report picture: the summary numbers that are no per-frame series."""
-    keys = ("foot_skating_ratio_share", "penetration_max_mm", "jerk_mean_m_per_s3", "joint_angle_deviation_max_deg")
+def _summary_notes(document: dict) -> list[str]:
+    """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
+    metrics = document["metrics"]
+    keys = (
+        "foot_sliding_max_mm_per_frame",
+        "foot_skating_ratio_share",
+        "penetration_max_mm",
+        "floating_max_mm",
+        "zmp_outside_support_mean_mm",
+        "jerk_mean_m_per_s3",
+        "joint_angle_deviation_max_deg",
+        "position_acceleration_max_m_per_s2",
+    )
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
         lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+    return lines + [f"peaks against the capture's: {ratios}"]
+
+
+def _outcome_lines(document: dict, far_degrees: float) -> list[str]:
+    """Lines after the tables: balance kept and skipped, peaks against the capture's, far joints."""
+    lines = []
+    balance = document["balance"]
+    if balance is not None:
+        kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
+        line = f"balance: ZMP over the support in {len(kept)} frames"
+        if skipped:
+            line += (
+                f"; skipped in {len(skipped)} frames ({_spans(skipped)}): holding them would move the centre of mass"
+                f" faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
+                " the performance allows, or make the motion jolt"
+            )
+        lines.append(line)
+    dynamics = document["dynamics"]
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
+    lines.append(f"peaks against the capture's, {kept}: {ratios}")
+    far = document["joints_far_from_capture"]["joint_frames"]
+    if far:
+        worst = max(far, key=lambda d: d["deviation_deg"])
+        frames = sorted({d["frame"] for d in far})
+        lines.append(
+            f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+            f"{far_degrees:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
+            f"({worst['deviation_deg']:.0f} degrees); --json lists them"
+        )
     return lines
 
 
@@ -291,7 +331,8 @@ def run_clip(args) -> int:
     from tqdm import tqdm
 
     from deik.clips.document import clip_document
-    from deik.clips.problem import ClipGoals
+    from deik.clips.dynamics import FAR_DEGREES
+    from deik.clips.problem import GRAVITY, ClipGoals
     from deik.clips.solver import fix_clip
     from deik.clips.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
@@ -317,6 +358,7 @@ def run_clip(args) -> int:
     floor, keep_floor = _floor(args, clip)
     contacts = _contacts(args, clip, floor)
     reach = _reaches(args, clip)
+    unit = args.units or guess_unit(clip.skeleton)
     goals = ClipGoals(
         contacts,
         reach,
@@ -325,8 +367,8 @@ def run_clip(args) -> int:
         args.coherence,
         self_collision=args.self_collision,
         floor=floor if keep_floor else None,
+        gravity=GRAVITY / METRES[unit],
     )
-    unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
         _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
     _note(
@@ -364,15 +406,8 @@ def run_clip(args) -> int:
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
         f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
-    far = document["joints_far_from_capture"]["joint_frames"]
-    if far:
-        worst = max(far, key=lambda d: d["deviation_deg"])
-        frames = sorted({d["frame"] for d in far})
-        print(
-            f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
-            f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
-            f"({worst['deviation_deg']:.0f} degrees); --json lists them"
-        )
+    for line in _outcome_lines(document, FAR_DEGREES):
+        print(line)
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
@@ -382,5 +417,5 @@ def run_clip(args) -> int:
 
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
             title = f"deik clip {os.path.basename(args.clip)}"
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]))
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document))
     return 0

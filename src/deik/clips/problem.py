@@ -93,7 +93,8 @@ class ClipGoals:
     keep the bone capsules this margin apart (None: off); `fidelity` and `coherence`: weights
     in [0, 1] of staying near the original pose and moving like the neighbouring frames;
     `floor`: the height along up (length units) every joint and site stays at or above (None:
-    no floor); tolerances in length units."""
+    no floor); `plants`: where each contact site is held (N, S, 3) length units, NaN outside
+    its contacts (None: contacts.planted_targets of the clip); tolerances in length units."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
@@ -106,6 +107,7 @@ class ClipGoals:
     floor: float | None = None
     floor_tolerance: float = FLOOR_TOLERANCE
     gravity: float = GRAVITY
+    plants: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "reach", tuple(self.reach))
@@ -117,6 +119,13 @@ class ClipGoals:
             raise ValueError("balance needs contacts: the support polygon is made of the sites in contact")
         if not (np.isfinite(self.gravity) and self.gravity > 0):
             raise ValueError(f"gravity must be a positive number (length units per s^2), got {self.gravity}")
+        if self.plants is not None:
+            if self.contacts is None:
+                raise ValueError("plants need contacts: they say where each contact site is held")
+            plants = np.asarray(self.plants, float)
+            expected = self.contacts.mask.shape + (3,)
+            if plants.shape != expected or not np.isfinite(plants[self.contacts.mask]).all():
+                raise ValueError(f"plants must be finite where the contacts hold, of shape {expected}")
         if self.floor is not None and not np.isfinite(self.floor):
             raise ValueError(f"the floor height must be a finite number, got {self.floor}")
         if not (
@@ -157,13 +166,18 @@ def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
     return 0.5 * (padded[:-2] + padded[2:])
 
 
+def contact_plants(clip, goals: ClipGoals) -> np.ndarray:
+    """(N, S, 3) where `goals` hold each contact site: its plants, else planted_targets."""
+    return planted_targets(clip, goals.contacts) if goals.plants is None else np.asarray(goals.plants, float)
+
+
 def clip_balance(clip, goals: ClipGoals, skip: np.ndarray | None = None, frames=None) -> BalanceTrack | None:
     """The centre-of-mass track for `goals` (clips/balance.py) over the contacts' plants, the
     frames `skip` (N,) bool left out from the start, shifting the COM of `frames` (N, D)
     (default the clip's); None without balance."""
     if not goals.balance:
         return None
-    plants = planted_targets(clip, goals.contacts)
+    plants = contact_plants(clip, goals)
     return balance_track(clip, goals.contacts, plants, goals.gravity, skip=skip, frames=frames)
 
 
@@ -173,7 +187,7 @@ def _held_goals(clip, goals: ClipGoals, balance: BalanceTrack | None) -> list:
     out = []
     contacts = goals.contacts
     if contacts is not None:
-        targets = planted_targets(clip, contacts)
+        targets = contact_plants(clip, goals)
         for s, site in enumerate(contacts.sites):
             mask = contacts.mask[:, s]
             if mask.any():

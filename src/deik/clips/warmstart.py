@@ -38,6 +38,7 @@ FADE = 8.0  # frames over which a correction fades where no goal holds it (clips
 # of its miss, which the settling steps take back), reach tracks far above the energy
 HELD_WEIGHT = 1e6
 REACH_WEIGHT = 1e4
+ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
 FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
@@ -74,7 +75,9 @@ def motion_stiffness(skeleton, poses: np.ndarray, weights: np.ndarray) -> np.nda
     no channel takes it all: both the points' and the channels' accelerations stay low."""
     _, jac = position_jacobian(skeleton, poses, skeleton.frame_names)
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
-    return 1.0 + BODY_STIFFNESS * (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
+    body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
+    root = skeleton.dof_joint == 0
+    return (1.0 + BODY_STIFFNESS * body) * np.where(root, ROOT_STIFFNESS, 1.0)
 
 
 def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
