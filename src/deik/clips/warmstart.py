@@ -11,7 +11,7 @@ does and bends the legs rather than the hips; where no goal holds a DOF it fades
 capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
 centre of mass's horizontal Jacobian, steering it along a track over the support
 (balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
-unreachable reach barely pulls a planted contact, and the last steps, frame by frame, meet the
+unreachable reach pulls a planted contact only a little, and the last steps, frame by frame, meet the
 contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
 with its priorities and tolerances.
 """
@@ -34,10 +34,10 @@ STEPS = 4  # space-time steps over the whole clip
 SETTLE = 2  # last steps, frame by frame, meeting the contacts, floor and balance rows to microns
 FADE = 8.0  # frames over which a correction fades where no goal holds it (clips/spacetime.py)
 # weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
-# contacts, floor and balance far above reach tracks (a reach drags a contact by a thousandth
-# of its miss, which the settling steps take back), reach tracks far above the energy
+# contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
+# the settling steps take back), reach tracks far above the energy
 HELD_WEIGHT = 1e6
-REACH_WEIGHT = 1e4
+REACH_WEIGHT = 1e5
 ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
