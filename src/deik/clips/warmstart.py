@@ -11,8 +11,8 @@ does and bends the legs rather than the hips; where no goal holds a DOF it fades
 capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
 centre of mass's horizontal Jacobian, steering it along a track over the support
 (balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
-unreachable reach pulls a planted contact only a little, and the last steps, frame by frame, meet the
-contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
+unreachable reach pulls a planted contact only a little, and the last steps, frame by frame,
+meet the contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
 with its priorities and tolerances.
 """
 
@@ -70,9 +70,11 @@ def dof_weights(clip) -> np.ndarray:
 def motion_stiffness(skeleton, poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """(D,) how stiff each DOF's spring is (clips/spacetime.py): 1 + BODY_STIFFNESS x the sum
     over every joint and site of its squared speed per unit of the weighted DOF (dof_weights),
-    in reach units, averaged over `poses` (N, D). A correction that must bend somewhere (a heel
-    stopping where a contact starts) then bends the leg, not the hips that carry the arms, and
-    no channel takes it all: both the points' and the channels' accelerations stay low."""
+    in reach units, averaged over `poses` (N, D), and ROOT_STIFFNESS times that for the root's
+    DOFs. A correction that must bend somewhere (a heel stopping where a contact starts) then
+    bends the leg, not the hips that carry the arms, no channel takes it all (both the points'
+    and the channels' accelerations stay low), and the body keeps its path through the world
+    unless the legs cannot reach."""
     _, jac = position_jacobian(skeleton, poses, skeleton.frame_names)
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
