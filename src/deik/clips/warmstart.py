@@ -148,14 +148,16 @@ def warm_start(
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
     DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
     keeps every joint and site above a Floor, steers the centre of mass onto the points of its
-    ComOverSupport goals (a balance track, clips/balance.py) and, below those, meets the Position goals on
-    REACH_LEVEL (reach tracks), each change counted by `weights` (D,) (dof_weights). `steps`
-    space-time steps over the whole clip (clips/spacetime.py): every frame's rows weighted
+    ComOverSupport goals (a balance track, clips/balance.py) and, below those, meets the
+    Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
+    (dof_weights). `steps` space-time steps over the whole clip (clips/spacetime.py): every frame's rows weighted
     (HELD_WEIGHT, REACH_WEIGHT) against the spring energy of the displacement with fade
-    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; then
-    `settle` damped Gauss-Newton steps per frame meet the contacts, floor and balance rows to
-    microns. A step moves a site or the COM at most LONGEST_STEP x reach, so an unreachable
-    target is approached, not chased. Limits are not applied here (fix_clip does)."""
+    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; with reach
+    tracks, `steps` more that add them, moving only the frames of their (eased) windows, so a
+    reach changes nothing outside them; then `settle` damped Gauss-Newton steps per frame
+    meet the contacts, floor and balance rows to microns. A step moves a site or the COM at
+    most LONGEST_STEP x reach, so an unreachable target is approached, not chased. Limits are
+    not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -172,30 +174,35 @@ def warm_start(
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     longest = LONGEST_STEP * skeleton.reach
     stiffness = motion_stiffness(skeleton, original, weights)
-    for k in range(steps + settle):
+
+    def rows_at(d, free):
         x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))
         error, rows = _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest)
-        rows = rows * (scale * movable)[:, None, :]
-        if k < steps:
+        return x, jac, error, rows * (scale * free)[:, None, :]
+
+    # first the contacts, floor and balance; then the reach tracks, moving only the frames of
+    # their eased windows: outside them the fix is the same as without the reach
+    phases = [(False, movable)] if (held or balance or floors) else []
+    if reach:
+        window = np.any([active_frames(goal, N) for goal in reach], axis=0)
+        phases.append((True, movable & window[:, None]))
+    for with_reach, free in phases:
+        for _ in range(steps):
+            x, jac, error, rows = rows_at(d, free)
             row_weights = np.full(error.shape, HELD_WEIGHT)
-            if reach:
+            if with_reach:
                 reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
                 error = np.concatenate([error, reach_error], axis=1)
-                rows = np.concatenate([rows, reach_part * (scale * movable)[:, None, :]], axis=1)
+                rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
+            damping = HELD_WEIGHT * DAMPING**2
             step = spacetime_step(
-                rows,
-                error,
-                row_weights / skeleton.reach**2,
-                d * weights,
-                movable,
-                fade,
-                HELD_WEIGHT * DAMPING**2,
-                stiffness,
+                rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
             )
-        else:
-            step = _solve(rows, error, DAMPING * skeleton.reach)
-        d += step * scale * movable
+            d += step * scale * free
+    for _ in range(settle):
+        _, _, error, rows = rows_at(d, movable)
+        d += _solve(rows, error, DAMPING * skeleton.reach) * scale * movable
     return d
 
 
