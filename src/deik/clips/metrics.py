@@ -83,9 +83,14 @@ def _turning_joints(sk) -> list[int]:
     return [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
 
 
+def turning_joint_names(skeleton) -> list[str]:
+    """Names of the joints with rotation DOFs: joint_angles' columns."""
+    return [skeleton.joint_names[k] for k in _turning_joints(skeleton)]
+
+
 def joint_angles(original, fixed) -> np.ndarray:
-    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs in
-    `original` and in `fixed`."""
+    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs
+    (turning_joint_names) in `original` and in `fixed`."""
     sk = original.skeleton
     turning = _turning_joints(sk)
     parents = sk.parents[turning]
@@ -126,7 +131,7 @@ def large_deviations(original, fixed, degrees: float = 30.0) -> list[dict]:
     """Every (frame, joint) whose rotation relative to its parent is more than `degrees` away
     from the capture's, in frame order: [{"frame", "joint", "deviation_deg"}]."""
     angles = joint_angles(original, fixed)
-    names = [original.skeleton.joint_names[k] for k in _turning_joints(original.skeleton)]
+    names = turning_joint_names(original.skeleton)
     frames, joints = np.nonzero(angles > degrees)
     return [{"frame": int(f), "joint": names[j], "deviation_deg": float(angles[f, j])} for f, j in zip(frames, joints)]
 
