@@ -57,12 +57,11 @@ def solve_block_bands(diagonal: np.ndarray, first: np.ndarray, second: np.ndarra
     (N-2, D); rhs (N, D). Block Cholesky M = L L^T with L's blocks P (diagonal, kept as their
     inverses: the couplings are diagonal, so every other product is a scaling or a matmul), Q
     (one below) and R (two below)."""
-    from scipy.linalg import cholesky, solve_triangular  # scipy loads with the first fix, not with `import deik`
+    from scipy.linalg import lapack  # scipy loads with the first fix, not with `import deik`
 
     N, D = rhs.shape
     inverse, Q, R = np.zeros((N, D, D)), np.zeros((N, D, D)), np.zeros((N, D, D))
     y = np.zeros((N, D))
-    identity = np.eye(D)
     for k in range(N):
         block = diagonal[k].copy()
         b = rhs[k].copy()
@@ -75,7 +74,12 @@ def solve_block_bands(diagonal: np.ndarray, first: np.ndarray, second: np.ndarra
             Q[k] = (inverse[k - 1] @ coupling.T).T
             block -= Q[k] @ Q[k].T
             b -= Q[k] @ y[k - 1]
-        inverse[k] = solve_triangular(cholesky(block, lower=True, check_finite=False), identity, lower=True)
+        # LAPACK directly: scipy.linalg's wrappers cost milliseconds a call on these small blocks
+        factor, info = lapack.dpotrf(block, lower=1, clean=1)
+        if info == 0:
+            inverse[k], info = lapack.dtrtri(factor, lower=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"block {k} of the space-time system is not positive definite")
         y[k] = inverse[k] @ b
     z = np.zeros((N, D))
     for k in range(N - 1, -1, -1):
