@@ -188,6 +188,7 @@ def test_clip_cli_contacts_anywhere_floor_and_an_unreachable_reach(tmp_path, cap
     assert "reach_RightElbow_end: out of reach in" in captured.out
     data = json.loads((tmp_path / "report.json").read_text())
     assert data["floor"] == {"height": 0.005, "detected": False, "kept": True}
+    assert data["balance"] is None  # no --balance
     assert {10, 11, 12} <= set(data["reach_unreached"]["reach_RightElbow_end"]["frames"])
     sites = {site["site"]: site["contacts"] for site in data["contacts"]["sites"]}
     # the forearm hangs: its lowest end, the wrist, takes the contact given on the bone
@@ -209,6 +210,7 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
         str(tmp_path / "report.json"),
         "--passes",
         "1",
+        "--balance",
     ]
     assert main(argv) == 0, capsys.readouterr().err
     captured = capsys.readouterr()
@@ -232,6 +234,18 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     far = data["joints_far_from_capture"]
     assert far["threshold_deg"] == 30.0 and all(d["deviation_deg"] > 30.0 for d in far["joint_frames"])
     assert sum(far["count_per_frame"]) == len(far["joint_frames"])
+    balance = data["balance"]
+    assert balance["balanced_frames"] and not set(balance["balanced_frames"]) & set(balance["skipped_frames"])
+    assert balance["acceleration_budget_m_per_s2"] > 0 and len(balance["shift_mm"]) == 25
+    dynamics = data["dynamics"]
+    assert dynamics["peak_ratio_limit"] == 1.1 and dynamics["peaks_kept"]
+    assert set(dynamics["peak_ratios"]) == {
+        "dof_velocity",
+        "dof_acceleration",
+        "position_velocity",
+        "position_acceleration",
+    }
+    assert "balance: ZMP over the support in" in captured.out and "peaks against the capture's, kept" in captured.out
     assert main(argv + ["--quiet", "--overwrite"]) == 0
     quiet = capsys.readouterr()
     assert quiet.err == "" and "foot sliding mean" in quiet.out and "coherence: how far" not in quiet.out
