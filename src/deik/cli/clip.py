@@ -64,7 +64,12 @@ def add_arguments(c) -> None:
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
-    c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
+    c.add_argument(
+        "--balance",
+        action="store_true",
+        help="keep the zero-moment point over the support of the contacts by moving the centre of mass along a "
+        "smooth track; frames it cannot hold without jolts are skipped and listed",
+    )
     c.add_argument(
         "--self-collision",
         type=float,
