@@ -1,21 +1,24 @@
-"""Which DOFs each frame's search may move, and smooth easing of displacements over time.
+"""Which DOFs each frame's DE repair may move, and smooth easing of displacements over time.
 
-A frame's search (warm start or DE) only moves the DOFs that can reach one of its level-0
-goals (the chain from the root to each site in contact or reaching, every DOF for balance);
-the others take the displacement eased in from the neighbouring frames, so nothing pops where
-a goal starts or stops and no search noise reaches joints no goal needs (an idle arm).
+A frame's DE repair only moves the DOFs that can reach one of its goals (the chain from the root
+to each site in contact or reaching, every DOF for balance, the chains of the points near the
+floor); the others take the displacement eased in from the neighbouring frames, so nothing pops
+where a repair starts or stops and no search noise reaches joints no goal needs (an idle arm).
+(The warm start, clips/warmstart.py, needs no such mask: a DOF no goal row moves stays put.)
 
 Easing: per DOF, the displacements x (N,) the searches found are kept where a search moved
 the DOF; elsewhere x minimises, over L frames (a length),
     sum_n  x[n]^2 / L^4  +  2 (x[n+1] - x[n])^2 / L^2  +  (x[n+2] - 2 x[n+1] + x[n])^2,
-a critically damped spring: a correction goes on at the rate it had where its goal let go,
-then fades back to the original over about L frames, with no kink in value or rate.
+a critically damped spring (clips/spacetime.py): a correction goes on at the rate it had where
+its goal let go, then fades back to the original over about L frames, with no kink in value or
+rate.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from deik.clips.spacetime import spring_bands
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.goals import Comfort, Floor, Position
@@ -116,8 +119,9 @@ def _solve_bands(a0, a1, a2, rhs):
 
 def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
     """(N, D) displacements: `values` (N, D) where `known` (N, D) is True, and elsewhere the
-    smoothest continuation (see the module notes), a correction fading like a critically
-    damped spring over `length` > 0 frames, continuous in value and rate with the known ones."""
+    smoothest continuation (see the module notes: the spring energy of clips/spacetime.py), a
+    correction fading like a critically damped spring over `length` > 0 frames, continuous in
+    value and rate with the known ones."""
     y = np.asarray(values, float)
     known = np.broadcast_to(np.asarray(known, bool), y.shape)
     N = len(y)
@@ -125,18 +129,8 @@ def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
         return y.copy()
     if N < 3:  # too short for a rate: what no goal holds stays as in the original
         return np.where(known, y, 0.0)
-    a0 = np.full(y.shape, length**-4.0)
-    a1 = np.zeros((N - 1,) + y.shape[1:])
-    a2 = np.zeros((N - 2,) + y.shape[1:])
-    rate = 2.0 / length**2  # with the two others: critical damping
-    a0[:-1] += rate
-    a0[1:] += rate
-    a1 -= rate
-    for k, c in enumerate((1.0, -2.0, 1.0)):  # second differences (x[n], x[n+1], x[n+2])
-        a0[k : N - 2 + k] += c * c
-    a1[:-1] -= 2.0
-    a1[1:] -= 2.0
-    a2 += 1.0
+    shape = (1,) * (y.ndim - 1)
+    a0, a1, a2 = (np.broadcast_to(b.reshape(b.shape + shape), (len(b),) + y.shape[1:]) for b in spring_bands(N, length))
     # known entries: move their terms to the right-hand side, keep the system symmetric
     fixed = np.where(known, y, 0.0)
     rhs = np.zeros_like(y)
