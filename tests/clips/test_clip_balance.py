@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from deik.clips.balance import SOLE, balance_track, support_halfplanes, zero_moment_point, zmp_outside_support
-from deik.clips.contacts import contacts_from_ranges, detect_contacts, planted_targets
+from deik.clips.contacts import contacts_from_ranges, detect_contacts
 from deik.clips.dynamics import PEAK_RATIO, peak_ratios
+from deik.clips.plants import planted_targets
 from deik.clips.problem import ClipGoals
 from deik.clips.solver import fix_clip
 from deik.clips.warmstart import position_jacobian

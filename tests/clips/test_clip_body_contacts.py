@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from deik.clips.body_contacts import bone_contacts, bone_ends, detect_body_contacts, detect_floor, merge_contacts
-from deik.clips.contacts import contacts_from_ranges, planted_targets
+from deik.clips.contacts import contacts_from_ranges
+from deik.clips.plants import planted_targets
 from deik.clips.problem import ClipGoals, Reach
 from deik.clips.report import clip_report
 from deik.clips.solver import fix_clip

@@ -8,14 +8,13 @@ import pytest
 from deik.clips.body_contacts import detect_body_contacts, detect_floor, merge_contacts
 from deik.clips.contacts import (
     HEIGHT_FRACTION,
-    SNAP_FRACTION,
     SPEED_FRACTION,
     Contacts,
     contacts_from_ranges,
     detect_contacts,
     foot_sites,
-    planted_targets,
 )
+from deik.clips.plants import SNAP_FRACTION, planted_targets
 from deik.io.bvh import Clip, read_bvh
 from deik.model.build import build_skeleton
 from deik.model.joints import Joint, Site, translation

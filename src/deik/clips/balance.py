@@ -9,10 +9,11 @@ ZMP stays inside it. A frame whose COM falls freely (g + a_u < g / 2) has no ZMP
 
 The support of a frame is the convex hull of its contact plants on the ground grown by SOLE x
 reach, the half width of a sole (an ankle and a toe tip stand for a foot some 10 cm wide), as
-half-planes (support_halfplanes). The track is the capture's COM plus a ground shift s (N, 2)
-minimising the spring energy of s (clips/spacetime.py, fade FADE_SECONDS) while the shifted
-ZMP z + s - k s'' (k = h / (g + a_u)) of every balanced frame lies inside its support, each
-half-plane a penalty row while it is crossed (an active set). A shift that must accelerate by
+half-planes (support_halfplanes). The track is the COM (of the motion with its contacts met,
+in a fix) plus a ground shift s (N, 2) minimising the spring energy of s (clips/spacetime.py,
+fade FADE_SECONDS) while the shifted ZMP z + s - k s'' (k = h / (g + a_u)) of every balanced
+frame lies inside its support, each half-plane a penalty row while it is crossed (an active
+set); accelerations are taken of the path lightly smoothed (_acceleration). A shift that must accelerate by
 more than a budget (BUDGET x the capture's largest point acceleration) somewhere would add a
 jolt the capture does not have, and one longer than LONGEST_SHIFT x reach would change the
 performance: the frame with the largest crossing near the worst excess is then skipped, and so
@@ -223,7 +224,7 @@ def balance_track(
     frames: np.ndarray | None = None,
 ) -> BalanceTrack:
     """The BalanceTrack of `clip` standing on `contacts` at `plants` (N, S, 3) (where the fix puts
-    them: contacts.planted_targets), with `gravity` (length units / s^2), the shift's
+    them: plants.planted_targets), with `gravity` (length units / s^2), the shift's
     acceleration budget `share` x the capture's largest acceleration of a joint or site, and
     the frames `skip` (N,) skipped from the start; see the module notes. The track shifts the
     COM of `frames` (N, D) (default the clip's): a fix plans balance on its motion with the

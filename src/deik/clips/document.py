@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from deik.clips.contacts import planted_targets
 from deik.clips.dynamics import PEAK_RATIO, jolted_frames, peak_ratios
 from deik.clips.metrics import large_deviations
+from deik.clips.plants import planted_targets
 from deik.clips.report import clip_report, per_frame_errors, row_max
 
 LEVEL1 = ("fidelity", "coherence")

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.clips.balance import BalanceTrack, balance_track
-from deik.clips.contacts import Contacts, planted_targets
+from deik.clips.contacts import Contacts
+from deik.clips.plants import planted_targets
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
@@ -94,7 +95,7 @@ class ClipGoals:
     in [0, 1] of staying near the original pose and moving like the neighbouring frames;
     `floor`: the height along up (length units) every joint and site stays at or above (None:
     no floor); `plants`: where each contact site is held (N, S, 3) length units, NaN outside
-    its contacts (None: contacts.planted_targets of the clip); tolerances in length units."""
+    its contacts (None: plants.planted_targets of the clip); tolerances in length units."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
