@@ -24,8 +24,8 @@ and BALANCE_PASSES.
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -53,10 +53,11 @@ BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCA
 BALANCE_PASSES = 3
 EASE = 8.0  # frames over which a displacement decays where no goal holds it
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
+GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class ClipFix:
     """The outcome of fix_clip: `clip` the fixed clip (same layout as the input, its Euler
     channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
@@ -127,6 +128,33 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray):
+    """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
+    `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
+    start without it), and where the balanced warm start makes a frame jolt or turns a joint far
+    from the capture (clips/dynamics.py), balance cannot hold there: those frames and their
+    neighbours are skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
+    sk, original = clip.skeleton, clip.poses()
+
+    def warm(plain: ClipGoals, track):
+        fixed = fixed_goals(clip, plain, weights, track)
+        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=EASE)), fixed
+
+    if not goals.balance:
+        return *warm(goals, None), None
+    displacement, _ = warm(dataclasses.replace(goals, balance=False), None)
+    unbalanced = clip.frames + displacement
+    balance = clip_balance(clip, goals, frames=unbalanced)
+    for round_ in range(GUARD_ROUNDS):
+        displacement, fixed = warm(goals, balance)
+        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+        jolting = (np.convolve(jolted, np.ones(2 * GUARD_REACH + 1), "same") > 0) & balance.balanced
+        if round_ == GUARD_ROUNDS - 1 or not jolting.any():
+            break
+        balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
+    return displacement, fixed, balance
+
+
 def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
     `found` (N, D), eased into their neighbours, except those that still miss their goals
@@ -178,23 +206,7 @@ def fix_clip(
     original = clip.poses()
     weights = dof_weights(clip)
     movable = np.broadcast_to(~hinge_channels(clip), original.shape)
-    fixed_part = fixed_goals(clip, goals, weights, None)
-    displacement = _inside(sk, original, warm_start(sk, original, fixed_part, movable, weights, fade=EASE))
-    balance = None
-    for _ in range(GUARD_ROUNDS if goals.balance else 0):
-        # balance is planned on the motion with its contacts met; where it makes a frame jolt,
-        # or turns a joint far from the capture, it cannot hold and is skipped
-        if balance is None:
-            unbalanced = clip.frames + displacement
-            skip = None
-        else:
-            near = np.convolve(jolted_frames(clip, clip.with_frames(clip.frames + displacement)), np.ones(5), "same")
-            if not (near > 0)[balance.balanced].any():
-                break
-            skip = balance.skipped | ((near > 0) & balance.balanced)
-        balance = clip_balance(clip, goals, skip=skip, frames=unbalanced)
-        fixed_part = fixed_goals(clip, goals, weights, balance)
-        displacement = _inside(sk, original, warm_start(sk, original, fixed_part, movable, weights, fade=EASE))
+    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable)
     searched = searched_dofs(clip, fixed_part)
     stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
     report = progress or (lambda met, stage: None)
