@@ -12,6 +12,7 @@ from deik.clips.contacts import (
     Contacts,
     contacts_from_ranges,
     detect_contacts,
+    fill_gaps,
     foot_sites,
 )
 from deik.clips.plants import SNAP_FRACTION, planted_targets
@@ -209,3 +210,29 @@ def test_planted_points_a_bone_apart_keep_the_bone_length_between_them(name):
             snapped = abs(median - floor) <= SNAP_FRACTION * clip.skeleton.reach
             expected = floor if snapped else median
             assert targets[start, s] @ clip.skeleton.up == pytest.approx(expected, abs=1e-12)
+
+
+def test_a_toe_that_lands_as_the_heel_lifts_keeps_the_foot_where_the_heel_left_it():
+    """Plants of rigidly linked points that hand over (the ankle planted for frames 0-4, the toe
+    from frame 6): the toe is planted at the ankle's plant plus the foot's offset when the ankle
+    left, not at its own mean, so the foot does not jump between the two plants."""
+    joints = [Joint("body", None, dofs=translation("XYZ", -1.0, 1.0))]
+    sk = build_skeleton(joints, [Site("ankle", "body", (0.0, 0.05, 0.0)), Site("toe", "body", (0.15, 0.0, 0.0))])
+    poses = np.zeros((11, 3))
+    poses[:, 0] = 0.01 * np.arange(11)  # the whole foot slides 1 cm a frame
+    clip = Clip.from_poses(sk, poses, 0.1)
+    contacts = contacts_from_ranges(clip, {"ankle": [(0, 5)], "toe": [(6, 11)]})
+    targets = planted_targets(clip, contacts)
+    ankle, toe = targets[0, 0], targets[6, 1]
+    np.testing.assert_allclose(ankle, [0.02, 0.05, 0.0])  # the ankle's mean over frames 0-4
+    # the toe 15 cm ahead of that along the ground (not at its own mean, 0.23), at its own height
+    np.testing.assert_allclose(toe, [0.17, 0.0, 0.0], atol=1e-12)
+
+
+def test_a_one_frame_gap_between_two_contacts_is_filled_and_a_longer_one_kept():
+    mask = np.zeros((12, 2), bool)
+    mask[[0, 1, 2, 4, 5], 0] = True  # down, up for one frame, down again
+    mask[[0, 1, 2, 5, 6], 1] = True  # down, up for two frames, down again
+    filled = fill_gaps(mask)
+    np.testing.assert_array_equal(np.flatnonzero(filled[:, 0]), [0, 1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(filled[:, 1], mask[:, 1])
