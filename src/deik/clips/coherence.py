@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from deik.clips.banded import solve_spd_band
 from deik.clips.spacetime import spring_bands
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
@@ -95,26 +96,16 @@ def searched_dofs(clip, goals) -> np.ndarray:
 
 def _solve_bands(a0, a1, a2, rhs):
     """Solve symmetric positive definite pentadiagonal systems, one per column: diagonal a0
-    (N, D), first off-diagonal a1 (N-1, D), second a2 (N-2, D); banded LDL^T."""
-    N = len(a0)
-    d, l1, l2 = np.zeros_like(a0), np.zeros_like(a0), np.zeros_like(a0)
-    z = np.array(rhs, float)
-    for i in range(N):
-        d[i] = a0[i]
-        if i >= 1:
-            d[i] -= l1[i - 1] ** 2 * d[i - 1]
-            z[i] -= l1[i - 1] * z[i - 1]
-        if i >= 2:
-            d[i] -= l2[i - 2] ** 2 * d[i - 2]
-            z[i] -= l2[i - 2] * z[i - 2]
-        if i + 1 < N:
-            l1[i] = (a1[i] - (l2[i - 1] * l1[i - 1] * d[i - 1] if i >= 1 else 0.0)) / d[i]
-        if i + 2 < N:
-            l2[i] = a2[i] / d[i]
-    x = z / d
-    for i in range(N - 2, -1, -1):
-        x[i] -= l1[i] * x[i + 1] + (l2[i] * x[i + 2] if i + 2 < N else 0.0)
-    return x
+    (N, ...), first off-diagonal a1 (N-1, ...), second a2 (N-2, ...), rhs (N, ...); as one
+    banded system (clips/banded.py), the columns one after another (they do not couple)."""
+    shape = rhs.shape
+    a0, a1, a2, rhs = (np.reshape(v, (len(v), -1)) for v in (a0, a1, a2, rhs))
+    N, C = a0.shape
+    upper = np.zeros((C, N, 3))
+    upper[:, :, 0] = a0.T
+    upper[:, :-1, 1] = a1.T
+    upper[:, :-2, 2] = a2.T
+    return solve_spd_band(upper.reshape(C * N, 3), rhs.T.reshape(C * N)).reshape(C, N).T.reshape(shape)
 
 
 def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:

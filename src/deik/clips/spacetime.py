@@ -12,13 +12,15 @@ value or rate. A step of the whole clip at once (spacetime_step) minimises E plu
 goal rows, weighted: a contact that starts, or a foot that lifts, bends the displacement
 smoothly over the neighbouring frames instead of in one frame, so fixes add no jolts. E's
 matrix is pentadiagonal in time (spring_bands), so the step's normal equations are block
-pentadiagonal (one D x D block per frame, diagonal couplings between frames), solved by block
+pentadiagonal (one D x D block per frame, diagonal couplings between frames), solved by banded
 Cholesky in O(N D^3).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from deik.clips.banded import solve_spd_band
 
 
 def spring_bands(n: int, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -54,42 +56,15 @@ def spring_product(bands, x: np.ndarray) -> np.ndarray:
 def solve_block_bands(diagonal: np.ndarray, first: np.ndarray, second: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """Solve M z = rhs for symmetric positive definite block-pentadiagonal M: `diagonal` (N, D,
     D) blocks, frame n coupled to n+1 by diag(first[n]) (N-1, D) and to n+2 by diag(second[n])
-    (N-2, D); rhs (N, D). Block Cholesky M = L L^T with L's blocks P (diagonal, kept as their
-    inverses: the couplings are diagonal, so every other product is a scaling or a matmul), Q
-    (one below) and R (two below)."""
-    from scipy.linalg import lapack  # scipy loads with the first fix, not with `import deik`
-
+    (N-2, D); rhs (N, D). With the unknowns frame by frame, M is banded, half width 2D
+    (clips/banded.py): its Cholesky factor keeps that band, O(N D^3) time, O(N D^2) memory."""
     N, D = rhs.shape
-    inverse, Q, R = np.zeros((N, D, D)), np.zeros((N, D, D)), np.zeros((N, D, D))
-    y = np.zeros((N, D))
-    for k in range(N):
-        block = diagonal[k].copy()
-        b = rhs[k].copy()
-        if k >= 2:  # M[k, k-2] = R_k P_{k-2}^T
-            R[k] = (inverse[k - 2] * second[k - 2]).T
-            block -= R[k] @ R[k].T
-            b -= R[k] @ y[k - 2]
-        if k >= 1:  # M[k, k-1] = Q_k P_{k-1}^T + R_k Q_{k-1}^T
-            coupling = np.diag(first[k - 1]) - (R[k] @ Q[k - 1].T if k >= 2 else 0.0)
-            Q[k] = (inverse[k - 1] @ coupling.T).T
-            block -= Q[k] @ Q[k].T
-            b -= Q[k] @ y[k - 1]
-        # LAPACK directly: scipy.linalg's wrappers cost milliseconds a call on these small blocks
-        factor, info = lapack.dpotrf(block, lower=1, clean=1)
-        if info == 0:
-            inverse[k], info = lapack.dtrtri(factor, lower=1)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"block {k} of the space-time system is not positive definite")
-        y[k] = inverse[k] @ b
-    z = np.zeros((N, D))
-    for k in range(N - 1, -1, -1):
-        b = y[k].copy()
-        if k + 1 < N:
-            b -= Q[k + 1].T @ z[k + 1]
-        if k + 2 < N:
-            b -= R[k + 2].T @ z[k + 2]
-        z[k] = inverse[k].T @ b
-    return z
+    upper = np.zeros((N, D, 2 * D + 1))  # [n, a, i]: M's entry of unknown (n, a) and the i-th after it
+    a, b = np.triu_indices(D)
+    upper[:, a, b - a] = diagonal[:, a, b]
+    upper[:-1, np.arange(D), D] = first
+    upper[:-2, np.arange(D), 2 * D] = second
+    return solve_spd_band(upper.reshape(N * D, 2 * D + 1), rhs.reshape(N * D)).reshape(N, D)
 
 
 def spacetime_step(
