@@ -2,6 +2,11 @@
 against independent computations, a COM track on a hand-made body whose answer is known, the
 COM Jacobian against finite differences, and the real clips balanced without new jolts."""
 
+import dataclasses
+import json
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -12,7 +17,7 @@ from deik.clips.plants import planted_targets
 from deik.clips.problem import ClipGoals
 from deik.clips.solver import fix_clip
 from deik.clips.warmstart import position_jacobian
-from deik.io.bvh import Clip, read_bvh
+from deik.io.bvh import Clip, read_bvh, write_bvh
 from deik.model.build import build_skeleton
 from deik.model.geometry import ground_frame, polygon_distance
 from deik.model.joints import Joint, Site, translation
@@ -134,3 +139,25 @@ def test_balanced_clip_keeps_its_dynamics(name):
         assert ratio <= PEAK_RATIO, measure
     deviation = np.degrees(np.abs(fix.clip.poses() - clip.poses())).mean()
     assert deviation < 3.0
+
+
+@pytest.mark.shared_data
+def test_a_balanced_fix_runs_without_scipy(tmp_path):
+    """SciPy is only in the test extra: `deik clip --balance` (the support hulls, the banded
+    solves of the warm start and of the COM track) must run where it cannot be imported, as
+    after a plain `pip install deik` (issue 19). The crawl's first 40 frames: hands and knees
+    down, a support of several points."""
+    clip = read_bvh(shared_path("humanoid", "humanoid3d_crawl.bvh"))
+    short, out, report = tmp_path / "crawl40.bvh", tmp_path / "fixed.bvh", tmp_path / "fixed.json"
+    write_bvh(short, dataclasses.replace(clip, frames=clip.frames[:40]))
+    code = (
+        "import sys; sys.modules['scipy'] = None\n"  # `import scipy` (and any scipy.*) now raises ImportError
+        "from deik.cli.app import main\n"
+        f"sys.exit(main(['clip', {str(short)!r}, '--contact', 'auto', '--balance', "
+        f"'--out', {str(out)!r}, '--json', {str(report)!r}]))"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    balance = json.loads(report.read_text())["balance"]
+    assert len(balance["balanced_frames"]) >= 10 and np.abs(balance["shift_mm"]).max() > 1.0  # a track was planned
+    assert read_bvh(out).n_frames == 40

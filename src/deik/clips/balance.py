@@ -26,8 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.clips.banded import band_apply, band_compose, band_transpose, solve_spd_band
 from deik.clips.spacetime import spring_bands
-from deik.model.geometry import ground_frame, polygon_distance
+from deik.model.geometry import convex_hull, ground_frame, polygon_distance
 from deik.model.kinematics import forward_kinematics
 
 SOLE = 0.04  # of reach (4.3 cm on the shared humanoid): how far a sole reaches around its contact points
@@ -50,20 +51,7 @@ def support_halfplanes(points: np.ndarray, radius: float) -> tuple[np.ndarray, n
     about {q: A q <= b}: each hull edge moved out by radius, and each corner cut by a line
     radius from it, so the region lies within about 1.1 radius of the hull. A point or a
     segment (collinear points) grows into a stadium cut the same way."""
-    from scipy.spatial import ConvexHull, QhullError  # loads with the first balanced fix
-
-    points = np.unique(np.asarray(points, float), axis=0)
-    try:
-        corners = points[ConvexHull(points).vertices] if len(points) >= 3 else None
-    except QhullError:  # collinear
-        corners = None
-    if corners is None:  # a point or a segment: its two ends
-        if len(points) == 1:
-            corners = points
-        else:
-            direction = points[-1] - points[0]
-            along = points @ direction
-            corners = points[[along.argmin(), along.argmax()]]
+    corners = convex_hull(points)
     normals = []
     if len(corners) >= 3:  # counter-clockwise hull: outward normals of its edges
         edges = np.roll(corners, -1, axis=0) - corners
@@ -87,7 +75,7 @@ def zero_moment_point(com: np.ndarray, up: np.ndarray, floor: float, frame_time:
     axes = ground_frame(np.asarray(up, float))[:2]
     if len(com) < 3:
         return com @ axes.T, np.zeros(len(com)), np.zeros(len(com), bool)
-    acceleration = _acceleration(len(com), frame_time) @ com
+    acceleration = band_apply(_acceleration(len(com), frame_time), com)
     upward = gravity + acceleration @ up
     falling = upward < FREE_FALL * gravity
     lever = np.where(falling, 0.0, (com @ up - floor) / np.where(falling, 1.0, upward))
@@ -112,15 +100,14 @@ def zmp_outside_support(kin, skeleton, contacts, frame_time: float, gravity: flo
     return out
 
 
-def _acceleration(N: int, frame_time: float):
-    """(N, N) sparse, N >= 3: the acceleration of a path (length units / s^2) at each frame: its
-    second difference (the end frames taking their neighbours') after a Gaussian smoothing over
-    SMOOTHING seconds (standard deviation; 4 of them each side). A captured COM trembles by a
-    millimetre, which second differences at 60 Hz make metres per s^2. Past its ends the path
-    is carried on straight (point reflection), so smoothing bends nothing there. One linear
-    operator serves the capture's ZMP and the shift's, so the track's ZMP is what it plans."""
-    import scipy.sparse as sparse  # scipy loads with the first balanced fix, not with `import deik`
-
+def _acceleration(N: int, frame_time: float) -> np.ndarray:
+    """(N, 2W + 1) banded by rows (clips/banded.py), N >= 3: the acceleration of a path (length
+    units / s^2) at each frame: its second difference (the end frames taking their neighbours')
+    after a Gaussian smoothing over SMOOTHING seconds (standard deviation; 4 of them each side).
+    A captured COM trembles by a millimetre, which second differences at 60 Hz make metres per
+    s^2. Past its ends the path is carried on straight (point reflection), so smoothing bends
+    nothing there. One linear operator serves the capture's ZMP and the shift's, so the track's
+    ZMP is what it plans."""
     sigma = SMOOTHING / frame_time
     half = int(np.ceil(4 * sigma))
     offsets = np.arange(-half, half + 1)
@@ -137,13 +124,13 @@ def _acceleration(N: int, frame_time: float):
         cols += [np.full(high.sum(), N - 1), np.maximum(2 * (N - 1) - t[high], 0)]
         data += [np.full(inside.sum(), w), np.full(low.sum(), 2 * w), np.full(low.sum(), -w)]
         data += [np.full(high.sum(), 2 * w), np.full(high.sum(), -w)]
-    smooth = sparse.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N))
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    smooth = np.zeros((N, 2 * half + 1))  # a reflected column lies within `half` of its row too
+    np.add.at(smooth, (rows, cols - rows + half), np.concatenate(data))
+    second = np.zeros((N, 5))
     centres = np.clip(n, 1, N - 2)
-    second = sparse.csr_matrix(
-        (np.tile([1.0, -2.0, 1.0], N), (np.repeat(n, 3), (centres[:, None] + np.array([-1, 0, 1])).ravel())),
-        shape=(N, N),
-    )
-    return (second @ smooth / frame_time**2).tocsr()
+    second[n[:, None], (centres - n + 2)[:, None] + np.array([-1, 0, 1])] = [1.0, -2.0, 1.0]
+    return band_compose(second, smooth) / frame_time**2
 
 
 def _solve_shift(zmp, lever, planes, balanced, frame_time, fade_frames, reach) -> np.ndarray:
@@ -151,35 +138,51 @@ def _solve_shift(zmp, lever, planes, balanced, frame_time, fade_frames, reach) -
     row for every half-plane its ZMP crosses (or, held there by its row, lies on), until the set
     of rows stops changing. `planes`: (normals (M, 2), offsets (M,), frame (M,)) of every
     supported frame's half-planes."""
-    import scipy.sparse as sparse  # scipy loads with the first balanced fix, not with `import deik`
-    from scipy.sparse.linalg import spsolve
-
     N = len(zmp)
-    acceleration = _acceleration(N, frame_time) if N >= 3 else sparse.csr_matrix((N, N))
-    a0, a1, a2 = spring_bands(N, fade_frames)
-    spring = sparse.diags([a2, a1, a0, a1, a2], [-2, -1, 0, 1, 2], shape=(N, N)) if N > 2 else sparse.diags(a0)
-    spring = sparse.block_diag([spring, spring]) / reach**2
-    mover = (sparse.identity(N) - sparse.diags(lever) @ acceleration).tocsr()  # the ZMP moves by mover @ s per axis
+    # banded by rows; under 3 frames no acceleration, but a half width of 2 holds the spring's bands
+    mover = -lever[:, None] * (_acceleration(N, frame_time) if N >= 3 else np.zeros((N, 5)))
+    mover[:, mover.shape[1] // 2] += 1.0  # the ZMP moves by mover @ s per axis
+    width = mover.shape[1] - 1  # rows couple frames up to this far apart (two movers' half widths)
+    # the normal equations' upper half (clips/banded.py), unknowns frame by frame (s[0, 0], s[0, 1],
+    # s[1, 0], ...): first the spring energy of s / reach, each axis on its own
+    spring = np.zeros((2 * N, 2 * width + 2))
+    for axis in (0, 1):
+        for d, band in enumerate(spring_bands(N, fade_frames)):
+            spring[axis::2, 2 * d][: len(band)] = band / reach**2
     normals, offsets, frame = planes
     own = balanced[frame]
     offsets = offsets - (normals * zmp[frame]).sum(axis=1)  # what the shift may move the ZMP by
     held = np.zeros(len(frame), bool)
     shift = np.zeros((N, 2))
     for _ in range(ACTIVE_SET_ROUNDS):
-        moved = np.stack([mover @ shift[:, 0], mover @ shift[:, 1]], axis=1)
-        over = (normals * moved[frame]).sum(axis=1) - offsets
+        over = (normals * band_apply(mover, shift)[frame]).sum(axis=1) - offsets
         now = own & ((over > 0) | (held & (over > -1e-9 * reach)))  # a held row stays on its edge
         if _ and np.array_equal(now, held):
             break
         held = now
         if not held.any():
             return np.zeros((N, 2))
-        picked = mover[frame[held]]  # (R, N): each row's ZMP response
-        matrix = sparse.hstack([picked.multiply(normals[held, :1]), picked.multiply(normals[held, 1:])]).tocsr()
-        weight = ROW_WEIGHT / reach**2
-        H = (weight * (matrix.T @ matrix) + spring).tocsc()
-        shift = spsolve(H, weight * (matrix.T @ offsets[held])).reshape(2, N).T
+        shift = _penalised_shift(mover, spring, normals[held], offsets[held], frame[held], reach)
     return shift
+
+
+def _penalised_shift(mover, spring, normals, offsets, frame, reach) -> np.ndarray:
+    """(N, 2) the shift s minimising s^T spring s (`spring` the upper half of its banded matrix,
+    as _solve_shift builds it) plus ROW_WEIGHT / reach^2 x sum_r (normals[r] . (mover s)[frame[r]]
+    - offsets[r])^2 over the rows r (R,), by its normal equations."""
+    N, width = len(mover), mover.shape[1] - 1
+    weight = ROW_WEIGHT / reach**2
+    back = band_transpose(mover)
+    pairs = ((0, 0), (0, 1), (1, 1))
+    gram = np.stack([np.bincount(frame, weight * normals[:, a] * normals[:, b], minlength=N) for a, b in pairs], 1)
+    blocks = band_compose(back, mover[:, :, None] * gram[:, None, :])  # mover^T diag(gram[:, k]) mover
+    upper = spring.copy()
+    for (a, b), block in zip(pairs, np.moveaxis(blocks, 2, 0)):
+        for row, column in ((a, b), (b, a)) if a != b else ((a, b),):  # unknown (n, row) against (n + d, column)
+            d = np.arange(int(row > column), width + 1)
+            upper[row::2, 2 * d + column - row] += block[:, width + d]
+    pull = np.stack([np.bincount(frame, weight * normals[:, a] * offsets, minlength=N) for a in (0, 1)], 1)
+    return solve_spd_band(upper, band_apply(back, pull).reshape(2 * N)).reshape(N, 2)
 
 
 @dataclass(frozen=True)
