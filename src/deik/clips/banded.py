@@ -5,16 +5,16 @@ A matrix A (N, N) of half width W (A[n, m] = 0 where |n - m| > W) is stored by r
 (N, 2W + 1), band[n, W + o] = A[n, n + o], entries past the ends 0. A symmetric one needs only
 its upper half: `upper` (n, P + 1), upper[j, i] = A[j, j + i]. A clip fix couples each frame
 to the few frames around it, so its systems are banded: a solve costs O(n P^2) time and O(n P)
-memory where a dense one would take O(n^3) and O(n^2) (2.6 GB for a 10,000-frame balance
+memory where a dense one would take O(n^3) and O(n^2) (3.2 GB for a 10,000-frame balance
 track). The factorisation runs in Numba: it is a loop over rows that NumPy would call per row.
 """
 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
-from numba import njit
 
 
 def _rows(N: int, offset: int) -> tuple[int, int]:
@@ -62,13 +62,21 @@ def solve_spd_band(upper: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """x (n,) with A x = rhs (n,) for the symmetric positive definite A given by its upper half
     `upper` (n, P + 1) (module notes): A = L L^T, then two triangular solves. Raises
     numpy.linalg.LinAlgError naming the first row where A is not positive definite."""
-    x, failed = _cholesky_solve(np.ascontiguousarray(upper, dtype=float), np.ascontiguousarray(rhs, dtype=float))
+    solve = _compiled_cholesky_solve()
+    x, failed = solve(np.ascontiguousarray(upper, dtype=float), np.ascontiguousarray(rhs, dtype=float))
     if failed >= 0:
         raise np.linalg.LinAlgError(f"row {failed} of a banded system is not positive definite")
     return x
 
 
-@njit(cache=True)
+@lru_cache(maxsize=1)
+def _compiled_cholesky_solve():
+    """_cholesky_solve compiled by Numba (cached on disk) at the first solve: `import deik` stays light."""
+    from numba import njit
+
+    return njit(cache=True)(_cholesky_solve)
+
+
 def _cholesky_solve(upper, rhs):
     """(x, -1), or (rhs, the row) where the matrix is not positive definite. L is kept by columns
     in the layout of `upper`: L[j + i, j] at [j, i]."""
