@@ -27,7 +27,6 @@ CONTACT_FORMS = (
     "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
     "(inclusive) with it"
 )
-FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
 log = logging.getLogger(__name__)
 
 
@@ -71,7 +70,12 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
-    c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
+    c.add_argument(
+        "--balance",
+        action="store_true",
+        help="keep the zero-moment point over the support of the contacts by moving the centre of mass along a "
+        "smooth track; frames it cannot hold without jolts are skipped and listed",
+    )
     c.add_argument(
         "--self-collision",
         type=float,
@@ -281,14 +285,60 @@ def _spans(frames: list[int]) -> str:
     return ", ".join(runs)
 
 
-def _summary_notes(metrics: dict) -> list[str]:
-    """Lines for the report picture: the summary numbers that are no per-frame series."""
-    keys = ("foot_skating_ratio_share", "penetration_max_mm", "jerk_mean_m_per_s3", "joint_angle_deviation_max_deg")
+def _summary_notes(document: dict) -> list[str]:
+    """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
+    metrics = document["metrics"]
+    keys = (
+        "foot_sliding_max_mm_per_frame",
+        "foot_skating_ratio_share",
+        "penetration_max_mm",
+        "floating_max_mm",
+        "zmp_outside_support_mean_mm",
+        "jerk_mean_m_per_s3",
+        "joint_angle_deviation_max_deg",
+        "position_acceleration_max_m_per_s2",
+    )
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
         lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+    return lines + [f"peaks against the capture's: {ratios}"]
+
+
+def _outcome_lines(document: dict) -> list[str]:
+    """Lines after the tables: balance kept and skipped, peaks against the capture's."""
+    lines = []
+    balance = document["balance"]
+    if balance is not None:
+        kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
+        line = f"balance: ZMP over the support in {len(kept)} frames"
+        if skipped:
+            line += (
+                f"; skipped in {len(skipped)} frames ({_spans(skipped)}): holding them would move the centre of mass"
+                f" faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
+                " the performance allows, or make the motion jolt"
+            )
+        lines.append(line)
+    dynamics = document["dynamics"]
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
+    lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
+
+
+def _far_warning(document: dict, far_degrees: float) -> str | None:
+    """The warning about joints turned more than `far_degrees` from the capture, or None."""
+    far = document["joints_far_from_capture"]["joint_frames"]
+    if not far:
+        return None
+    worst = max(far, key=lambda d: d["deviation_deg"])
+    frames = sorted({d["frame"] for d in far})
+    return (
+        f"{len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+        f"{far_degrees:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
+        f"({worst['deviation_deg']:.0f} degrees); --json lists them"
+    )
 
 
 def run_clip(
@@ -300,7 +350,8 @@ def run_clip(
     For a library (deik.cli.library): `on_frames(done, total)` follows the frames that meet
     their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
     from deik.clips.document import clip_document
-    from deik.clips.problem import ClipGoals
+    from deik.clips.dynamics import FAR_DEGREES
+    from deik.clips.problem import GRAVITY, ClipGoals
     from deik.clips.solver import fix_clip
     from deik.clips.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
@@ -328,6 +379,7 @@ def run_clip(
     floor, keep_floor = _floor(args, clip)
     contacts = _contacts(args, clip, floor)
     reach = _reaches(args, clip)
+    unit = args.units or guess_unit(clip.skeleton)
     goals = ClipGoals(
         contacts,
         reach,
@@ -336,8 +388,8 @@ def run_clip(
         args.coherence,
         self_collision=args.self_collision,
         floor=floor if keep_floor else None,
+        gravity=GRAVITY / METRES[unit],
     )
-    unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
         log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
     log.info(
@@ -378,15 +430,11 @@ def run_clip(
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
         f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
-    far = document["joints_far_from_capture"]["joint_frames"]
+    for line in _outcome_lines(document):
+        print(line)
+    far = _far_warning(document, FAR_DEGREES)
     if far:
-        worst = max(far, key=lambda d: d["deviation_deg"])
-        frames = sorted({d["frame"] for d in far})
-        log.warning(
-            f"{len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
-            f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
-            f"({worst['deviation_deg']:.0f} degrees); --json lists them"
-        )
+        log.warning(far)
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
@@ -397,5 +445,5 @@ def run_clip(
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
             title = f"deik clip {os.path.basename(args.clip)}"
             panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]), panel)
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document), panel)
     return 0

@@ -9,8 +9,8 @@ centimetres above it, a toe tip on it. Its resting height is its lowest height o
 is slow in, each height the median of three frames (a one-frame dip does not count); a point
 whose resting height lies more than NEAR_FRACTION x reach above the floor never touches it. A
 point touching the floor is in contact in the frames where it is slow (SPEED_FRACTION x reach
-per second, as for feet) and at most BAND_FRACTION x reach above its resting height; runs
-shorter than MIN_FRAMES are dropped.
+per second, as for feet) and at most BAND_FRACTION x reach above its resting height; gaps and
+runs shorter than MIN_FRAMES are filled and dropped (contacts.fill_gaps, drop_short).
 
 A bone (PARENT-CHILD: a joint and its child joint or end site, a segment) touches the floor at
 its lowest point, which for a segment is one of its ends, both when it lies flat: in a frame
@@ -27,6 +27,7 @@ from deik.clips.contacts import (
     SPEED_FRACTION,
     Contacts,
     drop_short,
+    fill_gaps,
     site_positions,
     speeds,
     threshold,
@@ -83,7 +84,7 @@ def detect_body_contacts(
     slow = speeds(p, clip.frame_time) <= speed
     resting = np.where(slow, _median3(heights), np.inf).min(axis=0)
     touches = resting <= floor + NEAR_FRACTION * sk.reach
-    mask = drop_short(slow & touches & (heights <= resting + band))
+    mask = drop_short(fill_gaps(slow & touches & (heights <= resting + band)))
     keep = mask.any(axis=0) if every else np.ones(len(points), bool)
     return Contacts(tuple(np.array(points)[keep]), mask[:, keep], True, band, speed, floor)
 

@@ -1,15 +1,17 @@
-"""Which DOFs each frame's search may move, and smooth easing of displacements over time.
+"""Which DOFs each frame's DE repair may move, and smooth easing of displacements over time.
 
-A frame's search (warm start or DE) only moves the DOFs that can reach one of its level-0
-goals (the chain from the root to each site in contact or reaching, every DOF for balance);
-the others take the displacement eased in from the neighbouring frames, so nothing pops where
-a goal starts or stops and no search noise reaches joints no goal needs (an idle arm).
+A frame's DE repair only moves the DOFs that can reach one of its goals (the chain from the root
+to each site in contact or reaching, every DOF for balance, the chains of the points near the
+floor); the others take the displacement eased in from the neighbouring frames, so nothing pops
+where a repair starts or stops and no search noise reaches joints no goal needs (an idle arm).
+(The warm start, clips/warmstart.py, needs no such mask: a DOF no goal row moves stays put.)
 
 Easing: per DOF, the displacements x (N,) the searches found are kept where a search moved
 the DOF; elsewhere x minimises, over L frames (a length),
     sum_n  x[n]^2 / L^4  +  2 (x[n+1] - x[n])^2 / L^2  +  (x[n+2] - 2 x[n+1] + x[n])^2,
-a critically damped spring: a correction goes on at the rate it had where its goal let go,
-then fades back to the original over about L frames, with no kink in value or rate.
+a critically damped spring (clips/spacetime.py): a correction goes on at the rate it had where
+its goal let go, then fades back to the original over about L frames, with no kink in value or
+rate.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from deik.clips.banded import solve_spd_band
+from deik.clips.spacetime import spring_bands
 from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
@@ -96,32 +100,23 @@ def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
 
 def _solve_bands(a0, a1, a2, rhs):
     """Solve symmetric positive definite pentadiagonal systems, one per column: diagonal a0
-    (N, D), first off-diagonal a1 (N-1, D), second a2 (N-2, D); banded LDL^T."""
-    N = len(a0)
-    d, l1, l2 = np.zeros_like(a0), np.zeros_like(a0), np.zeros_like(a0)
-    z = np.array(rhs, float)
-    for i in range(N):
-        d[i] = a0[i]
-        if i >= 1:
-            d[i] -= l1[i - 1] ** 2 * d[i - 1]
-            z[i] -= l1[i - 1] * z[i - 1]
-        if i >= 2:
-            d[i] -= l2[i - 2] ** 2 * d[i - 2]
-            z[i] -= l2[i - 2] * z[i - 2]
-        if i + 1 < N:
-            l1[i] = (a1[i] - (l2[i - 1] * l1[i - 1] * d[i - 1] if i >= 1 else 0.0)) / d[i]
-        if i + 2 < N:
-            l2[i] = a2[i] / d[i]
-    x = z / d
-    for i in range(N - 2, -1, -1):
-        x[i] -= l1[i] * x[i + 1] + (l2[i] * x[i + 2] if i + 2 < N else 0.0)
-    return x
+    (N, ...), first off-diagonal a1 (N-1, ...), second a2 (N-2, ...), rhs (N, ...); as one
+    banded system (clips/banded.py), the columns one after another (they do not couple)."""
+    shape = rhs.shape
+    a0, a1, a2, rhs = (np.reshape(v, (len(v), -1)) for v in (a0, a1, a2, rhs))
+    N, C = a0.shape
+    upper = np.zeros((C, N, 3))
+    upper[:, :, 0] = a0.T
+    upper[:, :-1, 1] = a1.T
+    upper[:, :-2, 2] = a2.T
+    return solve_spd_band(upper.reshape(C * N, 3), rhs.T.reshape(C * N)).reshape(C, N).T.reshape(shape)
 
 
 def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
     """(N, D) displacements: `values` (N, D) where `known` (N, D) is True, and elsewhere the
-    smoothest continuation (see the module notes), a correction fading like a critically
-    damped spring over `length` > 0 frames, continuous in value and rate with the known ones."""
+    smoothest continuation (see the module notes: the spring energy of clips/spacetime.py), a
+    correction fading like a critically damped spring over `length` > 0 frames, continuous in
+    value and rate with the known ones."""
     y = np.asarray(values, float)
     known = np.broadcast_to(np.asarray(known, bool), y.shape)
     N = len(y)
@@ -129,18 +124,8 @@ def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
         return y.copy()
     if N < 3:  # too short for a rate: what no goal holds stays as in the original
         return np.where(known, y, 0.0)
-    a0 = np.full(y.shape, length**-4.0)
-    a1 = np.zeros((N - 1,) + y.shape[1:])
-    a2 = np.zeros((N - 2,) + y.shape[1:])
-    rate = 2.0 / length**2  # with the two others: critical damping
-    a0[:-1] += rate
-    a0[1:] += rate
-    a1 -= rate
-    for k, c in enumerate((1.0, -2.0, 1.0)):  # second differences (x[n], x[n+1], x[n+2])
-        a0[k : N - 2 + k] += c * c
-    a1[:-1] -= 2.0
-    a1[1:] -= 2.0
-    a2 += 1.0
+    shape = (1,) * (y.ndim - 1)
+    a0, a1, a2 = (np.broadcast_to(b.reshape(b.shape + shape), (len(b),) + y.shape[1:]) for b in spring_bands(N, length))
     # known entries: move their terms to the right-hand side, keep the system symmetric
     fixed = np.where(known, y, 0.0)
     rhs = np.zeros_like(y)

@@ -14,8 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from deik.clips.contacts import Contacts, planted_targets
+from deik.clips.balance import BalanceTrack
+from deik.clips.contacts import Contacts
+from deik.clips.dynamics import PEAK_RATIO, jolted_frames, peak_ratios
 from deik.clips.metrics import large_deviations
+from deik.clips.plants import planted_targets
 from deik.clips.report import ReachTrack, clip_report, per_frame_errors, row_max
 from deik.io.trajectory import Motion
 
@@ -110,6 +113,34 @@ def reach_record(reach: Iterable[ReachTrack]) -> list[dict]:
     ]
 
 
+def balance_record(track: BalanceTrack | None, metres: float) -> dict | None:
+    """The balance track (clips/balance.BalanceTrack) as JSON, or None without balance: the frames
+    it keeps the ZMP over the support in, those it skipped (holding them would have made the
+    motion jolt or changed the performance), the acceleration budget and the longest COM shift
+    allowed, and the shift per frame (mm along the two ground axes)."""
+    if track is None:
+        return None
+    mm = 1000.0 * metres
+    return {
+        "balanced_frames": np.flatnonzero(track.balanced).tolist(),
+        "skipped_frames": np.flatnonzero(track.skipped).tolist(),
+        "acceleration_budget_m_per_s2": metres * track.budget,
+        "shift_mm": (mm * track.shift).tolist(),
+    }
+
+
+def dynamics_record(original: Motion, fixed: Motion) -> dict:
+    """How the fix's velocity and acceleration peaks compare with the capture's (clips/dynamics.py):
+    the ratio of each peak, the limit, and the frames that jolt or turn a joint far."""
+    ratios = peak_ratios(original, fixed)
+    return {
+        "peak_ratio_limit": PEAK_RATIO,
+        "peak_ratios": ratios,
+        "peaks_kept": bool(all(not r > PEAK_RATIO for r in ratios.values())),
+        "jolted_frames": np.flatnonzero(jolted_frames(original, fixed)).tolist(),
+    }
+
+
 def _far(original, fixed, degrees: float) -> dict:
     far = large_deviations(original, fixed, degrees)
     count = np.bincount([d["frame"] for d in far], minlength=original.n_frames)
@@ -129,7 +160,8 @@ def clip_document(
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
     (clips/report.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
     (unreached) and its targets, the contacts, the `floor` ({"height" length units, "detected",
-    "kept"} or None), the joints turned more than `far_degrees` from the capture frame by frame, and
+    "kept"} or None), the joints turned more than `far_degrees` from the capture frame by frame, the
+    balance track (balance_record), the peaks against the capture's (dynamics_record), and
     where the time went."""
     original, fixed = fix.original, fix.clip
     goals = goal_table(fix, metres)
@@ -154,6 +186,8 @@ def clip_document(
         "met_per_frame": fix.met.tolist(),
         "contacts": None if contacts is None else contacts_record(original, contacts),
         "joints_far_from_capture": _far(original, fixed, far_degrees),
+        "balance": balance_record(fix.balance, metres),
+        "dynamics": dynamics_record(original, fixed),
         "wall_time_s": fix.wall_time,
         "stages": list(fix.stages),
     }

@@ -34,6 +34,7 @@ from deik.model.geometry import ground_frame, polygon_distance
 from deik.model.joints import ROTATE
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import rotation_angle
+from deik.model.skeleton import Skeleton
 
 
 def _kinematics(clip) -> Kinematics:
@@ -86,9 +87,14 @@ def _turning_joints(sk) -> list[int]:
     return [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
 
 
+def turning_joint_names(skeleton: Skeleton) -> list[str]:
+    """Names of the joints with rotation DOFs: joint_angles' columns."""
+    return [skeleton.joint_names[k] for k in _turning_joints(skeleton)]
+
+
 def joint_angles(original: Motion, fixed: Motion) -> np.ndarray:
-    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs in
-    `original` and in `fixed`."""
+    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs
+    (turning_joint_names) in `original` and in `fixed`."""
     sk = original.skeleton
     turning = _turning_joints(sk)
     parents = sk.parents[turning]
@@ -129,7 +135,7 @@ def large_deviations(original: Motion, fixed: Motion, degrees: float = 30.0) -> 
     """Every (frame, joint) whose rotation relative to its parent is more than `degrees` away
     from the capture's, in frame order: [{"frame", "joint", "deviation_deg"}]."""
     angles = joint_angles(original, fixed)
-    names = [original.skeleton.joint_names[k] for k in _turning_joints(original.skeleton)]
+    names = turning_joint_names(original.skeleton)
     frames, joints = np.nonzero(angles > degrees)
     return [{"frame": int(f), "joint": names[j], "deviation_deg": float(angles[f, j])} for f, j in zip(frames, joints)]
 
@@ -166,6 +172,7 @@ def spikes(clip: Motion, kin: Kinematics) -> dict:
     velocity = np.diff(q, axis=0) / dt
     acceleration = np.diff(q, 2, axis=0) / dt**2
     position = np.linalg.norm(np.diff(kin.p_world_frame, 2, axis=0), axis=-1) / dt**2
+    speed = np.linalg.norm(np.diff(kin.p_world_frame, axis=0), axis=-1) / dt
     top_velocity = _largest(velocity, names, 0)[0]
     top_dof = _largest(acceleration, names, 1)
     top_position = _largest(position, sk.frame_names, 1)
@@ -178,6 +185,8 @@ def spikes(clip: Motion, kin: Kinematics) -> dict:
         "max_dof_acceleration_frame": top_dof[1],
         "max_dof_acceleration_dof": top_dof[2],
         "frame_names": sk.frame_names,
+        "position_velocity": speed,
+        "max_position_velocity": _largest(speed, sk.frame_names, 0)[0],
         "position_acceleration": position,
         "max_position_acceleration": top_position[0],
         "max_position_acceleration_frame": top_position[1],

@@ -1,5 +1,5 @@
-"""Ground frames and point-to-segment, segment-to-segment and point-to-polygon distances, in
-NumPy (batched).
+"""Ground frames, 2-D convex hulls, and point-to-segment, segment-to-segment and point-to-polygon
+distances, in NumPy (batched).
 
 The kernels compute the same quantities in device code (kernels/device_terms.py); these are the
 readable versions that the oracle, the clip metrics and the balance track use.
@@ -7,7 +7,11 @@ readable versions that the oracle, the clip metrics and the balance track use.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+STRAIGHT = 1e-12  # radians: points that turn less than this are collinear (as rounding leaves them)
 
 
 def ground_frame(up: np.ndarray) -> np.ndarray:
@@ -16,6 +20,28 @@ def ground_frame(up: np.ndarray) -> np.ndarray:
     e1 = np.cross(up, helper)
     e1 /= np.linalg.norm(e1)
     return np.stack([e1, np.cross(up, e1), up])
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """(K, 2) the corners of the convex hull of 2-D points (S, 2), S >= 1, counter-clockwise from
+    the lowest x (then y): one for coincident points, the two ends for collinear ones (within
+    STRAIGHT), and no point inside an edge (Andrew's monotone chain)."""
+    points = np.unique(np.asarray(points, float), axis=0)  # sorted by x, then y
+    if len(points) <= 2:
+        return points
+
+    def chain(ordered):  # the lower hull left to right (the upper one right to left), its last point left off
+        kept = []
+        for p in ordered:
+            while len(kept) >= 2:
+                (ux, uy), (vx, vy) = kept[-1] - kept[-2], p - kept[-2]
+                if ux * vy - uy * vx > STRAIGHT * math.hypot(ux, uy) * math.hypot(vx, vy):  # a left turn: a corner
+                    break
+                kept.pop()
+            kept.append(p)
+        return kept[:-1]
+
+    return np.array(chain(points) + chain(points[::-1]))
 
 
 def segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -25,8 +25,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.clips.contacts import Contacts, detect_contacts, planted_targets
+from deik.clips.contacts import Contacts, detect_contacts
 from deik.clips.floor import clearance
+from deik.clips.plants import planted_targets
 from deik.clips.units import guess_unit, metres_per_unit
 from deik.clips.warmstart import dof_weights
 from deik.io.clip import Clip
