@@ -4,6 +4,7 @@ for the Panda's roll-pitch-yaw, how far longer legs sink without a retarget, and
 figures` states against the run that made docs/paper-reproduction.md."""
 
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -24,7 +25,17 @@ def make_dry_run(target: str, tmp_path) -> list[str]:
     """The commands `make -n TARGET` would run in a fresh clone (no .venv yet)."""
     for name in ("Makefile", "pyproject.toml"):
         shutil.copy(ROOT / name, tmp_path / name)
-    run = subprocess.run(["make", "-n", target], cwd=tmp_path, capture_output=True, text=True, check=True)
+    # Under `make test` the outer make's MAKELEVEL/MAKEFLAGS reach this make, which would then print
+    # "Entering directory" lines; a fresh environment for make is what a user's shell gives.
+    env = {key: value for key, value in os.environ.items() if key not in ("MAKELEVEL", "MAKEFLAGS", "MFLAGS")}
+    run = subprocess.run(
+        ["make", "--no-print-directory", "-n", target],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return run.stdout.splitlines()
 
 
