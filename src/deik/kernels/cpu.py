@@ -10,16 +10,17 @@ individual) and the current population, and the per-problem bookkeeping runs in 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from deik.kernels.layout import WORK_SIZE, LmScratch, Scratch
+from deik.kernels.linking import linked
 from deik.kernels.targets import cpu as dev
 
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
 
 
-@njit(cache=True)
+@linked()
 def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
     frames, t = dev.frame_count(skel), dtype_probe.dtype
@@ -27,7 +28,7 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
 
 
-@njit(cache=True)
+@linked()
 def _polish_scratch(skel, dtype_probe, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
@@ -35,7 +36,7 @@ def _polish_scratch(skel, dtype_probe, n_dofs):
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunks):
     """Fill the Buffers `state`: pop (B, P, D) uniformly inside the limits (the first n_initial
     individuals of each problem copy initial (B, n_initial, D)), every individual's F and CR
@@ -48,12 +49,12 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
         _initialise_chunk(0, 1, state, skel, terms, settings, initial, n_initial)
     else:
         for c in prange(n_chunks):
-            _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial)
+            _initialise_chunk(np.int64(c), n_chunks, state, skel, terms, settings, initial, n_initial)
     for b in range(state.pop.shape[0]):
         dev.rank_first(b, state, status)
 
 
-@njit(cache=True)
+@linked()
 def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
     """initialise(cur) then run_generations from generation 0: a whole solve in one call;
     returns the buffer swaps (as run_generations)."""
@@ -62,7 +63,7 @@ def start(cur, nxt, status, skel, terms, settings, memetic, control, history, in
     return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
 
 
-@njit(cache=True)
+@linked()
 def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `n_chunks` of initialise's individuals."""
     B, P, D = state.pop.shape
@@ -72,7 +73,7 @@ def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_init
         dev.initialise_individual(idx // P, idx % P, state, skel, terms, settings, initial, n_initial, scratch)
 
 
-@njit(cache=True)
+@linked()
 def _chunks(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
@@ -82,7 +83,7 @@ def _chunks(n_jobs, work_per_job, skel, threads):
     return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
 
 
-@njit(cache=True)
+@linked()
 def _active_problems(active):
     """(indices of the active problems, their count)."""
     order = np.empty(active.shape[0], np.int64)
@@ -94,7 +95,7 @@ def _active_problems(active):
     return order, n
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """One generation's trials over the n active individuals, in `chunks` work units. (A parallel
     function of its own: Numba's parfors rebuild a NamedTuple argument of the loop body only
@@ -103,10 +104,10 @@ def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
         _breed_chunk(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
     else:
         for c in prange(chunks):
-            _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
+            _breed_chunk(np.int64(c), chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
 
 
-@njit(cache=True)
+@linked()
 def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """Chunk c of `chunks` of _breed's individuals."""
     P, D = cur.pop.shape[1], cur.pop.shape[2]
@@ -118,7 +119,7 @@ def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, g
         )
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _polish(chunks, n, state, skel, terms, status, memetic, order):
     """A polish round over the n active problems in `chunks` work units (parallel on its own as
     _breed)."""
@@ -126,10 +127,10 @@ def _polish(chunks, n, state, skel, terms, status, memetic, order):
         _polish_chunk(0, 1, n, state, skel, terms, status, memetic, order)
     else:
         for c in prange(chunks):
-            _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order)
+            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, memetic, order)
 
 
-@njit(cache=True)
+@linked()
 def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
     """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
@@ -145,7 +146,7 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
                 break
 
 
-@njit(cache=True)
+@linked()
 def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
@@ -183,7 +184,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     return swaps
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
     total (N,), raw (N, T). n_chunks as for initialise."""
@@ -193,10 +194,10 @@ def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chun
         _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
     else:
         for c in prange(n_chunks):
-            _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw)
+            _evaluate_chunk(np.int64(c), n_chunks, poses, problem_index, skel, terms, levels, total, raw)
 
 
-@njit(cache=True)
+@linked()
 def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
     """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
@@ -205,7 +206,7 @@ def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, tota
         total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def forward_kinematics_batch(poses, skel, R, p):
     """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
     for n in prange(poses.shape[0]):
@@ -213,7 +214,7 @@ def forward_kinematics_batch(poses, skel, R, p):
         dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
     """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
     -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
@@ -225,10 +226,10 @@ def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
         _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
     else:
         for c in prange(n_chunks):
-            _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian)
+            _point_jacobian_chunk(np.int64(c), n_chunks, poses, frames, skel, x, jacobian)
 
 
-@njit(cache=True)
+@linked()
 def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
     """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
     N, D = poses.shape
@@ -252,7 +253,7 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
                     jacobian[n, g, row, d] = jac[row * D + d]
 
 
-@njit(cache=True)
+@linked()
 def residual_rows(poses, problem_index, term, skel, terms):
     """The LM polish's scaled residual (N, 3) of one term and its analytic Jacobian (N, 3, D)
     at poses (N, D) (zeros for terms the polish leaves to DE)."""

@@ -24,8 +24,9 @@ import types
 from functools import lru_cache
 from pathlib import Path
 
-from numba import njit
 from numba.core import caching
+
+from deik.kernels.linking import linked
 
 KERNEL_DIR = Path(__file__).resolve().parent
 DEVICE_PREFIX = "deik.kernels.device_"
@@ -146,7 +147,9 @@ DEVICE_SOURCES = (
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
 # NRT (they allocate scratch); the device functions only borrow their arrays.
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True, _nrt=False))
+
+
+cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", linked(nogil=True, _nrt=False))
 
 
 @lru_cache(maxsize=1)

@@ -20,7 +20,7 @@ def kernels_ready(dtype: str) -> bool:
     or cached on disk."""
     from deik.kernels import cpu
 
-    dispatcher = cpu.run_generations
+    dispatcher = cpu.start.entry
     if any(dtype in str(signature) for signature in dispatcher.signatures):
         return True
     try:
