@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
 from deik.clips.units import METRES
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
@@ -340,8 +340,7 @@ def run_clip(args) -> int:
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
-    if not args.quiet:
-        announce_compile(args.device or "cpu", "float32")
+    compiling = [] if args.quiet else announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with tqdm(total=clip.n_frames, desc="deik clip", unit="frame", file=sys.stderr, disable=args.quiet) as bar:
 
         def progress(met: int, stage: str) -> None:
@@ -349,6 +348,7 @@ def run_clip(args) -> int:
             bar.update(met - bar.n)
 
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
+    record_compiles(compiling)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
     document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)

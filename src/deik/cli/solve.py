@@ -16,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.files import read_input_text
@@ -261,8 +261,9 @@ def run_solve(args) -> int:
         print(f"note: masses {loaded.mass_source}", file=sys.stderr)
     terminal = sys.stderr.isatty()
     progress = _progress(settings.generations, terminal) if args.progress or terminal else None
-    announce_compile(settings.device, settings.dtype)
+    compiling = announce_compile(settings.device, settings.dtype, polish=settings.polish > 0)
     result = solve(problem, settings, initial=initial, progress=progress)
+    record_compiles(compiling)
     if progress and terminal:
         print(file=sys.stderr)
     rows = [

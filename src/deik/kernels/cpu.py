@@ -55,12 +55,16 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
 
 
 @linked()
-def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
-    """initialise(cur) then run_generations from generation 0: a whole solve in one call;
-    returns the buffer swaps (as run_generations)."""
-    chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
-    initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
-    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
+def launch(
+    fresh, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, gen, n_gens, threads
+):
+    """The DE kernel every launch runs, so a solve compiles one kernel per dtype: with `fresh`,
+    initialise(cur) first; then run_generations from generation `gen`; returns its buffer swaps.
+    memetic None compiles the kernel without the LM polish."""
+    if fresh:
+        chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
+        initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
+    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
 
 
 @linked()
@@ -151,14 +155,15 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
     every inactive problem: only active problems are worked on, and a problem that stops is
-    copied into both. threads: the pool's size (small loops run on the caller's)."""
+    copied into both. threads: the pool's size (small loops run on the caller's). memetic: the
+    polish (layout.Memetic), or None: compiled without it."""
     P = cur.pop.shape[1]
     active = status.active
     swaps = 0
     for g in range(n_gens):
         gen = gen_start + g
         order, n_active = _active_problems(active)
-        if n_active and memetic.iterations > 0 and gen % memetic.every == 0:
+        if memetic is not None and n_active and memetic.iterations > 0 and gen % memetic.every == 0:
             # polish before breeding, so a problem the polish solves stops without a generation
             chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
             _polish(chunks, n_active, cur, skel, terms, status, memetic, order)

@@ -143,6 +143,24 @@ class LinkOnlyDispatcher(registry.CPUDispatcher):
     def __call__(self, *args):
         return self.entry(*args)
 
+    def ready_signatures(self) -> list[tuple]:
+        """Argument types (tuples of Numba types) the entry is compiled for in this process or
+        cached for on disk for this machine. Numba's cache index is private API: if it cannot be
+        read, only the process's own compiles count (the worst outcome is an unneeded note)."""
+        ready = list(self.entry.overloads)
+        try:
+            index = self.entry._cache._cache_file._load_index()
+            magic = self.targetctx.codegen().magic_tuple()
+            ready += [tuple(key[0]) for key in index if key[1] == magic]
+        except Exception:  # no cache (read-only, disabled) or another Numba's internals
+            pass
+        return ready
+
+    def compile_seconds(self) -> dict:
+        """{argument types: seconds} of the entry's compiles in this process (not cache loads)."""
+        timers = {sig: (cres.metadata or {}).get("timers", {}) for sig, cres in self.entry.overloads.items()}
+        return {sig: t["compiler_lock"] for sig, t in timers.items() if "compiler_lock" in t}
+
 
 def linked(**options):
     """Decorator: a LinkOnlyDispatcher with njit `options` (parallel, nogil, _nrt)."""
