@@ -24,10 +24,15 @@ def test_kernel_cache_goes_to_numba_cache_dir_when_set(tmp_path):
     assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "kernels", "__pycache__"))
 
 
-def test_import_deik_loads_no_numba():
-    """`import deik` stays light: Numba and the kernels load on the first solve."""
-    code = "import sys, deik; print(sorted(m for m in ('numba', 'scipy', 'deik.kernels.cpu') if m in sys.modules))"
+def test_import_deik_loads_no_numpy_or_numba_and_a_name_loads_only_its_module():
+    """`import deik` stays light: each public name loads its module on first use."""
+    heavy = "('numpy', 'numba', 'scipy', 'deik.kernels.cpu', 'deik.solver.solve', 'deik.io.bvh')"
+    code = f"import sys, deik; print(sorted(m for m in {heavy} if m in sys.modules))"
     assert _python(code) == "[]"
+    code = f"import sys, deik; deik.chain(3); print(sorted(m for m in {heavy} if m in sys.modules))"
+    assert _python(code) == "['numpy']"
+    code = "import deik, deik.retarget.api; from deik import retarget as r; print(r is deik.retarget, callable(r))"
+    assert _python(code) == "True True"  # the function, not the subpackage of the same name
 
 
 def test_a_read_only_install_caches_in_the_user_folder(tmp_path):

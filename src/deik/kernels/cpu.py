@@ -190,11 +190,12 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
 
 
 @linked(parallel=True)
-def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks):
+def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks, threads):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
-    total (N,), raw (N, T). n_chunks as for initialise."""
+    total (N,), raw (N, T). n_chunks as for initialise, or 0: as many as pay off on `threads`
+    threads (_chunks)."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
     else:
@@ -220,13 +221,13 @@ def forward_kinematics_batch(poses, skel, R, p):
 
 
 @linked(parallel=True)
-def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
+def point_jacobians(poses, frames, skel, x, jacobian, n_chunks, threads):
     """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
     -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
-    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks as
-    for initialise."""
+    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks and
+    threads as for evaluate_poses."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
     else:

@@ -21,11 +21,6 @@ from deik.kernels.pack import kernel_array
 LAUNCH_BUFFERS, LAUNCH_MEMETIC = 1, 7
 
 
-def _chunks_for(n_individuals: int, skel) -> int:
-    """Work units for a loop over n_individuals (1: the calling thread; see cpu._chunks)."""
-    return int(cpu._chunks(n_individuals, 1, skel, numba.get_num_threads()))
-
-
 def launch_kind(signature) -> tuple[str, bool]:
     """(dtype, with the LM polish) of a cpu.launch signature (a tuple of Numba types)."""
     return str(signature[LAUNCH_BUFFERS].types[0].dtype), not isinstance(signature[LAUNCH_MEMETIC], types.NoneType)
@@ -127,7 +122,8 @@ def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
         levels,
         total,
         raw,
-        _chunks_for(N, skel),
+        0,
+        numba.get_num_threads(),
     )
     return levels, total, raw
 
@@ -139,5 +135,5 @@ def point_jacobians(poses, frames, skel):
     poses = kernel_array(poses, dtype)
     N, D = poses.shape
     x, jacobian = np.empty((N, len(frames), 3), dtype), np.empty((N, len(frames), 3, D), dtype)
-    cpu.point_jacobians(poses, kernel_array(frames, np.int64), skel, x, jacobian, _chunks_for(N, skel))
+    cpu.point_jacobians(poses, kernel_array(frames, np.int64), skel, x, jacobian, 0, numba.get_num_threads())
     return x, jacobian

@@ -19,12 +19,32 @@ compiler) as they are in Numba 0.60-0.68.
 
 from __future__ import annotations
 
+import importlib.util
 import inspect
+import sys
 from contextlib import contextmanager
 
 from numba import njit
 from numba.core import codegen, compiler, dispatcher, registry
 from numba.core import types as numba_types
+
+
+def _import_numba_arraymath_without_scipy() -> None:
+    """Import Numba's NumPy-array lowering with scipy.linalg hidden. It imports that (0.4 s,
+    the largest part of a warm command) only to learn whether BLAS exists, for the inner
+    product of np.correlate and np.convolve; the kernels use no BLAS. The flag is then set to
+    what it would have found, and np.dot or np.linalg still import SciPy when they compile."""
+    if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
+        return
+    sys.modules["scipy.linalg"] = None  # `import scipy.linalg...` raises ImportError meanwhile
+    try:
+        from numba.np import arraymath
+    finally:
+        del sys.modules["scipy.linalg"]
+    arraymath._HAVE_BLAS = importlib.util.find_spec("scipy") is not None
+
+
+_import_numba_arraymath_without_scipy()
 
 # names Numba gives the libraries of a parfor's body and of its two wrappers (numba.parfors,
 # numba.np.ufunc); they are only ever linked into the function holding the loop
