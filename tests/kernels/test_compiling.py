@@ -9,6 +9,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 import deik
 from deik.kernels import cpu, cpu_backend
@@ -58,6 +59,7 @@ SOLVE_WITHOUT_POLISH = (
 )
 
 
+@pytest.mark.slow  # a real cold compile (about 25 s on 2 cores)
 def test_a_solve_without_polish_compiles_no_lm_and_a_second_process_compiles_nothing(tmp_path):
     first = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
     assert "compiling the CPU kernels first (DE float64 without polish): about" in first.stderr

@@ -3,7 +3,7 @@ linked in.
 
 Numba gives every jitted function a library of its own: on first use it optimises the function's
 LLVM module together with everything the function calls (linked in) and compiles that to machine
-code. The device maths is a deep call tree (start -> run_generations -> breed chunk ->
+code. The device maths is a deep call tree (launch -> run_generations -> breed chunk ->
 breed_individual -> evaluate -> term_error -> forward_kinematics ...), so a cold compile optimised
 and compiled the same code again at every level of it, and each parallel loop (parfor) three more
 times in the wrappers Numba builds around its body: that repeated LLVM work was about half of a
@@ -47,7 +47,8 @@ def _import_numba_arraymath_without_scipy() -> None:
 _import_numba_arraymath_without_scipy()
 
 # names Numba gives the libraries of a parfor's body and of its two wrappers (numba.parfors,
-# numba.np.ufunc); they are only ever linked into the function holding the loop
+# numba.np.ufunc); they are only ever linked into the function holding the loop. Should Numba
+# rename them, they are compiled as before: slower to compile, the same code.
 PARFOR_LIBRARIES = ("__numba_parfor_gufunc", "<numba.np.ufunc.wrappers._GufuncWrapper", "parallelgufuncwrapper")
 
 
