@@ -7,7 +7,7 @@ each in a fresh process, two checkouts of deik taking turns.
 measurement runs `python` in a fresh process on one checkout (its src/ first on PYTHONPATH) and
 times it from outside: wall seconds and the child's CPU seconds (user + system, getrusage), which
 other processes on a shared machine inflate less than the wall. Cases:
-- first solve, float32 or float64, with the LM polish or without (`--polish 0`):
+- first solve, float32 or float64, with the LM polish or without (`--polish 0 --generations 20`):
   `deik solve chain:20 --reach tip 12 8 0` with an empty NUMBA_CACHE_DIR, as after an install;
   then the same command twice on the cache it filled: "compile" is the first run's wall minus
   the median of those (and, where the checkout records them, each kernel's compile seconds);
@@ -36,11 +36,13 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SOLVE = ["-m", "deik", "solve", "chain:20", "--reach", "tip", "12", "8", "0"]
+# without the polish DE alone runs 2000 generations on this target, seconds that vary with the
+# machine's load: 20 generations keep the compile what the first run waits for
 FIRST_SOLVES = {
     "first solve float32": [],
-    "first solve float32, no polish": ["--polish", "0"],
+    "first solve float32, no polish": ["--polish", "0", "--generations", "20"],
     "first solve float64": ["--dtype", "float64"],
-    "first solve float64, no polish": ["--dtype", "float64", "--polish", "0"],
+    "first solve float64, no polish": ["--dtype", "float64", "--polish", "0", "--generations", "20"],
 }
 CALLS = {
     "warm solve": SOLVE,
@@ -71,15 +73,20 @@ def _first_solve(tree: Path, flags: list[str]) -> dict:
     with tempfile.TemporaryDirectory(prefix="deik-cold-") as cache:
         cold = _run(tree, SOLVE + flags, Path(cache))
         warm = [_run(tree, SOLVE + flags, Path(cache))["wall"] for _ in range(2)]
-        # what each kernel's compile took inside the solve, as deik records it (solver/readiness.py)
-        records = [json.loads(path.read_text()) for path in Path(cache).rglob("deik-compile-seconds.json")]
+        records = _records(Path(cache))
     compile_wall = cold["wall"] - float(np.median(warm))
     return {**cold, "warm_wall": float(np.median(warm)), "compile_wall": compile_wall, "kernels": records}
 
 
+def _records(cache: Path) -> list[dict]:
+    """What each kernel's compile took, as deik records it beside the cache (solver/readiness.py;
+    none before it did)."""
+    return [json.loads(path.read_text()) for path in cache.rglob("deik-compile-seconds.json")]
+
+
 def _warmup(tree: Path) -> dict:
     with tempfile.TemporaryDirectory(prefix="deik-cold-") as cache:
-        return _run(tree, ["-m", "deik", "warmup", "--quiet"], Path(cache))
+        return {**_run(tree, ["-m", "deik", "warmup", "--quiet"], Path(cache)), "kernels": _records(Path(cache))}
 
 
 def _call(tree: Path, args: list[str], cache: Path) -> dict:

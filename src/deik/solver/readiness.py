@@ -15,15 +15,15 @@ import json
 import os
 import tempfile
 
-# seconds each compile took in benchmarks/cold_start.py (`deik warmup` one kernel at a time) on
-# a shared 2-core AMD EPYC VM, 2026-11-25
+# seconds each compile took on the reference machine, a shared 2-core AMD EPYC VM (Numba's compile
+# timers of the first solves of benchmarks/cold_start.py, median of its runs, 2026-11-25)
 REFERENCE_SECONDS = {
-    "DE float32": 14.0,
-    "DE float32 without polish": 9.0,
-    "DE float64": 12.0,
-    "DE float64 without polish": 8.0,
-    "report float64": 4.0,
-    "clip warm start float64": 3.0,
+    "DE float32": 18.4,
+    "DE float32 without polish": 14.1,
+    "DE float64": 14.4,
+    "DE float64 without polish": 9.4,
+    "report float64": 5.5,
+    "clip warm start float64": 2.0,
 }
 REFERENCE_MACHINE = "a 2-core machine"
 RECORD_FILE = "deik-compile-seconds.json"
