@@ -93,7 +93,7 @@ def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = 
 
     names = pending(dtype, polish, clip)
     if names:
-        print(compile_note(names), file=sys.stderr, flush=True)
+        print(compile_note(names, certain=not clip), file=sys.stderr, flush=True)
     return names
 
 

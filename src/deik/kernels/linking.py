@@ -125,7 +125,10 @@ def _trampoline(target: LinkOnlyDispatcher):
     """An njit function of the same name, arguments, file and first line as `target`'s (so it
     caches beside it) that calls `target`."""
     func = target.py_func
-    names = list(inspect.signature(func).parameters)
+    parameters = inspect.signature(func).parameters.values()
+    if any(p.default is not p.empty or p.kind is not p.POSITIONAL_OR_KEYWORD for p in parameters):
+        raise TypeError(f"{func.__qualname__}: a linked function takes plain positional arguments only")
+    names = [p.name for p in parameters]
     code = func.__code__
     source = "\n" * (code.co_firstlineno - 1) + f"def {func.__name__}({', '.join(names)}):\n"
     source += f"    return _target({', '.join(names)})\n"

@@ -76,12 +76,14 @@ def estimate(names: list[str]) -> tuple[float, bool]:
     return sum(measured.get(n, REFERENCE_SECONDS[n]) for n in names), all(n in measured for n in names)
 
 
-def compile_note(names: list[str]) -> str:
-    """The one line to print before compiling `names` (from pending)."""
+def compile_note(names: list[str], certain: bool = True) -> str:
+    """The one line to print before compiling `names` (from pending); not `certain`: the
+    command may need only some of them (a clip fix whose warm start meets every goal runs no DE)."""
     seconds, here = estimate(names)
     where = "on this machine, as measured here before" if here else f"on {REFERENCE_MACHINE}"
+    doing, wait = ("compiling", "about") if certain else ("may compile", "up to about")
     return (
-        f"deik: compiling the CPU kernels first ({', '.join(names)}): about {seconds:.0f} s {where}; "
+        f"deik: {doing} the CPU kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {where}; "
         "once after an install or upgrade (`deik warmup` does it ahead of time)"
     )
 
