@@ -65,7 +65,7 @@ def kernel_fitness(problem, poses, problem_index=None, dtype=np.float64):
     levels = np.empty((N, table.n_levels), dtype)
     total = np.empty(N, dtype)
     raw = np.empty((N, table.n_terms), dtype)
-    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3)  # 3 chunks: the parallel path
+    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3, 2)  # 3 chunks: the parallel path
     return levels, total, raw
 
 

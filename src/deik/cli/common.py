@@ -105,12 +105,24 @@ def check_device(device: str) -> None:
         raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
 
 
-def announce_compile(device: str, dtype: str) -> None:
-    """Say in one note on stderr (the "deik" logger) before a solve when the CPU kernels for
-    `dtype` must be compiled first (deik.solver.readiness), so nobody waits minutes in silence."""
+def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
+    """Say in one note on stderr (the "deik" logger) before a CPU solve that must compile kernels
+    first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
+    their names (give them to record_compiles once the solve is done)."""
     if device != "cpu":
-        return
-    from deik.solver.readiness import compile_note, kernels_ready
+        return []
+    from deik.solver.readiness import compile_note, pending
 
-    if not kernels_ready(dtype):
-        logging.getLogger(__name__).info(compile_note(dtype))
+    names = pending(dtype, polish, clip)
+    if names:
+        logging.getLogger(__name__).info(compile_note(names, certain=not clip))
+    return names
+
+
+def record_compiles(names: list[str]) -> None:
+    """After a command compiled `names` (announce_compile), keep their measured times for the
+    next estimate on this machine."""
+    if names:
+        from deik.solver.readiness import record_compiles as record
+
+        record()

@@ -218,7 +218,7 @@ def run_folder(args: argparse.Namespace) -> int:
         if others:
             shown = ", ".join(others[:6]) + (f" and {len(others) - 6} more" if len(others) > 6 else "")
             print(f"{len(jobs)} clips in {args.clip}; skipped (not *.bvh, or a sub-folder): {shown}", file=sys.stderr)
-        announce_compile(args.device or "cpu", "float32")
+        announce_compile(args.device or "cpu", "float32", polish=False, clip=True)  # the workers compile
     try:
         run = run_library(
             jobs,

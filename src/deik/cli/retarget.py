@@ -13,7 +13,7 @@ import os
 import re
 from collections.abc import Callable
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
 from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
@@ -100,7 +100,7 @@ def run_retarget(
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
     clip = frame_range(read_bvh(args.clip), _frames(args.frames))
-    announce_compile(args.device or "cpu", "float32")
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
 
@@ -111,6 +111,7 @@ def run_retarget(
                 on_frames(met, clip.n_frames)
 
         result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
+    record_compiles(compiling)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")

@@ -16,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
@@ -244,10 +244,11 @@ def run_solve(args: argparse.Namespace) -> int:
             )
     if loaded is not None and loaded.kind == "bvh":
         log.info(f"note: masses {loaded.mass_source}")
-    announce_compile(settings.device, settings.dtype)
+    compiling = announce_compile(settings.device, settings.dtype, polish=settings.polish > 0)
     with progress_bar(settings.generations, "deik solve", "gen", show_progress(args)) as bar:
         progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
         result = solve(problem, settings, initial=initial, progress=progress)
+    record_compiles(compiling)
     rows = [
         [
             r.label,

@@ -10,16 +10,17 @@ individual) and the current population, and the per-problem bookkeeping runs in 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from deik.kernels.layout import WORK_SIZE, LmScratch, Scratch
+from deik.kernels.linking import linked
 from deik.kernels.targets import cpu as dev
 
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
 
 
-@njit(cache=True)
+@linked()
 def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
     frames, t = dev.frame_count(skel), dtype_probe.dtype
@@ -27,7 +28,7 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
 
 
-@njit(cache=True)
+@linked()
 def _polish_scratch(skel, dtype_probe, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
@@ -35,7 +36,7 @@ def _polish_scratch(skel, dtype_probe, n_dofs):
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunks):
     """Fill the Buffers `state`: pop (B, P, D) uniformly inside the limits (the first n_initial
     individuals of each problem copy initial (B, n_initial, D)), every individual's F and CR
@@ -48,21 +49,25 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
         _initialise_chunk(0, 1, state, skel, terms, settings, initial, n_initial)
     else:
         for c in prange(n_chunks):
-            _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial)
+            _initialise_chunk(np.int64(c), n_chunks, state, skel, terms, settings, initial, n_initial)
     for b in range(state.pop.shape[0]):
         dev.rank_first(b, state, status)
 
 
-@njit(cache=True)
-def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
-    """initialise(cur) then run_generations from generation 0: a whole solve in one call;
-    returns the buffer swaps (as run_generations)."""
-    chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
-    initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
-    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
+@linked()
+def launch(
+    fresh, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, gen, n_gens, threads
+):
+    """The DE kernel every launch runs, so a solve compiles one kernel per dtype: with `fresh`,
+    initialise(cur) first; then run_generations from generation `gen`; returns its buffer swaps.
+    memetic None compiles the kernel without the LM polish."""
+    if fresh:
+        chunks = _chunks(cur.pop.shape[0] * cur.pop.shape[1], 1, skel, threads)
+        initialise(cur, status, skel, terms, settings, initial, n_initial, chunks)
+    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
 
 
-@njit(cache=True)
+@linked()
 def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `n_chunks` of initialise's individuals."""
     B, P, D = state.pop.shape
@@ -72,7 +77,7 @@ def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_init
         dev.initialise_individual(idx // P, idx % P, state, skel, terms, settings, initial, n_initial, scratch)
 
 
-@njit(cache=True)
+@linked()
 def _chunks(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
@@ -82,7 +87,7 @@ def _chunks(n_jobs, work_per_job, skel, threads):
     return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
 
 
-@njit(cache=True)
+@linked()
 def _active_problems(active):
     """(indices of the active problems, their count)."""
     order = np.empty(active.shape[0], np.int64)
@@ -94,7 +99,7 @@ def _active_problems(active):
     return order, n
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """One generation's trials over the n active individuals, in `chunks` work units. (A parallel
     function of its own: Numba's parfors rebuild a NamedTuple argument of the loop body only
@@ -103,10 +108,10 @@ def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
         _breed_chunk(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
     else:
         for c in prange(chunks):
-            _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
+            _breed_chunk(np.int64(c), chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
 
 
-@njit(cache=True)
+@linked()
 def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """Chunk c of `chunks` of _breed's individuals."""
     P, D = cur.pop.shape[1], cur.pop.shape[2]
@@ -118,7 +123,7 @@ def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, g
         )
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _polish(chunks, n, state, skel, terms, status, memetic, order):
     """A polish round over the n active problems in `chunks` work units (parallel on its own as
     _breed)."""
@@ -126,10 +131,10 @@ def _polish(chunks, n, state, skel, terms, status, memetic, order):
         _polish_chunk(0, 1, n, state, skel, terms, status, memetic, order)
     else:
         for c in prange(chunks):
-            _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order)
+            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, memetic, order)
 
 
-@njit(cache=True)
+@linked()
 def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
     """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
@@ -145,19 +150,20 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
                 break
 
 
-@njit(cache=True)
+@linked()
 def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
     every inactive problem: only active problems are worked on, and a problem that stops is
-    copied into both. threads: the pool's size (small loops run on the caller's)."""
+    copied into both. threads: the pool's size (small loops run on the caller's). memetic: the
+    polish (layout.Memetic), or None: compiled without it."""
     P = cur.pop.shape[1]
     active = status.active
     swaps = 0
     for g in range(n_gens):
         gen = gen_start + g
         order, n_active = _active_problems(active)
-        if n_active and memetic.iterations > 0 and gen % memetic.every == 0:
+        if memetic is not None and n_active and memetic.iterations > 0 and gen % memetic.every == 0:
             # polish before breeding, so a problem the polish solves stops without a generation
             chunks = _chunks(n_active, 3 * memetic.iterations * memetic.count, skel, threads)
             _polish(chunks, n_active, cur, skel, terms, status, memetic, order)
@@ -183,20 +189,21 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     return swaps
 
 
-@njit(parallel=True, cache=True)
-def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks):
+@linked(parallel=True)
+def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks, threads):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
-    total (N,), raw (N, T). n_chunks as for initialise."""
+    total (N,), raw (N, T). n_chunks as for initialise, or 0: as many as pay off on `threads`
+    threads (_chunks)."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
     else:
         for c in prange(n_chunks):
-            _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw)
+            _evaluate_chunk(np.int64(c), n_chunks, poses, problem_index, skel, terms, levels, total, raw)
 
 
-@njit(cache=True)
+@linked()
 def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
     """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
@@ -205,7 +212,7 @@ def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, tota
         total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def forward_kinematics_batch(poses, skel, R, p):
     """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
     for n in prange(poses.shape[0]):
@@ -213,22 +220,22 @@ def forward_kinematics_batch(poses, skel, R, p):
         dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
-@njit(parallel=True, cache=True)
-def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
+@linked(parallel=True)
+def point_jacobians(poses, frames, skel, x, jacobian, n_chunks, threads):
     """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
     -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
-    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks as
-    for initialise."""
+    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks and
+    threads as for evaluate_poses."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
     else:
         for c in prange(n_chunks):
-            _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian)
+            _point_jacobian_chunk(np.int64(c), n_chunks, poses, frames, skel, x, jacobian)
 
 
-@njit(cache=True)
+@linked()
 def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
     """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
     N, D = poses.shape
@@ -252,7 +259,7 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
                     jacobian[n, g, row, d] = jac[row * D + d]
 
 
-@njit(cache=True)
+@linked()
 def residual_rows(poses, problem_index, term, skel, terms):
     """The LM polish's scaled residual (N, 3) of one term and its analytic Jacobian (N, 3, D)
     at poses (N, D) (zeros for terms the polish leaves to DE)."""

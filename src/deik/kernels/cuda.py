@@ -149,8 +149,9 @@ class CudaBackend:
     def _threads(self, population: int) -> int:
         return min(THREADS_PER_BLOCK, 32 * -(-population // 32))
 
-    def initialise(self, buffers, status, skel, terms, settings, initial, n_initial):
-        """Fill buffers with a first population and status with its best and leaders."""
+    def initialise(self, buffers, status, skel, terms, settings, memetic, control, initial, n_initial):
+        """Fill buffers with a first population and status with its best and leaders (memetic
+        and control: unused here, as in the CPU back-end's signature)."""
         initialise, _ = kernels_for(skel, buffers)
         d_buf, d_status = self._to_device(buffers), self._to_device(status)
         B, P = buffers.pop.shape[:2]
@@ -168,7 +169,7 @@ class CudaBackend:
 
     def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
         """initialise then run from generation 0 (two launches on the GPU)."""
-        self.initialise(cur, status, skel, terms, settings, initial, n_initial)
+        self.initialise(cur, status, skel, terms, settings, memetic, control, initial, n_initial)
         return self.run(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):

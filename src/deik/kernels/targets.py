@@ -1,10 +1,9 @@
 """Compile the one-source device maths (deik.kernels.device_*.py) for each target.
 
 `cpu` is the device maths compiled with numba.njit(cache=True, _nrt=False); `cuda_device()` compiles the
-same sources with numba.cuda.jit(device=True) on first use. Each compile execs the sources into
-one fresh module without their imports of each other (`from deik.kernels.device_x import f`,
-there for linters and readers), so every call between device functions resolves to the same
-target's compiled function; other imports (layout and term-kind constants) run as written.
+same sources with numba.cuda.jit(device=True) on first use. Each puts copies of the functions
+into one fresh module (compile_namespace), so every call between device functions resolves to
+the same target's compiled function.
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
 the device files, so kernel files get a locator whose stamp hashes every source in this folder
@@ -15,17 +14,18 @@ stale one.
 
 from __future__ import annotations
 
-import ast
 import hashlib
 import importlib
 import inspect
+import re
 import sys
 import types
 from functools import lru_cache
 from pathlib import Path
 
-from numba import njit
 from numba.core import caching
+
+from deik.kernels.linking import linked
 
 KERNEL_DIR = Path(__file__).resolve().parent
 DEVICE_PREFIX = "deik.kernels.device_"
@@ -39,13 +39,8 @@ def _outside_constants() -> bytes:
     modules = set()
     for path in KERNEL_DIR.glob("*.py"):
         if path.name.startswith("device_") or path.name == "layout.py":
-            modules |= {
-                node.module
-                for node in ast.walk(ast.parse(path.read_text()))
-                if isinstance(node, ast.ImportFrom)
-                and (node.module or "").startswith("deik.")
-                and not node.module.startswith("deik.kernels.")
-            }
+            modules |= set(re.findall(r"^from (deik\.[\w.]+) import", path.read_text(), re.MULTILINE))
+    modules = {module for module in modules if not module.startswith("deik.kernels.")}
     return repr(
         [
             (module, key, value)
@@ -98,27 +93,22 @@ for _locator in (_UserWideKernelLocator, _InTreeKernelLocator, _UserProvidedKern
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
 
-def _without_device_imports(tree: ast.Module) -> ast.Module:
-    """The module without its `from deik.kernels.device_* import ...` statements."""
-    tree.body = [
-        node
-        for node in tree.body
-        if not (isinstance(node, ast.ImportFrom) and (node.module or "").startswith(DEVICE_PREFIX))
-    ]
-    return tree
-
-
 def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
-    """Exec the source files of modules `sources` into one new module `name`, without their
-    imports of each other, wrapping every function they define in `decorate`."""
+    """One new module `name` with the names of the modules `sources` and a copy of every
+    function they define, bound to it and wrapped in `decorate`: a call between device functions
+    (imported from each other for linters and readers) resolves to the same target's compiled
+    function, and other names (layout and term-kind constants) are the modules' own. Copies of
+    the functions, not the sources run again: no parsing or compiling per process."""
     module = types.ModuleType(name)
+    namespace = vars(module)
     for source in sources:
-        path = source.__file__
-        tree = _without_device_imports(ast.parse(Path(path).read_text(), path))
-        exec(compile(tree, path, "exec"), module.__dict__)
-    for key, value in list(module.__dict__.items()):
-        if inspect.isfunction(value) and value.__module__ == name:
-            setattr(module, key, decorate(value))
+        namespace.update({key: value for key, value in vars(source).items() if not key.startswith("__")})
+    for source in sources:
+        for key, value in vars(source).items():
+            if inspect.isfunction(value) and value.__module__ == source.__name__:
+                copy = types.FunctionType(value.__code__, namespace, key, value.__defaults__, value.__closure__)
+                copy.__qualname__, copy.__doc__ = value.__qualname__, value.__doc__
+                namespace[key] = decorate(copy)
     sys.modules[name] = module
     return module
 
@@ -146,7 +136,9 @@ DEVICE_SOURCES = (
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
 # NRT (they allocate scratch); the device functions only borrow their arrays.
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True, _nrt=False))
+
+
+cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", linked(nogil=True, _nrt=False))
 
 
 @lru_cache(maxsize=1)

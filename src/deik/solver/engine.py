@@ -20,7 +20,7 @@ from deik.kernels.layout import (
     PackedTerms,
     Status,
 )
-from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.kernels.pack import kernel_array, pack_skeleton, pack_terms
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
@@ -142,7 +142,7 @@ class Engine:
         if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
             raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
         init = np.broadcast_to(init, (B,) + init.shape[1:])
-        return np.ascontiguousarray(init, dtype), init.shape[1]
+        return kernel_array(init, dtype), init.shape[1]
 
     def _fresh(self, initial):
         """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
@@ -176,7 +176,9 @@ class Engine:
     def init(self, initial: ArrayLike | None = None) -> EvolutionState:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
         buffers, status, init, n_init = self._fresh(initial)
-        self.backend.initialise(buffers, status, self.skel, self.terms, self.kernel_settings, init, n_init)
+        self.backend.initialise(
+            buffers, status, self.skel, self.terms, self.kernel_settings, self.memetic, self.control, init, n_init
+        )
         return EvolutionState(
             **buffers._asdict(), **status._asdict(), history=np.zeros((len(status.best), 0, 2)), generation=0
         )
@@ -241,7 +243,7 @@ class Engine:
 
 def _with_params(terms: PackedTerms, params: np.ndarray) -> PackedTerms:
     """Packed terms (pack_terms) with the target parameters (B, T, N_PARAMS) replaced."""
-    return terms._replace(params=np.ascontiguousarray(params, terms.params.dtype))
+    return terms._replace(params=kernel_array(params, terms.params.dtype))
 
 
 def _advanced(final: Buffers, status: Status, history, generation: int, steps, advanced: int) -> EvolutionState:
