@@ -108,17 +108,20 @@ def _without_device_imports(tree: ast.Module) -> ast.Module:
     return tree
 
 
-def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
+def compile_namespace(sources, name: str, decorate, decorate_inline=None) -> types.ModuleType:
     """Exec the source files of modules `sources` into one new module `name`, without their
-    imports of each other, wrapping every function they define in `decorate`."""
+    imports of each other, wrapping every function they define in `decorate`, or in
+    `decorate_inline` for those a source lists in its INLINE tuple (when given)."""
     module = types.ModuleType(name)
+    inline = set()
     for source in sources:
         path = source.__file__
         tree = _without_device_imports(ast.parse(Path(path).read_text(), path))
         exec(compile(tree, path, "exec"), module.__dict__)
+        inline |= set(module.__dict__.pop("INLINE", ()))
     for key, value in list(module.__dict__.items()):
         if inspect.isfunction(value) and value.__module__ == name:
-            setattr(module, key, decorate(value))
+            setattr(module, key, (decorate_inline if decorate_inline and key in inline else decorate)(value))
     sys.modules[name] = module
     return module
 
@@ -127,6 +130,7 @@ from deik.kernels import (  # noqa: E402
     device_collision,
     device_driver,
     device_evolution,
+    device_lanes,
     device_lm,
     device_maths,
     device_polish,
@@ -141,12 +145,21 @@ DEVICE_SOURCES = (
     device_polish,
     device_lm,
     device_driver,
+    device_lanes,
 )
 # The device maths never allocates, so it is compiled without Numba's reference counting: every
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
 # NRT (they allocate scratch); the device functions only borrow their arrays.
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True, _nrt=False))
+# The loops over SIMD lanes (device_lanes.py) call helpers inlined by Numba itself: LLVM does not
+# inline a helper whose vectorised loop makes it large, and the call would cost more than its
+# 16 lanes of work.
+cpu = compile_namespace(
+    DEVICE_SOURCES,
+    "deik.kernels._device_cpu",
+    njit(cache=True, nogil=True, _nrt=False),
+    njit(cache=True, nogil=True, _nrt=False, inline="always"),
+)
 
 
 @lru_cache(maxsize=1)
