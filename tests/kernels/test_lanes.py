@@ -69,8 +69,8 @@ def engine_skeleton(sk, dtype):
     return deik.Engine(problem, deik.Settings(dtype=np.dtype(dtype).name)).skel
 
 
-def _batch_engine(dtype, problems=3, population=21):
-    """A chain20 batch of `problems` x `population` individuals (63: not a multiple of LANES)
+def _batch_engine(dtype, problems=3, population=45):
+    """A chain20 batch of `problems` x `population` individuals (135: not a multiple of LANES)
     with a position and a comfort goal; returns (engine, state after 2 generations)."""
     chain = deik.chain(20)
     targets = deik.forward_kinematics(chain, random_poses(chain, problems, 7)).position("tip")
@@ -107,7 +107,8 @@ def test_a_generation_is_the_same_for_every_block_split_and_scores_like_the_one_
         nxt = _copy(cur)
         cpu._breed(chunks, n, cur, nxt, *args)
         results.append(nxt)
-    for sizes in ([5, LANES, n - 5 - LANES], [1] * n):
+    shifted = [5] + [LANES] * ((n - 5) // LANES) + [(n - 5) % LANES]  # blocks across problem boundaries
+    for sizes in (shifted, [1] * n):
         nxt = _copy(cur)
         _breed_in_blocks(np.array(sizes, np.int64), cur, nxt, *args)
         results.append(nxt)
