@@ -15,7 +15,7 @@ from deik.kernels.device_evolution import (
     within_tolerances,
 )
 from deik.kernels.device_lm import open_ended, polish
-from deik.kernels.device_maths import uniform
+from deik.kernels.device_maths import stream, unit
 from deik.kernels.device_terms import evaluate
 from deik.kernels.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
 
@@ -23,13 +23,12 @@ from deik.kernels.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
 def seed_individual(b, i, state, skel, settings, initial, n_initial):
     """Individual i of problem b, not yet evaluated: a copy of initial[b, i] when i < n_initial,
     else uniform inside the limits; its F and CR are the settings'."""
-    limits, pop = skel.limits, state.pop
+    limits, pop, key = skel.limits, state.pop, stream(settings.seed, b, INIT_GENERATION, i)
     for d in range(pop.shape[2]):
         if i < n_initial:
             pop[b, i, d] = initial[b, i, d]
         else:
-            u = uniform(settings.seed, b, INIT_GENERATION, i, d)
-            pop[b, i, d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * u
+            pop[b, i, d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * unit(key, d)
     state.rates[b, i, RATE_F], state.rates[b, i, RATE_CR] = settings.F, settings.CR
 
 

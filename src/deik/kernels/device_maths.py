@@ -114,16 +114,6 @@ def below(n, key, draw):
     return np.int64(((mix64(key + np.uint64(draw)) >> _S32) * np.uint64(n)) >> _S32)
 
 
-def uniform(seed, problem, generation, individual, draw):
-    """unit() of the counter's stream."""
-    return unit(stream(seed, problem, generation, individual), draw)
-
-
-def randint(n, seed, problem, generation, individual, draw):
-    """below() of the counter's stream."""
-    return below(n, stream(seed, problem, generation, individual), draw)
-
-
 def sin_cos(x, like):
     """(sin x, cos x) in the dtype of the array `like` (x radians, the same dtype), branch-free so
     loops over SIMD lanes vectorise. Within 2.5 ulp of the correctly rounded values for |x| up to
