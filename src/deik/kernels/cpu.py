@@ -1,10 +1,13 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
 Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.kernels.layout)
-and writes the next; individuals are split into chunks, one scratch allocation per chunk, and
-each individual's work is device_driver.py's, the same code the GPU kernels run. Results do not
-depend on the thread count: each individual's trial depends only on (seed, problem, generation,
-individual) and the current population, and the per-problem bookkeeping runs in index order.
+and writes the next; individuals are split into chunks of whole blocks of LANES, one scratch
+allocation per chunk, and each block is bred (or a first population evaluated) together in SIMD
+lanes by device_lanes.py, whose trial, scoring and selection of each individual are
+device_driver.py's, the code the GPU kernels run. Results depend neither on the thread count nor
+on the split into chunks and blocks: each individual's trial depends only on (seed, problem,
+generation, individual) and the current population, every lane computes what the one-pose code
+computes, and the per-problem bookkeeping runs in index order.
 """
 
 from __future__ import annotations

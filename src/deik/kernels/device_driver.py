@@ -2,9 +2,11 @@
 
 Compiled together with the other device_*.py files (see deik.kernels.targets). cpu.py and
 cuda.py only decide which thread runs which (problem b, individual i) and own the scratch;
-what happens to one individual is written here once. Buffers, skel, terms, settings and status
-are the NamedTuples of deik.kernels.layout; scratch is a Scratch, trial (D,), trial_rates (2,),
-lv (L,) and rw (T,) per-thread scratch.
+what happens to one individual is written here once: the GPU runs initialise_individual and
+breed_individual, one individual per thread, and the CPU's blocks (device_lanes.py) run their
+parts, seed_individual, propose and select, around an FK of many individuals at once. Buffers,
+skel, terms, settings and status are the NamedTuples of deik.kernels.layout; scratch is a
+Scratch, trial (D,), trial_rates (2,), lv (L,) and rw (T,) per-thread scratch.
 """
 
 from deik.kernels.device_evolution import (
