@@ -1,10 +1,13 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
 Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.kernels.layout)
-and writes the next; individuals are split into chunks, one scratch allocation per chunk, and
-each individual's work is device_driver.py's, the same code the GPU kernels run. Results do not
-depend on the thread count: each individual's trial depends only on (seed, problem, generation,
-individual) and the current population, and the per-problem bookkeeping runs in index order.
+and writes the next; individuals are split into chunks of whole blocks of LANES, one scratch
+allocation per chunk, and each block is bred (or a first population evaluated) together in SIMD
+lanes by device_lanes.py, whose trial, scoring and selection of each individual are
+device_driver.py's, the code the GPU kernels run. Results depend neither on the thread count nor
+on the split into chunks and blocks: each individual's trial depends only on (seed, problem,
+generation, individual) and the current population, every lane computes what the one-pose code
+computes, and the per-problem bookkeeping runs in index order.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from deik.kernels.layout import WORK_SIZE, LmScratch, Scratch
+from deik.kernels.layout import LANES, WORK_SIZE, LaneScratch, LmScratch, Scratch
 from deik.kernels.linking import linked
 from deik.kernels.targets import cpu as dev
 
@@ -26,6 +29,32 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     frames, t = dev.frame_count(skel), dtype_probe.dtype
     scratch = Scratch(np.empty(frames * 9, t), np.empty(frames * 3, t), np.empty(WORK_SIZE, t))
     return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
+
+
+@linked()
+def _lane_span(c, chunks, n):
+    """Individuals [start, end) of chunk c of `chunks` over n: whole blocks of LANES, so only the
+    last block of all is short (the split never changes a result)."""
+    blocks = (n + LANES - 1) // LANES
+    return min(n, c * blocks // chunks * LANES), min(n, (c + 1) * blocks // chunks * LANES)
+
+
+@linked()
+def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
+    """A LaneScratch of one thread, in dtype_probe's dtype; poses start at zero, so lanes a short
+    last block leaves unused compute on finite numbers."""
+    frames, t = dev.frame_count(skel), dtype_probe.dtype
+    return LaneScratch(
+        np.empty((LANES, n_dofs), t),
+        np.zeros((n_dofs, LANES), t),
+        np.empty((LANES, 2), t),
+        np.empty((frames * 12, LANES), t),
+        np.empty((frames * 9, LANES), t),
+        np.empty((frames * 3, LANES), t),
+        np.empty((LANES, n_levels), t),
+        np.empty((LANES, n_terms), t),
+        np.empty(WORK_SIZE, t),
+    )
 
 
 @linked()
@@ -69,12 +98,12 @@ def launch(
 
 @linked()
 def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
-    """Chunk c of `n_chunks` of initialise's individuals."""
+    """Chunk c of `n_chunks` of initialise's individuals, LANES at a time."""
     B, P, D = state.pop.shape
-    n = B * P
-    scratch, _, _, _ = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-        dev.initialise_individual(idx // P, idx % P, state, skel, terms, settings, initial, n_initial, scratch)
+    lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    start, end = _lane_span(c, n_chunks, B * P)
+    for first in range(start, end, LANES):
+        dev.initialise_lanes(first, min(LANES, end - first), state, skel, terms, settings, initial, n_initial, lanes)
 
 
 @linked()
@@ -113,14 +142,11 @@ def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
 
 @linked()
 def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
-    """Chunk c of `chunks` of _breed's individuals."""
-    P, D = cur.pop.shape[1], cur.pop.shape[2]
-    scratch, trial, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
-    trial_rates = np.empty(2, cur.pop.dtype)
-    for idx in range(c * n // chunks, (c + 1) * n // chunks):
-        dev.breed_individual(
-            order[idx // P], idx % P, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
-        )
+    """Chunk c of `chunks` of _breed's individuals, LANES at a time (device_lanes.breed_lanes)."""
+    lanes = _lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
+    start, end = _lane_span(c, chunks, n)
+    for first in range(start, end, LANES):
+        dev.breed_lanes(first, min(LANES, end - first), order, gen, cur, nxt, skel, terms, settings, status, lanes)
 
 
 @linked(parallel=True)

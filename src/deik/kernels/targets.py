@@ -1,9 +1,10 @@
 """Compile the one-source device maths (deik.kernels.device_*.py) for each target.
 
-`cpu` is the device maths compiled with numba.njit(cache=True, _nrt=False); `cuda_device()` compiles the
-same sources with numba.cuda.jit(device=True) on first use. Each puts copies of the functions
-into one fresh module (compile_namespace), so every call between device functions resolves to
-the same target's compiled function.
+`cpu` is the device maths as linked functions (deik.kernels.linking; without NRT, the helpers
+each source lists in INLINE inlined by Numba); `cuda_device()` compiles the same sources with
+numba.cuda.jit(device=True) on first use. Each puts copies of the functions into one fresh
+module (compile_namespace), so every call between device functions resolves to the same
+target's compiled function.
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
 the device files, so kernel files get a locator whose stamp hashes every source in this folder
@@ -93,9 +94,10 @@ for _locator in (_UserWideKernelLocator, _InTreeKernelLocator, _UserProvidedKern
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
 
-def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
+def compile_namespace(sources, name: str, decorate, decorate_inline=None) -> types.ModuleType:
     """One new module `name` with the names of the modules `sources` and a copy of every
-    function they define, bound to it and wrapped in `decorate`: a call between device functions
+    function they define, bound to it and wrapped in `decorate`, or in `decorate_inline` for
+    those a source lists in its INLINE tuple (when given): a call between device functions
     (imported from each other for linters and readers) resolves to the same target's compiled
     function, and other names (layout and term-kind constants) are the modules' own. Copies of
     the functions, not the sources run again: no parsing or compiling per process."""
@@ -103,12 +105,14 @@ def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
     namespace = vars(module)
     for source in sources:
         namespace.update({key: value for key, value in vars(source).items() if not key.startswith("__")})
+    namespace.pop("INLINE", None)
     for source in sources:
+        inline = set(getattr(source, "INLINE", ())) if decorate_inline else set()
         for key, value in vars(source).items():
             if inspect.isfunction(value) and value.__module__ == source.__name__:
                 copy = types.FunctionType(value.__code__, namespace, key, value.__defaults__, value.__closure__)
                 copy.__qualname__, copy.__doc__ = value.__qualname__, value.__doc__
-                namespace[key] = decorate(copy)
+                namespace[key] = (decorate_inline if key in inline else decorate)(copy)
     sys.modules[name] = module
     return module
 
@@ -117,6 +121,7 @@ from deik.kernels import (  # noqa: E402
     device_collision,
     device_driver,
     device_evolution,
+    device_lanes,
     device_lm,
     device_maths,
     device_polish,
@@ -131,14 +136,21 @@ DEVICE_SOURCES = (
     device_polish,
     device_lm,
     device_driver,
+    device_lanes,
 )
 # The device maths never allocates, so it is compiled without Numba's reference counting: every
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
 # NRT (they allocate scratch); the device functions only borrow their arrays.
-
-
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", linked(nogil=True, _nrt=False))
+# The loops over SIMD lanes (device_lanes.py) call helpers inlined by Numba itself (INLINE):
+# LLVM does not inline a helper whose vectorised loop makes it large, and the call would cost
+# more than its lanes of work.
+cpu = compile_namespace(
+    DEVICE_SOURCES,
+    "deik.kernels._device_cpu",
+    linked(nogil=True, _nrt=False),
+    linked(nogil=True, _nrt=False, inline="always"),
+)
 
 
 @lru_cache(maxsize=1)
