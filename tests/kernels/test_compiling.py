@@ -53,7 +53,7 @@ SOLVE_WITHOUT_POLISH = (
     "from deik.kernels import cpu\n"
     "from deik.kernels.targets import cpu as dev\n"
     "print('LM', len(dev.polish.overloads), 'compiled', sum(cpu.launch.entry._cache_misses.values()))\n"
-    "functions = (dev.evaluate, dev.forward_kinematics, cpu.run_generations)\n"
+    "functions = (dev.breed_lanes, dev.forward_kinematics_lanes, cpu.run_generations)\n"
     "linked = [r.library for f in functions for r in f.overloads.values()]\n"
     "print('linked', len(linked), all(type(library).__name__ == 'LinkOnlyLibrary' for library in linked))\n"
 )
