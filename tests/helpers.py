@@ -7,6 +7,7 @@ Test modules import from here (pyproject puts tests/ on the path), never from ea
 
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -64,7 +65,7 @@ def kernel_fitness(problem, poses, problem_index=None, dtype=np.float64):
     levels = np.empty((N, table.n_levels), dtype)
     total = np.empty(N, dtype)
     raw = np.empty((N, table.n_terms), dtype)
-    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3)  # 3 chunks: the parallel path
+    cpu.evaluate_poses(poses, idx, skel, terms, levels, total, raw, 3, 2)  # 3 chunks: the parallel path
     return levels, total, raw
 
 
@@ -199,3 +200,44 @@ def every_goal_problem(batch=False):
         deik.Floor(kin.position("left_knee")[1], level=1),
     ]
     return deik.Problem(h, goals, limits="penalty")
+
+
+# --- README commands -------------------------------------------------------------------------
+
+
+def readme_commands(markdown: str, language: str = "bash") -> list[str]:
+    """The `deik ...` lines of the ```language blocks of `markdown`, continuation lines joined and
+    comments dropped, in order."""
+    commands = []
+    for block in re.findall(rf"```{language}\n(.*?)```", markdown, flags=re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.split("  #")[0].strip()
+            if line.startswith("deik "):
+                commands.append(line)
+    return commands
+
+
+# --- a library task the library tests control ---------------------------------------------
+
+
+def library_task(payload, progress):
+    """A deik.library task for the tests (it runs in the library's worker processes, which import
+    this module by name): writes payload["text"] to each of payload["outputs"] atomically and
+    returns {"frames": 2}; with payload["mode"] "fail" it fails with a reason, with "hang" it
+    writes its process id to payload["pid_file"] and waits until it is killed."""
+    import time
+
+    from deik.io.atomic import write_text_atomically
+    from deik.library.jobs import JobFailed
+
+    progress(0, 2)
+    if payload.get("mode") == "fail":
+        raise JobFailed("this clip is broken on purpose")
+    if payload.get("mode") == "hang":
+        write_text_atomically(payload["pid_file"], str(os.getpid()))
+        while True:
+            time.sleep(0.05)
+    for path in payload["outputs"]:
+        write_text_atomically(path, payload["text"])
+    progress(2, 2)
+    return {"frames": 2, "metrics": {"pid": os.getpid()}}

@@ -1,77 +1,68 @@
-"""deik: inverse kinematics by massively parallel Differential Evolution, on CPU or GPU."""
+"""deik: inverse kinematics by massively parallel Differential Evolution, on CPU or GPU.
 
-from deik.io.bvh import read_bvh, write_bvh
-from deik.io.clip import Clip
-from deik.io.load import load_skeleton
-from deik.io.urdf import read_urdf
-from deik.model.build import build_skeleton
-from deik.model.builders import chain
-from deik.model.humanoid import humanoid
-from deik.model.joints import Dof, Joint, Segment, Site, euler, hinge, translation
-from deik.model.kinematics import Kinematics, forward_kinematics
-from deik.model.skeleton import Skeleton
-from deik.objectives.goals import (
-    Aim,
-    CentreOfMass,
-    Comfort,
-    ComInPolygon,
-    ComOverSupport,
-    Floor,
-    Obstacle,
-    Orientation,
-    Position,
-)
-from deik.objectives.pose_goals import pose_goals
-from deik.objectives.self_collision import SelfCollision
-from deik.retarget.api import retarget
-from deik.solver.engine import Engine, EvolutionState
-from deik.solver.problem import Problem
-from deik.solver.result import GoalReport, Result
-from deik.solver.seeding import poses_around
-from deik.solver.settings import Settings
-from deik.solver.solve import solve, solve_batch
-from deik.solver.solver import Solver
+`import deik` loads no NumPy, Numba or kernels: each public name is imported from its module on
+first use (PEP 562), so a script or command pays only for what it uses.
+"""
 
-__all__ = [
-    "Aim",
-    "CentreOfMass",
-    "Clip",
-    "ComInPolygon",
-    "ComOverSupport",
-    "Comfort",
-    "Dof",
-    "Engine",
-    "EvolutionState",
-    "GoalReport",
-    "Joint",
-    "Kinematics",
-    "Floor",
-    "Obstacle",
-    "Orientation",
-    "Position",
-    "Problem",
-    "Result",
-    "Segment",
-    "SelfCollision",
-    "Settings",
-    "Site",
-    "Skeleton",
-    "Solver",
-    "build_skeleton",
-    "chain",
-    "euler",
-    "forward_kinematics",
-    "hinge",
-    "humanoid",
-    "load_skeleton",
-    "pose_goals",
-    "poses_around",
-    "read_bvh",
-    "read_urdf",
-    "retarget",
-    "solve",
-    "solve_batch",
-    "translation",
-    "write_bvh",
-]
+import importlib
+import logging
+
+# The subpackage deik.retarget shares its name with the function deik.retarget: loading the
+# package binds its name here, so it is loaded now (it is light) and the name given back.
+importlib.import_module("deik.retarget")
+globals().pop("retarget")
+
+# the module that defines each public name
+_MODULES = {
+    "deik.io.bvh": ("read_bvh", "write_bvh"),
+    "deik.io.clip": ("Clip",),
+    "deik.io.load": ("load_skeleton",),
+    "deik.io.urdf": ("read_urdf",),
+    "deik.model.build": ("build_skeleton",),
+    "deik.model.builders": ("chain",),
+    "deik.model.humanoid": ("humanoid",),
+    "deik.model.joints": ("Dof", "Joint", "Segment", "Site", "euler", "hinge", "translation"),
+    "deik.model.kinematics": ("Kinematics", "forward_kinematics"),
+    "deik.model.skeleton": ("Skeleton",),
+    "deik.objectives.goals": (
+        "Aim",
+        "CentreOfMass",
+        "Comfort",
+        "ComInPolygon",
+        "ComOverSupport",
+        "Floor",
+        "Obstacle",
+        "Orientation",
+        "Position",
+    ),
+    "deik.objectives.pose_goals": ("pose_goals",),
+    "deik.objectives.self_collision": ("SelfCollision",),
+    "deik.retarget.api": ("retarget",),
+    "deik.solver.engine": ("Engine", "EvolutionState"),
+    "deik.solver.problem": ("Problem",),
+    "deik.solver.result": ("GoalReport", "Result"),
+    "deik.solver.seeding": ("poses_around",),
+    "deik.solver.settings": ("Settings",),
+    "deik.solver.solve": ("solve", "solve_batch"),
+    "deik.solver.solver": ("Solver",),
+}
+_EXPORTS = {name: module for module, names in _MODULES.items() for name in names}
+__all__ = sorted(_EXPORTS)
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'deik' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next access is a plain attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
+
+# diagnostics go to the "deik" logger; a library adds no handler of its own (the CLI does: deik.console)
+logging.getLogger("deik").addHandler(logging.NullHandler())

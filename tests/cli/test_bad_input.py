@@ -201,6 +201,7 @@ def test_nan_results_are_never_written_as_json(tmp_path):
 
 
 def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path):
+    import re
     import signal
     import subprocess
     import sys
@@ -232,7 +233,11 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
         text=True,
     )
     try:
-        assert process.stderr.readline().startswith("generation")  # compiled and running generations
+        shown = ""  # read until the bar has moved: compiled, and running generations
+        while not re.search(r"\| *[1-9][0-9]*/10000000 ", shown):
+            character = process.stderr.read(1)
+            assert character, f"the solve ended before it ran: {shown}"
+            shown += character
         sent = time.perf_counter()
         process.send_signal(signal.SIGINT)
         status = process.wait(timeout=30)

@@ -60,7 +60,7 @@ def test_plot_writes_a_png_and_progress_goes_to_stderr(tmp_path, capsys):
     ]
     assert main(argv) == 0
     assert png.read_bytes()[:8] == PNG_MAGIC
-    assert "generation 100/120" in capsys.readouterr().err
+    assert "deik solve: 100%" in capsys.readouterr().err  # --progress: the bar, though stderr is no terminal
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.png"]
 
 

@@ -8,7 +8,7 @@ import sys
 import deik.solver.readiness as readiness
 from deik.cli.app import main
 
-CHECK_LOCATION = "from deik.kernels import cpu; print(cpu.run_generations._cache._cache_path)"
+CHECK_LOCATION = "from deik.kernels import cpu; print(cpu.run_generations.entry._cache._cache_path)"
 
 
 def _python(code: str, **env) -> str:
@@ -24,10 +24,15 @@ def test_kernel_cache_goes_to_numba_cache_dir_when_set(tmp_path):
     assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "kernels", "__pycache__"))
 
 
-def test_import_deik_loads_no_numba():
-    """`import deik` stays light: Numba and the kernels load on the first solve."""
-    code = "import sys, deik; print(sorted(m for m in ('numba', 'scipy', 'deik.kernels.cpu') if m in sys.modules))"
+def test_import_deik_loads_no_numpy_or_numba_and_a_name_loads_only_its_module():
+    """`import deik` stays light: each public name loads its module on first use."""
+    heavy = "('numpy', 'numba', 'scipy', 'deik.kernels.cpu', 'deik.solver.solve', 'deik.io.bvh')"
+    code = f"import sys, deik; print(sorted(m for m in {heavy} if m in sys.modules))"
     assert _python(code) == "[]"
+    code = f"import sys, deik; deik.chain(3); print(sorted(m for m in {heavy} if m in sys.modules))"
+    assert _python(code) == "['numpy']"
+    code = "import deik, deik.retarget.api; from deik import retarget as r; print(r is deik.retarget, callable(r))"
+    assert _python(code) == "True True"  # the function, not the subpackage of the same name
 
 
 def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
@@ -44,13 +49,22 @@ def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
 def test_no_compile_note_once_the_kernels_are_compiled(capsys):
     assert main(["warmup", "--dtype", "float64", "--quiet"]) == 0
     assert "CPU kernels for float64" in capsys.readouterr().out
-    assert readiness.kernels_ready("float64")
+    assert readiness.pending("float64", clip=True) == []
     assert main(["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--dtype", "float64"]) == 0
     assert "compiling" not in capsys.readouterr().err
 
 
 def test_a_fresh_cache_folder_gets_the_compile_note_before_any_compiling(tmp_path):
-    code = "import deik.solver.readiness as r; print(r.kernels_ready('float32'), r.compile_note('float32'))"
-    ready, note = _python(code, NUMBA_CACHE_DIR=str(tmp_path)).split(" ", 1)
-    assert ready == "False" and note.startswith("deik: compiling the CPU kernels for float32 first")
-    assert "deik warmup" in note and not any(tmp_path.rglob("*.nbc"))  # nothing was compiled
+    code = (
+        "import deik.solver.readiness as r\n"
+        "print(r.compile_note(r.pending('float32')))\n"
+        "print(r.compile_note(r.pending('float32', polish=False, clip=True), certain=False))"
+    )
+    solve, clip = _python(code, NUMBA_CACHE_DIR=str(tmp_path)).splitlines()
+    assert solve.startswith("deik: compiling the CPU kernels first (DE float32, report float64): about ")
+    assert "deik warmup" in solve and not any(tmp_path.rglob("*.nbc"))  # nothing was compiled
+    # a clip fix may need no DE pass at all: it says "may" and "up to"
+    assert clip.startswith(
+        "deik: may compile the CPU kernels first (DE float32 without polish, report float64, "
+        "clip warm start float64): up to about "
+    )

@@ -1,18 +1,21 @@
 """Contact detection on the real humanoid clips, user contact ranges and planted targets."""
 
+from itertools import combinations
+
 import numpy as np
 import pytest
 
+from deik.clips.body_contacts import detect_body_contacts, detect_floor, merge_contacts
 from deik.clips.contacts import (
     HEIGHT_FRACTION,
-    SNAP_FRACTION,
     SPEED_FRACTION,
     Contacts,
     contacts_from_ranges,
     detect_contacts,
+    fill_gaps,
     foot_sites,
-    planted_targets,
 )
+from deik.clips.plants import SNAP_FRACTION, planted_targets
 from deik.io.bvh import Clip, read_bvh
 from deik.model.build import build_skeleton
 from deik.model.joints import Joint, Site, translation
@@ -172,25 +175,64 @@ def test_planted_targets_are_the_mean_position_on_the_floor():
     assert outside.any() and np.isnan(targets[outside, s]).all()
 
 
+CLIPS = ("walk", "run", "jump", "crawl", "getup_facedown", "kick", "punch", "dance_a")
+
+
 @pytest.mark.shared_data
-@pytest.mark.parametrize("name", ["walk", "run", "jump"])
-def test_planted_ankle_and_toe_keep_the_bone_length_between_them(name):
+@pytest.mark.parametrize("name", CLIPS)
+def test_planted_points_a_bone_apart_keep_the_bone_length_between_them(name):
+    """Every two contact points a fixed distance apart (an ankle and its toe, an elbow and its
+    wrist) get plants that distance apart in the frames both are planted, also where one of
+    them lifts and lands again while the other stays down."""
     clip = humanoid(name)
-    contacts = detect_contacts(clip)
+    floor = detect_floor(clip)
+    contacts = merge_contacts([detect_contacts(clip), detect_body_contacts(clip, floor=floor)], floor)
     targets = planted_targets(clip, contacts)
-    kin = forward_kinematics(clip.skeleton, clip.frames[:1])
-    for ankle, toe in FEET.values():
-        a, t = contacts.sites.index(ankle), contacts.sites.index(toe)
-        bone = np.linalg.norm(kin.position(ankle) - kin.position(toe))
-        both = contacts.mask[:, a] & contacts.mask[:, t]
-        assert both.any()
-        gap = np.linalg.norm(targets[both, a] - targets[both, t], axis=-1)
-        np.testing.assert_allclose(gap, bone, atol=1e-9)
-        # each keeps the median height it had in its own contact, put on the floor when close
-        for s in (a, t):
-            for start, stop in contacts.intervals(s):
-                path = forward_kinematics(clip.skeleton, clip.frames[start:stop])
-                median = np.median(path.position(contacts.sites[s]) @ clip.skeleton.up)
-                snapped = abs(median - contacts.ground) <= SNAP_FRACTION * clip.skeleton.reach
-                expected = contacts.ground if snapped else median
-                assert targets[start, s] @ clip.skeleton.up == pytest.approx(expected, abs=1e-12)
+    p = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
+    checked = 0
+    for a, b in combinations(range(len(contacts.sites)), 2):
+        lengths = np.linalg.norm(
+            p[:, clip.skeleton.frame_index(contacts.sites[a])] - p[:, clip.skeleton.frame_index(contacts.sites[b])],
+            axis=-1,
+        )
+        both = contacts.mask[:, a] & contacts.mask[:, b]
+        if np.ptp(lengths) < 1e-9 and both.any():
+            gap = np.linalg.norm(targets[both, a] - targets[both, b], axis=-1)
+            np.testing.assert_allclose(gap, lengths[0], atol=1e-9, err_msg=f"{contacts.sites[a]}-{contacts.sites[b]}")
+            checked += 1
+    assert checked >= 1  # a foot at least
+    # each foot point keeps the median height it had in its own contact, put on the floor when close
+    for s in [contacts.sites.index(site) for pair in FEET.values() for site in pair if site in contacts.sites]:
+        for start, stop in contacts.intervals(s):
+            path = forward_kinematics(clip.skeleton, clip.frames[start:stop])
+            heights = path.position(contacts.sites[s]) @ clip.skeleton.up
+            median = np.median(np.maximum(heights, floor))
+            snapped = abs(median - floor) <= SNAP_FRACTION * clip.skeleton.reach
+            expected = floor if snapped else median
+            assert targets[start, s] @ clip.skeleton.up == pytest.approx(expected, abs=1e-12)
+
+
+def test_a_toe_that_lands_as_the_heel_lifts_keeps_the_foot_where_the_heel_left_it():
+    """Plants of rigidly linked points that hand over (the ankle planted for frames 0-4, the toe
+    from frame 6): the toe is planted at the ankle's plant plus the foot's offset when the ankle
+    left, not at its own mean, so the foot does not jump between the two plants."""
+    joints = [Joint("body", None, dofs=translation("XYZ", -1.0, 1.0))]
+    sk = build_skeleton(joints, [Site("ankle", "body", (0.0, 0.05, 0.0)), Site("toe", "body", (0.15, 0.0, 0.0))])
+    poses = np.zeros((11, 3))
+    poses[:, 0] = 0.01 * np.arange(11)  # the whole foot slides 1 cm a frame
+    clip = Clip.from_poses(sk, poses, 0.1)
+    contacts = contacts_from_ranges(clip, {"ankle": [(0, 5)], "toe": [(6, 11)]})
+    targets = planted_targets(clip, contacts)
+    ankle, toe = targets[0, 0], targets[6, 1]
+    np.testing.assert_allclose(ankle, [0.02, 0.05, 0.0])  # the ankle's mean over frames 0-4
+    # the toe 15 cm ahead of that along the ground (not at its own mean, 0.23), at its own height
+    np.testing.assert_allclose(toe, [0.17, 0.0, 0.0], atol=1e-12)
+
+
+def test_a_one_frame_gap_between_two_contacts_is_filled_and_a_longer_one_kept():
+    mask = np.zeros((12, 2), bool)
+    mask[[0, 1, 2, 4, 5], 0] = True  # down, up for one frame, down again
+    mask[[0, 1, 2, 5, 6], 1] = True  # down, up for two frames, down again
+    filled = fill_gaps(mask)
+    np.testing.assert_array_equal(np.flatnonzero(filled[:, 0]), [0, 1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(filled[:, 1], mask[:, 1])

@@ -6,9 +6,10 @@ import json
 import numpy as np
 import pytest
 
+import deik
 from deik.cli.app import main
 from deik.clips.contacts import contacts_from_ranges, detect_contacts, foot_sites
-from deik.clips.metrics import com_outside_support, foot_sliding, joint_deviation, velocity_spikes
+from deik.clips.metrics import foot_sliding, joint_deviation, velocity_spikes
 from deik.clips.problem import ClipGoals, Reach, neighbour_displacement
 from deik.clips.solver import fix_clip
 from deik.io.bvh import Clip, read_bvh
@@ -36,6 +37,8 @@ def test_planted_feet_stop_sliding_and_the_pose_stays_close(name):
 @pytest.mark.shared_data
 @pytest.mark.parametrize("seed", [0, 1])
 def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
+    """A reach eased in and out over 8 frames at 60 Hz: no velocity or acceleration peak more than
+    10 % above the capture's."""
     clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
     hand, first, last = "RightElbow_end", 55, 65  # the apex: hips and hands highest at frame 60
     path = forward_kinematics(clip.skeleton, clip.frames).position(hand)
@@ -50,28 +53,32 @@ def test_jump_hand_touches_a_prop_at_the_apex_without_new_spikes(seed):
     reached = forward_kinematics(clip.skeleton, fix.clip.frames).position(hand)
     assert np.linalg.norm(reached - prop, axis=-1)[mask].max() < 0.01
     original, fixed = velocity_spikes(clip), velocity_spikes(fix.clip)
-    assert fixed["max_dof_velocity"] <= original["max_dof_velocity"]
-    assert fixed["max_position_acceleration"] <= original["max_position_acceleration"]
+    for key in ("max_dof_velocity", "max_dof_acceleration", "max_position_acceleration"):
+        assert fixed[key] <= 1.1 * original[key], key
     assert np.nanmax(foot_sliding(fix.clip, contacts)) < 1e-3  # the feet stay planted
     assert fix.met.all()
 
 
-@pytest.mark.shared_data
-def test_warm_start_balances_most_frames_and_de_repairs_the_rest():
-    clip = read_bvh(shared_path("humanoid", "humanoid3d_jump.bvh"))
-    contacts = detect_contacts(clip)
-    goals = ClipGoals(contacts, balance=True)
-    before = np.nanmean(com_outside_support(clip, contacts))
+def test_de_repairs_only_the_frames_the_warm_start_leaves_unmet(tmp_path):
+    """Self-collision is DE's alone: the warm start leaves the frames whose hand is in the chest
+    unmet, and the first DE pass repairs exactly those (later passes the neighbours the repair
+    eased into collision)."""
+    h = deik.humanoid()
+    rest = deik.forward_kinematics(h, h.reference)
+    chest = rest.position("chest") + [0.0, 0.0, 0.03]
+    pelvis = [deik.Position("pelvis", rest.position("pelvis")), deik.Orientation("pelvis", np.eye(3))]
+    reach = deik.Problem(h, [*pelvis, deik.Position("left_hand", chest)])
+    through = deik.solve(reach, population=64, generations=300, restarts=2, seed=1, dtype="float64").angles
+    poses = h.reference + np.linspace(0.5, 0.95, 6)[:, None] * (through - h.reference)
+    deik.write_bvh(tmp_path / "through.bvh", Clip.from_poses(h, poses, 1.0 / 30.0))
+    clip = read_bvh(tmp_path / "through.bvh")  # as `deik clip` reads it: capsules from the bone lengths
+    goals = ClipGoals(self_collision=0.0)
     warm = fix_clip(clip, goals, passes=0)
-    assert warm.passes == 0 and len(warm.stages) == 1 and 0 < (~warm.met).sum() < 0.1 * clip.n_frames
-    assert np.nanmean(com_outside_support(warm.clip, contacts)) < 0.1 * before  # most of the imbalance gone
-    fix = fix_clip(clip, goals, passes=1, population=32, generations=100, seed=0)
-    (stage,) = fix.stages[1:]
-    assert stage["frames"] == (~warm.met).sum() and stage["evaluations"] > 0
-    assert fix.met[warm.met].all()  # DE left alone the frames the warm start had met
-    assert fix.met.all() and np.nanmean(com_outside_support(fix.clip, contacts)) < np.nanmean(
-        com_outside_support(warm.clip, contacts)
-    )
+    assert warm.passes == 0 and 0 < (~warm.met).sum() < clip.n_frames
+    fix = fix_clip(clip, goals, population=48, generations=200, seed=0)
+    stage = fix.stages[1]
+    assert stage["frames"] == (~warm.met).sum() and stage["evaluations"] > 0 and stage["refused"] == 0
+    assert fix.met.all()
 
 
 def test_the_fixed_clip_keeps_its_euler_channels_continuous_across_a_wrap():
@@ -181,6 +188,7 @@ def test_clip_cli_contacts_anywhere_floor_and_an_unreachable_reach(tmp_path, cap
     assert "reach_RightElbow_end: out of reach in" in captured.out
     data = json.loads((tmp_path / "report.json").read_text())
     assert data["floor"] == {"height": 0.005, "detected": False, "kept": True}
+    assert data["balance"] is None  # no --balance
     assert {10, 11, 12} <= set(data["reach_unreached"]["reach_RightElbow_end"]["frames"])
     sites = {site["site"]: site["contacts"] for site in data["contacts"]["sites"]}
     # the forearm hangs: its lowest end, the wrist, takes the contact given on the bone
@@ -202,10 +210,11 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
         str(tmp_path / "report.json"),
         "--passes",
         "1",
+        "--balance",
     ]
-    assert main(argv) == 0, capsys.readouterr().err
+    assert main(argv + ["--progress"]) == 0, capsys.readouterr().err
     captured = capsys.readouterr()
-    assert "contacts (detected)" in captured.err and "deik clip" in captured.err  # the notes, the bar
+    assert "contacts (detected)" in captured.err and "deik clip: 100%" in captured.err  # the notes, the bar
     assert "foot sliding mean" in captured.out and "coherence: how far" in captured.out
     assert read_bvh(out).n_frames == 25
     assert (tmp_path / "report.png").stat().st_size > 0
@@ -225,6 +234,20 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     far = data["joints_far_from_capture"]
     assert far["threshold_deg"] == 30.0 and all(d["deviation_deg"] > 30.0 for d in far["joint_frames"])
     assert sum(far["count_per_frame"]) == len(far["joint_frames"])
+    balance = data["balance"]
+    assert balance["balanced_frames"] and not set(balance["balanced_frames"]) & set(balance["skipped_frames"])
+    assert balance["acceleration_budget_m_per_s2"] > 0 and len(balance["shift_mm"]) == 25
+    dynamics = data["dynamics"]
+    assert dynamics["peak_ratio_limit"] == 1.1 and dynamics["peaks_kept"]
+    assert set(dynamics["peak_ratios"]) == {
+        "dof_velocity",
+        "dof_acceleration",
+        "position_velocity",
+        "position_acceleration",
+    }
+    assert "balance: ZMP over the support in" in captured.out and "peaks against the capture's, kept" in captured.out
     assert main(argv + ["--quiet", "--overwrite"]) == 0
     quiet = capsys.readouterr()
-    assert quiet.err == "" and "foot sliding mean" in quiet.out and "coherence: how far" not in quiet.out
+    # --quiet: no bar and no notes; warnings (joints far from the capture) still print
+    assert all(line.startswith("warning: ") for line in quiet.err.splitlines())
+    assert "foot sliding mean" in quiet.out and "coherence: how far" not in quiet.out

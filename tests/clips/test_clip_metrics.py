@@ -152,6 +152,7 @@ def test_report_and_series_of_an_unchanged_clip():
     assert set(series) == {
         "foot_sliding_mm_per_frame",
         "com_outside_support_mm",
+        "zmp_outside_support_mm",
         "penetration_mm",
         "floating_mm",
         "joint_angle_deviation_deg",
@@ -159,6 +160,7 @@ def test_report_and_series_of_an_unchanged_clip():
         "jerk_m_per_s3",
         "joint_velocity_deg_per_s",
         "joint_acceleration_deg_per_s2",
+        "position_velocity_m_per_s",
         "position_acceleration_m_per_s2",
         "reach_RightElbow_end_mm",
         "contacts_count",

@@ -6,7 +6,21 @@ from pathlib import Path
 
 import deik
 
-LAYERS = ["suggest", "model", "objectives", "kernels", "solver", "io", "clips", "retarget", "viz", "experiments", "cli"]
+LAYERS = [
+    "suggest",
+    "console",
+    "model",
+    "objectives",
+    "kernels",
+    "solver",
+    "io",
+    "clips",
+    "retarget",
+    "viz",
+    "library",
+    "experiments",
+    "cli",
+]
 SOURCE = Path(deik.__file__).parent
 
 

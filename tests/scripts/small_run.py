@@ -30,7 +30,7 @@ settings = deik.Settings(
     population=8, dtype=dtype, device=device, patience=3, polish=polish, polish_every=3, islands=2, migration=2
 )
 engine = deik.Engine(problem, settings)
-state = engine.run(engine.init(), 12)
+state = engine.run(engine.init(), 24)
 print(
     json.dumps(
         {

@@ -157,12 +157,13 @@ def test_argument_checks():
 
 def _draws(device_maths, device_evolution, P, D, CR, seed, j):
     """Iteration j of epoch 0: target x, donors a, b, c, forced gene and crossover mask (D,)."""
-    x = int(device_maths.randint(P, seed, 0, 0, j, 0))
-    a = int(device_evolution.donor(P, x, 0, 0, 1, seed, 0, 0, j, 1))
-    b = int(device_evolution.donor(P, x, a, 0, 2, seed, 0, 0, j, 2))
-    c = int(device_evolution.donor(P, x, a, b, 3, seed, 0, 0, j, 3))
-    forced = int(device_maths.randint(D, seed, 0, 0, j, 4))
-    mask = np.array([device_maths.uniform(seed, 0, 0, j, 5 + d) < CR for d in range(D)])
+    key = device_maths.stream(seed, 0, 0, j)
+    x = int(device_maths.below(P, key, 0))
+    a = int(device_evolution.donor(P, x, 0, 0, 1, key, 1))
+    b = int(device_evolution.donor(P, x, a, 0, 2, key, 2))
+    c = int(device_evolution.donor(P, x, a, b, 3, key, 3))
+    forced = int(device_maths.below(D, key, 4))
+    mask = np.array([device_maths.unit(key, 5 + d) < CR for d in range(D)])
     mask[forced] = True
     return x, a, b, c, forced, mask
 

@@ -1,7 +1,7 @@
 """The `deik` command: `solve` poses one problem, `info` describes a skeleton, `clip` fixes a
 whole clip, `retarget` moves one onto other proportions or another skeleton, `limits` measures
-joint limits from a clip, `demo` runs the paper's scenarios, `experiments` reproduces the paper's
-figures.
+joint limits from a clip, `view` shows a pose, clip or robot in 3-D in the browser, `demo` runs
+the paper's scenarios, `experiments` reproduces the paper's figures.
 
     deik solve chain:20 --reach tip 10 5 0 --comfort 0.5 --out pose.json --plot pose.png
     deik solve --skeleton walk.bvh --frame 12 --reach LeftElbow_end 0.4 1.2 0.3 --out fixed.bvh
@@ -10,6 +10,8 @@ figures.
     deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
     deik limits walk.bvh --margin 10 --out limits.json      (then --limits limits.json)
     deik retarget walk.bvh --map map.toml --to human.urdf --out walk_human.csv --view walk_human.bvh
+    deik view walk_fixed.bvh --compare walk.bvh --report report.json   (a 3-D view in the browser)
+    deik clip clips/ --out fixed/ --workers 2      (every *.bvh of a folder; a rerun skips the clips done)
     deik demo --out demo_output
     deik experiments all --quick --out figures
 
@@ -25,28 +27,30 @@ import sys
 
 from deik import __version__
 from deik.cli import clip as cli_clip
+from deik.cli import library as cli_library
 from deik.cli import retarget as cli_retarget
 from deik.cli import solve as cli_solve
+from deik.cli import view as cli_view
 from deik.cli import warmup as cli_warmup
-from deik.cli.common import Parser, UsageError, check_outputs, numbers
+from deik.cli.common import USER_ERRORS, Parser, check_outputs, error_line, numbers
+from deik.console import add_output_flags, configure_logging, show_progress
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
 INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 BROKEN_PIPE = 141  # 128 + SIGPIPE
-MESSAGE_LIMIT = 500
 
 
-def run_demo(args) -> int:
+def run_demo(args: argparse.Namespace) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
     from deik.experiments import demo
 
-    rows = demo.run_demo(args.out)
+    rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
 
 
-def run_info(args) -> int:
+def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
     from deik.cli.info import describe
 
@@ -56,7 +60,7 @@ def run_info(args) -> int:
     return 0
 
 
-def run_limits(args) -> int:
+def run_limits(args: argparse.Namespace) -> int:
     """`deik limits IN.bvh --out limits.json`: each DOF's range over the clip plus margins."""
     from deik.io.bvh import read_bvh
     from deik.io.limits import range_of_motion, write_limits
@@ -93,13 +97,16 @@ def build_parser() -> Parser:
     i.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_output_flags(i, progress=False)
     i.set_defaults(run=run_info)
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
-    c.set_defaults(run=cli_clip.run_clip)
+    cli_library.add_arguments(c)
+    c.set_defaults(run=cli_library.run)
     r = commands.add_parser("retarget", help="move a BVH clip onto other bone lengths or another skeleton")
     cli_retarget.add_arguments(r)
-    r.set_defaults(run=cli_retarget.run_retarget)
+    cli_library.add_arguments(r)
+    r.set_defaults(run=cli_library.run)
     e = commands.add_parser(
         "experiments",
         add_help=False,
@@ -123,23 +130,29 @@ def build_parser() -> Parser:
         metavar="LENGTH",
         help="added to each translation's range on both sides (default 0)",
     )
+    add_output_flags(lim, progress=False)
     lim.set_defaults(run=run_limits)
+    v = commands.add_parser("view", help="a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
+    cli_view.add_arguments(v)
+    v.set_defaults(run=cli_view.run_view)
     w = commands.add_parser("warmup", help="compile the kernels ahead of time (minutes, once after an install)")
     cli_warmup.add_arguments(w)
     w.set_defaults(run=cli_warmup.run_warmup)
     d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
+    add_output_flags(d)
     d.set_defaults(run=run_demo)
     return parser
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["experiments"]:
         return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
+        configure_logging(args)
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code
@@ -147,10 +160,8 @@ def main(argv=None) -> int:
         # the reader (e.g. `| head`) has gone: stay quiet, and keep Python from complaining at exit
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return BROKEN_PIPE
-    except (UsageError, ValueError, ImportError, OSError, KeyError) as error:
-        # KeyError (unknown joint) keeps its message in args[0]; str() would add quotes.
-        message = error.args[0] if isinstance(error, KeyError) else error
-        print(f"deik: error: {_shortened(str(message))}", file=sys.stderr)
+    except USER_ERRORS as error:
+        print(f"deik: error: {error_line(error)}", file=sys.stderr)
         return USAGE_ERROR
     except KeyboardInterrupt:
         print("deik: interrupted; nothing was written", file=sys.stderr)
@@ -159,17 +170,11 @@ def main(argv=None) -> int:
         if os.environ.get("DEIK_DEBUG"):
             raise
         print(
-            f"deik: internal error: {type(error).__name__}: {_shortened(str(error))}. This is a bug in deik; "
+            f"deik: internal error: {type(error).__name__}: {error_line(error)}. This is a bug in deik; "
             "please report it with the command line (rerun with DEIK_DEBUG=1 for the traceback)",
             file=sys.stderr,
         )
         return INTERNAL_ERROR
-
-
-def _shortened(message: str, limit: int = MESSAGE_LIMIT) -> str:
-    """`message` on one line and at most `limit` characters (a whole echoed input is cut)."""
-    line = " ".join(message.split())
-    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
 
 
 if __name__ == "__main__":

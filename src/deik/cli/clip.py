@@ -7,13 +7,16 @@ stay close to the performance; write the fixed clip, a before/after table and a 
 
 from __future__ import annotations
 
+import argparse
+import logging
 import os
-import sys
+from collections.abc import Callable
 
 import numpy as np
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
 from deik.clips.units import METRES
+from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 from deik.viz.text import format_table
@@ -24,13 +27,15 @@ CONTACT_FORMS = (
     "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
     "(inclusive) with it"
 )
-FAR_DEGREES = 30.0  # a joint turned further than this from the capture is reported, frame by frame
+log = logging.getLogger(__name__)
 
 
-def add_arguments(c) -> None:
+def add_arguments(c: argparse.ArgumentParser) -> None:
     """The `deik clip` flags on subparser `c`."""
-    c.add_argument("clip", metavar="IN.bvh", help="the clip to fix")
-    c.add_argument("--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout)")
+    c.add_argument("clip", metavar="IN.bvh", help="the clip to fix, or a folder of clips (every *.bvh in it)")
+    c.add_argument(
+        "--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout); a folder for a folder"
+    )
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
     c.add_argument(
         "--limits",
@@ -65,7 +70,12 @@ def add_arguments(c) -> None:
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
     c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
-    c.add_argument("--balance", action="store_true", help="keep the centre of mass over the support polygon")
+    c.add_argument(
+        "--balance",
+        action="store_true",
+        help="keep the zero-moment point over the support of the contacts by moving the centre of mass along a "
+        "smooth track; frames it cannot hold without jolts are skipped and listed",
+    )
     c.add_argument(
         "--self-collision",
         type=float,
@@ -99,14 +109,19 @@ def add_arguments(c) -> None:
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
     c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
-    c.add_argument("--report", metavar="report.png", help="plot of the errors over time, before and after")
+    c.add_argument(
+        "--report",
+        metavar="report.png",
+        help="plot of the errors over time, before and after, under the frame the fix changed most",
+    )
+    c.add_argument("--report-3d", action="store_true", help="draw --report's frame as one 3-D perspective view")
     c.add_argument("--json", metavar="report.json", help="the before/after metrics, goals and contacts as JSON")
     c.add_argument(
         "--units",
         choices=sorted(METRES),
         help="the clip's length unit (default: guessed from the skeleton's size, and said)",
     )
-    c.add_argument("--quiet", action="store_true", help="no progress bar and no notes on stderr (errors still print)")
+    add_output_flags(c)
 
 
 def _check_site(clip, site: str, flag: str) -> None:
@@ -233,12 +248,6 @@ def _reaches(args, clip):
     return tuple(out)
 
 
-def _note(args, text: str) -> None:
-    """An informational line on stderr, unless --quiet."""
-    if not args.quiet:
-        print(text, file=sys.stderr)
-
-
 def _shown(values, pick) -> str:
     """`pick` (np.nanmean or np.nanmax) of `values` to 4 digits, "-" when none is finite."""
     values = np.asarray(values, float)
@@ -276,22 +285,73 @@ def _spans(frames: list[int]) -> str:
     return ", ".join(runs)
 
 
-def _summary_notes(metrics: dict) -> list[str]:
-    """Lines for the report picture: the summary numbers that are no per-frame series."""
-    keys = ("foot_skating_ratio_share", "penetration_max_mm", "jerk_mean_m_per_s3", "joint_angle_deviation_max_deg")
+def _summary_notes(document: dict) -> list[str]:
+    """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
+    metrics = document["metrics"]
+    keys = (
+        "foot_sliding_max_mm_per_frame",
+        "foot_skating_ratio_share",
+        "penetration_max_mm",
+        "floating_max_mm",
+        "zmp_outside_support_mean_mm",
+        "jerk_mean_m_per_s3",
+        "joint_angle_deviation_max_deg",
+        "position_acceleration_max_m_per_s2",
+    )
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
         lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+    return lines + [f"peaks against the capture's: {ratios}"]
+
+
+def _outcome_lines(document: dict) -> list[str]:
+    """Lines after the tables: balance kept and skipped, peaks against the capture's."""
+    lines = []
+    balance = document["balance"]
+    if balance is not None:
+        kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
+        line = f"balance: ZMP over the support in {len(kept)} frames"
+        if skipped:
+            line += (
+                f"; skipped in {len(skipped)} frames ({_spans(skipped)}): holding them would move the centre of mass"
+                f" faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
+                " the performance allows, or make the motion jolt"
+            )
+        lines.append(line)
+    dynamics = document["dynamics"]
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
+    lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
 
 
-def run_clip(args) -> int:
-    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error)."""
-    from tqdm import tqdm
+def _far_warning(document: dict, far_degrees: float) -> str | None:
+    """The warning about joints turned more than `far_degrees` from the capture, or None."""
+    far = document["joints_far_from_capture"]["joint_frames"]
+    if not far:
+        return None
+    worst = max(far, key=lambda d: d["deviation_deg"])
+    frames = sorted({d["frame"] for d in far})
+    return (
+        f"{len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+        f"{far_degrees:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
+        f"({worst['deviation_deg']:.0f} degrees); --json lists them"
+    )
 
+
+def run_clip(
+    args: argparse.Namespace,
+    on_frames: Callable[[int, int], None] | None = None,
+    record: dict | None = None,
+) -> int:
+    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
+    For a library (deik.cli.library): `on_frames(done, total)` follows the frames that meet
+    their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
     from deik.clips.document import clip_document
-    from deik.clips.problem import ClipGoals
+    from deik.clips.dynamics import FAR_DEGREES
+    from deik.clips.problem import GRAVITY, ClipGoals
     from deik.clips.solver import fix_clip
     from deik.clips.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
@@ -303,6 +363,8 @@ def run_clip(args) -> int:
         args.overwrite,
     )
     check_device(args.device)
+    if args.report_3d and not args.report:
+        raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
     if args.report:
         from deik.viz.plot import require_matplotlib
 
@@ -317,6 +379,7 @@ def run_clip(args) -> int:
     floor, keep_floor = _floor(args, clip)
     contacts = _contacts(args, clip, floor)
     reach = _reaches(args, clip)
+    unit = args.units or guess_unit(clip.skeleton)
     goals = ClipGoals(
         contacts,
         reach,
@@ -325,33 +388,37 @@ def run_clip(args) -> int:
         args.coherence,
         self_collision=args.self_collision,
         floor=floor if keep_floor else None,
+        gravity=GRAVITY / METRES[unit],
     )
-    unit = args.units or guess_unit(clip.skeleton)
     if not args.units:
-        _note(args, f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
-    _note(
-        args,
+        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
+    log.info(
         f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
         f"{'' if keep_floor else ', not kept: --floor none'})",
     )
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
-        _note(args, "contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
+        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
-    if not args.quiet:
-        announce_compile(args.device or "cpu", "float32")
-    with tqdm(total=clip.n_frames, desc="deik clip", unit="frame", file=sys.stderr, disable=args.quiet) as bar:
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
 
         def progress(met: int, stage: str) -> None:
             bar.set_postfix_str(f"{stage}: frames meeting every goal", refresh=False)
             bar.update(met - bar.n)
+            if on_frames is not None:
+                on_frames(met, clip.n_frames)
 
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
+    record_compiles(compiling)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
     document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
+    if record is not None:
+        metrics = {key: value["after"] for key, value in document["metrics"].items()}
+        record.update(frames=clip.n_frames, frames_met=document["frames_met"], metrics=metrics)
     _print_tables(document, args.quiet)
     for key, missed in document["reach_unreached"].items():
         if missed["frames"]:
@@ -364,23 +431,20 @@ def run_clip(args) -> int:
         f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
         f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
-    far = document["joints_far_from_capture"]["joint_frames"]
+    for line in _outcome_lines(document):
+        print(line)
+    far = _far_warning(document, FAR_DEGREES)
     if far:
-        worst = max(far, key=lambda d: d["deviation_deg"])
-        frames = sorted({d["frame"] for d in far})
-        print(
-            f"warning: {len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
-            f"{FAR_DEGREES:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
-            f"({worst['deviation_deg']:.0f} degrees); --json lists them"
-        )
+        log.warning(far)
     with all_or_nothing():
         write_bvh(args.out, fix.clip)
         if args.json:
             write_json_atomically(args.json, document, missing_as_null=True)
         if args.report:
-            from deik.viz.clip_report import plot_clip_report
+            from deik.viz.clip_report import plot_clip_report, pose_panel
 
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
             title = f"deik clip {os.path.basename(args.clip)}"
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document["metrics"]))
+            panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document), panel)
     return 0

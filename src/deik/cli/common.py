@@ -3,23 +3,40 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
-import sys
+from collections.abc import Iterable
+from typing import NoReturn
+
+MESSAGE_LIMIT = 500
 
 
 class UsageError(Exception):
     """A mistake in the command line or its inputs: reported in one line, exit status 2."""
 
 
+# what a user's mistake raises (deik's own errors are ValueError or UsageError; a missing
+# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
+USER_ERRORS = (UsageError, ValueError, ImportError, OSError, KeyError)
+
+
+def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
+    """The message of `error` on one line and at most `limit` characters (a whole echoed input is
+    cut); a KeyError's message is its args[0] (str() would add quotes)."""
+    message = error.args[0] if isinstance(error, KeyError) and error.args else error
+    line = " ".join(str(message).split())
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
+
+
 class Parser(argparse.ArgumentParser):
     """argparse that raises UsageError instead of printing usage and exiting."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
-def numbers(flag: str, words) -> list[float]:
+def numbers(flag: str, words: Iterable[str]) -> list[float]:
     """Finite floats from command-line words; UsageError naming `flag` otherwise."""
     values = []
     for word in words:
@@ -33,7 +50,12 @@ def numbers(flag: str, words) -> list[float]:
     return values
 
 
-def check_outputs(outputs: dict, suffixes: dict, inputs=(), overwrite: bool = False) -> None:
+def check_outputs(
+    outputs: dict[str, str | None],
+    suffixes: dict[str, tuple[str, ...]],
+    inputs: Iterable[str | None] = (),
+    overwrite: bool = False,
+) -> None:
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one
@@ -83,12 +105,24 @@ def check_device(device: str) -> None:
         raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
 
 
-def announce_compile(device: str, dtype: str) -> None:
-    """Print one line on stderr before a solve when the CPU kernels for `dtype` must be compiled
-    first (deik.solver.readiness), so nobody waits minutes in silence."""
+def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
+    """Say in one note on stderr (the "deik" logger) before a CPU solve that must compile kernels
+    first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
+    their names (give them to record_compiles once the solve is done)."""
     if device != "cpu":
-        return
-    from deik.solver.readiness import compile_note, kernels_ready
+        return []
+    from deik.solver.readiness import compile_note, pending
 
-    if not kernels_ready(dtype):
-        print(compile_note(dtype), file=sys.stderr, flush=True)
+    names = pending(dtype, polish, clip)
+    if names:
+        logging.getLogger(__name__).info(compile_note(names, certain=not clip))
+    return names
+
+
+def record_compiles(names: list[str]) -> None:
+    """After a command compiled `names` (announce_compile), keep their measured times for the
+    next estimate on this machine."""
+    if names:
+        from deik.solver.readiness import record_compiles as record
+
+        record()

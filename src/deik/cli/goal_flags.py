@@ -11,6 +11,7 @@ form is always named (docs/conventions.md):
 
 from __future__ import annotations
 
+import argparse
 import math
 from dataclasses import replace
 
@@ -32,7 +33,7 @@ FRAME_COMFORT = 1.0  # default weight of "stay near the clip frame / --start pos
 ORIENT_HELP = "; ".join(f"{form} {text}" for form, (_, _, text) in ORIENT_FORMS.items())
 
 
-def add_goal_arguments(s) -> None:
+def add_goal_arguments(s: argparse.ArgumentParser) -> None:
     """The goal flags on `deik solve`'s subparser `s`."""
     s.add_argument(
         "--reach",
@@ -92,7 +93,7 @@ def add_goal_arguments(s) -> None:
     )
 
 
-def has_goals(args) -> bool:
+def has_goals(args: argparse.Namespace) -> bool:
     """Whether any goal flag was given."""
     flags = (args.reach, args.orient, args.com_over, args.obstacle)
     return any(flags) or args.comfort is not None or args.self_collision is not None
@@ -123,7 +124,7 @@ def orientation_goal(words: list[str], tolerance: float | None) -> g.Orientation
     return goal
 
 
-def goals_from_flags(args, frame_pose) -> list:
+def goals_from_flags(args: argparse.Namespace, frame_pose: np.ndarray | None) -> list[g.Goal]:
     """Goals from the goal flags: targets on priority level 0, comfort below them on level 1
     (its reference `frame_pose` (D,), radians / length units, or None for the rest pose); with
     --self-collision, that goal on level 0 and every other one level lower."""

@@ -8,6 +8,7 @@ import numpy as np
 
 from deik.io.load import Loaded
 from deik.model.joints import ROTATE
+from deik.model.skeleton import Skeleton
 from deik.viz.text import format_table
 
 
@@ -24,7 +25,7 @@ def _dof_cells(skeleton, d: int) -> list[str]:
     ]
 
 
-def joint_tree(skeleton) -> list[str]:
+def joint_tree(skeleton: Skeleton) -> list[str]:
     """One line per joint (frame), indented by depth, with the URDF joint that moves it where its
     name differs (the key of its values in a pose), its DOF count and sites."""
     depth = np.zeros(skeleton.n_joints, int)

@@ -8,10 +8,13 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
+from collections.abc import Callable
 
-from deik.cli.common import UsageError, check_device, check_outputs
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.console import add_output_flags, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
@@ -28,22 +31,26 @@ SHOWN = (
 )
 
 
-def add_arguments(r) -> None:
+def add_arguments(r: argparse.ArgumentParser) -> None:
     """The `deik retarget` flags on subparser `r`."""
-    r.add_argument("clip", metavar="IN.bvh", help="the source clip")
+    r.add_argument("clip", metavar="IN.bvh", help="the source clip, or a folder of clips (every *.bvh in it)")
     r.add_argument(
         "--to", metavar="TARGET", help="the target: a .bvh (same rig, or with --map any rig), .urdf, humanoid"
     )
     r.add_argument("--scale", metavar="JOINT=FACTOR,...", help="scale the bones below these joints (same rig)")
     r.add_argument("--map", metavar="MAP.toml", help="joint map onto another skeleton (TOML or JSON, docs/retarget.md)")
     r.add_argument(
-        "--out", required=True, metavar="OUT", help="OUT.bvh (a BVH target), or .csv/.json (joint trajectory)"
+        "--out",
+        required=True,
+        metavar="OUT",
+        help="OUT.bvh (a BVH target), or .csv/.json (joint trajectory); a folder for a folder of clips",
     )
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
-    r.add_argument("--seed", type=int, help="random seed of the contact repairs")
-    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (default cpu)")
+    r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
+    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
+    add_output_flags(r)
 
 
 def _scale(text: str | None) -> dict | None:
@@ -71,12 +78,19 @@ def _frames(text: str | None):
     return int(match[1]), int(match[2])
 
 
-def run_retarget(args) -> int:
-    """`deik retarget`: read, retarget, report, write (all outputs or none)."""
-    from deik.io.bvh import write_bvh
+def run_retarget(
+    args: argparse.Namespace,
+    on_frames: Callable[[int, int], None] | None = None,
+    record: dict | None = None,
+) -> int:
+    """`deik retarget`: read, retarget, report, write (all outputs or none). For a library
+    (deik.cli.library): `on_frames(done, total)` follows the frames that meet their contacts,
+    and `record` (a dict) receives the frames and the report's summary."""
+    from deik.io.bvh import read_bvh, write_bvh
     from deik.io.clip import Clip
     from deik.io.trajectory import write_trajectory
     from deik.retarget.api import retarget
+    from deik.retarget.result import frame_range
 
     check_outputs(
         {"--out": args.out, "--view": args.view, "--json": args.json},
@@ -85,13 +99,25 @@ def run_retarget(args) -> int:
     )
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    result = retarget(
-        args.clip, args.to, scale=_scale(args.scale), joint_map=args.map, frames=_frames(args.frames), **settings
-    )
+    clip = frame_range(read_bvh(args.clip), _frames(args.frames))
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    # the bar counts the frames that meet their contacts, after the warm start and each repair pass
+    with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
+
+        def progress(met: int, stage: str) -> None:
+            bar.set_postfix_str(f"{stage}: frames meeting their contacts", refresh=False)
+            bar.update(met - bar.n)
+            if on_frames is not None:
+                on_frames(met, clip.n_frames)
+
+        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
+    record_compiles(compiling)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")
     summary = result.report["summary"]
+    if record is not None:
+        record.update(frames=summary["frames_count"], metrics=dict(summary))
     rows = [[label, unit, f"{summary[key]:.4g}"] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
     print(

@@ -9,19 +9,20 @@ clip frame or a URDF robot, print per-goal errors and write JSON, BVH or PNG ato
 
 from __future__ import annotations
 
-import json
+import argparse
+import logging
 import os
-import sys
 from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers
+from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
+from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
-from deik.io.files import read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
+from deik.io.pose_json import pose_angles, read_pose_json
 from deik.io.problem_file import load_problem
 from deik.model.joints import ROTATE
 from deik.solver.problem import Problem
@@ -29,7 +30,8 @@ from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
 from deik.viz import plot
-from deik.viz.text import format_table
+from deik.viz.marks import goal_targets, length_unit
+from deik.viz.text import format_table, shown
 
 SETTING_FLAGS = (
     "seed",
@@ -44,9 +46,10 @@ SETTING_FLAGS = (
     "islands",
 )
 SEED_FRACTION = 4  # a quarter of the population starts near the clip frame
+log = logging.getLogger(__name__)
 
 
-def add_arguments(s) -> None:
+def add_arguments(s: argparse.ArgumentParser) -> None:
     """The `deik solve` flags on subparser `s`."""
     s.add_argument("skeleton", nargs="?", help="chain:N (planar), chain3d:N, humanoid, or a .bvh/.urdf file")
     s.add_argument("--skeleton", dest="skeleton_flag", metavar="FILE", help="same as SKELETON: a .bvh or .urdf file")
@@ -96,9 +99,14 @@ def add_arguments(s) -> None:
         metavar="pose.json|pose.bvh",
         help="write the result as JSON, or as BVH (for a BVH input: the clip with the frame replaced)",
     )
-    s.add_argument("--plot", metavar="pose.png", help="draw the pose as PNG (needs deik[viz])")
+    s.add_argument(
+        "--plot",
+        metavar="pose.png",
+        help="draw the pose as PNG, front and side views, with its targets, centre of mass, root, tips and sites "
+        "(needs deik[viz])",
+    )
+    s.add_argument("--plot-3d", action="store_true", help="draw --plot as one 3-D perspective view instead")
     s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
-    s.add_argument("--progress", action="store_true", help="report progress on stderr even when it is not a terminal")
     s.add_argument(
         "--start",
         nargs="+",
@@ -106,6 +114,7 @@ def add_arguments(s) -> None:
         help="start near this pose: one value per DOF (degrees / length units, `deik info` order) or a "
         "pose.json written by --out; comfort then keeps the result near it unless --comfort is given",
     )
+    add_output_flags(s)
 
 
 def _start_pose(values: list[str], skeleton) -> np.ndarray:
@@ -113,35 +122,18 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
     (degrees for rotations, as `deik info` shows them), or the "angles" (radians) of a pose.json."""
     if len(values) == 1 and values[0].lower().endswith(".json"):
         try:
-            data = json.loads(read_input_text(values[0], "pose (JSON)"))
-            pose = np.asarray(data["angles"], np.float64)
-            names = data.get("dof_names", list(skeleton.dof_names))
-        except (ValueError, KeyError, TypeError, AttributeError) as error:
-            raise UsageError(
-                f"--start {values[0]}: cannot read a pose from it ({error}); give a JSON file with "
-                'an "angles" list, as `deik solve --out pose.json` writes'
-            ) from None
-        if pose.shape != (skeleton.n_dofs,):
-            raise UsageError(
-                f"--start {values[0]}: its angles hold {pose.size} values, the skeleton has {skeleton.n_dofs} DOFs"
-            )
-        if names != list(skeleton.dof_names):
-            raise UsageError(
-                f"--start {values[0]}: its dof_names {names} are not this skeleton's "
-                f"{list(skeleton.dof_names)}; give a pose written for the same skeleton, base and tips"
-            )
-        return pose
+            pose = read_pose_json(values[0])
+        except ValueError as error:
+            raise UsageError(f"--start: cannot read a pose: {error}") from None
+        if pose.batched:
+            raise UsageError(f"--start {values[0]}: it holds a batch of {len(pose.angles)} poses; give one pose's JSON")
+        return pose_angles(pose, skeleton, "--start")[0]
     pose = np.asarray(numbers("--start", values), np.float64)
     if pose.shape != (skeleton.n_dofs,):
         raise UsageError(
             f"--start needs {skeleton.n_dofs} values, one per DOF ({', '.join(skeleton.dof_names)}); got {pose.size}"
         )
     return np.where(skeleton.dof_kind == ROTATE, np.radians(pose), pose)  # poses_around checks the limits
-
-
-def _shown(value: float, unit: str) -> str:
-    """A report value in the CLI's units: degrees for angles, the raw unit otherwise."""
-    return f"{np.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
 
 
 def _file_flags_used(args) -> bool:
@@ -191,20 +183,12 @@ def _clip_pose(clip, frame: int):
         raise UsageError(f"--frame: {error}") from None
 
 
-def _progress(generations: int, terminal: bool):
-    """solve()'s progress callback: one line on stderr, redrawn in place on a terminal."""
-
-    def report(generation, best):
-        line = f"generation {generation}/{generations}  best fitness {best:.6g}"
-        print(f"\r{line}" if terminal else line, end="" if terminal else "\n", file=sys.stderr, flush=True)
-
-    return report
-
-
-def _write_pose(path, result, loaded, frame) -> None:
-    """JSON summary, or BVH: the input clip with `frame` replaced, else a one-frame clip."""
+def _write_pose(path: str, problem: Problem, result, loaded: object, frame: int | None, unit: str) -> None:
+    """JSON summary (Result.to_dict with the length unit and the goals' target points,
+    viz.marks.goal_targets; `unit` the skeleton's length unit), or
+    BVH: the input clip with `frame` replaced, else a one-frame clip."""
     if os.path.splitext(path)[1].lower() != ".bvh":
-        data = result.to_dict()
+        data = {**result.to_dict(), "length_unit": unit, "targets": goal_targets(problem)}
         if frame is not None:
             data["frame"] = frame
         write_json_atomically(path, data)
@@ -219,7 +203,7 @@ def _write_pose(path, result, loaded, frame) -> None:
     write_bvh(path, clip)
 
 
-def run_solve(args) -> int:
+def run_solve(args: argparse.Namespace) -> int:
     """`deik solve`: build the problem, solve, print the report, write the requested files."""
     inputs = (
         args.skeleton_flag,
@@ -235,6 +219,8 @@ def run_solve(args) -> int:
         inputs,
         args.overwrite,
     )
+    if args.plot_3d and not args.plot:
+        raise UsageError("--plot-3d sets how --plot draws the pose: add --plot pose.png")
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
@@ -252,24 +238,22 @@ def run_solve(args) -> int:
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
-            print(
+            log.info(
                 f"note: comfort keeps the pose near {near} (weight {FRAME_COMFORT}, below the "
-                "targets); --comfort 0 turns it off",
-                file=sys.stderr,
+                "targets); --comfort 0 turns it off"
             )
     if loaded is not None and loaded.kind == "bvh":
-        print(f"note: masses {loaded.mass_source}", file=sys.stderr)
-    terminal = sys.stderr.isatty()
-    progress = _progress(settings.generations, terminal) if args.progress or terminal else None
-    announce_compile(settings.device, settings.dtype)
-    result = solve(problem, settings, initial=initial, progress=progress)
-    if progress and terminal:
-        print(file=sys.stderr)
+        log.info(f"note: masses {loaded.mass_source}")
+    compiling = announce_compile(settings.device, settings.dtype, polish=settings.polish > 0)
+    with progress_bar(settings.generations, "deik solve", "gen", show_progress(args)) as bar:
+        progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
+        result = solve(problem, settings, initial=initial, progress=progress)
+    record_compiles(compiling)
     rows = [
         [
             r.label,
-            _shown(float(r.error), r.unit),
-            _shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
+            shown(float(r.error), r.unit),
+            shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals
@@ -279,10 +263,12 @@ def run_solve(args) -> int:
         f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
         f"converged {'yes' if result.converged else 'no'}"
     )
+    unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
     with all_or_nothing():
         if args.out:
-            _write_pose(args.out, result, loaded, frame)
+            _write_pose(args.out, problem, result, loaded, frame, unit)
         if args.plot:
             spec = args.skeleton_flag or args.skeleton or args.problem
-            plot.plot_result(problem, result, args.plot, title=f"deik solve {os.path.basename(str(spec))}")
+            title = f"deik solve {os.path.basename(str(spec))}"
+            plot.plot_result(problem, result, args.plot, title, "3d" if args.plot_3d else "2d", unit)
     return 0

@@ -9,8 +9,8 @@ centimetres above it, a toe tip on it. Its resting height is its lowest height o
 is slow in, each height the median of three frames (a one-frame dip does not count); a point
 whose resting height lies more than NEAR_FRACTION x reach above the floor never touches it. A
 point touching the floor is in contact in the frames where it is slow (SPEED_FRACTION x reach
-per second, as for feet) and at most BAND_FRACTION x reach above its resting height; runs
-shorter than MIN_FRAMES are dropped.
+per second, as for feet) and at most BAND_FRACTION x reach above its resting height; gaps and
+runs shorter than MIN_FRAMES are filled and dropped (contacts.fill_gaps, drop_short).
 
 A bone (PARENT-CHILD: a joint and its child joint or end site, a segment) touches the floor at
 its lowest point, which for a segment is one of its ends, both when it lies flat: in a frame
@@ -19,17 +19,22 @@ where the bone is in contact, each end within BONE_TIE x reach of the lower end 
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
 
 from deik.clips.contacts import (
     SPEED_FRACTION,
     Contacts,
     drop_short,
+    fill_gaps,
     site_positions,
     speeds,
     threshold,
 )
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 
 FLOOR_PERCENTILE = 5.0
 NEAR_FRACTION = 0.08  # of reach (8.6 cm on the shared humanoid): a wrist above a flat hand rests 4-7 cm up
@@ -37,7 +42,7 @@ BAND_FRACTION = 0.05  # of reach (5.4 cm): a wrist over a flat hand rises and fa
 BONE_TIE = 0.01  # of reach: both ends of a bone this level with each other touch together
 
 
-def detect_floor(clip) -> float:
+def detect_floor(clip: Motion) -> float:
     """The floor height along up (length units): the FLOOR_PERCENTILE-th percentile over the
     frames of each frame's lowest joint or site."""
     if clip.n_frames == 0:
@@ -54,7 +59,13 @@ def _median3(heights: np.ndarray) -> np.ndarray:
     return np.median(np.stack([padded[:-2], padded[1:-1], padded[2:]]), axis=0)
 
 
-def detect_body_contacts(clip, points=None, floor=None, band=None, speed=None) -> Contacts:
+def detect_body_contacts(
+    clip: Motion,
+    points: Sequence[str] | None = None,
+    floor: float | None = None,
+    band: float | None = None,
+    speed: float | None = None,
+) -> Contacts:
     """Contacts of the joints and sites `points` (default: every joint and site) with the floor
     at height `floor` (default detect_floor), found as the module notes say; `band` (length
     units above a point's resting height, default BAND_FRACTION x reach) and `speed` (length
@@ -73,12 +84,12 @@ def detect_body_contacts(clip, points=None, floor=None, band=None, speed=None) -
     slow = speeds(p, clip.frame_time) <= speed
     resting = np.where(slow, _median3(heights), np.inf).min(axis=0)
     touches = resting <= floor + NEAR_FRACTION * sk.reach
-    mask = drop_short(slow & touches & (heights <= resting + band))
+    mask = drop_short(fill_gaps(slow & touches & (heights <= resting + band)))
     keep = mask.any(axis=0) if every else np.ones(len(points), bool)
     return Contacts(tuple(np.array(points)[keep]), mask[:, keep], True, band, speed, floor)
 
 
-def bone_ends(skeleton, name: str) -> tuple[str, str] | None:
+def bone_ends(skeleton: Skeleton, name: str) -> tuple[str, str] | None:
     """(parent, child) of a bone named PARENT-CHILD (a joint and its child joint or site), or
     None when `name` is no such pair of names."""
     names = skeleton.frame_names
@@ -93,7 +104,7 @@ def bone_ends(skeleton, name: str) -> tuple[str, str] | None:
     return None
 
 
-def bone_contacts(clip, parent: str, child: str, frames: np.ndarray) -> dict:
+def bone_contacts(clip: Motion, parent: str, child: str, frames: np.ndarray) -> dict[str, np.ndarray]:
     """{end: mask (N,)}: the frames of `frames` (N,) bool in which each end of the bone from
     `parent` to `child` is its lowest point (within BONE_TIE x reach of the lower end)."""
     heights = site_positions(clip, (parent, child)) @ clip.skeleton.up
@@ -102,7 +113,7 @@ def bone_contacts(clip, parent: str, child: str, frames: np.ndarray) -> dict:
     return {parent: frames & low[:, 0], child: frames & low[:, 1]}
 
 
-def merge_contacts(parts, floor: float) -> Contacts:
+def merge_contacts(parts: Iterable[Contacts], floor: float) -> Contacts:
     """One Contacts of `parts` (Contacts): each site in contact in a frame where any part says so,
     on the floor at `floor`; detected (with the first detected part's thresholds) when any
     part was."""

@@ -1,29 +1,37 @@
-"""Which DOFs each frame's search may move, and smooth easing of displacements over time.
+"""Which DOFs each frame's DE repair may move, and smooth easing of displacements over time.
 
-A frame's search (warm start or DE) only moves the DOFs that can reach one of its level-0
-goals (the chain from the root to each site in contact or reaching, every DOF for balance);
-the others take the displacement eased in from the neighbouring frames, so nothing pops where
-a goal starts or stops and no search noise reaches joints no goal needs (an idle arm).
+A frame's DE repair only moves the DOFs that can reach one of its goals (the chain from the root
+to each site in contact or reaching, every DOF for balance, the chains of the points near the
+floor); the others take the displacement eased in from the neighbouring frames, so nothing pops
+where a repair starts or stops and no search noise reaches joints no goal needs (an idle arm).
+(The warm start, clips/warmstart.py, needs no such mask: a DOF no goal row moves stays put.)
 
 Easing: per DOF, the displacements x (N,) the searches found are kept where a search moved
 the DOF; elsewhere x minimises, over L frames (a length),
     sum_n  x[n]^2 / L^4  +  2 (x[n+1] - x[n])^2 / L^2  +  (x[n+2] - 2 x[n+1] + x[n])^2,
-a critically damped spring: a correction goes on at the rate it had where its goal let go,
-then fades back to the original over about L frames, with no kink in value or rate.
+a critically damped spring (clips/spacetime.py): a correction goes on at the rate it had where
+its goal let go, then fades back to the original over about L frames, with no kink in value or
+rate.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
+from deik.clips.banded import solve_spd_band
+from deik.clips.spacetime import spring_bands
+from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
-from deik.objectives.goals import Comfort, Floor, Position
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import Comfort, Floor, Goal, Position
 
 NEAR_FLOOR = 0.03  # of reach: points this close above the floor may be pushed through it by a fix
 
 
-def moving_dofs(skeleton, name: str) -> np.ndarray:
+def moving_dofs(skeleton: Skeleton, name: str) -> np.ndarray:
     """(D,) bool: the free DOFs that move joint or site `name` (its ancestors' DOFs, and a
     joint's own translations; mimic DOFs count through their source). KeyError if unknown."""
     f = skeleton.frame_index(name)
@@ -41,7 +49,7 @@ def moving_dofs(skeleton, name: str) -> np.ndarray:
     return out
 
 
-def hinge_channels(clip) -> np.ndarray:
+def hinge_channels(clip: Motion) -> np.ndarray:
     """(D,) bool: DOFs that stay exactly 0 in every frame while another DOF of their joint
     moves (the X and Y channels of a knee that bends about Z): the performance uses the joint
     as a hinge, so the fix keeps it one."""
@@ -54,12 +62,12 @@ def hinge_channels(clip) -> np.ndarray:
     return zero & joint_moves[sk.dof_joint]
 
 
-def active_frames(goal, n_frames: int) -> np.ndarray:
+def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
     """(N,) bool: the frames where deik goal `goal` applies (its `active` mask; all if None)."""
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
 
 
-def near_floor(clip, height: float) -> np.ndarray:
+def near_floor(clip: Motion, height: float) -> np.ndarray:
     """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
     (or below it) in the frame or a neighbouring one: those a search may have to lift."""
     sk = clip.skeleton
@@ -70,7 +78,7 @@ def near_floor(clip, height: float) -> np.ndarray:
     return out
 
 
-def searched_dofs(clip, goals) -> np.ndarray:
+def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
     """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
     that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
     chains of the points near it (near_floor), any other goal (the centre of mass over the
@@ -92,32 +100,23 @@ def searched_dofs(clip, goals) -> np.ndarray:
 
 def _solve_bands(a0, a1, a2, rhs):
     """Solve symmetric positive definite pentadiagonal systems, one per column: diagonal a0
-    (N, D), first off-diagonal a1 (N-1, D), second a2 (N-2, D); banded LDL^T."""
-    N = len(a0)
-    d, l1, l2 = np.zeros_like(a0), np.zeros_like(a0), np.zeros_like(a0)
-    z = np.array(rhs, float)
-    for i in range(N):
-        d[i] = a0[i]
-        if i >= 1:
-            d[i] -= l1[i - 1] ** 2 * d[i - 1]
-            z[i] -= l1[i - 1] * z[i - 1]
-        if i >= 2:
-            d[i] -= l2[i - 2] ** 2 * d[i - 2]
-            z[i] -= l2[i - 2] * z[i - 2]
-        if i + 1 < N:
-            l1[i] = (a1[i] - (l2[i - 1] * l1[i - 1] * d[i - 1] if i >= 1 else 0.0)) / d[i]
-        if i + 2 < N:
-            l2[i] = a2[i] / d[i]
-    x = z / d
-    for i in range(N - 2, -1, -1):
-        x[i] -= l1[i] * x[i + 1] + (l2[i] * x[i + 2] if i + 2 < N else 0.0)
-    return x
+    (N, ...), first off-diagonal a1 (N-1, ...), second a2 (N-2, ...), rhs (N, ...); as one
+    banded system (clips/banded.py), the columns one after another (they do not couple)."""
+    shape = rhs.shape
+    a0, a1, a2, rhs = (np.reshape(v, (len(v), -1)) for v in (a0, a1, a2, rhs))
+    N, C = a0.shape
+    upper = np.zeros((C, N, 3))
+    upper[:, :, 0] = a0.T
+    upper[:, :-1, 1] = a1.T
+    upper[:, :-2, 2] = a2.T
+    return solve_spd_band(upper.reshape(C * N, 3), rhs.T.reshape(C * N)).reshape(C, N).T.reshape(shape)
 
 
 def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
     """(N, D) displacements: `values` (N, D) where `known` (N, D) is True, and elsewhere the
-    smoothest continuation (see the module notes), a correction fading like a critically
-    damped spring over `length` > 0 frames, continuous in value and rate with the known ones."""
+    smoothest continuation (see the module notes: the spring energy of clips/spacetime.py), a
+    correction fading like a critically damped spring over `length` > 0 frames, continuous in
+    value and rate with the known ones."""
     y = np.asarray(values, float)
     known = np.broadcast_to(np.asarray(known, bool), y.shape)
     N = len(y)
@@ -125,18 +124,8 @@ def ease(values: np.ndarray, known: np.ndarray, length: float) -> np.ndarray:
         return y.copy()
     if N < 3:  # too short for a rate: what no goal holds stays as in the original
         return np.where(known, y, 0.0)
-    a0 = np.full(y.shape, length**-4.0)
-    a1 = np.zeros((N - 1,) + y.shape[1:])
-    a2 = np.zeros((N - 2,) + y.shape[1:])
-    rate = 2.0 / length**2  # with the two others: critical damping
-    a0[:-1] += rate
-    a0[1:] += rate
-    a1 -= rate
-    for k, c in enumerate((1.0, -2.0, 1.0)):  # second differences (x[n], x[n+1], x[n+2])
-        a0[k : N - 2 + k] += c * c
-    a1[:-1] -= 2.0
-    a1[1:] -= 2.0
-    a2 += 1.0
+    shape = (1,) * (y.ndim - 1)
+    a0, a1, a2 = (np.broadcast_to(b.reshape(b.shape + shape), (len(b),) + y.shape[1:]) for b in spring_bands(N, length))
     # known entries: move their terms to the right-hand side, keep the system symmetric
     fixed = np.where(known, y, 0.0)
     rhs = np.zeros_like(y)

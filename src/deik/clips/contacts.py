@@ -1,4 +1,4 @@
-"""Foot contacts of a clip: which sites touch the ground in which frames, and where they plant.
+"""Foot contacts of a clip: which sites touch the ground in which frames (clips/plants.py: where).
 
 Contacts are detected from the sites' heights along `skeleton.up` and their speeds, or given by
 the user as frame ranges. Frames are 0-based; a contact interval (start, stop) excludes stop.
@@ -12,17 +12,20 @@ Detection defaults, chosen on the shared humanoid clips (Y up, metres, reach 1.0
 - ground: the lowest height any site reaches while no faster than the speed threshold (the
   lowest overall when none is ever that slow), so a glitch that drops a moving foot through
   the floor (the run's last frame, 5 cm down) does not lower the floor.
-Contact runs shorter than MIN_FRAMES frames are then dropped.
+Gaps shorter than MIN_FRAMES frames between two contact runs are filled and runs shorter than
+MIN_FRAMES frames then dropped.
 """
 
 from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
@@ -30,8 +33,6 @@ FOOT_WORDS = ("foot", "toe", "heel", "ankle")
 HEIGHT_FRACTION = 0.06
 SPEED_FRACTION = 0.5
 MIN_FRAMES = 2
-RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
-SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
 
 
 def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
@@ -104,13 +105,13 @@ class Contacts:
         return "\n".join(lines)
 
 
-def site_positions(clip, sites) -> np.ndarray:
+def site_positions(clip: Motion, sites: Sequence[str]) -> np.ndarray:
     """World positions (N, S, 3) of `sites` in every frame; KeyError for unknown names."""
     index = [clip.skeleton.frame_index(name) for name in sites]
     return forward_kinematics(clip.skeleton, clip.frames).p_world_frame[:, index]
 
 
-def threshold(value, default: float, what: str) -> float:
+def threshold(value: float | None, default: float, what: str) -> float:
     """`value` (default `default` when None) checked to be a number >= 0, else ValueError."""
     value = default if value is None else float(value)
     if not value >= 0:
@@ -118,7 +119,9 @@ def threshold(value, default: float, what: str) -> float:
     return value
 
 
-def detect_contacts(clip, sites=None, height=None, speed=None) -> Contacts:
+def detect_contacts(
+    clip: Motion, sites: Sequence[str] | None = None, height: float | None = None, speed: float | None = None
+) -> Contacts:
     """Contacts of `sites` (default foot_sites) found in `clip` (see the module notes).
 
     A site touches the ground in frame n when its height along up is at most ground + `height`
@@ -138,7 +141,7 @@ def detect_contacts(clip, sites=None, height=None, speed=None) -> Contacts:
     heights = p @ sk.up
     slow = speeds(p, clip.frame_time) <= speed
     ground = float(heights[slow].min() if slow.any() else heights.min())
-    return Contacts(sites, drop_short(slow & (heights <= ground + height)), True, height, speed, ground)
+    return Contacts(sites, drop_short(fill_gaps(slow & (heights <= ground + height))), True, height, speed, ground)
 
 
 def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
@@ -147,6 +150,19 @@ def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     if len(p) < 2:
         return np.zeros(p.shape[:2])
     return np.linalg.norm(np.gradient(p, frame_time, axis=0), axis=-1)
+
+
+def fill_gaps(mask: np.ndarray) -> np.ndarray:
+    """(N, S) contact `mask` with its gaps shorter than MIN_FRAMES frames between two contact
+    runs filled: a point that is slow and low on both sides of one frame never left the floor,
+    and two plants either side would make it jump."""
+    mask = np.array(mask, bool)
+    for s in range(mask.shape[1]):
+        runs = _runs(mask[:, s])
+        for (_, stop), (start, _) in zip(runs, runs[1:]):
+            if start - stop < MIN_FRAMES:
+                mask[stop:start, s] = True
+    return mask
 
 
 def drop_short(mask: np.ndarray) -> np.ndarray:
@@ -159,7 +175,7 @@ def drop_short(mask: np.ndarray) -> np.ndarray:
     return mask
 
 
-def contacts_from_ranges(clip, ranges: dict) -> Contacts:
+def contacts_from_ranges(clip: Motion, ranges: dict[str, list[tuple[int, int]]]) -> Contacts:
     """Contacts given by the user: {site: [(start, stop), ...]} with 0 <= start < stop <= N
     (stop exclusive). ValueError naming the site and range when a range leaves the clip; KeyError
     with suggestions for unknown sites. `ground` is the lowest height of a site in contact."""
@@ -183,82 +199,3 @@ def contacts_from_ranges(clip, ranges: dict) -> Contacts:
     chosen = heights[mask] if mask.any() else heights.ravel()
     ground = float(chosen.min()) if chosen.size else math.nan
     return Contacts(sites, mask, False, None, None, ground)
-
-
-def _rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
-    """(s, t, distance) of the sites whose distance stays the same in every frame of
-    positions `p` (N, S, 3): an ankle and its toe, moved by no DOF between them."""
-    pairs = []
-    for s in range(p.shape[1]):
-        for t in range(s + 1, p.shape[1]):
-            distance = np.linalg.norm(p[:, s] - p[:, t], axis=-1)
-            if np.ptp(distance) <= RIGID_TOLERANCE * reach:
-                pairs.append((s, t, float(distance.mean())))
-    return pairs
-
-
-def _keep_distance(a: np.ndarray, b: np.ndarray, distance: float, up: np.ndarray):
-    """Targets a, b (3,) moved apart or together along the ground, about their midpoint and
-    keeping their heights, to lie `distance` apart (in 3-D about the midpoint when their
-    heights alone differ by more); unchanged when they coincide (no direction to move in)."""
-    delta = a - b
-    if not np.linalg.norm(delta) > 0:
-        return a, b
-    rise = delta @ up
-    flat = delta - rise * up
-    if abs(rise) < distance and np.linalg.norm(flat) > 0:
-        shift = (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat) - 1.0) * flat / 2
-    else:
-        shift = (distance / np.linalg.norm(delta) - 1.0) * delta / 2
-    return a + shift, b - shift
-
-
-def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
-    """(N, S) heights of the contact sites, each frame's raised by the depth below `floor` of
-    the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then: a
-    foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
-    its toe is above the sole."""
-    depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
-    lift = depth.copy()
-    for s, t, _ in pairs:
-        lift[:, s] = np.maximum(lift[:, s], depth[:, t])
-        lift[:, t] = np.maximum(lift[:, t], depth[:, s])
-    return heights + lift
-
-
-def planted_targets(clip, contacts: Contacts) -> np.ndarray:
-    """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
-
-    Per contact interval, the mean world position of the site over the interval in `clip` (the
-    original), at the median of its heights along up there (a one-frame dip does not lower
-    it), each frame's height first raised by how far the site or a site rigidly linked to it
-    is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
-    is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
-    overlap get targets that distance apart, so both can be met at once.
-    """
-    if contacts.mask.shape[0] != clip.n_frames:
-        raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
-    up = clip.skeleton.up
-    p = site_positions(clip, contacts.sites)
-    pairs = _rigid_pairs(p, clip.skeleton.reach)
-    floor = contacts.ground
-    heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
-    plants = {}  # (site, start, stop) -> target (3,)
-    for s in range(len(contacts.sites)):
-        for a, b in contacts.intervals(s):
-            mean = p[a:b, s].mean(axis=0)
-            height = float(np.median(heights[a:b, s]))
-            if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
-                height = floor
-            plants[s, a, b] = mean + (height - mean @ up) * up
-    for s, t, distance in pairs:
-        for s1, a1, b1 in [key for key in plants if key[0] == s]:
-            for t1, a2, b2 in [key for key in plants if key[0] == t]:
-                if max(a1, a2) < min(b1, b2):
-                    plants[s1, a1, b1], plants[t1, a2, b2] = _keep_distance(
-                        plants[s1, a1, b1], plants[t1, a2, b2], distance, up
-                    )
-    targets = np.full(p.shape, np.nan)
-    for (s, a, b), target in plants.items():
-        targets[a:b, s] = target
-    return targets

@@ -9,11 +9,21 @@ it; per-frame lists hold null where a value does not apply to a frame.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from deik.clips.contacts import planted_targets
+from deik.clips.balance import BalanceTrack
+from deik.clips.contacts import Contacts
+from deik.clips.dynamics import PEAK_RATIO, jolted_frames, peak_ratios
 from deik.clips.metrics import large_deviations
-from deik.clips.report import clip_report, per_frame_errors, row_max
+from deik.clips.plants import planted_targets
+from deik.clips.report import ReachTrack, clip_report, per_frame_errors, row_max
+from deik.io.trajectory import Motion
+
+if TYPE_CHECKING:  # clips.solver loads the solver; the report needs only the type
+    from deik.clips.solver import ClipFix
 
 LEVEL1 = ("fidelity", "coherence")
 GOAL_NOTES = {
@@ -29,7 +39,7 @@ GOAL_NOTES = {
 }
 
 
-def goal_table(fix, metres: float = 1.0) -> list[dict]:
+def goal_table(fix: ClipFix, metres: float = 1.0) -> list[dict]:
     """One row per goal name of `fix` (a ClipFix): {"key", "label", "unit", "tolerance" (in
     unit, None without one), "before" (N,), "after" (N,)} with each frame's error (NaN where
     the goal does not apply); `metres` per length unit."""
@@ -53,7 +63,7 @@ def goal_table(fix, metres: float = 1.0) -> list[dict]:
     return rows
 
 
-def contacts_record(original, contacts) -> dict:
+def contacts_record(original: Motion, contacts: Contacts | None) -> dict:
     """The contacts as JSON: how they were found, the floor height and thresholds (length
     units, per second for the speed), the sites in contact per frame, and per site each
     contact's first and last frame (inclusive) and plant position (length units)."""
@@ -90,18 +100,68 @@ def unreached(goals: list[dict]) -> dict:
     return out
 
 
+def reach_record(reach: Iterable[ReachTrack]) -> list[dict]:
+    """The reach tracks as JSON: per track its site and, for each frame it applies to, the frame
+    and the target (length units), so a viewer can mark them (`deik view --report`)."""
+    return [
+        {
+            "site": site,
+            "frames": np.flatnonzero(mask).tolist(),
+            "targets": np.asarray(targets, float)[np.asarray(mask, bool)].tolist(),
+        }
+        for site, mask, targets in reach
+    ]
+
+
+def balance_record(track: BalanceTrack | None, metres: float) -> dict | None:
+    """The balance track (clips/balance.BalanceTrack) as JSON, or None without balance: the frames
+    it keeps the ZMP over the support in, those it skipped (holding them would have made the
+    motion jolt or changed the performance), the acceleration budget and the longest COM shift
+    allowed, and the shift per frame (mm along the two ground axes)."""
+    if track is None:
+        return None
+    mm = 1000.0 * metres
+    return {
+        "balanced_frames": np.flatnonzero(track.balanced).tolist(),
+        "skipped_frames": np.flatnonzero(track.skipped).tolist(),
+        "acceleration_budget_m_per_s2": metres * track.budget,
+        "shift_mm": (mm * track.shift).tolist(),
+    }
+
+
+def dynamics_record(original: Motion, fixed: Motion) -> dict:
+    """How the fix's velocity and acceleration peaks compare with the capture's (clips/dynamics.py):
+    the ratio of each peak, the limit, and the frames that jolt or turn a joint far."""
+    ratios = peak_ratios(original, fixed)
+    return {
+        "peak_ratio_limit": PEAK_RATIO,
+        "peak_ratios": ratios,
+        "peaks_kept": bool(all(not r > PEAK_RATIO for r in ratios.values())),
+        "jolted_frames": np.flatnonzero(jolted_frames(original, fixed)).tolist(),
+    }
+
+
 def _far(original, fixed, degrees: float) -> dict:
     far = large_deviations(original, fixed, degrees)
     count = np.bincount([d["frame"] for d in far], minlength=original.n_frames)
     return {"threshold_deg": degrees, "count_per_frame": count.tolist(), "joint_frames": far}
 
 
-def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: float, floor=None) -> dict:
+def clip_document(
+    fix: ClipFix,
+    contacts: Contacts | None,
+    reach: Sequence[ReachTrack],
+    unit: str,
+    metres: float,
+    far_degrees: float,
+    floor: dict | None = None,
+) -> dict:
     """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
     (clips/report.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
-    (unreached), the contacts, the `floor` ({"height" length units, "detected", "kept"} or
-    None), the joints turned more than `far_degrees` from the capture frame by frame, and
+    (unreached) and its targets, the contacts, the `floor` ({"height" length units, "detected",
+    "kept"} or None), the joints turned more than `far_degrees` from the capture frame by frame, the
+    balance track (balance_record), the peaks against the capture's (dynamics_record), and
     where the time went."""
     original, fixed = fix.original, fix.clip
     goals = goal_table(fix, metres)
@@ -119,12 +179,15 @@ def clip_document(fix, contacts, reach, unit: str, metres: float, far_degrees: f
         "per_frame": {k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres).items()},
         "goals": [listed(row) for row in goals],
         "reach_unreached": unreached(goals),
+        "reach_targets": reach_record(reach or ()),
         "floor": floor,
         "goal_notes": GOAL_NOTES,
         "frames_met": int(fix.met.sum()),
         "met_per_frame": fix.met.tolist(),
         "contacts": None if contacts is None else contacts_record(original, contacts),
         "joints_far_from_capture": _far(original, fixed, far_degrees),
+        "balance": balance_record(fix.balance, metres),
+        "dynamics": dynamics_record(original, fixed),
         "wall_time_s": fix.wall_time,
         "stages": list(fix.stages),
     }

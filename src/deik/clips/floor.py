@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from deik.clips.contacts import Contacts
 from deik.model.geometry import ground_frame
 from deik.model.kinematics import Kinematics
+from deik.model.skeleton import Skeleton
 
 SKATE_SLIDE = 0.025  # metres a contact site may slide in one frame before it counts as skating
 SKATE_HEIGHT = 0.05  # metres above its planted height below which a contact site counts as down
@@ -30,7 +32,7 @@ def _site_index(skeleton, sites) -> list[int]:
     return [skeleton.frame_index(name) for name in sites]
 
 
-def clearance(kin: Kinematics, skeleton, contacts) -> np.ndarray:
+def clearance(kin: Kinematics, skeleton: Skeleton, contacts: Contacts) -> np.ndarray:
     """(S,) each contact site's lowest height above contacts.ground over its contact frames in
     the clip whose kinematics are `kin` (the capture), length units; 0 for a site never in
     contact."""
@@ -39,21 +41,23 @@ def clearance(kin: Kinematics, skeleton, contacts) -> np.ndarray:
     return np.where(np.isfinite(lowest), lowest, 0.0)
 
 
-def floating(kin: Kinematics, skeleton, contacts, clear: np.ndarray) -> np.ndarray:
+def floating(kin: Kinematics, skeleton: Skeleton, contacts: Contacts, clear: np.ndarray) -> np.ndarray:
     """(N, S) height of each contact site above floor + `clear` (S,) where it is in contact
     (at least 0), NaN elsewhere; length units."""
     heights = kin.p_world_frame[:, _site_index(skeleton, contacts.sites)] @ skeleton.up - contacts.ground - clear
     return np.where(contacts.mask, np.maximum(heights, 0.0), np.nan)
 
 
-def penetration(kin: Kinematics, skeleton, ground: float) -> np.ndarray:
+def penetration(kin: Kinematics, skeleton: Skeleton, ground: float) -> np.ndarray:
     """(N,) depth below the floor at height `ground` of the deepest joint or end site in each
     frame (0 when none is below), length units."""
     heights = kin.p_world_frame @ skeleton.up
     return np.maximum(ground - heights.min(axis=1), 0.0)
 
 
-def skating(kin: Kinematics, skeleton, contacts, clear: np.ndarray, metres: float) -> tuple[np.ndarray, np.ndarray]:
+def skating(
+    kin: Kinematics, skeleton: Skeleton, contacts: Contacts, clear: np.ndarray, metres: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(skating (N-1,), contact (N-1,)) bool per step from frame n to n+1: `contact` when a site
     is in contact in both frames, `skating` when such a site, lower than SKATE_HEIGHT above floor
     + `clear` (S,) in both, slides horizontally more than SKATE_SLIDE. `metres` per length unit

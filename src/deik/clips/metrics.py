@@ -24,13 +24,17 @@ degrees. Per-frame values are NaN where a metric does not apply to a frame.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from deik.clips.contacts import Contacts
+from deik.io.trajectory import Motion
 from deik.model.geometry import ground_frame, polygon_distance
 from deik.model.joints import ROTATE
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import rotation_angle
+from deik.model.skeleton import Skeleton
 
 
 def _kinematics(clip) -> Kinematics:
@@ -41,20 +45,20 @@ def _site_index(clip, sites) -> list[int]:
     return [clip.skeleton.frame_index(name) for name in sites]
 
 
-def sliding_steps(kin: Kinematics, index, mask: np.ndarray) -> np.ndarray:
+def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray) -> np.ndarray:
     """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S)
     holds in both; NaN elsewhere; length units."""
     step = np.linalg.norm(np.diff(kin.p_world_frame[:, index], axis=0), axis=-1)
     return np.where(mask[1:] & mask[:-1], step, np.nan)
 
 
-def foot_sliding(clip, contacts) -> np.ndarray:
+def foot_sliding(clip: Motion, contacts: Contacts) -> np.ndarray:
     """(N-1, S) displacement of each contact site from frame n to n+1 in length units per
     frame (x 1000 for mm in metres), where the site is in contact in both frames; NaN elsewhere."""
     return sliding_steps(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask)
 
 
-def outside_support(kin: Kinematics, index, mask: np.ndarray, up: np.ndarray) -> np.ndarray:
+def outside_support(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: np.ndarray) -> np.ndarray:
     """(N,) distance of the projected centre of mass outside the support of frames `index`
     (S,) where `mask` (N, S); 0 inside, NaN without support; length units."""
     plane = ground_frame(up)[:2].T
@@ -70,7 +74,7 @@ def outside_support(kin: Kinematics, index, mask: np.ndarray, up: np.ndarray) ->
     return out
 
 
-def com_outside_support(clip, contacts) -> np.ndarray:
+def com_outside_support(clip: Motion, contacts: Contacts) -> np.ndarray:
     """(N,) distance in length units of the centre of mass, projected on the ground, outside
     the convex support polygon of the sites in contact in each frame: 0 inside, NaN when no
     site is in contact (or the skeleton has no mass)."""
@@ -83,9 +87,14 @@ def _turning_joints(sk) -> list[int]:
     return [k for k in range(sk.n_joints) if (m.kind[m.joint_start[k] : m.joint_start[k + 1]] == ROTATE).any()]
 
 
-def joint_angles(original, fixed) -> np.ndarray:
-    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs in
-    `original` and in `fixed`."""
+def turning_joint_names(skeleton: Skeleton) -> list[str]:
+    """Names of the joints with rotation DOFs: joint_angles' columns."""
+    return [skeleton.joint_names[k] for k in _turning_joints(skeleton)]
+
+
+def joint_angles(original: Motion, fixed: Motion) -> np.ndarray:
+    """(N, K) angle in degrees between the local rotations of each joint with rotation DOFs
+    (turning_joint_names) in `original` and in `fixed`."""
     sk = original.skeleton
     turning = _turning_joints(sk)
     parents = sk.parents[turning]
@@ -97,7 +106,7 @@ def joint_angles(original, fixed) -> np.ndarray:
     return np.degrees(rotation_angle(*rotations))
 
 
-def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
+def joint_deviation(original: Motion, fixed: Motion) -> tuple[np.ndarray, np.ndarray]:
     """Per frame (mean (N,), max (N,)) over the joints with rotation DOFs of the angle between
     the joint's rotation in `original` and in `fixed` (relative to its parent), degrees."""
     if fixed.frames.shape != original.frames.shape:
@@ -108,7 +117,7 @@ def joint_deviation(original, fixed) -> tuple[np.ndarray, np.ndarray]:
     return angles.mean(axis=1), angles.max(axis=1)
 
 
-def position_deviation(original, fixed) -> np.ndarray:
+def position_deviation(original: Motion, fixed: Motion) -> np.ndarray:
     """(N, J) distance between each joint's world position in `original` and in `fixed`,
     length units."""
     J = original.skeleton.n_joints
@@ -122,11 +131,11 @@ def jerk(kin: Kinematics, n_joints: int, frame_time: float) -> np.ndarray:
     return np.linalg.norm(np.diff(kin.p_world_frame[:, :n_joints], 3, axis=0), axis=-1) / frame_time**3
 
 
-def large_deviations(original, fixed, degrees: float = 30.0) -> list[dict]:
+def large_deviations(original: Motion, fixed: Motion, degrees: float = 30.0) -> list[dict]:
     """Every (frame, joint) whose rotation relative to its parent is more than `degrees` away
     from the capture's, in frame order: [{"frame", "joint", "deviation_deg"}]."""
     angles = joint_angles(original, fixed)
-    names = [original.skeleton.joint_names[k] for k in _turning_joints(original.skeleton)]
+    names = turning_joint_names(original.skeleton)
     frames, joints = np.nonzero(angles > degrees)
     return [{"frame": int(f), "joint": names[j], "deviation_deg": float(angles[f, j])} for f, j in zip(frames, joints)]
 
@@ -139,7 +148,7 @@ def _largest(values: np.ndarray, labels, offset: int) -> tuple[float, int | None
     return float(abs(values[row, column])), int(row) + offset, labels[column]
 
 
-def velocity_spikes(clip) -> dict:
+def velocity_spikes(clip: Motion) -> dict:
     """Finite-difference velocities and accelerations of a clip (see the module notes).
 
     Keys: "dof_names" (R,) rotation DOFs; "dof_velocity" (N-1, R) deg/s, row n from frame n to
@@ -153,7 +162,7 @@ def velocity_spikes(clip) -> dict:
     return spikes(clip, _kinematics(clip))
 
 
-def spikes(clip, kin: Kinematics) -> dict:
+def spikes(clip: Motion, kin: Kinematics) -> dict:
     """velocity_spikes of `clip` from its kinematics `kin`."""
     sk = clip.skeleton
     dt = clip.frame_time
@@ -163,6 +172,7 @@ def spikes(clip, kin: Kinematics) -> dict:
     velocity = np.diff(q, axis=0) / dt
     acceleration = np.diff(q, 2, axis=0) / dt**2
     position = np.linalg.norm(np.diff(kin.p_world_frame, 2, axis=0), axis=-1) / dt**2
+    speed = np.linalg.norm(np.diff(kin.p_world_frame, axis=0), axis=-1) / dt
     top_velocity = _largest(velocity, names, 0)[0]
     top_dof = _largest(acceleration, names, 1)
     top_position = _largest(position, sk.frame_names, 1)
@@ -175,6 +185,8 @@ def spikes(clip, kin: Kinematics) -> dict:
         "max_dof_acceleration_frame": top_dof[1],
         "max_dof_acceleration_dof": top_dof[2],
         "frame_names": sk.frame_names,
+        "position_velocity": speed,
+        "max_position_velocity": _largest(speed, sk.frame_names, 0)[0],
         "position_acceleration": position,
         "max_position_acceleration": top_position[0],
         "max_position_acceleration_frame": top_position[1],

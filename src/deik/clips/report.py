@@ -4,17 +4,21 @@ Every key ends in its unit (mm, deg, m_per_s3, ...; "share" for a fraction 0-1, 
 sites) and every entry carries its `label` for people and its `unit`. Lengths are converted
 from the clip's length unit with `metres` (metres per length unit, clips/units.py). The
 metrics are defined in clips/metrics.py (sliding, COM outside support, deviations, jerk,
-velocity spikes) and clips/floor.py (skating, penetration, floating); floor metrics and
-sliding need contacts.
+velocity spikes), clips/balance.py (ZMP outside support, with gravity 9.81 m/s^2) and
+clips/floor.py (skating, penetration, floating); floor and support metrics and sliding need
+contacts.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from deik.clips import floor
+from deik.clips.balance import zmp_outside_support
+from deik.clips.contacts import Contacts
 from deik.clips.metrics import (
     jerk,
     joint_angles,
@@ -23,7 +27,8 @@ from deik.clips.metrics import (
     sliding_steps,
     spikes,
 )
-from deik.clips.problem import reach_names
+from deik.clips.problem import GRAVITY, reach_names
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 
 
@@ -53,6 +58,7 @@ SERIES = {
     for stem, suffix, label, unit in (
         ("foot_sliding", "mm_per_frame", "foot sliding", "mm/frame"),
         ("com_outside_support", "mm", "COM outside support", "mm"),
+        ("zmp_outside_support", "mm", "ZMP outside support (soles included)", "mm"),
         ("penetration", "mm", "penetration below the floor", "mm"),
         ("floating", "mm", "floating in contact", "mm"),
         ("joint_angle_deviation", "deg", "joint angle from the capture", "deg"),
@@ -60,6 +66,7 @@ SERIES = {
         ("jerk", "m_per_s3", "jerk", "m/s^3"),
         ("joint_velocity", "deg_per_s", "joint velocity", "deg/s"),
         ("joint_acceleration", "deg_per_s2", "joint acceleration", "deg/s^2"),
+        ("position_velocity", "m_per_s", "position velocity", "m/s"),
         ("position_acceleration", "m_per_s2", "position acceleration", "m/s^2"),
     )
 }
@@ -85,11 +92,14 @@ def _measure(clip, contacts, reach, clear, metres: float) -> dict:
         index = [sk.frame_index(name) for name in contacts.sites]
         out["foot_sliding_mm_per_frame"] = mm * sliding_steps(kin, index, contacts.mask), 1
         out["com_outside_support_mm"] = mm * outside_support(kin, index, contacts.mask, sk.up)[:, None], 0
+        zmp = zmp_outside_support(kin, sk, contacts, clip.frame_time, GRAVITY / metres)
+        out["zmp_outside_support_mm"] = mm * zmp[:, None], 0
         out["penetration_mm"] = mm * floor.penetration(kin, sk, contacts.ground)[:, None], 0
         out["floating_mm"] = mm * floor.floating(kin, sk, contacts, clear), 0
     out["jerk_m_per_s3"] = metres * jerk(kin, sk.n_joints, clip.frame_time), 2
     out["joint_velocity_deg_per_s"] = np.abs(moves["dof_velocity"]), 1
     out["joint_acceleration_deg_per_s2"] = np.abs(moves["dof_acceleration"]), 1
+    out["position_velocity_m_per_s"] = metres * moves["position_velocity"], 0
     out["position_acceleration_m_per_s2"] = metres * moves["position_acceleration"], 1
     for key, (site, mask, targets) in zip(_reach_keys(reach), reach):
         distance = np.linalg.norm(kin.position(site) - targets, axis=-1)
@@ -111,12 +121,22 @@ def _both(original, fixed, contacts, reach, metres: float) -> tuple[dict, dict]:
 
 
 def _keys(contacts, reach) -> dict:
-    floor_keys = ("foot_sliding", "com_outside_support", "penetration", "floating")
+    floor_keys = ("foot_sliding", "com_outside_support", "zmp_outside_support", "penetration", "floating")
     keys = {k: v for k, v in SERIES.items() if contacts is not None or v[0] not in floor_keys}
     return keys | _reach_keys(reach)
 
 
-def per_frame_errors(original, fixed, contacts=None, reach=None, metres: float = 1.0) -> dict:
+# a reach track as reports take it: (site, mask (N,) bool, targets (N, 3) length units)
+ReachTrack = tuple[str, np.ndarray, np.ndarray]
+
+
+def per_frame_errors(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
     """{key: {"label", "unit", "before" (N,), "after" (N,)}}: per frame, the largest value
     over the joints, sites or DOFs of each SERIES entry (the floor ones with `contacts`) and
     the distance to each reach track (site, mask (N,), targets (N, 3)), in the key's unit, and
@@ -135,7 +155,13 @@ def per_frame_errors(original, fixed, contacts=None, reach=None, metres: float =
     return out
 
 
-def clip_report(original, fixed, contacts=None, reach=None, metres: float = 1.0) -> dict:
+def clip_report(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
     """{key: {"label", "unit", "before", "after"}}, one number per clip for `original` and
     `fixed`: "STEM_mean_SUFFIX" and "STEM_max_SUFFIX" over every joint, site or DOF and frame
     of each per_frame_errors series, and with `contacts` the foot-skating ratio (share of the

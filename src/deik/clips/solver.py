@@ -1,10 +1,10 @@
 """fix_clip(): fix every frame of a clip at once: a warm start, then DE repairs.
 
-1. Warm start (warmstart.py): damped least squares meets every frame's contacts and reach
-   targets and steers the centre of mass over the support (balance.py) with the least
-   change, frames pulled towards their neighbours where the goals in force change; DOFs no
-   goal of a frame needs are eased in from the neighbouring frames (coherence.py), so nothing
-   pops and an idle arm keeps its performance.
+1. Warm start (warmstart.py): space-time least squares meets every frame's contacts, floor
+   and reach targets and steers the centre of mass over the support (balance.py) with a
+   displacement from the capture that is smooth over the whole clip (spacetime.py): a
+   correction begins before its goal does and fades after it, nothing pops, and an idle arm
+   keeps its performance.
 2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
    reach goal (goals the warm start cannot all meet, such as balance over a single contact
    point, or self-collision, which lets a frame's repair move every DOF). Each pass is one
@@ -14,7 +14,7 @@
    every such goal is within tolerance (stop_on_converged), the fidelity and coherence
    terms (the last level) choosing among the poses that are.
 
-Where the time goes: the warm start (about 0.1 s per 1000 humanoid frames on 2 cores), then
+Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
 per pass population x (generations + 1) pose evaluations per repaired frame, about
 population evaluations per frame that is left alone. Planted feet and reach tracks rarely
 need a repair (CLIP_SETTINGS, PASSES are a small budget for the few that do); balance leaves
@@ -24,14 +24,19 @@ and BALANCE_PASSES.
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
 
 import numpy as np
 
+from deik.clips.balance import BalanceTrack
 from deik.clips.coherence import ease, hinge_channels, searched_dofs
-from deik.clips.problem import FIDELITY_LEVEL, ClipGoals, clip_problem, fixed_goals, goal_names
+from deik.clips.dynamics import jolted_frames
+from deik.clips.problem import FIDELITY_LEVEL, ClipGoals, clip_balance, clip_problem, fixed_goals, goal_names
 from deik.clips.warmstart import dof_weights, warm_start
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -50,10 +55,12 @@ PASSES = 1
 BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCAL}
 BALANCE_PASSES = 3
 EASE = 8.0  # frames over which a displacement decays where no goal holds it
+GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
+GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class ClipFix:
     """The outcome of fix_clip: `clip` the fixed clip (same layout as the input, its Euler
     channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
@@ -62,8 +69,10 @@ class ClipFix:
     apply to a frame), `met` (N,) whether every floor, contact, balance and reach goal of each frame is within
     tolerance, `passes`, `wall_time` seconds, `settings`, and `stages`: where the time went,
     one dict per stage (the warm start, then each DE pass with the frames it repaired, their
-    generations, mean and max, and pose evaluations: population x (generations + 1) summed
-    over them)."""
+    generations, mean and max, pose evaluations: population x (generations + 1) summed over
+    them, and the failed repairs refused because they would make a frame jolt); `balance` the
+    centre-of-mass track with --balance (its balanced and skipped frames, clips/balance.py),
+    else None."""
 
     clip: object
     original: object
@@ -76,6 +85,7 @@ class ClipFix:
     wall_time: float
     settings: Settings
     stages: tuple[dict, ...]
+    balance: BalanceTrack | None = None
 
 
 def _errors(problem, poses) -> np.ndarray:
@@ -121,14 +131,59 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray):
+    """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
+    `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
+    start without it), and where the balanced warm start makes a frame jolt or turns a joint far
+    from the capture (clips/dynamics.py), balance cannot hold there: those frames and their
+    neighbours are skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
+    sk, original = clip.skeleton, clip.poses()
+
+    def warm(plain: ClipGoals, track):
+        fixed = fixed_goals(clip, plain, weights, track)
+        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=EASE)), fixed
+
+    if not goals.balance:
+        return *warm(goals, None), None
+    displacement, _ = warm(dataclasses.replace(goals, balance=False), None)
+    unbalanced = clip.frames + displacement
+    balance = clip_balance(clip, goals, frames=unbalanced)
+    for round_ in range(GUARD_ROUNDS):
+        displacement, fixed = warm(goals, balance)
+        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+        jolting = (np.convolve(jolted, np.ones(2 * GUARD_REACH + 1), "same") > 0) & balance.balanced
+        if round_ == GUARD_ROUNDS - 1 or not jolting.any():
+            break
+        balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
+    return displacement, fixed, balance
+
+
+def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[np.ndarray, int]:
+    """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
+    `found` (N, D), eased into their neighbours, except those that still miss their goals
+    (`met` (N,) False) where the repair would make a frame jolt that did not (clips/dynamics.py):
+    a DE search starts each frame afresh and may land a pose apart from its neighbours'.
+    `refused` counts them."""
+    sk, original = clip.skeleton, clip.poses()
+
+    def taken(frames):
+        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, EASE))
+
+    candidate = taken(repaired)
+    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate)) & ~before
+    refused = repaired & ~met & (np.convolve(new, np.ones(3), mode="same") > 0)
+    return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
+
+
 def fix_clip(
-    clip,
+    clip: Motion,
     goals: ClipGoals,
     passes: int | None = None,
     settings: Settings | None = None,
     *,
-    progress=None,
-    **overrides,
+    progress: Callable[[int, str], object] | None = None,
+    **overrides: object,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
@@ -153,10 +208,9 @@ def fix_clip(
     rotation = sk.dof_kind == ROTATE
     original = clip.poses()
     weights = dof_weights(clip)
-    fixed_part = fixed_goals(clip, goals, weights)
+    movable = np.broadcast_to(~hinge_channels(clip), original.shape)
+    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable)
     searched = searched_dofs(clip, fixed_part)
-    displacement = warm_start(sk, original, fixed_part, searched, weights)
-    displacement = _inside(sk, original, ease(displacement, searched, EASE))
     stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
     report = progress or (lambda met, stage: None)
     for k in range(passes):
@@ -177,7 +231,8 @@ def fix_clip(
         during = _pass_progress(progress, int((~unmet).sum()), stage) if progress else None
         result = solve(problem, settings, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
-        displacement = _inside(sk, original, ease(np.where(unmet[:, None], found, displacement), searched, EASE))
+        repaired = _met(problem, np.clip(wrap_rotations(original + found, rotation), sk.lower, sk.upper))[1]
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched)
         generations = result.generations[unmet]
         stages.append(
             {
@@ -187,9 +242,13 @@ def fix_clip(
                 "generations_mean": float(generations.mean()),
                 "generations_max": int(generations.max()),
                 "evaluations": int(settings.population * (generations + 1).sum()),
+                "refused": refused,
             }
         )
     wall = time.perf_counter() - start
+    logging.getLogger(__name__).debug(
+        "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
+    )
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
     report(int(met.sum()), "done")
@@ -205,4 +264,5 @@ def fix_clip(
         wall,
         settings,
         tuple(stages),
+        balance,
     )

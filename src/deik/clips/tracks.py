@@ -22,7 +22,7 @@ import numpy as np
 
 from deik.io.bvh_hierarchy import number
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
 SPEC_FORMS = (
@@ -131,7 +131,7 @@ def _json_values(source: str, text: str) -> list[tuple[str, None, int, list[floa
     ]
 
 
-def read_track(path, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
+def read_track(path: FilePath, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
     """Read the track file at `path` (see the module notes) for a clip of `n_frames`.
 
     Returns mask (N,) bool, the frames the track lists, and targets (N, 3) in length units,

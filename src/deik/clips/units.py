@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from deik.model.skeleton import Skeleton
+
 METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 
 
-def span(skeleton) -> float:
+def span(skeleton: Skeleton) -> float:
     """The longest path of bone offsets from the root to a joint or site, length units."""
     depth = np.zeros(skeleton.n_joints)
     for k in range(1, skeleton.n_joints):
@@ -22,7 +24,7 @@ def span(skeleton) -> float:
     return float(max(depth.max(initial=0.0), sites.max(initial=0.0)))
 
 
-def guess_unit(skeleton) -> str:
+def guess_unit(skeleton: Skeleton) -> str:
     """The unit "m", "cm" or "mm" of `skeleton` by its span (see the module notes)."""
     size = span(skeleton)
     return "m" if size < 10 else "cm" if size < 1000 else "mm"

@@ -1,40 +1,56 @@
-"""A damped least-squares warm start for a clip fix, before DE repairs what it leaves unmet.
+"""The warm start of a clip fix: every frame's goals met at once, smoothly, before DE repairs
+what it leaves unmet.
 
-Each frame's contacts, floor and balance goals (clips/problem.py's levels 0 and 1) are met as
-nearly as possible by the smallest change of the DOFs that frame may move (coherence.searched_dofs),
-each DOF counted by dof_weights as the fidelity term counts it, in a few damped Gauss-Newton
-steps on the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides
-along its world axis). Balance goals add two rows, the centre of mass's horizontal Jacobian,
-steering it along a track over the support (balance.py). A few more steps each start from
-the mean of the neighbouring frames' displacements, so frames agree where the goals in force
-change (a foot lifts, a reach begins). Reach tracks (level 2) take only the changes that
-leave the level-0 rows as they are (their null space), so an unreachable reach never drags a
-planted contact. The clip's corrections are small (millimetres to
-centimetres), so this is cheap, smooth in time and exact to microns. Goals that cannot all be
-met are left to DE, with its priorities and tolerances.
+Each frame's contacts, floor and balance goals (clips/problem.py's levels 0 and 1) and, below
+them, its reach tracks (level 2) are met by a displacement of the whole clip from the capture,
+found in a few space-time Gauss-Newton steps (clips/spacetime.py): every frame's goal rows, on
+the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides along its
+world axis), weighted against the spring energy of the displacement, each DOF counted by how
+much of the body it moves (motion_stiffness). A correction therefore starts before a contact
+does and bends the legs rather than the hips; where no goal holds a DOF it fades back to the
+capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
+centre of mass's horizontal Jacobian, steering it along a track over the support
+(balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
+unreachable reach pulls a planted contact only a little, and the last steps, frame by frame,
+meet the contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
+with its priorities and tolerances.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from deik.clips.balance import balance_track, horizontal_axes
+from deik.clips.balance import horizontal_axes
 from deik.clips.coherence import active_frames
-from deik.clips.problem import REACH_LEVEL, neighbour_displacement
+from deik.clips.problem import REACH_LEVEL
+from deik.clips.spacetime import spacetime_step
+from deik.io.trajectory import Motion
 from deik.kernels.pack import pack_skeleton
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
-from deik.objectives.goals import ComInPolygon, Floor, Position
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 
-DAMPING = 1e-3  # radians (weighted DOF units): keeps a step finite at a straight knee
-STEPS = 2
-SMOOTHING = 6
+DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
+STEPS = 4  # space-time steps over the whole clip
+SETTLE = 2  # last steps, frame by frame, meeting the contacts, floor and balance rows to microns
+FADE = 8.0  # frames over which a correction fades where no goal holds it (clips/spacetime.py)
+# weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
+# contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
+# the settling steps take back), reach tracks far above the energy
+HELD_WEIGHT = 1e6
+REACH_WEIGHT = 1e5
+ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
+BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
-SETTLE = 2  # last steps without the reach rows: its steps bend the contacts and the floor a little
 FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
 
 
-def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def position_jacobian(
+    skeleton: Skeleton, poses: np.ndarray, names: Sequence[str], centre_of_mass: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
@@ -45,7 +61,7 @@ def position_jacobian(skeleton, poses, names, centre_of_mass: bool = False) -> t
     return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
 
 
-def dof_weights(clip) -> np.ndarray:
+def dof_weights(clip: Motion) -> np.ndarray:
     """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
     translation 1 / r, r the root-mean-square distance of the joints and sites from the root
     over the clip: moving the root counts like the root turn that moves the body as much. With
@@ -55,6 +71,21 @@ def dof_weights(clip) -> np.ndarray:
     p = forward_kinematics(sk, clip.poses()).p_world_frame
     r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
+
+
+def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(D,) how stiff each DOF's spring is (clips/spacetime.py): 1 + BODY_STIFFNESS x the sum
+    over every joint and site of its squared speed per unit of the weighted DOF (dof_weights),
+    in reach units, averaged over `poses` (N, D), and ROOT_STIFFNESS times that for the root's
+    DOFs. A correction that must bend somewhere (a heel stopping where a contact starts) then
+    bends the leg, not the hips that carry the arms, no channel takes it all (both the points'
+    and the channels' accelerations stay low), and the body keeps its path through the world
+    unless the legs cannot reach."""
+    _, jac = position_jacobian(skeleton, poses, skeleton.frame_names)
+    scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
+    body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
+    root = skeleton.dof_joint == 0
+    return (1.0 + BODY_STIFFNESS * body) * np.where(root, ROOT_STIFFNESS, 1.0)
 
 
 def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -81,41 +112,61 @@ def _floor_rows(x, jac, up: np.ndarray, floor: float):
     return np.where(low, floor + FLOOR_MARGIN - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
 
-def _solve(B: np.ndarray, error: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(step (N, D), projector (N, D, D)): the damped least-squares step meeting rows B (N, R,
-    D) for `error` (N, R), and the projector onto the changes that leave those rows alone."""
+def _solve(B: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
+    """(N, D) the least-squares step meeting rows B (N, R, D) for `error` (N, R), damped by
+    `damping` (length units per weighted DOF unit)."""
     N, R, D = B.shape
     if R == 0:
-        return np.zeros((N, D)), np.broadcast_to(np.eye(D), (N, D, D))
-    inverse = np.linalg.solve(B @ B.transpose(0, 2, 1) + DAMPING**2 * np.eye(R), np.eye(R))
-    pseudo = B.transpose(0, 2, 1) @ inverse
-    return (pseudo @ error[..., None])[..., 0], np.eye(D) - pseudo @ B
+        return np.zeros((N, D))
+    inverse = np.linalg.solve(B @ B.transpose(0, 2, 1) + damping**2 * np.eye(R), np.eye(R))
+    return (B.transpose(0, 2, 1) @ inverse @ error[..., None])[..., 0]
+
+
+def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
+    """(errors (N, H), rows (N, H, D)) of the contacts, floor and balance (ComOverSupport goals:
+    two rows, the COM's ground position onto its point) rows at the positions `x` and
+    Jacobian `jac`."""
+    error, rows = _position_rows(x, jac, held_rows, longest)
+    errors, parts = [error], [rows]
+    for floor in floors:
+        error, rows = _floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
+        errors.append(_at_most(error[..., None], longest)[..., 0])
+        parts.append(rows)
+    for goal in balance:
+        on = active_frames(goal, len(x))
+        com = x[:, -1] @ ground.T
+        track = np.broadcast_to(np.asarray(goal.point, float), x[:, -1].shape) @ ground.T
+        errors.append(np.where(on[:, None], _at_most(track - com, longest), 0.0))
+        parts.append(np.einsum("ij,njd->nid", ground, jac[:, -1]) * on[:, None, None])
+    return np.concatenate(errors, axis=1), np.concatenate(parts, axis=1)
 
 
 def warm_start(
-    skeleton,
+    skeleton: Skeleton,
     original: np.ndarray,
-    goals,
-    searched: np.ndarray,
+    goals: Sequence[Goal],
+    movable: np.ndarray,
     weights: np.ndarray,
     steps: int = STEPS,
-    smoothing: int = SMOOTHING,
+    settle: int = SETTLE,
+    fade: float = FADE,
 ) -> np.ndarray:
-    """(N, D) displacement from the `original` poses (N, D) that meets the Position goals
-    above REACH_LEVEL active in each frame (contacts), keeps every joint and site above a
-    Floor, brings the centre of mass over the support of its ComInPolygon goals
-    (clips/balance.py) and then, with what those leave free (their rows' null space), meets
-    the Position goals on REACH_LEVEL (reach tracks), moving only the `searched` (N, D) DOFs,
-    each change counted by `weights` (D,) (dof_weights). `steps` Gauss-Newton steps from the
-    original, then `smoothing` more, each from the mean of the neighbouring frames'
-    displacements, so that frames agree where the goals in force change; a step moves a site
-    or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
-    chased. With reach tracks, SETTLE last steps meet the other goals alone again: a reach
-    step keeps them only to first order, and only the floor rows of points already low. Zero
-    where no goal needs a DOF; limits are not applied here (fix_clip does)."""
+    """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
+    DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
+    keeps every joint and site above a Floor, steers the centre of mass onto the points of its
+    ComOverSupport goals (a balance track, clips/balance.py) and, below those, meets the
+    Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
+    (dof_weights). `steps` space-time steps over the whole clip (clips/spacetime.py): every frame's rows weighted
+    (HELD_WEIGHT, REACH_WEIGHT) against the spring energy of the displacement with fade
+    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; with reach
+    tracks, `steps` more that add them, moving only the frames of their (eased) windows, so a
+    reach changes nothing outside them; then `settle` damped Gauss-Newton steps per frame
+    meet the contacts, floor and balance rows to microns. A step moves a site or the COM at
+    most LONGEST_STEP x reach, so an unreachable target is approached, not chased. Limits are
+    not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
-    balance = [goal for goal in goals if isinstance(goal, ComInPolygon)]
+    balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
     floors = [goal for goal in goals if isinstance(goal, Floor)]
     N, D = original.shape
     d = np.zeros((N, D))
@@ -123,38 +174,41 @@ def warm_start(
         return d
     names = list(skeleton.frame_names) if floors else []
     names += [name for name in dict.fromkeys(goal.frame for goal in held + reach) if name not in names]
-    names += sorted({site for goal in balance for site in goal.frames} - set(names))
     held_rows, reach_rows = _rows(held, N, names), _rows(reach, N, names)
-    supports = [
-        (np.array([names.index(site) for site in goal.frames]), active_frames(goal, N), 0.5 * (goal.tolerance or 0.0))
-        for goal in balance
-    ]
     ground = horizontal_axes(skeleton)
-    up = np.asarray(skeleton.up, float)
-    scale = searched * np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
+    movable = np.broadcast_to(np.asarray(movable, bool), (N, D))
+    scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     longest = LONGEST_STEP * skeleton.reach
-    for k in range(steps + smoothing + SETTLE * bool(reach)):
-        if steps <= k < steps + smoothing:
-            d = np.where(searched, neighbour_displacement(d), 0.0)
+    stiffness = motion_stiffness(skeleton, original, weights)
+
+    def rows_at(d, free):
         x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))
-        error, rows = _position_rows(x, jac, held_rows, longest)
-        errors, parts = [error], [rows]
-        for floor in floors:
-            error, rows = _floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], up, floor.height)
-            errors.append(_at_most(error[..., None], longest)[..., 0])
-            parts.append(rows)
-        if balance:
-            com = x[:, -1] @ ground.T
-            if k == 0:
-                track, steered = balance_track(com, [(x[:, f] @ ground.T, on, m) for f, on, m in supports])
-            errors.append(np.where(steered[:, None], _at_most(track - com, longest), 0.0))
-            parts.append(np.einsum("ij,njd->nid", ground, jac[:, -1]) * steered[:, None, None])
-        step, free = _solve(np.concatenate(parts, axis=1) * scale[:, None, :], np.concatenate(errors, axis=1))
-        if reach and k < steps + smoothing:
-            error, rows = _position_rows(x, jac, reach_rows, longest)
-            rows = rows * scale[:, None, :]
-            step = step + _solve(rows @ free, error - (rows @ step[..., None])[..., 0])[0]
-        d += step * scale
+        error, rows = _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest)
+        return x, jac, error, rows * (scale * free)[:, None, :]
+
+    # first the contacts, floor and balance; then the reach tracks, moving only the frames of
+    # their eased windows: outside them the fix is the same as without the reach
+    phases = [(False, movable)] if (held or balance or floors) else []
+    if reach:
+        window = np.any([active_frames(goal, N) for goal in reach], axis=0)
+        phases.append((True, movable & window[:, None]))
+    for with_reach, free in phases:
+        for _ in range(steps):
+            x, jac, error, rows = rows_at(d, free)
+            row_weights = np.full(error.shape, HELD_WEIGHT)
+            if with_reach:
+                reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
+                error = np.concatenate([error, reach_error], axis=1)
+                rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
+                row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
+            damping = HELD_WEIGHT * DAMPING**2
+            step = spacetime_step(
+                rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
+            )
+            d += step * scale * free
+    for _ in range(settle):
+        _, _, error, rows = rows_at(d, movable)
+        d += _solve(rows, error, DAMPING * skeleton.reach) * scale * movable
     return d
 
 

@@ -14,13 +14,22 @@ import io
 import math
 import os
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import save_atomically, write_text_atomically
+from deik.solver.problem import Problem
+from deik.solver.result import Result
 from deik.solver.settings import Settings
 from deik.viz.plot import plot_result, require_matplotlib
+
+if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's reach
 # The figures measure the paper's subject, DE itself: the LM polish, jDE rates and restarts
@@ -28,7 +37,7 @@ CONVERGED_FRACTION = 0.01  # the paper's criterion: within 1 % of the chain's re
 DE_ONLY = {"polish": 0, "adaptive": False, "restarts": 0}
 
 
-def de_only(**settings) -> Settings:
+def de_only(**settings: object) -> Settings:
     """deik's default current-to-best/1/bin DE without polish, jDE or restarts."""
     return Settings(**{**DE_ONLY, **settings})
 
@@ -38,7 +47,7 @@ def seed_list(quick: bool, full: int, fast: int) -> list[int]:
     return list(range(fast if quick else full))
 
 
-def quantile(values, q: float) -> float:
+def quantile(values: ArrayLike, q: float) -> float:
     """Linear-interpolation quantile q in [0, 1] of `values` (n,) that may hold +inf (runs
     that never converged); a quantile touching an inf is inf, never NaN."""
     v = np.sort(np.asarray(values, dtype=np.float64))
@@ -51,7 +60,7 @@ def quantile(values, q: float) -> float:
     return float(v[lo] + (v[hi] - v[lo]) * (pos - lo))
 
 
-def spread(values) -> dict:
+def spread(values: ArrayLike) -> dict:
     """{n, median, q1, q3, min, max, never}: `values` (n,), +inf marking non-converged runs
     (counted in `never`)."""
     v = np.asarray(values, dtype=np.float64)
@@ -75,7 +84,7 @@ def number(x: float, digits: int = 3) -> str:
     return f"{x:.{digits}g}"
 
 
-def describe(values, digits: int = 3) -> str:
+def describe(values: ArrayLike, digits: int = 3) -> str:
     """ "median [q1, q3]" of `values` (n,), e.g. "12 [8, 20]"."""
     s = spread(values)
     return f"{number(s['median'], digits)} [{number(s['q1'], digits)}, {number(s['q3'], digits)}]"
@@ -100,7 +109,7 @@ def write_csv(path: str, rows: list[dict]) -> None:
     write_text_atomically(path, buffer.getvalue())
 
 
-def save_figure(figure, path: str, dpi: int = 110) -> None:
+def save_figure(figure: Figure, path: str, dpi: int = 110) -> None:
     """Save a matplotlib `figure` as PNG to `path` atomically and close it."""
     plt = require_matplotlib()
     try:
@@ -109,7 +118,7 @@ def save_figure(figure, path: str, dpi: int = 110) -> None:
         plt.close(figure)
 
 
-def pose_panels(axes, panels) -> None:
+def pose_panels(axes: Sequence[Axes], panels: Sequence[tuple[Problem, Result, str]]) -> None:
     """Draw pose pictures into `axes` (one per panel): each panel is (problem, unbatched
     Result, title), rendered by deik.viz.plot.plot_result into a temporary PNG and shown as an
     image, so experiments draw poses exactly as `deik solve --plot` does."""
@@ -177,7 +186,7 @@ class Section:
         write_text_atomically(os.path.join(out_dir, f"{self.name}.md"), self.markdown())
 
 
-def log_time_axes(ax, links, title: str) -> None:
+def log_time_axes(ax: Axes, links: Sequence[int], title: str) -> None:
     """Log-log axes of seconds per generation against chain length, as Figs. 8-9 and the
     serial-vs-parallel benchmark draw them."""
     ax.set_xscale("log")

@@ -19,16 +19,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.console import progress_bar
 from deik.io.atomic import write_json_atomically
 from deik.model.builders import chain
 from deik.model.humanoid import humanoid
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, ComOverSupport, Position
 from deik.objectives.registry import LENGTH
 from deik.solver.problem import Problem
+from deik.solver.result import Result
 from deik.solver.solve import solve
 from deik.viz.plot import plot_result
-from deik.viz.text import format_table
+from deik.viz.text import format_table, shown
 
 CHAIN_SETTINGS = {"population": 256, "strategy": "best/1/bin", "seed": 0}
 HUMANOID_SETTINGS = {"population": 256, "generations": 1500, "seed": 1}
@@ -51,7 +54,7 @@ class Scenario:
     initial: np.ndarray | None = None
 
 
-def chain_target(skeleton, seed: int) -> np.ndarray:
+def chain_target(skeleton: Skeleton, seed: int) -> np.ndarray:
     """Tip position (3,) of a pose drawn uniformly inside the joint limits."""
     pose = np.random.default_rng(seed).uniform(skeleton.lower, skeleton.upper)
     return forward_kinematics(skeleton, pose).position("tip")
@@ -99,7 +102,7 @@ def humanoid_scenario() -> Scenario:
     )
 
 
-def scenario_rows(scenario: Scenario, result) -> list[dict]:
+def scenario_rows(scenario: Scenario, result: Result) -> list[dict]:
     """One row per goal: error in its unit (and % of reach for chains), its tolerance and
     whether the Result reports it met (None for goals without a tolerance), run facts;
     "passed" when every toleranced goal is met."""
@@ -136,9 +139,9 @@ def _print_table(rows: list[dict]) -> None:
             [
                 row["scenario"] if first else "",
                 row["goal"],
-                f"{row['error']:.4g} {row['unit']}",
+                shown(row["error"], row["unit"]),
                 "" if row["percent_of_reach"] is None else f"{row['percent_of_reach']:.3f} %",
-                "-" if row["bound"] is None else f"{row['bound']:.4g} {row['unit']}",
+                "-" if row["bound"] is None else shown(row["bound"], row["unit"]),
                 {None: "-", True: "yes", False: "NO"}[row["met"]],
                 row["generations"] if first else "",
                 f"{row['time_s']:.2f} s" if first else "",
@@ -155,31 +158,35 @@ def _has_matplotlib() -> bool:
     return True
 
 
-def run_demo(out_dir, scenarios: list[Scenario] | None = None) -> list[dict]:
+def run_demo(out_dir: str, scenarios: list[Scenario] | None = None, show: bool | None = None) -> list[dict]:
     """Solve `scenarios` (default: the paper's four), print the table, write one PNG each and
-    demo.json into `out_dir` (created if missing). Returns the rows; a row's "passed" is False
-    when its scenario missed one of its goals' tolerances."""
+    demo.json into `out_dir` (created if missing), with a progress bar over the scenarios
+    (`show` as in deik.console.progress_bar). Returns the rows; a row's "passed" is False when
+    its scenario missed one of its goals' tolerances."""
     scenarios = chain_scenarios() + [humanoid_scenario()] if scenarios is None else scenarios
     os.makedirs(out_dir, exist_ok=True)
     start = time.perf_counter()
     rows, summary = [], []
     pictures = _has_matplotlib()  # without it: the table and demo.json only
-    for scenario in scenarios:
-        result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
-        image = f"{scenario.key}.png" if pictures else None
-        if pictures:
-            plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
-        rows += scenario_rows(scenario, result)
-        summary.append(
-            {
-                "key": scenario.key,
-                "title": scenario.title,
-                "image": image,
-                "settings": scenario.settings,
-                "passed": rows[-1]["passed"],
-                "result": result.to_dict(),
-            }
-        )
+    with progress_bar(len(scenarios), "deik demo", "scenario", show) as bar:
+        for scenario in scenarios:
+            bar.set_postfix_str(scenario.key)
+            result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
+            bar.update()
+            image = f"{scenario.key}.png" if pictures else None
+            if pictures:
+                plot_result(scenario.problem, result, os.path.join(out_dir, image), title=scenario.title)
+            rows += scenario_rows(scenario, result)
+            summary.append(
+                {
+                    "key": scenario.key,
+                    "title": scenario.title,
+                    "image": image,
+                    "settings": scenario.settings,
+                    "passed": rows[-1]["passed"],
+                    "result": result.to_dict(),
+                }
+            )
     total = time.perf_counter() - start
     write_json_atomically(
         os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total}

@@ -31,6 +31,7 @@ from deik.experiments.common import (
 )
 from deik.experiments.demo import chain_target
 from deik.model.builders import chain
+from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Position
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
@@ -63,7 +64,7 @@ def sizes(quick: bool) -> dict:
     }
 
 
-def far_target(skeleton, seed: int) -> np.ndarray:
+def far_target(skeleton: Skeleton, seed: int) -> np.ndarray:
     """A point (3,) in the chain's plane at FAR_FRACTION of its reach, direction drawn from `seed`."""
     angle = np.random.default_rng((seed, 75)).uniform(0.0, 2.0 * np.pi)
     return FAR_FRACTION * skeleton.reach * np.array([np.cos(angle), np.sin(angle), 0.0])

@@ -17,7 +17,7 @@ import numpy as np
 
 from deik.experiments.common import Section, command, describe, markdown_table, save_figure, seed_list, write_csv
 from deik.experiments.timing import make_problem
-from deik.solver.serial import SerialDE
+from deik.solver.serial import Iteration, SerialDE
 from deik.viz.plot import require_matplotlib
 
 NAME = "fig7"
@@ -47,11 +47,11 @@ class SequentialSerialDE(SerialDE):
 
     _cursor = 0
 
-    def init(self):
+    def init(self) -> SequentialSerialDE:
         self._cursor = 0
         return super().init()
 
-    def iterate(self):
+    def iterate(self) -> Iteration:
         rng = self.rng
         self.rng = _FixedFirstDraw(rng, self._cursor)
         try:

@@ -16,6 +16,7 @@ import shutil
 import sys
 import time
 
+from deik.console import add_output_flags, configure_logging, progress_bar, show_progress
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.common import Section, markdown_table
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
@@ -82,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--doc", metavar="PATH.md", help="with all: also write the report to PATH, its pictures in figures/ beside it"
     )
+    add_output_flags(parser)
     return parser
 
 
@@ -153,26 +155,31 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         names = resolve(args.names)
         _check_paths(args, names)
+        configure_logging(args)
         from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
     except SystemExit as done:  # --help
         return int(done.code or 0)
-    except (UsageError, ImportError) as error:
+    except (UsageError, ImportError, ValueError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return USAGE_ERROR
 
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
     device, sections, start = DEVICES[args.device], [], time.perf_counter()
-    for name in names:
-        began = time.perf_counter()
-        section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
-        section.seconds = time.perf_counter() - began
-        section.write(args.out)
-        sections.append(section)
-        print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
-        for note in section.notes:
-            print(f"{name}: note: {note}", flush=True)
+    with progress_bar(len(names), PROG, "figure", show_progress(args)) as bar:
+        for name in names:
+            bar.set_postfix_str(name)
+            began = time.perf_counter()
+            section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
+            section.seconds = time.perf_counter() - began
+            section.write(args.out)
+            sections.append(section)
+            bar.update()
+            with bar.external_write_mode():  # the lines go above the bar, not through it
+                print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
+                for note in section.notes:
+                    print(f"{name}: note: {note}", flush=True)
     total = time.perf_counter() - start
     quick = " --quick" if args.quick else ""
     command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"

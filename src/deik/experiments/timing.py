@@ -21,6 +21,7 @@ import numpy as np
 import deik
 from deik.experiments.common import CONVERGED_FRACTION
 from deik.model.kinematics import forward_kinematics
+from deik.solver.problem import Problem
 from deik.solver.serial import CompiledSerialDE, SerialDE
 
 
@@ -35,7 +36,7 @@ def make_problem(n_links: int, seed: int) -> deik.Problem:
     return deik.Problem(sk, [deik.Position("tip", target, tolerance=CONVERGED_FRACTION * sk.reach)])
 
 
-def time_serial(problem, population: int, epochs: int, seed: int) -> dict:
+def time_serial(problem: Problem, population: int, epochs: int, seed: int) -> dict:
     """Seconds per generation (epoch) of SerialDE, averaged over `epochs` epochs, and the best
     tip error (length units) reached."""
     de = SerialDE(problem, population=population, F=0.5, CR=0.5, seed=seed).init()
@@ -47,7 +48,9 @@ def time_serial(problem, population: int, epochs: int, seed: int) -> dict:
     return {"seconds_per_generation": seconds, "epochs_timed": epochs, "best_tip_error": float(de.best_errors[0])}
 
 
-def time_serial_compiled(problem, population: int, generations: int, repeats: int, seed: int, dtype: str) -> dict:
+def time_serial_compiled(
+    problem: Problem, population: int, generations: int, repeats: int, seed: int, dtype: str
+) -> dict:
     """Seconds per generation of the compiled serial Algorithm 1 (one CPU thread, the kernels'
     maths): best of `repeats` runs of `generations` epochs after a warm-up epoch (compilation
     excluded); "all_seconds_per_generation" lists every repeat."""
@@ -67,7 +70,7 @@ def time_serial_compiled(problem, population: int, generations: int, repeats: in
 
 
 def time_parallel(
-    problem, population: int, generations: int, repeats: int, seed: int, dtype: str, device: str = "cpu"
+    problem: Problem, population: int, generations: int, repeats: int, seed: int, dtype: str, device: str = "cpu"
 ) -> dict:
     """Seconds per generation of the parallel engine on `device` ("cpu" or "gpu"): best of
     `repeats` runs of `generations` generations each from the same warmed-up state;
@@ -123,7 +126,7 @@ def environment() -> dict:
     }
 
 
-def threading_layer():
+def threading_layer() -> str | None:
     """Numba's threading layer, or None before the first parallel region has run."""
     try:
         return numba.threading_layer()

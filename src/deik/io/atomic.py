@@ -15,6 +15,9 @@ import glob
 import json
 import math
 import os
+from collections.abc import Callable, Iterator
+
+from deik.io.files import FilePath
 
 PARTIAL = ".deik-partial-"
 _pending: contextvars.ContextVar[list | None] = contextvars.ContextVar("deik_pending_writes", default=None)
@@ -48,7 +51,7 @@ def _running(pid: int) -> bool:
     return True
 
 
-def save_atomically(path, write) -> None:
+def save_atomically(path: FilePath, write: Callable[[str], object]) -> None:
     """Call write(temporary_path) to create a file beside `path`, then move it onto `path`
     (at the end of an enclosing all_or_nothing() block, if any); on failure the temporary file is
     removed and `path` is left as it was."""
@@ -68,7 +71,7 @@ def save_atomically(path, write) -> None:
 
 
 @contextlib.contextmanager
-def all_or_nothing():
+def all_or_nothing() -> Iterator[None]:
     """Hold every save_atomically inside the block until it ends without error, then move all the
     files into place; on an error (or Ctrl-C) remove them all and leave every target as it was."""
     pending: list = []
@@ -86,7 +89,7 @@ def all_or_nothing():
         os.replace(temporary, path)
 
 
-def write_text_atomically(path, text: str) -> None:
+def write_text_atomically(path: FilePath, text: str) -> None:
     """Write `text` (UTF-8) to `path` atomically."""
 
     def write(temporary):
@@ -96,7 +99,7 @@ def write_text_atomically(path, text: str) -> None:
     save_atomically(path, write)
 
 
-def write_json_atomically(path, data, missing_as_null: bool = False) -> None:
+def write_json_atomically(path: FilePath, data: object, missing_as_null: bool = False) -> None:
     """Write `data` as indented JSON to `path` atomically. NaN or infinity is not JSON: with
     `missing_as_null` (measurements that were not taken) it is written as null, else it is refused
     with a ValueError naming the file (a result that holds it is a bug)."""

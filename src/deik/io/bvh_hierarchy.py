@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 from deik.io.clip import CHANNELS
 from deik.io.errors import FileFormatError
@@ -78,7 +79,7 @@ class Hierarchy:
         self.open: list[int] = []  # indices of the blocks not yet closed, innermost last
         self.first_line: dict[str, int] = {}  # joint name -> line that declared it
 
-    def fail(self, problem: str, line: int):
+    def fail(self, problem: str, line: int) -> NoReturn:
         raise FileFormatError(self.source, problem, line=line)
 
     def rest_of_line(self, pos: int, line: int) -> tuple[list[str], int]:
@@ -132,7 +133,7 @@ class Hierarchy:
             )
         return self.nodes
 
-    def block(self, word, rest, line, top, pos) -> int:
+    def block(self, word: str, rest: list[str], line: int, top: Node | None, pos: int) -> int:
         """ROOT name / JOINT name / End Site, then '{': open a block."""
         key = word.upper()
         if (key == "ROOT") != (top is None):
@@ -162,7 +163,7 @@ class Hierarchy:
         self.nodes.append(Node(name, parent, line, key == "END"))
         return pos + 1
 
-    def offset(self, word, rest, line, top, pos) -> int:
+    def offset(self, word: str, rest: list[str], line: int, top: Node | None, pos: int) -> int:
         """OFFSET x y z of the innermost block."""
         if top.offset is not None:
             self.fail(f"second OFFSET in {top.describe()}", line)
@@ -171,7 +172,7 @@ class Hierarchy:
         top.offset = tuple(number(self.source, t, line, "OFFSET value") for t in rest)
         return pos
 
-    def channels(self, word, rest, line, top, pos) -> int:
+    def channels(self, word: str, rest: list[str], line: int, top: Node | None, pos: int) -> int:
         """CHANNELS n name... of the innermost joint, names made canonical."""
         if top.is_site or top.channels is not None:
             self.fail(
@@ -195,7 +196,7 @@ class Hierarchy:
         top.channels = tuple(channels)
         return pos
 
-    def close(self, word, rest, line, top, pos) -> int:
+    def close(self, word: str, rest: list[str], line: int, top: Node | None, pos: int) -> int:
         """'}': close the innermost block, which must have had its OFFSET."""
         if top.offset is None:
             self.fail(f"{top.describe()} (line {top.line}) has no OFFSET", line)

@@ -26,7 +26,7 @@ from deik.io.bvh_hierarchy import (
 )
 from deik.io.clip import CHANNELS, Clip, JointChannels
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input
+from deik.io.files import FilePath, read_input
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
@@ -139,7 +139,7 @@ def _skeleton(source, nodes, site_names, limits, segments=()):
         raise FileFormatError(source, f"invalid skeleton: {error}") from None
 
 
-def parse_bvh(text: str | bytes, source: str = "<string>", segments=None) -> Clip:
+def parse_bvh(text: str | bytes, source: str = "<string>", segments: FilePath | None = None) -> Clip:
     """Parse BVH `text` (str or bytes) named `source` into a Clip.
 
     `segments`: a segment table path (JSON, see read_segment_table) or None to estimate masses
@@ -181,7 +181,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>", segments=None) -> Cli
     return Clip.from_channel_values(skeleton, layout, values, frame_time, source, mass_source)
 
 
-def read_bvh(path, segments=None) -> Clip:
+def read_bvh(path: FilePath, segments: FilePath | None = None) -> Clip:
     """Read the BVH file at `path` into a Clip (see parse_bvh); `segments` a table path or None.
 
     A path that cannot be read (missing, a folder or device, too large) or a malformed file

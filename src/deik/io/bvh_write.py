@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from deik.io.atomic import write_text_atomically
 from deik.io.clip import Clip
+from deik.io.files import FilePath
 
 
 def _exact(value: float) -> str:
@@ -56,6 +57,6 @@ def format_bvh(clip: Clip) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_bvh(path, clip: Clip) -> None:
+def write_bvh(path: FilePath, clip: Clip) -> None:
     """Write `clip` to `path` as BVH, atomically: `path` is the old file or the whole new one."""
     write_text_atomically(path, format_bvh(clip))

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.euler import AXIS_TOLERANCE, continuous_angles, continuous_frames
 from deik.model.joints import ROTATE, TRANSLATE
@@ -111,7 +113,7 @@ class Clip:
         """Every frame (N, D) wrapped as in `pose`."""
         return wrap_rotations(self.frames, self.skeleton.dof_kind == ROTATE)
 
-    def with_pose(self, n: int, pose) -> Clip:
+    def with_pose(self, n: int, pose: ArrayLike) -> Clip:
         """A new clip with frame n replaced by `pose` (D,), radians / length units, its Euler
         angles made continuous with the original frame n (same rotations, nearest values)."""
         n = self._frame_index(n)
@@ -122,7 +124,7 @@ class Clip:
         frames[n] = continuous_angles(self.skeleton, pose[None], self.frames[n : n + 1])[0]
         return replace(self, frames=frames)
 
-    def with_frames(self, frames) -> Clip:
+    def with_frames(self, frames: ArrayLike) -> Clip:
         """A new clip with every frame replaced by `frames` (N, D), each made continuous with
         the original frame it replaces (same rotations, nearest Euler values)."""
         frames = self.skeleton.check_angles(frames, "frames")
@@ -141,7 +143,15 @@ class Clip:
         return self.frames[:, self.channel_dofs] * self.channel_scale
 
     @classmethod
-    def from_channel_values(cls, skeleton, layout, values, frame_time, source="", mass_source=""):
+    def from_channel_values(
+        cls,
+        skeleton: Skeleton,
+        layout: Sequence[JointChannels],
+        values: ArrayLike,
+        frame_time: float,
+        source: str = "",
+        mass_source: str = "",
+    ) -> Clip:
         """A clip from file-layout values (N, C) (degrees, length units; see channel_values)."""
         dofs, scale = _channel_map(skeleton, tuple(layout))
         values = np.asarray(values, dtype=np.float64)
@@ -152,7 +162,7 @@ class Clip:
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
 
     @classmethod
-    def from_poses(cls, skeleton: Skeleton, poses, frame_time: float, source: str = "") -> Clip:
+    def from_poses(cls, skeleton: Skeleton, poses: ArrayLike, frame_time: float, source: str = "") -> Clip:
         """A clip of `poses` (N, D) for any skeleton whose DOFs BVH can carry: rotations about and
         translations along +-X, Y or Z, translations before rotations within each joint. The
         layout follows skeleton order; sites become End Sites (their rotations are dropped)."""

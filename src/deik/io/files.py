@@ -7,11 +7,13 @@ and a missing or unreadable file gets one line that names it and the reason.
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 
 from deik.io.errors import FileFormatError
 
+FilePath = str | os.PathLike  # a file a user names: a string or a pathlib.Path
 MAX_INPUT_BYTES = 1 << 30  # 1 GiB: far above any motion clip or robot file
 INPUT_LIMIT_VARIABLE = "DEIK_MAX_INPUT_BYTES"
 
@@ -26,7 +28,7 @@ def max_input_bytes() -> int:
     return int(value)
 
 
-def read_input(path, what: str) -> bytes:
+def read_input(path: FilePath, what: str) -> bytes:
     """The bytes of the `what` file (e.g. "BVH") at `path`; FileFormatError naming the file when it
     is missing, unreadable, not a regular file or larger than max_input_bytes()."""
     source = str(path)
@@ -54,7 +56,7 @@ def read_input(path, what: str) -> bytes:
         raise FileFormatError(source, f"cannot read the {what} file ({error.strerror})") from None
 
 
-def read_input_text(path, what: str) -> str:
+def read_input_text(path: FilePath, what: str) -> str:
     """read_input decoded as UTF-8 (a byte-order mark is allowed); FileFormatError naming the file
     when it is not text."""
     data = read_input(path, what)
@@ -64,3 +66,15 @@ def read_input_text(path, what: str) -> str:
         raise FileFormatError(
             str(path), f"not a text (UTF-8) {what} file: byte {error.start} cannot be decoded"
         ) from None
+
+
+def read_input_json(path: FilePath, what: str) -> object:
+    """read_input_text parsed as JSON; FileFormatError naming the file when it is not JSON (or is
+    nested too deeply to parse)."""
+    text = read_input_text(path, what)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise FileFormatError(str(path), f"not valid JSON ({error}); give a {what} file") from None
+    except RecursionError:
+        raise FileFormatError(str(path), f"JSON nested too deeply to be a {what} file") from None

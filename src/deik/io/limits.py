@@ -21,22 +21,21 @@ from pathlib import Path
 import numpy as np
 
 from deik.io.atomic import write_json_atomically
-from deik.io.files import read_input_text
+from deik.io.clip import Clip
+from deik.io.files import FilePath, read_input_text
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 
-def with_limits(skeleton: Skeleton, limits: dict) -> Skeleton:
+def with_limits(skeleton: Skeleton, limits: dict[str, tuple[float, float]]) -> Skeleton:
     """`skeleton` with the DOFs named in `limits` ({dof name: (lower, upper)}, radians or
     length units) given those limits. Unknown names raise a KeyError with close matches;
     non-finite or inverted limits a ValueError naming the DOF."""
     lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
     for name, bounds in limits.items():
         if name not in skeleton.dof_names:
-            raise KeyError(
-                f"DOF {name!r} not found in skeleton {skeleton.name!r}{did_you_mean(name, skeleton.dof_names)}"
-            )
+            raise KeyError(_not_a_dof(skeleton, name))
         low, high = (float(b) for b in bounds)
         if not (math.isfinite(low) and math.isfinite(high) and low <= high):
             raise ValueError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
@@ -45,7 +44,20 @@ def with_limits(skeleton: Skeleton, limits: dict) -> Skeleton:
     return replace(skeleton, lower=lower, upper=upper)
 
 
-def read_limits(path, skeleton: Skeleton) -> dict:
+def _not_a_dof(skeleton: Skeleton, name: str) -> str:
+    """Why `name` keys no DOF, and which key to give: a joint's own DOF names, the joint that
+    moves a link (URDF), or close matches."""
+    try:
+        dofs = skeleton.joint_dofs(name)
+    except KeyError as error:
+        if name in skeleton.frame_names:  # a link or a site: the skeleton says which name to give
+            return f"{error.args[0]}; a limits table is keyed by DOF names"
+        return f"DOF {name!r} not found in skeleton {skeleton.name!r}{did_you_mean(name, skeleton.dof_names)}"
+    names = ", ".join(skeleton.dof_names[dofs]) or "none"
+    return f"{name!r} is a joint; a limits table is keyed by its DOF names ({names})"
+
+
+def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, float]]:
     """The table in JSON file `path` for `skeleton`, rotations converted to radians; every
     mistake raises a ValueError (or KeyError for an unknown DOF) naming the file."""
     path = str(path)
@@ -76,7 +88,7 @@ def read_limits(path, skeleton: Skeleton) -> dict:
     return limits
 
 
-def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> dict:
+def range_of_motion(clip: Clip, margin_degrees: float, margin_length: float = 0.0) -> dict[str, tuple[float, float]]:
     """{dof name: (lower, upper)} of `clip` (a deik.Clip): each DOF's smallest and largest
     value over the frames (rotations wrapped into [-pi, pi)), widened by the margins and kept
     within the skeleton's own limits."""
@@ -94,7 +106,7 @@ def range_of_motion(clip, margin_degrees: float, margin_length: float = 0.0) -> 
     return {name: (float(lower[d]), float(upper[d])) for d, name in enumerate(sk.dof_names)}
 
 
-def clip_within(clip, skeleton: Skeleton, source: str):
+def clip_within(clip: Clip, skeleton: Skeleton, source: str) -> Clip:
     """`clip` (a deik.Clip) on `skeleton`, the same skeleton with other limits; a ValueError
     naming the first frame and DOF outside them (`source`: where the limits came from)."""
     poses = clip.poses()
@@ -110,7 +122,7 @@ def clip_within(clip, skeleton: Skeleton, source: str):
     return replace(clip, skeleton=skeleton)
 
 
-def write_limits(path, skeleton: Skeleton, limits: dict) -> None:
+def write_limits(path: FilePath, skeleton: Skeleton, limits: dict[str, tuple[float, float]]) -> None:
     """Write `limits` (radians / length units) as a table (degrees for rotations), atomically."""
     table = {}
     for name, (low, high) in limits.items():

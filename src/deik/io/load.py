@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from numpy.typing import ArrayLike
+
+from deik.io.files import FilePath
 from deik.model.skeleton import Skeleton
 
 URDF_UP = (0.0, 0.0, 1.0)
@@ -22,7 +27,14 @@ class Loaded:
     mass_source: str = ""
 
 
-def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> Loaded:
+def load_skeleton(
+    spec: str,
+    *,
+    base: str | None = None,
+    tip: str | Sequence[str] | None = None,
+    segments: FilePath | None = None,
+    up: ArrayLike | None = None,
+) -> Loaded:
     """Load `spec`: a path ending in .bvh or .urdf, or "chain:N", "chain3d:N", "humanoid".
     `base`/`tip` (link names) and `up` (3,) apply to URDF only; `segments` (a segment table
     path) to BVH only; giving one for another kind is a ValueError."""
@@ -37,14 +49,29 @@ def load_skeleton(spec: str, *, base=None, tip=None, segments=None, up=None) -> 
         from deik.io.bvh import read_bvh
 
         clip = read_bvh(spec, segments=segments)
-        return Loaded(clip.skeleton, "bvh", clip, clip.mass_source)
+        return _loaded(Loaded(clip.skeleton, "bvh", clip, clip.mass_source))
     if suffix == ".urdf":
         from deik.io.urdf import read_urdf
 
         skeleton = read_urdf(spec, base=base, tip=tip or None, up=URDF_UP if up is None else up)
-        return Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)")
+        return _loaded(Loaded(skeleton, "urdf", None, f"URDF <inertial> masses ({skeleton.total_mass:g} kg)"))
     skeleton = skeleton_from_spec(spec)
-    return Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)")
+    return _loaded(Loaded(skeleton, "builtin", None, f"built-in {skeleton.name} ({skeleton.total_mass:g} kg)"))
+
+
+def _loaded(loaded: Loaded) -> Loaded:
+    """`loaded`, described on the "deik" logger's debug level."""
+    sk = loaded.skeleton
+    logging.getLogger(__name__).debug(
+        "loaded %s (%s): %d joints, %d DOFs, %d sites; masses: %s",
+        sk.name,
+        loaded.kind,
+        sk.n_joints,
+        sk.n_dofs,
+        len(sk.site_names),
+        loaded.mass_source,
+    )
+    return loaded
 
 
 def skeleton_from_spec(spec: str) -> Skeleton:

@@ -22,8 +22,9 @@ A problem file names a skeleton, optional solver settings and one `[[goal]]` tab
     type = "orientation"         # exactly one of: target = 3x3 rotation matrix, pose = 4x4
     frame = "head"               # homogeneous pose, quaternion_wxyz = [w, x, y, z],
     rpy_degrees = [0, 20, 0]     # quaternion_xyzw = [x, y, z, w], rpy_degrees = URDF roll,
-    tolerance = 0.002            # pitch, yaw (R = Rz Ry Rx), or euler = "XYZ" (intrinsic)
-                                 # with degrees = [a, b, c]; tolerance in radians
+    tolerance_degrees = 0.1      # pitch, yaw (R = Rz Ry Rx), or euler = "XYZ" (intrinsic)
+                                 # with degrees = [a, b, c]; tolerance in radians, or
+                                 # tolerance_degrees (orientation and aim goals)
 
 Other types and their fields (optional ones in brackets): "aim" frame, target [axis];
 "com" target; "com_over_support" point; "com_in_polygon" frames (a list of names);
@@ -45,7 +46,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.io.problem_goals import goal_from_table, vector_field
@@ -70,7 +71,7 @@ class ProblemFile:
     frame: int | None = None
 
 
-def load_problem(path) -> ProblemFile:
+def load_problem(path: FilePath) -> ProblemFile:
     """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)

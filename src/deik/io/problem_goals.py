@@ -14,11 +14,14 @@ import numpy as np
 from deik.model.rotations import euler_matrix
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
-from deik.objectives.registry import COMMON_FIELDS, FILE_TYPES
+from deik.objectives.registry import ANGLE, COMMON_FIELDS, FILE_TYPES
 from deik.suggest import did_you_mean
 
 # type -> (goal class, required fields, optional fields besides COMMON_FIELDS), from the registry
 GOAL_TYPES = {name: (row.goal, row.required, row.optional) for name, row in FILE_TYPES.items()}
+# goals whose error is an angle may give their tolerance in degrees, as the command line does
+DEGREE_TOLERANCE = "tolerance_degrees"
+ANGLE_TYPES = tuple(name for name, row in FILE_TYPES.items() if row.unit == ANGLE)
 
 
 def _is_number(value) -> bool:
@@ -28,7 +31,7 @@ def _is_number(value) -> bool:
 VECTOR_FORMS = {(3,): "[x, y, z]", (3, 3): "[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]"}
 
 
-def vector_field(value, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
+def vector_field(value: object, shape: tuple[int, ...], where: str, field: str, form: str | None = None) -> np.ndarray:
     """A finite float64 array of `shape` from nested TOML lists, or a ValueError saying why;
     `form` describes the expected value (default: a 3-vector or 3x3 matrix template)."""
 
@@ -134,7 +137,7 @@ def _orientation_target(table: dict, where: str) -> tuple:
     return euler_matrix(order, np.radians(degrees)), form
 
 
-def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal:
+def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -> g.Goal:
     """Build and check goal `number` (1-based) from its TOML table."""
     where = f"{path}: goal {number}"
     if not isinstance(table, dict):
@@ -148,7 +151,7 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
         )
     where = f"{where} ({kind})"
     cls, required, optional = GOAL_TYPES[kind]
-    allowed = ("type",) + required + optional + COMMON_FIELDS
+    allowed = ("type",) + required + optional + COMMON_FIELDS + ((DEGREE_TOLERANCE,) if kind in ANGLE_TYPES else ())
     for field in table:
         if field not in allowed:
             raise ValueError(
@@ -179,6 +182,10 @@ def goal_from_table(skeleton: Skeleton, table, number: int, path: str) -> g.Goal
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise ValueError(f"{where}: field 'skip' must be an integer >= 1 (links), got {value!r}")
             kwargs[field] = value
+        elif field == DEGREE_TOLERANCE:
+            if "tolerance" in table:
+                raise ValueError(f"{where}: give 'tolerance' (radians) or '{DEGREE_TOLERANCE}', not both")
+            kwargs["tolerance"] = math.radians(_scalar(value, field, where))
         elif field == "radii" and isinstance(value, dict):
             kwargs[field] = value  # {joint = radius}: the goal checks the names and numbers
         else:

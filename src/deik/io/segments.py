@@ -13,11 +13,12 @@ import json
 import math
 import re
 from collections import Counter, defaultdict
+from collections.abc import Sequence
 
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.joints import Segment
 from deik.model.skeleton import Skeleton
@@ -185,7 +186,7 @@ def _is_number(value) -> bool:
         return False
 
 
-def read_segment_table(path, joint_names) -> tuple[tuple[Segment, ...], str]:
+def read_segment_table(path: FilePath, joint_names: Sequence[str]) -> tuple[tuple[Segment, ...], str]:
     """Read a JSON segment table for a skeleton with `joint_names`.
 
     Top level: {"segments": [{"bvh_frame" or "joint": name, "mass_kg": kg >= 0,

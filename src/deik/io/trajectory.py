@@ -7,7 +7,8 @@ whose joints BVH cannot carry (rest rotations, mimics) go through the same clip 
 
 Files, one row per frame (written atomically):
 - CSV: a header `frame,time_s,<DOF name>,...` (URDF joint names for a robot), then the frame
-  index, its time in seconds and the DOF values (radians / metres), 9 significant digits.
+  index, its time in seconds and the DOF values (radians / metres), each in the fewest digits
+  that read back as the same float64 (9 digits put a value at a joint limit up to 5e-9 past it).
 - JSON: {"dof_names": [...], "dof_units": ["rad" | "m", ...], "frame_time_s": t,
   "frames": [[...], ...]} with the same numbers.
 """
@@ -18,9 +19,12 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import write_json_atomically, write_text_atomically
+from deik.io.clip import Clip
 from deik.io.euler import continuous_angles, continuous_frames
+from deik.io.files import FilePath
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
@@ -54,7 +58,7 @@ class Trajectory:
         """Every frame (N, D) with rotations wrapped into [-pi, pi)."""
         return wrap_rotations(self.frames, self.skeleton.dof_kind == ROTATE)
 
-    def with_frames(self, frames) -> Trajectory:
+    def with_frames(self, frames: ArrayLike) -> Trajectory:
         """A new trajectory of `frames` (N, D), each nearest (whole turns) the frame it replaces."""
         frames = self.skeleton.check_angles(frames, "frames")
         if frames.shape != self.frames.shape:
@@ -75,12 +79,16 @@ def format_trajectory_csv(trajectory: Trajectory) -> str:
     header = ["frame", "time_s", *trajectory.skeleton.dof_names]
     rows = [",".join(header)]
     for n, values in enumerate(trajectory.frames):
-        numbers = ",".join(f"{v:.9g}" for v in values)
+        numbers = ",".join(repr(float(v)) for v in values)
         rows.append(f"{n},{n * trajectory.frame_time:.9g}" + (f",{numbers}" if numbers else ""))
     return "\n".join(rows) + "\n"
 
 
-def write_trajectory(path, trajectory: Trajectory) -> None:
+# what the clip machinery reads frames from: a BVH clip or any skeleton's joint trajectory
+Motion = Clip | Trajectory
+
+
+def write_trajectory(path: FilePath, trajectory: Trajectory) -> None:
     """Write `trajectory` to `path` as CSV (`.csv`) or JSON (`.json`), atomically; ValueError
     for another ending."""
     suffix = str(path).lower().rsplit(".", 1)[-1]

@@ -15,16 +15,20 @@ joint elsewhere in the robot does not matter. Units are the file's: metres, kilo
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from deik.io.files import FilePath
 from deik.io.urdf_elements import UrdfJoint, read_joint, read_link
 from deik.io.urdf_tree import LinkTree
 from deik.io.urdf_xml import read_xml
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
 from deik.model.orientations import rpy_matrix
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
@@ -40,7 +44,9 @@ class _Rigid:
     p: np.ndarray
 
 
-def read_urdf(path, base: str | None = None, tip=None, up=(0.0, 0.0, 1.0)):
+def read_urdf(
+    path: FilePath, base: str | None = None, tip: str | Sequence[str] | None = None, up: ArrayLike = (0.0, 0.0, 1.0)
+) -> Skeleton:
     """Skeleton of the robot in URDF file `path`: the sub-tree below link `base` (default: the
     root link), cut to the paths from `base` to `tip` (a link name or a list of them; default:
     every link below `base`). `up` (3,): world up for balance goals (URDF's convention is +Z)."""

@@ -14,11 +14,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from deik.io.errors import FileFormatError
 from deik.model.skeleton import MAX_MASS
+
+if TYPE_CHECKING:  # lxml is imported by the reader, when a file is read
+    from lxml import etree
 
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 WORD = re.compile(r"[^ \t\r\n]+")  # XML whitespace only: a no-break space is not a separator
@@ -61,7 +65,7 @@ class UrdfLink:
     line: int
 
 
-def read_joint(element, source: str) -> UrdfJoint:
+def read_joint(element: etree._Element, source: str) -> UrdfJoint:
     """The checked values of `<joint>` `element` (lxml) of file `source`."""
     name = _name(element, source)
     e = _Checked(element, source)
@@ -81,7 +85,7 @@ def read_joint(element, source: str) -> UrdfJoint:
     return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline)
 
 
-def read_link(element, source: str) -> UrdfLink:
+def read_link(element: etree._Element, source: str) -> UrdfLink:
     """The checked values of `<link>` `element` (lxml) of file `source`."""
     name = _name(element, source)
     e = _Checked(element, source)

@@ -3,6 +3,9 @@ user picks by base and tip link names."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import NoReturn
+
 from deik.io.errors import FileFormatError
 from deik.io.urdf_elements import UrdfJoint, UrdfLink
 from deik.suggest import did_you_mean
@@ -47,7 +50,7 @@ class LinkTree:
             cut = sorted(set(self.links) - set(self.below(self.root)))
             raise FileFormatError(source, f"links {cut[:5]} are not connected to the root {self.root!r} (a cycle?)")
 
-    def failure(self, name: str, tag: str = "joint"):
+    def failure(self, name: str, tag: str = "joint") -> Callable[[str], NoReturn]:
         """A function that raises FileFormatError about element `name` at its line."""
 
         def fail(problem: str):
@@ -72,7 +75,7 @@ class LinkTree:
             raise KeyError(f"{role} link {name!r} is not in {self.source}{did_you_mean(name, self.links)}")
         return name
 
-    def select(self, base: str | None, tip) -> list[str]:
+    def select(self, base: str | None, tip: str | Sequence[str] | None) -> list[str]:
         """Links of the sub-tree under `base`, or of the paths from `base` to each `tip`,
         parents before children (the base first)."""
         base = self.root if base is None else self._link(base, "base")

@@ -10,11 +10,16 @@ line and a CR-only file would put every element on line 1.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input
+from deik.io.files import FilePath, read_input
+
+if TYPE_CHECKING:  # lxml loads only when a URDF is read
+    from lxml import etree
 
 
-def read_xml(path):
+def read_xml(path: FilePath) -> etree._Element:
     """The `<robot>` element (lxml) of the URDF file at `path`, comments dropped, line numbers
     kept. Unreadable, empty, binary, malformed or non-URDF files raise FileFormatError."""
     from lxml import etree

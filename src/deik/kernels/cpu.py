@@ -1,25 +1,29 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
 Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.kernels.layout)
-and writes the next; individuals are split into chunks, one scratch allocation per chunk, and
-each individual's work is device_driver.py's, the same code the GPU kernels run. Results do not
-depend on the thread count: each individual's trial depends only on (seed, problem, generation,
-individual) and the current population, and the per-problem bookkeeping runs in index order.
+and writes the next; individuals are split into chunks of whole blocks of LANES, one scratch
+allocation per chunk, and each block is bred (or a first population evaluated) together in SIMD
+lanes by device_lanes.py, whose trial, scoring and selection of each individual are
+device_driver.py's, the code the GPU kernels run. Results depend neither on the thread count nor
+on the split into chunks and blocks: each individual's trial depends only on (seed, problem,
+generation, individual) and the current population, every lane computes what the one-pose code
+computes, and the per-problem bookkeeping runs in index order.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from deik.kernels.layout import WORK_SIZE, LmScratch, Scratch
+from deik.kernels.layout import LANES, WORK_SIZE, LaneScratch, LmScratch, Scratch
+from deik.kernels.linking import linked
 from deik.kernels.targets import cpu as dev
 
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
 
 
-@njit(cache=True)
+@linked()
 def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
     frames, t = dev.frame_count(skel), dtype_probe.dtype
@@ -27,7 +31,33 @@ def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
 
 
-@njit(cache=True)
+@linked()
+def _lane_span(c, chunks, n):
+    """Individuals [start, end) of chunk c of `chunks` over n: whole blocks of LANES, so only the
+    last block of all is short (the split never changes a result)."""
+    blocks = (n + LANES - 1) // LANES
+    return min(n, c * blocks // chunks * LANES), min(n, (c + 1) * blocks // chunks * LANES)
+
+
+@linked()
+def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
+    """A LaneScratch of one thread, in dtype_probe's dtype; poses start at zero, so lanes a short
+    last block leaves unused compute on finite numbers."""
+    frames, t = dev.frame_count(skel), dtype_probe.dtype
+    return LaneScratch(
+        np.empty((LANES, n_dofs), t),
+        np.zeros((n_dofs, LANES), t),
+        np.empty((LANES, 2), t),
+        np.empty((frames * 12, LANES), t),
+        np.empty((frames * 9, LANES), t),
+        np.empty((frames * 3, LANES), t),
+        np.empty((LANES, n_levels), t),
+        np.empty((LANES, n_terms), t),
+        np.empty(WORK_SIZE, t),
+    )
+
+
+@linked()
 def _polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
@@ -45,7 +75,7 @@ def _polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunks):
     """Fill the Buffers `state`: pop (B, P, D) uniformly inside the limits (the first n_initial
     individuals of each problem copy initial (B, n_initial, D)), every individual's F and CR
@@ -58,21 +88,32 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
         _initialise_chunk(0, 1, state, skel, terms, settings, initial, n_initial)
     else:
         for c in prange(n_chunks):
-            _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial)
+            _initialise_chunk(np.int64(c), n_chunks, state, skel, terms, settings, initial, n_initial)
     for b in range(state.pop.shape[0]):
         dev.rank_first(b, state, status)
 
 
-@njit(cache=True)
-def start(cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens, threads):
-    """A whole solve in one call: the first population, then run_generations from generation
-    0; returns the buffer swaps (as run_generations). When the polish is on and problems stop
-    once every tolerance is met, the first population is lazy: each problem's individual 0 is
-    polished first (device_driver.polish_first) and the rest of the population is sampled and
-    evaluated only for the problems it leaves unmet (most robot targets never need it);
-    otherwise as initialise."""
+@linked()
+def launch(
+    fresh, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, gen, n_gens, threads
+):
+    """The DE kernel every launch runs, so a solve compiles one kernel per dtype: with `fresh`,
+    the first population (_first_population) first; then run_generations from generation
+    `gen`; returns its buffer swaps. memetic None compiles the kernel without the LM polish."""
+    if fresh:
+        _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
+    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+
+
+@linked()
+def _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
+    """Fill cur with a first population and status with its best and leaders. When the polish
+    is on and problems stop once every tolerance is met, it is lazy: each problem's individual
+    0 is polished first (device_driver.polish_first) and the rest of the population is sampled
+    and evaluated only for the problems it leaves unmet (most robot targets never need it); a
+    problem that stops lies in both buffers. Otherwise as initialise."""
     B, P = cur.pop.shape[0], cur.pop.shape[1]
-    if memetic.iterations > 0 and control.stop_on_converged:
+    if memetic is not None and memetic.iterations > 0 and control.stop_on_converged:
         met = np.empty(B, np.bool_)
         chunks = _chunks(B, 3 * memetic.iterations, skel, threads)
         _polish_first(chunks, cur, skel, terms, settings, memetic, initial, n_initial, met)
@@ -83,13 +124,12 @@ def start(cur, nxt, status, skel, terms, settings, memetic, control, history, in
             dev.settle(b, 0, cur, terms, status, control, False)  # one polish, not a round
             if not status.active[b]:
                 for i in range(P):
-                    dev.copy_individual(cur, nxt, b, i, i)  # a stopped problem lies in both buffers
+                    dev.copy_individual(cur, nxt, b, i, i)
     else:
         initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
-    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens, threads)
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _polish_first(chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
     """Every problem's individual 0 initialised and polished (device_driver.polish_first);
     met (B,) receives whether it meets every tolerance."""
@@ -97,10 +137,10 @@ def _polish_first(chunks, state, skel, terms, settings, memetic, initial, n_init
         _polish_first_chunk(0, 1, state, skel, terms, settings, memetic, initial, n_initial, met)
     else:
         for c in prange(chunks):
-            _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initial, n_initial, met)
+            _polish_first_chunk(np.int64(c), chunks, state, skel, terms, settings, memetic, initial, n_initial, met)
 
 
-@njit(cache=True)
+@linked()
 def _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
     """Chunk c of `chunks` of _polish_first's problems."""
     B, D = state.pop.shape[0], state.pop.shape[2]
@@ -112,7 +152,7 @@ def _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initia
         )
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _complete(chunks, n, state, skel, terms, settings, initial, n_initial, met):
     """Individuals 1.. of every problem after _polish_first (device_driver.complete_individual),
     n = B * (P - 1) of them in `chunks` work units."""
@@ -120,10 +160,10 @@ def _complete(chunks, n, state, skel, terms, settings, initial, n_initial, met):
         _complete_chunk(0, 1, n, state, skel, terms, settings, initial, n_initial, met)
     else:
         for c in prange(chunks):
-            _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initial, met)
+            _complete_chunk(np.int64(c), chunks, n, state, skel, terms, settings, initial, n_initial, met)
 
 
-@njit(cache=True)
+@linked()
 def _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initial, met):
     """Chunk c of `chunks` of _complete's individuals."""
     P, D = state.pop.shape[1], state.pop.shape[2]
@@ -133,17 +173,17 @@ def _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initi
         dev.complete_individual(b, 1 + idx % (P - 1), met[b], state, skel, terms, settings, initial, n_initial, scratch)
 
 
-@njit(cache=True)
+@linked()
 def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
-    """Chunk c of `n_chunks` of initialise's individuals."""
+    """Chunk c of `n_chunks` of initialise's individuals, LANES at a time."""
     B, P, D = state.pop.shape
-    n = B * P
-    scratch, _, _, _ = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    for idx in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-        dev.initialise_individual(idx // P, idx % P, state, skel, terms, settings, initial, n_initial, scratch)
+    lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    start, end = _lane_span(c, n_chunks, B * P)
+    for first in range(start, end, LANES):
+        dev.initialise_lanes(first, min(LANES, end - first), state, skel, terms, settings, initial, n_initial, lanes)
 
 
-@njit(cache=True)
+@linked()
 def _chunks(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
@@ -153,7 +193,7 @@ def _chunks(n_jobs, work_per_job, skel, threads):
     return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
 
 
-@njit(cache=True)
+@linked()
 def _active_problems(active):
     """(indices of the active problems, their count)."""
     order = np.empty(active.shape[0], np.int64)
@@ -165,7 +205,7 @@ def _active_problems(active):
     return order, n
 
 
-@njit(cache=True)
+@linked()
 def _polish_due(order, n_active, fresh, round_due):
     """(the active problems in order (n_active,) that a polish round refines now, their
     count): all of them when the round is due (every polish_every generations), else those
@@ -180,7 +220,7 @@ def _polish_due(order, n_active, fresh, round_due):
     return due, n
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """One generation's trials over the n active individuals, in `chunks` work units. (A parallel
     function of its own: Numba's parfors rebuild a NamedTuple argument of the loop body only
@@ -189,22 +229,19 @@ def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
         _breed_chunk(0, 1, n, cur, nxt, skel, terms, settings, status, order, gen)
     else:
         for c in prange(chunks):
-            _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
+            _breed_chunk(np.int64(c), chunks, n, cur, nxt, skel, terms, settings, status, order, gen)
 
 
-@njit(cache=True)
+@linked()
 def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
-    """Chunk c of `chunks` of _breed's individuals."""
-    P, D = cur.pop.shape[1], cur.pop.shape[2]
-    scratch, trial, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
-    trial_rates = np.empty(2, cur.pop.dtype)
-    for idx in range(c * n // chunks, (c + 1) * n // chunks):
-        dev.breed_individual(
-            order[idx // P], idx % P, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
-        )
+    """Chunk c of `chunks` of _breed's individuals, LANES at a time (device_lanes.breed_lanes)."""
+    lanes = _lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
+    start, end = _lane_span(c, chunks, n)
+    for first in range(start, end, LANES):
+        dev.breed_lanes(first, min(LANES, end - first), order, gen, cur, nxt, skel, terms, settings, status, lanes)
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def _polish(chunks, n, state, skel, terms, status, memetic, order):
     """A polish round over the n active problems in `chunks` work units (parallel on its own as
     _breed)."""
@@ -212,10 +249,10 @@ def _polish(chunks, n, state, skel, terms, status, memetic, order):
         _polish_chunk(0, 1, n, state, skel, terms, status, memetic, order)
     else:
         for c in prange(chunks):
-            _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order)
+            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, memetic, order)
 
 
-@njit(cache=True)
+@linked()
 def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
     """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
@@ -231,12 +268,13 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
                 break
 
 
-@njit(cache=True)
+@linked()
 def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
     every inactive problem: only active problems are worked on, and a problem that stops is
-    copied into both. threads: the pool's size (small loops run on the caller's)."""
+    copied into both. threads: the pool's size (small loops run on the caller's). memetic: the
+    polish (layout.Memetic), or None: compiled without it."""
     P = cur.pop.shape[1]
     active = status.active
     fresh = np.zeros(active.shape[0], np.bool_)  # whose last generation restarted (random poses)
@@ -244,7 +282,7 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     for g in range(n_gens):
         gen = gen_start + g
         order, n_active = _active_problems(active)
-        if n_active and memetic.iterations > 0:
+        if memetic is not None and n_active and memetic.iterations > 0:
             # polish before breeding, so a problem the polish solves stops without a generation
             due, n_due = _polish_due(order, n_active, fresh, gen % memetic.every == 0)
             if n_due:
@@ -274,20 +312,21 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
     return swaps
 
 
-@njit(parallel=True, cache=True)
-def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks):
+@linked(parallel=True)
+def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks, threads):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
-    total (N,), raw (N, T). n_chunks as for initialise."""
+    total (N,), raw (N, T). n_chunks as for initialise, or 0: as many as pay off on `threads`
+    threads (_chunks)."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
     else:
         for c in prange(n_chunks):
-            _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw)
+            _evaluate_chunk(np.int64(c), n_chunks, poses, problem_index, skel, terms, levels, total, raw)
 
 
-@njit(cache=True)
+@linked()
 def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
     """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
@@ -296,7 +335,7 @@ def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, tota
         total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 
-@njit(parallel=True, cache=True)
+@linked(parallel=True)
 def forward_kinematics_batch(poses, skel, R, p):
     """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
     for n in prange(poses.shape[0]):
@@ -304,22 +343,22 @@ def forward_kinematics_batch(poses, skel, R, p):
         dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
-@njit(parallel=True, cache=True)
-def point_jacobians(poses, frames, skel, x, jacobian, n_chunks):
+@linked(parallel=True)
+def point_jacobians(poses, frames, skel, x, jacobian, n_chunks, threads):
     """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
     -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
-    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks as
-    for initialise."""
+    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks and
+    threads as for evaluate_poses."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
     if n_chunks == 1:
         _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
     else:
         for c in prange(n_chunks):
-            _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian)
+            _point_jacobian_chunk(np.int64(c), n_chunks, poses, frames, skel, x, jacobian)
 
 
-@njit(cache=True)
+@linked()
 def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
     """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
     N, D = poses.shape
@@ -343,7 +382,7 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
                     jacobian[n, g, row, d] = jac[row * D + d]
 
 
-@njit(cache=True)
+@linked()
 def residual_rows(poses, problem_index, term, skel, terms):
     """The LM polish's scaled residual (N, 3) of one term and its analytic Jacobian (N, 3, D)
     at poses (N, D) (zeros for terms the polish leaves to DE)."""

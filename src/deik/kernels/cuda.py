@@ -54,8 +54,9 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
 
     @cuda.jit
     def start(state, status, skel, terms, settings, memetic, control, initial, n_initial, polish_matrix):
-        """A lazy first population (cpu.start): thread 0 polishes individual 0, then the block
-        completes the population (copies of it when it met every tolerance) and settles."""
+        """A lazy first population (cpu._first_population): thread 0 polishes individual 0, then
+        the block completes the population (copies of it when it met every tolerance) and
+        settles."""
         b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
         scratch = Scratch(
             cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
@@ -189,8 +190,9 @@ class CudaBackend:
     def _threads(self, population: int) -> int:
         return min(THREADS_PER_BLOCK, 32 * -(-population // 32))
 
-    def initialise(self, buffers, status, skel, terms, settings, initial, n_initial):
-        """Fill buffers with a first population and status with its best and leaders."""
+    def initialise(self, buffers, status, skel, terms, settings, memetic, control, initial, n_initial):
+        """Fill buffers with a first population and status with its best and leaders (memetic
+        and control: unused here, as in the CPU back-end's signature)."""
         initialise, _, _ = kernels_for(skel, buffers)
         d_buf, d_status = self._to_device(buffers), self._to_device(status)
         B, P = buffers.pop.shape[:2]
@@ -207,8 +209,8 @@ class CudaBackend:
             device.copy_to_host(host)
 
     def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
-        """The first population (lazy as cpu.start's when the polish is on and problems stop
-        once met), then run from generation 0: two launches."""
+        """The first population (lazy as cpu._first_population's when the polish is on and
+        problems stop once met), then run from generation 0: two launches."""
         if memetic.iterations > 0 and control.stop_on_converged:
             _, start, _ = kernels_for(skel, cur)
             d_buf, d_status = self._to_device(cur), self._to_device(status)
@@ -228,7 +230,7 @@ class CudaBackend:
             for host, device in zip(cur + status, d_buf + d_status):
                 device.copy_to_host(host)
         else:
-            self.initialise(cur, status, skel, terms, settings, initial, n_initial)
+            self.initialise(cur, status, skel, terms, settings, memetic, control, initial, n_initial)
         return self.run(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens)
 
     def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):

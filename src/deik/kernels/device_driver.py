@@ -2,9 +2,11 @@
 
 Compiled together with the other device_*.py files (see deik.kernels.targets). cpu.py and
 cuda.py only decide which thread runs which (problem b, individual i) and own the scratch;
-what happens to one individual is written here once. Buffers, skel, terms, settings and status
-are the NamedTuples of deik.kernels.layout; scratch is a Scratch, trial (D,), trial_rates (2,),
-lv (L,) and rw (T,) per-thread scratch.
+what happens to one individual is written here once: the GPU runs initialise_individual and
+breed_individual, one individual per thread, and the CPU's blocks (device_lanes.py) run their
+parts, seed_individual, propose and select, around an FK of many individuals at once. Buffers,
+skel, terms, settings and status are the NamedTuples of deik.kernels.layout; scratch is a
+Scratch, trial (D,), trial_rates (2,), lv (L,) and rw (T,) per-thread scratch.
 """
 
 from deik.kernels.device_evolution import (
@@ -15,23 +17,27 @@ from deik.kernels.device_evolution import (
     within_tolerances,
 )
 from deik.kernels.device_lm import open_ended, polish
-from deik.kernels.device_maths import uniform
+from deik.kernels.device_maths import stream, unit
 from deik.kernels.device_terms import evaluate
 from deik.kernels.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
 
 
-def initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch):
-    """Individual i of problem b: a copy of initial[b, i] when i < n_initial, else uniform inside
-    the limits; its F and CR are the settings'; then evaluated."""
-    limits, pop = skel.limits, state.pop
+def seed_individual(b, i, state, skel, settings, initial, n_initial):
+    """Individual i of problem b, not yet evaluated: a copy of initial[b, i] when i < n_initial,
+    else uniform inside the limits; its F and CR are the settings'."""
+    limits, pop, key = skel.limits, state.pop, stream(settings.seed, b, INIT_GENERATION, i)
     for d in range(pop.shape[2]):
         if i < n_initial:
             pop[b, i, d] = initial[b, i, d]
         else:
-            u = uniform(settings.seed, b, INIT_GENERATION, i, d)
-            pop[b, i, d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * u
+            pop[b, i, d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * unit(key, d)
     state.rates[b, i, RATE_F], state.rates[b, i, RATE_CR] = settings.F, settings.CR
-    state.total[b, i] = evaluate(pop[b, i], b, skel, terms, scratch, state.levels[b, i], state.raw[b, i])
+
+
+def initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch):
+    """seed_individual, then evaluated."""
+    seed_individual(b, i, state, skel, settings, initial, n_initial)
+    state.total[b, i] = evaluate(state.pop[b, i], b, skel, terms, scratch, state.levels[b, i], state.raw[b, i])
 
 
 def polish_first(b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw):
@@ -53,30 +59,39 @@ def complete_individual(b, i, met, state, skel, terms, settings, initial, n_init
         initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch)
 
 
-def breed_individual(b, i, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw):
-    """Generation `gen` for individual i of problem b: its trial from cur, evaluated, goes to nxt
-    if not worse (strict priority), else the individual is copied over. In a restart generation
-    every trial but the best's is kept."""
-    island_size = cur.pop.shape[1] // settings.islands
-    restarting = status.restarting[b]
+def propose(b, i, gen, cur, skel, settings, status, trial, trial_rates):
+    """Generation `gen`'s trial (D,) for individual i of problem b from cur, and the F and CR it
+    used (trial_rates (2,)); a uniform random pose in a restart generation."""
     make_trial(
         cur.pop,
         cur.rates,
         b,
         i,
-        status.leaders[b, i // island_size],
+        status.leaders[b, i // (cur.pop.shape[1] // settings.islands)],
         gen,
         settings,
         skel.limits,
         trial,
         trial_rates,
-        restarting,
+        status.restarting[b],
     )
-    tot = evaluate(trial, b, skel, terms, scratch, lv, rw)
-    if i != status.best[b] if restarting else not_worse(lv, cur.levels[b, i]):
+
+
+def select(b, i, cur, nxt, status, trial, lv, rw, tot, trial_rates):
+    """An evaluated trial (levels lv, raw errors rw, total tot) goes to nxt if not worse than
+    individual i of problem b (strict priority), else the individual is copied over; in a restart
+    generation every trial but the best's is kept."""
+    if i != status.best[b] if status.restarting[b] else not_worse(lv, cur.levels[b, i]):
         keep_trial(nxt, b, i, trial, lv, rw, tot, trial_rates)
     else:
         copy_individual(cur, nxt, b, i, i)
+
+
+def breed_individual(b, i, gen, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw):
+    """Generation `gen` for individual i of problem b: propose, evaluate, select."""
+    propose(b, i, gen, cur, skel, settings, status, trial, trial_rates)
+    tot = evaluate(trial, b, skel, terms, scratch, lv, rw)
+    select(b, i, cur, nxt, status, trial, lv, rw, tot, trial_rates)
 
 
 def polish_individual(b, target, state, skel, terms, memetic, scratch, axes, lm, q, lv, rw):

@@ -5,7 +5,7 @@ Compiled together with the other device_*.py files (see deik.kernels.targets).
 
 import math
 
-from deik.kernels.device_maths import randint, uniform
+from deik.kernels.device_maths import below, stream, threshold, unit, unit_bits
 from deik.kernels.device_polish import is_polished
 from deik.kernels.device_terms import weight_of
 from deik.kernels.layout import (
@@ -15,6 +15,7 @@ from deik.kernels.layout import (
     HISTORY_MEAN,
     LOWER,
     PAPER,
+    PENALTY,
     RAND_1,
     RATE_CR,
     RATE_F,
@@ -23,6 +24,8 @@ from deik.kernels.layout import (
 )
 from deik.objectives.kinds import TERM_KIND, TOLERANCE
 
+# inlined by the CPU target (deik.kernels.targets) so make_trial's gene loop vectorises
+INLINE = ("_cross", "within_limits")
 _TWO_PI = 2.0 * math.pi
 _JDE_REDRAW = 0.1
 _JDE_F_MIN = 0.1
@@ -39,9 +42,10 @@ def not_worse(candidate, incumbent):
     return True
 
 
-def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, seed, b, gen, i, draw):
-    """A population index in [0, n) that avoids the first n_exclude of the excluded indices."""
-    r = randint(n - n_exclude, seed, b, gen, i, draw)
+def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, key, draw):
+    """A population index in [0, n) that avoids the first n_exclude of the excluded indices
+    (draw `draw` of stream `key`)."""
+    r = below(n - n_exclude, key, draw)
     lo, mid, hi = exclude_a, exclude_b if n_exclude > 1 else n, exclude_c if n_exclude > 2 else n
     if lo > mid:
         lo, mid = mid, lo
@@ -62,41 +66,65 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
     clip fold or clamp genes into the limits, penalty lets them leave (a top-priority term
     penalises it), paper is Algorithm 2. adaptive (jDE): each individual carries its own F and
     CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
-    inherited by the trial when it is accepted. restart: a uniform random pose instead."""
-    seed = settings.seed
+    inherited by the trial when it is accepted. restart: a uniform random pose instead. Random
+    numbers are draws of the stream of (seed, b, gen, i): 0-3 donors and the forced gene, 4 + d
+    gene d, 4 + D onwards the rates. The gene loop (_cross) keeps no branch once compiled, so it
+    vectorises over genes; F and CR are cast to the population's dtype so that a float32
+    kernel computes its genes in float32."""
+    key = stream(settings.seed, b, gen, i)
     P, D = pop.shape[1], pop.shape[2]
     size = P // settings.islands
     base = (i // size) * size
     if restart:
         for d in range(D):
-            trial[d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * uniform(seed, b, gen, i, 4 + d)
+            trial[d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * unit(key, 4 + d)
         trial_rates[RATE_F], trial_rates[RATE_CR] = settings.F, settings.CR
         return
-    f, cr = settings.F, settings.CR
+    t = pop.dtype.type
+    f, cr = t(settings.F), t(settings.CR)
     if settings.adaptive:
         f, cr = rates[b, i, RATE_F], rates[b, i, RATE_CR]
-        if uniform(seed, b, gen, i, 4 + D) < _JDE_REDRAW:
-            f = _JDE_F_MIN + (1.0 - _JDE_F_MIN) * uniform(seed, b, gen, i, 5 + D)
-        if uniform(seed, b, gen, i, 6 + D) < _JDE_REDRAW:
-            cr = uniform(seed, b, gen, i, 7 + D)
+        if unit(key, 4 + D) < _JDE_REDRAW:
+            f = t(_JDE_F_MIN + (1.0 - _JDE_F_MIN) * unit(key, 5 + D))
+        if unit(key, 6 + D) < _JDE_REDRAW:
+            cr = t(unit(key, 7 + D))
     trial_rates[RATE_F], trial_rates[RATE_CR] = f, cr
-    r1 = donor(size, i - base, 0, 0, 1, seed, b, gen, i, 0)
-    r2 = donor(size, i - base, r1, 0, 2, seed, b, gen, i, 1)
-    r3 = donor(size, i - base, r1, r2, 3, seed, b, gen, i, 2)
-    r1, r2, r3 = r1 + base, r2 + base, r3 + base
-    forced = randint(D, seed, b, gen, i, 3)
-    strategy, limit_mode = settings.strategy, settings.limit_mode
-    for d in range(D):
-        if d == forced or uniform(seed, b, gen, i, 4 + d) < cr:
-            if strategy == RAND_1:
-                v = pop[b, r1, d] + f * (pop[b, r2, d] - pop[b, r3, d])
-            elif strategy == BEST_1:
-                v = pop[b, best, d] + f * (pop[b, r1, d] - pop[b, r2, d])
-            else:
-                v = pop[b, i, d] + f * (pop[b, best, d] - pop[b, i, d]) + f * (pop[b, r1, d] - pop[b, r2, d])
-        else:
-            v = pop[b, i, d]
-        trial[d] = within_limits(v, limits[d, LOWER], limits[d, UPPER], limit_mode)
+    r1 = donor(size, i - base, 0, 0, 1, key, 0) + base
+    r2 = donor(size, i - base, r1 - base, 0, 2, key, 1) + base
+    r3 = donor(size, i - base, r1 - base, r2 - base, 3, key, 2) + base
+    # every strategy as a + g (c - a) + f (p - q): rand/1 and best/1 with g = 0 and c = a
+    current, g = pop[b, i], f - f
+    if settings.strategy == RAND_1:
+        a, c, p, q = pop[b, r1], pop[b, r1], pop[b, r2], pop[b, r3]
+    elif settings.strategy == BEST_1:
+        a, c, p, q = pop[b, best], pop[b, best], pop[b, r1], pop[b, r2]
+    else:
+        a, c, p, q, g = current, pop[b, best], pop[b, r1], pop[b, r2], f
+    # one call per limit mode, each with its mode as a constant once inlined: a mode read in the
+    # loop would keep a branch there, and the gene loop would not vectorise
+    forced, mode = below(D, key, 3), settings.limit_mode
+    if mode == REFLECT:
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, REFLECT)
+    elif mode == CLIP:
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, CLIP)
+    elif mode == PAPER:
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, PAPER)
+    else:
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, PENALTY)
+
+
+def _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, limit_mode):
+    """trial[d] = the mutant a + g (c - a) + f (p - q) where gene d crosses over (d == forced or
+    draw 4 + d of stream `key` below cr), else current[d]; then within_limits (rows (D,); the
+    GPU's trial may be longer, padded). The
+    limits are read flat, two per DOF: indexed limits[d, LOWER], their stride would be the
+    array's shape, unknown to LLVM, which then vectorises only for a stride of one."""
+    below_cr, bounds = threshold(cr), limits.reshape(limits.size)
+    for d in range(current.shape[0]):
+        mutant = a[d] + g * (c[d] - a[d]) + f * (p[d] - q[d])
+        crossed = (d == forced) | (unit_bits(key, 4 + d) < below_cr)
+        lo, hi = bounds[2 * d + LOWER], bounds[2 * d + UPPER]
+        trial[d] = within_limits(mutant if crossed else current[d], lo, hi, limit_mode)
 
 
 def within_limits(v, lo, hi, limit_mode):

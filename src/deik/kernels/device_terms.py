@@ -32,6 +32,10 @@ from deik.objectives.kinds import (
     WEIGHT,
 )
 
+# inlined into score by the CPU target (deik.kernels.targets): a call passes every array of the
+# skeleton and term table as separate arguments, which cost more than a position term's error
+INLINE = ("term_error",)
+
 
 def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     """Distance from point P to segment AB."""

@@ -43,6 +43,11 @@ RATE_F, RATE_CR = 0, 1
 # history (G, B, 2) columns: the best and the mean total of a problem's population per generation
 HISTORY_BEST, HISTORY_MEAN = 0, 1
 WORK_SIZE = 32  # floats of Scratch.work: general-axis rotations use 18, the support polygon 2 per frame
+# individuals the CPU evaluates together, joint by joint, in SIMD lanes (device_lanes.py): four
+# 512-bit registers of float32, eight of float64 per row. Each loop over the lanes has a fixed
+# cost (an overlap check, its set-up): on a 100-link chain in float32 the lane FK took 5.4, 3.2
+# and 2.3 ns per joint and individual with 16, 32 and 64 lanes (one thread, CPU time).
+LANES = 64
 
 
 class PackedSkeleton(NamedTuple):
@@ -135,6 +140,22 @@ class Scratch(NamedTuple):
     R: np.ndarray  # (F*9,) world rotations, flat row-major
     p: np.ndarray  # (F*3,) world positions
     work: np.ndarray  # (WORK_SIZE,)
+
+
+class LaneScratch(NamedTuple):
+    """Per-thread scratch of LANES individuals evaluated together (device_lanes.py): their poses
+    and world frames lane-contiguous (element-major, lane-minor), so a loop over the lanes reads
+    and writes consecutive floats."""
+
+    trials: np.ndarray  # (LANES, D) the trials being bred, one row each
+    poses: np.ndarray  # (D, LANES) the lanes' poses, one column each: what the FK reads
+    rates: np.ndarray  # (LANES, 2) the F and CR each trial used
+    frames: np.ndarray  # (F*12, LANES) the FK's working copy: per frame its rotation rows, then its position rows
+    R: np.ndarray  # (F*9, LANES) world rotations, flat row-major per frame
+    p: np.ndarray  # (F*3, LANES) world positions
+    levels: np.ndarray  # (LANES, L)
+    raw: np.ndarray  # (LANES, T)
+    work: np.ndarray  # (WORK_SIZE,) the scoring's work array, shared by the lanes in turn
 
 
 class LmScratch(NamedTuple):

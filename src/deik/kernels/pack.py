@@ -14,6 +14,12 @@ from deik.objectives.kinds import MU, PRIORITY_TOLERANCE, SCALE, TOLERANCE
 from deik.objectives.table import TermTable
 
 
+def kernel_array(a, dtype) -> np.ndarray:
+    """`a` as a fresh C-contiguous, writable array of `dtype`: the one array type the kernels
+    are compiled for (Numba compiles a whole kernel again for a read-only or strided array)."""
+    return np.array(a, dtype=dtype, order="C")
+
+
 def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> PackedSkeleton:
     """The skeleton's arrays; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi).
     Without an override they are cached per (frozen) skeleton and dtype: callers must not
@@ -30,7 +36,7 @@ def _packed(skeleton: Skeleton, dtype: np.dtype) -> PackedSkeleton:
 
 def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleton:
     s = skeleton
-    f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
+    f = lambda a: kernel_array(a, dtype)  # noqa: E731
     m = s.motions
     plain = np.all(s.joint_rotation.reshape(-1, 9) == np.eye(3).ravel(), axis=1)
     joint_int = np.stack([s.parents, m.joint_start[:-1], m.joint_start[1:], plain], axis=1)
@@ -45,13 +51,13 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleto
         limits = np.stack([s.lower, s.upper], axis=1)
     limits = inward(np.asarray(limits, np.float64), dtype)
     return PackedSkeleton(
-        joint_int=np.ascontiguousarray(joint_int, np.int32),
+        joint_int=kernel_array(joint_int, np.int32),
         joint_frame=f(joint_frame.reshape(-1, 12)),
-        motion_int=np.ascontiguousarray(motion_int, np.int32),
+        motion_int=kernel_array(motion_int, np.int32),
         motion_float=f(motion_float),
-        site_joint=np.ascontiguousarray(s.site_joint, np.int32),
+        site_joint=kernel_array(s.site_joint, np.int32),
         site_frame=f(site_frame.reshape(-1, 12)),
-        mass_joint=np.ascontiguousarray(s.mass_joint, np.int32),
+        mass_joint=kernel_array(s.mass_joint, np.int32),
         mass_data=f(mass_data.reshape(-1, 4)),
         limits=f(limits),
         ground=f(ground_frame(s.up)),
@@ -99,13 +105,13 @@ def _kernel_term_float(table: TermTable, dtype) -> np.ndarray:
 
 def pack_terms(table: TermTable, reference: np.ndarray, dtype=np.float32) -> PackedTerms:
     """The table's arrays, with reference (B, T, D) each comfort term's reference pose."""
-    f = lambda a: np.ascontiguousarray(a, dtype=dtype)  # noqa: E731
+    f = lambda a: kernel_array(a, dtype)  # noqa: E731
     return PackedTerms(
-        term_int=np.ascontiguousarray(table.term_int, np.int32),
+        term_int=kernel_array(table.term_int, np.int32),
         term_float=f(_kernel_term_float(table, dtype)),
         params=f(table.params),
         dof_weight=f(table.dof_weight),
         reference=f(reference),
-        pair_int=np.ascontiguousarray(table.pair_int, np.int32),
+        pair_int=kernel_array(table.pair_int, np.int32),
         pair_radius=f(table.pair_radius),
     )

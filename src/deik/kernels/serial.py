@@ -35,14 +35,15 @@ def serial_epochs(state, skel, terms, limit_mode, F, CR, seed, gen_start, n_epoc
     for e in range(n_epochs):
         gen = gen_start + e
         for j in range(P):
-            x = dev.randint(P, seed, PROBLEM, gen, j, 0)
-            a = dev.donor(P, x, 0, 0, 1, seed, PROBLEM, gen, j, 1)
-            b = dev.donor(P, x, a, 0, 2, seed, PROBLEM, gen, j, 2)
-            c = dev.donor(P, x, a, b, 3, seed, PROBLEM, gen, j, 3)
-            forced = dev.randint(D, seed, PROBLEM, gen, j, 4)
+            key = dev.stream(seed, PROBLEM, gen, j)
+            x = dev.below(P, key, 0)
+            a = dev.donor(P, x, 0, 0, 1, key, 1)
+            b = dev.donor(P, x, a, 0, 2, key, 2)
+            c = dev.donor(P, x, a, b, 3, key, 3)
+            forced = dev.below(D, key, 4)
             for d in range(D):
                 v = pop[0, x, d]
-                if d == forced or dev.uniform(seed, PROBLEM, gen, j, 5 + d) < CR:
+                if d == forced or dev.unit(key, 5 + d) < CR:
                     v = pop[0, a, d] + F * (pop[0, b, d] - pop[0, c, d])
                 trial[d] = dev.within_limits(v, limits[d, LOWER], limits[d, UPPER], limit_mode)
             tot = dev.evaluate(trial, PROBLEM, skel, terms, scratch, lv, rw)

@@ -1,10 +1,10 @@
 """Compile the one-source device maths (deik.kernels.device_*.py) for each target.
 
-`cpu` is the device maths compiled with numba.njit(cache=True, _nrt=False); `cuda_device()` compiles the
-same sources with numba.cuda.jit(device=True) on first use. Each compile execs the sources into
-one fresh module without their imports of each other (`from deik.kernels.device_x import f`,
-there for linters and readers), so every call between device functions resolves to the same
-target's compiled function; other imports (layout and term-kind constants) run as written.
+`cpu` is the device maths as linked functions (deik.kernels.linking; without NRT, the helpers
+each source lists in INLINE inlined by Numba); `cuda_device()` compiles the same sources with
+numba.cuda.jit(device=True) on first use. Each puts copies of the functions into one fresh
+module (compile_namespace), so every call between device functions resolves to the same
+target's compiled function.
 
 Numba's on-disk cache checks only the file a function lives in; the CPU kernels also depend on
 the device files, so kernel files get a locator whose stamp hashes every source in this folder
@@ -15,17 +15,18 @@ stale one.
 
 from __future__ import annotations
 
-import ast
 import hashlib
 import importlib
 import inspect
+import re
 import sys
 import types
 from functools import lru_cache
 from pathlib import Path
 
-from numba import njit
 from numba.core import caching
+
+from deik.kernels.linking import linked
 
 KERNEL_DIR = Path(__file__).resolve().parent
 DEVICE_PREFIX = "deik.kernels.device_"
@@ -39,13 +40,8 @@ def _outside_constants() -> bytes:
     modules = set()
     for path in KERNEL_DIR.glob("*.py"):
         if path.name.startswith("device_") or path.name == "layout.py":
-            modules |= {
-                node.module
-                for node in ast.walk(ast.parse(path.read_text()))
-                if isinstance(node, ast.ImportFrom)
-                and (node.module or "").startswith("deik.")
-                and not node.module.startswith("deik.kernels.")
-            }
+            modules |= set(re.findall(r"^from (deik\.[\w.]+) import", path.read_text(), re.MULTILINE))
+    modules = {module for module in modules if not module.startswith("deik.kernels.")}
     return repr(
         [
             (module, key, value)
@@ -98,27 +94,25 @@ for _locator in (_UserWideKernelLocator, _InTreeKernelLocator, _UserProvidedKern
         caching.CacheImpl._locator_classes.insert(0, _locator)
 
 
-def _without_device_imports(tree: ast.Module) -> ast.Module:
-    """The module without its `from deik.kernels.device_* import ...` statements."""
-    tree.body = [
-        node
-        for node in tree.body
-        if not (isinstance(node, ast.ImportFrom) and (node.module or "").startswith(DEVICE_PREFIX))
-    ]
-    return tree
-
-
-def compile_namespace(sources, name: str, decorate) -> types.ModuleType:
-    """Exec the source files of modules `sources` into one new module `name`, without their
-    imports of each other, wrapping every function they define in `decorate`."""
+def compile_namespace(sources, name: str, decorate, decorate_inline=None) -> types.ModuleType:
+    """One new module `name` with the names of the modules `sources` and a copy of every
+    function they define, bound to it and wrapped in `decorate`, or in `decorate_inline` for
+    those a source lists in its INLINE tuple (when given): a call between device functions
+    (imported from each other for linters and readers) resolves to the same target's compiled
+    function, and other names (layout and term-kind constants) are the modules' own. Copies of
+    the functions, not the sources run again: no parsing or compiling per process."""
     module = types.ModuleType(name)
+    namespace = vars(module)
     for source in sources:
-        path = source.__file__
-        tree = _without_device_imports(ast.parse(Path(path).read_text(), path))
-        exec(compile(tree, path, "exec"), module.__dict__)
-    for key, value in list(module.__dict__.items()):
-        if inspect.isfunction(value) and value.__module__ == name:
-            setattr(module, key, decorate(value))
+        namespace.update({key: value for key, value in vars(source).items() if not key.startswith("__")})
+    namespace.pop("INLINE", None)
+    for source in sources:
+        inline = set(getattr(source, "INLINE", ())) if decorate_inline else set()
+        for key, value in vars(source).items():
+            if inspect.isfunction(value) and value.__module__ == source.__name__:
+                copy = types.FunctionType(value.__code__, namespace, key, value.__defaults__, value.__closure__)
+                copy.__qualname__, copy.__doc__ = value.__qualname__, value.__doc__
+                namespace[key] = (decorate_inline if key in inline else decorate)(copy)
     sys.modules[name] = module
     return module
 
@@ -127,6 +121,7 @@ from deik.kernels import (  # noqa: E402
     device_collision,
     device_driver,
     device_evolution,
+    device_lanes,
     device_lm,
     device_maths,
     device_polish,
@@ -141,12 +136,21 @@ DEVICE_SOURCES = (
     device_polish,
     device_lm,
     device_driver,
+    device_lanes,
 )
 # The device maths never allocates, so it is compiled without Numba's reference counting: every
 # array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
 # doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
 # NRT (they allocate scratch); the device functions only borrow their arrays.
-cpu = compile_namespace(DEVICE_SOURCES, "deik.kernels._device_cpu", njit(cache=True, nogil=True, _nrt=False))
+# The loops over SIMD lanes (device_lanes.py) call helpers inlined by Numba itself (INLINE):
+# LLVM does not inline a helper whose vectorised loop makes it large, and the call would cost
+# more than its lanes of work.
+cpu = compile_namespace(
+    DEVICE_SOURCES,
+    "deik.kernels._device_cpu",
+    linked(nogil=True, _nrt=False),
+    linked(nogil=True, _nrt=False, inline="always"),
+)
 
 
 @lru_cache(maxsize=1)

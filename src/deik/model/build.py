@@ -6,9 +6,12 @@ mimic DOFs are resolved to the free DOFs they follow.
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Iterable
 
-from deik.model.joints import Dof, Joint
+import numpy as np
+from numpy.typing import ArrayLike
+
+from deik.model.joints import Dof, Joint, Segment, Site
 from deik.model.skeleton import Skeleton
 
 
@@ -45,7 +48,13 @@ def _topological_order(joints: list[Joint]) -> list[int]:
     return order
 
 
-def build_skeleton(joints, sites=(), segments=(), up=(0.0, 1.0, 0.0), name="skeleton"):
+def build_skeleton(
+    joints: Iterable[Joint],
+    sites: Iterable[Site] = (),
+    segments: Iterable[Segment] = (),
+    up: ArrayLike = (0.0, 1.0, 0.0),
+    name: str = "skeleton",
+) -> Skeleton:
     """Build a validated Skeleton from Joint/Site/Segment specs given in any order."""
     joints = list(joints)
     order = _topological_order(joints)

@@ -1,5 +1,5 @@
-"""Ground frames and point-to-segment, segment-to-segment and point-to-polygon distances, in
-NumPy (batched).
+"""Ground frames, 2-D convex hulls, and point-to-segment, segment-to-segment and point-to-polygon
+distances, in NumPy (batched).
 
 The kernels compute the same quantities in device code (kernels/device_terms.py); these are the
 readable versions that the oracle, the clip metrics and the balance track use.
@@ -7,7 +7,11 @@ readable versions that the oracle, the clip metrics and the balance track use.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+STRAIGHT = 1e-12  # radians: points that turn less than this are collinear (as rounding leaves them)
 
 
 def ground_frame(up: np.ndarray) -> np.ndarray:
@@ -18,7 +22,29 @@ def ground_frame(up: np.ndarray) -> np.ndarray:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-def segment_distance(point, a, b):
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """(K, 2) the corners of the convex hull of 2-D points (S, 2), S >= 1, counter-clockwise from
+    the lowest x (then y): one for coincident points, the two ends for collinear ones (within
+    STRAIGHT), and no point inside an edge (Andrew's monotone chain)."""
+    points = np.unique(np.asarray(points, float), axis=0)  # sorted by x, then y
+    if len(points) <= 2:
+        return points
+
+    def chain(ordered):  # the lower hull left to right (the upper one right to left), its last point left off
+        kept = []
+        for p in ordered:
+            while len(kept) >= 2:
+                (ux, uy), (vx, vy) = kept[-1] - kept[-2], p - kept[-2]
+                if ux * vy - uy * vx > STRAIGHT * math.hypot(ux, uy) * math.hypot(vx, vy):  # a left turn: a corner
+                    break
+                kept.pop()
+            kept.append(p)
+        return kept[:-1]
+
+    return np.array(chain(points) + chain(points[::-1]))
+
+
+def segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance from point (..., k) to segments a-b (..., k)."""
     u = b - a
     length2 = np.sum(u * u, axis=-1)
@@ -27,7 +53,7 @@ def segment_distance(point, a, b):
     return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
 
 
-def segments_distance(a0, a1, b0, b1):
+def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
     """Distance between segments a0-a1 and b0-b1 (..., 3): the closest points' parameters s on
     a and t on b minimise |a0 + s (a1 - a0) - b0 - t (b1 - b0)| over [0, 1]^2 (Ericson,
     Real-Time Collision Detection, 5.1.9); a segment of zero length is its point."""
@@ -45,7 +71,7 @@ def segments_distance(a0, a1, b0, b1):
     return np.linalg.norm(w + s[..., None] * u - t[..., None] * v, axis=-1)
 
 
-def polygon_distance(q, pts):
+def polygon_distance(q: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
     non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
     n = pts.shape[1]

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.rotations import AXES
 
@@ -71,7 +72,9 @@ class Segment:
     name: str = ""
 
 
-def euler(order: str, lower=-math.pi, upper=math.pi, reference=0.0) -> tuple[Dof, ...]:
+def euler(
+    order: str, lower: ArrayLike = -math.pi, upper: ArrayLike = math.pi, reference: ArrayLike = 0.0
+) -> tuple[Dof, ...]:
     """Rotation DOFs for Euler channels, e.g. euler("ZXY"); limits scalar or one per channel."""
     order = order.upper()
     if not order or any(c not in AXES for c in order):
@@ -83,7 +86,9 @@ def euler(order: str, lower=-math.pi, upper=math.pi, reference=0.0) -> tuple[Dof
     )
 
 
-def hinge(axis, lower=-math.pi, upper=math.pi, reference=0.0, label="hinge") -> tuple[Dof, ...]:
+def hinge(
+    axis: ArrayLike, lower: float = -math.pi, upper: float = math.pi, reference: float = 0.0, label: str = "hinge"
+) -> tuple[Dof, ...]:
     """One rotation DOF about an arbitrary `axis` (normalised here)."""
     a = np.asarray(axis, dtype=float)
     norm = float(np.linalg.norm(a))
@@ -92,7 +97,7 @@ def hinge(axis, lower=-math.pi, upper=math.pi, reference=0.0, label="hinge") -> 
     return (Dof(ROTATE, tuple(a / norm), float(lower), float(upper), float(reference), label),)
 
 
-def translation(axes: str = "XYZ", lower=-math.inf, upper=math.inf) -> tuple[Dof, ...]:
+def translation(axes: str = "XYZ", lower: ArrayLike = -math.inf, upper: ArrayLike = math.inf) -> tuple[Dof, ...]:
     """Translation DOFs along the named axes, e.g. a free-floating root: translation("XYZ")."""
     if not axes or any(c not in AXES for c in axes.upper()):
         raise ValueError(f"translation axes {axes!r} must use only the letters X, Y and Z")

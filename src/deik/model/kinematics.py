@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE
 from deik.model.rotations import axis_angle_matrix
@@ -37,7 +38,7 @@ class Kinematics:
         return self.R_world_frame[..., self.skeleton.frame_index(name), :, :]
 
 
-def forward_kinematics(skeleton: Skeleton, angles) -> Kinematics:
+def forward_kinematics(skeleton: Skeleton, angles: ArrayLike) -> Kinematics:
     """Angles (*batch, D) in radians / length units -> Kinematics of every joint and site."""
     q = skeleton.check_angles(angles)
     batch = q.shape[:-1]
@@ -75,7 +76,7 @@ def forward_kinematics(skeleton: Skeleton, angles) -> Kinematics:
     )
 
 
-def centre_of_mass(skeleton: Skeleton, R_world_joint: np.ndarray, p_world_joint: np.ndarray):
+def centre_of_mass(skeleton: Skeleton, R_world_joint: np.ndarray, p_world_joint: np.ndarray) -> np.ndarray:
     """Mass-weighted centre (N, 3) from joint frames (N, J, 3, 3) and (N, J, 3); Eq. 3."""
     m = skeleton.mass_value
     if m.sum() <= 0:

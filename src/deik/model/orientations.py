@@ -15,6 +15,7 @@ Every function takes any leading batch shape; matrices act on column vectors.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.rotations import euler_matrix
 
@@ -27,7 +28,7 @@ _EYE = np.eye(3)
 _ORTHONORMAL_BOUND = ROTATION_TOLERANCE * (1 + _EYE)  # R R^T - I, entry by entry
 
 
-def rpy_matrix(rpy) -> np.ndarray:
+def rpy_matrix(rpy: ArrayLike) -> np.ndarray:
     """URDF roll, pitch, yaw (..., 3) radians -> Rz(yaw) Ry(pitch) Rx(roll) (..., 3, 3)."""
     return euler_matrix("ZYX", np.asarray(rpy, float)[..., ::-1])
 
@@ -58,7 +59,7 @@ def _quaternion_order(order: str) -> str:
     return order
 
 
-def quaternion_matrix(q, order: str, what: str = "quaternion") -> np.ndarray:
+def quaternion_matrix(q: ArrayLike, order: str, what: str = "quaternion") -> np.ndarray:
     """Unit quaternions (..., 4) in component `order` ("wxyz" or "xyzw") -> rotations (..., 3, 3).
     A ValueError naming `what` when a length is off 1 by more than QUATERNION_TOLERANCE."""
     q = np.asarray(q, dtype=np.float64)
@@ -80,7 +81,7 @@ def quaternion_matrix(q, order: str, what: str = "quaternion") -> np.ndarray:
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
-def matrix_quaternion(R, order: str = "wxyz") -> np.ndarray:
+def matrix_quaternion(R: ArrayLike, order: str = "wxyz") -> np.ndarray:
     """Rotations (..., 3, 3) -> unit quaternions (..., 4) in `order`, with w >= 0 (Shepperd's
     method: the largest of w, x, y, z is computed from the trace, the others from it)."""
     R = np.asarray(R, dtype=np.float64)
@@ -104,7 +105,7 @@ def matrix_quaternion(R, order: str = "wxyz") -> np.ndarray:
     return q if _quaternion_order(order) == "wxyz" else q[..., [1, 2, 3, 0]]
 
 
-def rotation_from(form: str, value, what: str) -> np.ndarray:
+def rotation_from(form: str, value: ArrayLike, what: str) -> np.ndarray:
     """Rotation matrices (..., 3, 3) from `value` in orientation `form` (see FORMS; angles in
     radians); a ValueError naming `what` for an unknown form, a wrong shape, NaN, a matrix that
     is not a rotation or a quaternion that is not unit length."""

@@ -8,11 +8,12 @@ accept any leading batch shape.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
-def wrap_rotations(values, rotation: np.ndarray) -> np.ndarray:
+def wrap_rotations(values: ArrayLike, rotation: np.ndarray) -> np.ndarray:
     """A copy of `values` (..., D) with the DOFs where `rotation` (D,) is True wrapped into
     [-pi, pi) radians (the same rotations); the others unchanged."""
     out = np.array(values, dtype=np.float64)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import TRANSLATE
 from deik.suggest import did_you_mean
@@ -289,7 +290,7 @@ class Skeleton:
         slices = {n: self.joint_dofs(n) for n in self.joint_labels}
         return {n: angles[s].copy() for n, s in slices.items() if s.stop > s.start}
 
-    def check_angles(self, angles, name: str = "angles") -> np.ndarray:
+    def check_angles(self, angles: ArrayLike, name: str = "angles") -> np.ndarray:
         """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim == 0 or a.shape[-1] != self.n_dofs:

@@ -4,12 +4,13 @@ rows, reachability, masses and per-DOF comfort weights (objectives/goals.py)."""
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import N_PARAMS
 
 
-def vector(value, shape: tuple[int, ...], what: str) -> np.ndarray:
+def vector(value: ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
     """`value` of `shape` or (B, *shape) as a finite float64 array (B, *shape), B = 1 without
     a batch axis; a ValueError naming `what` otherwise."""
     a = np.asarray(value, dtype=np.float64)
@@ -33,7 +34,7 @@ def pack(*parts: np.ndarray) -> np.ndarray:
     return out
 
 
-def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, label: str):
+def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, label: str) -> None:
     """Raise when a target lies farther from every possible root position than the reach."""
     length = skeleton.path_length(frame) if frame is not None else skeleton.reach
     outside = target - np.clip(target, *skeleton.root_box())
@@ -53,7 +54,7 @@ def need_mass(skeleton: Skeleton, what: str) -> None:
         raise ValueError(f"{what} needs masses, but skeleton {skeleton.name!r} has none")
 
 
-def dof_weights(skeleton: Skeleton, spec) -> np.ndarray:
+def dof_weights(skeleton: Skeleton, spec: str | dict[str, float] | ArrayLike | None) -> np.ndarray:
     """Comfort's per-DOF weights (D,) from `spec` (see deik.Comfort's joint_weights)."""
     D = skeleton.n_dofs
     if spec is None:

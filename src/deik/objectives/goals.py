@@ -139,14 +139,14 @@ class Position(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         return self.compile(skeleton)[0]
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.target, (3,), f"{self.frame} target"))
 
-    def compile(self, skeleton):
+    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
         values = self._checked(skeleton, self.target)
         return self._row(POSITION, (skeleton.frame_index(self.frame),), skeleton.reach, LENGTH_TOLERANCE), pack(values)
 
-    def target_params(self, skeleton, target):
+    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self._checked(skeleton, target)), self.batched(target=target)
 
@@ -171,7 +171,7 @@ class Orientation(Goal):
     form: str = "matrix"
 
     @property
-    def BATCH_FIELDS(self):  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
+    def BATCH_FIELDS(self) -> tuple[tuple[str, int], ...]:  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
         return (("target", FORMS.get(self.form, 2)),)
 
     def rotation(self, target=None) -> np.ndarray:
@@ -182,17 +182,17 @@ class Orientation(Goal):
         )
         return vector(R, (3, 3), f"{self.frame} orientation")
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         return self.compile(skeleton)[0]
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(self.rotation())
 
-    def compile(self, skeleton):
+    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
         R = self.rotation()
         return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE), pack(R)
 
-    def target_params(self, skeleton, target):
+    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self.rotation(target)), self.batched(target=target)
 
@@ -208,12 +208,12 @@ class Aim(Goal):
     target: object
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if not np.linalg.norm(self.axis) > 0:
             raise ValueError(f"aim axis for {self.frame!r} must be non-zero")
         return self._row(AIM, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         axis = np.asarray(self.axis, float)
         if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
             raise ValueError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
@@ -229,12 +229,12 @@ class CentreOfMass(Goal):
     BATCH_FIELDS = (("target", 1),)
     target: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "centre_of_mass")
         check_reachable(skeleton, vector(self.target, (3,), "centre-of-mass target"), None, self.label)
         return self._row(COM, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.target, (3,), "centre-of-mass target"))
 
 
@@ -247,11 +247,11 @@ class ComOverSupport(Goal):
     BATCH_FIELDS = (("point", 1),)
     point: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_over_support")
         return self._row(COM_GROUND, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         return pack(vector(self.point, (3,), "support point"))
 
 
@@ -263,7 +263,7 @@ class ComInPolygon(Goal):
     LABEL = "com in support polygon"
     frames: tuple[str, ...]
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_in_polygon")
         if not 1 <= len(self.frames) <= MAX_TERM_FRAMES:
             raise ValueError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
@@ -287,13 +287,13 @@ class Comfort(Goal):
     reference: object = None
     mu: float = field(default=0.1, kw_only=True)
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if self.mode not in ("sum", "max"):
             raise ValueError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
         kind = COMFORT_SUM if self.mode == "sum" else COMFORT_MAX
         return self._row(kind, (), 1.0, -1.0, dof_weights(skeleton, self.joint_weights))
 
-    def reference_pose(self, skeleton) -> np.ndarray | None:
+    def reference_pose(self, skeleton: Skeleton) -> np.ndarray | None:
         if self.reference is None:
             return None
         return vector(self.reference, (skeleton.n_dofs,), "comfort reference")
@@ -310,12 +310,12 @@ class Obstacle(Goal):
     radius: float
     bone_radius: float = 0.0
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         if not (self.radius > 0 and self.bone_radius >= 0):
             raise ValueError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
         return self._row(OBSTACLE, (), skeleton.reach, 0.0)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         centre = vector(self.centre, (3,), "obstacle centre")
         return pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
 
@@ -330,10 +330,10 @@ class Floor(Goal):
     BATCH_FIELDS = (("height", 0),)
     height: object
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         return self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
 
-    def params(self, skeleton):
+    def params(self, skeleton: Skeleton) -> np.ndarray:
         height = np.asarray(self.height, float)
         if height.ndim > 1 or not np.isfinite(height).all():
             raise ValueError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
@@ -348,5 +348,5 @@ class LimitsPenalty(Goal):
 
     LABEL = "joint limits"
 
-    def row(self, skeleton):
+    def row(self, skeleton: Skeleton) -> TermRow:
         return TermRow(LIMITS, self.label, (), (), 1.0, 1.0, 1.0, 0.0, self.level)

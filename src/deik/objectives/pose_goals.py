@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.orientations import pose_rotation
 from deik.objectives.goal_values import vector
@@ -10,7 +11,12 @@ from deik.objectives.goals import Orientation, Position
 
 
 def pose_goals(
-    frame: str, pose, *, tolerance: float | None = None, angle_tolerance: float | None = None, **common
+    frame: str,
+    pose: ArrayLike,
+    *,
+    tolerance: float | None = None,
+    angle_tolerance: float | None = None,
+    **common: object,
 ) -> tuple[Position, Orientation]:
     """Place `frame` at the translation of `pose` (4, 4) or (B, 4, 4) (length units) and turn it
     to its rotation part: (Position, Orientation), met within `tolerance` (length units) and

@@ -6,10 +6,13 @@ Each term's raw error comes from its kind's oracle function in the registry of g
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
 from deik.model.geometry import ground_frame
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import (
     GAIN,
     PAIR_A,
@@ -22,9 +25,18 @@ from deik.objectives.kinds import (
     WEIGHT,
 )
 from deik.objectives.registry import Posed, Term, kind_of
+from deik.objectives.table import TermTable
 
 
-def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
+class ProblemLike(Protocol):
+    """What the oracle reads of a deik.Problem (the solver layer, above this one)."""
+
+    skeleton: Skeleton
+    table: TermTable
+    reference: np.ndarray
+
+
+def raw_errors(problem: ProblemLike, poses: np.ndarray, problem_index: np.ndarray | None = None) -> np.ndarray:
     """Raw error of every term (N, T) for poses (N, D); pose n belongs to problem
     problem_index[n] (default 0)."""
     sk, table = problem.skeleton, problem.table
@@ -44,7 +56,9 @@ def raw_errors(problem, poses, problem_index=None) -> np.ndarray:
     return out
 
 
-def fitness(problem, poses, problem_index=None):
+def fitness(
+    problem: ProblemLike, poses: np.ndarray, problem_index: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(levels (N, L), total (N,), raw (N, T)) exactly as the kernels define them."""
     table = problem.table
     raw = raw_errors(problem, poses, problem_index)

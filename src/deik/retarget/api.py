@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from numpy.typing import ArrayLike
 
 from deik.clips.coherence import hinge_channels
 from deik.io.bvh import read_bvh
 from deik.io.bvh_view import view_clip
 from deik.io.clip import Clip
+from deik.io.files import FilePath
 from deik.io.load import load_skeleton
 from deik.model.skeleton import Skeleton
 from deik.retarget.maps import JointMap, read_map
@@ -42,7 +43,16 @@ def _bvh_clip(result: Retarget, target_clip: Clip | None) -> Clip:
         return view_clip(motion.skeleton, frames, motion.frame_time, motion.source)
 
 
-def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=None, **settings) -> Retarget:
+def retarget(
+    source: Clip | FilePath,
+    to: str | Clip | Skeleton | FilePath | None = None,
+    *,
+    scale: dict[str, float] | None = None,
+    joint_map: JointMap | FilePath | None = None,
+    frames: tuple[int, int] | None = None,
+    up: ArrayLike | None = None,
+    **settings: object,
+) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
 
@@ -51,7 +61,9 @@ def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=Non
     - Another skeleton: `joint_map` (a JointMap or a TOML/JSON path) and `to` a BVH or URDF
       path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it.
     `frames` = (start, stop) cuts the source first (stop exclusive); `settings` go to the clip
-    fix (population, generations, seed, device). ValueError for a mistake in the inputs."""
+    fix of a same-rig retarget (population, generations, seed, device); a joint-map retarget
+    runs no DE and takes only `progress(met, stage)` from them. ValueError for a mistake in
+    the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     if joint_map is None:
         if (to is None) == (scale is None):
@@ -67,11 +79,8 @@ def retarget(source, to=None, *, scale=None, joint_map=None, frames=None, up=Non
     target, target_clip = _target(to, joint_map.up or up)
     hinges = None if target_clip is None else hinge_channels(target_clip)
     result = retarget_rig(clip, target, joint_map, hinges=hinges, **settings)
-    motion = result.motion
-    if target_clip is None:  # a robot's controller reads each angle as it is: inside its limits
-        motion = replace(motion, frames=within_limits(motion.skeleton, motion.frames))
     return Retarget(
-        motion,
+        result.motion,
         _bvh_clip(result, target_clip),
         result.source,
         result.contacts,

@@ -10,20 +10,23 @@ rest poses are taken to be the same stance (both shared rigs stand upright, arms
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
+from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import euler_angles
 from deik.model.skeleton import Skeleton
 
 
-def rest_heights(skeleton: Skeleton, names) -> np.ndarray:
+def rest_heights(skeleton: Skeleton, names: Sequence[str]) -> np.ndarray:
     """(K,) heights along skeleton.up of the frames `names` at rest (every DOF 0)."""
     kin = forward_kinematics(skeleton, np.zeros(skeleton.n_dofs))
     return np.array([kin.position(name) @ skeleton.up for name in names])
 
 
-def height_ratio(source: Skeleton, target: Skeleton, source_names, target_names) -> float:
+def height_ratio(source: Skeleton, target: Skeleton, source_names: Sequence[str], target_names: Sequence[str]) -> float:
     """Target length per source length: the ratio of the vertical spans at rest of the mapped
     frames (`target_names` on `target`, `source_names` on `source`, pairwise). ValueError when
     the source's mapped frames span no height (map a head and a foot)."""
@@ -39,14 +42,99 @@ def floor_origin(skeleton: Skeleton, first_pose: np.ndarray, ground: float) -> n
     return root + (ground - root @ skeleton.up) * skeleton.up
 
 
-def mapped_points(source_clip, names, origin: np.ndarray, scale: float, rotation: np.ndarray) -> np.ndarray:
+def mapped_points(
+    source_clip: Motion, names: Sequence[str], origin: np.ndarray, scale: float, rotation: np.ndarray
+) -> np.ndarray:
     """(N, K) source frames `names` over the clip mapped into the target world: (N, K, 3)."""
     kin = forward_kinematics(source_clip.skeleton, source_clip.poses())
     p = np.stack([kin.position(name) for name in names], axis=1)
     return ((p - origin) * scale) @ rotation.T
 
 
-def mapped_rotations(source_clip, source_name: str, target: Skeleton, target_name: str, rotation) -> np.ndarray:
+def limb_tree(source: Skeleton, source_names: Sequence[str], root: int) -> list[int]:
+    """(K,) each key point's parent key point: the nearest of its source frame's ancestors that
+    is mapped, else `root` (the root point's own entry is -1)."""
+    index = {source.frame_index(name): k for k, name in enumerate(source_names)}
+    parents = []
+    for k, name in enumerate(source_names):
+        f = source.frame_index(name)
+        f = f if f < source.n_joints else int(source.site_joint[f - source.n_joints])
+        parent = root
+        if f in index and index[f] != k:  # a site of a mapped joint hangs from that joint's point
+            parent = index[f]
+        else:
+            f = int(source.parents[f]) if f < source.n_joints else f
+            while f >= 0 and f not in index:
+                f = int(source.parents[f])
+            parent = index.get(f, root)
+        parents.append(-1 if k == root else parent)
+    return parents
+
+
+def limb_scales(
+    source: Skeleton,
+    target: Skeleton,
+    source_names: Sequence[str],
+    target_names: Sequence[str],
+    root: int,
+    fallback: float,
+) -> tuple[float, np.ndarray]:
+    """(root scale, (K,) limb scales) at rest: the root key point's height above the skeleton's
+    lowest joint or site, and each point's distance from its parent point (limb_tree), target over
+    source (a point within 1 % of the source's reach of its parent takes `fallback`)."""
+    rest = [forward_kinematics(sk, np.zeros(sk.n_dofs)).p_world_frame for sk in (source, target)]
+    P, Q = (
+        X[[sk.frame_index(n) for n in names]]
+        for X, sk, names in zip(rest, (source, target), (source_names, target_names))
+    )
+    # the root's height above the sole (the lowest joint or site), which stands on the floor
+    legs = [X[root] @ sk.up - (frames @ sk.up).min() for X, frames, sk in zip((P, Q), rest, (source, target))]
+    if not legs[0] > 1e-2 * source.reach:
+        raise ValueError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
+    parents = np.array(limb_tree(source, source_names, root))
+    up = np.where(parents >= 0, parents, root)
+    far = [np.linalg.norm(X - X[up], axis=1) for X in (P, Q)]
+    scales = np.where(far[0] > 1e-2 * source.reach, far[1] / np.maximum(far[0], 1e-12), fallback)
+    return float(legs[1] / legs[0]), scales
+
+
+def limb_points(
+    source_clip: Motion,
+    names: Sequence[str],
+    origin: np.ndarray,
+    root: int,
+    root_scale: float,
+    scales: np.ndarray,
+    rotation: np.ndarray,
+) -> np.ndarray:
+    """(N, K, 3) source frames `names` mapped limb by limb: the root point's path about
+    `origin` by `root_scale`, then each point at its parent point (limb_tree) plus its offset
+    from the parent in the source, scaled by its limb scale (K,) (limb_scales): the source's
+    pose with the target's limb lengths."""
+    kin = forward_kinematics(source_clip.skeleton, source_clip.poses())
+    p = np.stack([kin.position(name) for name in names], axis=1)
+    parents = limb_tree(source_clip.skeleton, names, root)
+    out = np.empty_like(p)
+    done = [False] * len(names)
+
+    def place(k: int) -> None:
+        if done[k]:
+            return
+        if parents[k] < 0:
+            out[:, k] = (p[:, k] - origin) * root_scale
+        else:
+            place(parents[k])
+            out[:, k] = out[:, parents[k]] + (p[:, k] - p[:, parents[k]]) * scales[k]
+        done[k] = True
+
+    for k in range(len(names)):
+        place(k)
+    return out @ rotation.T
+
+
+def mapped_rotations(
+    source_clip: Motion, source_name: str, target: Skeleton, target_name: str, rotation: np.ndarray
+) -> np.ndarray:
     """(N, 3, 3) the world orientation target frame `target_name` should have in each frame (see
     the module notes)."""
     sk = source_clip.skeleton
@@ -56,7 +144,9 @@ def mapped_rotations(source_clip, source_name: str, target: Skeleton, target_nam
     return rotation @ R_s @ R_s_rest.T @ rotation.T @ R_t_rest
 
 
-def root_dofs(skeleton: Skeleton, site_position: np.ndarray, site_offset: np.ndarray, R_root: np.ndarray):
+def root_dofs(
+    skeleton: Skeleton, site_position: np.ndarray, site_offset: np.ndarray, R_root: np.ndarray
+) -> np.ndarray | None:
     """(N, 6) values of a root's X, Y, Z translations and three rotations about coordinate
     axes (in that DOF order, as BVH roots and with_floating_root have them) that put the root
     frame at orientation `R_root` (N, 3, 3) and a point `site_offset` (3,) of it at

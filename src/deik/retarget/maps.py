@@ -2,8 +2,10 @@
 
 TOML or JSON (told apart by the ending: `.json` is JSON), every key optional but `points`:
 
-    scale = "height"          # target lengths per source length: "height" (the ratio of the
-                              # mapped points' heights at rest) or a number
+    scale = "limbs"           # target lengths per source length: "limbs" (each point's rest
+                              # distance from the pelvis point, and the pelvis's rest height, target
+                              # over source), "height" (the ratio of the mapped points' heights at
+                              # rest) or a number
     up = [0, 1, 0]            # the target's up, for a URDF (whose convention is +Z)
     rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # source world axes -> target world axes
     pelvis = { source = "Hips", target = "middle_pelvis" }   # the target's root: orientation
@@ -27,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.errors import FileFormatError
-from deik.io.files import read_input_text
+from deik.io.files import FilePath, read_input_text
+from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 KEYS = ("scale", "up", "rotation", "pelvis", "torso", "points")
@@ -50,12 +53,13 @@ class PointPair:
 
 @dataclass(frozen=True)
 class JointMap:
-    """A parsed joint map: `points`, `scale` (None: by height), `up` (3,) or None, `rotation`
-    (3, 3) source axes to target axes, `pelvis` and `torso` (source, target) or None, `source`
-    the file."""
+    """A parsed joint map: `points`, `scale` (None: by height), `limbs` (scale each point by its
+    own rest distance from the pelvis point), `up` (3,) or None, `rotation` (3, 3) source axes
+    to target axes, `pelvis` and `torso` (source, target) or None, `source` the file."""
 
     points: tuple[PointPair, ...]
     scale: float | None = None
+    limbs: bool = False
     up: tuple[float, float, float] | None = None
     rotation: np.ndarray | None = None
     pelvis: tuple[str, str] | None = None
@@ -91,7 +95,7 @@ def _point(source: str, name: str, value) -> PointPair:
     raise FileFormatError(source, 'must be "TARGET" or { target = "TARGET", offset = [x, y, z] }', element=key)
 
 
-def parse_map(data, source: str) -> JointMap:
+def parse_map(data: object, source: str) -> JointMap:
     """A JointMap from the parsed file `data` (a dict); FileFormatError naming the key."""
     if not isinstance(data, dict):
         raise FileFormatError(source, "must be a table of keys (scale, up, rotation, pelvis, torso, points)")
@@ -104,10 +108,12 @@ def parse_map(data, source: str) -> JointMap:
     if not isinstance(points, dict) or not points:
         raise FileFormatError(source, 'needs a [points] table: SOURCE = "TARGET" per key point', element="points")
     scale = data.get("scale", "height")
-    if scale != "height" and not (
+    if scale not in ("height", "limbs") and not (
         isinstance(scale, (int, float)) and not isinstance(scale, bool) and math.isfinite(scale) and scale > 0
     ):
-        raise FileFormatError(source, f'must be "height" or a number > 0, got {scale!r:.40}', element="scale")
+        raise FileFormatError(source, f'must be "limbs", "height" or a number > 0, got {scale!r:.40}', element="scale")
+    if scale == "limbs" and not ("pelvis" in data and isinstance(data["pelvis"], dict)):
+        raise FileFormatError(source, 'scale = "limbs" measures from the pelvis: give pelvis too', element="scale")
     rotation = None
     if "rotation" in data:
         rows = data["rotation"]
@@ -120,7 +126,8 @@ def parse_map(data, source: str) -> JointMap:
             )
     return JointMap(
         points=tuple(_point(source, str(name), value) for name, value in points.items()),
-        scale=None if scale == "height" else float(scale),
+        scale=None if scale in ("height", "limbs") else float(scale),
+        limbs=scale == "limbs",
         up=_vector(source, "up", data["up"]) if "up" in data else None,
         rotation=rotation,
         pelvis=_pair(source, "pelvis", data["pelvis"]) if "pelvis" in data else None,
@@ -129,7 +136,7 @@ def parse_map(data, source: str) -> JointMap:
     )
 
 
-def read_map(path) -> JointMap:
+def read_map(path: FilePath) -> JointMap:
     """Read the joint map at `path` (TOML, or JSON for `.json`); FileFormatError when malformed."""
     source = str(path)
     text = read_input_text(path, "joint map")
@@ -142,7 +149,7 @@ def read_map(path) -> JointMap:
     return parse_map(data, source)
 
 
-def check_map(joint_map: JointMap, source_skeleton, target_skeleton) -> None:
+def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: Skeleton) -> None:
     """FileFormatError naming the map's key when a name is not a frame of its skeleton (with
     close names), or the pelvis target is not the target's root joint."""
     names = [(f"points.{p.source}", p.source, p.target) for p in joint_map.points]

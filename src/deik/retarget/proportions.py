@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -43,7 +44,7 @@ def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None
             )
 
 
-def leg_ratio(source: Skeleton, target: Skeleton, sites) -> float:
+def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str]) -> float:
     """Target over source height of the root above the lowest of `sites` at rest."""
     heights = [rest_heights(sk, (sk.joint_names[0], *sites)) for sk in (source, target)]
     legs = [h[0] - h[1:].min() for h in heights]
@@ -78,7 +79,9 @@ def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:
     return replace(target, lower=lower, upper=upper)
 
 
-def retarget_proportions(clip: Clip, target: Skeleton, follow=None, **settings) -> Retarget:
+def retarget_proportions(
+    clip: Clip, target: Skeleton, follow: Sequence[str] | None = None, **settings: object
+) -> Retarget:
     """Retarget `clip` onto `target`, the same rig with other bone lengths (see the module
     notes). `follow`: the sites that keep their scaled paths (default every site not in
     contact); `settings` go to fix_clip (population, generations, seed, device, ...)."""

@@ -18,18 +18,23 @@ Lengths come in the target's length unit and are converted with `metres` per uni
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from deik.clips import floor
+from deik.clips.contacts import Contacts
 from deik.clips.metrics import joint_angles, sliding_steps
+from deik.io.euler import tait_bryan_triples
+from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
 
 LIMIT_SLACK = 1e-9  # radians or length units: rounding is no violation
 
 
-def limit_violations(skeleton, frames: np.ndarray) -> np.ndarray:
+def limit_violations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     """(N, D) bool: DOF values outside their limits; a rotation by its angle modulo 2 pi."""
     lower, upper = skeleton.lower - LIMIT_SLACK, skeleton.upper + LIMIT_SLACK
     rotation = skeleton.dof_kind == ROTATE
@@ -37,12 +42,33 @@ def limit_violations(skeleton, frames: np.ndarray) -> np.ndarray:
     return (shifted < lower) | (shifted > upper)
 
 
-def within_limits(skeleton, frames: np.ndarray) -> np.ndarray:
-    """`frames` (N, D) with each rotation moved by whole turns into its limits where that is
-    possible (a robot controller reads the values as they are)."""
+def _turned_in(skeleton, frames: np.ndarray) -> np.ndarray:
+    """`frames` (N, D) with each rotation narrower than a turn moved by whole turns into its
+    limits where that is possible."""
     rotation = (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower < 2 * math.pi)
     shifted = skeleton.lower + np.mod(frames - skeleton.lower, 2 * math.pi)
     return np.where(rotation & (shifted <= skeleton.upper + LIMIT_SLACK), shifted, frames)
+
+
+def within_limits(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """`frames` (N, D) with the same rotations written within the limits where that is possible
+    (a robot controller reads the values as they are): each rotation moved by whole turns, and
+    a Tait-Bryan triple (a, b, c) outside them replaced by its twin (a + pi, pi - b, c + pi)
+    when that lies within (keeping Euler channels continuous can pick the twin outside)."""
+    out = _turned_in(skeleton, np.asarray(frames, float))
+    outside = limit_violations(skeleton, out)
+    for triple in tait_bryan_triples(skeleton):
+        rows = outside[:, triple].any(axis=1)
+        if not rows.any():
+            continue
+        twin = out[:, triple][rows] + math.pi
+        twin[:, 1] = 2 * math.pi - twin[:, 1]  # pi - b, from b + pi
+        candidate = out[rows].copy()
+        candidate[:, triple] = twin
+        candidate = _turned_in(skeleton, candidate)
+        inside = ~limit_violations(skeleton, candidate)[:, triple].any(axis=1)
+        out[np.flatnonzero(rows)[inside]] = candidate[inside]
+    return out
 
 
 def _series(values: np.ndarray) -> list:
@@ -58,7 +84,16 @@ def _row_stat(values: np.ndarray, pick) -> np.ndarray:
     return out
 
 
-def retarget_report(motion, names, targets, contacts, clearance, metres: float, wall_time: float, scaled=None) -> dict:
+def retarget_report(
+    motion: Motion,
+    names: Sequence[str],
+    targets: np.ndarray,
+    contacts: Contacts | None,
+    clearance: np.ndarray,
+    metres: float,
+    wall_time: float,
+    scaled: Motion | None = None,
+) -> dict:
     """{"summary": {key: number}, "per_frame": {key: [N values, null where none]}} of the target
     `motion` (a Clip or Trajectory): key points `names` (K,) against `targets` (N, K, 3);
     `contacts` of target sites (or None) with their `clearance` (S,); `scaled` the source on the

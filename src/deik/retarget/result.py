@@ -29,7 +29,7 @@ class Retarget:
     fix: object = None
 
 
-def frame_range(clip: Clip, frames) -> Clip:
+def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
     """`clip` cut to `frames` = (start, stop), stop exclusive, or None for every frame;
     ValueError naming the valid frames when the range is empty or leaves the clip."""
     if frames is None:

@@ -1,42 +1,47 @@
 """Retarget a clip onto another skeleton through a joint map (item 2 of issue 18).
 
-1. Key points: each mapped source frame's path, scaled by the body-height ratio into the
-   target's world (keypoints.py); the pelvis (the target's root) and torso orientations turn
-   as the source's do.
-2. Per-frame IK, all frames at once: the root takes the pelvis orientation and the position
-   that puts its mapped point on its target; the other DOFs meet the key points by damped
-   least squares (clips.warmstart.warm_start, frames pulled towards their neighbours), cut
-   back into the target's joint limits, in ROUNDS rounds. The torso orientation enters as two
-   points a forearm's length along its turned axes, re-aimed from its origin each round.
-3. Contacts: the source's (detected there) on the mapped target sites, planted through the
-   clip fix (clips.solver.fix_clip: warm start, DE repairs within the limits, smooth easing).
-A target whose root does not move (a URDF robot) gets a floating root first (skeletons.py).
+1. Key points: each mapped source frame's path in the target's world (keypoints.py): with
+   `scale = "limbs"` the source's pose with the target's limb lengths (each point placed from
+   its parent point, the pelvis's path scaled by the ratio of pelvis heights), else scaled by
+   one body ratio; the pelvis (the target's root) and torso orientations turn as the source's.
+2. Per-frame IK, all frames at once (ik.py: Levenberg-Marquardt within the joint limits): the
+   root starts on the pelvis's orientation and mapped point; every DOF, the root's included
+   (a leg its limits stop is met by turning the pelvis), moves to meet the key points, every
+   joint and site kept above the floor. The torso orientation enters as two points a quarter
+   of the reach along its turned axes, measured from its origin at each step.
+3. Contacts: the source's (detected there) on the mapped target sites, planted where step 2
+   put them (clips.contacts.planted_targets: at the median height, on the floor when near it)
+   and held there by a second IK pass in which a contact counts CONTACT_WEIGHT times a key
+   point. No DE repair: on targets whose limits cannot follow the source, DE's repairs within
+   tight contact tolerances moved whole bodies tens of centimetres off their key points.
+A target whose root does not move (a URDF robot) gets a floating root first, and a built-in
+character's root limits are freed (skeletons.py).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from deik.clips.contacts import Contacts, detect_contacts
 from deik.clips.floor import clearance
-from deik.clips.problem import ClipGoals
-from deik.clips.solver import fix_clip
+from deik.clips.plants import planted_targets
 from deik.clips.units import guess_unit, metres_per_unit
-from deik.clips.warmstart import dof_weights, warm_start
+from deik.clips.warmstart import dof_weights
+from deik.io.clip import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.objectives.goals import Position
 from deik.retarget import keypoints as kp
+from deik.retarget.ik import solve_keypoints
 from deik.retarget.maps import JointMap, check_map
-from deik.retarget.report import retarget_report
+from deik.retarget.report import retarget_report, within_limits
 from deik.retarget.result import Retarget
-from deik.retarget.skeletons import with_floating_root, with_sites
+from deik.retarget.skeletons import with_floating_root, with_free_root, with_sites
 
-ROUNDS = 4
-STEPS = 4  # Gauss-Newton steps per round (each moves a point at most 10 % of reach)
+CONTACT_WEIGHT = 30.0  # a planted contact's drift counts this many times a key point's error
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
 
 
@@ -49,10 +54,10 @@ def _prepared(target: Skeleton, joint_map: JointMap, targets: np.ndarray) -> Ske
         R_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(joint_map.torso[1])
         sites += [(f"retarget_torso_{axis}", joint_map.torso[1], R_rest[k] * arm) for k, axis in enumerate("xy")]
     target = with_sites(target, sites)
+    box = targets.reshape(-1, 3)
     if target.joint_dof_start[1] == 0:
-        box = targets.reshape(-1, 3)
-        target = with_floating_root(target, box.min(axis=0) - target.reach, box.max(axis=0) + target.reach)
-    return target
+        return with_floating_root(target, box.min(axis=0) - target.reach, box.max(axis=0) + target.reach)
+    return with_free_root(target, box)
 
 
 def _start(target: Skeleton, joint_map: JointMap, source, names, targets, rotation) -> tuple[np.ndarray, bool]:
@@ -100,10 +105,14 @@ def _target_contacts(source_contacts: Contacts, joint_map: JointMap) -> Contacts
     return Contacts(names, mask, source_contacts.detected, None, None, 0.0)
 
 
-def retarget_rig(source, target: Skeleton, joint_map: JointMap, hinges=None, **settings) -> Retarget:
+def retarget_rig(
+    source: Clip, target: Skeleton, joint_map: JointMap, hinges: np.ndarray | None = None, **settings: object
+) -> Retarget:
     """Retarget the clip `source` onto `target` through `joint_map` (see the module notes).
     `hinges` (D,) bool of the target's DOFs to keep at 0 (a BVH rig's hinge channels, from
-    clips.coherence.hinge_channels of its own clip), default none; `settings` go to fix_clip."""
+    clips.coherence.hinge_channels of its own clip), default none. `settings` are those of a
+    clip fix (seed, device, population, ...), which this retarget does not run: only
+    `progress(met, stage)` is called, after each IK pass."""
     began = time.perf_counter()
     check_map(joint_map, source.skeleton, target)
     rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
@@ -113,33 +122,53 @@ def retarget_rig(source, target: Skeleton, joint_map: JointMap, hinges=None, **s
     scale = joint_map.scale or kp.height_ratio(source.skeleton, sited, source_names, names)
     source_contacts = detect_contacts(source)
     origin = kp.floor_origin(source.skeleton, source.pose(0), source_contacts.ground)
-    targets = kp.mapped_points(source, source_names, origin, scale, rotation)
+    if joint_map.limbs:
+        if joint_map.pelvis[0] not in source_names:
+            raise ValueError(
+                f'{joint_map.source}: scale = "limbs" needs the pelvis {joint_map.pelvis[0]!r} among the points'
+            )
+        root = source_names.index(joint_map.pelvis[0])
+        root_scale, scales = kp.limb_scales(source.skeleton, sited, source_names, names, root, scale)
+        targets = kp.limb_points(source, source_names, origin, root, root_scale, scales, rotation)
+    else:
+        targets = kp.mapped_points(source, source_names, origin, scale, rotation)
     target = _prepared(target, joint_map, targets)
     poses, placed = _start(target, joint_map, source, names, targets, rotation)
-    searched = np.ones(target.n_dofs, bool)
-    if placed:
-        searched[:6] = False
+    searched = np.ones(target.n_dofs, bool)  # the root too: a leg its limits stop is met by turning the pelvis
     if hinges is not None:
         searched[-len(hinges) :] &= ~np.asarray(hinges, bool)
     searched = np.broadcast_to(searched, poses.shape)
     weights = dof_weights(Trajectory(target, poses, source.frame_time))
-    goals = [Position(name, targets[:, k]) for k, name in enumerate(names)]
-    R_torso = None
+    points, wanted = list(names), targets
     if joint_map.torso:
         R_torso = kp.mapped_rotations(source, joint_map.torso[0], target, joint_map.torso[1], rotation)
-    for _ in range(ROUNDS):
-        extra = []
-        if R_torso is not None:
-            points = _torso_targets(target, poses, joint_map.torso[1], R_torso)
-            extra = [Position(f"retarget_torso_{axis}", points[:, k]) for k, axis in enumerate("xy")]
-        step = warm_start(target, poses, goals + extra, searched, weights, steps=STEPS)
-        poses = np.clip(poses + step, target.lower, target.upper)
-    motion = Trajectory(target, poses, source.frame_time, source.source)
+        points += [f"retarget_torso_{axis}" for axis in "xy"]
+
+        def wanted(q):  # the torso's points are measured from its origin at the pose
+            return np.concatenate([targets, _torso_targets(target, q, joint_map.torso[1], R_torso)], axis=1)
+
+    # key points first: with the floor from the start, a point that must cross it on its way
+    # (a hand swinging down to the floor) refuses every step and stalls
+    poses = solve_keypoints(target, poses, points, wanted, searched, weights)
+    progress = settings.get("progress") or (lambda met, stage: None)
+    progress(len(poses), "key points")
     contacts = _target_contacts(source_contacts, joint_map)
+    held, plants = np.ones((len(poses), len(points))), np.zeros((len(poses), 0, 3))
+    if contacts is not None:  # planted where the key points put them above the floor, then held there
+        poses = solve_keypoints(target, poses, points, wanted, searched, weights, floor=0.0)
+        plants = planted_targets(Trajectory(target, poses, source.frame_time), contacts)
+        held = np.concatenate([held, CONTACT_WEIGHT * contacts.mask], axis=1)
+
+    def wanted_and_plants(q):
+        return np.concatenate([wanted(q) if callable(wanted) else wanted, plants], axis=1)
+
+    together = points + ([] if contacts is None else list(contacts.sites))
+    poses = solve_keypoints(target, poses, together, wanted_and_plants, searched, weights, 0.0, held)  # floor at 0
+    progress(len(poses), "contacts and the floor")
+    motion = Trajectory(target, poses, source.frame_time, source.source)
     fix = None
-    if contacts is not None:
-        fix = fix_clip(motion, ClipGoals(contacts), **settings)
-        motion = fix.clip
+    # the same rotations, written within the limits (continuous Euler channels may pick a twin outside)
+    motion = replace(motion, frames=within_limits(target, motion.frames))
     wall = time.perf_counter() - began
     metres = metres_per_unit(guess_unit(target))
     clear = np.zeros(0) if contacts is None else clearance(forward_kinematics(target, motion.poses()), target, contacts)

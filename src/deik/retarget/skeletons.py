@@ -8,9 +8,11 @@ length unit, angles radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
@@ -55,7 +57,7 @@ def scaled_bones(skeleton: Skeleton, factors: dict[str, float]) -> Skeleton:
     )
 
 
-def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
+def with_floating_root(skeleton: Skeleton, lower: ArrayLike, upper: ArrayLike) -> Skeleton:
     """`skeleton`, whose root joint has no DOFs (a robot fixed in the world), with six on it:
     translations along X, Y, Z within `lower`/`upper` (3,) length units, then rotations Z, X, Y
     (intrinsic, over a whole turn), in the root joint's frame, named "ROOT.Xposition" and so on
@@ -78,7 +80,26 @@ def with_floating_root(skeleton: Skeleton, lower, upper) -> Skeleton:
     )
 
 
-def with_sites(skeleton: Skeleton, sites) -> Skeleton:
+def with_free_root(skeleton: Skeleton, points: np.ndarray) -> Skeleton:
+    """`skeleton` with its root free to go where a clip takes it: the limits of the root's
+    translations widened, where needed, to carry it anywhere over `points` (M, 3) (world,
+    length units) plus its reach, and its rotations free over a whole turn. A built-in
+    character's root limits suit posing in place (the humanoid's pelvis turns at most 0.8 rad
+    about its forward axis), not a clip that walks away, crawls or spins."""
+    start, stop = skeleton.joint_dof_start[0], skeleton.joint_dof_start[1]
+    lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
+    for d in range(start, stop):
+        if skeleton.dof_kind[d] == ROTATE:
+            lower[d], upper[d] = min(lower[d], -math.pi), max(upper[d], math.pi)
+            continue
+        axis = skeleton.joint_rotation[0] @ skeleton.dof_axis[d]  # the DOF's world direction at the root
+        along = points @ axis - skeleton.offsets[0] @ axis
+        lower[d] = min(lower[d], along.min() - skeleton.reach)
+        upper[d] = max(upper[d], along.max() + skeleton.reach)
+    return replace(skeleton, lower=lower, upper=upper)
+
+
+def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
     """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
     site on a site lands on that site's joint. ValueError when a name is taken."""
     if not sites:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.kernels.layout import (
     Buffers,
@@ -20,7 +21,7 @@ from deik.kernels.layout import (
     PackedTerms,
     Status,
 )
-from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.kernels.pack import kernel_array, pack_skeleton, pack_terms
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
@@ -150,10 +151,8 @@ class Engine:
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
         if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
             raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
-        # a fresh, writable C array: the kernels' entry points expect that type (cpu_backend._call)
-        poses = np.empty((B,) + init.shape[1:], dtype)
-        poses[...] = init
-        return poses, init.shape[1]
+        init = np.broadcast_to(init, (B,) + init.shape[1:])
+        return kernel_array(init, dtype), init.shape[1]
 
     def _fresh(self, initial):
         """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
@@ -184,15 +183,17 @@ class Engine:
         )
         return buffers, status, init, n_init
 
-    def init(self, initial=None) -> EvolutionState:
+    def init(self, initial: ArrayLike | None = None) -> EvolutionState:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
         buffers, status, init, n_init = self._fresh(initial)
-        self.backend.initialise(buffers, status, self.skel, self.terms, self.kernel_settings, init, n_init)
+        self.backend.initialise(
+            buffers, status, self.skel, self.terms, self.kernel_settings, self.memetic, self.control, init, n_init
+        )
         return EvolutionState(
             **buffers._asdict(), **status._asdict(), history=np.zeros((len(status.best), 0, 2)), generation=0
         )
 
-    def start(self, n_generations: int, initial=None) -> EvolutionState:
+    def start(self, n_generations: int, initial: ArrayLike | None = None) -> EvolutionState:
         """init(initial) then run(state, n_generations) as one backend call (on the CPU one
         compiled call: no Python between set-up, generations, polish and stopping)."""
         cur, status, init, n_init = self._fresh(initial)
@@ -260,8 +261,7 @@ def _with_targets(terms: PackedTerms, problem: Problem) -> PackedTerms:
     reference poses (B, T, D) replaced by copies of the problem's."""
     dtype = terms.params.dtype
     return terms._replace(
-        params=np.array(problem.table.params, dtype, order="C"),
-        reference=np.array(problem.reference, dtype, order="C"),
+        params=kernel_array(problem.table.params, dtype), reference=kernel_array(problem.reference, dtype)
     )
 
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 import time
 
+from deik.solver.settings import Settings
+
 LAUNCH_SECONDS = 0.25
 FRAME_EVALUATIONS_PER_SECOND = {"cpu": 2e7, "gpu": 1e9}  # conservative first guesses, before any measurement
 GROWTH = 4
@@ -25,7 +27,7 @@ class Launches:
     """Plans the launches of one solve: `next(done)` -> generations to run now, `ran(count,
     seconds)` records a launch. `frame_work`: individuals x kinematic frames of one generation."""
 
-    def __init__(self, settings, frame_work: int, progress: bool, start: float):
+    def __init__(self, settings: Settings, frame_work: int, progress: bool, start: float):
         self.budget = settings.generations
         self.deadline = start + settings.time_limit if settings.time_limit else math.inf
         self.chunk = PROGRESS_CHUNK if progress else self.budget

@@ -8,6 +8,7 @@ one term table, compiled from their parts.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -85,7 +86,7 @@ class Problem:
             )
 
     @classmethod
-    def stack(cls, problems) -> Problem:
+    def stack(cls, problems: Sequence[Problem]) -> Problem:
         """One batched problem from `problems` (a sequence of Problems) that share a skeleton
         and limit mode and have the same goals in the same order, differing only in targets,
         weights, comfort reference poses and `active` masks; a problem with a batch of B

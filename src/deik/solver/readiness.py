@@ -1,35 +1,123 @@
-"""Whether the CPU kernels for a dtype are compiled already, so a command can say that it is
-about to compile before the user waits in silence.
+"""Which CPU kernels a command must compile before it can solve, about how long that takes, and
+the one line it prints first, so that nobody waits in silence.
 
-Numba keeps compiled kernels in memory for the process and on disk (deik.kernels.targets's cache
-locators); a kernel counts as ready when the DE loop for the dtype is in either. The on-disk
-check reads Numba's cache index, which is not a public API: if it cannot be read, the kernels
-count as not ready (the worst outcome is a note that turns out unneeded).
+A CPU solve runs one compiled kernel per dtype (deik.kernels.cpu.launch, with or without the LM
+polish) and, in float32, the float64 evaluation of its report; a clip fix also the float64 point
+Jacobians of its warm start. Each is compiled on first use and cached on disk
+(deik.kernels.targets). The estimate is the compile time measured on this machine, which a
+command records beside the cache after compiling, else the time benchmarks/cold_start.py
+measured on the reference machine below.
 """
 
 from __future__ import annotations
 
-COMPILE_NOTE = (
-    "deik: compiling the CPU kernels for {dtype} first (once after an install or upgrade: 1-2 minutes on "
-    "2 cores, measured by `deik warmup`, which does it ahead of time)"
-)
+import json
+import os
+import tempfile
+
+# seconds each compile took on the reference machine, a shared 2-core AMD EPYC VM (Numba's compile
+# timers of the first solves of benchmarks/cold_start.py, median of its runs, 2026-11-25)
+REFERENCE_SECONDS = {
+    "DE float32": 18.4,
+    "DE float32 without polish": 14.1,
+    "DE float64": 14.4,
+    "DE float64 without polish": 9.4,
+    "report float64": 5.5,
+    "clip warm start float64": 2.0,
+}
+REFERENCE_MACHINE = "a 2-core machine"
+RECORD_FILE = "deik-compile-seconds.json"
 
 
-def kernels_ready(dtype: str) -> bool:
-    """True when the CPU DE loop for `dtype` ("float32" or "float64") is compiled in this process
-    or cached on disk."""
+def _launch_name(dtype: str, polish: bool) -> str:
+    return f"DE {dtype}" + ("" if polish else " without polish")
+
+
+def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
+    """Names of the kernels a CPU solve in `dtype` ("float32", "float64"), with the LM polish or
+    without (which uses the kernel with it when that one is ready), must compile first; `clip`:
+    a clip fix, which also needs the warm start's Jacobians."""
+    from deik.kernels import cpu_backend
+
+    names = []
+    if not (cpu_backend.launch_ready(dtype, polish) or (not polish and cpu_backend.launch_ready(dtype, True))):
+        names.append(_launch_name(dtype, polish))
+    if dtype == "float32" and not cpu_backend.report_ready():
+        names.append("report float64")
+    if clip and not cpu_backend.jacobians_ready():
+        names.append("clip warm start float64")
+    return names
+
+
+def _record_path() -> str | None:
+    """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
     from deik.kernels import cpu
 
-    dispatcher = cpu.run_generations
-    if any(dtype in str(signature) for signature in dispatcher.signatures):
-        return True
     try:
-        index = dispatcher._cache._cache_file._load_index()
-    except Exception:  # a Numba without this private API, or an unreadable cache
-        return False
-    return any(dtype in str(key[0]) for key in index)
+        return os.path.join(cpu.launch.entry._cache._cache_path, RECORD_FILE)
+    except AttributeError:  # caching off, or another Numba's internals
+        return None
 
 
-def compile_note(dtype: str) -> str:
-    """The one line to print before compiling."""
-    return COMPILE_NOTE.format(dtype=dtype)
+def measured_seconds() -> dict:
+    """{kernel name: compile seconds} recorded on this machine (empty if none or unreadable)."""
+    path = _record_path()
+    try:
+        with open(path) as file:
+            data = json.load(file)
+        return {str(k): float(v) for k, v in data.items()}
+    except (TypeError, OSError, ValueError, AttributeError):
+        return {}
+
+
+def estimate(names: list[str]) -> tuple[float, bool]:
+    """(seconds to compile `names`, whether every part was measured on this machine)."""
+    measured = measured_seconds()
+    return sum(measured.get(n, REFERENCE_SECONDS[n]) for n in names), all(n in measured for n in names)
+
+
+def compile_note(names: list[str], certain: bool = True) -> str:
+    """The one line to print before compiling `names` (from pending); not `certain`: the
+    command may need only some of them (a clip fix whose warm start meets every goal runs no DE)."""
+    seconds, here = estimate(names)
+    where = "on this machine, as measured here before" if here else f"on {REFERENCE_MACHINE}"
+    doing, wait = ("compiling", "about") if certain else ("may compile", "up to about")
+    return (
+        f"deik: {doing} the CPU kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {where}; "
+        "once after an install or upgrade (`deik warmup` does it ahead of time)"
+    )
+
+
+def record_compiles() -> dict:
+    """Add the compile times of the kernels compiled in this process to this machine's record
+    (best effort: a read-only cache keeps none); returns {name: seconds} added."""
+    from deik.kernels import cpu, cpu_backend
+
+    compiled = {}
+    for sig, seconds in cpu.launch.compile_seconds().items():
+        compiled[_launch_name(*cpu_backend.launch_kind(sig))] = seconds
+    for sig, seconds in cpu.evaluate_poses.compile_seconds().items():
+        if cpu_backend.evaluate_dtype(sig) == "float64":
+            compiled["report float64"] = seconds
+    for sig, seconds in cpu.point_jacobians.compile_seconds().items():
+        if cpu_backend.evaluate_dtype(sig) == "float64":
+            compiled["clip warm start float64"] = seconds
+    path = _record_path()
+    if compiled and path:
+        _write_json(path, {**measured_seconds(), **compiled})
+    return compiled
+
+
+def _write_json(path: str, data: dict) -> None:
+    """Replace the file at `path` with `data` in one step (a reader never sees half of it); a
+    folder that refuses it is left as it was."""
+    try:
+        handle, temporary = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
+    except OSError:
+        return
+    try:
+        with os.fdopen(handle, "w") as file:
+            json.dump(data, file)
+        os.replace(temporary, path)
+    except OSError:
+        os.unlink(temporary)

@@ -157,14 +157,22 @@ class Result:
 
     def to_dict(self) -> dict:
         """JSON-ready summary: the pose by joint and DOF name (radians / length units), every
-        joint's and site's world position and quaternion (world_frames), per-goal errors (in
-        each goal's unit), run facts."""
+        joint's and site's world position and quaternion (world_frames), the skeleton's tree
+        ("parents": each frame's parent joint, None for the root) and up direction, the
+        centre of mass (*batch, 3) (None without masses), per-goal errors (in each goal's
+        unit), run facts. With the tree and positions a viewer draws the pose without the
+        skeleton file (`deik view pose.json`)."""
         frames = {
             group: {name: {key: value.tolist() for key, value in frame.items()} for name, frame in named.items()}
             for group, named in self.world_frames().items()
         }
+        sk = self.skeleton
+        parents = [None if p < 0 else sk.joint_names[p] for p in (*sk.parents, *sk.site_joint)]
+        com = forward_kinematics(sk, self.angles).p_world_com if sk.total_mass > 0 else None
         return {
             "skeleton": self.skeleton.name,
+            "up": sk.up.tolist(),
+            "parents": dict(zip(sk.frame_names, parents)),
             "dof_names": list(self.skeleton.dof_names),
             "dof_units": ["rad" if kind == ROTATE else "m" for kind in self.skeleton.dof_kind],
             "angles": self.angles.tolist(),
@@ -172,6 +180,7 @@ class Result:
                 {k: v.tolist() for k, v in self.angles_by_joint.items()} if self.angles.ndim == 1 else None
             ),
             **frames,
+            "centre_of_mass": None if com is None else com.tolist(),
             "fitness": self.fitness.tolist(),
             "goals": [
                 {

@@ -5,12 +5,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 
 
-def poses_around(skeleton: Skeleton, pose, count: int, spread=0.05, seed: int = 0) -> np.ndarray:
+def poses_around(
+    skeleton: Skeleton, pose: ArrayLike, count: int, spread: ArrayLike = 0.05, seed: int = 0
+) -> np.ndarray:
     """(*batch, count, D) poses: each `pose` (*batch, D) itself, then copies perturbed by
     Gaussian noise of `spread` radians on rotations and `spread` x reach on translations
     (`spread`: a scalar, or one value per perturbed copy (count - 1,) to mix fine and wide

@@ -103,7 +103,7 @@ class SerialDE:
         self.generation, self._history = 0, []
         return self
 
-    def evaluate(self, pose: np.ndarray):
+    def evaluate(self, pose: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """(levels (L,), total, raw (T,)) of one pose: the serial fitness call."""
         levels, total, raw = fitness(self.problem, pose[None])
         return levels[0], float(total[0]), raw[0]
@@ -136,7 +136,7 @@ class SerialDE:
             self.pop[x], self.levels[x], self.total[x], self.raw[x] = candidate, levels, total, raw
         return Iteration(x, (a, b, c), forced, mask, candidate, accepted)
 
-    def epoch(self, record: bool = False):
+    def epoch(self, record: bool = False) -> int | list[Iteration]:
         """One generation: POP_SIZE iterations. Returns the number of replacements, or the list
         of Iterations when `record`."""
         log = [self.iterate() for _ in range(self.population)]

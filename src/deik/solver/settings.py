@@ -67,7 +67,7 @@ class Settings:
     memory_limit: int | None = None
 
     @classmethod
-    def paper(cls, **changes) -> Settings:
+    def paper(cls, **changes: object) -> Settings:
         """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
         CR, no polish, no restarts."""
         return cls(

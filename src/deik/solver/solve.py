@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import logging
 import time
+from collections.abc import Sequence
 from dataclasses import fields
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from deik.solver.engine import Engine
+from deik.console import Progress, generation_reporter
+from deik.solver.engine import Engine, EvolutionState
 from deik.solver.kept import kept_engine
 from deik.solver.launches import Launches
 from deik.solver.problem import Problem
@@ -15,13 +19,24 @@ from deik.solver.result import Result
 from deik.solver.settings import Settings
 from deik.solver.workspace import Workspace
 
+log = logging.getLogger(__name__)
 
-def solve(problem: Problem, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
+
+def solve(
+    problem: Problem,
+    settings: Settings | None = None,
+    *,
+    initial: ArrayLike | None = None,
+    progress: Progress = None,
+    **overrides: object,
+) -> Result:
     """Solve `problem`; settings from `settings` and/or keyword overrides (population,
     generations, time_limit, strategy, F, CR, adaptive, polish, restarts, seed, patience,
     device, dtype). `initial`: poses (n, D) or (B, n, D) seeding the population.
-    `progress(generation, best_fitness)` is called every 100 generations (launches.PROGRESS_CHUNK) when
-    given. Returns an immutable Result."""
+    `progress=True` shows a progress bar over generations on stderr; a callable
+    `progress(generation, best_fitness)` is called instead every 100 generations at most
+    (launches.PROGRESS_CHUNK); the default shows nothing (deik.console). Returns an
+    immutable Result."""
     if not isinstance(problem, Problem):
         raise TypeError(f"solve() takes a deik.Problem, got {type(problem).__name__}")
     with kept_engine(problem, merge_settings("solve()", settings, overrides)) as (engine, workspace):
@@ -29,7 +44,12 @@ def solve(problem: Problem, settings: Settings | None = None, *, initial=None, p
 
 
 def run_engine(
-    problem: Problem, engine: Engine, initial=None, progress=None, workspace=None, batch_shape=None
+    problem: Problem,
+    engine: Engine,
+    initial: ArrayLike | None = None,
+    progress: Progress = None,
+    workspace: Workspace | None = None,
+    batch_shape: tuple[int, ...] | None = None,
 ) -> Result:
     """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
     budget, time limit, or every problem stopped; the Result (solve() without the set-up).
@@ -41,33 +61,64 @@ def run_engine(
     start = time.perf_counter()
     skeleton = problem.skeleton
     frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
-    launches = Launches(settings, frame_work, progress is not None, start)
     work = Workspace() if workspace is None else workspace
-    first = True
-    while first or launches.more(work.generation, work.active.any()):
-        count = launches.next(work.generation)
-        began = time.perf_counter()
-        # the first launch sets up the population in the same call
-        if first:
-            work.begin(engine, count, initial)
-            first = False
-        else:
-            work.advance(count)
-        launches.ran(count, time.perf_counter() - began)
-        if progress:
-            progress(work.generation, float(work.total[np.arange(len(work.best)), work.best].min()))
+    with generation_reporter(progress, settings.generations, problem.batch_size) as report:
+        launches = Launches(settings, frame_work, report is not None, start)
+        first = True
+        while first or launches.more(work.generation, work.active.any()):
+            count = launches.next(work.generation)
+            began = time.perf_counter()
+            # the first launch sets up the population in the same call
+            if first:
+                work.begin(engine, count, initial)
+                first = False
+            else:
+                work.advance(count)
+            launches.ran(count, time.perf_counter() - began)
+            if log.isEnabledFor(logging.DEBUG):  # a robot solve is 0.1 ms: no formatting unless asked
+                log.debug(
+                    "launch of %d generations: %.3f s, %d done, %d of %d problems running",
+                    count,
+                    time.perf_counter() - began,
+                    work.generation,
+                    int(work.active.sum()),
+                    problem.batch_size,
+                )
+            if report:
+                best = float(work.total[np.arange(len(work.best)), work.best].min())
+                report(work.generation, best, int(work.active.sum()))
     wall = time.perf_counter() - start
+    if log.isEnabledFor(logging.DEBUG):
+        log.debug(
+            "solved %d problem(s) of %d DOFs, population %d, %s on %s: %d generations in %.3f s",
+            problem.batch_size,
+            skeleton.n_dofs,
+            settings.population,
+            settings.dtype,
+            settings.device,
+            work.generation,
+            wall,
+        )
     return make_result(problem, engine, work, wall, batch_shape)
 
 
-def solve_batch(problems, settings: Settings | None = None, *, initial=None, progress=None, **overrides) -> Result:
+def solve_batch(
+    problems: Sequence[Problem],
+    settings: Settings | None = None,
+    *,
+    initial: ArrayLike | None = None,
+    progress: Progress = None,
+    **overrides: object,
+) -> Result:
     """Solve several problems on one skeleton in one launch: `problems` differ only in
     targets, weights, reference poses and active masks (see Problem.stack). The Result is
     batched in the order given, one row per problem (a problem with a batch of B gives B)."""
     return solve(Problem.stack(problems), settings, initial=initial, progress=progress, **overrides)
 
 
-def merge_settings(caller: str, settings: Settings | None, overrides: dict, defaults: dict | None = None) -> Settings:
+def merge_settings(
+    caller: str, settings: Settings | None, overrides: dict[str, object], defaults: dict[str, object] | None = None
+) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
     names = {f.name for f in fields(Settings)}
@@ -77,7 +128,13 @@ def merge_settings(caller: str, settings: Settings | None, overrides: dict, defa
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
-def make_result(problem: Problem, engine: Engine, state, wall_time: float, batch_shape=None) -> Result:
+def make_result(
+    problem: Problem,
+    engine: Engine,
+    state: EvolutionState | Workspace,
+    wall_time: float,
+    batch_shape: tuple[int, ...] | None = None,
+) -> Result:
     """Result from a final EvolutionState (or a Workspace), shaped by `batch_shape` (default
     problem.batch_shape). Errors are float64: a float64 run reports the final state's raw
     errors of each problem's best individual, a float32 run re-evaluates that individual in

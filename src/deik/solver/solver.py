@@ -16,7 +16,9 @@ A Solver is not for use from several threads at once (its buffers are shared by 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from deik.console import Progress
 from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
@@ -30,7 +32,7 @@ class Solver:
     """Solves `problem` (a deik.Problem) with settings from `settings` and keyword overrides
     (as deik.solve); `solve(targets)` swaps goal targets between calls."""
 
-    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides):
+    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides: object):
         if not isinstance(problem, Problem):
             raise TypeError(f"Solver takes a deik.Problem, got {type(problem).__name__}")
         self.problem = problem
@@ -43,7 +45,14 @@ class Solver:
         self._index = {label: t for t, label in enumerate(self._labels)}
         self._swapped = set()  # goals whose parameters hold another target than the problem's
 
-    def solve(self, targets: dict | None = None, *, initial=None, seed: int | None = None, progress=None) -> Result:
+    def solve(
+        self,
+        targets: dict[str | int, ArrayLike] | None = None,
+        *,
+        initial: ArrayLike | None = None,
+        seed: int | None = None,
+        progress: Progress = None,
+    ) -> Result:
         """Solve with `targets` {goal: new target} replacing those goals' targets (a goal is
         named by its index in problem.goals or its label, e.g. "position tip"; a target has the
         goal's shape in the goal's own form (a quaternion for an Orientation built with form

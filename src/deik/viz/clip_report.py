@@ -1,4 +1,6 @@
-"""The clip report picture: each per-frame error series before and after the fix, over time.
+"""The clip report picture: the frame the fix changed most, before and after, with its contacts and
+reach targets (front and side views or one 3-D perspective view, axes in the clip's unit), above
+each per-frame error series before and after the fix, over time.
 
 Written as one PNG, one subplot per series stacked over a shared time axis (seconds below,
 frame numbers above), atomically: a reader sees the old file or the complete new one.
@@ -6,16 +8,83 @@ frame numbers above), atomically: a reader sees the old file or the complete new
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
 import numpy as np
 
 from deik.io.atomic import save_atomically
-from deik.viz.plot import require_matplotlib
+from deik.io.clip import Clip
+from deik.io.files import FilePath
+from deik.io.trajectory import Motion
+from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
+from deik.viz.marks import frame_parents
+from deik.viz.plot import add_pose_axes, require_matplotlib
+from deik.viz.pose_axes import draw_skeleton, fit_axes
+from deik.viz.report_marks import marks_at
+
+POSE_HEIGHT = 4.5  # inches of the picture the pose panel takes
 
 
-def plot_clip_report(series: dict, path, frame_time: float, title: str = "", notes=()) -> None:
+@dataclass(frozen=True, eq=False)
+class PosePanel:
+    """One frame of a fix drawn above the series: the clip's `skeleton`, its pose `before` and
+    `after` the fix (D,), the `frame` number, `marks` {kind: points (N, 3)} (contact plants,
+    reach targets), the `projection` ("2d" or "3d") and the length `unit`."""
+
+    skeleton: Skeleton
+    before: np.ndarray
+    after: np.ndarray
+    frame: int
+    marks: dict
+    projection: str = "2d"
+    unit: str = "m"
+
+
+def most_changed_frame(original: Motion, fixed: Motion) -> int:
+    """The frame of two clips (deik.Clip, same skeleton and length) whose joints and sites lie
+    farthest apart on average: where the fix did the most."""
+    before = forward_kinematics(original.skeleton, original.poses()).p_world_frame
+    after = forward_kinematics(fixed.skeleton, fixed.poses()).p_world_frame
+    return int(np.argmax(np.linalg.norm(after - before, axis=-1).mean(axis=1)))
+
+
+def pose_panel(original: Clip, fixed: Clip, document: dict, projection: str = "2d", unit: str = "m") -> PosePanel:
+    """The PosePanel of a fix's most changed frame, marked with the contacts and reach targets
+    of its report `document` (deik.clips.document.clip_document)."""
+    frame = most_changed_frame(original, fixed)
+    marks = marks_at(document, frame, original.n_frames)
+    return PosePanel(fixed.skeleton, original.pose(frame), fixed.pose(frame), frame, marks, projection, unit)
+
+
+def _draw_pose(container, panel: PosePanel) -> None:
+    """The panel's frame: the pose before the fix in grey under the pose after, with its marks."""
+    sk = panel.skeleton
+    points = forward_kinematics(sk, np.stack([panel.before, panel.after])).p_world_frame
+    parents = frame_parents(sk)
+    for k, (ax, basis) in enumerate(add_pose_axes(container, sk, panel.projection, panel.unit)):
+        names = sk.frame_names
+        under = draw_skeleton(ax, basis, points[0], parents, sk.n_joints, names, None, "compare", True, "before")
+        over = draw_skeleton(ax, basis, points[1], parents, sk.n_joints, names, panel.marks, bone_label="after")
+        fit_axes(ax, np.concatenate([under, over]))
+        if k == 0:
+            ax.legend(loc="upper left", fontsize="x-small", markerscale=0.8)
+    container.suptitle(f"frame {panel.frame}, where the fix moved the body most: before (grey) and after")
+
+
+def plot_clip_report(
+    series: dict,
+    path: FilePath,
+    frame_time: float,
+    title: str = "",
+    notes: Sequence[str] = (),
+    pose: PosePanel | None = None,
+) -> None:
     """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
     NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
-    `notes`: lines of text under the title (numbers that are not series)."""
+    `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
+    drawn above the series, or None."""
     if not series:
         raise ValueError("there is no error series to plot")
     if not frame_time > 0:
@@ -30,9 +99,13 @@ def plot_clip_report(series: dict, path, frame_time: float, title: str = "", not
             )
         lines[name] = before, after
     plt = require_matplotlib()
-    figure, axes = plt.subplots(
-        len(lines), 1, sharex=True, squeeze=False, layout="constrained", figsize=(9.0, 1.2 + 2.0 * len(lines))
-    )
+    height = 1.2 + 2.0 * len(lines)
+    figure = plt.figure(layout="constrained", figsize=(9.0, height + (POSE_HEIGHT if pose is not None else 0.0)))
+    container = figure
+    if pose is not None:
+        top, container = figure.subfigures(2, 1, height_ratios=[POSE_HEIGHT, height])
+        _draw_pose(top, pose)
+    axes = container.subplots(len(lines), 1, sharex=True, squeeze=False)
     for ax, (name, (before, after)) in zip(axes[:, 0], lines.items()):
         time = np.arange(len(before)) * frame_time
         # markers keep frames between NaN gaps (e.g. a sparse reach track) visible
@@ -40,9 +113,10 @@ def plot_clip_report(series: dict, path, frame_time: float, title: str = "", not
         ax.plot(time, after, ".-", color="tab:blue", lw=1.5, ms=3, label="after")
         ax.set_ylabel(name, fontsize="small")
         ax.grid(alpha=0.3)
-    top = axes[0, 0]
-    top.legend(loc="upper right", fontsize="small")
-    top.secondary_xaxis("top", functions=(lambda t: t / frame_time, lambda n: n * frame_time)).set_xlabel("frame")
+    top_series = axes[0, 0]
+    top_series.legend(loc="upper right", fontsize="small")
+    frames = (lambda t: t / frame_time, lambda n: n * frame_time)
+    top_series.secondary_xaxis("top", functions=frames).set_xlabel("frame")
     axes[-1, 0].set_xlabel("time (s)")
     figure.suptitle("\n".join([title or "clip errors before and after", *notes]))
     try:

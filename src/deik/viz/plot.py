@@ -1,24 +1,39 @@
 """Pictures of poses as PNG files (matplotlib, imported only when a picture is drawn).
 
-Planar chains are drawn in their XY plane; 3-D skeletons as a front view and a side view with
-the skeleton's `up` axis vertical. Files are written atomically: a reader sees the old file or
-the complete new one, never a half-written one.
+Two projections: "2d" draws a planar chain in its XY plane and a 3-D skeleton as a front view and
+a side view with the skeleton's `up` axis vertical; "3d" draws one perspective view, up
+vertical, that shows depth. Every picture marks the root, the tips and the sites
+(deik.viz.marks), the targets and the centre of mass, and labels its axes with the length unit.
+Files are written atomically: a reader sees the old file or the complete new one.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from types import ModuleType
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.io.atomic import save_atomically
+from deik.io.files import FilePath
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.objectives import goals as g
+from deik.solver.problem import Problem
+from deik.solver.result import Result
+from deik.viz.marks import colour, frame_parents, goal_targets, length_unit
+from deik.viz.pose_axes import draw_skeleton, fit_axes
+
+if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
+    from matplotlib.figure import Figure, SubFigure
 
 VIZ_HINT = 'drawing poses needs matplotlib: pip install "deik[viz]"'
+PROJECTIONS = ("2d", "3d")
 
 
-def require_matplotlib():
+def require_matplotlib() -> ModuleType:
     """pyplot on the file-only Agg backend; ImportError with the install command if missing."""
     try:
         import matplotlib
@@ -38,30 +53,119 @@ def is_planar(skeleton: Skeleton) -> bool:
     return bool(rotations_about_z and np.all(offsets[:, 2] == 0))
 
 
-def _views(skeleton: Skeleton):
-    """[(title, horizontal axis (3,), vertical axis (3,), labels)] for the subplots."""
-    if is_planar(skeleton):
-        return [("", np.eye(3)[0], np.eye(3)[1], ("x", "y"))]
-    up = skeleton.up
+def view_axes(up: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(across, depth, up) unit vectors (3,) of a right-handed frame whose vertical is `up`:
+    across is world X unless up is nearly X (then world Z), with its component along up removed."""
+    up = np.asarray(up, float) / np.linalg.norm(up)
     seed = np.eye(3)[0] if abs(up[0]) < 0.9 else np.eye(3)[2]
     across = seed - (seed @ up) * up
     across /= np.linalg.norm(across)
-    depth = np.cross(across, up)
-
-    def name(v):
-        k = int(np.argmax(np.abs(v)))
-        return ("-" if v[k] < 0 else "") + "xyz"[k] if np.isclose(abs(v[k]), 1.0) else "horizontal"
-
-    return [("front", across, up, (name(across), name(up))), ("side", depth, up, (name(depth), name(up)))]
+    return across, np.cross(up, across), up
 
 
-def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=None, title="", obstacles=()) -> None:
+def axis_name(v: np.ndarray) -> str:
+    """'x', '-z', ... for a world axis direction, 'horizontal' for any other."""
+    k = int(np.argmax(np.abs(v)))
+    return ("-" if v[k] < 0 else "") + "xyz"[k] if np.isclose(abs(v[k]), 1.0) else "horizontal"
+
+
+def views(skeleton: Skeleton, projection: str) -> list[tuple[str, np.ndarray]]:
+    """[(title, basis (3, 2) or (3, 3) whose columns are the picture's axes in world coordinates)]."""
+    if projection not in PROJECTIONS:
+        raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
+    across, depth, up = view_axes(skeleton.up)
+    if projection == "3d":
+        return [("perspective", np.stack([across, depth, up], axis=1))]  # right-handed
+    if is_planar(skeleton):
+        return [("", np.eye(3)[:, :2])]
+    return [("front", np.stack([across, up], axis=1)), ("side", np.stack([-depth, up], axis=1))]
+
+
+def add_pose_axes(container: Figure | SubFigure, skeleton: Skeleton, projection: str, unit: str) -> list:
+    """[(axes, basis)]: one row of views of `skeleton` (views) added to `container` (a matplotlib
+    Figure or SubFigure), each axis labelled with its direction and `unit`."""
+    out = []
+    chosen = views(skeleton, projection)
+    for k, (name, basis) in enumerate(chosen):
+        three = basis.shape[1] == 3
+        options = {"projection": "3d", "proj_type": "persp", "focal_length": 0.5} if three else {}
+        ax = container.add_subplot(1, len(chosen), k + 1, **options)
+        labels = [f"{axis_name(basis[:, j])} ({unit})" for j in range(basis.shape[1])]
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
+        if three:
+            ax.set_zlabel(labels[2])
+        ax.set_title(name)
+        out.append((ax, basis))
+    return out
+
+
+def pose_figure(
+    skeleton: Skeleton,
+    angles: ArrayLike,
+    targets: ArrayLike = (),
+    com: ArrayLike | None = None,
+    support: ArrayLike | None = None,
+    obstacles: Iterable[tuple[ArrayLike, float]] = (),
+    title: str = "",
+    projection: str = "2d",
+    unit: str | None = None,
+) -> Figure:
+    """The matplotlib Figure plot_pose saves (see there); the caller closes it."""
+    angles = skeleton.check_angles(angles)
+    if angles.ndim != 1:
+        raise ValueError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
+    views(skeleton, projection)  # a bad projection fails before matplotlib is loaded
+    plt = require_matplotlib()
+    points = forward_kinematics(skeleton, angles).p_world_frame
+    marks = {"target": targets, "support": [] if support is None else [support]}
+    marks["centre of mass"] = [] if com is None else [com]
+    two = projection == "2d" and not is_planar(skeleton)
+    figure = plt.figure(figsize=(11.0, 5.5) if two else (7.0, 6.5) if projection == "3d" else (5.5, 5.5))
+    figure.set_layout_engine("constrained")
+    for k, (ax, basis) in enumerate(add_pose_axes(figure, skeleton, projection, unit or length_unit(skeleton)[0])):
+        parents = frame_parents(skeleton)
+        drawn = draw_skeleton(ax, basis, points, parents, skeleton.n_joints, skeleton.frame_names, marks)
+        for centre, radius in obstacles:
+            _sphere(ax, basis, np.asarray(centre, float), float(radius), plt)
+        fit_axes(ax, drawn)
+        if k == 0:
+            ax.legend(loc="upper left", fontsize="x-small", markerscale=0.8)
+    figure.suptitle(title or skeleton.name)
+    return figure
+
+
+def _sphere(ax, basis, centre, radius, plt) -> None:
+    """An obstacle: a filled circle in a 2-D view, a wireframe sphere in 3-D."""
+    c = centre @ basis
+    if basis.shape[1] == 2:
+        ax.add_patch(plt.Circle(tuple(c), radius, color=colour("obstacle"), alpha=0.3))
+        return
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+    ball = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1) * radius + c
+    ax.plot_wireframe(*np.moveaxis(ball, -1, 0), color=colour("obstacle"), lw=0.6, alpha=0.6)
+
+
+def plot_pose(
+    result_or_skeleton: Result | Skeleton,
+    angles: ArrayLike | None,
+    path: FilePath,
+    targets: ArrayLike = (),
+    com: ArrayLike | None = None,
+    support: ArrayLike | None = None,
+    title: str = "",
+    obstacles: Iterable[tuple[ArrayLike, float]] = (),
+    projection: str = "2d",
+    unit: str | None = None,
+) -> None:
     """Draw one pose to PNG `path`.
 
     result_or_skeleton: a deik.Result (angles None takes its .angles) or a Skeleton; angles
     (D,) radians / length units. Marks: targets, a sequence of points (3,), as crosses; com,
     support: points (3,) (e.g. the centre of mass and the support point), or None for no mark;
-    obstacles: (centre (3,), radius) spheres drawn as circles.
+    obstacles: (centre (3,), radius) spheres. The root, tips and sites are always marked.
+    projection: "2d" (front and side views) or "3d" (one perspective view). unit: the length
+    unit in the axis labels (default: viz.marks.length_unit of the skeleton).
     """
     skeleton = getattr(result_or_skeleton, "skeleton", result_or_skeleton)
     if not isinstance(skeleton, Skeleton):
@@ -70,61 +174,33 @@ def plot_pose(result_or_skeleton, angles, path, targets=(), com=None, support=No
         angles = getattr(result_or_skeleton, "angles", None)
         if angles is None:
             raise ValueError("plot_pose needs angles (D,) when given a Skeleton")
-    angles = skeleton.check_angles(angles)
-    if angles.ndim != 1:
-        raise ValueError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
+    figure = pose_figure(skeleton, angles, targets, com, support, obstacles, title, projection, unit)
     plt = require_matplotlib()
-    points = forward_kinematics(skeleton, angles).p_world_frame
-    parents = np.concatenate([skeleton.parents, skeleton.site_joint])
-    views = _views(skeleton)
-    figure, axes = plt.subplots(1, len(views), figsize=(5.5 * len(views), 5.5), squeeze=False)
-    for ax, (name, across, up, labels) in zip(axes[0], views):
-        flat = np.stack([points @ across, points @ up], axis=-1)
-        for child, parent in enumerate(parents):
-            if parent >= 0:
-                ax.plot(*flat[[parent, child]].T, color="0.25", lw=2, solid_capstyle="round")
-        ax.plot(*flat[: skeleton.n_joints].T, "o", color="tab:blue", ms=4, label="joints")
-        for k, target in enumerate(targets):
-            t = np.asarray(target, float)
-            ax.plot(t @ across, t @ up, "x", color="tab:red", ms=10, mew=2, label="target" if k == 0 else None)
-        for point, style, label in ((com, "o", "centre of mass"), (support, "^", "support")):
-            if point is not None:
-                p = np.asarray(point, float)
-                colour = "tab:orange" if style == "o" else "tab:green"
-                ax.plot(p @ across, p @ up, style, color=colour, ms=9, mfc="none", mew=2, label=label)
-        for centre, radius in obstacles:
-            c = np.asarray(centre, float)
-            ax.add_patch(plt.Circle((c @ across, c @ up), radius, color="tab:purple", alpha=0.3))
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(labels[0])
-        ax.set_ylabel(labels[1])
-        ax.set_title(name)
-        ax.grid(alpha=0.3)
-    axes[0][0].legend(loc="best", fontsize="small")
-    figure.suptitle(title or skeleton.name)
-    figure.tight_layout()
     try:
         save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
     finally:
         plt.close(figure)
 
 
-def goal_marks(problem) -> dict:
-    """plot_pose's marks from a Problem's goals: targets of Position / Aim / CentreOfMass goals,
-    the support point of a ComOverSupport goal and obstacle spheres."""
+def goal_marks(problem: Problem) -> dict:
+    """plot_pose's marks from a Problem's goals (viz.marks.goal_targets): targets of Position /
+    Aim / CentreOfMass goals, the support point of a ComOverSupport goal and obstacle spheres."""
     marks = {"targets": [], "support": None, "obstacles": []}
-    for goal in problem.goals:
-        if isinstance(goal, (g.Position, g.Aim, g.CentreOfMass)):
-            marks["targets"].extend(np.asarray(goal.target, float).reshape(-1, 3))
-        elif isinstance(goal, g.ComOverSupport):
-            marks["support"] = np.asarray(goal.point, float).reshape(-1, 3)[0]
-        elif isinstance(goal, g.Obstacle):
-            marks["obstacles"].append((goal.centre, goal.radius))
+    for record in goal_targets(problem):
+        if record["kind"] == "target":
+            marks["targets"].extend(np.asarray(record["position"], float).reshape(-1, 3))
+        elif record["kind"] == "support":
+            marks["support"] = np.asarray(record["position"], float).reshape(-1, 3)[0]
+        else:
+            marks["obstacles"].append((record["centre"], record["radius"]))
     return marks
 
 
-def plot_result(problem, result, path, title: str = "") -> None:
+def plot_result(
+    problem: Problem, result: Result, path: FilePath, title: str = "", projection: str = "2d", unit: str | None = None
+) -> None:
     """plot_pose of an unbatched Result with `problem`'s targets, its support point and the
     pose's centre of mass (when the skeleton has mass)."""
     com = forward_kinematics(result.skeleton, result.angles).p_world_com if result.skeleton.total_mass > 0 else None
-    plot_pose(result, result.angles, path, com=com, title=title, **goal_marks(problem))
+    marks = goal_marks(problem)
+    plot_pose(result, result.angles, path, com=com, title=title, projection=projection, unit=unit, **marks)

@@ -1,6 +1,8 @@
-"""Plain-text views: aligned tables."""
+"""Plain-text views: aligned tables, and values shown in the units reports use."""
 
 from __future__ import annotations
+
+import math
 
 
 def format_table(header: list[str], rows: list[list]) -> str:
@@ -9,3 +11,9 @@ def format_table(header: list[str], rows: list[list]) -> str:
     widths = [max(len(row[k]) for row in cells) for k in range(len(header))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells]
     return "\n".join([lines[0], "  ".join("-" * w for w in widths)] + lines[1:])
+
+
+def shown(value: float, unit: str) -> str:
+    """`value` of a goal error or tolerance in `unit` ("m", "rad", ...) as reports show it:
+    angles in degrees (docs/conventions.md), everything else in its own unit, 6 digits."""
+    return f"{math.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"

@@ -1,0 +1,149 @@
+"""What deik shows on stderr besides errors: progress bars (tqdm) and log lines (the "deik"
+logger), and the flags that set both on every command that works for more than a moment.
+
+- Python: nothing unless asked. `deik.solve(..., progress=True)` (also `solve_batch`,
+  `Solver.solve`) draws a bar over generations, a callable gets `(generation, best_fitness)`;
+  diagnostics go to `logging.getLogger("deik")`, which has no handler of its own.
+- Command line: a bar on a terminal once the work has run for DELAY seconds (quick commands
+  print none); notes and warnings on stderr; results on stdout.
+
+      --quiet, -q     no progress bar and no notes (warnings and errors still print)
+      --verbose, -v   also the diagnostics (level DEBUG: launches, timings, what was loaded)
+      --progress      the bar even when stderr is not a terminal (logs, pipes), from the start
+
+  DEIK_LOG=debug|info|warning|error sets the level too; the flags win.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # tqdm is imported when a bar is made
+    from tqdm import tqdm
+
+DELAY = 1.0  # seconds of work before a bar appears on a terminal: shorter work shows none
+LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}
+
+# a solve's progress argument: True (a bar), a callable(generation, best_fitness), or None / False (nothing)
+Progress = bool | Callable[[int, float], object] | None
+
+
+def progress_bar(total: int | None, description: str, unit: str, show: bool | None = None) -> tqdm:
+    """A tqdm bar on stderr over `total` steps of `unit` (None: a count without an end).
+    `show`: True always and at once, None on a terminal after DELAY seconds, False never (a
+    disabled bar still takes updates)."""
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total,
+        desc=description,
+        unit=unit,
+        file=sys.stderr,
+        disable=None if show is None else not show,
+        delay=0.0 if show else DELAY,
+        dynamic_ncols=True,
+    )
+
+
+def show_generation(bar: tqdm, generation: int, best: float, running: int = 1, problems: int = 1) -> None:
+    """Move a solve's `bar` to `generation`, with the best fitness and, for a batch of
+    `problems`, how many still run."""
+    batch = f", {running}/{problems} problems running" if problems > 1 else ""
+    bar.set_postfix_str(f"best fitness {best:.4g}{batch}", refresh=False)
+    bar.update(generation - bar.n)
+
+
+@contextmanager
+def generation_reporter(
+    progress: Progress, generations: int, problems: int
+) -> Iterator[Callable[[int, float, int], None] | None]:
+    """What a solve calls after each kernel launch, report(generation, best_fitness, running),
+    or None when `progress` asks for nothing. progress=True draws a bar over `generations`
+    (shown at once, closed when the block ends); a callable gets (generation, best_fitness)."""
+    if progress is None or progress is False:
+        yield None
+    elif callable(progress):
+        yield lambda generation, best, running: progress(generation, best)
+    elif progress is True:
+        with progress_bar(generations, "deik solve", "gen", show=True) as bar:
+            yield lambda generation, best, running: show_generation(bar, generation, best, running, problems)
+    else:
+        raise TypeError(f"progress must be True, False, None or a callable(generation, best_fitness), got {progress!r}")
+
+
+def add_output_flags(parser: argparse.ArgumentParser, progress: bool = True) -> None:
+    """--quiet and --verbose (one or the other) on a command's `parser`; --progress too when
+    the command shows a bar."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--quiet", "-q", action="store_true", help="no progress bar and no notes on stderr (errors still print)"
+    )
+    group.add_argument("--verbose", "-v", action="store_true", help="also print diagnostics on stderr (DEIK_LOG=debug)")
+    if progress:
+        parser.add_argument(
+            "--progress", action="store_true", help="show the progress bar even when stderr is not a terminal"
+        )
+
+
+def show_progress(args: argparse.Namespace) -> bool | None:
+    """progress_bar's `show` for a command's flags: False with --quiet, True with --progress,
+    else None (on a terminal, once the work takes a second)."""
+    if getattr(args, "quiet", False):
+        return False
+    return True if getattr(args, "progress", False) else None
+
+
+class _Lines(logging.Formatter):
+    """Notes as they are; other levels behind their name: `warning: ...`, `debug: deik.x: ...`."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        message = record.getMessage()
+        if record.levelno == logging.INFO:
+            return message
+        if record.levelno == logging.DEBUG:
+            return f"debug: {record.name}: {message}"
+        return f"{'warning' if record.levelno == logging.WARNING else 'error'}: {message}"
+
+
+class _Stderr(logging.StreamHandler):
+    """Writes to whatever sys.stderr is when a record comes, so a redirection made after the
+    set-up (by tests, or a program that runs deik's main) is honoured."""
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value) -> None:  # StreamHandler.__init__ assigns one; the property rules
+        pass
+
+
+def configure_logging(args: argparse.Namespace | None = None) -> None:
+    """Send the "deik" logger to stderr at the level the flags ask for (--verbose debug,
+    --quiet warning), else DEIK_LOG's, else info; replaces the handler of an earlier call.
+    ValueError for a DEIK_LOG that names no level."""
+    level = _level(args)
+    logger = logging.getLogger("deik")
+    for handler in [h for h in logger.handlers if isinstance(h, _Stderr)]:
+        logger.removeHandler(handler)
+    handler = _Stderr()
+    handler.setFormatter(_Lines())
+    logger.addHandler(handler)
+    logger.setLevel(level)
+
+
+def _level(args: argparse.Namespace | None) -> int:
+    if getattr(args, "verbose", False):
+        return logging.DEBUG
+    if getattr(args, "quiet", False):
+        return logging.WARNING
+    name = os.environ.get("DEIK_LOG", "").strip().lower()
+    if name and name not in LEVELS:
+        raise ValueError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
+    return LEVELS.get(name, logging.INFO)

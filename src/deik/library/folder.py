@@ -1,0 +1,58 @@
+"""A folder of clips: which files are clips, which are skipped, and the output folders."""
+
+from __future__ import annotations
+
+import os
+
+from deik.io.files import FilePath
+
+CLIP_SUFFIX = ".bvh"
+
+
+def find_clips(folder: FilePath) -> tuple[list[str], list[str]]:
+    """(paths of every *.bvh file directly in `folder`, sorted by name; names of the other
+    entries, which are skipped: other files, sub-folders (not searched), hidden files).
+    ValueError naming the folder when it holds no clip."""
+    entries = sorted(os.listdir(folder))
+    clips = [
+        os.path.join(folder, name)
+        for name in entries
+        if not name.startswith(".")
+        and os.path.splitext(name)[1].lower() == CLIP_SUFFIX
+        and os.path.isfile(os.path.join(folder, name))
+    ]
+    taken = {os.path.basename(path) for path in clips}
+    others = [name for name in entries if name not in taken]
+    if not clips:
+        shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+        raise ValueError(
+            f"{folder}: no {CLIP_SUFFIX} clips in this folder (sub-folders are not searched)"
+            + (f"; it holds {shown}" if others else "; it is empty")
+        )
+    stems = {}
+    for path in clips:
+        stem = os.path.splitext(os.path.basename(path))[0]
+        if stem in stems:
+            raise ValueError(
+                f"{folder}: {os.path.basename(stems[stem])} and {os.path.basename(path)} would write the same "
+                "outputs; rename one of them"
+            )
+        stems[stem] = path
+    return clips, others
+
+
+def output_folder(flag: str, folder: str, inputs: str) -> str:
+    """The absolute output `folder` of `flag`, created when its parent exists; ValueError when
+    the parent is missing, it is a file, or it is the `inputs` folder (outputs would replace
+    or mix with the clips)."""
+    path = os.path.abspath(folder)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ValueError(f"{flag} {folder!r} is a file; with a folder of clips, {flag} names a folder")
+    if not os.path.isdir(os.path.dirname(path)):
+        raise ValueError(f"{flag}: folder {os.path.dirname(path)!r} does not exist; create it first")
+    if os.path.isdir(path) and os.path.samefile(path, inputs):
+        raise ValueError(f"{flag} {folder!r} is the folder of the input clips; write the outputs to another folder")
+    os.makedirs(path, exist_ok=True)
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+    return path

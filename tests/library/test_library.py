@@ -1,0 +1,183 @@
+"""deik.library on a task the tests control (helpers.library_task): which files of a folder are
+clips, fingerprints that change with every setting, input byte and output, skipping what is
+done, a failed clip that stops no other, and a worker killed mid-clip that fails only its clip
+while a rerun redoes it and skips the rest. Local worker processes are real (spawned)."""
+
+import os
+import signal
+import sys
+import threading
+import time
+
+import pytest
+
+from deik.library.folder import find_clips, output_folder
+from deik.library.jobs import Job, fingerprint, read_sidecar, sidecar_path
+from deik.library.local import default_workers, threads_per_worker
+from deik.library.run import run_library, summary_line, summary_table
+from helpers import library_task
+
+
+def _jobs(folder, out, names, text="made", modes=None, settings=None):
+    """One Job per clip name, its output OUT/STEM.txt, a payload for helpers.library_task."""
+    jobs = []
+    for name in names:
+        source = folder / name
+        if not source.exists():
+            source.write_text(f"clip {name}\n")
+        outputs = (str(out / (source.stem + ".txt")),)
+        payload = {"outputs": outputs, "text": text, "mode": (modes or {}).get(name), "pid_file": str(out / "pid")}
+        settings = settings or {"text": text}
+        key = fingerprint("test", settings, source, {}, outputs)
+        jobs.append(Job(name, str(source), outputs, sidecar_path(out, name), key, settings, payload))
+    return jobs
+
+
+def test_a_folder_lists_its_bvh_files_and_says_what_it_skips(tmp_path):
+    for name in ("b.bvh", "a.BVH", "notes.txt", ".hidden.bvh", "a.segments.json"):
+        (tmp_path / name).write_text("x")
+    (tmp_path / "more.bvh").mkdir()
+    clips, skipped = find_clips(tmp_path)
+    assert [os.path.basename(p) for p in clips] == ["a.BVH", "b.bvh"]
+    assert sorted(skipped) == [".hidden.bvh", "a.segments.json", "more.bvh", "notes.txt"]
+    (tmp_path / "a.bvh").write_text("x")  # a.bvh and a.BVH would write the same outputs
+    with pytest.raises(ValueError, match="a.BVH and a.bvh would write the same outputs; rename"):
+        find_clips(tmp_path)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match="no .bvh clips in this folder.*it is empty"):
+        find_clips(empty)
+
+
+def test_output_folders_are_made_but_never_the_input_folder_or_a_file(tmp_path):
+    made = output_folder("--out", str(tmp_path / "out"), str(tmp_path))
+    assert os.path.isdir(made)
+    with pytest.raises(ValueError, match="--out .* is the folder of the input clips"):
+        output_folder("--out", str(tmp_path), str(tmp_path))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match="--json .* is a file; with a folder of clips, --json names a folder"):
+        output_folder("--json", str(tmp_path / "file"), str(tmp_path / "out"))
+    with pytest.raises(ValueError, match="does not exist; create it first"):
+        output_folder("--out", str(tmp_path / "no" / "out"), str(tmp_path))
+
+
+def test_the_fingerprint_follows_settings_input_bytes_named_files_and_outputs(tmp_path):
+    source, table = tmp_path / "a.bvh", tmp_path / "limits.json"
+    source.write_text("clip")
+    table.write_text("{}")
+    base = fingerprint("clip", {"seed": 1}, source, {"limits": table}, ["o/a.bvh"])
+    assert fingerprint("clip", {"seed": 1}, source, {"limits": table}, ["o/a.bvh"]) == base
+    assert fingerprint("clip", {"seed": 2}, source, {"limits": table}, ["o/a.bvh"]) != base
+    assert fingerprint("retarget", {"seed": 1}, source, {"limits": table}, ["o/a.bvh"]) != base
+    assert fingerprint("clip", {"seed": 1}, source, {"limits": table}, ["p/a.bvh"]) != base
+    table.write_text('{"LeftKnee": [0, 90]}')
+    assert fingerprint("clip", {"seed": 1}, source, {"limits": table}, ["o/a.bvh"]) != base
+    table.write_text("{}")
+    source.write_text("clap")
+    assert fingerprint("clip", {"seed": 1}, source, {"limits": table}, ["o/a.bvh"]) != base
+
+
+def test_a_rerun_skips_what_is_done_and_redoes_a_changed_setting_or_a_lost_output(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh"])
+    first = run_library(jobs, library_task, workers=2, quiet=True)
+    assert [o.status for o in first.outcomes] == ["done", "done"]
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[0])["record"]["frames"] == 2
+    assert first.frames_done() == 4 and "2 clips: 2 done, 0 skipped" in summary_line(first)
+    again = run_library(jobs, library_task, workers=2, quiet=True)
+    assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
+    assert again.outcomes[0].record["frames"] == 2  # the sidecar's record, shown in the table
+    assert "skipped (up to date)" in summary_table(again, [("pid", lambda r: str(r["metrics"]["pid"]))])
+    os.unlink(out / "b.txt")
+    changed = run_library(_jobs(tmp_path, out, ["a.bvh", "b.bvh"], text="other"), library_task, quiet=True)
+    assert [o.status for o in changed.outcomes] == ["done", "done"]
+    assert (out / "a.txt").read_text() == "other"
+    lost = _jobs(tmp_path, out, ["a.bvh", "b.bvh"], text="other")
+    os.unlink(out / "b.txt")
+    assert [o.status for o in run_library(lost, library_task, quiet=True).outcomes] == ["skipped", "done"]
+
+
+def test_a_failed_clip_is_reported_and_stops_no_other(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh", "c.bvh"], modes={"b.bvh": "fail"})
+    lines = []
+    run = run_library(jobs, library_task, workers=1, quiet=True, note=lines.append)
+    assert [o.status for o in run.outcomes] == ["done", "failed", "done"]
+    assert run.outcomes[1].reason == "this clip is broken on purpose"
+    assert lines == ["deik: b.bvh: failed: this clip is broken on purpose"]
+    assert not (out / "b.txt").exists() and not os.path.exists(jobs[1].sidecar)
+    assert "1 failed" in summary_line(run)
+
+
+def _kill_when_hanging(pid_file, killed: list):
+    """Wait for the hanging job to write its worker's process id, then kill that worker."""
+    for _ in range(600):
+        if os.path.exists(pid_file):
+            pid = int(open(pid_file).read())
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+            return
+        time.sleep(0.05)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL is POSIX")
+def test_a_killed_worker_fails_its_clip_only_and_a_rerun_redoes_it(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    names = ["a.bvh", "b.bvh", "c.bvh", "d.bvh"]
+    jobs = _jobs(tmp_path, out, names, modes={"b.bvh": "hang"})
+    killed = []
+    killer = threading.Thread(target=_kill_when_hanging, args=(str(out / "pid"), killed))
+    killer.start()
+    run = run_library(jobs, library_task, workers=2, quiet=True, note=lambda line: None)
+    killer.join()
+    assert killed, "the hanging job never started"
+    statuses = {o.job.name: o.status for o in run.outcomes}
+    assert statuses == {"a.bvh": "done", "b.bvh": "failed", "c.bvh": "done", "d.bvh": "done"}
+    assert "killed (SIGKILL)" in run.outcomes[1].reason
+    pids = {o.record["metrics"]["pid"] for o in run.outcomes if o.record}
+    assert killed[0] not in pids  # the clips after the kill ran on the other or a new worker
+    # the rerun, with the clip repaired, redoes only the killed one
+    rerun = run_library(_jobs(tmp_path, out, names), library_task, workers=2, quiet=True)
+    assert [o.status for o in rerun.outcomes] == ["skipped", "done", "skipped", "skipped"]
+    assert sorted(os.listdir(out)) == sorted(
+        ["pid"] + [f"{n[0]}.txt" for n in names] + [f"{n[0]}.deik.json" for n in names]
+    )
+
+
+def test_workers_share_out_the_cores():
+    assert default_workers(jobs=8, cores=2) == 2 and default_workers(jobs=1, cores=16) == 1
+    assert threads_per_worker(2, cores=2) == 1 and threads_per_worker(1, cores=2) == 2
+    assert threads_per_worker(3, cores=16) == 5  # workers x threads never above the cores
+
+
+def test_bad_executor_choices_say_what_to_do(tmp_path, monkeypatch):
+    jobs = _jobs(tmp_path, tmp_path, ["a.bvh"])
+    with pytest.raises(ValueError, match="executor 'dask': use local or ray"):
+        run_library(jobs, library_task, executor="dask")
+    with pytest.raises(ValueError, match="workers 0: use a whole number >= 1"):
+        run_library(jobs, library_task, workers=0)
+    with pytest.raises(ValueError, match="an address names a Ray cluster"):
+        run_library(jobs, library_task, address="auto")
+    monkeypatch.setitem(sys.modules, "ray", None)  # as without the extra installed
+    with pytest.raises(ImportError, match=r'pip install "deik\[ray\]"'):
+        run_library(jobs, library_task, executor="ray")
+
+
+def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
+    pytest.importorskip("ray", reason='Ray is an optional extra (pip install "deik[ray]"): not installed here')
+    # Ray's workers import the task by name: the instance started here passes them this path
+    tests = os.path.dirname(os.path.abspath(library_task.__code__.co_filename))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [tests, os.environ.get("PYTHONPATH")])))
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh", "c.bvh"], modes={"c.bvh": "fail"})
+    run = run_library(jobs, library_task, executor="ray", quiet=True, note=lambda line: None)
+    assert [o.status for o in run.outcomes] == ["done", "done", "failed"]
+    assert run.outcomes[2].reason == "this clip is broken on purpose"
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[1]) is not None
+    assert "on Ray" in summary_line(run)
+    again = run_library(jobs[:2], library_task, executor="ray", quiet=True)
+    assert [o.status for o in again.outcomes] == ["skipped", "skipped"]

@@ -1,0 +1,75 @@
+"""Annotations on the public API (py.typed promises them): every function and public method of
+every module a user may import annotates each parameter and its return value, and the
+annotations of everything in deik.__all__ resolve to real types. deik.kernels is left out: it is
+the engine's inside (docs/architecture.md), Numba-compiled device maths and the host code that
+hands it the packed NamedTuples of kernels/layout.py, called only by deik.solver."""
+
+import ast
+import inspect
+import typing
+from pathlib import Path
+
+import pytest
+
+import deik
+
+SOURCE = Path(deik.__file__).parent
+INSIDE = "kernels"  # the package no user calls
+
+
+def _inside(path: Path) -> bool:
+    return path.relative_to(SOURCE).parts[0] == INSIDE
+
+
+def _public_functions(tree: ast.Module):
+    """(qualified name, FunctionDef, is a method) of the public functions and methods of a module."""
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and not node.name.startswith("_"):
+            yield node.name, node, False
+        elif isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+            for item in node.body:
+                if isinstance(item, ast.FunctionDef) and (not item.name.startswith("_") or item.name == "__init__"):
+                    yield f"{node.name}.{item.name}", item, True
+
+
+def _missing(function: ast.FunctionDef, method: bool) -> list[str]:
+    arguments = function.args
+    names = arguments.posonlyargs + arguments.args + arguments.kwonlyargs
+    if method and not any(isinstance(d, ast.Name) and d.id == "staticmethod" for d in function.decorator_list):
+        names = names[1:]  # self or cls
+    names += [a for a in (arguments.vararg, arguments.kwarg) if a is not None]
+    missing = [a.arg for a in names if a.annotation is None]
+    if function.returns is None and function.name != "__init__":
+        missing.append("return")
+    return missing
+
+
+def test_every_public_function_is_annotated():
+    unannotated = []
+    for path in sorted(SOURCE.rglob("*.py")):
+        if _inside(path):
+            continue
+        for name, function, method in _public_functions(ast.parse(path.read_text())):
+            missing = _missing(function, method)
+            if missing:
+                unannotated.append(f"{path.relative_to(SOURCE)}:{function.lineno} {name}: {', '.join(missing)}")
+    assert unannotated == []
+
+
+def _callables(obj):
+    """obj itself (a function) or a class's public methods and __init__ defined on it."""
+    if inspect.isfunction(obj):
+        yield obj.__qualname__, obj
+        return
+    for name, member in vars(obj).items():
+        function = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
+        if inspect.isfunction(function) and (not name.startswith("_") or name == "__init__"):
+            yield f"{obj.__name__}.{name}", function
+
+
+@pytest.mark.parametrize("name", deik.__all__)
+def test_the_exported_api_s_annotations_resolve(name):
+    for qualified, function in _callables(getattr(deik, name)):
+        hints = typing.get_type_hints(function)  # raises on a name that does not resolve
+        parameters = [p for p in inspect.signature(function).parameters if p not in ("self", "cls")]
+        assert set(parameters) <= set(hints), f"{qualified}: {sorted(set(parameters) - set(hints))} unannotated"

@@ -1,0 +1,222 @@
+"""`deik view` in headless Chromium, as a user sees it: the page loads without console errors, the
+screenshot shows the skeleton in its colours (and the compared clip, the targets and the centre
+of mass), the frame slider scrubs and the play button plays, and Ctrl-C stops the command
+cleanly. Runs on Debian's chromium driven by playwright; skips, saying so, without them."""
+
+import json
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+import deik
+from deik.cli.app import main
+from deik.viz.marks import COLOURS
+from helpers import ROOT, readme_commands
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytestmark = pytest.mark.skipif(
+    CHROMIUM is None,
+    reason="Debian's chromium is not installed (apt-get install chromium): the browser test of `deik view` needs it",
+)
+sync_api = pytest.importorskip(
+    "playwright.sync_api", reason="playwright drives the browser test: pip install playwright"
+)
+pytest.importorskip("viser", reason='deik view needs viser: pip install "deik[view]"')
+
+# as root, with no GPU and no network: the flags a headless Chromium needs here (software WebGL)
+CHROMIUM_FLAGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--enable-unsafe-swiftshader",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+COLOUR_DISTANCE = 45  # WebGL renders a colour within this of the one asked for (0-255 RGB)
+DEIK = [sys.executable, "-c", "import sys; from deik.cli import main; sys.exit(main())"]
+
+
+class Viewer:
+    """`deik view ARGS` (by default with `--port 0 --no-browser`) in a subprocess, on a machine
+    without a display: `line` and `url` once it serves; leaving the block sends Ctrl-C (SIGINT)
+    and keeps the exit status and output."""
+
+    def __init__(self, *args, extra=("--port", "0", "--no-browser"), cwd=None):
+        hidden = ("DISPLAY", "WAYLAND_DISPLAY", "BROWSER")
+        env = {**{k: v for k, v in os.environ.items() if k not in hidden}, "PYTHONPATH": str(ROOT / "src")}
+        self.process = subprocess.Popen(
+            [*DEIK, "view", *map(str, args), *extra],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=cwd,
+            env=env,
+        )
+        self.line = self.next_line()
+        if " at http://" not in self.line:
+            self.process.kill()
+            raise AssertionError(f"deik view did not start: {self.line!r} {self.process.communicate()[1][-2000:]}")
+        self.url = self.line.split(" at ")[1].split()[0]
+
+    def next_line(self, timeout: float = 120) -> str:
+        """The next line it prints ("" when none comes within `timeout` seconds)."""
+        got = []
+        reader = threading.Thread(target=lambda: got.append(self.process.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(timeout=timeout)
+        return got[0] if got else ""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *_):
+        self.process.send_signal(signal.SIGINT)
+        self.out, self.err = self.process.communicate(timeout=30)
+        self.status = self.process.returncode
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as playwright:
+        launched = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_FLAGS)
+        yield launched
+        launched.close()
+
+
+def _open(browser, url):
+    """(page, console messages) once the page has connected and drawn the bones."""
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    console = []
+    page.on("console", lambda message: console.append((message.type, message.text)))
+    page.on("pageerror", lambda error: console.append(("pageerror", str(error))))
+    page.goto(url)
+    page.get_by_text("Connected").wait_for(timeout=60_000)
+    page.get_by_label("names").uncheck()  # labels would cover the marks
+    for _ in range(100):  # until the scene has arrived over the websocket and been drawn
+        if _count(_shot(page), "bone") > 100:
+            break
+        page.wait_for_timeout(200)
+    page.wait_for_timeout(300)
+    return page, console
+
+
+def _shot(page) -> np.ndarray:
+    """The 3-D view as (H, W, 3) 0-255 pixels: the side panel and notices painted white, and the
+    orientation gizmo's corner cut out."""
+    from io import BytesIO
+
+    from matplotlib import image
+
+    covers = [page.locator(".mantine-Paper-root"), page.locator(".mantine-Notification-root")]
+    png = page.screenshot(mask=covers, mask_color="#FFFFFF")
+    picture = np.round(image.imread(BytesIO(png), format="png")[..., :3] * 255)
+    picture[-130:, :130] = 255
+    return picture
+
+
+def _mask(picture, kind) -> np.ndarray:
+    return np.linalg.norm(picture - np.array(COLOURS[kind]), axis=-1) < COLOUR_DISTANCE
+
+
+def _count(picture, kind) -> int:
+    return int(_mask(picture, kind).sum())
+
+
+def _errors(console):
+    return [m for m in console if m[0] in ("error", "pageerror")]
+
+
+def _walk(path, shift: float, raise_arm: float):
+    """A 12-frame clip of the humanoid walking along x, its left arm turning, written as BVH."""
+    human = deik.humanoid()
+    poses = np.tile(human.reference, (12, 1))
+    poses[:, human.dof_names.index("pelvis.Xposition")] += shift * np.arange(12)
+    poses[:, human.dof_names.index("left_shoulder.Zrotation")] += raise_arm * np.linspace(0.5, 1, 12)
+    deik.write_bvh(path, deik.Clip.from_poses(human, poses, frame_time=1 / 30))
+    return path
+
+
+def test_a_clip_plays_scrubs_and_shows_its_original_in_grey(tmp_path, browser):
+    fixed = _walk(tmp_path / "fixed.bvh", 0.08, 1.5)
+    original = _walk(tmp_path / "original.bvh", 0.08, -1.0)
+    with Viewer(fixed, "--compare", original) as viewer:
+        page, console = _open(browser, viewer.url)
+        first = _shot(page)
+        assert _count(first, "bone") > 300 and _count(first, "tip") > 30 and _count(first, "root") > 10
+        page.get_by_label("compare: original.bvh").uncheck()
+        page.wait_for_timeout(500)
+        without = _shot(page)
+        grey = np.abs(first - without).max(axis=-1) > 60
+        assert grey.sum() > 100 and _mask(first, "compare")[grey].mean() > 0.5  # the compared figure, in grey
+        page.get_by_role("textbox").last.fill("9")  # the slider's number box
+        page.keyboard.press("Enter")
+        page.get_by_text("frame 9 of 12, t = 0.300 s").wait_for()
+        page.wait_for_timeout(500)
+        before, after = (np.argwhere(_mask(shot, "bone")).mean(axis=0) for shot in (without, _shot(page)))
+        assert np.linalg.norm(after - before) > 30  # the bones walked 0.72 m
+        page.get_by_role("button", name="Play").click()
+        page.get_by_role("button", name="Pause").wait_for()
+        page.wait_for_function("() => !document.body.innerText.includes('frame 9 of 12')", timeout=10_000)
+        assert not _errors(console), console
+    assert viewer.status == 0 and "deik view: stopped" in viewer.err and "Traceback" not in viewer.err
+    assert viewer.line.startswith("deik view: fixed.bvh, 12 frames at http://127.0.0.1:")
+
+
+def test_a_solved_pose_shows_its_target_and_centre_of_mass(tmp_path, browser):
+    human = deik.humanoid()
+    rest = deik.forward_kinematics(human, human.reference)
+    target = rest.position("left_hand") + [0.3, 0.5, 0.2]
+    problem = deik.Problem(human, [deik.Position("left_hand", target, tolerance=0.01)])
+    result = deik.solve(problem, population=24, generations=30, seed=1)
+    from deik.viz.marks import goal_targets
+
+    pose = tmp_path / "pose.json"
+    pose.write_text(json.dumps({**result.to_dict(), "targets": goal_targets(problem), "length_unit": "m"}))
+    with Viewer(pose) as viewer:
+        page, console = _open(browser, viewer.url)
+        picture = _shot(page)
+        for kind, pixels in (("bone", 300), ("target", 20), ("centre of mass", 20), ("root", 10), ("tip", 30)):
+            assert _count(picture, kind) > pixels, kind
+        page.get_by_text(re.compile(r"Lengths in m \(the pose file\); grid cells 0\.[125] m\.")).wait_for()
+        assert not _errors(console), console
+    assert viewer.status == 0
+
+
+@pytest.mark.slow  # three browser sessions and a clip fix: 35 s with the machine loaded
+@pytest.mark.shared_data
+def test_the_readme_view_commands_run_as_written(tmp_path, browser, shared_data, monkeypatch):
+    """The README's `deik view` lines (a console block: they serve until Ctrl-C) run as written,
+    after the commands of its section that write their files, beside shared/ like a clone."""
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## Seeing results") :]
+    section = section[: section.index("\n## ")]
+    views = readme_commands(section, "console")
+    assert len(views) == 3 and all(v.startswith("deik view ") for v in views)
+    clone = tmp_path / "deik"
+    clone.mkdir()
+    (tmp_path / "shared").symlink_to(shared_data.parent)
+    monkeypatch.chdir(clone)
+    for command in readme_commands(section):  # in this process: tests/cli/test_readme runs them as commands
+        assert main(shlex.split(command)[1:]) == 0, command
+    for command in views:
+        with Viewer(*shlex.split(command)[2:], extra=(), cwd=clone) as viewer:
+            assert viewer.next_line(30).startswith("deik view: no browser to open here")
+            page, console = _open(browser, viewer.url)
+            picture = _shot(page)
+            assert _count(picture, "bone") > 100 and _count(picture, "tip") > 10, command
+            assert int(viewer.url.rsplit(":", 1)[1]) >= 8080  # the default port, or the next free one
+            # a robot arm starts with its tool frame's axes shown, a character without its many
+            assert page.get_by_label("frame axes").is_checked() == ("panda" in command), command
+            assert not _errors(console), (command, console)
+            page.close()
+        assert viewer.status == 0, (command, viewer.err)
