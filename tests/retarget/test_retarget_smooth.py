@@ -8,6 +8,7 @@ import pytest
 
 import deik
 from deik.clips.contacts import Contacts
+from deik.clips.dynamics import jolted_points, point_peak_ratios
 from deik.clips.warmstart import dof_weights, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
@@ -186,3 +187,16 @@ def test_the_space_time_pass_pushes_an_arm_out_of_the_torso():
     )
     assert penetration_depths(h, found, pairs).max() < 1e-3
     assert (found >= h.lower).all() and (found <= h.upper).all()
+
+
+def test_key_point_peaks_and_jolts_against_their_targets():
+    t = np.linspace(0.0, 2.0, 61)[:, None, None]
+    source = np.concatenate([np.sin(t), np.cos(2 * t), 0.1 * t], axis=-1) * [1.0, 0.5, 1.0]  # (61, 1, 3) metres
+    ratios = point_peak_ratios(source, 2.0 * source, DT)  # the same path twice as large: twice as fast
+    assert ratios["position_velocity"] == pytest.approx(2.0) and ratios["position_acceleration"] == pytest.approx(2.0)
+    spiked = source.copy()
+    spiked[30, 0, 1] += 0.05  # one frame 5 cm off the path
+    jolted = jolted_points(source, spiked, DT, reach=1.7)
+    # its acceleration marks frames 29-31, its speeds from and to it frames 29-31
+    assert np.flatnonzero(jolted).tolist() == [29, 30, 31]
+    assert not jolted_points(source, source, DT, reach=1.7).any()
