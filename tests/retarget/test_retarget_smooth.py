@@ -38,6 +38,17 @@ def test_two_capsules_placed_by_hand_overlap_by_their_radii_less_their_distance(
     assert np.maximum(pairs.reach - distance, 0.0)[0, 0] == pytest.approx(0.1)
 
 
+def test_crossing_capsules_are_pushed_apart_across_both_bones():
+    # bone 1 along x, bone 3 along y through its middle: no gap between the closest points
+    x = np.array([[[0.0, 0, 0], [1.0, 0, 0], [0.5, -1.0, 0.0], [0.5, 1.0, 0.0]]])
+    jac = np.zeros((1, 4, 3, 3))
+    jac[0, 2:] = np.eye(3)  # three DOFs moving the second bone along x, y, z
+    pairs = BonePairs(np.array([1]), np.array([3]), np.array([-1, 0, -1, 2]), np.array([0.3]))
+    errors, rows = collision_rows(x, jac, pairs, 0.01)
+    assert errors[0, 0] == pytest.approx(0.31)
+    assert np.abs(rows[0, 0]) == pytest.approx([0.0, 0.0, 1.0])  # along z, across both
+
+
 def test_penetration_depths_match_points_sampled_along_the_bones():
     h = deik.humanoid()
     rng = np.random.default_rng(3)

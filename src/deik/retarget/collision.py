@@ -57,6 +57,16 @@ def penetration_depths(skeleton: Skeleton, poses: np.ndarray, pairs: BonePairs) 
     return np.maximum(pairs.reach - pairs.closest(p)[3], 0.0)
 
 
+def _separating(gap, distance, a0, a1, b0, b1) -> np.ndarray:
+    """(k, 3) unit directions that part each pair: along the gap between the closest points, or,
+    where the segments cross (no gap to follow), across both of them (a zero row when they are
+    also parallel: one point of each on the other)."""
+    across = np.cross(a1 - a0, b1 - b0)
+    across = across / np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), 1e-300)
+    crossing = distance[:, None] < 1e-12
+    return np.where(crossing, across, gap / np.where(crossing, 1.0, distance[:, None]))
+
+
 def collision_rows(x: np.ndarray, jac: np.ndarray, pairs: BonePairs, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, M), rows (N, M, D)): one row per pair closer than its radii + 2 `margin` in
     a frame (M the most in any frame; frames with fewer get zero rows), asking the distance
@@ -70,7 +80,7 @@ def collision_rows(x: np.ndarray, jac: np.ndarray, pairs: BonePairs, margin: flo
     for n in np.flatnonzero(near.any(axis=1)):
         k = np.flatnonzero(near[n])
         a, b = pairs.a[k], pairs.b[k]
-        normal = gap[n, k] / np.maximum(distance[n, k], 1e-12)[:, None]
+        normal = _separating(gap[n, k], distance[n, k], x[n, pairs.starts[a]], x[n, a], x[n, pairs.starts[b]], x[n, b])
         on_a = (1 - s[n, k])[:, None, None] * jac[n, pairs.starts[a]] + s[n, k][:, None, None] * jac[n, a]
         on_b = (1 - t[n, k])[:, None, None] * jac[n, pairs.starts[b]] + t[n, k][:, None, None] * jac[n, b]
         rows[n, : len(k)] = np.einsum("kc,kcd->kd", normal, on_a - on_b)
