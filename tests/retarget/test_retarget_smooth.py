@@ -14,6 +14,7 @@ from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
 from deik.retarget.collision import BonePairs, body_pairs, collision_rows, penetration_depths
 from deik.retarget.ik import rebasin, solve_keypoints
+from deik.retarget.report import retarget_report
 from deik.retarget.smooth import smooth_motion
 
 POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
@@ -211,3 +212,27 @@ def test_key_point_peaks_and_jolts_against_their_targets():
     # its acceleration marks frames 29-31, its speeds from and to it frames 29-31
     assert np.flatnonzero(jolted).tolist() == [29, 30, 31]
     assert not jolted_points(source, source, DT, reach=1.7).any()
+
+
+def test_the_report_gives_each_frame_s_deepest_capsule_overlap_in_mm():
+    h = deik.humanoid()
+    rng = np.random.default_rng(8)
+    poses = np.clip(h.reference + rng.uniform(-1.0, 1.0, (4, h.n_dofs)), h.lower, h.upper)
+    poses[0] = h.reference  # apart at rest
+    names = ["left_wrist", "head"]
+    kin = deik.forward_kinematics(h, poses)
+    targets = np.stack([kin.position(name) for name in names], axis=1)
+    report = retarget_report(Trajectory(h, poses, DT), names, targets, None, np.zeros(0), 1.0, 0.1)
+    # independently: SelfCollision's pairs and radii, distances between points sampled on the bones
+    goal, start = deik.SelfCollision(), bone_starts(h)
+    radii = goal.joint_radii(h)
+    expected = np.zeros(len(poses))
+    for n, p in enumerate(kin.p_world_frame):
+        for a, b, _ in goal.pairs(h):
+            d = sampled_distance(p[start[a]], p[a], p[start[b]], p[b])
+            expected[n] = max(expected[n], radii[start[a]] + radii[start[b]] - d)
+    depth = np.array(report["per_frame"]["self_penetration_mm"])
+    assert depth[0] == 0.0 and depth[1:].max() > 10  # millimetres: random poses put bones deep in others
+    np.testing.assert_allclose(depth, 1000 * np.maximum(expected, 0.0), atol=3.0)
+    assert report["summary"]["self_penetration_max_mm"] == pytest.approx(depth.max())
+    assert report["summary"]["keypoint_velocity_peak_ratio"] == pytest.approx(1.0)  # on its targets
