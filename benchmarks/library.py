@@ -21,8 +21,8 @@ over their targets' (clips.dynamics) and time per frame (ms, one core).
 
 Writes library.json, library.md and library.png into --out (atomically); prints the tables.
 `--part throughput` or `--part quality` measures one part and keeps the other as the JSON in
---out holds it (the throughput part takes about 15 minutes, the quality part about 2), each
-part with its own command and machine.
+--out holds it (the quality part took 70 s on the 2-core machine; the throughput part runs
+both jobs 7 times over), each part with its own command, commit and machine.
 """
 
 from __future__ import annotations

@@ -19,6 +19,7 @@ retarget_steps.json and retarget_steps.md into --out (atomically); prints the ta
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 from pathlib import Path
@@ -58,7 +59,7 @@ def measure() -> dict:
     clips = sorted(CLIPS.glob("*.bvh"))
     out = {}
     for way, patches in WAYS.items():
-        with mock.patch.multiple(rig, **patches):
+        with mock.patch.multiple(rig, **patches) if patches else contextlib.nullcontext():
             out[way] = {clip.name: retarget(clip, "humanoid", joint_map=MAP).report["summary"] for clip in clips}
         print(f"{way}: {len(clips)} clips", flush=True)
     return out
