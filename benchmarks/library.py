@@ -15,16 +15,23 @@ wall time, the clips' own seconds summed, and each round's ratios to 1 worker.
 Quality: `deik retarget DIR --map examples/maps/... --to TARGET --out OUTDIR` for both targets,
 2 local workers; per clip the report's summary (retarget/report.py): key-point error mean and
 worst (mm), contact sliding max (mm/frame), joint-limit violations (count, must be 0),
-penetration max (mm, deepest joint or site below the floor) and time per frame (ms, one core).
+penetration max (mm, deepest joint or site below the floor), self-penetration max (mm, deepest
+overlap of two of the target's bone capsules), the key points' speed and acceleration peaks
+over their targets' (clips.dynamics) and time per frame (ms, one core).
 
 Writes library.json, library.md and library.png into --out (atomically); prints the tables.
+`--part throughput` or `--part quality` measures one part and keeps the other as the JSON in
+--out holds it (the quality part took 70 s on the 2-core machine; the throughput part runs
+both jobs 7 times over), each part with its own command, commit and machine.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
+import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -56,6 +63,9 @@ QUALITY = (
     ("contact_sliding_max_mm_per_frame", "sliding max mm/frame"),
     ("limit_violations_count", "limit violations"),
     ("penetration_max_mm", "penetration max mm"),
+    ("self_penetration_max_mm", "self-penetration max mm"),
+    ("keypoint_velocity_peak_ratio", "speed peak / targets'"),
+    ("keypoint_acceleration_peak_ratio", "acceleration peak / targets'"),
     ("time_per_frame_ms", "ms/frame"),
 )
 
@@ -146,10 +156,17 @@ def _shown(value) -> str:
     return "-" if value is None else f"{value:.4g}"
 
 
+def _measured_by(result: dict, part: str) -> list[str]:
+    """The lines saying how `part` was measured: its command and machine."""
+    run = result["runs"][part]
+    return [f"`{run['command']}` at {run['commit']}, {run['machine']['cpu_model']}", ""]
+
+
 def markdown(result: dict) -> str:
-    lines = ["# Libraries of clips (benchmarks/library.py)", "", f"Machine: {result['machine']['cpu_model']}", ""]
+    lines = ["# Libraries of clips (benchmarks/library.py)", ""]
     if "throughput" in result:
         t = result["throughput"]
+        lines += _measured_by(result, "throughput")
         header = ["way", "clips/s (median)", "frames/s (median)", "clips' own s (median)", "speed-up vs 1 worker"]
         for job, measured in t["jobs"].items():
             lines += [f"## Throughput of `{job}` over the shared clips (8 clips, 741 frames)", ""]
@@ -161,8 +178,9 @@ def markdown(result: dict) -> str:
             ]
             lines += [markdown_table(header, rows), ""]
         lines += [f"Ray's start-up (once, not in the turns): {t['ray_start_s']:.1f} s", ""]
-    for target, rows in result.get("quality", {}).items():
+    for k, (target, rows) in enumerate(result.get("quality", {}).items()):
         lines += [f"## Retargeting every shared clip onto {target}", ""]
+        lines += _measured_by(result, "quality") if k == 0 else []
         header = ["clip", "frames", "status", *(label for _, label in QUALITY)]
         cells = [[r["clip"], r["frames"], r["status"], *(_shown(r[key]) for key, _ in QUALITY)] for r in rows]
         lines += [markdown_table(header, cells), ""]
@@ -201,21 +219,37 @@ def figure(result: dict, path: str) -> None:
     save_figure(fig, path)
 
 
+def _commit() -> str:
+    """The checkout's commit (short hash, "+changes" when the tree differs from it), or "unknown"."""
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True)
+    except OSError:
+        return "unknown"
+    return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "") if head.returncode == 0 else "unknown"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=2, help="turns of each way in the throughput part")
     parser.add_argument("--part", choices=("both", "throughput", "quality"), default="both")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args()
-    opening = {"load_before": list(os.getloadavg())}
-    result = {"command": f"python -m benchmarks.library --rounds {args.rounds} --part {args.part}"}
-    if args.part in ("both", "throughput"):
-        result["throughput"] = throughput(args.rounds)
-    if args.part in ("both", "quality"):
-        result["quality"] = quality()
-    result["machine"] = machine("cpu", opening)
+    parts = ("throughput", "quality") if args.part == "both" else (args.part,)
+    stored = args.out / "library.json"
+    result = {}
+    if args.part != "both" and stored.exists():  # the part not measured now stays as measured before
+        result = {k: v for k, v in json.loads(stored.read_text()).items() if k in ("throughput", "quality", "runs")}
+    result.setdefault("runs", {})
+    for part in parts:
+        opening = {"load_before": list(os.getloadavg())}
+        result[part] = throughput(args.rounds) if part == "throughput" else quality()
+        command = f"python -m benchmarks.library --part {part}" + (
+            f" --rounds {args.rounds}" if part == "throughput" else ""
+        )
+        result["runs"][part] = {"command": command, "commit": _commit(), "machine": machine("cpu", opening)}
     args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / "library.json", result, missing_as_null=True)
+    write_json_atomically(stored, result, missing_as_null=True)
     text = markdown(result)
     write_text_atomically(args.out / "library.md", text)
     figure(result, str(args.out / "library.png"))

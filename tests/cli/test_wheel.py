@@ -31,7 +31,7 @@ from benchmarks.readme_commands import (
 from benchmarks.wheel_install import MAX_PACKAGES, MB, index_reachable, install, measure, outside_env
 from deik.kernels import cpu
 
-CACHE_PATH = "from deik.kernels import cpu; print(cpu.run_generations._cache._cache_path)"  # Numba's, private
+CACHE_PATH = "from deik.kernels import cpu; print(cpu.launch.entry._cache._cache_path)"  # Numba's, private
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def installed_wheel(tmp_path_factory):
 def seed_kernel_cache(python: str, env: dict) -> int:
     """Copy this checkout's compiled kernels (Numba's .nbi/.nbc files) into the cache folder the
     installed deik of `python` uses; returns the number of files copied."""
-    source = Path(cpu.run_generations._cache._cache_path)
+    source = Path(cpu.launch.entry._cache._cache_path)
     target = Path(
         subprocess.run([python, "-c", CACHE_PATH], env=env, check=True, capture_output=True, text=True).stdout.strip()
     )

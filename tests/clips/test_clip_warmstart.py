@@ -7,7 +7,7 @@ import pytest
 from deik.clips.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.clips.contacts import detect_contacts
 from deik.clips.problem import REACH_LEVEL, ClipGoals, eased_track, fixed_goals
-from deik.clips.spacetime import spacetime_step, spring_bands, spring_product
+from deik.clips.spacetime import spacetime_step, spring_bands, spring_energy, spring_product
 from deik.clips.warmstart import dof_weights, position_jacobian, warm_start
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
@@ -119,7 +119,7 @@ def test_spacetime_step_is_the_dense_least_squares_solution():
         first, second = np.diff(np.eye(N), axis=0), np.diff(np.eye(N), 2, axis=0)
         np.testing.assert_allclose(K, np.eye(N) / 81 + 2 / 9 * first.T @ first + second.T @ second, atol=1e-12)
         H = np.kron(K, np.diag(stiffness)) + 0.1 * np.eye(N * D)
-        g = -np.kron(K, np.diag(stiffness)) @ np.where(movable, x, 0.0).ravel()
+        g = -np.kron(K, np.diag(stiffness)) @ x.ravel()  # E's gradient at x, held entries included
         for n in range(N):
             block = slice(n * D, (n + 1) * D)
             H[block, block] += rows[n].T @ np.diag(weights[n]) @ rows[n]
@@ -128,6 +128,8 @@ def test_spacetime_step_is_the_dense_least_squares_solution():
         expected = np.zeros(N * D)
         expected[free] = np.linalg.solve(H[np.ix_(free, free)], g[free])
         np.testing.assert_allclose(step, expected.reshape(N, D), atol=1e-9)
+        spring = (x.ravel() @ np.kron(K, np.diag(stiffness)) @ x.ravel()).item()
+        assert spring_energy(x, 3.0, stiffness) == pytest.approx(spring, rel=1e-12)
 
 
 def test_ease_is_the_banded_least_squares_solution():

@@ -213,7 +213,9 @@ def test_the_readme_view_commands_run_as_written(tmp_path, browser, shared_data,
             assert viewer.next_line(30).startswith("deik view: no browser to open here")
             page, console = _open(browser, viewer.url)
             picture = _shot(page)
-            assert _count(picture, "bone") > 100 and _count(picture, "tip") > 10, command
+            # a met target is drawn where the tip is and may cover its mark: either shows the tip
+            tip = _count(picture, "tip") + _count(picture, "target")
+            assert _count(picture, "bone") > 100 and tip > 10, command
             assert int(viewer.url.rsplit(":", 1)[1]) >= 8080  # the default port, or the next free one
             # a robot arm starts with its tool frame's axes shown, a character without its many
             assert page.get_by_label("frame axes").is_checked() == ("panda" in command), command

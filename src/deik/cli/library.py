@@ -200,6 +200,7 @@ COLUMNS = {
         ("key points mean mm", _cell("keypoint_error_mean_mm")),
         ("sliding max mm/frame", _cell("contact_sliding_max_mm_per_frame")),
         ("penetration max mm", _cell("penetration_max_mm")),
+        ("self-penetration max mm", _cell("self_penetration_max_mm")),
         ("limit violations", _cell("limit_violations_count")),
         ("ms/frame", _cell("time_per_frame_ms")),
     ],

@@ -162,6 +162,14 @@ def velocity_spikes(clip: Motion) -> dict:
     return spikes(clip, _kinematics(clip))
 
 
+def point_motion(points: np.ndarray, frame_time: float) -> tuple[np.ndarray, np.ndarray]:
+    """(speed (N-1, K), acceleration (N-2, K)) of points (N, K, 3) over frames `frame_time` s
+    apart: |first difference| / dt between frames (row n from frame n to n+1) and |second
+    difference| / dt^2 (row n at frame n+1), length units per s and per s^2."""
+    speed = np.linalg.norm(np.diff(points, axis=0), axis=-1) / frame_time
+    return speed, np.linalg.norm(np.diff(points, 2, axis=0), axis=-1) / frame_time**2
+
+
 def spikes(clip: Motion, kin: Kinematics) -> dict:
     """velocity_spikes of `clip` from its kinematics `kin`."""
     sk = clip.skeleton
@@ -171,8 +179,7 @@ def spikes(clip: Motion, kin: Kinematics) -> dict:
     q = np.degrees(clip.frames[:, rotation])
     velocity = np.diff(q, axis=0) / dt
     acceleration = np.diff(q, 2, axis=0) / dt**2
-    position = np.linalg.norm(np.diff(kin.p_world_frame, 2, axis=0), axis=-1) / dt**2
-    speed = np.linalg.norm(np.diff(kin.p_world_frame, axis=0), axis=-1) / dt
+    speed, position = point_motion(kin.p_world_frame, dt)
     top_velocity = _largest(velocity, names, 0)[0]
     top_dof = _largest(acceleration, names, 1)
     top_position = _largest(position, sk.frame_names, 1)

@@ -67,6 +67,13 @@ def solve_block_bands(diagonal: np.ndarray, first: np.ndarray, second: np.ndarra
     return solve_spd_band(upper.reshape(N * D, 2 * D + 1), rhs.reshape(N * D)).reshape(N, D)
 
 
+def spring_energy(x: np.ndarray, length: float, stiffness: np.ndarray | None = None) -> float:
+    """E(x) summed over the DOFs: x (N, D) displacements in weighted units, fade `length` frames,
+    each DOF's energy scaled by `stiffness` (D,) (default 1)."""
+    c = 1.0 if stiffness is None else np.asarray(stiffness, float)
+    return float((c * x * spring_product(spring_bands(len(x), length), x)).sum())
+
+
 def spacetime_step(
     rows: np.ndarray,
     errors: np.ndarray,
@@ -98,7 +105,9 @@ def spacetime_step(
     weighted = rows * weights[..., None]
     diagonal = np.einsum("nrd,nre->nde", weighted, rows)
     diagonal[:, np.arange(U), np.arange(U)] += bands[0][:, None] * c + damping
-    rhs = np.einsum("nrd,nr->nd", weighted, errors) - c * spring_product(bands, np.where(movable, x, 0.0))
+    # E's gradient at the whole displacement: a held entry's displacement (a DOF at a limit, a
+    # frame outside a reach window) still pulls its movable neighbours towards it
+    rhs = np.einsum("nrd,nr->nd", weighted, errors) - c * spring_product(bands, x)
     # held entries: an identity row and column, no coupling, a zero right-hand side
     diagonal = np.where(movable[:, :, None] & movable[:, None, :], diagonal, 0.0)
     diagonal[:, np.arange(U), np.arange(U)] += ~movable

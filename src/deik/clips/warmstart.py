@@ -100,11 +100,11 @@ def _position_rows(x, jac, rows, longest: float):
     """(errors (N, 3H), Jacobian rows (N, 3H, D)) of the Position rows (index, targets, active)."""
     index, targets, active = rows
     N, D = jac.shape[0], jac.shape[-1]
-    error = _at_most(np.where(active[..., None], targets - x[:, index], 0.0), longest)
+    error = at_most(np.where(active[..., None], targets - x[:, index], 0.0), longest)
     return error.reshape(N, -1), (jac[:, index] * active[:, :, None, None]).reshape(N, -1, D)
 
 
-def _floor_rows(x, jac, up: np.ndarray, floor: float):
+def floor_rows(x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, F), Jacobian rows (N, F, D)): each joint or site lower than floor + 2
     FLOOR_MARGIN is lifted to floor + FLOOR_MARGIN (the band between holds it there)."""
     height = x @ up
@@ -129,14 +129,14 @@ def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     error, rows = _position_rows(x, jac, held_rows, longest)
     errors, parts = [error], [rows]
     for floor in floors:
-        error, rows = _floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
-        errors.append(_at_most(error[..., None], longest)[..., 0])
+        error, rows = floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
+        errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:
         on = active_frames(goal, len(x))
         com = x[:, -1] @ ground.T
         track = np.broadcast_to(np.asarray(goal.point, float), x[:, -1].shape) @ ground.T
-        errors.append(np.where(on[:, None], _at_most(track - com, longest), 0.0))
+        errors.append(np.where(on[:, None], at_most(track - com, longest), 0.0))
         parts.append(np.einsum("ij,njd->nid", ground, jac[:, -1]) * on[:, None, None])
     return np.concatenate(errors, axis=1), np.concatenate(parts, axis=1)
 
@@ -212,7 +212,7 @@ def warm_start(
     return d
 
 
-def _at_most(vectors: np.ndarray, longest: float) -> np.ndarray:
+def at_most(vectors: np.ndarray, longest: float) -> np.ndarray:
     """vectors (..., k), each cut to a length of at most `longest`."""
     length = np.linalg.norm(vectors, axis=-1, keepdims=True)
     return vectors * np.minimum(1.0, longest / np.maximum(length, longest))

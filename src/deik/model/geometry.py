@@ -53,10 +53,10 @@ def segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndar
     return np.linalg.norm(point - a - t[..., None] * u, axis=-1)
 
 
-def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
-    """Distance between segments a0-a1 and b0-b1 (..., 3): the closest points' parameters s on
-    a and t on b minimise |a0 + s (a1 - a0) - b0 - t (b1 - b0)| over [0, 1]^2 (Ericson,
-    Real-Time Collision Detection, 5.1.9); a segment of zero length is its point."""
+def segments_closest(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s, t) (...,): the parameters in [0, 1] of the closest points a0 + s (a1 - a0) and
+    b0 + t (b1 - b0) of segments a0-a1 and b0-b1 (..., 3), minimising their distance (Ericson,
+    Real-Time Collision Detection, 5.1.9); a segment of zero length is its point (parameter 0)."""
     u, v, w = a1 - a0, b1 - b0, a0 - b0
     a, e = np.sum(u * u, axis=-1), np.sum(v * v, axis=-1)
     b, c, f = np.sum(u * v, axis=-1), np.sum(u * w, axis=-1), np.sum(v * w, axis=-1)
@@ -67,8 +67,14 @@ def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.nda
     t = np.where(e > 0, (b * s + f) / safe(e), 0.0)
     s = np.where((a > 0) & (t < 0), np.clip(-c / safe(a), 0, 1), s)
     s = np.where((a > 0) & (t > 1), np.clip((b - c) / safe(a), 0, 1), s)
-    t = np.clip(t, 0, 1)
-    return np.linalg.norm(w + s[..., None] * u - t[..., None] * v, axis=-1)
+    return s, np.clip(t, 0, 1)
+
+
+def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Distance between segments a0-a1 and b0-b1 (..., 3): between their closest points
+    (segments_closest)."""
+    s, t = segments_closest(a0, a1, b0, b1)
+    return np.linalg.norm(a0 - b0 + s[..., None] * (a1 - a0) - t[..., None] * (b1 - b0), axis=-1)
 
 
 def polygon_distance(q: np.ndarray, pts: np.ndarray) -> np.ndarray:

@@ -9,6 +9,12 @@
 - floating: the highest contact site in contact above floor + its clearance (mm; clips.floor);
 - limit violations: DOFs outside their limits (count; a rotation counts by its angle modulo a
   turn), which must be 0;
+- self-penetration: how deep the deepest pair of the target's bone capsules overlaps
+  (deik.SelfCollision's capsules and pairs, collision.py; mm);
+- jolts: whether a key point moves faster or accelerates more than 1.1 x the fastest of the
+  key points' targets (and that plus a slack: clips.dynamics.jolted_points), per frame 1 or 0
+  (count), and in the summary the key points' velocity and acceleration peaks over their
+  targets' (keypoint_velocity_peak_ratio, keypoint_acceleration_peak_ratio);
 - joint angle deviation (same skeleton only): mean angle between each joint's rotation in the
   retarget and in the source with its bones scaled (deg; clips.metrics.joint_angles);
 - time per frame: the retarget's wall time over the frames (ms).
@@ -24,12 +30,14 @@ import numpy as np
 
 from deik.clips import floor
 from deik.clips.contacts import Contacts
+from deik.clips.dynamics import jolted_points, point_peak_ratios
 from deik.clips.metrics import joint_angles, sliding_steps
 from deik.io.euler import tait_bryan_triples
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
+from deik.retarget.collision import BonePairs, body_pairs, penetration_depths
 
 LIMIT_SLACK = 1e-9  # radians or length units: rounding is no violation
 
@@ -93,20 +101,26 @@ def retarget_report(
     metres: float,
     wall_time: float,
     scaled: Motion | None = None,
+    pairs: BonePairs | None = None,
 ) -> dict:
     """{"summary": {key: number}, "per_frame": {key: [N values, null where none]}} of the target
     `motion` (a Clip or Trajectory): key points `names` (K,) against `targets` (N, K, 3);
     `contacts` of target sites (or None) with their `clearance` (S,); `scaled` the source on the
-    target skeleton (joint angle deviation) or None. See the module notes."""
+    target skeleton (joint angle deviation) or None; `pairs` the bone capsules tested for
+    self-penetration (default every SelfCollision pair of the skeleton). See the module notes."""
     sk, mm = motion.skeleton, 1000.0 * metres
     N = motion.n_frames
     kin = forward_kinematics(sk, motion.poses())
     per_frame = {}
+    peaks = {}
     if len(names):
         index = [sk.frame_index(name) for name in names]
         error = np.linalg.norm(kin.p_world_frame[:, index] - targets, axis=-1) * mm
         per_frame["keypoint_error_mm"] = error.mean(axis=1)
         per_frame["keypoint_worst_mm"] = error.max(axis=1)
+        points, dt = kin.p_world_frame[:, index], motion.frame_time
+        per_frame["jolted_count"] = jolted_points(targets, points, dt, sk.reach).astype(float)
+        peaks = point_peak_ratios(targets, points, dt)
     if contacts is not None:
         index = [sk.frame_index(name) for name in contacts.sites]
         steps = sliding_steps(kin, index, contacts.mask) * mm
@@ -114,6 +128,8 @@ def retarget_report(
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
         per_frame["penetration_mm"] = floor.penetration(kin, sk, contacts.ground) * mm
     per_frame["limit_violations_count"] = limit_violations(sk, motion.frames).sum(axis=1).astype(float)
+    pairs = body_pairs(sk, sk.frame_names) if pairs is None else pairs
+    per_frame["self_penetration_mm"] = penetration_depths(sk, motion.poses(), pairs).max(axis=1, initial=0.0) * mm
     if scaled is not None:
         angles = joint_angles(scaled, motion)
         per_frame["joint_angle_deviation_deg"] = angles.mean(axis=1) if angles.size else np.zeros(N)
@@ -124,6 +140,10 @@ def retarget_report(
         summary[f"{stem}_mean_{unit}"] = float(finite.mean()) if finite.size else math.nan
         summary[f"{stem}_max_{unit}"] = float(finite.max()) if finite.size else math.nan
     summary["limit_violations_count"] = int(per_frame["limit_violations_count"].sum())
+    if peaks:
+        summary["jolted_frames_count"] = int(per_frame["jolted_count"].sum())
+        summary["keypoint_velocity_peak_ratio"] = peaks["position_velocity"]
+        summary["keypoint_acceleration_peak_ratio"] = peaks["position_acceleration"]
     return {"summary": summary, "per_frame": {key: _series(values) for key, values in per_frame.items()}}
 
 

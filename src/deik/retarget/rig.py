@@ -6,14 +6,19 @@
    one body ratio; the pelvis (the target's root) and torso orientations turn as the source's.
 2. Per-frame IK, all frames at once (ik.py: Levenberg-Marquardt within the joint limits): the
    root starts on the pelvis's orientation and mapped point; every DOF, the root's included
-   (a leg its limits stop is met by turning the pelvis), moves to meet the key points, every
-   joint and site kept above the floor. The torso orientation enters as two points a quarter
-   of the reach along its turned axes, measured from its origin at each step.
-3. Contacts: the source's (detected there) on the mapped target sites, planted where step 2
-   put them (clips.contacts.planted_targets: at the median height, on the floor when near it)
-   and held there by a second IK pass in which a contact counts CONTACT_WEIGHT times a key
-   point. No DE repair: on targets whose limits cannot follow the source, DE's repairs within
-   tight contact tolerances moved whole bodies tens of centimetres off their key points.
+   (a leg its limits stop is met by turning the pelvis), moves to meet the key points; frames
+   whose error stands out from their neighbours' are solved again from their poses. The torso
+   orientation enters as two points a quarter of the reach along its turned axes, measured
+   from its origin at each step.
+3. The same IK again with every joint and site of the body kept above the floor, outliers
+   repaired, then REBASIN times from the clip's poses smoothed over the frames, so that
+   neighbouring frames share a basin (ik.rebasin).
+4. The space-time pass (smooth.py): all frames at once, the source's contacts (detected there,
+   on the mapped target sites) planted and held still, the body above the floor and out of
+   itself (bone capsules), the key points as near as that allows, the motion as smooth as the
+   IK's, within the limits. No DE repair: on targets whose limits cannot follow the source,
+   DE's repairs within tight contact tolerances moved whole bodies tens of centimetres off
+   their key points.
 A target whose root does not move (a URDF robot) gets a floating root first, and a built-in
 character's root limits are freed (skeletons.py).
 """
@@ -21,13 +26,11 @@ character's root limits are freed (skeletons.py).
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
 from deik.clips.contacts import Contacts, detect_contacts
 from deik.clips.floor import clearance
-from deik.clips.plants import planted_targets
 from deik.clips.units import guess_unit, metres_per_unit
 from deik.clips.warmstart import dof_weights
 from deik.io.clip import Clip
@@ -35,14 +38,17 @@ from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retarget import keypoints as kp
-from deik.retarget.ik import solve_keypoints
+from deik.retarget.collision import body_pairs
+from deik.retarget.ik import rebasin, repair_outliers, solve_keypoints
 from deik.retarget.maps import JointMap, check_map
 from deik.retarget.report import retarget_report, within_limits
 from deik.retarget.result import Retarget
-from deik.retarget.skeletons import with_floating_root, with_free_root, with_sites
+from deik.retarget.skeletons import with_floating_root, with_free_root, with_sites, without_sites
+from deik.retarget.smooth import smooth_motion
 
-CONTACT_WEIGHT = 30.0  # a planted contact's drift counts this many times a key point's error
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
+TORSO_SITES = ("retarget_torso_x", "retarget_torso_y")  # they steer the torso; they are no body part
+REBASIN = 2  # rounds: the second lowers the humanoid's key-point acceleration peaks (dance 2.5->2.2, crawl 3.1->2.8)
 
 
 def _prepared(target: Skeleton, joint_map: JointMap, targets: np.ndarray) -> Skeleton:
@@ -52,7 +58,7 @@ def _prepared(target: Skeleton, joint_map: JointMap, targets: np.ndarray) -> Ske
     if joint_map.torso:
         arm = TORSO_ARM * target.reach
         R_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(joint_map.torso[1])
-        sites += [(f"retarget_torso_{axis}", joint_map.torso[1], R_rest[k] * arm) for k, axis in enumerate("xy")]
+        sites += [(name, joint_map.torso[1], R_rest[k] * arm) for k, name in enumerate(TORSO_SITES)]
     target = with_sites(target, sites)
     box = targets.reshape(-1, 3)
     if target.joint_dof_start[1] == 0:
@@ -86,8 +92,8 @@ def _carrier(skeleton: Skeleton, name: str) -> int:
 
 
 def _torso_targets(target: Skeleton, poses: np.ndarray, torso: str, R_torso: np.ndarray) -> np.ndarray:
-    """(N, 2, 3) where the torso's two orientation points belong at orientations `R_torso`
-    (N, 3, 3), measured from the torso's origin at `poses` (N, D)."""
+    """(n, 2, 3) where the torso's two orientation points belong at orientations `R_torso`
+    (n, 3, 3), measured from the torso's origin at `poses` (n, D)."""
     origin = forward_kinematics(target, poses).position(torso)
     R_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(torso)
     turned = R_torso @ R_rest.T  # the turn from rest: its first two columns carry the points
@@ -137,41 +143,42 @@ def retarget_rig(
     searched = np.ones(target.n_dofs, bool)  # the root too: a leg its limits stop is met by turning the pelvis
     if hinges is not None:
         searched[-len(hinges) :] &= ~np.asarray(hinges, bool)
-    searched = np.broadcast_to(searched, poses.shape)
     weights = dof_weights(Trajectory(target, poses, source.frame_time))
     points, wanted = list(names), targets
     if joint_map.torso:
         R_torso = kp.mapped_rotations(source, joint_map.torso[0], target, joint_map.torso[1], rotation)
-        points += [f"retarget_torso_{axis}" for axis in "xy"]
+        points += list(TORSO_SITES)
 
-        def wanted(q):  # the torso's points are measured from its origin at the pose
-            return np.concatenate([targets, _torso_targets(target, q, joint_map.torso[1], R_torso)], axis=1)
+        def wanted(q, frames):  # the torso's points are measured from its origin at the pose
+            torso = _torso_targets(target, q, joint_map.torso[1], R_torso[frames])
+            return np.concatenate([targets[frames], torso], axis=1)
 
+    body = [name for name in target.frame_names if name not in TORSO_SITES]
     # key points first: with the floor from the start, a point that must cross it on its way
     # (a hand swinging down to the floor) refuses every step and stalls
     poses = solve_keypoints(target, poses, points, wanted, searched, weights)
+    poses = repair_outliers(target, poses, points, wanted, searched, weights)
     progress = settings.get("progress") or (lambda met, stage: None)
     progress(len(poses), "key points")
+    poses = solve_keypoints(target, poses, points, wanted, searched, weights, 0.0, body)  # floor at 0
+    for k in range(REBASIN + 1):
+        if k:
+            poses = rebasin(target, poses, points, wanted, searched, weights, 0.0, body)
+        poses = repair_outliers(target, poses, points, wanted, searched, weights, 0.0, body)
+    progress(len(poses), "the floor")
     contacts = _target_contacts(source_contacts, joint_map)
-    held, plants = np.ones((len(poses), len(points))), np.zeros((len(poses), 0, 3))
-    if contacts is not None:  # planted where the key points put them above the floor, then held there
-        poses = solve_keypoints(target, poses, points, wanted, searched, weights, floor=0.0)
-        plants = planted_targets(Trajectory(target, poses, source.frame_time), contacts)
-        held = np.concatenate([held, CONTACT_WEIGHT * contacts.mask], axis=1)
-
-    def wanted_and_plants(q):
-        return np.concatenate([wanted(q) if callable(wanted) else wanted, plants], axis=1)
-
-    together = points + ([] if contacts is None else list(contacts.sites))
-    poses = solve_keypoints(target, poses, together, wanted_and_plants, searched, weights, 0.0, held)  # floor at 0
-    progress(len(poses), "contacts and the floor")
-    motion = Trajectory(target, poses, source.frame_time, source.source)
-    fix = None
+    # the orientation points steered the torso; the motion's skeleton is the target's own, and
+    # its capsules too (a bone to an orientation point would thin the chest's: model.capsules).
+    # They are the last frames, so every other frame keeps its index.
+    solved, target = target, without_sites(target, TORSO_SITES)
+    pairs = body_pairs(target, body)
+    poses = smooth_motion(solved, poses, points, wanted, contacts, searched, weights, body, pairs, source.frame_time)
+    progress(len(poses), "contacts, the floor and self-collision, all frames at once")
     # the same rotations, written within the limits (continuous Euler channels may pick a twin outside)
-    motion = replace(motion, frames=within_limits(target, motion.frames))
+    motion = Trajectory(target, within_limits(target, poses), source.frame_time, source.source)
     wall = time.perf_counter() - began
     metres = metres_per_unit(guess_unit(target))
     clear = np.zeros(0) if contacts is None else clearance(forward_kinematics(target, motion.poses()), target, contacts)
-    report = retarget_report(motion, names, targets, contacts, clear, metres, wall)
+    report = retarget_report(motion, names, targets, contacts, clear, metres, wall, pairs=pairs)
     report["summary"]["body_scale"] = scale
-    return Retarget(motion, None, source, contacts, tuple(names), targets, report, fix)
+    return Retarget(motion, None, source, contacts, tuple(names), targets, report, None)

@@ -126,3 +126,16 @@ def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) 
         site_offset=np.concatenate([skeleton.site_offset, offsets]),
         site_rotation=np.concatenate([skeleton.site_rotation, rotations]),
     )
+
+
+def without_sites(skeleton: Skeleton, names: Sequence[str]) -> Skeleton:
+    """`skeleton` without the sites `names` (every other frame keeps its place in the joint
+    order; the poses are the same)."""
+    keep = np.array([name not in names for name in skeleton.site_names], bool)
+    return replace(
+        skeleton,
+        site_names=tuple(name for name, kept in zip(skeleton.site_names, keep) if kept),
+        site_joint=skeleton.site_joint[keep],
+        site_offset=skeleton.site_offset[keep],
+        site_rotation=skeleton.site_rotation[keep],
+    )
