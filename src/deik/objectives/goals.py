@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.model.orientations import FORMS, rotation_from
 from deik.model.skeleton import Skeleton
@@ -66,7 +67,7 @@ class Goal:
         """The term's label in tables and reports, e.g. "position left_hand"."""
         return self.LABEL.format_map(vars(self))
 
-    def batched(self, **replaced) -> bool:
+    def batched(self, **replaced: object) -> bool:
         """Whether a target, reference or `active` mask carries a batch axis (even of one);
         `replaced` values stand in for the fields of those names (a new target)."""
         values = ((replaced.get(name, getattr(self, name)), ndim) for name, ndim in self.BATCH_FIELDS)
@@ -117,7 +118,7 @@ class Goal:
         share work override it, so a target is checked once."""
         return self.row(skeleton), self.params(skeleton)
 
-    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
+    def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,
         checked as a new goal's would be (shape, NaN, reach, rotation): what deik.Solver swaps
         in between solves. B = 1 when the target has no batch axis."""
@@ -146,11 +147,11 @@ class Position(Goal):
         values = self._checked(skeleton, self.target)
         return self._row(POSITION, (skeleton.frame_index(self.frame),), skeleton.reach, LENGTH_TOLERANCE), pack(values)
 
-    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
+    def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self._checked(skeleton, target)), self.batched(target=target)
 
-    def _checked(self, skeleton: Skeleton, target) -> np.ndarray:
+    def _checked(self, skeleton: Skeleton, target: ArrayLike) -> np.ndarray:
         """`target` as (B, 3), checked: shape, NaN, within reach of the frame."""
         values = vector(target, (3,), f"{self.frame} target")
         check_reachable(skeleton, values, skeleton.frame_index(self.frame), self.label)
@@ -174,7 +175,7 @@ class Orientation(Goal):
     def BATCH_FIELDS(self) -> tuple[tuple[str, int], ...]:  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
         return (("target", FORMS.get(self.form, 2)),)
 
-    def rotation(self, target=None) -> np.ndarray:
+    def rotation(self, target: ArrayLike | None = None) -> np.ndarray:
         """The target (or `target` in the goal's form) as rotation matrices (B, 3, 3), B = 1
         without a batch axis; checked."""
         R = rotation_from(
@@ -192,7 +193,7 @@ class Orientation(Goal):
         R = self.rotation()
         return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE), pack(R)
 
-    def target_params(self, skeleton: Skeleton, target) -> tuple[np.ndarray, bool]:
+    def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self.rotation(target)), self.batched(target=target)
 

@@ -139,7 +139,7 @@ class Engine:
         new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
         return new
 
-    def initial_poses(self, initial) -> tuple[np.ndarray, int]:
+    def initial_poses(self, initial: ArrayLike | None) -> tuple[np.ndarray, int]:
         """(poses (B, n, D) in the engine's dtype, n) from `initial` poses (D,), (n, D) or
         (B, n, D) (None: n = 0), checked against the skeleton and the population size."""
         B, D, dtype = self.problem.batch_size, self.problem.skeleton.n_dofs, np.dtype(self.settings.dtype)

@@ -13,6 +13,7 @@ at most KEEP_BYTES of buffers are kept, and at most KEEP_STRUCTURES structures.
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
 
@@ -59,7 +60,7 @@ def _structure(problem: Problem, settings: Settings) -> tuple:
 
 
 @contextmanager
-def kept_engine(problem: Problem, settings: Settings):
+def kept_engine(problem: Problem, settings: Settings) -> Iterator[tuple[Engine, Workspace]]:
     """(engine, workspace) for solving `problem` with `settings`: a kept pair of the same
     structure with this problem's targets written in, else new ones (kept afterwards when
     small)."""

@@ -12,6 +12,7 @@ from deik.model.orientations import matrix_quaternion
 from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
 from deik.objectives.registry import kind_of
+from deik.objectives.table import TermTable
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +57,7 @@ class ReportTerms:
     counts: np.ndarray
 
     @classmethod
-    def of(cls, table, skeleton: Skeleton) -> ReportTerms:
+    def of(cls, table: TermTable, skeleton: Skeleton) -> ReportTerms:
         """From a problem's TermTable (objectives/table.py) on `skeleton`."""
         weight, tolerance = table.term_float[:, WEIGHT], table.term_float[:, TOLERANCE]
         gain = table.params[:, :, GAIN]
@@ -76,7 +77,18 @@ class ReportTerms:
             weight > 0,
         )
 
-    def result(self, skeleton, angles, raw, generations, history, shape, wall_time, device, settings) -> Result:
+    def result(
+        self,
+        skeleton: Skeleton,
+        angles: np.ndarray,
+        raw: np.ndarray,
+        generations: np.ndarray,
+        history: np.ndarray,
+        shape: tuple[int, ...],
+        wall_time: float,
+        device: str,
+        settings: object,
+    ) -> Result:
         """The Result of best poses `angles` (B, D) with raw errors `raw` (B, T) float64,
         generations (B,) and history (B, G, 2), fields shaped `shape` + their own axes."""
         norm = self.table.normalise(raw)

@@ -83,7 +83,7 @@ class Settings:
             }
         )
 
-    def with_seed(self, seed) -> Settings:
+    def with_seed(self, seed: int) -> Settings:
         """These settings with another seed (checked; the rest is not checked again)."""
         _seed(seed)
         new = copy.copy(self)

@@ -12,10 +12,16 @@ nothing is filled or allocated again while the sizes stay the same.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.kernels.layout import Buffers, Status
 from deik.solver.memory import check_memory, solve_bytes
+
+if TYPE_CHECKING:
+    from deik.solver.engine import Engine
 
 
 class Workspace:
@@ -67,7 +73,7 @@ class Workspace:
         self._steps = np.empty((0, B, 2))
         self._sizes = sizes
 
-    def begin(self, engine, n_generations: int, initial=None) -> None:
+    def begin(self, engine: Engine, n_generations: int, initial: ArrayLike | None = None) -> None:
         """A first population for engine's problem (seeded with `initial` poses, checked as
         Engine.init checks them), then up to n_generations, in one back-end call."""
         self._allocate(engine)
