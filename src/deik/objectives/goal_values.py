@@ -3,11 +3,16 @@ rows, reachability, masses and per-DOF comfort weights (objectives/goals.py)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.model.orientations import QUICK_MARGIN
 from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import N_PARAMS
+
+REACH_SLACK = 1e-9  # relative: a target this much beyond a chain's length is rounding, not out of reach
 
 
 def vector(value: ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
@@ -39,13 +44,28 @@ def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, l
     length = skeleton.path_length(frame) if frame is not None else skeleton.reach
     outside = target - np.clip(target, *skeleton.root_box())
     squared = (outside * outside).sum(axis=-1)
-    if squared.max() > (length * (1 + 1e-9)) ** 2:
+    if squared.max() > (length * (1 + REACH_SLACK)) ** 2:
         gap = np.sqrt(squared)
         worst = int(np.argmax(gap))
         raise ValueError(
             f"{label}: target {target[worst].round(6).tolist()} is unreachable: it lies "
             f"{gap[worst]:.6g} from the root's range but the chain to it is only {length:.6g} long"
         )
+
+
+def reach_test(skeleton: Skeleton, frame: int) -> Callable[[float, float, float], bool]:
+    """A plain-Python test of one point (x, y, z), finite, that check_reachable would pass for
+    `frame`: the same sums, with QUICK_MARGIN of the bound to spare so that rounding cannot
+    pass what it refuses. About 0.3 us against numpy's 8 us per call; a False decides nothing
+    (check_reachable then gives the verdict and its message)."""
+    (x0, y0, z0), (x1, y1, z1) = (corner.tolist() for corner in skeleton.root_box())
+    bound = (skeleton.path_length(frame) * (1 + REACH_SLACK)) ** 2 * QUICK_MARGIN
+
+    def within(x: float, y: float, z: float) -> bool:
+        dx, dy, dz = x - min(max(x, x0), x1), y - min(max(y, y0), y1), z - min(max(z, z0), z1)
+        return dx * dx + dy * dy + dz * dz <= bound
+
+    return within
 
 
 def need_mass(skeleton: Skeleton, what: str) -> None:

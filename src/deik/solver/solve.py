@@ -140,8 +140,8 @@ def make_result(
     errors of each problem's best individual, a float32 run re-evaluates that individual in
     float64 (Engine.raw_errors)."""
     shape = problem.batch_shape if batch_shape is None else batch_shape
-    best_index = (np.arange(problem.batch_size), state.best)
-    best = state.pop[best_index].astype(np.float64)
+    best_index = (np.arange(len(state.best)), state.best)
+    best = state.pop[best_index].astype(np.float64, copy=False)  # indexing copies already
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
     return engine.report_terms.result(
         problem.skeleton,
