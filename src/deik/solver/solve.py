@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import fields
 
 import numpy as np
@@ -62,7 +63,11 @@ def run_engine(
     skeleton = problem.skeleton
     frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
     work = Workspace() if workspace is None else workspace
-    with generation_reporter(progress, settings.generations, problem.batch_size) as report:
+    # no progress asked (a reused Solver's solves): no generator-based context to enter and leave
+    reporter = (
+        nullcontext() if progress is None else generation_reporter(progress, settings.generations, problem.batch_size)
+    )
+    with reporter as report:
         launches = Launches(settings, frame_work, report is not None, start)
         first = True
         while first or launches.more(work.generation, work.active.any()):
