@@ -37,6 +37,8 @@ def rpy_matrix(rpy: ArrayLike) -> np.ndarray:
 def check_rotation(R: np.ndarray, what: str) -> np.ndarray:
     """`R` (..., 3, 3) unchanged when every matrix is a proper rotation (R R^T = I within
     ROTATION_TOLERANCE, determinant > 0); a ValueError naming `what` otherwise."""
+    if R.shape == (3, 3) and passes_rotation_check(R.tolist()):  # one matrix: 1 us in plain Python, 9 in numpy
+        return R
     off = np.abs(R @ np.swapaxes(R, -1, -2) - _EYE) > _ORTHONORMAL_BOUND
     if off.any() or (np.linalg.det(R) <= 0).any():
         raise ValueError(

@@ -21,6 +21,7 @@ from deik.solver.settings import Settings
 from deik.solver.workspace import Workspace
 
 log = logging.getLogger(__name__)
+_SETTING_NAMES = frozenset(f.name for f in fields(Settings))
 
 
 def solve(
@@ -126,10 +127,9 @@ def merge_settings(
 ) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
-    names = {f.name for f in fields(Settings)}
-    unknown = sorted(set(overrides) - names)
+    unknown = sorted(set(overrides) - _SETTING_NAMES)
     if unknown:
-        raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(names)}")
+        raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(_SETTING_NAMES)}")
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
