@@ -364,3 +364,17 @@ def test_history_of_a_problem_that_stops_early_is_nan_after_it_stops():
     assert result.converged.tolist() == [True, False] and n0 < n1 == result.history.shape[1]
     assert np.isfinite(result.history[0, :n0]).all() and np.isnan(result.history[0, n0:]).all()
     assert np.isfinite(result.history[1]).all() and (np.diff(result.history[1, :, 0]) <= 0).all()
+
+
+def test_an_engine_with_another_seed_starts_as_one_built_with_it():
+    sk = deik.chain(6, dims=3)
+    target, _ = fk_target(sk, 3)
+    problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-5)])
+    settings = deik.Settings(population=16, seed=1, polish=0)
+    moved = deik.Engine(problem, settings).with_seed(9)
+    built = deik.Engine(problem, settings.with_seed(9))
+    assert moved.settings.seed == 9 and settings.seed == 1  # the original keeps its own
+    np.testing.assert_array_equal(moved.init().pop, built.init().pop)
+    assert not np.array_equal(moved.init().pop, deik.Engine(problem, settings).init().pop)
+    with pytest.raises(ValueError, match="seed must be an integer"):
+        deik.Engine(problem, settings).with_seed(-1)

@@ -10,18 +10,20 @@ the skeleton's unit is the metre) and ANGLE_TOLERANCE (0.1 degree): docs/convent
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.model.orientations import FORMS, rotation_from
+from deik.model.orientations import FORMS, passes_rotation_check, rotation_from
 from deik.model.skeleton import Skeleton
 from deik.objectives.goal_values import (
     check_reachable,
     dof_weights,
     need_mass,
     pack,
+    reach_test,
     vector,
 )
 from deik.objectives.kinds import (
@@ -126,6 +128,14 @@ class Goal:
         goal.row(skeleton)
         return goal.params(skeleton), goal.batched()
 
+    def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None] | None:
+        """For deik.Solver, which swaps targets between solves of a few microseconds: a function
+        that checks one new target without a batch axis in plain Python, as target_params
+        would, and returns the leading columns (n,) of its parameters; or None, which decides
+        nothing and leaves the target to target_params (a batch axis, another form, an error to
+        report). None where a goal has no quick check."""
+        return None
+
 
 @dataclass(frozen=True)
 class Position(Goal):
@@ -150,6 +160,19 @@ class Position(Goal):
     def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self._checked(skeleton, target)), self.batched(target=target)
+
+    def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None]:
+        """As Goal.quick_target: a finite 3-vector within reach (goal_values.reach_test)."""
+        within = reach_test(skeleton, skeleton.frame_index(self.frame))
+
+        def quick(target: ArrayLike) -> np.ndarray | None:
+            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            if a.shape != (3,):
+                return None
+            x, y, z = a.tolist()
+            return a if math.isfinite(x + y + z) and within(x, y, z) else None  # an overflowing sum just declines
+
+        return quick
 
     def _checked(self, skeleton: Skeleton, target: ArrayLike) -> np.ndarray:
         """`target` as (B, 3), checked: shape, NaN, within reach of the frame."""
@@ -196,6 +219,18 @@ class Orientation(Goal):
     def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """As Goal.target_params, checking the target once."""
         return pack(self.rotation(target)), self.batched(target=target)
+
+    def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None] | None:
+        """As Goal.quick_target, for the "matrix" form: one 3x3 rotation
+        (orientations.passes_rotation_check), its 9 entries row by row as pack lays them out."""
+        if self.form != "matrix":
+            return None
+
+        def quick(target: ArrayLike) -> np.ndarray | None:
+            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            return a.reshape(9) if a.shape == (3, 3) and passes_rotation_check(a.tolist()) else None
+
+        return quick
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,7 @@ class Engine:
         settings = Settings() if settings is None else settings
         self.problem, self.settings = problem, settings
         dtype = np.dtype(settings.dtype)
+        self.sizes = _sizes(problem, settings)
         self.skel = pack_skeleton(problem.skeleton, dtype)
         self.terms = pack_terms(problem.table, problem.reference, dtype)
         # the float64 report of a float32 run (raw_errors) reads these, packed once
@@ -127,7 +128,7 @@ class Engine:
         copy's own (a Solver and a kept engine write new ones into them)."""
         new = copy.copy(self)
         new.__dict__.pop("report_terms", None)  # worked out again for the new problem when asked
-        new.problem = problem
+        new.problem, new.sizes = problem, _sizes(problem, self.settings)
         new.terms = _with_targets(self.terms, problem)
         new.terms64 = new.terms if self.terms64 is self.terms else _with_targets(self.terms64, problem)
         return new
@@ -142,22 +143,22 @@ class Engine:
     def initial_poses(self, initial: ArrayLike | None) -> tuple[np.ndarray, int]:
         """(poses (B, n, D) in the engine's dtype, n) from `initial` poses (D,), (n, D) or
         (B, n, D) (None: n = 0), checked against the skeleton and the population size."""
-        B, D, dtype = self.problem.batch_size, self.problem.skeleton.n_dofs, np.dtype(self.settings.dtype)
+        B, P, D, _, _, dtype, _ = self.sizes
         if initial is None:
             return np.zeros((B, 1, D), dtype), 0
         init = self.problem.skeleton.check_angles(initial, "initial poses")
         if init.ndim > 3:
             raise ValueError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
-        if init.shape[0] not in (1, B) or init.shape[1] > self.settings.population:
+        if init.shape[0] not in (1, B) or init.shape[1] > P:
             raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
-        init = np.broadcast_to(init, (B,) + init.shape[1:])
+        if init.shape[0] != B:
+            init = np.broadcast_to(init, (B,) + init.shape[1:])
         return kernel_array(init, dtype), init.shape[1]
 
     def _fresh(self, initial):
         """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
-        B, P, D = self.problem.batch_size, self.settings.population, self.problem.skeleton.n_dofs
-        T, L, dtype = self.problem.table.n_terms, self.problem.table.n_levels, np.dtype(self.settings.dtype)
+        B, P, D, T, L, dtype, islands = self.sizes
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
         init, n_init = self.initial_poses(initial)
@@ -179,7 +180,7 @@ class Engine:
             restarts=np.zeros(B, np.int64),
             restarting=np.zeros(B, np.bool_),
             elite=np.full(B, -1, np.int64),
-            leaders=np.zeros((B, self.settings.islands), np.int64),
+            leaders=np.zeros((B, islands), np.int64),
         )
         return buffers, status, init, n_init
 
@@ -254,6 +255,20 @@ class Engine:
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
+
+
+def _sizes(problem: Problem, settings: Settings) -> tuple:
+    """(B, P, D, T, L, dtype, islands): the sizes of a solve's buffers (solver/workspace.py)."""
+    table = problem.table
+    return (
+        problem.batch_size,
+        settings.population,
+        problem.skeleton.n_dofs,
+        table.n_terms,
+        table.n_levels,
+        np.dtype(settings.dtype),
+        settings.islands,
+    )
 
 
 def _with_targets(terms: PackedTerms, problem: Problem) -> PackedTerms:

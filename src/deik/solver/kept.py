@@ -73,8 +73,10 @@ def kept_engine(problem: Problem, settings: Settings) -> Iterator[tuple[Engine, 
         for terms in {id(t): t for t in (engine.terms, engine.terms64)}.values():
             terms.params[...] = problem.table.params
             terms.reference[...] = problem.reference
+        # held by this call alone: its settings (which differ at most in the seed) set in place
         if settings.seed != engine.settings.seed:
-            engine = engine.with_seed(settings.seed)
+            engine.kernel_settings = engine.kernel_settings._replace(seed=np.uint64(settings.seed))
+        engine.settings = settings
     else:
         kept = _Kept(problem.skeleton, Engine(problem, settings).for_problem(problem), Workspace())
         engine = kept.engine

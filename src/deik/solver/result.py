@@ -46,15 +46,15 @@ class ReportTerms:
     per Engine: the problem's TermTable `table`; `goals` (label, kind name, unit, weight,
     tolerance, level) per term; `weight_gain` (B, T) each term's weight times its per-problem
     gain; `active` (B, T) read-only, whether a goal applies to a problem; `limit` (T,) the
-    tolerance (inf where none) and `counts` (T,) whether a term's weight is positive (only those
-    decide convergence)."""
+    tolerance (inf where none) and `free` (B, T) whether a term is met whatever its error (not
+    active, or a weight that is not positive: only positive weights decide convergence)."""
 
     table: object
     goals: tuple
     weight_gain: np.ndarray
     active: np.ndarray
     limit: np.ndarray
-    counts: np.ndarray
+    free: np.ndarray
 
     @classmethod
     def of(cls, table: TermTable, skeleton: Skeleton) -> ReportTerms:
@@ -74,7 +74,7 @@ class ReportTerms:
             weight * gain,
             active,
             np.where(tolerance >= 0, tolerance, np.inf),
-            weight > 0,
+            ~active | (weight <= 0),
         )
 
     def result(
@@ -90,25 +90,54 @@ class ReportTerms:
         settings: object,
     ) -> Result:
         """The Result of best poses `angles` (B, D) with raw errors `raw` (B, T) float64,
-        generations (B,) and history (B, G, 2), fields shaped `shape` + their own axes."""
-        norm = self.table.normalise(raw)
-        met = (raw <= self.limit) | ~self.active
-        goals = tuple(
-            GoalReport(label, kind, unit, error.reshape(shape), value.reshape(shape), w, tol, level, on.reshape(shape))
-            for (label, kind, unit, w, tol, level), error, value, on in zip(self.goals, raw.T, norm.T, self.active.T)
-        )
+        generations (B,) and history (B, G, 2), fields shaped `shape` + their own axes. Takes
+        the arrays over (the caller hands fresh ones)."""
+        raw.setflags(write=False)  # the goals' errors are views of it, and fitness is worked out from it later
         return Result(
             skeleton=skeleton,
             angles=angles.reshape(shape + angles.shape[1:]),
-            fitness=(norm * self.weight_gain).sum(axis=1).reshape(shape),
-            goals=goals,
             generations=generations.reshape(shape),
-            converged=(met | ~self.counts).all(axis=1).reshape(shape),
             history=history.reshape(shape + history.shape[1:]),
             wall_time=wall_time,
             device=device,
             settings=settings,
+            evaluation=Evaluation(self, raw, shape),
         )
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """The float64 raw errors `raw` (B, T) of a Result's best poses with the per-term facts
+    `terms` they are reported with, and the Result's batch `shape`: what its fitness, goals and
+    converged are worked out from, on first use."""
+
+    terms: ReportTerms
+    raw: np.ndarray
+    shape: tuple[int, ...]
+
+    def fitness(self) -> np.ndarray:
+        """Total weighted sum of normalised errors, (*shape,)."""
+        return (self.terms.table.normalise(self.raw) * self.terms.weight_gain).sum(axis=1).reshape(self.shape)
+
+    def converged(self) -> np.ndarray:
+        """Whether every term with a positive weight is met, (*shape,)."""
+        return ((self.raw <= self.terms.limit) | self.terms.free).all(axis=1).reshape(self.shape)
+
+    def goals(self) -> tuple[GoalReport, ...]:
+        """One GoalReport per term."""
+        shape, norm = self.shape, self.terms.table.normalise(self.raw)
+        norm.setflags(write=False)
+        return tuple(
+            GoalReport(label, kind, unit, error.reshape(shape), value.reshape(shape), w, tol, level, on.reshape(shape))
+            for (label, kind, unit, w, tol, level), error, value, on in zip(
+                self.terms.goals, self.raw.T, norm.T, self.terms.active.T
+            )
+        )
+
+
+# the fields of a Result worked out on first use: a reused Solver's caller often reads the
+# angles alone, and these cost more than the rest of the Result together
+_ON_FIRST_USE = {"fitness": Evaluation.fitness, "goals": Evaluation.goals, "converged": Evaluation.converged}
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,24 +149,37 @@ class Result:
     mask or reference pose carries one (even B = 1) or the problem was stacked
     (Problem.stack, solve_batch). Nothing is squeezed: angles (*batch, D); fitness (*batch,)
     total weighted sum; generations and converged (*batch,); history (*batch, G, 2) best and
-    mean total fitness per generation, all NumPy arrays (0-d when batch is ()); goals: one
-    GoalReport per term, whose error, normalised, active and met are arrays of shape batch
-    (float64 errors of the best pose). wall_time seconds; device "cpu" or "gpu"."""
+    mean total fitness per generation, all read-only NumPy arrays (0-d when batch is ()); goals:
+    one GoalReport per term, whose error, normalised, active and met are arrays of shape batch
+    (float64 errors of the best pose). wall_time seconds; device "cpu" or "gpu". fitness, goals
+    and converged are worked out from `evaluation` (the raw errors) when first read, then kept."""
 
     skeleton: Skeleton
     angles: np.ndarray
-    fitness: np.ndarray
-    goals: tuple[GoalReport, ...]
+    fitness: np.ndarray = field(init=False)
+    goals: tuple[GoalReport, ...] = field(init=False)
     generations: np.ndarray
-    converged: np.ndarray
+    converged: np.ndarray = field(init=False)
     history: np.ndarray
     wall_time: float
     device: str
     settings: object = field(repr=False)
+    evaluation: Evaluation = field(repr=False)
 
     def __post_init__(self):
-        for value in (self.angles, self.fitness, self.generations, self.converged, self.history):
+        for value in (self.angles, self.generations, self.history):
             value.setflags(write=False)
+
+    def __getattr__(self, name: str):
+        # only for attributes not yet in the instance: the fields worked out on first use
+        work_out = _ON_FIRST_USE.get(name)
+        if work_out is None or "evaluation" not in self.__dict__:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        value = work_out(self.evaluation)
+        if isinstance(value, np.ndarray):
+            value.setflags(write=False)
+        object.__setattr__(self, name, value)  # frozen to callers, kept once worked out
+        return value
 
     @property
     def angles_by_joint(self) -> dict[str, np.ndarray]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import fields
 
 import numpy as np
@@ -20,6 +21,7 @@ from deik.solver.settings import Settings
 from deik.solver.workspace import Workspace
 
 log = logging.getLogger(__name__)
+_SETTING_NAMES = frozenset(f.name for f in fields(Settings))
 
 
 def solve(
@@ -62,7 +64,11 @@ def run_engine(
     skeleton = problem.skeleton
     frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
     work = Workspace() if workspace is None else workspace
-    with generation_reporter(progress, settings.generations, problem.batch_size) as report:
+    # no progress asked (a reused Solver's solves): no generator-based context to enter and leave
+    reporter = (
+        nullcontext() if progress is None else generation_reporter(progress, settings.generations, problem.batch_size)
+    )
+    with reporter as report:
         launches = Launches(settings, frame_work, report is not None, start)
         first = True
         while first or launches.more(work.generation, work.active.any()):
@@ -121,10 +127,9 @@ def merge_settings(
 ) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
-    names = {f.name for f in fields(Settings)}
-    unknown = sorted(set(overrides) - names)
+    unknown = sorted(set(overrides) - _SETTING_NAMES)
     if unknown:
-        raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(names)}")
+        raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(_SETTING_NAMES)}")
     return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
 
 
@@ -140,8 +145,8 @@ def make_result(
     errors of each problem's best individual, a float32 run re-evaluates that individual in
     float64 (Engine.raw_errors)."""
     shape = problem.batch_shape if batch_shape is None else batch_shape
-    best_index = (np.arange(problem.batch_size), state.best)
-    best = state.pop[best_index].astype(np.float64)
+    best_index = (np.arange(len(state.best)), state.best)
+    best = state.pop[best_index].astype(np.float64, copy=False)  # indexing copies already
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
     return engine.report_terms.result(
         problem.skeleton,

@@ -37,12 +37,18 @@ class Solver:
             raise TypeError(f"Solver takes a deik.Problem, got {type(problem).__name__}")
         self.problem = problem
         self.settings = merge_settings("Solver()", settings, overrides)
-        # an engine whose target parameters are the Solver's own: each solve rewrites them
-        self._engine = Engine(problem, self.settings).for_problem(problem)
-        _ = self._engine.report_terms  # worked out once, shared by the copies with_seed makes
+        # an engine of the Solver's own: each solve rewrites its target parameters and seed
+        self._engine = engine = Engine(problem, self.settings).for_problem(problem)
+        _ = engine.report_terms  # worked out once
+        self._kernel_settings = engine.kernel_settings
+        self._params = tuple({id(t.params): t.params for t in (engine.terms, engine.terms64)}.values())
         self._workspace = Workspace()
         self._labels = problem.table.labels[: len(problem.goals)]
         self._index = {label: t for t, label in enumerate(self._labels)}
+        # per goal: its quick check of one new target (Goal.quick_target), or None
+        self._quick = tuple(
+            goal.quick_target(problem.skeleton) if hasattr(goal, "target") else None for goal in problem.goals
+        )
         self._swapped = set()  # goals whose parameters hold another target than the problem's
 
     def solve(
@@ -61,38 +67,53 @@ class Solver:
         `initial` and `progress` as in deik.solve; `seed` overrides the settings' seed. Each
         new target is checked as a new goal would be (shape, NaN, reach, rotation)."""
         batched = self._swap_targets(targets or {})
-        engine = self._engine if seed is None or seed == self.settings.seed else self._engine.with_seed(seed)
+        engine = self._engine
+        if seed is None or seed == self.settings.seed:
+            engine.settings, engine.kernel_settings = self.settings, self._kernel_settings
+        else:  # the engine is the Solver's own: set its seed rather than copy it (Engine.with_seed)
+            engine.settings = self.settings.with_seed(seed)
+            engine.kernel_settings = self._kernel_settings._replace(seed=np.uint64(seed))
         shape = (self.problem.batch_size,) if batched else self.problem.batch_shape
         return run_engine(self.problem, engine, initial, progress, self._workspace, shape)
 
     def _swap_targets(self, targets: dict) -> bool:
-        """Check every new target, then write their parameters over the goals' and restore
-        the problem's own for goals swapped before but not now; returns whether a new target
-        carries a batch axis."""
-        problem, skeleton, B = self.problem, self.problem.skeleton, self.problem.batch_size
-        rows, batched = {}, False
+        """Check each new target and write its parameters over its goal's, then restore the
+        problem's own for goals swapped before but not now; returns whether a new target
+        carries a batch axis. A target without a batch axis takes its goal's quick check
+        (Goal.quick_target); any other, or one the quick check declines, target_params."""
+        batched, given = False, set()
         for key, target in targets.items():
-            t = self._goal_index(key)
-            goal = problem.goals[t]
-            if not hasattr(goal, "target"):
-                raise TypeError(f"goal {t} ({self._labels[t]}) has no target to swap; build a new Problem instead")
-            rows[t], goal_batched = goal.target_params(skeleton, target)
-            batched |= goal_batched
-            if rows[t].shape[0] not in (1, B):
-                raise ValueError(
-                    f"goal {t} ({self._labels[t]}): {rows[t].shape[0]} targets for a problem batch of "
-                    f"{B}; give one target or {B}"
-                )
-        engine = self._engine
-        terms = (engine.terms,) if engine.terms64 is engine.terms else (engine.terms, engine.terms64)
-        for t in self._swapped - rows.keys():
-            for packed in terms:
-                packed.params[:, t, :GAIN] = problem.table.params[:, t, :GAIN]
-        for t, values in rows.items():
-            for packed in terms:
-                packed.params[:, t, :GAIN] = values[:, :GAIN]
-        self._swapped = set(rows)
+            t = self._index.get(key) if type(key) is str else None
+            if t is None:
+                t = self._goal_index(key)
+            quick = self._quick[t]
+            values = None if quick is None else quick(target)
+            if values is None:
+                values, goal_batched = self._checked(t, target)
+                batched |= goal_batched
+            for params in self._params:
+                params[:, t, : values.shape[-1]] = values  # a target without a batch axis broadcasts
+            given.add(t)
+            self._swapped.add(t)  # so that a later target's error leaves nothing of this one behind
+        for t in self._swapped - given:
+            for params in self._params:
+                params[:, t, :GAIN] = self.problem.table.params[:, t, :GAIN]
+        self._swapped = given
         return batched
+
+    def _checked(self, t: int, target: ArrayLike) -> tuple[np.ndarray, bool]:
+        """(parameters (1 or B, GAIN), batched) of goal t with `target`, checked by the goal's
+        target_params and against the problem's batch size."""
+        goal, B = self.problem.goals[t], self.problem.batch_size
+        if not hasattr(goal, "target"):
+            raise TypeError(f"goal {t} ({self._labels[t]}) has no target to swap; build a new Problem instead")
+        values, batched = goal.target_params(self.problem.skeleton, target)
+        if values.shape[0] not in (1, B):
+            raise ValueError(
+                f"goal {t} ({self._labels[t]}): {values.shape[0]} targets for a problem batch of "
+                f"{B}; give one target or {B}"
+            )
+        return values[:, :GAIN], batched
 
     def _goal_index(self, key) -> int:
         """The index in problem.goals of goal `key` (an index or a label)."""

@@ -36,12 +36,11 @@ class Workspace:
     def _allocate(self, engine) -> None:
         """Buffers and Status for engine's problem and settings, unless those of the last
         solve have the same sizes."""
-        problem, settings = engine.problem, engine.settings
-        B, P, D = problem.batch_size, settings.population, problem.skeleton.n_dofs
-        T, L, dtype = problem.table.n_terms, problem.table.n_levels, np.dtype(settings.dtype)
-        sizes = (B, P, D, T, L, dtype, settings.islands)
+        sizes = engine.sizes
         if sizes == self._sizes:
             return
+        B, P, D, T, L, dtype, islands = sizes
+        settings = engine.settings
         check_memory(
             solve_bytes(B, P, D, T, L, dtype.itemsize, settings.generations),
             settings.memory_limit,
@@ -68,9 +67,10 @@ class Workspace:
             restarts=np.empty(B, np.int64),
             restarting=np.empty(B, np.bool_),
             elite=np.empty(B, np.int64),
-            leaders=np.empty((B, settings.islands), np.int64),
+            leaders=np.empty((B, islands), np.int64),
         )
         self._steps = np.empty((0, B, 2))
+        self._everyone = np.arange(B)
         self._sizes = sizes
 
     def begin(self, engine: Engine, n_generations: int, initial: ArrayLike | None = None) -> None:
@@ -79,7 +79,7 @@ class Workspace:
         self._allocate(engine)
         init, n_init = engine.initial_poses(initial)
         self.engine, self.generation, self._rows = engine, 0, []
-        steps, running = self._steps_for(n_generations), np.arange(len(self.status.best))
+        steps = self._steps_for(n_generations)
         final, advanced = engine.backend.start(
             self.cur,
             self.spare,
@@ -94,7 +94,7 @@ class Workspace:
             n_init,
             n_generations,
         )
-        self._ran(final, steps, advanced, running)
+        self._ran(final, steps, advanced, self._everyone)
 
     def advance(self, n_generations: int) -> None:
         """Up to n_generations more (each problem stops on convergence or stagnation)."""
@@ -124,15 +124,13 @@ class Workspace:
     def _ran(self, final: Buffers, steps: np.ndarray, advanced: int, running: np.ndarray) -> None:
         """After a launch: the buffers it ended in become the current ones (the kernels keep
         every stopped problem in both sets), and the history rows it wrote for the problems
-        `running` at its start are kept, NaN from where each stopped (a batch's last launches
-        run few of its problems: the rows of the others are never read)."""
+        `running` at its start are kept (a batch's last launches run few of its problems: the
+        rows of the others are never read). The rows from where each problem stopped are
+        NaN'd once, in `history`: a problem's generations only grow within a solve."""
         if final is not self.cur:
             self.cur, self.spare = final, self.cur
         if advanced:
-            ran = self.generation + np.arange(advanced)
-            stopped = ran[:, None] >= self.status.generations[running][None, :]
-            rows = np.where(stopped[..., None], np.nan, steps[:advanced, running])
-            self._rows.append((self.generation, running, rows))
+            self._rows.append((self.generation, running, steps[:advanced, running]))  # indexing copies
         self.generation += advanced
 
     @property
@@ -165,4 +163,6 @@ class Workspace:
         history = np.full((len(self.status.best), self.generation, 2), np.nan)
         for first, running, rows in self._rows:
             history[running, first : first + len(rows)] = rows.transpose(1, 0, 2)
+        if self._rows:
+            history[np.arange(self.generation) >= self.status.generations[:, None]] = np.nan
         return history
