@@ -101,60 +101,77 @@ def launch(
     the first population (_first_population) first; then run_generations from generation
     `gen`; returns its buffer swaps. memetic None compiles the kernel without the LM polish."""
     if fresh:
-        _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
-    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+        _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
+    swaps = run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+    if fresh:
+        _stopped_first(cur, nxt, status, swaps)
+    return swaps
 
 
 @linked()
-def _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
+def _stopped_first(cur, nxt, status, swaps):
+    """Copy the problems a lazy first population stopped (inactive with no generation) from cur
+    into nxt, where every stopped problem must also lie (run_generations), unless no launch can
+    read nxt: no swap and no problem left to run (most batches of easy problems, which then
+    never touch the second buffer set)."""
+    if swaps % 2 == 0:
+        any_active = False
+        for b in range(status.active.shape[0]):
+            any_active = any_active or status.active[b]
+        if not any_active:
+            return
+    for b in range(status.active.shape[0]):
+        if not status.active[b] and status.generations[b] == 0:
+            for i in range(cur.pop.shape[1]):
+                dev.copy_individual(cur, nxt, b, i, i)
+
+
+@linked()
+def _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
     """Fill cur with a first population and status with its best and leaders. When the polish
     is on and problems stop once every tolerance is met, it is lazy: each problem's individual
     0 is polished first (device_driver.polish_first); a problem it meets stops there (its
-    other individuals are copies of it, in both buffers), and the rest of the population is
-    sampled and evaluated, in SIMD lanes, only for the problems it leaves unmet (most robot
-    targets never need it). Otherwise as initialise."""
+    other individuals are copies of it; launch copies it into nxt where needed, _stopped_first),
+    and the rest of the population is sampled and evaluated, in SIMD lanes, only for the
+    problems it leaves unmet (most robot targets never need it). Otherwise as initialise."""
     B, P = cur.pop.shape[0], cur.pop.shape[1]
     if memetic is not None and memetic.iterations > 0 and control.stop_on_converged:
         met = np.empty(B, np.bool_)
         chunks = _chunks(B, 3 * memetic.iterations, skel, threads)
-        _polish_first(chunks, cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, met)
+        _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
         unmet, n_unmet = _active_problems(~met)
         n = n_unmet * (P - 1)
         _complete(_chunks(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
         for k in range(n_unmet):
-            _settle_first(unmet[k], cur, nxt, status, terms, control)
+            _settle_first(unmet[k], cur, status, terms, control)
     else:
         initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
 
 
 @linked()
-def _settle_first(b, cur, nxt, status, terms, control):
+def _settle_first(b, cur, status, terms, control):
     """Problem b's bookkeeping once its first population is complete: best, leaders and
-    convergence after one polish (not a round: no restart); a problem that stops lies in both
-    buffers."""
+    convergence after one polish (not a round: no restart)."""
     dev.rank_first(b, cur, status)
     dev.settle(b, 0, cur, terms, status, control, False)
-    if not status.active[b]:
-        for i in range(cur.pop.shape[1]):
-            dev.copy_individual(cur, nxt, b, i, i)
 
 
 @linked(parallel=True)
-def _polish_first(chunks, cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, met):
+def _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
     """Every problem's individual 0 initialised and polished (device_driver.polish_first);
     met (B,) receives whether it meets every tolerance, and such a problem is completed and
     settled at once (_first_population)."""
     if chunks == 1:
-        _polish_first_chunk(0, 1, cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, met)
+        _polish_first_chunk(0, 1, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
     else:
         for c in prange(chunks):
             _polish_first_chunk(
-                np.int64(c), chunks, cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, met
+                np.int64(c), chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met
             )
 
 
 @linked()
-def _polish_first_chunk(c, chunks, cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, met):
+def _polish_first_chunk(c, chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
     """Chunk c of `chunks` of _polish_first's problems."""
     B, P, D = cur.pop.shape[0], cur.pop.shape[1], cur.pop.shape[2]
     scratch, q, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
@@ -166,7 +183,7 @@ def _polish_first_chunk(c, chunks, cur, nxt, status, skel, terms, settings, meme
         if met[b]:
             for i in range(1, P):  # device_driver.complete_individual's copies
                 dev.copy_individual(cur, cur, b, 0, i)
-            _settle_first(b, cur, nxt, status, terms, control)
+            _settle_first(b, cur, status, terms, control)
 
 
 @linked(parallel=True)
