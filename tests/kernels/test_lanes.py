@@ -4,8 +4,8 @@
   humanoid's floating root, a 3-D chain, the URDF-like arm's rest rotations, prismatic, oblique
   and mimic motions, rotated sites) in both dtypes, and the NumPy FK to rounding;
 - a bred generation stores the totals and raw errors the one-pose path (device_terms.evaluate,
-  which the polish uses) gives its poses, bit for bit, and so does evaluate_poses (the float64
-  report of a float32 solve), which evaluates LANES poses at a time;
+  which the polish uses) gives its poses, bit for bit, as does evaluate_poses (the float64
+  report of a float32 solve) in any number of chunks;
 - a generation and a first population are the same whatever the split into blocks and chunks,
   for a batch whose size is not a multiple of the block.
 """
@@ -135,7 +135,7 @@ def test_a_generation_is_the_same_for_every_block_split_and_scores_like_the_one_
     np.testing.assert_array_equal(total, bred.total.reshape(n))
     np.testing.assert_array_equal(raw, bred.raw.reshape(n, -1))
     np.testing.assert_array_equal(levels, bred.levels.reshape(n, -1))
-    # evaluate_poses, LANES at a time, in any number of chunks (its last block is short)
+    # evaluate_poses, split into any number of chunks
     for chunks in (1, 3):
         lane_levels, lane_total, lane_raw = (np.empty_like(a) for a in (levels, total, raw))
         cpu.evaluate_poses(poses, index, engine.skel, engine.terms, lane_levels, lane_total, lane_raw, chunks, 1)

@@ -366,13 +366,11 @@ def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chun
 
 @linked()
 def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
-    """Chunk c of `n_chunks` of evaluate_poses' poses, LANES at a time (device_lanes.evaluate_lanes:
-    the one-pose FK's bits, a quarter of its time for the float64 report of a float32 batch)."""
+    """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
-    lanes = _lane_scratch(skel, poses, raw.shape[1], levels.shape[1], D)
-    start, end = _lane_span(c, n_chunks, N)
-    for first in range(start, end, LANES):
-        dev.evaluate_lanes(first, min(LANES, end - first), poses, problem_index, skel, terms, levels, total, raw, lanes)
+    scratch, _, _, _ = _scratch(skel, poses, raw.shape[1], levels.shape[1], D)
+    for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
+        total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 
 @linked(parallel=True)

@@ -238,16 +238,3 @@ def breed_lanes(first, count, order, gen, cur, nxt, skel, terms, settings, statu
         lv, rw = lanes.levels[lane], lanes.raw[lane]
         tot = score_lane(lane, trials[lane], b, skel, terms, lanes, lv, rw)
         select(b, i, cur, nxt, status, trials[lane], lv, rw, tot, lanes.rates[lane])
-
-
-def evaluate_lanes(first, count, poses, problem_index, skel, terms, levels, total, raw, lanes):
-    """device_terms.evaluate of the `count` (<= LANES) poses first, first + 1, ... of poses (N, D),
-    pose n against problem problem_index[n], evaluated together: fills levels[n] (L,), raw[n]
-    (T,) and total[n]."""
-    for lane in range(count):
-        for d in range(poses.shape[1]):
-            lanes.poses[d, lane] = poses[first + lane, d]
-    forward_kinematics_lanes(lanes.poses, skel, lanes.frames, lanes.R, lanes.p)
-    for lane in range(count):
-        n = first + lane
-        total[n] = score_lane(lane, poses[n], problem_index[n], skel, terms, lanes, levels[n], raw[n])
