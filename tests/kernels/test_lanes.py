@@ -3,8 +3,9 @@
 - its forward kinematics equals the one-pose kernel FK bit for bit on every motion kind (the
   humanoid's floating root, a 3-D chain, the URDF-like arm's rest rotations, prismatic, oblique
   and mimic motions, rotated sites) in both dtypes, and the NumPy FK to rounding;
-- a bred generation stores the totals and raw errors the one-pose path (evaluate_poses, which
-  the float64 report and the polish use) gives its poses, bit for bit;
+- a bred generation stores the totals and raw errors the one-pose path (device_terms.evaluate,
+  which the polish uses) gives its poses, bit for bit, as does evaluate_poses (the float64
+  report of a float32 solve) in any number of chunks;
 - a generation and a first population are the same whatever the split into blocks and chunks,
   for a batch whose size is not a multiple of the block.
 """
@@ -15,7 +16,6 @@ from numba import njit
 
 import deik
 from deik.kernels import cpu
-from deik.kernels.cpu_backend import evaluate_poses
 from deik.kernels.layout import LANES
 from deik.kernels.targets import cpu as dev
 from helpers import BUILTIN_SKELETONS, random_poses
@@ -39,6 +39,19 @@ def _lanes_fk(poses, skel, R, p):
         for lane in range(LANES):
             R[first + lane] = R_lanes[:, lane]
             p[first + lane] = p_lanes[:, lane]
+
+
+@njit
+def _one_pose_scores(poses, problem_index, skel, terms, n_levels):
+    """(levels (N, L), total (N,), raw (N, T)) of poses (N, D) by the one-pose path
+    (device_terms.evaluate: forward_kinematics, then score), pose n against problem
+    problem_index[n]."""
+    N, D, T = poses.shape[0], poses.shape[1], terms.term_int.shape[0]
+    levels, total, raw = np.empty((N, n_levels), poses.dtype), np.empty(N, poses.dtype), np.empty((N, T), poses.dtype)
+    scratch, _, _, _ = cpu._scratch(skel, poses, T, n_levels, D)
+    for n in range(N):
+        total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
+    return levels, total, raw
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
@@ -117,12 +130,18 @@ def test_a_generation_is_the_same_for_every_block_split_and_scores_like_the_one_
             np.testing.assert_array_equal(a, b)
     bred = results[0]
     assert (bred.pop != cur.pop).any(axis=2).mean() > 0.1  # trials were kept: the comparison is not of copies
-    levels, total, raw = evaluate_poses(
-        bred.pop.reshape(n, -1), np.repeat(order, P), engine.skel, engine.terms, bred.levels.shape[2]
-    )
+    poses, index = bred.pop.reshape(n, -1), np.repeat(order, P)
+    levels, total, raw = _one_pose_scores(poses, index, engine.skel, engine.terms, bred.levels.shape[2])
     np.testing.assert_array_equal(total, bred.total.reshape(n))
     np.testing.assert_array_equal(raw, bred.raw.reshape(n, -1))
     np.testing.assert_array_equal(levels, bred.levels.reshape(n, -1))
+    # evaluate_poses, split into any number of chunks
+    for chunks in (1, 3):
+        lane_levels, lane_total, lane_raw = (np.empty_like(a) for a in (levels, total, raw))
+        cpu.evaluate_poses(poses, index, engine.skel, engine.terms, lane_levels, lane_total, lane_raw, chunks, 1)
+        np.testing.assert_array_equal(lane_total, total)
+        np.testing.assert_array_equal(lane_raw, raw)
+        np.testing.assert_array_equal(lane_levels, levels)
 
 
 def test_a_first_population_is_the_same_for_every_chunk_count_and_scores_like_the_one_pose_path():
@@ -139,6 +158,6 @@ def test_a_first_population_is_the_same_for_every_chunk_count_and_scores_like_th
         np.testing.assert_array_equal(a, b)
     pop = results[0].pop.reshape(B * P, D)
     n_levels = buffers.levels.shape[2]
-    _, total, raw = evaluate_poses(pop, np.repeat(np.arange(B), P), engine.skel, engine.terms, n_levels)
+    _, total, raw = _one_pose_scores(pop, np.repeat(np.arange(B), P), engine.skel, engine.terms, n_levels)
     np.testing.assert_array_equal(total, results[0].total.reshape(-1))
     np.testing.assert_array_equal(raw, results[0].raw.reshape(B * P, -1))

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import deik
+from deik.objectives.kinds import GAIN
 from deik.objectives.reference import fitness
 
 
@@ -103,3 +104,19 @@ def test_islands_solve_and_must_split_the_population_evenly():
     assert deik.solve_batch(problems, population=64, islands=4, seed=1).converged.all()
     with pytest.raises(ValueError, match="islands"):
         deik.Settings(population=30, islands=4)
+
+
+def test_stacked_parts_with_batches_keep_their_targets_and_carry_their_weights_as_gains():
+    sk = deik.chain(4)
+    targets = deik.forward_kinematics(sk, np.random.default_rng(3).uniform(-1, 1, (5, sk.n_dofs))).position("tip")
+    three = deik.Problem(sk, [deik.Position("tip", targets[:3], weight=0.8, tolerance=1e-3), deik.Comfort()])
+    two = deik.Problem(sk, [deik.Position("tip", targets[3:], weight=0.2, tolerance=1e-3), deik.Comfort()])
+    stacked = deik.Problem.stack([three, two, three])
+    assert stacked.batch_size == 8
+    params = stacked.table.params
+    np.testing.assert_array_equal(params[:, 0, :3], np.concatenate([targets[:3], targets[3:], targets[:3]]))
+    gains = params[:, 0, GAIN]
+    np.testing.assert_allclose(gains, [1, 1, 1, 0.25, 0.25, 1, 1, 1])  # weight 0.8 is the largest: gains w / 0.8
+    np.testing.assert_array_equal(params[:, 1, GAIN], 1.0)
+    assert stacked.rows[0].weight == 0.8
+    np.testing.assert_array_equal(three.table.params[:, 0, GAIN], 1.0)  # the parts are left as they were

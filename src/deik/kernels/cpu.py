@@ -101,76 +101,111 @@ def launch(
     the first population (_first_population) first; then run_generations from generation
     `gen`; returns its buffer swaps. memetic None compiles the kernel without the LM polish."""
     if fresh:
-        _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
-    return run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+        _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
+    swaps = run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+    if fresh:
+        _stopped_first(cur, nxt, status, swaps)
+    return swaps
 
 
 @linked()
-def _first_population(cur, nxt, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
+def _stopped_first(cur, nxt, status, swaps):
+    """Copy the problems a lazy first population stopped (inactive with no generation) from cur
+    into nxt, where every stopped problem must also lie (run_generations), unless no launch can
+    read nxt: no swap and no problem left to run (most batches of easy problems, which then
+    never touch the second buffer set)."""
+    if swaps % 2 == 0:
+        any_active = False
+        for b in range(status.active.shape[0]):
+            any_active = any_active or status.active[b]
+        if not any_active:
+            return
+    for b in range(status.active.shape[0]):
+        if not status.active[b] and status.generations[b] == 0:
+            for i in range(cur.pop.shape[1]):
+                dev.copy_individual(cur, nxt, b, i, i)
+
+
+@linked()
+def _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
     """Fill cur with a first population and status with its best and leaders. When the polish
     is on and problems stop once every tolerance is met, it is lazy: each problem's individual
-    0 is polished first (device_driver.polish_first) and the rest of the population is sampled
-    and evaluated only for the problems it leaves unmet (most robot targets never need it); a
-    problem that stops lies in both buffers. Otherwise as initialise."""
+    0 is polished first (device_driver.polish_first); a problem it meets stops there (its
+    other individuals are copies of it; launch copies it into nxt where needed, _stopped_first),
+    and the rest of the population is sampled and evaluated, in SIMD lanes, only for the
+    problems it leaves unmet (most robot targets never need it). Otherwise as initialise."""
     B, P = cur.pop.shape[0], cur.pop.shape[1]
     if memetic is not None and memetic.iterations > 0 and control.stop_on_converged:
         met = np.empty(B, np.bool_)
         chunks = _chunks(B, 3 * memetic.iterations, skel, threads)
-        _polish_first(chunks, cur, skel, terms, settings, memetic, initial, n_initial, met)
-        n = B * (P - 1)
-        _complete(_chunks(n, 1, skel, threads), n, cur, skel, terms, settings, initial, n_initial, met)
-        for b in range(B):
-            dev.rank_first(b, cur, status)
-            dev.settle(b, 0, cur, terms, status, control, False)  # one polish, not a round
-            if not status.active[b]:
-                for i in range(P):
-                    dev.copy_individual(cur, nxt, b, i, i)
+        _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
+        unmet, n_unmet = _active_problems(~met)
+        n = n_unmet * (P - 1)
+        _complete(_chunks(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
+        for k in range(n_unmet):
+            _settle_first(unmet[k], cur, status, terms, control)
     else:
         initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
 
 
+@linked()
+def _settle_first(b, cur, status, terms, control):
+    """Problem b's bookkeeping once its first population is complete: best, leaders and
+    convergence after one polish (not a round: no restart)."""
+    dev.rank_first(b, cur, status)
+    dev.settle(b, 0, cur, terms, status, control, False)
+
+
 @linked(parallel=True)
-def _polish_first(chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
+def _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
     """Every problem's individual 0 initialised and polished (device_driver.polish_first);
-    met (B,) receives whether it meets every tolerance."""
+    met (B,) receives whether it meets every tolerance, and such a problem is completed and
+    settled at once (_first_population)."""
     if chunks == 1:
-        _polish_first_chunk(0, 1, state, skel, terms, settings, memetic, initial, n_initial, met)
+        _polish_first_chunk(0, 1, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
     else:
         for c in prange(chunks):
-            _polish_first_chunk(np.int64(c), chunks, state, skel, terms, settings, memetic, initial, n_initial, met)
+            _polish_first_chunk(
+                np.int64(c), chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met
+            )
 
 
 @linked()
-def _polish_first_chunk(c, chunks, state, skel, terms, settings, memetic, initial, n_initial, met):
+def _polish_first_chunk(c, chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
     """Chunk c of `chunks` of _polish_first's problems."""
-    B, D = state.pop.shape[0], state.pop.shape[2]
-    scratch, q, lv, rw = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    axes, lm = _polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    B, P, D = cur.pop.shape[0], cur.pop.shape[1], cur.pop.shape[2]
+    scratch, q, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
+    axes, lm = _polish_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
     for b in range(c * B // chunks, (c + 1) * B // chunks):
         met[b] = dev.polish_first(
-            b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
+            b, cur, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
         )
+        if met[b]:
+            for i in range(1, P):  # device_driver.complete_individual's copies
+                dev.copy_individual(cur, cur, b, 0, i)
+            _settle_first(b, cur, status, terms, control)
 
 
 @linked(parallel=True)
-def _complete(chunks, n, state, skel, terms, settings, initial, n_initial, met):
-    """Individuals 1.. of every problem after _polish_first (device_driver.complete_individual),
-    n = B * (P - 1) of them in `chunks` work units."""
+def _complete(chunks, n, unmet, state, skel, terms, settings, initial, n_initial):
+    """Individuals 1.. of the problems unmet (n_unmet,) after _polish_first, n = n_unmet * (P - 1)
+    of them in `chunks` work units, LANES at a time (device_lanes.initialise_lanes)."""
     if chunks == 1:
-        _complete_chunk(0, 1, n, state, skel, terms, settings, initial, n_initial, met)
+        _complete_chunk(0, 1, n, unmet, state, skel, terms, settings, initial, n_initial)
     else:
         for c in prange(chunks):
-            _complete_chunk(np.int64(c), chunks, n, state, skel, terms, settings, initial, n_initial, met)
+            _complete_chunk(np.int64(c), chunks, n, unmet, state, skel, terms, settings, initial, n_initial)
 
 
 @linked()
-def _complete_chunk(c, chunks, n, state, skel, terms, settings, initial, n_initial, met):
+def _complete_chunk(c, chunks, n, unmet, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `chunks` of _complete's individuals."""
-    P, D = state.pop.shape[1], state.pop.shape[2]
-    scratch, _, _, _ = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    for idx in range(c * n // chunks, (c + 1) * n // chunks):
-        b = idx // (P - 1)
-        dev.complete_individual(b, 1 + idx % (P - 1), met[b], state, skel, terms, settings, initial, n_initial, scratch)
+    lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], state.pop.shape[2])
+    start, end = _lane_span(c, chunks, n)
+    for first in range(start, end, LANES):
+        dev.initialise_lanes(
+            first, min(LANES, end - first), unmet, 1, state, skel, terms, settings, initial, n_initial, lanes
+        )
 
 
 @linked()
@@ -179,8 +214,11 @@ def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_init
     B, P, D = state.pop.shape
     lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     start, end = _lane_span(c, n_chunks, B * P)
+    every = np.arange(B)
     for first in range(start, end, LANES):
-        dev.initialise_lanes(first, min(LANES, end - first), state, skel, terms, settings, initial, n_initial, lanes)
+        dev.initialise_lanes(
+            first, min(LANES, end - first), every, 0, state, skel, terms, settings, initial, n_initial, lanes
+        )
 
 
 @linked()

@@ -17,8 +17,8 @@ from deik.kernels.device_evolution import (
     within_tolerances,
 )
 from deik.kernels.device_lm import open_ended, polish
-from deik.kernels.device_maths import stream, unit
-from deik.kernels.device_terms import evaluate
+from deik.kernels.device_maths import forward_kinematics, stream, unit
+from deik.kernels.device_terms import evaluate, score
 from deik.kernels.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
 
 
@@ -43,9 +43,12 @@ def initialise_individual(b, i, state, skel, terms, settings, initial, n_initial
 def polish_first(b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw):
     """The start of a lazy first population: individual 0 of problem b (initial[b, 0], else
     its uniform pose) evaluated and polished; returns whether it meets every tolerance, in
-    which case the problem stops and the rest of its population is never sampled."""
-    initialise_individual(b, 0, state, skel, terms, settings, initial, n_initial, scratch)
-    polish(b, 0, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+    which case the problem stops and the rest of its population is never sampled. Its frames
+    are computed once, with the motion axes, to score it and to start the polish."""
+    seed_individual(b, 0, state, skel, settings, initial, n_initial)
+    forward_kinematics(state.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
+    state.total[b, 0] = score(state.pop[b, 0], b, skel, terms, scratch, state.levels[b, 0], state.raw[b, 0])
+    polish(b, 0, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw, True)
     return within_tolerances(b, state.raw[b, 0], terms, state.raw.shape[2])
 
 
@@ -98,6 +101,6 @@ def polish_individual(b, target, state, skel, terms, memetic, scratch, axes, lm,
     """LM polish of individual `target` of problem b in place (see device_lm.polish); returns
     whether the round may stop there: it meets every tolerance and no goal without one
     (comfort) is left to improve, which every polished individual then pursues."""
-    polish(b, target, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+    polish(b, target, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw, False)
     T = state.raw.shape[2]
     return within_tolerances(b, state.raw[b, target], terms, T) and not open_ended(b, terms, T)

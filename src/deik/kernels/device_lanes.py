@@ -202,18 +202,21 @@ def score_lane(lane, q, b, skel, terms, lanes, levels, raw):
     return score(q, b, skel, terms, Scratch(lanes.R[:, lane], lanes.p[:, lane], lanes.work), levels, raw)
 
 
-def initialise_lanes(first, count, state, skel, terms, settings, initial, n_initial, lanes):
+def initialise_lanes(first, count, order, skip, state, skel, terms, settings, initial, n_initial, lanes):
     """device_driver.initialise_individual for the `count` (<= LANES) individuals first, first + 1,
-    ... of state's problems in row-major (problem, individual) order, evaluated together."""
+    ... evaluated together: individual k is individual skip + k % (P - skip) of problem
+    order[k // (P - skip)] (a whole first population: order 0, 1, ..., B - 1 and skip 0; the rest
+    of a lazy one: the problems its polished individual 0 left unmet, skip 1)."""
     P, D = state.pop.shape[1], state.pop.shape[2]
+    size = P - skip
     for lane in range(count):
-        b, i = (first + lane) // P, (first + lane) % P
+        b, i = order[(first + lane) // size], skip + (first + lane) % size
         seed_individual(b, i, state, skel, settings, initial, n_initial)
         for d in range(D):
             lanes.poses[d, lane] = state.pop[b, i, d]
     forward_kinematics_lanes(lanes.poses, skel, lanes.frames, lanes.R, lanes.p)
     for lane in range(count):
-        b, i = (first + lane) // P, (first + lane) % P
+        b, i = order[(first + lane) // size], skip + (first + lane) % size
         state.total[b, i] = score_lane(
             lane, state.pop[b, i], b, skel, terms, lanes, state.levels[b, i], state.raw[b, i]
         )

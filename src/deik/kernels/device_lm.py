@@ -273,14 +273,15 @@ def open_ended(b, terms, T):
     return False
 
 
-def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
     """Up to `iterations` LM steps on individual i of problem b, in the Buffers `state`, towards
     every tolerance (converge), or where a goal without tolerance is left, on to the smallest
-    move from comfort's reference (relax); q (D,), lv (L,), rw (T,) are scratch."""
+    move from comfort's reference (relax); q (D,), lv (L,), rw (T,) are scratch. frames_ready:
+    scratch.R, scratch.p and axes already hold the individual's frames (else computed)."""
     if open_ended(b, terms, state.raw.shape[2]):
-        relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+        relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready)
     else:
-        converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
+        converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready)
 
 
 def first_unmet_level(levels):
@@ -326,7 +327,7 @@ def keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
     return True
 
 
-def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
     """polish() when every weighted goal has a tolerance. LM runs on a copy of the individual
     (lm.pose and its levels and raw errors) and keeps a step when it lowers the cost LM
     minimises, the polished goals' squared errors in tolerances (polished_cost), without
@@ -356,7 +357,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw)
     met = within_tolerances(b, pose_raw, terms, T)
     # the normal equations change only when a step is kept; a kept step's frames (computed with
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
-    formed, frames_ready = False, False
+    formed = False
     for _ in range(iterations):
         if met or cost == 0.0 or since >= STALL_ITERATIONS:
             break  # (a zero cost leaves nothing the polish can move: the unmet goals are DE's)
@@ -399,7 +400,7 @@ def keep_pose(x, pose_levels, pose_raw, q, lv, rw):
         pose_raw[t] = rw[t]
 
 
-def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
+def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
     """polish() when a goal without tolerance (comfort) is left to improve: LM steps in place,
     each kept only if the full strict-priority fitness improves (so the polish never trades a
     higher level for a lower one), every step with a pull towards comfort's reference in the
@@ -412,7 +413,7 @@ def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw):
     pull = 1.0
     # the normal equations change only when a step is kept; a kept step's frames (computed with
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
-    formed, frames_ready = False, False
+    formed = False
     for _ in range(iterations):
         if not formed:
             normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready)

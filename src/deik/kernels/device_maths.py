@@ -203,7 +203,9 @@ def turn_columns(R, r, i, angle):
     """R[r:r+9] = R[r:r+9] @ (rotation about coordinate axis i by `angle` radians), in place:
     only the two other columns mix (12 flops instead of Rodrigues and a 3x3 product)."""
     s, c = sin_cos(angle, R)
-    a, b = (i + 1) % 3, (i + 2) % 3
+    # (i + 1) % 3 and (i + 2) % 3 as selects, without two integer divisions per turn
+    a = 1 if i == 0 else (2 if i == 1 else 0)
+    b = 2 if i == 0 else (0 if i == 1 else 1)
     for row in range(3):
         R[r + 3 * row + a], R[r + 3 * row + b] = turn(c, s, R[r + 3 * row + a], R[r + 3 * row + b])
 
