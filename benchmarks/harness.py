@@ -105,11 +105,14 @@ def chain_problem(links: int, batch: int, seed: int, tolerance: float | None = N
     return deik.Problem(sk, [deik.Position("tip", targets, tolerance=tolerance)])
 
 
-def evaluation_settings(population: int, device: str, dtype: str, seed: int) -> deik.Settings:
-    """Default settings with only DE evaluation left: no polish, no restarts, no stopping."""
+def evaluation_settings(
+    population: int, device: str, dtype: str, seed: int, generations: int = MAX_GENERATIONS
+) -> deik.Settings:
+    """Default settings with only DE evaluation left: no polish, no restarts, no stopping; a
+    budget of `generations` (the memory check counts the history of the whole budget)."""
     return deik.Settings(
         population=population,
-        generations=MAX_GENERATIONS,
+        generations=generations,
         polish=0,
         restarts=0,
         stop_on_converged=False,

@@ -105,7 +105,9 @@ def measure(links: int, population: int, batch: int, args) -> dict:
     t = time.perf_counter()
     engine = deik.Engine(
         harness.chain_problem(links, batch, args.seed),
-        harness.evaluation_settings(population, args.device, args.dtype, args.seed),
+        # a budget of the generations it runs: the history of a million-generation budget is
+        # what the memory check refuses on a small machine (16 bytes per problem and generation)
+        harness.evaluation_settings(population, args.device, args.dtype, args.seed, args.generations),
     )
     state = meter.during(engine.init)
     state = meter.during(lambda: engine.run(state, args.generations))
