@@ -156,20 +156,29 @@ class Engine:
             init = np.broadcast_to(init, (B,) + init.shape[1:])
         return kernel_array(init, dtype), init.shape[1]
 
-    def _fresh(self, initial):
-        """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
-        B, P, D, T, L, dtype, islands = self.sizes
+    def check_memory(self) -> None:
+        """ValueError with the estimate and the fix when a solve's buffers would not fit
+        (deik.solver.memory)."""
+        B, P, D, T, L, dtype, _ = self.sizes
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
-        init, n_init = self.initial_poses(initial)
-        buffers = Buffers(
+
+    def new_buffers(self) -> Buffers:
+        """One unfilled set of population buffers: poses (B, P, D), levels (B, P, L), total
+        (B, P), raw errors (B, P, T) and rates (B, P, 2), in the solve's dtype."""
+        B, P, D, T, L, dtype, _ = self.sizes
+        return Buffers(
             np.empty((B, P, D), dtype),
             np.empty((B, P, L), dtype),
             np.empty((B, P), dtype),
             np.empty((B, P, T), dtype),
             np.empty((B, P, 2), dtype),
         )
-        status = Status(
+
+    def new_status(self) -> Status:
+        """A Status of B active problems that have not started (the kernels' start resets it)."""
+        B, _, _, _, L, _, islands = self.sizes
+        return Status(
             best=np.zeros(B, np.int64),
             active=np.ones(B, np.bool_),
             generations=np.zeros(B, np.int64),
@@ -182,7 +191,12 @@ class Engine:
             elite=np.full(B, -1, np.int64),
             leaders=np.zeros((B, islands), np.int64),
         )
-        return buffers, status, init, n_init
+
+    def _fresh(self, initial):
+        """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
+        self.check_memory()
+        init, n_init = self.initial_poses(initial)
+        return self.new_buffers(), self.new_status(), init, n_init
 
     def init(self, initial: ArrayLike | None = None) -> EvolutionState:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""

@@ -17,8 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.kernels.layout import Buffers, Status
-from deik.solver.memory import check_memory, solve_bytes
+from deik.kernels.layout import Buffers
 
 if TYPE_CHECKING:
     from deik.solver.engine import Engine
@@ -39,36 +38,10 @@ class Workspace:
         sizes = engine.sizes
         if sizes == self._sizes:
             return
-        B, P, D, T, L, dtype, islands = sizes
-        settings = engine.settings
-        check_memory(
-            solve_bytes(B, P, D, T, L, dtype.itemsize, settings.generations),
-            settings.memory_limit,
-            f"a solve of {B} problem(s) x population {P}",
-        )
-        self.cur, self.spare = (
-            Buffers(
-                np.empty((B, P, D), dtype),
-                np.empty((B, P, L), dtype),
-                np.empty((B, P), dtype),
-                np.empty((B, P, T), dtype),
-                np.empty((B, P, 2), dtype),
-            )
-            for _ in range(2)
-        )
-        self.status = Status(
-            best=np.empty(B, np.int64),
-            active=np.empty(B, np.bool_),
-            generations=np.empty(B, np.int64),
-            converged=np.empty(B, np.bool_),
-            best_seen=np.empty(B, np.float64),
-            best_levels=np.empty((B, L), np.float64),
-            last_improved=np.empty(B, np.int64),
-            restarts=np.empty(B, np.int64),
-            restarting=np.empty(B, np.bool_),
-            elite=np.empty(B, np.int64),
-            leaders=np.empty((B, islands), np.int64),
-        )
+        engine.check_memory()
+        self.cur, self.spare = engine.new_buffers(), engine.new_buffers()
+        self.status = engine.new_status()
+        B = sizes[0]
         self._steps = np.empty((0, B, 2))
         self._everyone = np.arange(B)
         self._sizes = sizes
