@@ -36,7 +36,7 @@ MAP = ROOT / "examples" / "maps" / "shared_bvh_to_humanoid.toml"
 RIG = "deik.retarget.rig"  # the module, not deik.retarget (the function of the same name)
 WAYS = {
     "all steps": {},
-    "no outlier repair": {"repair_outliers": lambda skeleton, poses, *args, **kwargs: poses},
+    "no outlier repair": {"repair_outliers": lambda goals, poses: poses},
     "no smoothed restarts": {"REBASIN": 0},
     "no space-time pass": {"smooth_motion": lambda skeleton, first, *args, **kwargs: first},
 }

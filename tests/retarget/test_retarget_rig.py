@@ -12,7 +12,7 @@ from deik.clips.contacts import detect_contacts
 from deik.io.euler import tait_bryan_triples
 from deik.retarget import keypoints as kp
 from deik.retarget.collision import body_pairs, penetration_depths
-from deik.retarget.ik import solve_keypoints
+from deik.retarget.ik import KeypointGoals, solve_keypoints
 from deik.retarget.maps import read_map
 from deik.retarget.report import limit_violations, within_limits
 from deik.retarget.skeletons import with_free_root
@@ -33,7 +33,7 @@ def test_the_keypoint_ik_recovers_poses_from_their_positions():
     start = np.tile(h.reference, (6, 1))
     start[:, :6] = truth[:, :6]  # the root placed, as the retarget places it
     searched = np.ones((6, h.n_dofs), bool)
-    found = solve_keypoints(h, start, POINTS, targets, searched, np.ones(h.n_dofs))
+    found = solve_keypoints(KeypointGoals(h, POINTS, targets, searched, np.ones(h.n_dofs)), start)
     assert (found >= h.lower).all() and (found <= h.upper).all()
     reached = deik.forward_kinematics(h, found)
     errors = np.linalg.norm(np.stack([reached.position(n) for n in POINTS], axis=1) - targets, axis=-1)
@@ -48,7 +48,8 @@ def test_a_target_beyond_a_limit_holds_the_dof_at_it():
     beyond = deik.forward_kinematics(h, pose).position("left_ankle")
     searched = np.zeros((1, h.n_dofs), bool)
     searched[0, knee] = True
-    found = solve_keypoints(h, h.reference[None], ["left_ankle"], beyond[None, None], searched, np.ones(h.n_dofs))
+    goals = KeypointGoals(h, ["left_ankle"], beyond[None, None], searched, np.ones(h.n_dofs))
+    found = solve_keypoints(goals, h.reference[None])
     assert found[0, knee] == h.upper[knee]  # held at the limit, not past it
     assert np.delete(found[0], knee) == pytest.approx(np.delete(h.reference, knee))  # nothing else moved
 

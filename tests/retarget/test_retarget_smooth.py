@@ -13,7 +13,7 @@ from deik.clips.warmstart import dof_weights, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
 from deik.retarget.collision import BonePairs, body_pairs, collision_rows, penetration_depths
-from deik.retarget.ik import rebasin, solve_keypoints
+from deik.retarget.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retarget.report import retarget_report
 from deik.retarget.smooth import smooth_motion
 
@@ -168,8 +168,9 @@ def test_restarting_from_the_smoothed_clip_takes_out_jitter():
     targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
     weights = dof_weights(Trajectory(h, truth, DT))
     searched = np.ones(h.n_dofs, bool)
-    found = rebasin(h, shaken, POINTS, targets, searched, weights)
-    again = solve_keypoints(h, shaken, POINTS, targets, searched, weights)  # the same IK from the shaken poses
+    goals = KeypointGoals(h, POINTS, targets, searched, weights)
+    found = rebasin(goals, shaken)
+    again = solve_keypoints(goals, shaken)  # the same IK from the shaken poses
     assert (found >= h.lower).all() and (found <= h.upper).all()
     assert _measured(h, found, POINTS, targets)[1] < 1e-3  # metres: the key points met
     assert _measured(h, again, POINTS, targets)[1] < 1e-3

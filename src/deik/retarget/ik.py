@@ -21,7 +21,8 @@ frame apart from its neighbours starts among theirs (retarget/rig.py runs both).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -42,6 +43,33 @@ OUTLIER_ROUNDS = 3  # a run of outliers is repaired from its ends inwards, a fra
 SMOOTHING = 2.0  # frames: the width (a Gaussian's sigma) of the smoothing rebasin starts from
 
 Targets = np.ndarray | Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class KeypointGoals:
+    """What the key-point IK asks of every frame of a clip: the frames `names` (K,) of
+    `skeleton` meet `targets` (targets_at) as nearly as the limits allow, moving only the
+    `searched` DOFs ((D,) or (N, D) bool over the clip's N frames), each change counted by
+    `weights` (D,) (dof_weights); with a `floor` (height along up, length units) every joint
+    and site of `body` (default all) is also pushed out of the floor, each depth counted
+    FLOOR_WEIGHT times."""
+
+    skeleton: Skeleton
+    names: Sequence[str]
+    targets: Targets
+    searched: np.ndarray
+    weights: np.ndarray
+    floor: float | None = None
+    body: Sequence[str] | None = None
+
+    def above(self, floor: float, body: Sequence[str] | None = None) -> KeypointGoals:
+        """The same goals with the floor at height `floor` under the frames `body`."""
+        return replace(self, floor=floor, body=body)
+
+    def searched_at(self, frames: np.ndarray) -> np.ndarray:
+        """(n, D) the searched DOFs of the clip frames `frames` (n,)."""
+        searched = np.asarray(self.searched, bool)
+        return searched[frames] if searched.ndim == 2 else np.broadcast_to(searched, (len(frames), len(searched)))
 
 
 def full_turns(skeleton: Skeleton) -> np.ndarray:
@@ -76,31 +104,18 @@ def targets_at(targets: Targets, poses: np.ndarray, frames: np.ndarray) -> np.nd
     return targets(poses, frames) if callable(targets) else np.asarray(targets)[frames]
 
 
-def solve_keypoints(
-    skeleton: Skeleton,
-    poses: np.ndarray,
-    names: Iterable[str],
-    targets: Targets,
-    searched: np.ndarray,
-    weights: np.ndarray,
-    floor: float | None = None,
-    body: Sequence[str] | None = None,
-    frames: np.ndarray | None = None,
-) -> np.ndarray:
-    """(n, D) poses near `poses` (n, D) of the clip frames `frames` (n,) (default all) whose
-    frames `names` (K,) meet `targets` (targets_at: the whole clip's) as nearly as the limits
-    allow, moving only the `searched` DOFs (broadcast to (n, D)), each change counted by
-    `weights` (D,) (dof_weights). With a `floor` (height along up, length units) every joint
-    and site of `body` (default all) is also pushed out of the floor, each depth counted
-    FLOOR_WEIGHT times."""
-    names = list(names)
+def solve_keypoints(goals: KeypointGoals, poses: np.ndarray, frames: np.ndarray | None = None) -> np.ndarray:
+    """(n, D) poses near `poses` (n, D) of the clip frames `frames` (n,) (default all) that meet
+    `goals` as nearly as the limits allow."""
+    skeleton, floor, targets, weights = goals.skeleton, goals.floor, goals.targets, goals.weights
+    names = list(goals.names)
     K = len(names)
     poses = _inside(skeleton, np.array(poses, float))
     N = len(poses)
     frames = np.arange(N) if frames is None else np.asarray(frames)
-    low = list(skeleton.frame_names if body is None else body) if floor is not None else []
+    low = list(skeleton.frame_names if goals.body is None else goals.body) if floor is not None else []
     up = np.asarray(skeleton.up, float)
-    searched = np.broadcast_to(searched, poses.shape)
+    searched = goals.searched_at(frames)
     scale = searched * np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     longest = LONGEST_STEP * skeleton.reach
     lower, upper = skeleton.lower, skeleton.upper
@@ -139,15 +154,13 @@ def solve_keypoints(
     return poses
 
 
-def worst_errors(
-    skeleton: Skeleton, poses: np.ndarray, names: Sequence[str], targets: Targets, frames: np.ndarray | None = None
-) -> np.ndarray:
-    """(n,) the largest distance of the frames `names` at `poses` (n, D) of the clip frames
-    `frames` (default all) from their `targets` (targets_at), length units."""
+def worst_errors(goals: KeypointGoals, poses: np.ndarray, frames: np.ndarray | None = None) -> np.ndarray:
+    """(n,) the largest distance of the goals' frames at `poses` (n, D) of the clip frames
+    `frames` (default all) from their targets (targets_at), length units."""
     frames = np.arange(len(poses)) if frames is None else np.asarray(frames)
-    kin = forward_kinematics(skeleton, poses)
-    x = np.stack([kin.position(name) for name in names], axis=1)
-    return np.linalg.norm(x - targets_at(targets, poses, frames), axis=-1).max(axis=1)
+    kin = forward_kinematics(goals.skeleton, poses)
+    x = np.stack([kin.position(name) for name in goals.names], axis=1)
+    return np.linalg.norm(x - targets_at(goals.targets, poses, frames), axis=-1).max(axis=1)
 
 
 def _local_median(values: np.ndarray, span: int) -> np.ndarray:
@@ -157,33 +170,24 @@ def _local_median(values: np.ndarray, span: int) -> np.ndarray:
     return np.median(np.lib.stride_tricks.sliding_window_view(padded, span), axis=1)
 
 
-def repair_outliers(
-    skeleton: Skeleton,
-    poses: np.ndarray,
-    names: Sequence[str],
-    targets: Targets,
-    searched: np.ndarray,
-    weights: np.ndarray,
-    floor: float | None = None,
-    body: Sequence[str] | None = None,
-) -> np.ndarray:
-    """(N, D) `poses` (N, D) of solve_keypoints (same arguments) with each outlier frame (module
-    notes) solved again from its previous and its next frame's pose, the better of the three
-    kept; up to OUTLIER_ROUNDS rounds."""
+def repair_outliers(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
+    """(N, D) `poses` (N, D) of solve_keypoints with each outlier frame (module notes) solved
+    again from its previous and its next frame's pose, the better of the three kept; up to
+    OUTLIER_ROUNDS rounds."""
     poses = np.array(poses, float)
-    searched = np.broadcast_to(searched, poses.shape)
     for _ in range(OUTLIER_ROUNDS):
-        error = worst_errors(skeleton, poses, names, targets)
+        error = worst_errors(goals, poses)
         bad = np.flatnonzero(
-            (error > OUTLIER_RATIO * _local_median(error, OUTLIER_SPAN)) & (error > OUTLIER_ERROR * skeleton.reach)
+            (error > OUTLIER_RATIO * _local_median(error, OUTLIER_SPAN))
+            & (error > OUTLIER_ERROR * goals.skeleton.reach)
         )
         if not bad.size:
             break
         best, lowest = poses[bad], error[bad]
         for side in (-1, 1):
             seeds = poses[np.clip(bad + side, 0, len(poses) - 1)]
-            found = solve_keypoints(skeleton, seeds, names, targets, searched[bad], weights, floor, body, bad)
-            found_error = worst_errors(skeleton, found, names, targets, bad)
+            found = solve_keypoints(goals, seeds, bad)
+            found_error = worst_errors(goals, found, bad)
             better = found_error < lowest
             best[better], lowest[better] = found[better], found_error[better]
         poses[bad] = best
@@ -202,18 +206,8 @@ def smoothed(poses: np.ndarray, full_turn: np.ndarray, width: float = SMOOTHING)
     return windows @ (kernel / kernel.sum())
 
 
-def rebasin(
-    skeleton: Skeleton,
-    poses: np.ndarray,
-    names: Sequence[str],
-    targets: Targets,
-    searched: np.ndarray,
-    weights: np.ndarray,
-    floor: float | None = None,
-    body: Sequence[str] | None = None,
-) -> np.ndarray:
-    """(N, D) solve_keypoints (same arguments) started from `poses` smoothed over the frames
-    (smoothed): a frame whose pose stands apart from its neighbours' starts among theirs and
-    mostly settles in their basin, and a clip that switches basins does so in fewer frames."""
-    start = smoothed(poses, full_turns(skeleton))
-    return solve_keypoints(skeleton, start, names, targets, searched, weights, floor, body)
+def rebasin(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
+    """(N, D) solve_keypoints started from `poses` smoothed over the frames (smoothed): a frame
+    whose pose stands apart from its neighbours' starts among theirs and mostly settles in their
+    basin, and a clip that switches basins does so in fewer frames."""
+    return solve_keypoints(goals, smoothed(poses, full_turns(goals.skeleton)))

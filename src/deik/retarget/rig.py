@@ -39,7 +39,7 @@ from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retarget import keypoints as kp
 from deik.retarget.collision import body_pairs
-from deik.retarget.ik import rebasin, repair_outliers, solve_keypoints
+from deik.retarget.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
 from deik.retarget.maps import JointMap, check_map
 from deik.retarget.report import retarget_report, within_limits
 from deik.retarget.result import Retarget
@@ -156,15 +156,16 @@ def retarget_rig(
     body = [name for name in target.frame_names if name not in TORSO_SITES]
     # key points first: with the floor from the start, a point that must cross it on its way
     # (a hand swinging down to the floor) refuses every step and stalls
-    poses = solve_keypoints(target, poses, points, wanted, searched, weights)
-    poses = repair_outliers(target, poses, points, wanted, searched, weights)
+    goals = KeypointGoals(target, points, wanted, searched, weights)
+    poses = repair_outliers(goals, solve_keypoints(goals, poses))
     progress = settings.get("progress") or (lambda met, stage: None)
     progress(len(poses), "key points")
-    poses = solve_keypoints(target, poses, points, wanted, searched, weights, 0.0, body)  # floor at 0
+    goals = goals.above(0.0, body)  # the floor at 0
+    poses = solve_keypoints(goals, poses)
     for k in range(REBASIN + 1):
         if k:
-            poses = rebasin(target, poses, points, wanted, searched, weights, 0.0, body)
-        poses = repair_outliers(target, poses, points, wanted, searched, weights, 0.0, body)
+            poses = rebasin(goals, poses)
+        poses = repair_outliers(goals, poses)
     progress(len(poses), "the floor")
     contacts = _target_contacts(source_contacts, joint_map)
     # the orientation points steered the torso; the motion's skeleton is the target's own, and
