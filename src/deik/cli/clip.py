@@ -16,7 +16,7 @@ import numpy as np
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
 from deik.clips.units import METRES
-from deik.console import add_output_flags, progress_bar, show_progress
+from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
 from deik.viz.text import format_table
@@ -404,13 +404,7 @@ def run_clip(
     }
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
-
-        def progress(met: int, stage: str) -> None:
-            bar.set_postfix_str(f"{stage}: frames meeting every goal", refresh=False)
-            bar.update(met - bar.n)
-            if on_frames is not None:
-                on_frames(met, clip.n_frames)
-
+        progress = frames_reporter(bar, "every goal", on_frames)
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
     record_compiles(compiling)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]

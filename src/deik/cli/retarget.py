@@ -14,7 +14,7 @@ import re
 from collections.abc import Callable
 
 from deik.cli.common import UsageError, announce_compile, check_device, check_outputs, record_compiles
-from deik.console import add_output_flags, progress_bar, show_progress
+from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
@@ -106,13 +106,7 @@ def run_retarget(
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
-
-        def progress(met: int, stage: str) -> None:
-            bar.set_postfix_str(f"{stage}: frames meeting their contacts", refresh=False)
-            bar.update(met - bar.n)
-            if on_frames is not None:
-                on_frames(met, clip.n_frames)
-
+        progress = frames_reporter(bar, "their contacts", on_frames)
         result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
     record_compiles(compiling)
     trajectory = not isinstance(result.motion, Clip)
