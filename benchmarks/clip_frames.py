@@ -7,7 +7,7 @@ The shared humanoid walk (39 frames, two steps) is looped to --frames frames as 
 (loop_clip): each cycle repeats frames 0..37 moved on by one stride, the last frames of a
 cycle eased into the next cycle's first so the seam has no jump. Contacts are detected on the
 long clip (auto, as `deik clip --plant-feet auto`) and every frame is fixed at once with
-deik.clips.solver.fix_clip and its default settings. A fix of a short loop first compiles the
+deik.cleanup.fix.fix_clip and its default settings. A fix of a short loop first compiles the
 kernels (excluded from the timing); the fix is then timed --repeats times, best kept.
 Writes clip_frames.json (timing, where the time went, settings, metrics before and after,
 machine) and clip_frames.png (the per-frame errors before and after, titled with the timing),
@@ -26,11 +26,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from deik.cli.common import check_device
-from deik.clips.contacts import detect_contacts
-from deik.clips.problem import ClipGoals
-from deik.clips.report import clip_report, per_frame_errors
-from deik.clips.solver import fix_clip
+from deik.cleanup.clip_goals import ClipGoals
+from deik.cleanup.contacts import detect_contacts
+from deik.cleanup.fix import fix_clip
+from deik.cleanup.summary import clip_report, per_frame_errors
+from deik.cli.arguments import check_device
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
 from deik.io.bvh import read_bvh

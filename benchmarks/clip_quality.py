@@ -11,10 +11,10 @@ each) with its segment masses:
    of a contact point between two contact frames (mm/frame, target <= 0.5), the foot-skating
    ratio (target 0), the deepest point below the floor (mm, target <= 1), the largest of the
    four peak ratios against the capture (rotation-channel velocity and acceleration, joint and
-   site velocity and acceleration, clips/dynamics.py; target <= 1.10), the frames meeting
+   site velocity and acceleration, cleanup/dynamics.py; target <= 1.10), the frames meeting
    every goal and the seconds.
 2. balance, the same with --balance: the frames whose zero-moment point it keeps over the
-   support and those it skips (clips/balance.py), the mean ZMP distance outside the support
+   support and those it skips (cleanup/balance.py), the mean ZMP distance outside the support
    (soles included) over the kept frames before and after, and the largest peak ratio
    (target <= 1.10).
 3. a known answer: the legs' rotation channels (hips, knees, ankles; not the channels the
@@ -38,14 +38,14 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.harness import machine, parser, start
-from deik.clips.body_contacts import detect_body_contacts, detect_floor, merge_contacts
-from deik.clips.coherence import hinge_channels
-from deik.clips.contacts import Contacts, detect_contacts, foot_sites, site_positions
-from deik.clips.dynamics import PEAK_RATIO, peak_ratios
-from deik.clips.problem import ClipGoals
-from deik.clips.report import clip_report, per_frame_errors
-from deik.clips.solver import fix_clip
-from deik.experiments.common import markdown_table, save_figure
+from deik.cleanup.body_contacts import detect_body_contacts, detect_floor, merge_contacts
+from deik.cleanup.clip_goals import ClipGoals
+from deik.cleanup.coherence import hinge_channels
+from deik.cleanup.contacts import Contacts, detect_contacts, foot_sites, site_positions
+from deik.cleanup.dynamics import PEAK_RATIO, peak_ratios
+from deik.cleanup.fix import fix_clip
+from deik.cleanup.summary import clip_report, per_frame_errors
+from deik.experiments.shared import markdown_table, save_figure
 from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE

@@ -161,7 +161,7 @@ def main(argv=None) -> int:
     if not (a.before / "src" / "deik").is_dir():
         p.error("--before DIR: give a checkout of deik (git worktree add DIR COMMIT)")
     from benchmarks.serial_vs_parallel import write_atomic
-    from deik.experiments.common import save_figure
+    from deik.experiments.shared import save_figure
     from deik.experiments.timing import cpu_model
 
     trees = {"before": a.before.resolve(), "after": ROOT}

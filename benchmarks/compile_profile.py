@@ -78,7 +78,7 @@ def _worker() -> int:
     from numba.core.dispatcher import Dispatcher
 
     overloads = literal = 0
-    for name in ("deik.kernels.cpu", "deik.kernels._device_cpu"):
+    for name in ("deik.backends.cpu_kernels", "deik.backends._device_cpu"):
         for value in vars(sys.modules[name]).values():
             if isinstance(value, Dispatcher):
                 overloads += len(value.overloads)

@@ -118,7 +118,7 @@ def cases(quick: bool) -> list[tuple[str, deik.Problem, deik.Settings]]:
 
 def profile_case(name: str, problem: deik.Problem, settings: deik.Settings, sm: Multiprocessor) -> list[dict]:
     """One row per kernel of the case: resources and theoretical occupancy."""
-    from deik.kernels.cuda import CudaBackend, kernels_for
+    from deik.backends.cuda import CudaBackend, kernels_for
 
     engine = deik.Engine(problem, settings)
     state = engine.run(engine.init(), 2)

@@ -2,7 +2,7 @@
 
 Command line (--device, --quick, --out, --threads, --dtype, --seed), machine facts, the
 batched chain problem, timing of Engine.run over a calibrated number of generations, and the
-atomic JSON + PNG outputs (deik.io.atomic, deik.experiments.common). Units: seconds, bytes.
+atomic JSON + PNG outputs (deik.io.atomic, deik.experiments.shared). Units: seconds, bytes.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 import deik
 from benchmarks.serial_vs_parallel import RESULTS
-from deik.experiments.common import markdown_table, save_figure
+from deik.experiments.shared import markdown_table, save_figure
 from deik.experiments.timing import cpu_model, environment, gpu_status
 from deik.io.atomic import write_json_atomically
 from deik.viz.plot import require_matplotlib

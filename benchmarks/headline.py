@@ -5,7 +5,7 @@
 
 One problem: deik.chain(100), Position("tip", FK of a random pose), population 500, the
 paper's settings (rand/1/bin, F 0.5, CR 0.5; deik.experiments.timing). In the same process:
-the serial reference (deik.solver.serial.SerialDE, Algorithm 1 in NumPy, averaged over
+the serial reference (deik.experiments.serial_numpy.SerialDE, Algorithm 1 in NumPy, averaged over
 --serial-epochs epochs), the parallel CPU engine, and with --device gpu the GPU engine (one
 block, every generation of a run in one launch), each warmed up and timed over --generations
 generations (best of --repeats; the GPU runs --gpu-generations per launch). Target (GPU only):

@@ -13,7 +13,7 @@ workers are spawned by every run, Ray's are reused). Clips per second and frames
 wall time, the clips' own seconds summed, and each round's ratios to 1 worker.
 
 Quality: `deik retarget DIR --map examples/maps/... --to TARGET --out OUTDIR` for both targets,
-2 local workers; per clip the report's summary (retarget/report.py): key-point error mean and
+2 local workers; per clip the report's summary (retargeting/measures.py): key-point error mean and
 worst (mm), contact sliding max (mm/frame), joint-limit violations (count, must be 0),
 penetration max (mm, deepest joint or site below the floor), self-penetration max (mm, deepest
 overlap of two of the target's bone capsules), the key points' speed and acceleration peaks
@@ -38,8 +38,8 @@ from pathlib import Path
 
 from benchmarks.harness import machine
 from deik.cli.app import build_parser
-from deik.cli.library import do_clip, library_jobs
-from deik.experiments.common import markdown_table, save_figure
+from deik.cli.folder_command import do_clip, library_jobs
+from deik.experiments.shared import markdown_table, save_figure
 from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.library.run import run_library
 from deik.viz.plot import require_matplotlib

@@ -1,16 +1,16 @@
 """What each step of a joint-map retarget buys: every shared clip onto deik.humanoid() with the
-whole pipeline (retarget/rig.py) and with one step left out.
+whole pipeline (retargeting/rig.py) and with one step left out.
 
     PYTHONPATH=src python -m benchmarks.retarget_steps [--out benchmarks/results]
 
-Ways (each a patch of retarget/rig.py's module names for the run, nothing else changed):
+Ways (each a patch of retargeting/rig.py's module names for the run, nothing else changed):
 - all steps;
 - no outlier repair: ik.repair_outliers returns its poses (frames that settled in another basin
   than their neighbours stay there);
 - no smoothed restarts: REBASIN = 0 (each frame keeps the basin its own IK found);
 - no space-time pass: smooth.smooth_motion returns step 3's poses (no contact held, the
   capsules not kept apart; the floor only as the per-frame IK keeps it).
-Per clip and way the report's summary (retarget/report.py): key-point error mean and worst (mm),
+Per clip and way the report's summary (retargeting/measures.py): key-point error mean and worst (mm),
 contact sliding max (mm/frame), floor and self-penetration max (mm), the key points' speed and
 acceleration peaks over their targets', jolted frames and time per frame (ms). Writes
 retarget_steps.json and retarget_steps.md into --out (atomically); prints the table.
@@ -26,14 +26,14 @@ from pathlib import Path
 from unittest import mock
 
 from benchmarks.harness import machine
-from deik.experiments.common import markdown_table
+from deik.experiments.shared import markdown_table
 from deik.io.atomic import write_json_atomically, write_text_atomically
-from deik.retarget.api import retarget
+from deik.retargeting.api import retarget
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIPS = ROOT.parent / "shared" / "data" / "humanoid"
 MAP = ROOT / "examples" / "maps" / "shared_bvh_to_humanoid.toml"
-RIG = "deik.retarget.rig"  # the module, not deik.retarget (the function of the same name)
+RIG = "deik.retargeting.rig"  # the module, not deik.retarget (the function of the same name)
 WAYS = {
     "all steps": {},
     "no outlier repair": {"repair_outliers": lambda goals, poses: poses},

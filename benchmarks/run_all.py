@@ -22,7 +22,7 @@ from pathlib import Path
 
 from benchmarks import batch, gpu_kernels, headline, memory, serial_vs_parallel, throughput
 from benchmarks.serial_vs_parallel import RESULTS
-from deik.experiments.common import markdown_table
+from deik.experiments.shared import markdown_table
 from deik.experiments.timing import machine_line
 from deik.io.atomic import write_json_atomically, write_text_atomically
 

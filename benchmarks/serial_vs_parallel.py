@@ -5,9 +5,9 @@
 
 For each length n: the paper's planar chain deik.chain(n) with one Position goal on its tip,
 the target being the FK of a random in-limit pose. In the same process, side by side:
-- serial: deik.solver.serial.SerialDE (NumPy, one candidate evaluated at a time, in-place
+- serial: deik.experiments.serial_numpy.SerialDE (NumPy, one candidate evaluated at a time, in-place
   replacement), averaged over a few epochs because it is slow;
-- serial compiled: deik.solver.serial.CompiledSerialDE, the same Algorithm 1 compiled with the
+- serial compiled: deik.experiments.serial_numpy.CompiledSerialDE, the same Algorithm 1 compiled with the
   kernels' maths for one CPU thread (the paper's "serial CPU"), taking turns with the parallel
   engine repeat by repeat;
 - parallel: deik.Engine on the CPU (Numba, ping-pong buffers), Settings.paper (rand/1/bin,
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numba
 
-from deik.experiments.common import log_time_axes
+from deik.experiments.shared import log_time_axes
 from deik.experiments.timing import environment, make_problem, time_parallel, time_serial, time_serial_compiled
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import harness
-from deik.experiments.common import save_figure
+from deik.experiments.shared import save_figure
 from deik.io.atomic import write_json_atomically, write_text_atomically
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -21,7 +21,7 @@ import tomllib
 from pathlib import Path
 
 from benchmarks.serial_vs_parallel import RESULTS
-from deik.experiments.common import save_figure
+from deik.experiments.shared import save_figure
 from deik.io.atomic import write_json_atomically
 from deik.viz.plot import require_matplotlib
 

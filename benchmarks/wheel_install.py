@@ -135,7 +135,7 @@ def measure(folder: Path, extras: str = "") -> dict:
 
 def _picture(record: dict, extras: str, path: Path) -> None:
     """A bar per package, MB, with the 200 MB target for the total."""
-    from deik.experiments.common import save_figure
+    from deik.experiments.shared import save_figure
     from deik.viz.plot import require_matplotlib
 
     plt = require_matplotlib()

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 import deik
-from deik.clips.contacts import detect_contacts, foot_sites
-from deik.clips.metrics import foot_sliding
-from deik.clips.problem import ClipGoals
-from deik.clips.solver import fix_clip
+from deik.cleanup.clip_goals import ClipGoals
+from deik.cleanup.contacts import detect_contacts, foot_sites
+from deik.cleanup.fix import fix_clip
+from deik.cleanup.metrics import foot_sliding
 
 DATA = Path(os.environ.get("DEIK_SHARED_DATA") or Path(__file__).resolve().parents[2] / "shared" / "data")
 

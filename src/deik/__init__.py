@@ -7,15 +7,10 @@ first use (PEP 562), so a script or command pays only for what it uses.
 import importlib
 import logging
 
-# The subpackage deik.retarget shares its name with the function deik.retarget: loading the
-# package binds its name here, so it is loaded now (it is light) and the name given back.
-importlib.import_module("deik.retarget")
-globals().pop("retarget")
-
 # the module that defines each public name
 _MODULES = {
     "deik.io.bvh": ("read_bvh", "write_bvh"),
-    "deik.io.clip": ("Clip",),
+    "deik.io.motion": ("Clip",),
     "deik.io.load": ("load_skeleton",),
     "deik.io.urdf": ("read_urdf",),
     "deik.model.build": ("build_skeleton",),
@@ -37,14 +32,14 @@ _MODULES = {
     ),
     "deik.objectives.pose_goals": ("pose_goals",),
     "deik.objectives.self_collision": ("SelfCollision",),
-    "deik.retarget.api": ("retarget",),
+    "deik.retargeting.api": ("retarget",),
     "deik.solver.engine": ("Engine", "EvolutionState"),
     "deik.solver.problem": ("Problem",),
     "deik.solver.result": ("GoalReport", "Result"),
     "deik.solver.seeding": ("poses_around",),
     "deik.solver.settings": ("Settings",),
     "deik.solver.solve": ("solve", "solve_batch"),
-    "deik.solver.solver": ("Solver",),
+    "deik.solver.reusable": ("Solver",),
 }
 _EXPORTS = {name: module for module, names in _MODULES.items() for name in names}
 __all__ = sorted(_EXPORTS)

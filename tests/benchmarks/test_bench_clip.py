@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from benchmarks.clip_frames import loop_clip, main
-from deik.clips.contacts import detect_contacts
+from deik.cleanup.contacts import detect_contacts
 from deik.io.bvh import read_bvh
 from deik.model.kinematics import forward_kinematics
 from helpers import shared_path

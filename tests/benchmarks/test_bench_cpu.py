@@ -9,7 +9,7 @@ import pytest
 
 import deik
 from benchmarks import run_all
-from deik.kernels import cpu
+from deik.backends import cpu_kernels as cpu
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -84,7 +84,7 @@ def test_duplicate_names_are_found_in_one_pass():
 
 
 def test_deeply_nested_toml_is_refused_with_the_file_named(tmp_path):
-    from deik.io.problem_file import load_problem
+    from deik.solver.problem_file import load_problem
 
     path = tmp_path / "deep.toml"
     path.write_text('skeleton = "chain:3"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
@@ -140,17 +140,17 @@ def test_two_outputs_naming_one_file_are_refused(tmp_path, capsys):
     )
     assert status == 2 and "--plot" in err and "must end in .png" in err
     assert not list(tmp_path.iterdir())
-    from deik.cli.common import UsageError, check_outputs
+    from deik.cli.arguments import UsageError, check_outputs
 
     with pytest.raises(UsageError, match="--a and --b both name"):
         check_outputs({"--a": str(tmp_path / "x.json"), "--b": str(tmp_path / "x.json")}, {})
 
 
 def test_unwritable_output_folder_is_refused_before_solving(tmp_path, capsys, monkeypatch):
-    import deik.cli.common
+    import deik.cli.arguments
 
     # as root every folder is writable, so the check's system call is made to answer "no"
-    monkeypatch.setattr(deik.cli.common.os, "access", lambda path, mode: False)
+    monkeypatch.setattr(deik.cli.arguments.os, "access", lambda path, mode: False)
     status, err = _cli(["solve", "chain:3", "--reach", "tip", 1, 1, 0, "--out", tmp_path / "x.json"], capsys)
     assert status == 2 and "is not writable; choose another folder" in err
 

@@ -12,8 +12,8 @@ import deik
 from deik.cli.app import main
 from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.load import skeleton_from_spec
-from deik.io.problem_file import load_problem
 from deik.model.rotations import euler_matrix
+from deik.solver.problem_file import load_problem
 from deik.viz import plot
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

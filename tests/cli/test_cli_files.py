@@ -440,7 +440,7 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     """frame = N seeds the search, makes comfort goals keep that frame's pose, and --out x.bvh
     replaces only that frame of the clip."""
     from deik.io.bvh import read_bvh
-    from deik.io.problem_file import load_problem
+    from deik.solver.problem_file import load_problem
 
     path = shared_data / "humanoid" / "humanoid3d_walk.bvh"
     clip, target = _clip_target(path, 5, seed=3)
@@ -482,7 +482,7 @@ def test_toml_problem_on_a_bvh_frame_writes_the_clip_back(shared_data, tmp_path,
     ],
 )
 def test_toml_skeleton_file_errors_name_the_field(shared_data, tmp_path, lines, fragment):
-    from deik.io.problem_file import load_problem
+    from deik.solver.problem_file import load_problem
 
     problem = tmp_path / "bad.toml"
     problem.write_text(lines.format(data=shared_data) + '[[goal]]\ntype = "comfort"\n')

@@ -9,9 +9,9 @@ import pytest
 
 import deik
 from deik.cli.app import main
-from deik.io.problem_file import load_problem
 from deik.objectives import reference
 from deik.objectives.goals import LENGTH_TOLERANCE
+from deik.solver.problem_file import load_problem
 
 SMALL = ["--population", "64", "--generations", "300", "--seed", "1", "--restarts", "2"]
 

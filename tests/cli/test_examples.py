@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import deik
+from deik.cleanup.contacts import detect_contacts, foot_sites
+from deik.cleanup.metrics import foot_sliding
 from deik.cli.app import main
-from deik.clips.contacts import detect_contacts, foot_sites
-from deik.clips.metrics import foot_sliding
 from helpers import ROOT
 
 EXAMPLES = ROOT / "examples"

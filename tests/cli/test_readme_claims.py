@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import deik
-from deik.clips.contacts import detect_contacts
+from deik.cleanup.contacts import detect_contacts
 from deik.model.orientations import quaternion_matrix, rpy_matrix
-from deik.retarget.skeletons import scaled_bones
+from deik.retargeting.skeletons import scaled_bones
 from helpers import ROOT, shared_path
 
 README = (ROOT / "README.md").read_text()

@@ -17,7 +17,7 @@ import pytest
 
 import deik
 from deik.cli.app import build_parser, main
-from deik.cli.view import build_scene
+from deik.cli.view_command import build_scene
 from helpers import ROOT
 
 pytest.importorskip("viser", reason='deik view needs viser: pip install "deik[view]"')

@@ -8,7 +8,7 @@ import sys
 import deik.solver.readiness as readiness
 from deik.cli.app import main
 
-CHECK_LOCATION = "from deik.kernels import cpu; print(cpu.run_generations.entry._cache._cache_path)"
+CHECK_LOCATION = "from deik.backends import cpu_kernels as cpu; print(cpu.run_generations.entry._cache._cache_path)"
 
 
 def _python(code: str, **env) -> str:
@@ -21,29 +21,29 @@ def _python(code: str, **env) -> str:
 
 def test_kernel_cache_goes_to_numba_cache_dir_when_set(tmp_path):
     assert _python(CHECK_LOCATION, NUMBA_CACHE_DIR=str(tmp_path)).startswith(str(tmp_path))
-    assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "kernels", "__pycache__"))
+    assert _python(CHECK_LOCATION).endswith(os.path.join("deik", "backends", "__pycache__"))
 
 
 def test_import_deik_loads_no_numpy_or_numba_and_a_name_loads_only_its_module():
     """`import deik` stays light: each public name loads its module on first use."""
-    heavy = "('numpy', 'numba', 'scipy', 'deik.kernels.cpu', 'deik.solver.solve', 'deik.io.bvh')"
+    heavy = "('numpy', 'numba', 'scipy', 'deik.backends.cpu_kernels', 'deik.solver.solve', 'deik.io.bvh')"
     code = f"import sys, deik; print(sorted(m for m in {heavy} if m in sys.modules))"
     assert _python(code) == "[]"
     code = f"import sys, deik; deik.chain(3); print(sorted(m for m in {heavy} if m in sys.modules))"
     assert _python(code) == "['numpy']"
-    code = "import deik, deik.retarget.api; from deik import retarget as r; print(r is deik.retarget, callable(r))"
+    code = "import deik, deik.retargeting.api; from deik import retarget as r; print(r is deik.retarget, callable(r))"
     assert _python(code) == "True True"  # the function, not the subpackage of the same name
 
 
 def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
     # as root every folder is writable, so the package folder is made to refuse the cache
     code = (
-        "from deik.kernels import targets\n"
+        "from deik.backends import targets\n"
         "def refuse(self): raise PermissionError('read-only')\n"
         "targets._InTreeKernelLocator.ensure_cache_path = refuse\n" + CHECK_LOCATION
     )
     path = _python(code, NUMBA_CACHE_DIR="", XDG_CACHE_HOME=str(tmp_path), HOME=str(tmp_path))
-    assert path.startswith(str(tmp_path)) and "kernels" in path
+    assert path.startswith(str(tmp_path)) and "backends" in path
 
 
 def test_no_compile_note_once_the_kernels_are_compiled(capsys):

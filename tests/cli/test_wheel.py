@@ -29,9 +29,11 @@ from benchmarks.readme_commands import (
     runnable,
 )
 from benchmarks.wheel_install import MAX_PACKAGES, MB, index_reachable, install, measure, outside_env
-from deik.kernels import cpu
+from deik.backends import cpu_kernels as cpu
 
-CACHE_PATH = "from deik.kernels import cpu; print(cpu.launch.entry._cache._cache_path)"  # Numba's, private
+CACHE_PATH = (
+    "from deik.backends import cpu_kernels as cpu; print(cpu.launch.entry._cache._cache_path)"  # Numba's, private
+)
 
 
 @pytest.fixture(scope="module")

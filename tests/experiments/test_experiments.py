@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from deik.experiments import runner
-from deik.experiments.common import quantile, spread
 from deik.experiments.fig7_selection import SequentialSerialDE
+from deik.experiments.serial_numpy import SerialDE
+from deik.experiments.shared import quantile, spread
 from deik.experiments.timing import gpu_status, make_problem
-from deik.solver.serial import SerialDE
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 NAMES = list(runner.EXPERIMENTS)

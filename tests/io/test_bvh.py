@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import deik
+from deik.errors import FileFormatError
 from deik.io import atomic
 from deik.io.bvh import Clip, format_bvh, parse_bvh, read_bvh, write_bvh
-from deik.io.errors import FileFormatError
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, TRANSLATE, Joint, euler, hinge, translation
 from deik.model.kinematics import forward_kinematics

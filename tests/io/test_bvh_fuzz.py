@@ -14,8 +14,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from deik.errors import FileFormatError
 from deik.io.bvh import format_bvh, parse_bvh
-from deik.io.errors import FileFormatError
 
 SCALE = float(os.environ.get("DEIK_FUZZ_SCALE", "1"))
 

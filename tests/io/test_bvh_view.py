@@ -4,7 +4,7 @@ import numpy as np
 
 import deik
 from deik.io.bvh import format_bvh, parse_bvh
-from deik.io.bvh_view import view_clip
+from deik.io.bvh.preview import view_clip
 from deik.model.rotations import euler_angles, euler_matrix
 from helpers import random_poses, robot_arm
 

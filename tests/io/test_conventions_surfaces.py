@@ -10,7 +10,7 @@ import pytest
 import deik
 from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.limits import read_limits
-from deik.io.problem_file import load_problem
+from deik.solver.problem_file import load_problem
 
 ARM = """<?xml version="1.0"?>
 <robot name="arm">

@@ -11,7 +11,7 @@ import deik
 from deik.cli.app import main
 from deik.io.bvh import read_bvh
 from deik.io.limits import clip_within, range_of_motion, read_limits, with_limits, write_limits
-from deik.io.problem_file import load_problem
+from deik.solver.problem_file import load_problem
 from helpers import shared_path
 
 

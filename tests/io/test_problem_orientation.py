@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from deik.io.problem_file import load_problem
+from deik.solver.problem_file import load_problem
 
 ROTATION = Rotation.from_euler("xyz", [20.0, -35.0, 110.0], degrees=True)
 

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import deik
+from deik.errors import FileFormatError
 from deik.io.bvh import parse_bvh, read_bvh
-from deik.io.errors import FileFormatError
 from deik.io.segments import (
     NOMINAL_MASS,
     bone_class,

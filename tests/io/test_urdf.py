@@ -6,7 +6,7 @@ import pytest
 import yourdfpy
 
 import deik
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 from deik.io.urdf import read_urdf
 
 ROBOTS = {"panda": (0, 0, 1), "kuka_iiwa": (0, 0, 1), "human": (0, 1, 0)}
@@ -260,7 +260,7 @@ def test_float32_kernel_limits_lie_inside_the_float64_limits(shared_data):
     """Limits like the Panda's -2.8973 have no exact float32 value: the float32 kernels' limits must
     be rounded inwards, or a float32 solution could lie a few nanoradians outside the limit that
     the float64 Result is checked against."""
-    from deik.kernels.pack import pack_skeleton
+    from deik.backends.pack import pack_skeleton
 
     sk = read_urdf(shared_data / "robots" / "panda.urdf")
     limits = pack_skeleton(sk, np.float32).limits.astype(np.float64)

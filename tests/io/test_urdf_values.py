@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 from deik.io.urdf import read_urdf
 
 # line 1: XML declaration, 2: <robot>, 3: links, 4: <joint ...>, 5: <parent>, 6: <origin>, 7: <axis>, 8: <limit>

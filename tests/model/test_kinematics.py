@@ -9,8 +9,8 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Segment, Site, build_skeleton, euler, hinge, translation
-from deik.kernels.cpu import forward_kinematics_batch
-from deik.kernels.pack import pack_skeleton
+from deik.backends.cpu_kernels import forward_kinematics_batch
+from deik.backends.pack import pack_skeleton
 from deik.model.rotations import axis_angle_matrix, euler_matrix, rotation_angle
 
 TAIT_BRYAN = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]

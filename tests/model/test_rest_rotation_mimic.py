@@ -10,8 +10,8 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton
-from deik.kernels.cpu import forward_kinematics_batch
-from deik.kernels.pack import pack_skeleton
+from deik.backends.cpu_kernels import forward_kinematics_batch
+from deik.backends.pack import pack_skeleton
 from deik.model.joints import ROTATE, TRANSLATE, Dof
 
 R_A = Rotation.from_euler("xyz", [0.3, -0.7, 1.1]).as_matrix()

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.kernels.targets import cpu as dev
+from deik.backends.targets import cpu as dev
 from deik.objectives import reference
 from deik.objectives.registry import KIND_NAMES
 from helpers import every_goal_problem, kernel_fitness

@@ -8,12 +8,12 @@ import numpy as np
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.io.problem_goals import GOAL_TYPES, ORIENTATION_KEYS
-from deik.kernels import cpu
-from deik.kernels.pack import pack_skeleton, pack_terms
+from deik.backends import cpu_kernels as cpu
+from deik.backends.pack import pack_skeleton, pack_terms
 from deik.objectives import kinds, registry
 from deik.objectives.goals import Goal
 from deik.objectives.registry import KIND_NAMES, KINDS, kind_of
+from deik.solver.problem_goals import GOAL_TYPES, ORIENTATION_KEYS
 from helpers import every_goal_problem
 
 KIND_CODES = (

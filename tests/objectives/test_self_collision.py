@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import lsq_linear
 
 import deik
-from deik.kernels.targets import cpu as dev
+from deik.backends.targets import cpu as dev
 from deik.model.geometry import segments_distance
 from deik.objectives import reference
 from helpers import kernel_fitness, random_poses

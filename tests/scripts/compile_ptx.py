@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 from numba import cuda, typeof  # noqa: E402
 
 import deik  # noqa: E402
-from deik.kernels import cuda as kernels  # noqa: E402
+from deik.backends import cuda as kernels  # noqa: E402
 
 human = deik.humanoid()
 rest = deik.forward_kinematics(human, human.reference)

@@ -1,7 +1,7 @@
 """Run a tiny humanoid solve with a SelfCollision goal on the device named in argv[1] (float64,
 no polish) and print its final population and raw errors as JSON.
 
-Used by tests/kernels/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
+Used by tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
 """
 
 import json

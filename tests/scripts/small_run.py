@@ -1,6 +1,6 @@
 """Run a small two-problem solve on the device named in argv[1] and print the state as JSON.
 
-Used by tests/kernels/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
+Used by tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
 argv: device (cpu|gpu), dtype (float32|float64), LM polish iterations. The third problem's
 target is out of reach, so it stagnates and restarts.
 """

@@ -2,7 +2,7 @@
 the polish that converges on a copy) on the device named in argv[1], float64, and print the
 state as JSON.
 
-Used by tests/kernels/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
+Used by tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
 Problem 0 has nine residual rows for eight DOFs (the polish solves the normal equations),
 problem 1 only the tip's three (its other goals are inactive: the m x m dual step), and problem
 2's elbow target is out of reach, so it needs generations, polish rounds and a restart.

@@ -26,13 +26,13 @@ import os
 import sys
 
 from deik import __version__
-from deik.cli import clip as cli_clip
-from deik.cli import library as cli_library
-from deik.cli import retarget as cli_retarget
-from deik.cli import solve as cli_solve
-from deik.cli import view as cli_view
-from deik.cli import warmup as cli_warmup
-from deik.cli.common import USER_ERRORS, Parser, check_outputs, error_line, numbers
+from deik.cli import clip_command as cli_clip
+from deik.cli import folder_command as cli_library
+from deik.cli import retarget_command as cli_retarget
+from deik.cli import solve_command as cli_solve
+from deik.cli import view_command as cli_view
+from deik.cli import warmup_command as cli_warmup
+from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line, numbers
 from deik.console import add_output_flags, configure_logging, show_progress
 from deik.io.load import load_skeleton
 
@@ -52,7 +52,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
-    from deik.cli.info import describe
+    from deik.cli.info_command import describe
 
     up = numbers("--up", args.up) if args.up else None
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)

@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.common import UsageError, numbers
+from deik.cli.arguments import UsageError, numbers
 from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
 

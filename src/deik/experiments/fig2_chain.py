@@ -14,7 +14,8 @@ import os
 
 import numpy as np
 
-from deik.experiments.common import (
+from deik.experiments.demo import chain_scenarios
+from deik.experiments.shared import (
     DE_ONLY,
     Section,
     command,
@@ -25,7 +26,6 @@ from deik.experiments.common import (
     seed_list,
     write_csv,
 )
-from deik.experiments.demo import chain_scenarios
 from deik.solver.solve import solve
 from deik.viz.plot import require_matplotlib
 

@@ -17,7 +17,8 @@ import time
 
 import numpy as np
 
-from deik.experiments.common import (
+from deik.experiments.demo import chain_target
+from deik.experiments.shared import (
     CONVERGED_FRACTION,
     Section,
     command,
@@ -29,7 +30,6 @@ from deik.experiments.common import (
     spread,
     write_csv,
 )
-from deik.experiments.demo import chain_target
 from deik.model.builders import chain
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Position

@@ -19,7 +19,8 @@ import os
 
 import numpy as np
 
-from deik.experiments.common import (
+from deik.experiments.demo import HUMANOID_SETTINGS, humanoid_scenario
+from deik.experiments.shared import (
     DE_ONLY,
     Section,
     command,
@@ -31,7 +32,6 @@ from deik.experiments.common import (
     seed_list,
     write_csv,
 )
-from deik.experiments.demo import HUMANOID_SETTINGS, humanoid_scenario
 from deik.model.kinematics import forward_kinematics
 from deik.objectives.reference import raw_errors
 from deik.solver.problem import Problem

@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from deik.experiments.common import (
+from deik.experiments.shared import (
     Section,
     command,
     de_only,

@@ -3,7 +3,7 @@
 Algorithm 1 picks the individual to challenge, x, at random in each of the POP_SIZE iterations
 of an epoch; "sequential" takes x = 0, 1, ..., POP_SIZE - 1 instead, so every individual is
 challenged exactly once per generation (what the parallel engine does). Everything else is
-`deik.solver.serial.SerialDE` unchanged: donors, crossover, in-place replacement. The
+`deik.experiments.serial_numpy.SerialDE` unchanged: donors, crossover, in-place replacement. The
 problem is the paper's: a 20-joint planar chain, population 500, its tip to the tip of a
 random in-limit pose (`deik.experiments.timing.make_problem`). We record the best and the
 population-mean total fitness after each generation (the paper's "average fitness").
@@ -15,9 +15,9 @@ import os
 
 import numpy as np
 
-from deik.experiments.common import Section, command, describe, markdown_table, save_figure, seed_list, write_csv
+from deik.experiments.serial_numpy import Iteration, SerialDE
+from deik.experiments.shared import Section, command, describe, markdown_table, save_figure, seed_list, write_csv
 from deik.experiments.timing import make_problem
-from deik.solver.serial import Iteration, SerialDE
 from deik.viz.plot import require_matplotlib
 
 NAME = "fig7"

@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from deik.experiments.common import Section, command, markdown_table, save_figure, write_csv
+from deik.experiments.shared import Section, command, markdown_table, save_figure, write_csv
 from deik.experiments.timing import cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel
 from deik.viz.plot import require_matplotlib
 

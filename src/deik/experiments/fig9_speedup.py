@@ -13,7 +13,7 @@ import os
 
 import numba
 
-from deik.experiments.common import Section, command, log_time_axes, markdown_table, save_figure, write_csv
+from deik.experiments.shared import Section, command, log_time_axes, markdown_table, save_figure, write_csv
 from deik.experiments.timing import cpu_model, gpu_plan, gpu_status, load_line, make_problem, time_parallel, time_serial
 from deik.viz.plot import require_matplotlib
 

@@ -17,9 +17,10 @@ import sys
 import time
 
 from deik.console import add_output_flags, configure_logging, progress_bar, show_progress
+from deik.errors import UsageError
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
-from deik.experiments.common import Section, markdown_table
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
+from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
 from deik.io.atomic import save_atomically, write_text_atomically
 
@@ -55,10 +56,6 @@ the LM polish, jDE rates and restarts that deik's solver adds by default are off
 
 Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f} s ({mode}).
 """
-
-
-class UsageError(Exception):
-    """Bad command-line input: reported in one line, exit status 2."""
 
 
 class _Parser(argparse.ArgumentParser):

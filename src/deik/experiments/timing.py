@@ -2,7 +2,7 @@
 
 Shared by Figs. 8 and 9 and by `benchmarks/serial_vs_parallel.py`. The problem is the
 paper's planar chain `deik.chain(n)` with one Position goal on its tip whose target is the
-forward kinematics of a random in-limit pose. Serial: `deik.solver.serial.SerialDE`
+forward kinematics of a random in-limit pose. Serial: `deik.experiments.serial_numpy.SerialDE`
 (NumPy, one candidate evaluated at a time, in-place replacement). Parallel: `deik.Engine`
 with `Settings.paper` (rand/1/bin, F 0.5, CR 0.5), `stop_on_converged=False` and a huge
 patience so every generation runs, warmed up once so compilation is excluded.
@@ -19,10 +19,10 @@ import numba
 import numpy as np
 
 import deik
-from deik.experiments.common import CONVERGED_FRACTION
+from deik.experiments.serial_numpy import CompiledSerialDE, SerialDE
+from deik.experiments.shared import CONVERGED_FRACTION
 from deik.model.kinematics import forward_kinematics
 from deik.solver.problem import Problem
-from deik.solver.serial import CompiledSerialDE, SerialDE
 
 
 def make_problem(n_links: int, seed: int) -> deik.Problem:

@@ -11,7 +11,7 @@ import json
 import os
 import stat
 
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 
 FilePath = str | os.PathLike  # a file a user names: a string or a pathlib.Path
 MAX_INPUT_BYTES = 1 << 30  # 1 GiB: far above any motion clip or robot file

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from deik.io.atomic import write_json_atomically
-from deik.io.clip import Clip
 from deik.io.files import FilePath, read_input_text
+from deik.io.motion import Clip
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean

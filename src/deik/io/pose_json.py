@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 from deik.io.files import FilePath, read_input_json
 from deik.model.skeleton import Skeleton
 

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 from deik.io.files import FilePath, read_input_text
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.joints import Segment

@@ -22,9 +22,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.io.atomic import write_json_atomically, write_text_atomically
-from deik.io.clip import Clip
 from deik.io.euler import continuous_angles, continuous_frames
 from deik.io.files import FilePath
+from deik.io.motion import Clip
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton

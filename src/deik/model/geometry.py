@@ -1,7 +1,7 @@
 """Ground frames, 2-D convex hulls, and point-to-segment, segment-to-segment and point-to-polygon
 distances, in NumPy (batched).
 
-The kernels compute the same quantities in device code (kernels/device_terms.py); these are the
+The kernels compute the same quantities in device code (device/terms.py); these are the
 readable versions that the oracle, the clip metrics and the balance track use.
 """
 

@@ -1,6 +1,6 @@
 """Forward kinematics and centre of mass in NumPy for any batch shape (the Python edge).
 
-The compiled kernels carry their own scalar copy of this maths (deik.kernels.device_maths); tests
+The compiled kernels carry their own scalar copy of this maths (deik.device.maths); tests
 hold the two to each other and to scipy's Rotation.
 """
 

@@ -13,15 +13,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.kernels.layout import (
-    Buffers,
-    Control,
-    KernelSettings,
-    Memetic,
-    PackedTerms,
-    Status,
-)
-from deik.kernels.pack import kernel_array, pack_skeleton, pack_terms
+from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
+from deik.device.layout import Buffers, Control, KernelSettings, Memetic, PackedTerms, Status
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
@@ -110,7 +103,7 @@ class Engine:
         )
         if settings.device == "gpu":
             try:
-                from deik.kernels.cuda import CudaBackend
+                from deik.backends.cuda import CudaBackend
             except ImportError as error:
                 raise RuntimeError(
                     f"device='gpu' needs numba-cuda ({error}): pip install \"deik[gpu]\" "
@@ -118,7 +111,7 @@ class Engine:
                 ) from error
             self.backend = CudaBackend()
         else:
-            from deik.kernels.cpu_backend import CpuBackend
+            from deik.backends.cpu import CpuBackend
 
             self.backend = CpuBackend()
 
@@ -262,7 +255,7 @@ class Engine:
     def raw_errors(self, poses: np.ndarray) -> np.ndarray:
         """Raw error (metres or radians) of every term, (B, T) float64, for poses (B, D), pose b
         measured against problem b by the CPU kernel's own maths in float64."""
-        from deik.kernels.cpu_backend import evaluate_poses
+        from deik.backends.cpu import evaluate_poses
 
         return evaluate_poses(poses, np.arange(len(poses)), self.skel64, self.terms64, self.problem.table.n_levels)[2]
 

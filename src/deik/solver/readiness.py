@@ -1,10 +1,10 @@
 """Which CPU kernels a command must compile before it can solve, about how long that takes, and
 the one line it prints first, so that nobody waits in silence.
 
-A CPU solve runs one compiled kernel per dtype (deik.kernels.cpu.launch, with or without the LM
+A CPU solve runs one compiled kernel per dtype (deik.backends.cpu_kernels.launch, with or without the LM
 polish) and, in float32, the float64 evaluation of its report; a clip fix also the float64 point
 Jacobians of its warm start. Each is compiled on first use and cached on disk
-(deik.kernels.targets). The estimate is the compile time measured on this machine, which a
+(deik.backends.targets). The estimate is the compile time measured on this machine, which a
 command records beside the cache after compiling, else the time benchmarks/cold_start.py
 measured on the reference machine below.
 """
@@ -37,7 +37,7 @@ def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
     """Names of the kernels a CPU solve in `dtype` ("float32", "float64"), with the LM polish or
     without (which uses the kernel with it when that one is ready), must compile first; `clip`:
     a clip fix, which also needs the warm start's Jacobians."""
-    from deik.kernels import cpu_backend
+    from deik.backends import cpu as cpu_backend
 
     names = []
     if not (cpu_backend.launch_ready(dtype, polish) or (not polish and cpu_backend.launch_ready(dtype, True))):
@@ -51,7 +51,7 @@ def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
 
 def _record_path() -> str | None:
     """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
-    from deik.kernels import cpu
+    from deik.backends import cpu_kernels as cpu
 
     try:
         return os.path.join(cpu.launch.entry._cache._cache_path, RECORD_FILE)
@@ -91,7 +91,8 @@ def compile_note(names: list[str], certain: bool = True) -> str:
 def record_compiles() -> dict:
     """Add the compile times of the kernels compiled in this process to this machine's record
     (best effort: a read-only cache keeps none); returns {name: seconds} added."""
-    from deik.kernels import cpu, cpu_backend
+    from deik.backends import cpu as cpu_backend
+    from deik.backends import cpu_kernels as cpu
 
     compiled = {}
     for sig, seconds in cpu.launch.compile_seconds().items():

@@ -1,6 +1,6 @@
 """DE settings: `Settings`, every field checked by name and type when it is made.
 
-The strategy, limit-mode and device names map to the kernels' codes (deik.kernels.layout).
+The strategy, limit-mode and device names map to the kernels' codes (deik.device.layout).
 """
 
 from __future__ import annotations
@@ -10,16 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.kernels.layout import (
-    BEST_1,
-    CLIP,
-    CURRENT_TO_BEST_1,
-    MAX_POLISH_COUNT,
-    PAPER,
-    PENALTY,
-    RAND_1,
-    REFLECT,
-)
+from deik.device.layout import BEST_1, CLIP, CURRENT_TO_BEST_1, MAX_POLISH_COUNT, PAPER, PENALTY, RAND_1, REFLECT
 
 STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
 LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.kernels.layout import Buffers
+from deik.device.layout import Buffers
 
 if TYPE_CHECKING:
     from deik.solver.engine import Engine

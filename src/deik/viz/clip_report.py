@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.atomic import save_atomically
-from deik.io.clip import Clip
 from deik.io.files import FilePath
+from deik.io.motion import Clip
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -52,7 +52,7 @@ def most_changed_frame(original: Motion, fixed: Motion) -> int:
 
 def pose_panel(original: Clip, fixed: Clip, document: dict, projection: str = "2d", unit: str = "m") -> PosePanel:
     """The PosePanel of a fix's most changed frame, marked with the contacts and reach targets
-    of its report `document` (deik.clips.document.clip_document)."""
+    of its report `document` (deik.cleanup.document.clip_document)."""
     frame = most_changed_frame(original, fixed)
     marks = marks_at(document, frame, original.n_frames)
     return PosePanel(fixed.skeleton, original.pose(frame), fixed.pose(frame), frame, marks, projection, unit)

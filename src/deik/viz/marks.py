@@ -100,13 +100,13 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
     skeleton was loaded (deik.io.load.Loaded.kind: "urdf", "bvh", "builtin"; None for one built
     in Python). URDF lengths and the built-in humanoid are metres; the paper's chains count link
     lengths; a BVH file does not say, so its unit is guessed from the skeleton's size
-    (deik.clips.units.guess_unit); any other skeleton's unit is its own ("length units")."""
+    (deik.cleanup.units.guess_unit); any other skeleton's unit is its own ("length units")."""
     if given:
         return given, "given"
     if kind == "urdf":
         return "m", "URDF"
     if kind == "bvh":
-        from deik.clips.units import guess_unit
+        from deik.cleanup.units import guess_unit
 
         return guess_unit(skeleton), "guessed from the skeleton's size"
     if kind in ("builtin", None) and skeleton.name == "humanoid":

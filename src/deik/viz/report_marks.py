@@ -1,4 +1,4 @@
-"""A clip report (`deik clip --json`, deik.clips.document) as marks on a clip's scene: each
+"""A clip report (`deik clip --json`, deik.cleanup.document) as marks on a clip's scene: each
 contact's plant point while it touches, each reach track's target in its frames, and the floor.
 
 Every mistake in the report is a FileFormatError (a ValueError) that names the file.
@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.io.errors import FileFormatError
+from deik.errors import FileFormatError
 from deik.io.files import FilePath, read_input_json
 from deik.viz.scene import Marks, Scene
 

@@ -1,0 +1,101 @@
+"""Does a fix keep the motion's dynamics? Its velocity and acceleration peaks against the capture's.
+
+A fix keeps the dynamics when none of its peaks rises more than PEAK_RATIO above the capture's:
+the largest rotation-channel velocity and acceleration (deg/s, deg/s^2 of the continuous Euler
+channels, clips/metrics.spikes) and the largest velocity and acceleration of any joint or end
+site (length units per s and s^2). A frame jolts when one of its values passes that bound (and
+the capture's peak plus SLACK, so that a clip standing still may still be moved a little), or
+when a joint there turns more than FAR_DEGREES from the capture. fix_clip skips balance where
+it makes frames jolt, and refuses a DE repair that makes a frame jolt without meeting its goals.
+A motion on another skeleton (a retarget) is compared through points both have, the key points:
+their velocity and acceleration peaks against the source's (point_peak_ratios, jolted_points).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.cleanup.metrics import joint_angles, point_motion, spikes
+from deik.io.trajectory import Motion
+from deik.model.kinematics import forward_kinematics
+
+PEAK_RATIO = 1.1
+FAR_DEGREES = 30.0  # a joint turned further than this from the capture changes the performance
+MEASURES = ("dof_velocity", "dof_acceleration", "position_velocity", "position_acceleration")
+POINT_MEASURES = MEASURES[2:]
+# per measure: deg/s, deg/s^2, and reach per s and per s^2 (0.05 m/s and 0.5 m/s^2 on a person)
+SLACK = {"dof_velocity": 10.0, "dof_acceleration": 200.0, "position_velocity": 0.05, "position_acceleration": 0.5}
+
+
+def _peaks(clip) -> dict:
+    """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`."""
+    moves = spikes(clip, forward_kinematics(clip.skeleton, clip.frames))
+    return {
+        "dof_velocity": (np.abs(moves["dof_velocity"]), 0),
+        "dof_acceleration": (np.abs(moves["dof_acceleration"]), 1),
+        "position_velocity": (moves["position_velocity"], 0),
+        "position_acceleration": (moves["position_acceleration"], 1),
+    }
+
+
+def _point_peaks(points: np.ndarray, frame_time: float) -> dict:
+    """{measure: (values (M, K), row 0's frame)} of POINT_MEASURES for points (N, K, 3)."""
+    speed, acceleration = point_motion(points, frame_time)
+    return {"position_velocity": (speed, 0), "position_acceleration": (acceleration, 1)}
+
+
+def _ratios(before: dict, after: dict) -> dict:
+    """{measure: largest value in `after` / largest in `before`} (NaN where before's is 0)."""
+    out = {}
+    for key in before:
+        top = before[key][0].max(initial=0.0)
+        out[key] = after[key][0].max(initial=0.0) / top if top > 0 else float("nan")
+    return out
+
+
+def _jolts(before: dict, after: dict, n_frames: int, reach: float, ratio: float) -> np.ndarray:
+    """(N,) bool: frames with a value of `after` above both `ratio` x `before`'s largest of that
+    measure and that largest + SLACK (a velocity between two frames marks both)."""
+    out = np.zeros(n_frames, bool)
+    for key in before:
+        values, first = after[key]
+        top = before[key][0].max(initial=0.0)
+        slack = SLACK[key] * (reach if key.startswith("position") else 1.0)
+        over = (values > max(ratio * top, top + slack)).any(axis=1) if values.size else np.zeros(0, bool)
+        out[first : first + len(over)] |= over
+        if key.endswith("velocity"):  # between frames n and n+1
+            out[first + 1 : first + 1 + len(over)] |= over
+    return out
+
+
+def peak_ratios(original: Motion, fixed: Motion) -> dict:
+    """{measure: largest value in `fixed` / largest in `original`} for MEASURES (NaN where the
+    capture's is 0 or the clip is too short to have one)."""
+    return _ratios(_peaks(original), _peaks(fixed))
+
+
+def jolted_frames(
+    original: Motion, fixed: Motion, ratio: float = PEAK_RATIO, degrees: float = FAR_DEGREES
+) -> np.ndarray:
+    """(N,) bool: frames of `fixed` with a velocity or acceleration above both `ratio` x the
+    capture `original`'s largest of that measure and that largest + SLACK (a velocity between
+    two frames marks both), or a joint more than `degrees` from the capture."""
+    jolts = _jolts(_peaks(original), _peaks(fixed), original.n_frames, original.skeleton.reach, ratio)
+    return jolts | (joint_angles(original, fixed) > degrees).any(axis=1)
+
+
+def point_peak_ratios(source: np.ndarray, points: np.ndarray, frame_time: float) -> dict:
+    """{measure: largest value of `points` / largest of `source`} for POINT_MEASURES: the
+    speeds and accelerations of points (N, K, 3) against those of the points they follow,
+    `source` (N, K, 3) in the same length unit, frames `frame_time` s apart."""
+    return _ratios(_point_peaks(source, frame_time), _point_peaks(points, frame_time))
+
+
+def jolted_points(
+    source: np.ndarray, points: np.ndarray, frame_time: float, reach: float, ratio: float = PEAK_RATIO
+) -> np.ndarray:
+    """(N,) bool: frames where a point of `points` (N, K, 3) moves faster or accelerates more
+    than both `ratio` x the largest of `source` (N, K, 3) and that largest + SLACK (x `reach`,
+    the length unit's body size)."""
+    before, after = _point_peaks(source, frame_time), _point_peaks(points, frame_time)
+    return _jolts(before, after, len(points), reach, ratio)

@@ -1,0 +1,268 @@
+"""fix_clip(): fix every frame of a clip at once: a warm start, then DE repairs.
+
+1. Warm start (warmstart.py): space-time least squares meets every frame's contacts, floor
+   and reach targets and steers the centre of mass over the support (balance.py) with a
+   displacement from the capture that is smooth over the whole clip (spacetime.py): a
+   correction begins before its goal does and fades after it, nothing pops, and an idle arm
+   keeps its performance.
+2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
+   reach goal (goals the warm start cannot all meet, such as balance over a single contact
+   point, or self-collision, which lets a frame's repair move every DOF). Each pass is one
+   batched solve of all N frame problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
+   population of copies of its pose, which DE cannot move, and stops at once; the others are
+   seeded around their current pose, moving only the DOFs their goals need, and run until
+   every such goal is within tolerance (stop_on_converged), the fidelity and coherence
+   terms (the last level) choosing among the poses that are.
+
+Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
+per pass population x (generations + 1) pose evaluations per repaired frame, about
+population evaluations per frame that is left alone. Planted feet and reach tracks rarely
+need a repair (CLIP_SETTINGS, PASSES are a small budget for the few that do); balance leaves
+a few frames of each clip to DE (6 of the walk's 39), so it keeps the larger BALANCE_SETTINGS
+and BALANCE_PASSES.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from deik.cleanup.balance import BalanceTrack
+from deik.cleanup.clip_goals import FIDELITY_LEVEL, ClipGoals, clip_balance, clip_problem, fixed_goals, goal_names
+from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
+from deik.cleanup.dynamics import jolted_frames
+from deik.cleanup.warmstart import dof_weights, warm_start
+from deik.io.trajectory import Motion
+from deik.model.joints import ROTATE
+from deik.model.rotations import wrap_rotations
+from deik.objectives.kinds import GAIN
+from deik.objectives.reference import raw_errors
+from deik.objectives.self_collision import SelfCollision
+from deik.solver.seeding import poses_around
+from deik.solver.settings import Settings
+from deik.solver.solve import merge_settings, solve
+
+# a repair is a local search among the DOFs its goals need: no restart from random poses (it
+# would lose the performance), no LM polish (it moves the DOFs held still, hinge channels
+# included, and met 21 of the walk's 39 balance frames against 39 without it)
+LOCAL = {"stop_on_converged": True, "restarts": 0, "polish": 0}
+CLIP_SETTINGS = {"population": 24, "generations": 60, "patience": 20, **LOCAL}
+PASSES = 1
+BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCAL}
+BALANCE_PASSES = 3
+EASE = 8.0  # frames over which a displacement decays where no goal holds it
+GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
+GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
+SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
+
+
+@dataclasses.dataclass(frozen=True)
+class ClipFix:
+    """The outcome of fix_clip: `clip` the fixed clip (same layout as the input, its Euler
+    channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
+    `labels` of the goals (problem.goal_names), their `tolerances` (T,) (-1: none) and raw
+    errors `before`/`after` (N, T) in length units or radians (NaN where a goal does not
+    apply to a frame), `met` (N,) whether every floor, contact, balance and reach goal of each frame is within
+    tolerance, `passes`, `wall_time` seconds, `settings`, and `stages`: where the time went,
+    one dict per stage (the warm start, then each DE pass with the frames it repaired, their
+    generations, mean and max, pose evaluations: population x (generations + 1) summed over
+    them, and the failed repairs refused because they would make a frame jolt); `balance` the
+    centre-of-mass track with --balance (its balanced and skipped frames, cleanup/balance.py),
+    else None."""
+
+    clip: object
+    original: object
+    labels: tuple[str, ...]
+    tolerances: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    met: np.ndarray
+    passes: int
+    wall_time: float
+    settings: Settings
+    stages: tuple[dict, ...]
+    balance: BalanceTrack | None = None
+
+
+def _errors(problem, poses) -> np.ndarray:
+    """(N, T) raw errors, NaN where the goal is not active in that frame."""
+    raw = raw_errors(problem, poses, np.arange(len(poses)))
+    return np.where(problem.table.params[:, :, GAIN] > 0, raw, np.nan)
+
+
+def _seeds(skeleton, poses: np.ndarray, searched: np.ndarray, count: int, seed: int) -> np.ndarray:
+    """(N, count, D) whole populations around each frame's pose (a clip fix is a local
+    search), spreads from fine to wide so DE can both polish and travel; DOFs not `searched`
+    (N, D) are the same in every member, so DE never moves them."""
+    spreads = np.geomspace(SPREAD[0], SPREAD[1], max(count - 1, 1))[: count - 1]
+    seeds = poses_around(skeleton, poses, count, spreads, seed=seed)
+    return np.where(searched[:, None, :], seeds, poses[:, None, :])
+
+
+def _inside(skeleton, original: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+    """`displacement` (N, D) from `original` (N, D) cut back to the joint limits, except on
+    rotations free over a whole turn (they wrap)."""
+    full_turn = (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower >= 2 * np.pi)
+    inside = np.clip(original + displacement, skeleton.lower, skeleton.upper) - original
+    return np.where(full_turn, displacement, inside)
+
+
+def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, T) as _errors, met (N,): every contact, floor, balance and reach goal of the
+    frame (the levels above fidelity) within tolerance)."""
+    errors = _errors(problem, poses)
+    held = np.array([goal.level < FIDELITY_LEVEL for goal in problem.goals])
+    within = errors[:, held] <= problem.table.term_float[held, 3]
+    return errors, np.all(np.isnan(errors[:, held]) | within, axis=1)
+
+
+def _pass_progress(progress, met: int, stage: str):
+    """solve()'s progress callback during a DE pass: progress(met, "STAGE, generation G")."""
+    return lambda generation, best: progress(met, f"{stage}, generation {generation}")
+
+
+def _colliding(problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) frames whose self-collision goal (if any) misses its tolerance."""
+    terms = [t for t, goal in enumerate(problem.goals) if isinstance(goal, SelfCollision)]
+    return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
+
+
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray):
+    """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
+    `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
+    start without it), and where the balanced warm start makes a frame jolt or turns a joint far
+    from the capture (cleanup/dynamics.py), balance cannot hold there: those frames and their
+    neighbours are skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
+    sk, original = clip.skeleton, clip.poses()
+
+    def warm(plain: ClipGoals, track):
+        fixed = fixed_goals(clip, plain, weights, track)
+        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=EASE)), fixed
+
+    if not goals.balance:
+        return *warm(goals, None), None
+    displacement, _ = warm(dataclasses.replace(goals, balance=False), None)
+    unbalanced = clip.frames + displacement
+    balance = clip_balance(clip, goals, frames=unbalanced)
+    for round_ in range(GUARD_ROUNDS):
+        displacement, fixed = warm(goals, balance)
+        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+        jolting = (np.convolve(jolted, np.ones(2 * GUARD_REACH + 1), "same") > 0) & balance.balanced
+        if round_ == GUARD_ROUNDS - 1 or not jolting.any():
+            break
+        balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
+    return displacement, fixed, balance
+
+
+def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[np.ndarray, int]:
+    """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
+    `found` (N, D), eased into their neighbours, except those that still miss their goals
+    (`met` (N,) False) where the repair would make a frame jolt that did not (cleanup/dynamics.py):
+    a DE search starts each frame afresh and may land a pose apart from its neighbours'.
+    `refused` counts them."""
+    sk, original = clip.skeleton, clip.poses()
+
+    def taken(frames):
+        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, EASE))
+
+    candidate = taken(repaired)
+    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate)) & ~before
+    refused = repaired & ~met & (np.convolve(new, np.ones(3), mode="same") > 0)
+    return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
+
+
+def fix_clip(
+    clip: Motion,
+    goals: ClipGoals,
+    passes: int | None = None,
+    settings: Settings | None = None,
+    *,
+    progress: Callable[[int, str], object] | None = None,
+    **overrides: object,
+) -> ClipFix:
+    """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
+    `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
+    over the frames that still miss a floor, self-collision, contact, balance or reach goal;
+    settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
+    by keyword (population, generations, seed, device, ...).
+    `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
+    stage)`, if given, is called with the number of frames that meet their goals after the
+    warm start and each DE pass, during a pass every 100 generations, and once at the end."""
+    if not isinstance(goals, ClipGoals):
+        raise TypeError(f"goals must be a deik.cleanup.clip_goals.ClipGoals, got {type(goals).__name__}")
+    if passes is None:  # a collision repair eased into its neighbours can push them into collision
+        passes = BALANCE_PASSES if goals.balance or goals.self_collision is not None else PASSES
+    if not (isinstance(passes, int) and passes >= 0):
+        raise ValueError(f"passes must be an integer >= 0, got {passes!r}")
+    if clip.n_frames == 0:
+        raise ValueError("the clip has no frames to fix")
+    defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
+    settings = merge_settings("fix_clip()", settings, overrides, defaults)
+    start = time.perf_counter()
+    sk = clip.skeleton
+    rotation = sk.dof_kind == ROTATE
+    original = clip.poses()
+    weights = dof_weights(clip)
+    movable = np.broadcast_to(~hinge_channels(clip), original.shape)
+    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable)
+    searched = searched_dofs(clip, fixed_part)
+    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
+    report = progress or (lambda met, stage: None)
+    for k in range(passes):
+        began = time.perf_counter()
+        problem = clip_problem(clip, goals, displacement, weights, fixed_part)
+        # wrapping rounds: a DOF at a limit short of a whole turn (a robot's) may land an ulp outside
+        current = np.clip(wrap_rotations(original + displacement, rotation), sk.lower, sk.upper)
+        errors, met = _met(problem, current)
+        unmet = ~met
+        report(int(met.sum()), stages[-1]["stage"])
+        if not unmet.any():
+            break
+        # a frame in collision may move every DOF but the hinge channels
+        searched = searched | (_colliding(problem, errors)[:, None] & ~hinge_channels(clip)[None, :])
+        # a frame that meets its goals keeps one pose in every member: DE cannot move it
+        initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
+        stage = f"DE pass {k + 1}"
+        during = _pass_progress(progress, int((~unmet).sum()), stage) if progress else None
+        result = solve(problem, settings, initial=initial, progress=during)
+        found = wrap_rotations(result.angles - original, rotation)
+        repaired = _met(problem, np.clip(wrap_rotations(original + found, rotation), sk.lower, sk.upper))[1]
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched)
+        generations = result.generations[unmet]
+        stages.append(
+            {
+                "stage": stage,
+                "seconds": time.perf_counter() - began,
+                "frames": int(unmet.sum()),
+                "generations_mean": float(generations.mean()),
+                "generations_max": int(generations.max()),
+                "evaluations": int(settings.population * (generations + 1).sum()),
+                "refused": refused,
+            }
+        )
+    wall = time.perf_counter() - start
+    logging.getLogger(__name__).debug(
+        "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
+    )
+    problem = clip_problem(clip, goals, displacement, weights, fixed_part)
+    after, met = _met(problem, wrap_rotations(original + displacement, rotation))
+    report(int(met.sum()), "done")
+    return ClipFix(
+        clip.with_frames(clip.frames + displacement).with_continuous_channels(),
+        clip,
+        tuple(goal_names(goals)),
+        problem.table.term_float[: len(problem.goals), 3].copy(),
+        _errors(problem, original),
+        after,
+        met,
+        len(stages) - 1,
+        wall,
+        settings,
+        tuple(stages),
+        balance,
+    )

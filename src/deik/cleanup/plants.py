@@ -1,0 +1,146 @@
+"""Where each contact plants: one target per contact interval of each site (planted_targets).
+
+A plant is the site's mean position over its interval in the capture at the median of its
+heights there (a one-frame dip does not lower it), raised where the site or a site rigidly
+linked to it sank through the floor (a leg made longer), and put on the floor when within
+SNAP_FRACTION x reach of it. Plants of two rigidly linked sites (an ankle and its toe) are
+placed relative to each other (_linked_plants), so both can be met at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.cleanup.contacts import Contacts, site_positions
+from deik.io.trajectory import Motion
+
+RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
+SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
+HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
+
+
+def _rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
+    """(s, t, distance) of the sites whose distance stays the same in every frame of
+    positions `p` (N, S, 3): an ankle and its toe, moved by no DOF between them."""
+    pairs = []
+    for s in range(p.shape[1]):
+        for t in range(s + 1, p.shape[1]):
+            distance = np.linalg.norm(p[:, s] - p[:, t], axis=-1)
+            if np.ptp(distance) <= RIGID_TOLERANCE * reach:
+                pairs.append((s, t, float(distance.mean())))
+    return pairs
+
+
+def _at_distance(point: np.ndarray, anchor: np.ndarray, distance: float, up: np.ndarray) -> np.ndarray:
+    """`point` (3,) moved to lie `distance` from `anchor` (3,): along the ground, keeping its
+    height, when their heights differ by less than `distance`, else along the line between
+    them; unchanged when they coincide (no direction to move in)."""
+    delta = point - anchor
+    rise = delta @ up
+    flat = delta - rise * up
+    if abs(rise) < distance and np.linalg.norm(flat) > 0:
+        return anchor + rise * up + flat * (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat))
+    if np.linalg.norm(delta) > 0:
+        return anchor + delta * (distance / np.linalg.norm(delta))
+    return point
+
+
+def _links(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
+    """{plant: [(other plant, place)]}: how each plant of a rigidly linked site (`pairs`) is put
+    relative to the other's, place(anchor) -> target (3,). Overlapping intervals: their
+    distance apart (_at_distance). Intervals that hand over (one starts at most HANDOVER frames
+    after the other stops, a heel lifting as the toe lands): the capture's offset between the
+    two at the handover, along the ground (each keeps its height), so the foot does not jump
+    where one plant ends and the other begins. `p` (N, S, 3): the sites' capture positions."""
+    links = {key: [] for key in plants}
+    for s, t, distance in pairs:
+        for first in [key for key in plants if key[0] == s]:
+            for second in [key for key in plants if key[0] == t]:
+                if max(first[1], second[1]) < min(first[2], second[2]):
+                    links[first].append((second, lambda a, key=second, d=distance: _at_distance(plants[key], a, d, up)))
+                    links[second].append((first, lambda a, key=first, d=distance: _at_distance(plants[key], a, d, up)))
+                    continue
+                for early, late in ((first, second), (second, first)):
+                    if 0 <= late[1] - early[2] < HANDOVER:
+                        offset = p[early[2] - 1, late[0]] - p[early[2] - 1, early[0]]
+                        offset -= (offset @ up) * up
+                        for key, other, sign in ((late, early, 1.0), (early, late, -1.0)):
+                            links[other].append(
+                                (key, lambda anchor, key=key, o=sign * offset: _on_level(anchor + o, plants[key], up))
+                            )
+    return links
+
+
+def _on_level(point: np.ndarray, height_of: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """`point` (3,) at the height of `height_of` (3,) along up."""
+    return point + ((height_of - point) @ up) * up
+
+
+def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
+    """`plants` {(site, start, stop): target (3,)} with the plants of two rigidly linked sites
+    (`pairs`) placed relative to each other (_links). Linked plants form groups (a toe planted
+    through two plants of its ankle, a heel lifting and landing again): each group's longest
+    plant stays, and the others are placed in turn relative to the one placed before them they
+    are linked to, so every link of a chain holds; a link closing a loop holds only
+    approximately."""
+    links = _links(plants, pairs, p, up)
+    out = dict(plants)
+    placed = set()
+    for root in sorted(plants, key=lambda key: (key[1] - key[2], key[1], key[0])):  # longest first
+        if root in placed:
+            continue
+        placed.add(root)
+        queue = [root]
+        while queue:
+            anchor = queue.pop(0)
+            for key, place in links[anchor]:
+                if key not in placed:
+                    out[key] = place(out[anchor])
+                    placed.add(key)
+                    queue.append(key)
+    return out
+
+
+def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
+    """(N, S) heights of the contact sites, each frame's raised by the depth below `floor` of
+    the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then: a
+    foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
+    its toe is above the sole."""
+    depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
+    lift = depth.copy()
+    for s, t, _ in pairs:
+        lift[:, s] = np.maximum(lift[:, s], depth[:, t])
+        lift[:, t] = np.maximum(lift[:, t], depth[:, s])
+    return heights + lift
+
+
+def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
+    """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
+
+    Per contact interval, the mean world position of the site over the interval in `clip` (the
+    original), at the median of its heights along up there (a one-frame dip does not lower
+    it), each frame's height first raised by how far the site or a site rigidly linked to it
+    is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
+    is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
+    overlap get targets that distance apart (_linked_plants), so both can be met at once.
+    """
+    if contacts.mask.shape[0] != clip.n_frames:
+        raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
+    up = clip.skeleton.up
+    p = site_positions(clip, contacts.sites)
+    pairs = _rigid_pairs(p, clip.skeleton.reach)
+    floor = contacts.ground
+    heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
+    plants = {}  # (site, start, stop) -> target (3,)
+    for s in range(len(contacts.sites)):
+        for a, b in contacts.intervals(s):
+            mean = p[a:b, s].mean(axis=0)
+            height = float(np.median(heights[a:b, s]))
+            if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
+                height = floor
+            plants[s, a, b] = mean + (height - mean @ up) * up
+    plants = _linked_plants(plants, pairs, p, up)
+    targets = np.full(p.shape, np.nan)
+    for (s, a, b), target in plants.items():
+        targets[a:b, s] = target
+    return targets

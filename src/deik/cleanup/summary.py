@@ -1,0 +1,192 @@
+"""The before/after numbers of a clip fix under machine keys: the summary and per-frame series.
+
+Every key ends in its unit (mm, deg, m_per_s3, ...; "share" for a fraction 0-1, "count" for
+sites) and every entry carries its `label` for people and its `unit`. Lengths are converted
+from the clip's length unit with `metres` (metres per length unit, cleanup/units.py). The
+metrics are defined in cleanup/metrics.py (sliding, COM outside support, deviations, jerk,
+velocity spikes), cleanup/balance.py (ZMP outside support, with gravity 9.81 m/s^2) and
+cleanup/floor.py (skating, penetration, floating); floor and support metrics and sliding need
+contacts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from deik.cleanup import floor
+from deik.cleanup.balance import zmp_outside_support
+from deik.cleanup.clip_goals import GRAVITY, reach_names
+from deik.cleanup.contacts import Contacts
+from deik.cleanup.metrics import jerk, joint_angles, outside_support, position_deviation, sliding_steps, spikes
+from deik.io.trajectory import Motion
+from deik.model.kinematics import forward_kinematics
+
+
+def _stats(values: np.ndarray) -> tuple[float, float]:
+    """(mean, max) of the finite values, NaN when there are none."""
+    finite = values[np.isfinite(values)]
+    return (float(finite.mean()), float(finite.max())) if finite.size else (math.nan, math.nan)
+
+
+def row_max(values: np.ndarray) -> np.ndarray:
+    """(M,) largest finite value of each row of (M, K), NaN for rows without one."""
+    filled = np.where(np.isfinite(values), values, -np.inf)
+    best = filled.max(axis=1, initial=-np.inf)
+    return np.where(np.isfinite(best), best, np.nan)
+
+
+def _padded(values: np.ndarray, front: int, n: int) -> np.ndarray:
+    """(n,) `values` placed from frame `front`, NaN around."""
+    out = np.full(n, np.nan)
+    out[front : front + len(values)] = values
+    return out
+
+
+# per-frame series: key -> (stem, unit suffix, label, unit); key = stem_suffix
+SERIES = {
+    f"{stem}_{suffix}": (stem, suffix, label, unit)
+    for stem, suffix, label, unit in (
+        ("foot_sliding", "mm_per_frame", "foot sliding", "mm/frame"),
+        ("com_outside_support", "mm", "COM outside support", "mm"),
+        ("zmp_outside_support", "mm", "ZMP outside support (soles included)", "mm"),
+        ("penetration", "mm", "penetration below the floor", "mm"),
+        ("floating", "mm", "floating in contact", "mm"),
+        ("joint_angle_deviation", "deg", "joint angle from the capture", "deg"),
+        ("joint_position_deviation", "mm", "joint position from the capture", "mm"),
+        ("jerk", "m_per_s3", "jerk", "m/s^3"),
+        ("joint_velocity", "deg_per_s", "joint velocity", "deg/s"),
+        ("joint_acceleration", "deg_per_s2", "joint acceleration", "deg/s^2"),
+        ("position_velocity", "m_per_s", "position velocity", "m/s"),
+        ("position_acceleration", "m_per_s2", "position acceleration", "m/s^2"),
+    )
+}
+
+
+def _reach_keys(reach) -> dict:
+    """SERIES-like entries of the distance to each reach track (site, mask, targets)."""
+    out = {}
+    for name in reach_names(site for site, _, _ in reach):
+        stem = name.replace(" #", "_").replace(" ", "_")
+        out[f"{stem}_mm"] = (stem, "mm", f"{name} distance", "mm")
+    return out
+
+
+def _measure(clip, contacts, reach, clear, metres: float) -> dict:
+    """{key: (values (M, K) in the key's unit, the frame of row 0)} of one clip: every joint,
+    site or DOF of each SERIES entry (deviations aside) and each reach track."""
+    sk, mm = clip.skeleton, 1000.0 * metres
+    kin = forward_kinematics(sk, clip.frames)
+    moves = spikes(clip, kin)
+    out = {}
+    if contacts is not None:
+        index = [sk.frame_index(name) for name in contacts.sites]
+        out["foot_sliding_mm_per_frame"] = mm * sliding_steps(kin, index, contacts.mask), 1
+        out["com_outside_support_mm"] = mm * outside_support(kin, index, contacts.mask, sk.up)[:, None], 0
+        zmp = zmp_outside_support(kin, sk, contacts, clip.frame_time, GRAVITY / metres)
+        out["zmp_outside_support_mm"] = mm * zmp[:, None], 0
+        out["penetration_mm"] = mm * floor.penetration(kin, sk, contacts.ground)[:, None], 0
+        out["floating_mm"] = mm * floor.floating(kin, sk, contacts, clear), 0
+    out["jerk_m_per_s3"] = metres * jerk(kin, sk.n_joints, clip.frame_time), 2
+    out["joint_velocity_deg_per_s"] = np.abs(moves["dof_velocity"]), 1
+    out["joint_acceleration_deg_per_s2"] = np.abs(moves["dof_acceleration"]), 1
+    out["position_velocity_m_per_s"] = metres * moves["position_velocity"], 0
+    out["position_acceleration_m_per_s2"] = metres * moves["position_acceleration"], 1
+    for key, (site, mask, targets) in zip(_reach_keys(reach), reach):
+        distance = np.linalg.norm(kin.position(site) - targets, axis=-1)
+        out[key] = mm * np.where(mask, distance, np.nan)[:, None], 0
+    return out
+
+
+def _both(original, fixed, contacts, reach, metres: float) -> tuple[dict, dict]:
+    """_measure of `original` and `fixed`, with the deviations from the capture (0 before)."""
+    clear = None
+    if contacts is not None:
+        clear = floor.clearance(forward_kinematics(original.skeleton, original.frames), original.skeleton, contacts)
+    before, after = (_measure(clip, contacts, reach, clear, metres) for clip in (original, fixed))
+    angles = joint_angles(original, fixed)
+    positions = 1000.0 * metres * position_deviation(original, fixed)
+    for key, values in (("joint_angle_deviation_deg", angles), ("joint_position_deviation_mm", positions)):
+        before[key], after[key] = (np.zeros_like(values), 0), (values, 0)
+    return before, after
+
+
+def _keys(contacts, reach) -> dict:
+    floor_keys = ("foot_sliding", "com_outside_support", "zmp_outside_support", "penetration", "floating")
+    keys = {k: v for k, v in SERIES.items() if contacts is not None or v[0] not in floor_keys}
+    return keys | _reach_keys(reach)
+
+
+# a reach track as reports take it: (site, mask (N,) bool, targets (N, 3) length units)
+ReachTrack = tuple[str, np.ndarray, np.ndarray]
+
+
+def per_frame_errors(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
+    """{key: {"label", "unit", "before" (N,), "after" (N,)}}: per frame, the largest value
+    over the joints, sites or DOFs of each SERIES entry (the floor ones with `contacts`) and
+    the distance to each reach track (site, mask (N,), targets (N, 3)), in the key's unit, and
+    with `contacts` the number of sites in contact ("contacts_count", the same before and
+    after); NaN where a series does not apply to a frame. `metres`: metres per length unit."""
+    reach = list(reach or ())
+    N = original.n_frames
+    runs = _both(original, fixed, contacts, reach, metres)
+    out = {}
+    for key, (_, _, label, unit) in _keys(contacts, reach).items():
+        sides = [_padded(row_max(run[key][0]), run[key][1], N) for run in runs]
+        out[key] = {"label": label, "unit": unit, "before": sides[0], "after": sides[1]}
+    if contacts is not None:
+        count = contacts.mask.sum(axis=1).astype(float)
+        out["contacts_count"] = {"label": "sites in contact", "unit": "count", "before": count, "after": count}
+    return out
+
+
+def clip_report(
+    original: Motion,
+    fixed: Motion,
+    contacts: Contacts | None = None,
+    reach: Sequence[ReachTrack] | None = None,
+    metres: float = 1.0,
+) -> dict:
+    """{key: {"label", "unit", "before", "after"}}, one number per clip for `original` and
+    `fixed`: "STEM_mean_SUFFIX" and "STEM_max_SUFFIX" over every joint, site or DOF and frame
+    of each per_frame_errors series, and with `contacts` the foot-skating ratio (share of the
+    contact steps, cleanup/floor.py) and the mean number of sites in contact per frame."""
+    reach = list(reach or ())
+    runs = _both(original, fixed, contacts, reach, metres)
+    report = {}
+    for key, (stem, suffix, label, unit) in _keys(contacts, reach).items():
+        stats = [_stats(run[key][0]) for run in runs]
+        for k, word in enumerate(("mean", "max")):
+            report[f"{stem}_{word}_{suffix}"] = {
+                "label": f"{label} {word}",
+                "unit": unit,
+                "before": stats[0][k],
+                "after": stats[1][k],
+            }
+    if contacts is not None:
+        sk = original.skeleton
+        kins = [forward_kinematics(sk, clip.frames) for clip in (original, fixed)]
+        clear = floor.clearance(kins[0], sk, contacts)
+        ratios = [floor.skating_ratio(*floor.skating(kin, sk, contacts, clear, metres)) for kin in kins]
+        report["foot_skating_ratio_share"] = {
+            "label": "foot-skating ratio",
+            "unit": "share",
+            "before": ratios[0],
+            "after": ratios[1],
+        }
+        count = float(contacts.mask.sum(axis=1).mean()) if len(contacts.mask) else math.nan
+        report["contacts_per_frame_mean_count"] = {
+            "label": "sites in contact per frame, mean",
+            "unit": "count",
+            "before": count,
+            "after": count,
+        }
+    return report

@@ -1,0 +1,218 @@
+"""The warm start of a clip fix: every frame's goals met at once, smoothly, before DE repairs
+what it leaves unmet.
+
+Each frame's contacts, floor and balance goals (cleanup/clip_goals.py's levels 0 and 1) and, below
+them, its reach tracks (level 2) are met by a displacement of the whole clip from the capture,
+found in a few space-time Gauss-Newton steps (cleanup/spacetime.py): every frame's goal rows, on
+the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides along its
+world axis), weighted against the spring energy of the displacement, each DOF counted by how
+much of the body it moves (motion_stiffness). A correction therefore starts before a contact
+does and bends the legs rather than the hips; where no goal holds a DOF it fades back to the
+capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
+centre of mass's horizontal Jacobian, steering it along a track over the support
+(balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
+unreachable reach pulls a planted contact only a little, and the last steps, frame by frame,
+meet the contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
+with its priorities and tolerances.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from deik.backends.pack import pack_skeleton
+from deik.cleanup.balance import horizontal_axes
+from deik.cleanup.clip_goals import REACH_LEVEL
+from deik.cleanup.coherence import active_frames
+from deik.cleanup.spacetime import spacetime_step
+from deik.io.trajectory import Motion
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
+
+DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
+STEPS = 4  # space-time steps over the whole clip
+SETTLE = 2  # last steps, frame by frame, meeting the contacts, floor and balance rows to microns
+FADE = 8.0  # frames over which a correction fades where no goal holds it (cleanup/spacetime.py)
+# weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
+# contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
+# the settling steps take back), reach tracks far above the energy
+HELD_WEIGHT = 1e6
+REACH_WEIGHT = 1e5
+ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
+BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
+LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
+FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
+
+
+def position_jacobian(
+    skeleton: Skeleton, poses: np.ndarray, names: Sequence[str], centre_of_mass: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
+    `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
+    radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
+    both (deik.backends.cpu.point_jacobians)."""
+    from deik.backends.cpu import point_jacobians  # loads Numba: `import deik` stays light
+
+    frames = [skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass
+    return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
+
+
+def dof_weights(clip: Motion) -> np.ndarray:
+    """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
+    translation 1 / r, r the root-mean-square distance of the joints and sites from the root
+    over the clip: moving the root counts like the root turn that moves the body as much. With
+    1 per length unit too (metres as radians), lifting the whole body would be the cheap way to
+    move a hand."""
+    sk = clip.skeleton
+    p = forward_kinematics(sk, clip.poses()).p_world_frame
+    r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
+    return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
+
+
+def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(D,) how stiff each DOF's spring is (cleanup/spacetime.py): 1 + BODY_STIFFNESS x the sum
+    over every joint and site of its squared speed per unit of the weighted DOF (dof_weights),
+    in reach units, averaged over `poses` (N, D), and ROOT_STIFFNESS times that for the root's
+    DOFs. A correction that must bend somewhere (a heel stopping where a contact starts) then
+    bends the leg, not the hips that carry the arms, no channel takes it all (both the points'
+    and the channels' accelerations stay low), and the body keeps its path through the world
+    unless the legs cannot reach."""
+    _, jac = position_jacobian(skeleton, poses, skeleton.frame_names)
+    scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
+    body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
+    root = skeleton.dof_joint == 0
+    return (1.0 + BODY_STIFFNESS * body) * np.where(root, ROOT_STIFFNESS, 1.0)
+
+
+def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(index (H,) into `names`, targets (N, H, 3), active (N, H)) of Position `goals`."""
+    index = np.array([names.index(goal.frame) for goal in goals], int)
+    targets = np.array([np.broadcast_to(np.asarray(goal.target, float), (N, 3)) for goal in goals])
+    active = np.array([active_frames(goal, N) for goal in goals]).reshape(len(goals), N).T
+    return index, targets.reshape(len(goals), N, 3).transpose(1, 0, 2), active
+
+
+def _position_rows(x, jac, rows, longest: float):
+    """(errors (N, 3H), Jacobian rows (N, 3H, D)) of the Position rows (index, targets, active)."""
+    index, targets, active = rows
+    N, D = jac.shape[0], jac.shape[-1]
+    error = at_most(np.where(active[..., None], targets - x[:, index], 0.0), longest)
+    return error.reshape(N, -1), (jac[:, index] * active[:, :, None, None]).reshape(N, -1, D)
+
+
+def floor_rows(x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, F), Jacobian rows (N, F, D)): each joint or site lower than floor + 2
+    FLOOR_MARGIN is lifted to floor + FLOOR_MARGIN (the band between holds it there)."""
+    height = x @ up
+    low = height < floor + 2 * FLOOR_MARGIN
+    return np.where(low, floor + FLOOR_MARGIN - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
+
+
+def _solve(B: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
+    """(N, D) the least-squares step meeting rows B (N, R, D) for `error` (N, R), damped by
+    `damping` (length units per weighted DOF unit)."""
+    N, R, D = B.shape
+    if R == 0:
+        return np.zeros((N, D))
+    inverse = np.linalg.solve(B @ B.transpose(0, 2, 1) + damping**2 * np.eye(R), np.eye(R))
+    return (B.transpose(0, 2, 1) @ inverse @ error[..., None])[..., 0]
+
+
+def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
+    """(errors (N, H), rows (N, H, D)) of the contacts, floor and balance (ComOverSupport goals:
+    two rows, the COM's ground position onto its point) rows at the positions `x` and
+    Jacobian `jac`."""
+    error, rows = _position_rows(x, jac, held_rows, longest)
+    errors, parts = [error], [rows]
+    for floor in floors:
+        error, rows = floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
+        errors.append(at_most(error[..., None], longest)[..., 0])
+        parts.append(rows)
+    for goal in balance:
+        on = active_frames(goal, len(x))
+        com = x[:, -1] @ ground.T
+        track = np.broadcast_to(np.asarray(goal.point, float), x[:, -1].shape) @ ground.T
+        errors.append(np.where(on[:, None], at_most(track - com, longest), 0.0))
+        parts.append(np.einsum("ij,njd->nid", ground, jac[:, -1]) * on[:, None, None])
+    return np.concatenate(errors, axis=1), np.concatenate(parts, axis=1)
+
+
+def warm_start(
+    skeleton: Skeleton,
+    original: np.ndarray,
+    goals: Sequence[Goal],
+    movable: np.ndarray,
+    weights: np.ndarray,
+    steps: int = STEPS,
+    settle: int = SETTLE,
+    fade: float = FADE,
+) -> np.ndarray:
+    """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
+    DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
+    keeps every joint and site above a Floor, steers the centre of mass onto the points of its
+    ComOverSupport goals (a balance track, cleanup/balance.py) and, below those, meets the
+    Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
+    (dof_weights). `steps` space-time steps over the whole clip (cleanup/spacetime.py): every frame's rows weighted
+    (HELD_WEIGHT, REACH_WEIGHT) against the spring energy of the displacement with fade
+    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; with reach
+    tracks, `steps` more that add them, moving only the frames of their (eased) windows, so a
+    reach changes nothing outside them; then `settle` damped Gauss-Newton steps per frame
+    meet the contacts, floor and balance rows to microns. A step moves a site or the COM at
+    most LONGEST_STEP x reach, so an unreachable target is approached, not chased. Limits are
+    not applied here (fix_clip does)."""
+    held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
+    reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
+    balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
+    floors = [goal for goal in goals if isinstance(goal, Floor)]
+    N, D = original.shape
+    d = np.zeros((N, D))
+    if not (held or reach or balance or floors):
+        return d
+    names = list(skeleton.frame_names) if floors else []
+    names += [name for name in dict.fromkeys(goal.frame for goal in held + reach) if name not in names]
+    held_rows, reach_rows = _rows(held, N, names), _rows(reach, N, names)
+    ground = horizontal_axes(skeleton)
+    movable = np.broadcast_to(np.asarray(movable, bool), (N, D))
+    scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
+    longest = LONGEST_STEP * skeleton.reach
+    stiffness = motion_stiffness(skeleton, original, weights)
+
+    def rows_at(d, free):
+        x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))
+        error, rows = _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest)
+        return x, jac, error, rows * (scale * free)[:, None, :]
+
+    # first the contacts, floor and balance; then the reach tracks, moving only the frames of
+    # their eased windows: outside them the fix is the same as without the reach
+    phases = [(False, movable)] if (held or balance or floors) else []
+    if reach:
+        window = np.any([active_frames(goal, N) for goal in reach], axis=0)
+        phases.append((True, movable & window[:, None]))
+    for with_reach, free in phases:
+        for _ in range(steps):
+            x, jac, error, rows = rows_at(d, free)
+            row_weights = np.full(error.shape, HELD_WEIGHT)
+            if with_reach:
+                reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
+                error = np.concatenate([error, reach_error], axis=1)
+                rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
+                row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
+            damping = HELD_WEIGHT * DAMPING**2
+            step = spacetime_step(
+                rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
+            )
+            d += step * scale * free
+    for _ in range(settle):
+        _, _, error, rows = rows_at(d, movable)
+        d += _solve(rows, error, DAMPING * skeleton.reach) * scale * movable
+    return d
+
+
+def at_most(vectors: np.ndarray, longest: float) -> np.ndarray:
+    """vectors (..., k), each cut to a length of at most `longest`."""
+    length = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return vectors * np.minimum(1.0, longest / np.maximum(length, longest))

@@ -1,0 +1,126 @@
+"""Small pieces the command-line modules share: the usage error, number parsing, output checks."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+from collections.abc import Iterable
+from typing import NoReturn
+
+from deik.errors import UsageError
+
+MESSAGE_LIMIT = 500
+
+
+# what a user's mistake raises (deik's own errors are InputError, a ValueError; a missing
+# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
+USER_ERRORS = (UsageError, ValueError, ImportError, OSError, KeyError)
+
+
+def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
+    """The message of `error` on one line and at most `limit` characters (a whole echoed input is
+    cut); a KeyError's message is its args[0] (str() would add quotes)."""
+    message = error.args[0] if isinstance(error, KeyError) and error.args else error
+    line = " ".join(str(message).split())
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that raises UsageError instead of printing usage and exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+
+def numbers(flag: str, words: Iterable[str]) -> list[float]:
+    """Finite floats from command-line words; UsageError naming `flag` otherwise."""
+    values = []
+    for word in words:
+        try:
+            value = float(word)
+        except ValueError:
+            raise UsageError(f"{flag}: {word!r} is not a number") from None
+        if not math.isfinite(value):
+            raise UsageError(f"{flag}: {word!r} is not a finite number")
+        values.append(value)
+    return values
+
+
+def check_outputs(
+    outputs: dict[str, str | None],
+    suffixes: dict[str, tuple[str, ...]],
+    inputs: Iterable[str | None] = (),
+    overwrite: bool = False,
+) -> None:
+    """Check every output a command will write before it starts work: `outputs` {flag: path or
+    None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
+    writable, each path has an allowed ending, no two flags name one file, and no output is one
+    of `inputs` (the files the command reads) unless `overwrite`."""
+    given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
+    for flag, path in given.items():
+        folder = os.path.dirname(path)
+        if not os.path.isdir(folder):
+            raise UsageError(f"{flag}: folder {folder!r} does not exist; create it first")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise UsageError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+        allowed = suffixes.get(flag)
+        if allowed and os.path.splitext(path)[1].lower() not in allowed:
+            raise UsageError(f"{flag}: {outputs[flag]!r} must end in {' or '.join(allowed)}")
+        if os.path.isdir(path):
+            raise UsageError(f"{flag}: {outputs[flag]!r} is a folder; give a file name")
+    flags = list(given)
+    for k, flag in enumerate(flags):
+        for other in flags[k + 1 :]:
+            if given[flag] == given[other]:
+                raise UsageError(f"{flag} and {other} both name {outputs[flag]!r}; give each output its own file")
+    if overwrite:
+        return
+    for flag, path in given.items():
+        for source in inputs:
+            if (
+                source is not None
+                and os.path.exists(path)
+                and os.path.exists(source)
+                and os.path.samefile(path, source)
+            ):
+                raise UsageError(
+                    f"{flag} {outputs[flag]!r} is the input file; write elsewhere, or add --overwrite "
+                    "to replace the input"
+                )
+
+
+def check_device(device: str) -> None:
+    """UsageError when `device` is "gpu" and no usable CUDA GPU is here."""
+    if device != "gpu":
+        return
+    try:
+        from numba import cuda
+    except ImportError:
+        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
+    if not cuda.is_available():
+        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
+
+
+def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
+    """Say in one note on stderr (the "deik" logger) before a CPU solve that must compile kernels
+    first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
+    their names (give them to record_compiles once the solve is done)."""
+    if device != "cpu":
+        return []
+    from deik.solver.readiness import compile_note, pending
+
+    names = pending(dtype, polish, clip)
+    if names:
+        logging.getLogger(__name__).info(compile_note(names, certain=not clip))
+    return names
+
+
+def record_compiles(names: list[str]) -> None:
+    """After a command compiled `names` (announce_compile), keep their measured times for the
+    next estimate on this machine."""
+    if names:
+        from deik.solver.readiness import record_compiles as record
+
+        record()

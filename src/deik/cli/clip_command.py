@@ -1,0 +1,444 @@
+"""`deik clip`: fix a whole BVH clip at once: plant the feet, keep balance, follow reach tracks,
+stay close to the performance; write the fixed clip, a before/after table and a plot.
+
+    deik clip walk.bvh --plant-feet auto --balance --out walk_fixed.bvh --report report.png
+    deik clip jump.bvh --reach LeftElbow_end=0.5,1.4,0.2@40:60 --out jump_fixed.bvh
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+from collections.abc import Callable
+
+import numpy as np
+
+from deik.cleanup.units import METRES
+from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
+from deik.io.atomic import all_or_nothing, write_json_atomically
+from deik.suggest import did_you_mean
+from deik.viz.text import format_table
+
+PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
+CONTACT_FORMS = (
+    "auto (every joint and end site, detected), none, or POINT[@A-B[,A-B...]] (repeatable): POINT a "
+    "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
+    "(inclusive) with it"
+)
+log = logging.getLogger(__name__)
+
+
+def add_arguments(c: argparse.ArgumentParser) -> None:
+    """The `deik clip` flags on subparser `c`."""
+    c.add_argument("clip", metavar="IN.bvh", help="the clip to fix, or a folder of clips (every *.bvh in it)")
+    c.add_argument(
+        "--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout); a folder for a folder"
+    )
+    c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
+    c.add_argument(
+        "--limits",
+        metavar="FILE.json",
+        help="joint limits table (degrees / length units), e.g. from `deik limits`; every frame must lie within it",
+    )
+    c.add_argument(
+        "--plant-feet",
+        action="append",
+        default=[],
+        metavar="auto|none|SITE:A-B",
+        help=f"contacts to plant: {PLANT_FORMS}; default auto",
+    )
+    c.add_argument(
+        "--contact",
+        action="append",
+        default=[],
+        metavar="auto|none|POINT[@A-B]",
+        help=f"contacts anywhere on the body: {CONTACT_FORMS}; combines with --plant-feet",
+    )
+    c.add_argument(
+        "--floor",
+        default="auto",
+        metavar="HEIGHT|auto|none",
+        help="the floor every joint and end site stays at or above (length units along up); "
+        "default auto: detected from the clip and reported",
+    )
+    c.add_argument(
+        "--contact-height",
+        type=float,
+        metavar="LENGTH",
+        help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
+    )
+    c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
+    c.add_argument(
+        "--balance",
+        action="store_true",
+        help="keep the zero-moment point over the support of the contacts by moving the centre of mass along a "
+        "smooth track; frames it cannot hold without jolts are skipped and listed",
+    )
+    c.add_argument(
+        "--self-collision",
+        type=float,
+        metavar="MARGIN",
+        help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
+    )
+    c.add_argument(
+        "--reach",
+        action="append",
+        default=[],
+        metavar="SITE=TRACK",
+        help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)",
+    )
+    c.add_argument(
+        "--fidelity", type=float, default=1.0, metavar="W", help="DE repairs: weight of staying near the original (0-1)"
+    )
+    c.add_argument(
+        "--coherence",
+        type=float,
+        default=0.5,
+        metavar="W",
+        help="DE repairs: weight of moving like the neighbours (0-1)",
+    )
+    c.add_argument(
+        "--passes",
+        type=int,
+        help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
+    )
+    c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
+    c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
+    c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
+    c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
+    c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
+    c.add_argument(
+        "--report",
+        metavar="report.png",
+        help="plot of the errors over time, before and after, under the frame the fix changed most",
+    )
+    c.add_argument("--report-3d", action="store_true", help="draw --report's frame as one 3-D perspective view")
+    c.add_argument("--json", metavar="report.json", help="the before/after metrics, goals and contacts as JSON")
+    c.add_argument(
+        "--units",
+        choices=sorted(METRES),
+        help="the clip's length unit (default: guessed from the skeleton's size, and said)",
+    )
+    add_output_flags(c)
+
+
+def _check_site(clip, site: str, flag: str) -> None:
+    """UsageError naming `flag`, the unknown `site` and the names to choose from."""
+    sk = clip.skeleton
+    if site not in sk.frame_names:
+        raise UsageError(
+            f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
+            f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
+            f"and its joints {', '.join(sk.joint_names)}"
+        )
+
+
+def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, int]]:
+    """(start, stop) ranges, stop exclusive, of A-B[,A-B...] (inclusive), else UsageError."""
+    out = []
+    for span in spans.split(","):
+        start, _, stop = span.partition("-")
+        if not (start.strip().isdigit() and stop.strip().isdigit()):
+            raise UsageError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
+        start, stop = int(start), int(stop)
+        if not start <= stop < n_frames:
+            raise UsageError(
+                f"{flag} {form!r}: frames {start}-{stop} are outside the clip or "
+                f"reversed; valid frames: 0..{n_frames - 1} (A-B, both inclusive)"
+            )
+        out.append((start, stop + 1))
+    return out
+
+
+def _feet(args, clip):
+    """The --plant-feet contacts (None for none); auto when neither it nor --contact is given."""
+    from deik.cleanup.contacts import contacts_from_ranges, detect_contacts, foot_sites
+
+    forms = args.plant_feet or ([] if args.contact else ["auto"])
+    if not forms or forms == ["none"]:
+        return None
+    if "auto" in forms:
+        if len(forms) > 1:
+            raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
+        return detect_contacts(clip, foot_sites(clip.skeleton), height=args.contact_height, speed=args.contact_speed)
+    ranges = {}
+    for form in forms:
+        site, _, spans = form.partition(":")
+        if not site or not spans:
+            raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
+        _check_site(clip, site, f"--plant-feet {form!r}")
+        ranges.setdefault(site, []).extend(_frames(form, spans, clip.n_frames, "--plant-feet"))
+    return contacts_from_ranges(clip, ranges)
+
+
+def _point(clip, point: str, form: str):
+    """(parent, child) of a bone PARENT-CHILD, or (point,) of a joint or site; else UsageError."""
+    from deik.cleanup.body_contacts import bone_ends
+
+    if point in clip.skeleton.frame_names:
+        return (point,)
+    ends = bone_ends(clip.skeleton, point)
+    if ends is None:
+        _check_site(clip, point, f"--contact {form!r} (a joint, an end site or a bone PARENT-CHILD)")
+    return ends
+
+
+def _body(args, clip, floor: float) -> list:
+    """The --contact contacts, one Contacts per form."""
+    from deik.cleanup.body_contacts import bone_contacts, detect_body_contacts
+    from deik.cleanup.contacts import Contacts
+
+    if args.contact == ["none"]:
+        return []
+    detect = dict(floor=floor, band=args.contact_height, speed=args.contact_speed)
+    parts = []
+    for form in args.contact:
+        if form in ("auto", "none"):
+            if form == "none":
+                raise UsageError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
+            parts.append(detect_body_contacts(clip, **detect))
+            continue
+        point, at, spans = form.partition("@")
+        ends = _point(clip, point.strip(), form)
+        if not at:
+            parts.append(detect_body_contacts(clip, ends, **detect))
+            continue
+        frames = np.zeros(clip.n_frames, bool)
+        for start, stop in _frames(form, spans, clip.n_frames, "--contact"):
+            frames[start:stop] = True
+        masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
+        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
+    return parts
+
+
+def _floor(args, clip) -> tuple[float, bool]:
+    """(floor height, whether it is kept as a goal): --floor auto, none or a number."""
+    from deik.cleanup.body_contacts import detect_floor
+
+    if args.floor in ("auto", "none"):
+        return detect_floor(clip), args.floor == "auto"
+    try:
+        height = float(args.floor)
+    except ValueError:
+        height = float("nan")
+    if not np.isfinite(height):
+        raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
+    return height, True
+
+
+def _contacts(args, clip, floor: float):
+    """Every contact the flags ask for, merged on the floor at `floor`; None for none."""
+    from deik.cleanup.body_contacts import merge_contacts
+
+    parts = [part for part in [_feet(args, clip), *_body(args, clip, floor)] if part is not None]
+    return merge_contacts(parts, floor) if parts else None
+
+
+def _reaches(args, clip):
+    from deik.cleanup.clip_goals import Reach
+    from deik.cleanup.tracks import parse_reach_spec
+
+    out = []
+    for spec in args.reach:
+        site, mask, targets = parse_reach_spec(spec, clip.n_frames)
+        _check_site(clip, site, f"--reach {spec!r}")
+        out.append(Reach(site, mask, targets))
+    return tuple(out)
+
+
+def _shown(values, pick) -> str:
+    """`pick` (np.nanmean or np.nanmax) of `values` to 4 digits, "-" when none is finite."""
+    values = np.asarray(values, float)
+    return f"{pick(values):.4g}" if np.isfinite(values).any() else "-"
+
+
+def _print_tables(document: dict, quiet: bool) -> None:
+    """The goal table (mean error per frame where the goal applies), its notes and the metrics."""
+    rows = [
+        [
+            goal["label"],
+            goal["unit"],
+            _shown(goal["before"], np.nanmean),
+            _shown(goal["after"], np.nanmean),
+            _shown(goal["after"], np.nanmax),
+            "-" if goal["tolerance"] is None else f"{goal['tolerance']:.4g}",
+        ]
+        for goal in document["goals"]
+    ]
+    print(format_table(["goal (error per frame)", "unit", "before mean", "after mean", "after max", "tolerance"], rows))
+    if not quiet:
+        for name, note in document["goal_notes"].items():
+            print(f"  {name}: {note}")
+    rows = [[v["label"], v["unit"], f"{v['before']:.4g}", f"{v['after']:.4g}"] for v in document["metrics"].values()]
+    print(format_table(["metric", "unit", "before", "after"], rows))
+
+
+def _spans(frames: list[int]) -> str:
+    """Frames as inclusive ranges: [3, 4, 5, 9] -> "3-5, 9"."""
+    runs, start = [], frames[0]
+    for a, b in zip(frames, frames[1:] + [None]):
+        if b != a + 1:
+            runs.append(f"{start}-{a}" if a > start else f"{a}")
+            start = b
+    return ", ".join(runs)
+
+
+def _summary_notes(document: dict) -> list[str]:
+    """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
+    metrics = document["metrics"]
+    keys = (
+        "foot_sliding_max_mm_per_frame",
+        "foot_skating_ratio_share",
+        "penetration_max_mm",
+        "floating_max_mm",
+        "zmp_outside_support_mean_mm",
+        "jerk_mean_m_per_s3",
+        "joint_angle_deviation_max_deg",
+        "position_acceleration_max_m_per_s2",
+    )
+    lines = []
+    for key in (k for k in keys if k in metrics):
+        m = metrics[key]
+        lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+    return lines + [f"peaks against the capture's: {ratios}"]
+
+
+def _outcome_lines(document: dict) -> list[str]:
+    """Lines after the tables: balance kept and skipped, peaks against the capture's."""
+    lines = []
+    balance = document["balance"]
+    if balance is not None:
+        kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
+        line = f"balance: ZMP over the support in {len(kept)} frames"
+        if skipped:
+            line += (
+                f"; skipped in {len(skipped)} frames ({_spans(skipped)}): holding them would move the centre of mass"
+                f" faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
+                " the performance allows, or make the motion jolt"
+            )
+        lines.append(line)
+    dynamics = document["dynamics"]
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
+    lines.append(f"peaks against the capture's, {kept}: {ratios}")
+    return lines
+
+
+def _far_warning(document: dict, far_degrees: float) -> str | None:
+    """The warning about joints turned more than `far_degrees` from the capture, or None."""
+    far = document["joints_far_from_capture"]["joint_frames"]
+    if not far:
+        return None
+    worst = max(far, key=lambda d: d["deviation_deg"])
+    frames = sorted({d["frame"] for d in far})
+    return (
+        f"{len(far)} joint-frames in {len(frames)} frames (first {frames[0]}) turned more than "
+        f"{far_degrees:g} degrees from the capture, worst {worst['joint']} at frame {worst['frame']} "
+        f"({worst['deviation_deg']:.0f} degrees); --json lists them"
+    )
+
+
+def run_clip(
+    args: argparse.Namespace,
+    on_frames: Callable[[int, int], None] | None = None,
+    record: dict | None = None,
+) -> int:
+    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
+    For a library (deik.cli.folder_command): `on_frames(done, total)` follows the frames that meet
+    their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
+    from deik.cleanup.clip_goals import GRAVITY, ClipGoals
+    from deik.cleanup.document import clip_document
+    from deik.cleanup.dynamics import FAR_DEGREES
+    from deik.cleanup.fix import fix_clip
+    from deik.cleanup.units import guess_unit, span
+    from deik.io.bvh import read_bvh, write_bvh
+
+    check_outputs(
+        {"--out": args.out, "--report": args.report, "--json": args.json},
+        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
+        (args.clip, args.segments, args.limits),
+        args.overwrite,
+    )
+    check_device(args.device)
+    if args.report_3d and not args.report:
+        raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
+    if args.report:
+        from deik.viz.plot import require_matplotlib
+
+        require_matplotlib()
+    clip = read_bvh(args.clip, segments=args.segments)
+    if args.limits:
+        from deik.io.limits import clip_within, read_limits, with_limits
+
+        clip = clip_within(
+            clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
+        )
+    floor, keep_floor = _floor(args, clip)
+    contacts = _contacts(args, clip, floor)
+    reach = _reaches(args, clip)
+    unit = args.units or guess_unit(clip.skeleton)
+    goals = ClipGoals(
+        contacts,
+        reach,
+        args.balance,
+        args.fidelity,
+        args.coherence,
+        self_collision=args.self_collision,
+        floor=floor if keep_floor else None,
+        gravity=GRAVITY / METRES[unit],
+    )
+    if not args.units:
+        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
+    log.info(
+        f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
+        f"{'' if keep_floor else ', not kept: --floor none'})",
+    )
+    if contacts is not None:
+        described = contacts.describe().replace("\n", "\n  ")
+        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
+    overrides = {
+        k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
+    }
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
+        progress = frames_reporter(bar, "every goal", on_frames)
+        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
+    record_compiles(compiling)
+    reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
+    floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
+    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
+    if record is not None:
+        metrics = {key: value["after"] for key, value in document["metrics"].items()}
+        record.update(frames=clip.n_frames, frames_met=document["frames_met"], metrics=metrics)
+    _print_tables(document, args.quiet)
+    for key, missed in document["reach_unreached"].items():
+        if missed["frames"]:
+            print(
+                f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
+                f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
+            )
+    passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
+    print(
+        f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
+        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
+    )
+    for line in _outcome_lines(document):
+        print(line)
+    far = _far_warning(document, FAR_DEGREES)
+    if far:
+        log.warning(far)
+    with all_or_nothing():
+        write_bvh(args.out, fix.clip)
+        if args.json:
+            write_json_atomically(args.json, document, missing_as_null=True)
+        if args.report:
+            from deik.viz.clip_report import plot_clip_report, pose_panel
+
+            series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
+            title = f"deik clip {os.path.basename(args.clip)}"
+            panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
+            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document), panel)
+    return 0

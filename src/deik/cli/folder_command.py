@@ -1,0 +1,237 @@
+"""`deik clip DIR --out OUTDIR ...` and `deik retarget DIR ... --out OUTDIR`: every *.bvh clip of
+a folder through the one-clip command, resumable, on local workers or Ray (deik.library).
+
+    deik clip clips/ --out fixed/ --plant-feet auto --json reports/
+    deik retarget clips/ --map map.toml --to human.urdf --out robot/ --view robot_views/ --workers 2
+    deik retarget clips/ --map map.toml --to humanoid --out humanoid/ --executor ray --address auto
+
+With a folder, the flags that name one output file name a folder instead, each created when
+its parent exists: each clip NAME.bvh gives OUTDIR/NAME.bvh (a URDF target's trajectory:
+NAME.csv), --json DIR/NAME.json, --report DIR/NAME.png, --view DIR/NAME.bvh, and its record
+OUTDIR/NAME.deik.json (deik.library.jobs), whose presence with the same settings and input
+makes a rerun skip the clip. Every other flag applies to every clip.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from deik.cli.arguments import USER_ERRORS, UsageError, check_device, error_line
+
+if TYPE_CHECKING:  # deik.library loads when a folder is run
+    from deik.library.jobs import Job
+
+FOLDER_FLAGS = ("workers", "executor", "address")
+OUTPUT_FLAGS = {"out": "--out", "json": "--json", "report": "--report", "view": "--view"}
+# not settings: where the outputs go and how the run is shown or spread
+NOT_SETTINGS = {"clip", "run", "command", "quiet", "overwrite", *OUTPUT_FLAGS, *FOLDER_FLAGS}
+FILE_SETTINGS = ("segments", "limits", "map", "to")  # flags naming a file whose bytes shape the outputs
+FAILED = 1  # exit status when a clip failed
+INTERRUPTED = 130
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The folder flags of `deik clip` and `deik retarget`, and a note on folders in --help."""
+    parser.epilog = (
+        "IN may be a folder: every *.bvh in it is done (a rerun skips the clips done before with the same "
+        "settings and input), and --out, --json, --report and --view then name folders (docs/retarget.md, "
+        '"Whole libraries").'
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="with a folder: clips at once (local processes, default one per core, one with --device gpu, "
+        "the cores shared out as Numba threads; with Ray, tasks in flight, default all)",
+    )
+    parser.add_argument(
+        "--executor",
+        choices=["local", "ray"],
+        help='with a folder: where the clips run (default local; ray needs pip install "deik[ray]")',
+    )
+    parser.add_argument(
+        "--address",
+        metavar="ADDR",
+        help="with --executor ray: the cluster (auto, ray://HOST:PORT; default: a Ray started here)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """`deik clip` or `deik retarget` on one clip or, for a folder, on every clip in it."""
+    from deik.cli import clip_command as cli_clip
+    from deik.cli import retarget_command as cli_retarget
+
+    if os.path.isdir(args.clip):
+        return run_folder(args)
+    given = [f"--{flag}" for flag in FOLDER_FLAGS if getattr(args, flag) is not None]
+    if given:
+        raise UsageError(f"{', '.join(given)}: for a folder of clips; {args.clip!r} is one clip")
+    return {"clip": cli_clip.run_clip, "retarget": cli_retarget.run_retarget}[args.command](args)
+
+
+def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
+    """The library task (runs in a worker): the one-clip command on `payload["args"]`; its
+    record holds the frames, the metrics and what it printed. JobFailed with the one-line
+    reason for a mistake in the input or a bug."""
+    from deik.cli import clip_command as cli_clip
+    from deik.cli import retarget_command as cli_retarget
+    from deik.library.jobs import JobFailed
+
+    command = {"clip": cli_clip.run_clip, "retarget": cli_retarget.run_retarget}[payload["command"]]
+    record, printed = {}, io.StringIO()
+    try:
+        with contextlib.redirect_stdout(printed):
+            command(argparse.Namespace(**payload["args"]), on_frames=progress, record=record)
+    except USER_ERRORS as error:
+        raise JobFailed(error_line(error)) from None
+    except Exception as error:  # noqa: BLE001 - a bug: this clip fails, the others go on
+        raise JobFailed(
+            f"internal error: {type(error).__name__}: {error_line(error)} (a bug in deik: rerun this clip alone "
+            "with DEIK_DEBUG=1 for the traceback)"
+        ) from None
+    record["printed"] = printed.getvalue()
+    return record
+
+
+def _settings(args) -> tuple[dict, dict]:
+    """(settings: every flag that shapes the outputs, {flag: file} of the files they name).
+    UsageError for a named file that is missing."""
+    settings = {key: value for key, value in sorted(vars(args).items()) if key not in NOT_SETTINGS}
+    files = {}
+    for key in FILE_SETTINGS:
+        value = settings.get(key)
+        if value is not None and (key != "to" or os.path.splitext(value)[1]):  # --to humanoid names no file
+            files[key] = value
+    for k, spec in enumerate(settings.get("reach") or ()):
+        track = spec.partition("=")[2]
+        if os.path.splitext(track)[1].lower() in (".csv", ".json"):
+            files[f"reach {k}"] = track
+    for key, path in files.items():
+        if not os.path.isfile(path):
+            raise UsageError(f"--{key.split()[0]} {path!r}: no such file")
+    return settings, files
+
+
+def _outputs(args, stem: str, folders: dict) -> dict:
+    """{flag: path} of the files one clip `stem` writes."""
+    suffix = {"json": ".json", "report": ".png", "view": ".bvh"}
+    robot = args.command == "retarget" and (args.to or "").lower().endswith(".urdf")
+    suffix["out"] = ".csv" if robot else ".bvh"
+    paths = {flag: os.path.join(folder, stem + suffix[flag]) for flag, folder in folders.items()}
+    for flag, path in paths.items():
+        for other, same in paths.items():
+            if other > flag and same == path:
+                raise UsageError(
+                    f"{OUTPUT_FLAGS[flag]} and {OUTPUT_FLAGS[other]} would both write {os.path.basename(path)} "
+                    f"in {os.path.dirname(path)}; give them different folders"
+                )
+    return paths
+
+
+def _check_first(args) -> None:
+    """Mistakes every clip would fail on, found before any work."""
+    check_device(args.device)
+    if getattr(args, "report", None):
+        from deik.viz.plot import require_matplotlib
+
+        require_matplotlib()
+    if args.command == "retarget":
+        from deik.cli.retarget_command import _frames, _scale
+        from deik.retargeting.maps import read_map
+
+        _scale(args.scale)
+        _frames(args.frames)
+        if args.map:
+            read_map(args.map)
+    if args.address is not None and args.executor != "ray":
+        raise UsageError("--address names a Ray cluster: give it with --executor ray")
+
+
+def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
+    """(one deik.library.jobs.Job per clip of the folder `args.clip`, names of the entries skipped)."""
+    from deik.library.folder import find_clips, output_folder
+    from deik.library.jobs import Job, fingerprint, sidecar_path
+
+    clips, others = find_clips(args.clip)
+    folders = {
+        flag: output_folder(OUTPUT_FLAGS[flag], getattr(args, flag), args.clip)
+        for flag in OUTPUT_FLAGS
+        if getattr(args, flag, None) is not None
+    }
+    settings, files = _settings(args)
+    jobs = []
+    for path in clips:
+        name = os.path.basename(path)
+        outputs = _outputs(args, os.path.splitext(name)[0], folders)
+        one = {key: value for key, value in vars(args).items() if key != "run"}
+        one.update(outputs, clip=path, quiet=True)
+        key = fingerprint(args.command, settings, path, files, outputs.values())
+        payload = {"command": args.command, "args": one}
+        jobs.append(
+            Job(name, path, tuple(outputs.values()), sidecar_path(folders["out"], name), key, settings, payload)
+        )
+    return jobs, others
+
+
+def _cell(key: str):
+    """A summary column's pick: the record's metric `key` to 4 digits, "-" when absent."""
+
+    def pick(record: dict) -> str:
+        value = (record.get("metrics") or {}).get(key)
+        return "-" if value is None else f"{value:.4g}"
+
+    return pick
+
+
+COLUMNS = {
+    "clip": [
+        ("frames met", lambda record: f"{record.get('frames_met', '-')}/{record.get('frames', '-')}"),
+        ("sliding max mm/frame", _cell("foot_sliding_max_mm_per_frame")),
+        ("penetration max mm", _cell("penetration_max_mm")),
+        ("angle from capture mean deg", _cell("joint_angle_deviation_mean_deg")),
+    ],
+    "retarget": [
+        ("key points mean mm", _cell("keypoint_error_mean_mm")),
+        ("sliding max mm/frame", _cell("contact_sliding_max_mm_per_frame")),
+        ("penetration max mm", _cell("penetration_max_mm")),
+        ("self-penetration max mm", _cell("self_penetration_max_mm")),
+        ("limit violations", _cell("limit_violations_count")),
+        ("ms/frame", _cell("time_per_frame_ms")),
+    ],
+}
+
+
+def run_folder(args: argparse.Namespace) -> int:
+    """Every clip of the folder `args.clip`: skip those done, run the rest, print the summary;
+    status 1 when a clip failed, 130 on Ctrl-C (the clips finished are kept)."""
+    from deik.cli.arguments import announce_compile
+    from deik.library.run import run_library, summary_line, summary_table
+
+    _check_first(args)
+    jobs, others = library_jobs(args)
+    if not args.quiet:
+        if others:
+            shown = ", ".join(others[:6]) + (f" and {len(others) - 6} more" if len(others) > 6 else "")
+            print(f"{len(jobs)} clips in {args.clip}; skipped (not *.bvh, or a sub-folder): {shown}", file=sys.stderr)
+        announce_compile(args.device or "cpu", "float32", polish=False, clip=True)  # the workers compile
+    try:
+        run = run_library(
+            jobs,
+            do_clip,
+            executor=args.executor or "local",
+            workers=args.workers or (1 if args.device == "gpu" and args.executor != "ray" else None),  # one GPU
+            address=args.address,
+            quiet=args.quiet,
+        )
+    except KeyboardInterrupt:
+        print("deik: interrupted; the clips finished are kept, and rerunning the command goes on", file=sys.stderr)
+        return INTERRUPTED
+    print(summary_table(run, COLUMNS[args.command]))
+    print(summary_line(run))
+    return FAILED if run.count("failed") else 0

@@ -1,0 +1,46 @@
+"""deik's errors, one hierarchy a caller can catch by class.
+
+    DeikError                 anything deik raises on purpose
+      InputError (ValueError) a user's input is wrong: a value, a name, a flag or a file
+        FileFormatError       a malformed or unsupported input file, named with its line or element
+        UsageError            a mistake on the command line (exit status 2)
+      SolveError              a solve that cannot run as asked (too large for memory, interrupted)
+      DeviceError             the GPU (or its packages) cannot run the solve
+
+InputError derives from ValueError, so code written against ValueError keeps working.
+"""
+
+from __future__ import annotations
+
+
+class DeikError(Exception):
+    """Base class of every error deik raises on purpose (a bug raises something else)."""
+
+
+class InputError(DeikError, ValueError):
+    """A user's input is wrong: the message names the value, flag or file and how to fix it."""
+
+
+class FileFormatError(InputError):
+    """A malformed or unsupported input file. `str()` reads "FILE:LINE: problem" (or
+    "FILE: element: problem" when no line applies) and says how to fix it where it can."""
+
+    def __init__(self, source: str, problem: str, line: int | None = None, element: str | None = None):
+        self.source, self.problem, self.line, self.element = source, problem, line, element
+        where = f"{source}:{line}" if line is not None else source
+        if element:
+            where = f"{where}: {element}"
+        super().__init__(f"{where}: {problem}")
+
+
+class UsageError(InputError):
+    """A mistake in a command line or its inputs: reported in one line, exit status 2."""
+
+
+class SolveError(DeikError, RuntimeError):
+    """A solve that cannot run as asked: its buffers would not fit the memory limit, it was
+    interrupted, or its settings contradict each other."""
+
+
+class DeviceError(DeikError, RuntimeError):
+    """The GPU path cannot run: no NVIDIA GPU, numba-cuda missing, or a broken package pairing."""

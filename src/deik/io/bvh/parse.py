@@ -1,0 +1,181 @@
+"""Read BVH motion files into a Clip: a Skeleton, its frames and the file's channel layout.
+
+HIERARCHY holds one ROOT with nested JOINT and End Site blocks (OFFSET x y z; CHANNELS n
+names); MOTION holds "Frames: N", "Frame Time: t" and N lines of numbers. Position channels may
+sit on any joint, anywhere among its rotations: they become the joint's first DOFs (BVH moves
+them along the parent's axes), its rotations follow in file order. Lengths keep the file's
+unit; degrees become radians. Every malformed input raises FileFormatError naming file and line.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from deik.errors import FileFormatError
+from deik.io.bvh.hierarchy import FRAME_TIME, FRAMES, MAX_MAGNITUDE, NUMBER_LINE, Hierarchy, Node, decode, number
+from deik.io.files import FilePath, read_input
+from deik.io.motion import CHANNELS, Clip, JointChannels
+from deik.io.segments import estimate_segments, read_segment_table
+from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, Joint, Site, euler, translation
+
+
+def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np.ndarray:
+    """(N, expected) float64 from frame lines (line number, text), converted by NumPy's C reader
+    in one call; only when that fails (a count, a token or a magnitude is off) are the lines
+    checked one by one, so that the error names the first bad line and number."""
+    if not rows:
+        return np.zeros((0, expected))
+    block = "\n".join(text for _, text in rows)
+    try:
+        values = np.loadtxt(io.StringIO(block), dtype=np.float64, comments=None, ndmin=2)
+    except ValueError:
+        values = None
+    if values is not None and values.shape == (len(rows), expected) and np.all(np.abs(values) <= MAX_MAGNITUDE):
+        return values  # (NaN fails the magnitude test)
+    return np.array([_frame_row(source, text, n, expected) for n, text in rows], np.float64).reshape(-1, expected)
+
+
+def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
+    words = text.split()
+    if len(words) != expected:
+        raise FileFormatError(
+            source, f"frame has {len(words)} numbers, expected {expected} (one per channel)", line=line
+        )
+    if NUMBER_LINE.fullmatch(text):
+        try:
+            row = [float(w) for w in words]
+            if all(abs(v) <= MAX_MAGNITUDE for v in row):
+                return row
+        except ValueError:
+            pass
+    return [number(source, w, line, f"channel {k + 1}") for k, w in enumerate(words)]
+
+
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
+MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
+
+
+def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
+    """(values (N, C) in file order and units, frame time in s) from lines after MOTION."""
+
+    def fail(problem, line):
+        raise FileFormatError(source, problem, line=line)
+
+    if len(lines[motion - 1].split()) != 1:
+        fail("MOTION must stand alone on its line", motion)
+    body = [(n, text.strip()) for n, text in enumerate(lines[motion:], motion + 1) if text.strip()]
+    header = [
+        FRAMES.fullmatch(body[0][1]) if body else None,
+        FRAME_TIME.fullmatch(body[1][1]) if len(body) > 1 else None,
+    ]
+    if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit()):
+        fail("expected 'Frames: N' (N a whole number) after MOTION", body[0][0] if body else motion)
+    if header[1] is None:
+        fail("expected 'Frame Time: seconds' after 'Frames:'", body[min(1, len(body) - 1)][0])
+    count, frames_line, time_line = int(header[0][1]), body[0][0], body[1][0]
+    frame_time = number(source, header[1][1], time_line, "Frame Time")
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+        fail(
+            f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
+            time_line,
+        )
+    rows = body[2:]
+    if n_channels == 0 and rows:
+        fail("frame numbers given but the hierarchy has no channels", rows[0][0])
+    if n_channels == 0:
+        if count > MAX_EMPTY_FRAMES:
+            fail(f"'Frames: {count}' for a hierarchy without channels; give at most {MAX_EMPTY_FRAMES}", frames_line)
+        return np.zeros((count, 0)), frame_time
+    values = _frame_values(source, rows[:count], n_channels)
+    if len(rows) > count:
+        fail(f"more frame lines than 'Frames: {count}' (line {frames_line}) says", rows[count][0])
+    if len(rows) < count:
+        fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)", frames_line)
+    return values.reshape(count, n_channels), frame_time
+
+
+def _site_names(nodes: list[Node]) -> dict[int, str]:
+    """End Site node index -> f"{joint}_end", then "_end2", ..., never a joint's name."""
+    taken, names = {n.name for n in nodes if not n.is_site}, {}
+    for k, node in enumerate(nodes):
+        if node.is_site:
+            number = 1
+            while (name := f"{node.name}_end{number if number > 1 else ''}") in taken:
+                number += 1
+            taken.add(name)
+            names[k] = name
+    return names
+
+
+def _skeleton(source, nodes, site_names, limits, segments=()):
+    """Build the Skeleton; translation DOFs get `limits[(node, channel)]`, rotations [-pi, pi]."""
+    joints, sites = [], []
+    for k, node in enumerate(nodes):
+        parent = nodes[node.parent].name if node.parent >= 0 else None
+        if node.is_site:
+            sites.append(Site(site_names[k], parent, node.offset))
+            continue
+        channels = node.channels or ()
+        dofs = tuple(translation(c[0], *limits[(k, c)])[0] for c in channels if c.endswith("position"))
+        rotations = "".join(c[0] for c in channels if c.endswith("rotation"))
+        dofs += euler(rotations) if rotations else ()
+        joints.append(Joint(node.name, parent, node.offset, dofs))
+    try:  # a safety net: the checks above leave build_skeleton nothing to reject
+        return build_skeleton(joints, sites, segments, up=(0.0, 1.0, 0.0), name=Path(source).stem or "bvh")
+    except ValueError as error:
+        raise FileFormatError(source, f"invalid skeleton: {error}") from None
+
+
+def parse_bvh(text: str | bytes, source: str = "<string>", segments: FilePath | None = None) -> Clip:
+    """Parse BVH `text` (str or bytes) named `source` into a Clip.
+
+    `segments`: a segment table path (JSON, see read_segment_table) or None to estimate masses
+    from bone lengths; clip.mass_source says which. Frames (N, D) are radians / file length
+    units in skeleton DOF order. Raises FileFormatError naming `source` and the line.
+    """
+    lines = [line.removesuffix("\r") for line in decode(text, source).split("\n")]
+    if not any(line.strip() for line in lines):
+        raise FileFormatError(source, "empty file: a BVH file starts with HIERARCHY", line=1)
+    motion = next((n for n, line in enumerate(lines, 1) if [w.upper() for w in line.split()[:1]] == ["MOTION"]), None)
+    last = max(n for n, line in enumerate(lines, 1) if line.strip())
+    nodes = Hierarchy(source, lines[: motion - 1] if motion else lines, motion or last).parse()
+    if motion is None:
+        raise FileFormatError(source, "no MOTION section after the hierarchy", line=last)
+    joint_nodes = [k for k, node in enumerate(nodes) if not node.is_site]
+    columns = [(k, c) for k in joint_nodes for c in nodes[k].channels or ()]
+    values, frame_time = _parse_motion(source, lines, motion, len(columns))
+    span = {
+        key: (values[:, j].min(), values[:, j].max()) if len(values) else (0.0, 0.0) for j, key in enumerate(columns)
+    }
+    site_names = _site_names(nodes)
+    bare = _skeleton(source, nodes, site_names, span)
+    if segments is None:
+        masses, mass_source = estimate_segments(bare)
+    else:
+        masses, mass_source = read_segment_table(segments, bare.joint_names)
+    reach = bare.reach
+    limits = {key: (lo - reach, hi + reach) for key, (lo, hi) in span.items()}
+    skeleton = _skeleton(source, nodes, site_names, limits, masses)
+    first_dof = dict(zip(skeleton.joint_names, skeleton.joint_dof_start.tolist()))
+    layout = []
+    for k in joint_nodes:
+        node, channels = nodes[k], nodes[k].channels or ()
+        # positions first, then rotations, each in file order: channel i is DOF order.index(i)
+        order = sorted(range(len(channels)), key=lambda i: CHANNELS[channels[i]][0] == ROTATE)
+        dofs = tuple(first_dof[node.name] + order.index(i) for i in range(len(channels)))
+        children = tuple(site_names.get(c, nodes[c].name) for c in node.children)
+        layout.append(JointChannels(node.name, channels, dofs, children))
+    return Clip.from_channel_values(skeleton, layout, values, frame_time, source, mass_source)
+
+
+def read_bvh(path: FilePath, segments: FilePath | None = None) -> Clip:
+    """Read the BVH file at `path` into a Clip (see parse_bvh); `segments` a table path or None.
+
+    A path that cannot be read (missing, a folder or device, too large) or a malformed file
+    raises FileFormatError naming it (and the line).
+    """
+    return parse_bvh(read_input(path, "BVH"), str(path), segments)

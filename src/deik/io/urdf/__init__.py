@@ -1,0 +1,7 @@
+"""URDF robots in: `read_urdf(path, base=None, tip=None) -> Skeleton` (robot.py), on our own safe
+XML reader (safe_xml.py), the link tree (tree.py) and checked `<link>`/`<joint>` elements
+(elements.py)."""
+
+from deik.io.urdf.robot import read_urdf
+
+__all__ = ["read_urdf"]

@@ -1,0 +1,139 @@
+"""URDF robots in: `read_urdf(path, base=None, tip=None) -> Skeleton`.
+
+Links become frames. A link reached through a moving joint (revolute, continuous, prismatic,
+or one that mimics another) is a skeleton joint named after the link, with one DOF named after
+the URDF joint; the base link is the root joint, fixed in the world. A link reached through a
+fixed joint is merged into its nearest moving ancestor and kept as a `Site` (tool frames such as
+`panda_hand_tcp`), so fixed joints cost the kernels nothing. Inertial masses become segments
+at their inertial origins. Continuous joints get [-pi, pi], which covers every angle; mimic
+joints follow their source and their own limits are not enforced. Geometry (`<visual>`,
+`<collision>`) is never read, so no mesh is loaded. Every value of the file is checked
+(`urdf_elements`); the joint types and limits only on the selected links, so an unsupported
+joint elsewhere in the robot does not matter. Units are the file's: metres, kilograms, radians.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from deik.io.files import FilePath
+from deik.io.urdf.elements import UrdfJoint, read_joint, read_link
+from deik.io.urdf.safe_xml import read_xml
+from deik.io.urdf.tree import LinkTree
+from deik.model.build import build_skeleton
+from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
+from deik.model.orientations import rpy_matrix
+from deik.model.skeleton import Skeleton
+from deik.suggest import did_you_mean
+
+MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
+SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
+
+
+@dataclass(frozen=True)
+class _Rigid:
+    """A link's frame relative to the skeleton joint that carries it."""
+
+    carrier: str
+    R: np.ndarray
+    p: np.ndarray
+
+
+def read_urdf(
+    path: FilePath, base: str | None = None, tip: str | Sequence[str] | None = None, up: ArrayLike = (0.0, 0.0, 1.0)
+) -> Skeleton:
+    """Skeleton of the robot in URDF file `path`: the sub-tree below link `base` (default: the
+    root link), cut to the paths from `base` to `tip` (a link name or a list of them; default:
+    every link below `base`). `up` (3,): world up for balance goals (URDF's convention is +Z)."""
+    source = str(path)
+    root = read_xml(path)
+    links = [read_link(element, source) for element in root.iterchildren("link")]
+    joints = [read_joint(element, source) for element in root.iterchildren("joint")]
+    tree = LinkTree(links, joints, source)
+    selected = tree.select(base, tip)
+    for name in selected[1:]:
+        _check_joint(tree, tree.joint_of[name])
+    return _build(tree, selected, up, root.get("name") or "robot")
+
+
+def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
+    """Refuse unsupported joint types, zero axes, bad mimic sources and missing or inverted limits."""
+    fail = tree.failure(joint.name)
+    if joint.type not in SUPPORTED:
+        fail(f"joint type {joint.type!r} is not supported; deik reads {', '.join(SUPPORTED)} (and mimic) joints")
+    if joint.type in MOVING and np.linalg.norm(joint.axis) < 1e-12:
+        fail(f"axis {joint.axis} must be a non-zero vector")
+    if joint.mimic is not None:
+        source = tree.joints.get(joint.mimic.joint)
+        if source is None:
+            fail(f"mimics unknown joint {joint.mimic.joint!r}{did_you_mean(joint.mimic.joint, tree.joints)}")
+        if source.type not in MOVING or source.mimic is not None:
+            fail(
+                f"mimics {source.name!r}, a {'mimic' if source.mimic else source.type} joint; "
+                "a mimic must follow a revolute, continuous or prismatic joint that is not a mimic itself"
+            )
+        return
+    if joint.type in ("revolute", "prismatic"):
+        if joint.lower is None or joint.upper is None:
+            fail(f"a {joint.type} joint needs <limit lower=... upper=...>; add them (or make it continuous)")
+        if joint.lower > joint.upper:
+            fail(f"lower limit {joint.lower} is above upper limit {joint.upper}; swap them")
+
+
+def _dof(joint: UrdfJoint) -> Dof:
+    kind = MOVING[joint.type]
+    axis = tuple(joint.axis / np.linalg.norm(joint.axis))
+    if joint.mimic is not None:
+        return Dof(
+            kind,
+            axis,
+            name=joint.name,
+            label=joint.type,
+            mimic=(joint.mimic.joint, joint.mimic.multiplier, joint.mimic.offset),
+        )
+    if joint.type == "continuous":
+        return Dof(kind, axis, -math.pi, math.pi, 0.0, joint.type, joint.name)
+    reference = min(max(0.0, joint.lower), joint.upper)
+    return Dof(kind, axis, joint.lower, joint.upper, reference, joint.type, joint.name)
+
+
+def _build(tree: LinkTree, links: list[str], up, name: str):
+    frames = {links[0]: _Rigid(links[0], np.eye(3), np.zeros(3))}
+    joints = [Joint(links[0], None)]
+    sites, segments = [], []
+    selected = set(links)
+    # one batched call: rotations one at a time were most of the reading time of long chains
+    origins = rpy_matrix(np.array([tree.joint_of[link].rpy for link in links[1:]]).reshape(-1, 3))
+    for link, R_origin in zip(links[1:], origins):
+        joint = tree.joint_of[link]
+        parent = frames[joint.parent]
+        R = parent.R @ R_origin
+        p = parent.p + parent.R @ joint.xyz
+        if joint.type in MOVING:
+            if joint.mimic is not None and tree.joint_child(joint.mimic.joint) not in selected:
+                tree.failure(joint.name)(
+                    f"mimics {joint.mimic.joint!r}, which is outside the selected chain; "
+                    "choose a base and tip that include it"
+                )
+            joints.append(Joint(link, parent.carrier, tuple(p), (_dof(joint),), rotation=_rows(R), label=joint.name))
+            frames[link] = _Rigid(link, np.eye(3), np.zeros(3))
+        else:
+            sites.append(Site(link, parent.carrier, tuple(p), _rows(R)))
+            frames[link] = _Rigid(parent.carrier, R, p)
+    for link in links:
+        mass, com = tree.links[link].mass, tree.links[link].com
+        if mass:
+            frame = frames[link]
+            segments.append(Segment(frame.carrier, mass, tuple(frame.p + frame.R @ com), link))
+    return build_skeleton(joints, sites, segments, up=up, name=name)
+
+
+def _rows(R: np.ndarray) -> tuple:
+    """A rotation matrix as nested tuples, re-orthonormalised against rounding in the file."""
+    U, _, Vt = np.linalg.svd(R)
+    return tuple(map(tuple, U @ Vt))

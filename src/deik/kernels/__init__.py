@@ -1,1 +1,0 @@
-"""Compiled maths: named kernel data, device functions written once, CPU (Numba) and CUDA back-ends."""

@@ -1,0 +1,177 @@
+"""Joint map files: which source joint or site each target joint or site follows.
+
+TOML or JSON (told apart by the ending: `.json` is JSON), every key optional but `points`:
+
+    scale = "limbs"           # target lengths per source length: "limbs" (each point's rest
+                              # distance from the pelvis point, and the pelvis's rest height, target
+                              # over source), "height" (the ratio of the mapped points' heights at
+                              # rest) or a number
+    up = [0, 1, 0]            # the target's up, for a URDF (whose convention is +Z)
+    rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # source world axes -> target world axes
+    pelvis = { source = "Hips", target = "middle_pelvis" }   # the target's root: orientation
+    torso = { source = "Chest", target = "middle_thorax" }   # orientation goal
+    [points]                  # source joint or site = target joint or site
+    LeftKnee = "left_lowerleg"
+    LeftAnkle_end = { target = "left_foot", offset = [0.15, -0.06, 0.0] }  # in the target
+                              # frame's axes, target length units: a point the target has no frame for
+
+Names are checked against both skeletons by `check_map`; every error names the file and key.
+docs/retarget.md describes the format and how each entry is used.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.errors import FileFormatError
+from deik.io.files import FilePath, read_input_text
+from deik.model.skeleton import Skeleton
+from deik.suggest import did_you_mean
+
+KEYS = ("scale", "up", "rotation", "pelvis", "torso", "points")
+
+
+@dataclass(frozen=True)
+class PointPair:
+    """Source frame `source` followed by target frame `target` moved by `offset` (3,) in the
+    target frame's axes (target length units)."""
+
+    source: str
+    target: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def site(self) -> str:
+        """The target frame that follows: `target`, or a site "retarget_SOURCE" at the offset."""
+        return self.target if not any(self.offset) else f"retarget_{self.source}"
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """A parsed joint map: `points`, `scale` (None: by height), `limbs` (scale each point by its
+    own rest distance from the pelvis point), `up` (3,) or None, `rotation` (3, 3) source axes
+    to target axes, `pelvis` and `torso` (source, target) or None, `source` the file."""
+
+    points: tuple[PointPair, ...]
+    scale: float | None = None
+    limbs: bool = False
+    up: tuple[float, float, float] | None = None
+    rotation: np.ndarray | None = None
+    pelvis: tuple[str, str] | None = None
+    torso: tuple[str, str] | None = None
+    source: str = "<joint map>"
+
+
+def _vector(source: str, key: str, value, length: int = 3) -> tuple[float, ...]:
+    ok = isinstance(value, list) and len(value) == length
+    ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    if not ok:
+        raise FileFormatError(source, f"must be a list of {length} finite numbers, got {value!r:.60}", element=key)
+    return tuple(float(v) for v in value)
+
+
+def _pair(source: str, key: str, value) -> tuple[str, str]:
+    if not (isinstance(value, dict) and set(value) == {"source", "target"} and all(map(_is_name, value.values()))):
+        raise FileFormatError(source, 'must be { source = "JOINT", target = "JOINT" }', element=key)
+    return value["source"], value["target"]
+
+
+def _is_name(value) -> bool:
+    return isinstance(value, str) and bool(value)
+
+
+def _point(source: str, name: str, value) -> PointPair:
+    key = f"points.{name}"
+    if _is_name(value):
+        return PointPair(name, value)
+    if isinstance(value, dict) and _is_name(value.get("target")) and set(value) <= {"target", "offset"}:
+        offset = _vector(source, f"{key}.offset", value["offset"]) if "offset" in value else (0.0, 0.0, 0.0)
+        return PointPair(name, value["target"], offset)
+    raise FileFormatError(source, 'must be "TARGET" or { target = "TARGET", offset = [x, y, z] }', element=key)
+
+
+def parse_map(data: object, source: str) -> JointMap:
+    """A JointMap from the parsed file `data` (a dict); FileFormatError naming the key."""
+    if not isinstance(data, dict):
+        raise FileFormatError(source, "must be a table of keys (scale, up, rotation, pelvis, torso, points)")
+    unknown = [key for key in data if key not in KEYS]
+    if unknown:
+        raise FileFormatError(
+            source, f"unknown key{did_you_mean(unknown[0], KEYS)}; keys: {', '.join(KEYS)}", element=unknown[0]
+        )
+    points = data.get("points")
+    if not isinstance(points, dict) or not points:
+        raise FileFormatError(source, 'needs a [points] table: SOURCE = "TARGET" per key point', element="points")
+    scale = data.get("scale", "height")
+    if scale not in ("height", "limbs") and not (
+        isinstance(scale, (int, float)) and not isinstance(scale, bool) and math.isfinite(scale) and scale > 0
+    ):
+        raise FileFormatError(source, f'must be "limbs", "height" or a number > 0, got {scale!r:.40}', element="scale")
+    if scale == "limbs" and not ("pelvis" in data and isinstance(data["pelvis"], dict)):
+        raise FileFormatError(source, 'scale = "limbs" measures from the pelvis: give pelvis too', element="scale")
+    rotation = None
+    if "rotation" in data:
+        rows = data["rotation"]
+        if not (isinstance(rows, list) and len(rows) == 3):
+            raise FileFormatError(source, "must be 3 rows of 3 numbers", element="rotation")
+        rotation = np.array([_vector(source, f"rotation[{k}]", row) for k, row in enumerate(rows)])
+        if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) and np.linalg.det(rotation) > 0):
+            raise FileFormatError(
+                source, "must be a rotation matrix (orthonormal rows, determinant +1)", element="rotation"
+            )
+    return JointMap(
+        points=tuple(_point(source, str(name), value) for name, value in points.items()),
+        scale=None if scale in ("height", "limbs") else float(scale),
+        limbs=scale == "limbs",
+        up=_vector(source, "up", data["up"]) if "up" in data else None,
+        rotation=rotation,
+        pelvis=_pair(source, "pelvis", data["pelvis"]) if "pelvis" in data else None,
+        torso=_pair(source, "torso", data["torso"]) if "torso" in data else None,
+        source=source,
+    )
+
+
+def read_map(path: FilePath) -> JointMap:
+    """Read the joint map at `path` (TOML, or JSON for `.json`); FileFormatError when malformed."""
+    source = str(path)
+    text = read_input_text(path, "joint map")
+    try:
+        data = json.loads(text) if source.lower().endswith(".json") else tomllib.loads(text)
+    except json.JSONDecodeError as error:
+        raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
+    except tomllib.TOMLDecodeError as error:
+        raise FileFormatError(source, f"not valid TOML: {error}") from None
+    return parse_map(data, source)
+
+
+def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: Skeleton) -> None:
+    """FileFormatError naming the map's key when a name is not a frame of its skeleton (with
+    close names), or the pelvis target is not the target's root joint."""
+    names = [(f"points.{p.source}", p.source, p.target) for p in joint_map.points]
+    for key in ("pelvis", "torso"):
+        pair = getattr(joint_map, key)
+        if pair is not None:
+            names.append((key, *pair))
+    for key, source_name, target_name in names:
+        for name, skeleton, side in (
+            (source_name, source_skeleton, "source"),
+            (target_name, target_skeleton, "target"),
+        ):
+            if name not in skeleton.frame_names:
+                raise FileFormatError(
+                    joint_map.source,
+                    f"no joint or site {name!r} in the {side} {skeleton.name!r}"
+                    f"{did_you_mean(name, skeleton.frame_names)}",
+                    element=key,
+                )
+    if joint_map.pelvis and joint_map.pelvis[1] != target_skeleton.joint_names[0]:
+        raise FileFormatError(
+            joint_map.source,
+            f"the pelvis target must be the target's root joint {target_skeleton.joint_names[0]!r}",
+            element="pelvis",
+        )

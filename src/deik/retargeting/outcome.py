@@ -1,0 +1,43 @@
+"""What a retarget returns, and the frame range of a source clip it works on."""
+
+from __future__ import annotations
+
+import operator
+from dataclasses import dataclass, replace
+
+from deik.cleanup.contacts import Contacts
+from deik.io.motion import Clip
+
+
+@dataclass(frozen=True, eq=False)
+class Retarget:
+    """The outcome of deik.retarget: `motion` the target's motion (a Clip for a BVH target, a
+    deik.io.trajectory.Trajectory for any other: `motion.frames` (N, D) radians / length units,
+    `motion.skeleton.dof_names`), `clip` a BVH clip to look at (the motion itself, or a view of
+    the robot: deik.io.bvh.preview), `source` the source frames used, `contacts` on the target's
+    sites (or None), `keypoints` (K,) target frames and `targets` (N, K, 3) where they should be
+    (target length units), `report` {"summary", "per_frame"} (retargeting/measures.py), `fix` the
+    clips.solver.ClipFix of the contact pass (or None)."""
+
+    motion: object
+    clip: Clip
+    source: Clip
+    contacts: Contacts | None
+    keypoints: tuple[str, ...]
+    targets: object
+    report: dict
+    fix: object = None
+
+
+def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
+    """`clip` cut to `frames` = (start, stop), stop exclusive, or None for every frame;
+    ValueError naming the valid frames when the range is empty or leaves the clip."""
+    if frames is None:
+        return clip
+    start, stop = (operator.index(v) for v in frames)
+    if not 0 <= start < stop <= clip.n_frames:
+        raise ValueError(
+            f"frames {start}:{stop} are empty or outside the clip; give START:STOP with "
+            f"0 <= START < STOP <= {clip.n_frames} (STOP exclusive)"
+        )
+    return replace(clip, frames=clip.frames[start:stop])

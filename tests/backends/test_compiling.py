@@ -1,0 +1,78 @@
+"""Each kernel is compiled once (deik/backends/linking.py): every way of solving runs the one DE
+kernel of its dtype, the device maths exists only inside the kernels that call it, a solve without
+the polish compiles no LM, and a second process loads what the first compiled."""
+
+import glob
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import deik
+from deik.backends import cpu as cpu_backend
+from deik.backends import cpu_kernels as cpu
+
+
+def test_every_way_of_solving_runs_one_kernel_per_dtype():
+    chain, human = deik.chain(5, dims=3), deik.humanoid()
+    target = deik.forward_kinematics(chain, np.full(chain.n_dofs, 0.3)).position("tip")
+    problem = deik.Problem(chain, [deik.Position("tip", target, tolerance=1e-3)])
+    run = {"population": 16, "generations": 3, "dtype": "float64"}
+    deik.solve(problem, **run)
+    # a read-only or strided start pose, a stack, a reused Solver, stepping by hand, another skeleton
+    start = np.broadcast_to(np.zeros(chain.n_dofs), (2, chain.n_dofs))
+    deik.solve(problem, initial=start, **run)
+    deik.solve(problem, initial=np.zeros((4, 2 * chain.n_dofs))[:, ::2], **run)
+    deik.solve_batch([problem, problem], **run)
+    solver = deik.Solver(problem, **run)
+    solver.solve({"position tip": target}, initial=np.zeros((1, chain.n_dofs)))
+    engine = deik.Engine(problem, deik.Settings(**run))
+    engine.step(engine.init())
+    deik.solve(deik.Problem(human, [deik.Position(human.site_names[0], [0.1, 0.2, 0.3])]), **run)
+    kinds = [cpu_backend.launch_kind(signature) for signature in cpu.launch.entry.overloads]
+    assert kinds.count(("float64", True)) == 1, cpu.launch.entry.overloads.keys()
+
+
+def _run(code: str, cache: str) -> subprocess.CompletedProcess:
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "NUMBA_CACHE_DIR": cache},
+    )
+    assert done.returncode == 0, done.stderr
+    return done
+
+
+SOLVE_WITHOUT_POLISH = (
+    "from deik.cli.app import main\n"
+    "main(['solve', 'chain:3', '--reach', 'tip', '1', '1', '0.5', '--dtype', 'float64', '--polish', '0'])\n"
+    "from deik.backends import cpu_kernels as cpu\n"
+    "from deik.backends.targets import cpu as dev\n"
+    "print('LM', len(dev.polish.overloads), 'compiled', sum(cpu.launch.entry._cache_misses.values()))\n"
+    "functions = (dev.breed_lanes, dev.forward_kinematics_lanes, cpu.run_generations)\n"
+    "linked = [r.library for f in functions for r in f.overloads.values()]\n"
+    "print('linked', len(linked), all(type(library).__name__ == 'LinkOnlyLibrary' for library in linked))\n"
+)
+
+
+@pytest.mark.slow  # a real cold compile (about 25 s on 2 cores)
+def test_a_solve_without_polish_compiles_no_lm_and_a_second_process_compiles_nothing(tmp_path):
+    first = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
+    assert "compiling the CPU kernels first (DE float64 without polish): about" in first.stderr
+    assert "LM 0 compiled 1" in first.stdout
+    # the device maths was lowered only to be linked into the kernel: no machine code of its own
+    assert "linked 3 True" in first.stdout
+    (record,) = glob.glob(str(tmp_path / "**" / "deik-compile-seconds.json"), recursive=True)
+    with open(record) as file:
+        assert json.load(file)["DE float64 without polish"] > 0
+    second = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
+    assert "compiling" not in second.stderr and "LM 0 compiled 0" in second.stdout
+    note = _run("from deik.solver import readiness as r; print(r.compile_note(r.pending('float64')))", str(tmp_path))
+    assert "(DE float64)" in note.stdout and "on a 2-core machine" in note.stdout
+    again = "from deik.solver import readiness as r; print(r.compile_note(['DE float64 without polish']))"
+    assert "on this machine, as measured here before" in _run(again, str(tmp_path)).stdout

@@ -1,0 +1,41 @@
+"""Named kernel data: the device namespaces resolve calls on their own target, the engine's
+state matches the NamedTuples, and the packed arrays carry their names."""
+
+import inspect
+
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+
+import deik
+from deik.backends import targets
+from deik.backends.pack import pack_skeleton
+from deik.device import driver as device_driver
+from deik.device import layout
+from deik.device import lm as device_lm
+from deik.device import terms as device_terms
+
+
+def test_device_imports_resolve_to_the_compiled_namespace():
+    for module in (device_terms, device_lm, device_driver):
+        for name, value in vars(module).items():
+            if inspect.isfunction(value):
+                compiled = getattr(targets.cpu, name)
+                assert isinstance(compiled, Dispatcher), name
+                assert compiled.py_func.__globals__ is vars(targets.cpu), name
+
+
+def test_evolution_state_exposes_buffers_and_status_as_named_tuples():
+    chain = deik.chain(3)
+    engine = deik.Engine(deik.Problem(chain, [deik.Position("tip", [1.0, 1.0, 0.0])]), deik.Settings(population=8))
+    state = engine.init()
+    assert isinstance(state.buffers, layout.Buffers) and isinstance(state.status, layout.Status)
+    assert state.buffers.pop is state.pop and state.status.leaders is state.leaders
+    assert isinstance(engine.kernel_settings, layout.KernelSettings) and engine.memetic.count == 8
+
+
+def test_packed_skeleton_columns_are_named():
+    chain = deik.chain(3)
+    skel = pack_skeleton(chain, np.float64)
+    assert isinstance(skel, layout.PackedSkeleton)
+    np.testing.assert_array_equal(skel.joint_int[:, layout.PARENT], chain.parents)
+    np.testing.assert_array_equal(skel.limits[:, layout.LOWER], chain.lower)

@@ -1,0 +1,157 @@
+"""A retarget onto another skeleton, piece by piece and whole: the key-point IK recovers poses
+from their forward kinematics and holds DOFs at their limits, an Euler twin outside the limits
+is written inside them as the same rotation, limb-scaled key points carry the target's limb
+lengths, and shared clips land on both bodies with small key-point errors, planted contacts,
+no limit violation and nothing deep in the floor (all checked by the NumPy FK)."""
+
+import numpy as np
+import pytest
+
+import deik
+from deik.cleanup.contacts import detect_contacts
+from deik.io.euler import tait_bryan_triples
+from deik.retargeting import keypoints as kp
+from deik.retargeting.collision import body_pairs, penetration_depths
+from deik.retargeting.ik import KeypointGoals, solve_keypoints
+from deik.retargeting.maps import read_map
+from deik.retargeting.measures import limit_violations, within_limits
+from deik.retargeting.skeletons import with_free_root
+from helpers import ROOT, shared_path
+
+HUMANOID_MAP = ROOT / "examples/maps/shared_bvh_to_humanoid.toml"
+URDF_MAP = ROOT / "examples/maps/shared_bvh_to_human_urdf.toml"
+POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
+POINTS += ("left_knee", "right_knee", "chest", "left_ankle", "right_ankle", "pelvis")
+
+
+def test_the_keypoint_ik_recovers_poses_from_their_positions():
+    h = deik.humanoid()
+    rng = np.random.default_rng(4)
+    truth = np.clip(h.reference + rng.uniform(-0.35, 0.35, (6, h.n_dofs)), h.lower, h.upper)
+    kin = deik.forward_kinematics(h, truth)
+    targets = np.stack([kin.position(name) for name in POINTS], axis=1)
+    start = np.tile(h.reference, (6, 1))
+    start[:, :6] = truth[:, :6]  # the root placed, as the retarget places it
+    searched = np.ones((6, h.n_dofs), bool)
+    found = solve_keypoints(KeypointGoals(h, POINTS, targets, searched, np.ones(h.n_dofs)), start)
+    assert (found >= h.lower).all() and (found <= h.upper).all()
+    reached = deik.forward_kinematics(h, found)
+    errors = np.linalg.norm(np.stack([reached.position(n) for n in POINTS], axis=1) - targets, axis=-1)
+    assert np.median(errors) < 1e-3 and errors.max() < 0.02  # metres
+
+
+def test_a_target_beyond_a_limit_holds_the_dof_at_it():
+    h = deik.humanoid()
+    knee = h.dof_names.index("left_knee.flexion")
+    pose = h.reference.copy()
+    pose[knee] = h.upper[knee] + 0.4  # further folded than the knee goes
+    beyond = deik.forward_kinematics(h, pose).position("left_ankle")
+    searched = np.zeros((1, h.n_dofs), bool)
+    searched[0, knee] = True
+    goals = KeypointGoals(h, ["left_ankle"], beyond[None, None], searched, np.ones(h.n_dofs))
+    found = solve_keypoints(goals, h.reference[None])
+    assert found[0, knee] == h.upper[knee]  # held at the limit, not past it
+    assert np.delete(found[0], knee) == pytest.approx(np.delete(h.reference, knee))  # nothing else moved
+
+
+def test_an_euler_twin_outside_the_limits_is_written_inside_as_the_same_rotation():
+    h = deik.humanoid()
+    rng = np.random.default_rng(1)
+    frames = np.clip(h.reference + rng.uniform(-0.3, 0.3, (5, h.n_dofs)), h.lower, h.upper)
+    twins = frames.copy()
+    for triple in tait_bryan_triples(h):  # (a, b, c) -> (a + pi, pi - b, c + pi): the same rotation
+        twins[:, triple] += np.pi
+        twins[:, triple[1]] = np.pi - frames[:, triple[1]]
+    assert limit_violations(h, twins).any()
+    fixed = within_limits(h, twins)
+    assert not limit_violations(h, fixed).any()
+    a, b = deik.forward_kinematics(h, twins), deik.forward_kinematics(h, fixed)
+    assert np.abs(a.p_world_frame - b.p_world_frame).max() < 1e-9
+    assert np.abs(fixed - frames).max() < 1e-9  # the twin of the twin is the in-limit original
+
+
+def test_a_free_root_turns_all_round_and_travels_over_the_points():
+    h = deik.humanoid()
+    points = np.array([[-5.0, 0.0, 0.0], [0.0, 3.0, 7.0]])
+    free = with_free_root(h, points)
+    rotations = [d for d in range(6) if h.dof_kind[d] == 0]
+    assert (free.lower[rotations] <= -np.pi).all() and (free.upper[rotations] >= np.pi).all()
+    assert free.lower[0] <= -5.0 - h.offsets[0, 0] and free.upper[2] >= 7.0 - h.offsets[0, 2]
+    assert np.array_equal(free.lower[6:], h.lower[6:])  # the limbs keep their limits
+
+
+@pytest.mark.shared_data
+def test_limb_scaled_key_points_carry_the_target_limb_lengths():
+    clip = deik.read_bvh(shared_path("humanoid", "humanoid3d_kick.bvh"))
+    joint_map = read_map(HUMANOID_MAP)
+    assert joint_map.limbs
+    h = deik.humanoid()
+    source = [p.source for p in joint_map.points]
+    target = [p.site for p in joint_map.points]
+    root = source.index("Hips")
+    root_scale, scales = kp.limb_scales(clip.skeleton, h, source, target, root, 1.0)
+    origin = np.zeros(3)
+    points = kp.limb_points(clip, source, origin, root, root_scale, scales, joint_map.rotation)
+    parents = kp.limb_tree(clip.skeleton, source, root)
+    rest = deik.forward_kinematics(h, np.zeros(h.n_dofs))
+    src = deik.forward_kinematics(clip.skeleton, clip.poses())
+    for k, parent in enumerate(parents):
+        if parent < 0:
+            continue
+        length = np.linalg.norm(rest.position(target[k]) - rest.position(target[parent]))
+        along = points[:, k] - points[:, parent]
+        assert np.linalg.norm(along, axis=-1) == pytest.approx(length, abs=1e-9)  # the target's limb
+        direction = (src.position(source[k]) - src.position(source[parent])) @ joint_map.rotation.T
+        cosine = (
+            np.einsum("ij,ij->i", along, direction)
+            / np.linalg.norm(along, axis=-1)
+            / np.linalg.norm(direction, axis=-1)
+        )
+        assert cosine.min() > 1 - 1e-9  # the source's direction
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("target", ["humanoid", "urdf"])
+@pytest.mark.parametrize("name, frames", [("humanoid3d_kick.bvh", None), ("humanoid3d_crawl.bvh", (60, 120))])
+def test_shared_clips_land_on_the_other_bodies(target, name, frames):
+    to, mapping = (
+        ("humanoid", HUMANOID_MAP) if target == "humanoid" else (shared_path("robots", "human.urdf"), URDF_MAP)
+    )
+    result = deik.retarget(shared_path("humanoid", name), to, joint_map=mapping, frames=frames)
+    motion = result.motion
+    sk = motion.skeleton
+    kin = deik.forward_kinematics(sk, motion.poses())
+    errors = np.stack(
+        [np.linalg.norm(kin.position(n) - result.targets[:, k], axis=-1) for k, n in enumerate(result.keypoints)]
+    )
+    assert errors.mean() < 0.04 and np.median(errors) < 0.03  # metres; before this IK: 0.07-0.47 m mean
+    assert not limit_violations(sk, motion.frames).any()
+    assert (
+        kin.p_world_frame @ sk.up
+    ).min() > -0.003  # metres: nothing in the floor (before the space-time pass: 22 mm)
+    contacts = result.contacts
+    assert contacts is not None and contacts.mask.any()
+    for s, site in enumerate(contacts.sites):
+        steps = np.linalg.norm(np.diff(kin.position(site), axis=0), axis=-1)
+        both = contacts.mask[1:, s] & contacts.mask[:-1, s]
+        if both.any():
+            assert steps[both].max() < 0.003, site  # metres per frame: planted (before the space-time pass: 27 mm)
+            assert np.median(steps[both]) < 1e-4, site
+    # the body out of itself: no pair of its bone capsules overlaps by more than a millimetre
+    pairs = body_pairs(sk, sk.frame_names)
+    assert penetration_depths(sk, motion.poses(), pairs).max() < 1e-3
+    assert result.report["summary"]["self_penetration_max_mm"] < 1.0
+    source = detect_contacts(result.source)  # the source's contacts, on the sites they map to
+    onto = {p.site: p.source for p in read_map(mapping).points}
+    for s, site in enumerate(contacts.sites):
+        assert np.array_equal(contacts.mask[:, s], source.mask[:, source.sites.index(onto[site])])
+
+
+def test_limb_scale_needs_a_pelvis_and_says_so(tmp_path):
+    path = tmp_path / "map.toml"
+    path.write_text('scale = "limbs"\n[points]\nHips = "pelvis"\n')
+    with pytest.raises(ValueError, match=r'map.toml: scale: scale = "limbs" measures from the pelvis: give pelvis too'):
+        read_map(path)
+    path.write_text('scale = "bones"\n[points]\nHips = "pelvis"\n')
+    with pytest.raises(ValueError, match=r'must be "limbs", "height" or a number > 0'):
+        read_map(path)
