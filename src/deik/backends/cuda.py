@@ -34,7 +34,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         dev.polish_individual,
     )
     polish_first, complete_individual = dev.polish_first, dev.complete_individual
-    update_status, settle, rank_first = dev.update_status, dev.settle, dev.rank_first
+    update_status, settle, rank_first = dev.update_status, dev.settle_after_polish, dev.rank_first
     copy_individual, polish_target = dev.copy_individual, dev.polish_target
     ftype = float32 if dtype_name == "float32" else float64
     n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
@@ -85,7 +85,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
         cuda.syncthreads()
         if tid == 0:
             rank_first(b, state, status)
-            settle(b, 0, state, terms, status, control, False)
+            settle_after_polish(b, 0, state, terms, status, control, False)
 
     @cuda.jit
     def run(
@@ -135,7 +135,7 @@ def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_moti
                             break
                 cuda.syncthreads()
                 if tid == 0:
-                    settle(b, gen_start + g, cur, terms, status, control, True)
+                    settle_after_polish(b, gen_start + g, cur, terms, status, control, True)
                 cuda.syncthreads()
                 if not status.active[b]:
                     break

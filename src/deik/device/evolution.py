@@ -251,9 +251,9 @@ def improved(b, k, state, status, rel):
     return state.total[b, k] < status.best_seen[b] - rel * abs(status.best_seen[b]) - 1e-30
 
 
-def settle(b, gen, state, terms, status, control, full_round):
+def settle_after_polish(b, gen, state, terms, status, rules, full_round):
     """After a polish: problem b's best, leaders and convergence (status.converged); a
-    converged problem stops (status.active) when control.stop_on_converged. After a full round
+    converged problem stops (status.active) when rules.stop_on_converged. After a full round
     (full_round) that met nothing, a problem whose every weighted goal the polish sees
     (polish_sees_all) restarts at once, restarts permitting: its round found only local minima
     of those goals, along which DE crept for hundreds of generations before stagnating (the
@@ -261,9 +261,9 @@ def settle(b, gen, state, terms, status, control, full_round):
     k = rank_problem(b, state, status)
     met = within_tolerances(b, state.raw[b, k], terms, state.raw.shape[2])
     status.converged[b] = met
-    if met and control.stop_on_converged:
+    if met and rules.stop_on_converged:
         status.active[b] = False
-    elif full_round and not met and status.restarts[b] < control.max_restarts and polish_sees_all(b, terms):
+    elif full_round and not met and status.restarts[b] < rules.max_restarts and polish_sees_all(b, terms):
         restart(b, k, gen, status)
 
 
@@ -284,9 +284,9 @@ def restart(b, k, gen, status):
     status.last_improved[b] = gen
 
 
-def update_status(b, gen, row, state, terms, status, control, history):
+def update_status(b, gen, row, state, terms, status, rules, history):
     """After a generation: best index, island leaders, migration, history, convergence,
-    stagnation and restarts of problem b (status: layout.Status, control: layout.Control). A
+    stagnation and restarts of problem b (status: layout.Status, rules: layout.SearchRules). A
     problem that stagnates unconverged with restarts left is flagged to restart: its next
     generation replaces every individual but the best by a random pose, and that best stays on
     as the elite, never worse, while the leaders that guide mutation and polish are the best of
@@ -300,20 +300,20 @@ def update_status(b, gen, row, state, terms, status, control, history):
     for i in range(P):
         mean += total[b, i]
     k = rank_problem(b, state, status)
-    if islands > 1 and (gen + 1) % control.migration == 0:
+    if islands > 1 and (gen + 1) % rules.migration == 0:
         migrate(b, state, elite[b], leaders, islands)
     history[row, b, HISTORY_BEST] = total[b, k]
     history[row, b, HISTORY_MEAN] = mean / P
     status.generations[b] += 1
     met = within_tolerances(b, raw[b, k], terms, raw.shape[2])
     status.converged[b] = met
-    if met and control.stop_on_converged:
+    if met and rules.stop_on_converged:
         status.active[b] = False
-    if improved(b, k, state, status, control.rel_improvement):
+    if improved(b, k, state, status, rules.rel_improvement):
         remember_best(b, k, state, status)
         last_improved[b] = gen
-    elif gen - last_improved[b] >= control.patience:
-        if not met and status.restarts[b] < control.max_restarts:
+    elif gen - last_improved[b] >= rules.patience:
+        if not met and status.restarts[b] < rules.max_restarts:
             restart(b, k, gen, status)
         else:
             status.active[b] = False
