@@ -15,7 +15,6 @@ have it are left untouched.
 
 from __future__ import annotations
 
-import sys
 from contextlib import contextmanager
 from functools import cache
 
@@ -54,7 +53,9 @@ def numba_cuda():
 
 def simulated() -> bool:
     """Whether numba-cuda runs in its CUDA simulator (NUMBA_ENABLE_CUDASIM=1)."""
-    return bool(getattr(numba_cuda(), "simulator_enabled", False) or "numba.cuda.simulator" in sys.modules)
+    from numba import config
+
+    return bool(config.ENABLE_CUDASIM)
 
 
 def gpu_available() -> bool:
