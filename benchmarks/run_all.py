@@ -2,14 +2,12 @@
 
     PYTHONPATH=src python -m benchmarks.run_all [--device cpu|gpu] [--quick] [--out DIR]
 
-a. serial_vs_parallel (CPU), b. throughput, c. headline, d. batch, f. memory, and with
---device gpu item 3's kernel resources and occupancy (gpu_kernels), all in one process
+a. serial_vs_parallel (CPU), b. throughput, c. headline, d. batch, f. memory, all in one process
 (kernels compiled once), each writing its JSON and PNG into --out. A benchmark that
 fails is reported and the others still run (exit status 1). Writes run_all.json and run_all.md
 (every target with the figure reached, the device and the command, and each stage's seconds).
-On the lent GPU machine:
-
-    PYTHONPATH=src python -m benchmarks.run_all --device gpu --out benchmarks/results/gpu
+The GPU's own check, issue 25's targets table with the CPU beside it, is
+benchmarks/gpu_check.py (docs/gpu.md).
 """
 
 from __future__ import annotations
@@ -20,7 +18,7 @@ import time
 import traceback
 from pathlib import Path
 
-from benchmarks import batch, gpu_kernels, headline, memory, serial_vs_parallel, throughput
+from benchmarks import batch, headline, memory, serial_vs_parallel, throughput
 from benchmarks.serial_vs_parallel import RESULTS
 from deik.experiments.shared import markdown_table
 from deik.experiments.timing import machine_line
@@ -33,7 +31,6 @@ STAGES = (
     ("d", "batch", batch),
     ("f", "memory", memory),
 )
-GPU_STAGES = (("3", "gpu_kernels", gpu_kernels),)  # kernel resources and occupancy, GPU only
 SPEEDUP_GOAL = 100.0  # issue 5 item 4a: >= 100x at 100 links, population 500
 
 
@@ -119,7 +116,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     t0 = time.perf_counter()
     stages = []
-    for item, name, module in STAGES + (GPU_STAGES if args.device == "gpu" else ()):
+    for item, name, module in STAGES:
         print(f"\n=== {item}. {name} ===", flush=True)
         start = time.perf_counter()
         stage = {"item": item, "name": name}

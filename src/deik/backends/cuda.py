@@ -126,11 +126,11 @@ class CudaBackend:
             self.evolve_pool = cuda.device_array((rows, self.blocks * self.threads), dtype)
             self.polish_matrices = cuda.device_array((max(matrices, 1), self.blocks * count), dtype)
             self.first_pool = cuda.device_array((rows + matrices, self.polish_threads), dtype)
-            self.unmet = cuda.device_array(B + 1, np.int64)
+            self.unmet = cuda.device_array(B, np.int64)
             self.order = self._to_device(np.arange(B, dtype=np.int64))
-            self.answers = cuda.device_array((B, kernels.answer_width(sizes)), np.float64)
+            self.answers = cuda.device_array((B + 1, kernels.answer_width(sizes)), np.float64)
             self.history = cuda.device_array((0, B, 2), np.float64)
-        self.host_answers = np.empty((B, kernels.answer_width(sizes)), np.float64)
+        self.host_answers = np.empty((B + 1, kernels.answer_width(sizes)), np.float64)
         self._sizes, self._polishers, self._bound = sizes, count, None
 
     def _history_for(self, n_generations: int):
@@ -165,9 +165,9 @@ class CudaBackend:
         self._bind(work, upload=False)
         kernels, device = self.kernels, self._inputs(inputs)
         initial = self._seeds(seeds)
-        count = np.zeros(1, np.int64)
+        B = self._sizes.problems
         with on_gpu("running the first polish"):
-            self._copy_in(count, self.unmet[:1])
+            self._copy_in(np.zeros(1), self.answers[B, :1])
             blocks = -(-self.polish_threads // FIRST_POLISH_THREADS)
             kernels.first_polish[blocks, FIRST_POLISH_THREADS](
                 self.cur,
@@ -184,12 +184,12 @@ class CudaBackend:
                 self.first_pool,
             )
             self.traffic.launches += 1
-            self._to_host(self.unmet[:1], count)
-        n_unmet = int(count[0])
+            self._to_host(self.answers, self.host_answers)
+        n_unmet = int(self.host_answers[B, 0])
         if n_unmet:
-            problems = (self.unmet[1 : 1 + n_unmet], n_unmet)
+            problems = (self.unmet[:n_unmet], n_unmet)
             self._evolve(device, problems, (initial, seeds.count), kernels.COMPLETE_FIRST, (0, n_generations))
-        return self._answers(work, np.arange(self._sizes.problems))
+        return self._answers(work, np.arange(B), copied=not n_unmet)
 
     def run(self, inputs: KernelInputs, work: SolveBuffers, first_generation: int, n_generations: int) -> int:
         """Up to n_generations more from first_generation, for the problems still active."""
@@ -260,13 +260,14 @@ class CudaBackend:
             )
             self.traffic.launches += 1
 
-    def _answers(self, work: SolveBuffers, problems: np.ndarray) -> int:
-        """Copy the answer rows out, write each of `problems`' best individual and Status fields
-        into the host buffers, and the history rows the last launch wrote; returns the most
-        generations it ran for any of them."""
+    def _answers(self, work: SolveBuffers, problems: np.ndarray, copied: bool = False) -> int:
+        """Copy the answer rows out (unless `copied` already), write each of `problems`' best
+        individual and Status fields into the host buffers, and the history rows the last
+        launch wrote; returns the most generations it ran for any of them."""
         k = self.kernels
         with on_gpu("copying the answers from the GPU"):
-            self._to_host(self.answers, self.host_answers)
+            if not copied:
+                self._to_host(self.answers, self.host_answers)
             rows = self.host_answers[problems]
             advanced = int(rows[:, k.ANSWER_RAN].max()) if len(rows) else 0
             if advanced:

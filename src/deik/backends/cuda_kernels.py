@@ -42,6 +42,10 @@ if TYPE_CHECKING:  # what a reader's go-to-definition reaches: the device maths 
 else:  # what runs: the same functions compiled with cuda.jit(device=True) (deik.backends.targets)
     device_driver = device_evolution = device_maths = targets.cuda_device()
 
+# evolve's register cap: 4 blocks of 128 threads resident per multiprocessor (65,536 registers);
+# uncapped, ptxas gave it 255 (2 blocks). first_polish stays uncapped: a thread per problem, and
+# a batch of 10,000 problems is 76 threads per multiprocessor of an H100, far below any limit.
+EVOLVE_REGISTERS = 128
 # evolve's modes: how a launch begins
 CONTINUE, COMPLETE_FIRST, SAMPLE_FIRST = 0, 1, 2
 # the columns of an answer row (float64): Status fields, the best individual's total, pose and errors
@@ -74,7 +78,8 @@ def matrix_rows(sizes: KernelSizes) -> int:
 
 
 def answer_width(sizes: KernelSizes) -> int:
-    """Columns of an answer row: the Status fields, the total, the pose (D) and the raw errors (T)."""
+    """Columns of an answer row: the Status fields, the total, the pose (D) and the raw errors
+    (T). The answers hold B + 1 rows: the last counts the problems first_polish left unmet."""
     return ANSWER_POSE + sizes.dofs + sizes.terms
 
 
@@ -140,7 +145,8 @@ def write_answer(b, ran, state, status, answers):
 def first_polish(cur, status, skel, terms, settings, schedule, rules, initial, n_initial, unmet, answers, pool):
     """Each problem's individual 0 seeded, evaluated and polished, one thread per problem
     (grid-stride); a problem it meets stops with its population all copies of it and its answer
-    written; the others are appended to unmet[1:] (count in unmet[0]) for `evolve`."""
+    written; the others are listed in unmet (B,) for `evolve`, their count in the extra answer
+    row answers[B, 0] (zero before the launch), so that one copy brings both out."""
     B, P, D = cur.pop.shape[0], cur.pop.shape[1], cur.pop.shape[2]
     L, T = cur.levels.shape[2], cur.raw.shape[2]
     start, stride = cuda.grid(1), cuda.gridsize(1)
@@ -157,10 +163,10 @@ def first_polish(cur, status, skel, terms, settings, schedule, rules, initial, n
             device_evolution.settle_after_polish(b, 0, cur, terms, status, rules, False)
             write_answer(b, 0, cur, status, answers)
         else:
-            unmet[1 + cuda.atomic.add(unmet, 0, 1)] = b
+            unmet[int(cuda.atomic.add(answers, (B, 0), 1.0))] = b
 
 
-@cuda.jit(cache=True)
+@cuda.jit(cache=True, max_registers=EVOLVE_REGISTERS)
 def evolve(
     mode,
     order,

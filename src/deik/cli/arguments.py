@@ -9,14 +9,14 @@ import os
 from collections.abc import Iterable
 from typing import NoReturn
 
-from deik.errors import UsageError
+from deik.errors import DeviceError, UsageError
 
 MESSAGE_LIMIT = 500
 
 
 # what a user's mistake raises (deik's own errors are InputError, a ValueError; a missing
 # optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
-USER_ERRORS = (UsageError, ValueError, ImportError, OSError, KeyError)
+USER_ERRORS = (UsageError, DeviceError, ValueError, ImportError, OSError, KeyError)
 
 
 def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
@@ -92,15 +92,13 @@ def check_outputs(
 
 
 def check_device(device: str) -> None:
-    """UsageError when `device` is "gpu" and no usable CUDA GPU is here."""
+    """DeviceError, one line naming the fix, when `device` is "gpu" and no usable CUDA GPU (or
+    numba-cuda) is here (deik.backends.gpu)."""
     if device != "gpu":
         return
-    try:
-        from numba import cuda
-    except ImportError:
-        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
-    if not cuda.is_available():
-        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
+    from deik.backends import gpu
+
+    gpu.require_gpu()
 
 
 def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:

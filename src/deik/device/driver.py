@@ -68,7 +68,7 @@ def propose(b, i, gen, cur, skel, settings, status, trial, trial_rates):
         status.leaders[b, i // (cur.pop.shape[1] // settings.islands)],
         gen,
         settings,
-        skel.limits,
+        skel.bounds,
         trial,
         trial_rates,
         status.restarting[b],

@@ -62,6 +62,7 @@ class PackedSkeleton(NamedTuple):
     mass_joint: np.ndarray  # (M,) int32: the joint each mass point hangs from
     mass_data: np.ndarray  # (M, 4): MASS_OFFSET, MASS_FRACTION
     limits: np.ndarray  # (D, 2): LOWER, UPPER
+    bounds: np.ndarray  # (2 D,): the same limits flat, LOWER and UPPER of DOF d at 2 d and 2 d + 1
     ground: np.ndarray  # (3, 3) rows: HORIZONTAL_U, HORIZONTAL_V, UP
 
 

@@ -7,6 +7,7 @@ a new EvolutionState; the one passed in is never changed.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -20,6 +21,7 @@ from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.result import ReportTerms
+from deik.solver.routing import choose_device
 from deik.solver.settings import LIMIT_CODES, STRATEGIES, Settings
 
 STAGNATION = 1e-3  # a best that improves by less than this fraction in `patience` generations stagnates
@@ -69,6 +71,8 @@ class Engine:
 
     def __init__(self, problem: Problem, settings: Settings | None = None):
         settings = Settings() if settings is None else settings
+        if settings.device == "auto":  # the engine runs where this problem's size is fastest
+            settings = dataclasses.replace(settings, device=choose_device(problem, settings))
         self.problem, self.settings = problem, settings
         dtype = np.dtype(settings.dtype)
         self.sizes = _sizes(problem, settings)

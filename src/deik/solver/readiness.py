@@ -49,14 +49,21 @@ def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
     return names
 
 
-def _record_path() -> str | None:
-    """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
+def cache_folder() -> str | None:
+    """The folder of the CPU kernels' disk cache, where per-machine records are kept (None if
+    there is no cache)."""
     from deik.backends import cpu_kernels as cpu
 
     try:
-        return os.path.join(cpu.launch.entry._cache._cache_path, RECORD_FILE)
+        return cpu.launch.entry._cache._cache_path
     except AttributeError:  # caching off, or another Numba's internals
         return None
+
+
+def _record_path() -> str | None:
+    """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
+    folder = cache_folder()
+    return None if folder is None else os.path.join(folder, RECORD_FILE)
 
 
 def measured_seconds() -> dict:
@@ -105,11 +112,11 @@ def record_compiles() -> dict:
             compiled["clip warm start float64"] = seconds
     path = _record_path()
     if compiled and path:
-        _write_json(path, {**measured_seconds(), **compiled})
+        write_json(path, {**measured_seconds(), **compiled})
     return compiled
 
 
-def _write_json(path: str, data: dict) -> None:
+def write_json(path: str, data: dict) -> None:
     """Replace the file at `path` with `data` in one step (a reader never sees half of it); a
     folder that refuses it is left as it was."""
     try:

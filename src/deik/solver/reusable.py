@@ -44,6 +44,7 @@ class Solver:
         self.settings = merge_settings("Solver()", settings, overrides)
         # an engine of the Solver's own: each solve rewrites its target parameters and seed
         self._engine = engine = Engine(problem, self.settings).for_problem(problem)
+        self.settings = engine.settings  # with device="auto" resolved for this problem's size
         _ = engine.report_terms  # worked out once
         self._kernel_settings = engine.kernel_settings
         self._params = tuple({id(t.params): t.params for t in (engine.terms, engine.terms64)}.values())

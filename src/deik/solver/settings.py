@@ -14,7 +14,7 @@ from deik.device.layout import BEST_1, CLIP, CURRENT_TO_BEST_1, MAX_POLISH_COUNT
 
 STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
 LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
-DEVICES = ("cpu", "gpu")
+DEVICES = ("cpu", "gpu", "auto")  # auto: by the solve's size (deik.solver.routing)
 
 
 @dataclass(frozen=True)
@@ -30,10 +30,13 @@ class Settings:
     reproducing its figures. `patience`: generations without improvement that count as
     stagnation. `stop_on_converged`: stop a problem once every goal with a tolerance is met;
     None (default) stops then unless a goal without tolerance (comfort) is left to improve,
-    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
-    between kernel launches, so it may overrun by about a quarter of the time left or one
-    generation, and always runs at least one generation; the first call in a process also
-    loads or compiles the kernels). `memory_limit`: bytes a solve may allocate (None: 80 % of
+    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()`, checked
+    between kernel launches and, on the CPU, inside them before every LM iteration and
+    generation (deik.solver.halting), so a solve stops within about one of those past it; the
+    first call in a process also loads or compiles the kernels. `device`: "cpu", "gpu" (an
+    NVIDIA GPU), or "auto": the GPU when one is usable and the solve is large enough to be
+    faster there (deik.solver.routing).
+    `memory_limit`: bytes a solve may allocate (None: 80 % of
     the machine's memory); a larger solve is refused before anything is allocated."""
 
     population: int = 256
@@ -78,6 +81,13 @@ class Settings:
         _seed(seed)
         new = object.__new__(type(self))  # not copy.copy: its generic protocol costs a reused Solver 2 us a solve
         new.__dict__.update(vars(self), seed=seed)
+        return new
+
+    def with_device(self, device: str) -> Settings:
+        """These settings on another device ("cpu", "gpu"), unchecked like with_seed."""
+        _choice("device", device, DEVICES)
+        new = object.__new__(type(self))
+        new.__dict__.update(vars(self), device=device)
         return new
 
     def __post_init__(self):

@@ -58,8 +58,9 @@ def run_engine(
     budget, time limit, or every problem stopped; the Result (solve() without the set-up).
     Generations run in short launches (solver/launches.py), each stopped early by the time
     limit or Ctrl-C (solver/halting.py), all in the buffers of one Workspace (`workspace`: one
-    kept from an earlier solve of the same sizes, as a Solver does; else a new one). batch_shape: the Result's (default the
-    problem's; a Solver's new targets may add a batch axis)."""
+    kept from an earlier solve of the same sizes, as a Solver does; else a new one).
+    batch_shape: the Result's (default the problem's; a Solver's new targets may add a batch
+    axis)."""
     settings = engine.settings
     start = time.perf_counter()
     skeleton = problem.skeleton
