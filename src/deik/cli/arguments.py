@@ -102,14 +102,12 @@ def check_device(device: str) -> None:
 
 
 def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
-    """Say in one note on stderr (the "deik" logger) before a CPU solve that must compile kernels
+    """Say in one note on stderr (the "deik" logger) before a solve that must compile kernels
     first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
     their names (give them to record_compiles once the solve is done)."""
-    if device != "cpu":
-        return []
     from deik.solver.readiness import compile_note, pending
 
-    names = pending(dtype, polish, clip)
+    names = pending(dtype, polish, clip, device)
     if names:
         logging.getLogger(__name__).info(compile_note(names, certain=not clip))
     return names

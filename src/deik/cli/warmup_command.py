@@ -1,4 +1,5 @@
-"""`deik warmup`: compile every CPU kernel a command uses, ahead of time, with a progress bar.
+"""`deik warmup`: compile every kernel a command uses, ahead of time, with a progress bar (the CPU
+kernels, and with --device gpu the CUDA kernels too).
 
 The kernels are compiled on first use and cached on disk (deik.backends.targets); running this
 once after an install or upgrade moves that wait to a moment of the user's choosing. Each step
@@ -22,14 +23,16 @@ from deik.console import add_output_flags, progress_bar, show_progress
 DTYPES = ("float32", "float64")
 
 
-def _solve(dtype: str) -> None:
-    """A small solve with every stage (initialise, generations, polish, report) in `dtype`."""
+def _solve(dtype: str, device: str = "cpu") -> None:
+    """A small solve with every stage (initialise, generations, polish, report) in `dtype` on `device`."""
     import deik
 
     sk = deik.chain(3, dims=3)
     target = deik.forward_kinematics(sk, np.full(sk.n_dofs, 0.3)).position("tip")
     problem = deik.Problem(sk, [deik.Position("tip", target, tolerance=1e-3), deik.Comfort(level=1)])
-    deik.solve(problem, population=8, generations=2, dtype=dtype, seed=0)
+    deik.solve(problem, population=8, generations=2, dtype=dtype, seed=0, device=device)
+    if device == "gpu":  # a solve whose problems stop once met: the GPU's first-polish kernel
+        deik.solve(deik.Problem(sk, problem.goals[:1]), population=8, generations=2, dtype=dtype, device=device)
 
 
 def _jacobians() -> None:
@@ -42,22 +45,27 @@ def _jacobians() -> None:
     point_jacobians(np.zeros((1, sk.n_dofs)), np.array([sk.frame_index("tip")]), pack_skeleton(sk, np.float64))
 
 
-def steps(dtypes: Iterable[str] = DTYPES) -> list[tuple[str, Callable[[], None]]]:
-    """(description, function) of every compile step for these dtypes."""
+def steps(dtypes: Iterable[str] = DTYPES, device: str = "cpu") -> list[tuple[str, Callable[[], None]]]:
+    """(description, function) of every compile step for these dtypes (and the GPU's, for device "gpu")."""
     out = [(f"DE, polish and report ({dtype})", lambda dtype=dtype: _solve(dtype)) for dtype in dtypes]
+    if device == "gpu":
+        out += [(f"CUDA kernels ({dtype})", lambda dtype=dtype: _solve(dtype, "gpu")) for dtype in dtypes]
     return out + [("clip warm start Jacobians (float64)", _jacobians)]
 
 
 def run_warmup(args: argparse.Namespace) -> int:
     """Compile the kernels for args.dtype (default both) and report how long it took."""
+    from deik.cli.arguments import check_device
     from deik.solver.readiness import compile_note, pending, record_compiles
 
-    dtypes = args.dtype or list(DTYPES)
+    dtypes, device = args.dtype or list(DTYPES), args.device
+    check_device(device)
     began = time.perf_counter()
-    names = list(dict.fromkeys(name for dtype in dtypes for name in pending(dtype, clip=True)))
+    devices = ("cpu", "gpu") if device == "gpu" else ("cpu",)
+    names = list(dict.fromkeys(n for d in dtypes for where in devices for n in pending(d, clip=True, device=where)))
     if names:
         logging.getLogger(__name__).info(compile_note(names))
-    todo = steps(dtypes)
+    todo = steps(dtypes, device)
     with progress_bar(len(todo), "deik warmup", "step", show_progress(args)) as bar:
         for description, step in todo:
             bar.set_postfix_str(description)
@@ -65,11 +73,15 @@ def run_warmup(args: argparse.Namespace) -> int:
             bar.update()
     record_compiles()
     state = "are compiled and cached" if names else "were already compiled (loaded from the cache)"
-    print(f"deik's CPU kernels for {', '.join(dtypes)} {state}: {time.perf_counter() - began:.1f} s")
+    which = "CPU and GPU" if device == "gpu" else "CPU"
+    print(f"deik's {which} kernels for {', '.join(dtypes)} {state}: {time.perf_counter() - began:.1f} s")
     return 0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The `deik warmup` flags on subparser `parser`."""
     parser.add_argument("--dtype", action="append", choices=DTYPES, help="only this precision (repeatable)")
+    parser.add_argument(
+        "--device", choices=("cpu", "gpu"), default="cpu", help="gpu: the CUDA kernels too (needs an NVIDIA GPU)"
+    )
     add_output_flags(parser)

@@ -4,7 +4,7 @@ A launch is one compiled call that releases the GIL; Python's own Ctrl-C handler
 it returns, and one LM iteration of a 900-DOF skeleton takes a second (the polish grows as DOFs
 cubed). So the kernels read a stop flag, Status.halt (1,), before every LM iteration, every
 Cholesky column and every generation (deik.device.lm, deik.backends.cpu_kernels), and one
-daemon thread here sets it: at the launch's deadline, or as soon as a signal arrives. Signals
+daemon thread here sets it: at the launch's deadline, or as soon as Ctrl-C (SIGINT) arrives. Signals
 reach it through Python's wakeup file descriptor (signal.set_wakeup_fd), which the interpreter's
 C-level handler writes to at once even while the main thread is inside a kernel; Python's own
 handler then raises KeyboardInterrupt when the launch returns, as it would have. A wakeup
@@ -73,7 +73,8 @@ class _Watchdog:
             if self._wake in ready:
                 self._drain(self._wake)
             with self._lock:
-                if self._halt is not None and (signalled or time.perf_counter() >= self._deadline):
+                interrupted = signal.SIGINT in signalled  # other signals with Python handlers pass by
+                if self._halt is not None and (interrupted or time.perf_counter() >= self._deadline):
                     self._halt[0] = 1
                     self._deadline = math.inf
                 if signalled and self._forward >= 0:
