@@ -18,10 +18,18 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
-# what ptxas may use per thread for each kernel (sm_90, float32 and float64): more registers than
-# this halves first_polish's resident warps, and any spill or local array means scratch the pools
-# were meant to hold (benchmarks/results/gpu/kernel_resources.json records the last compile)
-RESOURCE_BUDGET = {"registers": 128, "spill_store_bytes": 0, "local_bytes": 0}
+# what ptxas may use per thread for each kernel (sm_90, float32 and float64): evolve is capped at 128
+# registers (four 128-thread blocks per multiprocessor), first_polish is not (docs/gpu.md); any spill
+# or stack frame (local memory) would be scratch the pools were meant to hold
+# (benchmarks/results/gpu/kernel_resources.json records the last compile)
+REGISTER_BUDGET = {"evolve": 128, "first_polish": 255}
+LOCAL_BUDGET = {"spill_store_bytes": 0, "spill_load_bytes": 0, "stack_frame_bytes": 0}
+
+
+def _within_budget(name, kernel):
+    assert kernel["registers"] is not None and kernel["registers"] <= REGISTER_BUDGET[name], (name, kernel)
+    for field, limit in LOCAL_BUDGET.items():
+        assert kernel[field] is not None and kernel[field] <= limit, (name, field, kernel[field])
 
 
 def _run(script, *args, simulator=False, env=None):
@@ -173,8 +181,7 @@ def test_cuda_kernels_compile_once_for_hopper_within_budget_and_load_from_the_ca
         assert not kernel["from_cache"] and again["from_cache"], name
         assert again["seconds"] < 0.2 * kernel["seconds"], name
         assert kernel["ptx_bytes"] > 0 and kernel["sass_bytes"] > 0
-        for field, limit in RESOURCE_BUDGET.items():
-            assert kernel[field] is not None and kernel[field] <= limit, (name, field, kernel[field])
+        _within_budget(name, kernel)
 
 
 def test_recorded_kernel_resources_are_within_budget():
@@ -185,8 +192,7 @@ def test_recorded_kernel_resources_are_within_budget():
     for row in record["compiles"]:
         assert sorted(row["kernels"]) == ["evolve", "first_polish"]
         for name, kernel in row["kernels"].items():
-            for field, limit in RESOURCE_BUDGET.items():
-                assert kernel[field] <= limit, (row["dtype"], name, field, kernel[field])
+            _within_budget(name, kernel)
 
 
 def test_every_gpu_failure_is_one_device_error_line():

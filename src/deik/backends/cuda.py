@@ -25,6 +25,9 @@ from deik.device.layout import THREADS_PER_BLOCK, Buffers, Status
 RESIDENT_THREADS_PER_MULTIPROCESSOR = 2048  # Hopper; the grid never launches more threads than fit at once
 SIMULATED_MULTIPROCESSORS = 2  # the simulator runs threads in Python: keep its grids small
 FIRST_POLISH_THREADS = 32  # problems per block of first_polish (one per thread)
+# the scratch pools of each kernel stay under this; beyond it the grid shrinks and its threads and
+# blocks take several problems each (grid-stride): a 100-link chain's polish needs 90 KB a thread
+SCRATCH_BYTES = 1 << 30
 
 
 @dataclass
@@ -117,12 +120,14 @@ class CudaBackend:
             self.nxt = Buffers(*(cuda.device_array(a.shape, a.dtype) for a in cur))
             self.status = Status(*(cuda.device_array(a.shape, a.dtype) for a in work.status))
             self.status.halt.copy_to_device(np.zeros(1, np.int64))
-            self.threads = min(THREADS_PER_BLOCK, 32 * -(-P // 32))
-            self.blocks = max(1, min(B, self._resident_threads // self.threads))
-            blocks = -(-min(B, self._resident_threads) // FIRST_POLISH_THREADS)
-            self.polish_threads = blocks * FIRST_POLISH_THREADS  # first_polish's grid: one pool column each
             dtype = cur.pop.dtype
             rows, matrices = kernels.thread_rows(sizes), kernels.matrix_rows(sizes)
+            self.threads = min(THREADS_PER_BLOCK, 32 * -(-P // 32))
+            per_block = (self.threads * rows + count * max(matrices, 1)) * dtype.itemsize
+            self.blocks = max(1, min(B, self._resident_threads // self.threads, SCRATCH_BYTES // per_block))
+            per_thread = (rows + matrices) * dtype.itemsize
+            threads = max(1, min(B, self._resident_threads, SCRATCH_BYTES // per_thread))
+            self.polish_threads = FIRST_POLISH_THREADS * -(-threads // FIRST_POLISH_THREADS)  # one pool column each
             self.evolve_pool = cuda.device_array((rows, self.blocks * self.threads), dtype)
             self.polish_matrices = cuda.device_array((max(matrices, 1), self.blocks * count), dtype)
             self.first_pool = cuda.device_array((rows + matrices, self.polish_threads), dtype)
@@ -172,11 +177,7 @@ class CudaBackend:
             kernels.first_polish[blocks, FIRST_POLISH_THREADS](
                 self.cur,
                 self.status,
-                device.skeleton,
-                device.terms,
-                device.evolution,
-                device.polish,
-                device.rules,
+                *device,  # skeleton, terms, evolution, polish, rules
                 initial,
                 np.int64(seeds.count),
                 self.unmet,
@@ -244,11 +245,7 @@ class CudaBackend:
                 self.cur,
                 self.nxt,
                 self.status,
-                device.skeleton,
-                device.terms,
-                device.evolution,
-                device.polish,
-                device.rules,
+                *device,  # skeleton, terms, evolution, polish, rules
                 self._launch_history,
                 seeds[0],
                 np.int64(seeds[1]),

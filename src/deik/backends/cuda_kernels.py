@@ -84,39 +84,30 @@ def answer_width(sizes: KernelSizes) -> int:
 
 
 @cuda.jit(device=True)
+def take(column, start, n):
+    """(column[start:start + n], start + n): the next n rows of a scratch column."""
+    return column[start : start + n], start + n
+
+
+@cuda.jit(device=True)
 def carve_scratch(column, matrices, skel, D, L, T):
     """One thread's scratch from its column of the pool (thread_rows long) and of the matrix
     pool: (Scratch, axes (6N,), trial (D,), trial_rates (2,), lv (L,), rw (T,), LmScratch)."""
     F = device_maths.frame_count(skel)
-    n_axes = 6 * skel.motion_int.shape[0]
-    o = 0
-    R = column[o : o + 9 * F]
-    o += 9 * F
-    p = column[o : o + 3 * F]
-    o += 3 * F
-    work = column[o : o + WORK_SIZE]
-    o += WORK_SIZE
-    axes = column[o : o + n_axes]
-    o += n_axes
-    trial = column[o : o + D]
-    o += D
-    trial_rates = column[o : o + 2]
-    o += 2
-    lv = column[o : o + L]
-    o += L
-    rw = column[o : o + T]
-    o += T
-    gradient = column[o : o + D]
-    o += D
-    jac = column[o : o + 3 * D]
-    o += 3 * D
-    delta = column[o : o + D]
-    o += D
-    pose = column[o : o + D]
-    o += D
-    pose_levels = column[o : o + L]
-    o += L
-    pose_raw = column[o : o + T]
+    R, o = take(column, 0, 9 * F)
+    p, o = take(column, o, 3 * F)
+    work, o = take(column, o, WORK_SIZE)
+    axes, o = take(column, o, 6 * skel.motion_int.shape[0])
+    trial, o = take(column, o, D)
+    trial_rates, o = take(column, o, 2)
+    lv, o = take(column, o, L)
+    rw, o = take(column, o, T)
+    gradient, o = take(column, o, D)
+    jac, o = take(column, o, 3 * D)
+    delta, o = take(column, o, D)
+    pose, o = take(column, o, D)
+    pose_levels, o = take(column, o, L)
+    pose_raw, o = take(column, o, T)
     lm = LmScratch(matrices[0 : D * D], matrices[D * D : 2 * D * D], gradient, jac, delta, pose, pose_levels, pose_raw)
     return Scratch(R, p, work), axes, trial, trial_rates, lv, rw, lm
 
