@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, NamedTuple
 from numba import int32
 
 from deik.backends import targets
-from deik.backends.gpu import numba_cuda
+from deik.backends.gpu import numba_cuda, simulated
 from deik.device.layout import THREADS_PER_BLOCK, WORK_SIZE, LmScratch, Scratch
 
 cuda = numba_cuda()
@@ -46,6 +46,7 @@ else:  # what runs: the same functions compiled with cuda.jit(device=True) (deik
 # uncapped, ptxas gave it 255 (2 blocks). first_polish stays uncapped: a thread per problem, and
 # a batch of 10,000 problems is 76 threads per multiprocessor of an H100, far below any limit.
 EVOLVE_REGISTERS = 128
+EVOLVE_OPTIONS = {} if simulated() else {"max_registers": EVOLVE_REGISTERS}  # the simulator takes no cap
 # evolve's modes: how a launch begins
 CONTINUE, COMPLETE_FIRST, SAMPLE_FIRST = 0, 1, 2
 # the columns of an answer row (float64): Status fields, the best individual's total, pose and errors
@@ -157,7 +158,7 @@ def first_polish(cur, status, skel, terms, settings, schedule, rules, initial, n
             unmet[int(cuda.atomic.add(answers, (B, 0), 1.0))] = b
 
 
-@cuda.jit(cache=True, max_registers=EVOLVE_REGISTERS)
+@cuda.jit(cache=True, **EVOLVE_OPTIONS)
 def evolve(
     mode,
     order,
