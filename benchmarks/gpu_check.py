@@ -158,9 +158,9 @@ class Check:
 
             cuda = require_gpu()
             device = cuda.get_current_device()
-            name = device.name.decode() if isinstance(device.name, bytes) else str(device.name)
+            name = "CUDA simulator" if simulated() else device.name
             env.update(
-                gpu=("CUDA simulator" if simulated() else name),
+                gpu=name.decode() if isinstance(name, bytes) else str(name),
                 compute_capability=getattr(device, "compute_capability", None),
                 multiprocessors=getattr(device, "MULTIPROCESSOR_COUNT", None),
             )
