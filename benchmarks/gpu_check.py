@@ -294,7 +294,7 @@ class Check:
         }
         if all(fits.values()):
             (g0, g1), (c0, c1) = fits["gpu"], fits["cpu"]
-            found["polish_problems"] = (g0 - c0) / (c1 - g1) if c1 > g1 else float("inf")
+            found["polish_problems"] = (g0 - c0) / (c1 - g1) if c1 > g1 else None  # None: never
         one_gpu, one_cpu = evolution.get("gpu/1"), evolution.get("cpu/1")
         if one_gpu and one_cpu:
             per_problem = one_gpu["population"] * (one_gpu["links"] + 1)
@@ -303,7 +303,8 @@ class Check:
         if store and found and "gpu" in self.devices:
             from deik.solver.routing import store_crossover
 
-            found["stored_in"] = store_crossover({k: v for k, v in found.items() if np.isfinite(v)})
+            never = 1e18  # the GPU was not faster at any size measured: auto keeps such solves on the CPU
+            found["stored_in"] = store_crossover({k: never if v is None else v for k, v in found.items()})
         return found
 
     def write_markdown(self) -> None:
