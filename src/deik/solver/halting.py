@@ -23,6 +23,7 @@ import signal
 import socket
 import threading
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
@@ -107,7 +108,7 @@ def _the_watchdog() -> _Watchdog:
 
 
 @contextmanager
-def guarded(halt: np.ndarray, deadline: float, expected_seconds: float):
+def guarded(halt: np.ndarray, deadline: float, expected_seconds: float) -> Iterator[None]:
     """Around one launch: halt[0] is set at `deadline` (time.perf_counter; inf: none) or when a
     signal arrives (only from the main thread, the one Python delivers signals to). A launch
     expected to take less than GUARD_SECONDS and with no deadline inside that runs unguarded."""
