@@ -7,8 +7,8 @@ environment (CPU model and SIMD flags, Numba threads, load average before and af
 the GPU), writes NAME.json, NAME.md and NAME.png into --out atomically, prints the Markdown and
 returns the record (benchmarks/README.md has an example). `figures` (label -> number) are what
 benchmarks.compare sets side by side for two commits. The plumbing uses the standard library,
-NumPy, Numba and matplotlib only, never deik's internals, so that a benchmark runs unchanged
-against the deik of an earlier commit.
+NumPy, Numba, matplotlib and deik.experiments.timing (in every deik since the paper's figures),
+never deik's other internals, so that a benchmark runs unchanged against an earlier deik.
 """
 
 from __future__ import annotations
@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numba
 import numpy as np
+
+from deik.experiments.timing import gpu_status, threading_layer
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MAX_GENERATIONS = 1_000_000  # cap of the calibrated generation count of one Engine.run
@@ -162,21 +164,6 @@ def cpu_info() -> tuple[str, list[str]]:
     return model, flags
 
 
-def gpu_status() -> tuple[bool, str]:
-    """(available, the CUDA GPU's name or why there is none)."""
-    from numba import config, cuda
-
-    if config.ENABLE_CUDASIM:
-        return True, "Numba's CUDA simulator (NUMBA_ENABLE_CUDASIM=1): checks code paths, its timings mean nothing"
-    try:
-        if not cuda.is_available():
-            return False, "no CUDA GPU is available here (numba.cuda.is_available() is False)"
-        name = cuda.get_current_device().name
-        return True, name.decode() if isinstance(name, bytes) else str(name)
-    except Exception as error:  # noqa: BLE001 - a broken driver is reported, not raised
-        return False, f"CUDA is not usable here ({error})"
-
-
 def environment(device: str, load_before: list[float]) -> dict:
     """What the figures depend on: CPU model and SIMD flags, CPU and Numba thread counts and
     threading layer, load average before and after, platform and versions; with --device gpu the
@@ -184,10 +171,6 @@ def environment(device: str, load_before: list[float]) -> dict:
     import deik
 
     model, flags = cpu_info()
-    try:
-        layer = numba.threading_layer()
-    except ValueError:  # no parallel region has run yet
-        layer = None
     env = {
         "device": device,
         "cpu_model": model,
@@ -195,7 +178,7 @@ def environment(device: str, load_before: list[float]) -> dict:
         "cpu_count": os.cpu_count(),
         "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
         "numba_threads": numba.get_num_threads(),
-        "numba_threading_layer": layer,
+        "numba_threading_layer": threading_layer(),
         "load_average_before": load_before,
         "load_average_after": list(os.getloadavg()),
         "platform": platform.platform(),
