@@ -84,11 +84,9 @@ class Runner:
         p, R, start = self.targets["positions"][k], self.targets["rotations"][k], self.targets["start"]
         if not self.restarts:
             return self.peer.solve(p, R, start), 1
-        lower, upper = self.targets["lower"], self.targets["upper"]
+        limits = (self.targets["lower"], self.targets["upper"])
         attempt = lambda q0, left: self.peer.solve(p, R, q0, left)  # noqa: E731
-        return solve_with_restarts(
-            attempt, self.peer.fk, p, R, np.asarray(start, float), lower, upper, [RESTART_SEED, k]
-        )
+        return solve_with_restarts(attempt, self.peer.fk, (p, R), start, limits, [RESTART_SEED, k])
 
     def solve(self, start: int, stop: int) -> dict:
         """Targets start..stop-1, each timed alone: angles (n, D), seconds (n,), attempts (n,)."""

@@ -32,7 +32,7 @@ class Clock:
 
 
 def restarts(attempt, seed=7, budget=5.0, clock=None, start=ORIGIN):
-    return solve_with_restarts(attempt, fk, TARGET, np.eye(3), start, LOWER, UPPER, seed, budget, clock)
+    return solve_with_restarts(attempt, fk, (TARGET, np.eye(3)), start, (LOWER, UPPER), seed, budget, clock)
 
 
 def test_restarts_stop_at_the_first_success():
