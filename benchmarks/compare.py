@@ -29,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.harness import RESULTS, cpu_info, md_table, write_atomically
+from benchmarks.harness import RESULTS, cpu_info, md_table
+from deik.io.atomic import write_json_atomically, write_text_atomically
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -136,8 +137,9 @@ def main(argv=None) -> dict:
     }
     text = markdown(result)
     name = "_".join((runs["before"][0]["benchmark"], *result["trees"].values()))
-    write_atomically(a.out / f"{name}.json", json.dumps(result, indent=2) + "\n")
-    write_atomically(a.out / f"{name}.md", text)
+    a.out.mkdir(parents=True, exist_ok=True)
+    write_json_atomically(a.out / f"{name}.json", result, missing_as_null=True)
+    write_text_atomically(a.out / f"{name}.md", text)
     print(text)
     return result
 

@@ -7,21 +7,19 @@ environment (CPU model and SIMD flags, Numba threads, load average before and af
 the GPU), writes NAME.json, NAME.md and NAME.png into --out atomically, prints the Markdown and
 returns the record (benchmarks/README.md has an example). `figures` (label -> number) are what
 benchmarks.compare sets side by side for two commits. The plumbing uses the standard library,
-NumPy, Numba, matplotlib and deik.experiments.timing (in every deik since the paper's figures),
-never deik's other internals, so that a benchmark runs unchanged against an earlier deik.
+NumPy, Numba, matplotlib, deik.experiments.timing and deik.io.atomic (in every deik since
+2026-11-21), never deik's other internals, so that a benchmark runs unchanged against an
+earlier deik.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import os
 import platform
 import shlex
 import subprocess
 import sys
-import tempfile
 import time
 from contextlib import contextmanager
 from importlib import metadata
@@ -31,6 +29,7 @@ import numba
 import numpy as np
 
 from deik.experiments.timing import gpu_status, threading_layer
+from deik.io.atomic import save_atomically, write_json_atomically, write_text_atomically
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MAX_GENERATIONS = 1_000_000  # cap of the calibrated generation count of one Engine.run
@@ -109,8 +108,9 @@ class Run:
         }
         text = markdown(record, body)
         folder = Path(self.args.out)
-        write_atomically(folder / f"{self.name}.json", json.dumps(finite(record), indent=2) + "\n")
-        write_atomically(folder / f"{self.name}.md", text)
+        folder.mkdir(parents=True, exist_ok=True)
+        write_json_atomically(folder / f"{self.name}.json", record, missing_as_null=True)
+        write_text_atomically(folder / f"{self.name}.md", text)
         if figure is not None:
             save_figure(figure, folder / f"{self.name}.png")
         print(text)
@@ -223,36 +223,6 @@ def deik_commit() -> str:
 # --- writing ------------------------------------------------------------------------------------
 
 
-def finite(value):
-    """`value` with every NaN or infinite float replaced by None (JSON has no such numbers)."""
-    if isinstance(value, dict):
-        return {k: finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite(v) for v in value]
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def write_atomically(path: Path, content: str | None = None, write=None) -> None:
-    """Write `content` (or call write(temporary path)) through a temporary file in the same
-    folder, then rename it into place: a reader never sees half a file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    os.close(fd)
-    try:
-        if write is None:
-            Path(temporary).write_text(content)
-        else:
-            write(temporary)
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-
-
 def figure(ncols: int = 1, nrows: int = 1, width: float = 6.4, height: float = 4.4):
     """A matplotlib (figure, axes (nrows, ncols)) pair on the file-only Agg backend."""
     import matplotlib
@@ -268,7 +238,7 @@ def save_figure(fig, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    write_atomically(path, write=lambda temporary: fig.savefig(temporary, format="png", dpi=110))
+    save_atomically(path, lambda temporary: fig.savefig(temporary, format="png", dpi=110))
     plt.close(fig)
 
 
