@@ -11,7 +11,7 @@ import deik
 from deik.cleanup.contacts import detect_contacts
 from deik.io.euler import tait_bryan_triples
 from deik.retargeting import keypoints as kp
-from deik.retargeting.collision import body_pairs, penetration_depths
+from deik.retargeting.capsule_overlaps import body_pairs, penetration_depths
 from deik.retargeting.ik import KeypointGoals, solve_keypoints
 from deik.retargeting.maps import read_map
 from deik.retargeting.measures import limit_violations, within_limits

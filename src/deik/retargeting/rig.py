@@ -38,7 +38,7 @@ from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
-from deik.retargeting.collision import body_pairs
+from deik.retargeting.capsule_overlaps import body_pairs
 from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.measures import retarget_report, within_limits

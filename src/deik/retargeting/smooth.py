@@ -34,7 +34,7 @@ from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import BonePairs, collision_rows
+from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
 from deik.retargeting.ik import Targets, full_turns, targets_at
 
 HELD_WEIGHT = 1e7  # contacts, floor and capsules: their squared error in reach units, against the spring
