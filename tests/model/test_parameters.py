@@ -19,13 +19,6 @@ COMPILED_DECORATORS = {"linked", "njit", "jit"}
 # retargeting pipeline's records), named with their count until they land: an entry that no
 # longer exceeds the limit, or is gone, fails the test, so that the list only shrinks.
 NOT_YET = {
-    "deik/backends/cpu.py:_launch": 14,
-    "deik/backends/cpu.py:initialise": 9,
-    "deik/backends/cpu.py:start": 12,
-    "deik/backends/cpu.py:run": 11,
-    "deik/backends/cuda.py:initialise": 9,
-    "deik/backends/cuda.py:start": 12,
-    "deik/backends/cuda.py:run": 11,
     "deik/solver/result.py:result": 9,
     "deik/retargeting/measures.py:retarget_report": 9,
     "deik/retargeting/smooth.py:smooth_motion": 11,

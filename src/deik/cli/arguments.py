@@ -93,12 +93,12 @@ def check_outputs(
 
 def check_device(device: str) -> None:
     """DeviceError, one line naming the fix, when `device` is "gpu" and no usable CUDA GPU (or
-    numba-cuda) is here (deik.backends.gpu)."""
+    numba-cuda) is here (deik.solver.routing.require_gpu)."""
     if device != "gpu":
         return
-    from deik.backends import gpu
+    from deik.solver.routing import require_gpu
 
-    gpu.require_gpu()
+    require_gpu()
 
 
 def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:

@@ -63,6 +63,14 @@ def store_crossover(values: dict) -> str | None:
     return path
 
 
+def require_gpu() -> None:
+    """DeviceError, one line naming the fix, unless an NVIDIA GPU and numba-cuda are usable here
+    (for the layers above the solver, which reach the back-ends only through it)."""
+    from deik.backends import gpu
+
+    gpu.require_gpu()
+
+
 def polish_regime(problem: Problem, settings: Settings) -> bool:
     """Whether a solve of `problem` is mostly its first polish: the polish is on and problems
     stop once every tolerance is met (explicitly, or because every weighted goal has one)."""
