@@ -52,7 +52,8 @@ class _Watchdog:
         byte is also written to `forward` (a wakeup fd set before ours; -1: none)."""
         with self._lock:
             self._halt, self._deadline, self._forward = halt, deadline, forward
-        self._poke()
+        if not math.isinf(deadline):  # without a deadline the thread sleeps until a signal comes
+            self._poke()
 
     def disarm(self) -> None:
         with self._lock:
