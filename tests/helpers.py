@@ -17,8 +17,8 @@ from scipy.spatial.transform import Rotation
 import deik
 from benchmarks.data import shared_data
 from deik import Dof, Joint, Site, hinge, translation
-from deik.backends import cpu_kernels as cpu
 from deik.backends.pack import pack_skeleton, pack_terms
+from deik.backends.targets import cpu
 from deik.model.joints import ROTATE
 
 ROOT = Path(__file__).resolve().parents[1]  # the checkout

@@ -51,6 +51,20 @@ def progress_bar(total: int | None, description: str, unit: str, show: bool | No
     )
 
 
+_compile_bar: bool | None = False  # compile bars: off unless a command (or progress=True) asks
+
+
+def show_compile_bars(show: bool | None) -> None:
+    """Whether kernel compiles draw a bar (progress_bar's `show`; a command sets its flags')."""
+    global _compile_bar
+    _compile_bar = show
+
+
+def compile_bars() -> bool | None:
+    """The `show` flag of kernel compile bars (show_compile_bars; default False: nothing)."""
+    return _compile_bar
+
+
 def show_generation(bar: tqdm, generation: int, best: float, running: int = 1, problems: int = 1) -> None:
     """Move a solve's `bar` to `generation`, with the best fitness and, for a batch of
     `problems`, how many still run."""

@@ -13,7 +13,7 @@ import pytest
 
 import deik
 from deik.backends import cpu as cpu_backend
-from deik.backends import cpu_kernels as cpu
+from deik.backends import entries
 
 
 def test_every_way_of_solving_runs_one_kernel_per_dtype():
@@ -32,8 +32,9 @@ def test_every_way_of_solving_runs_one_kernel_per_dtype():
     engine = deik.Engine(problem, deik.Settings(**run))
     engine.step(engine.init())
     deik.solve(deik.Problem(human, [deik.Position(human.site_names[0], [0.1, 0.2, 0.3])]), **run)
-    kinds = [cpu_backend.launch_kind(signature) for signature in cpu.launch.entry.overloads]
-    assert kinds.count(("float64", True)) == 1, cpu.launch.entry.overloads.keys()
+    launches = [entry for (_, name), entry in entries._ENTRIES.items() if name.startswith("launch")]
+    kinds = [cpu_backend.launch_kind(signature) for entry in launches for signature in entry.overloads]
+    assert kinds.count(("float64", True)) == 1, kinds
 
 
 def _run(code: str, cache: str) -> subprocess.CompletedProcess:
@@ -51,10 +52,11 @@ def _run(code: str, cache: str) -> subprocess.CompletedProcess:
 SOLVE_WITHOUT_POLISH = (
     "from deik.cli.app import main\n"
     "main(['solve', 'chain:3', '--reach', 'tip', '1', '1', '0.5', '--dtype', 'float64', '--polish', '0'])\n"
-    "from deik.backends import cpu_kernels as cpu\n"
-    "from deik.backends.targets import cpu as dev\n"
-    "print('LM', len(dev.polish.overloads), 'compiled', sum(cpu.launch.entry._cache_misses.values()))\n"
-    "functions = (dev.breed_lanes, dev.forward_kinematics_lanes, cpu.run_generations)\n"
+    "from deik.backends.targets import cpu_build, cpu_entry\n"
+    "position = frozenset({'POSITION_ON'})\n"
+    "dev, entry = cpu_build(position), cpu_entry('launch', position)\n"
+    "print('LM', len(dev.polish.overloads), 'compiled', sum(entry._cache_misses.values()))\n"
+    "functions = (dev.breed_lanes, dev.forward_kinematics_lanes, dev.run_generations)\n"
     "linked = [r.library for f in functions for r in f.overloads.values()]\n"
     "print('linked', len(linked), all(type(library).__name__ == 'LinkOnlyLibrary' for library in linked))\n"
 )
@@ -63,16 +65,43 @@ SOLVE_WITHOUT_POLISH = (
 @pytest.mark.slow  # a real cold compile (about 25 s on 2 cores)
 def test_a_solve_without_polish_compiles_no_lm_and_a_second_process_compiles_nothing(tmp_path):
     first = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
-    assert "compiling the CPU kernels first (DE float64 without polish): about" in first.stderr
+    assert "compiling the CPU kernels first (DE float64 without polish [position]): about" in first.stderr
     assert "LM 0 compiled 1" in first.stdout
     # the device maths was lowered only to be linked into the kernel: no machine code of its own
     assert "linked 3 True" in first.stdout
     (record,) = glob.glob(str(tmp_path / "**" / "deik-compile-seconds.json"), recursive=True)
     with open(record) as file:
-        assert json.load(file)["DE float64 without polish"] > 0
+        assert json.load(file)["DE float64 without polish [position]"] > 0
     second = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
     assert "compiling" not in second.stderr and "LM 0 compiled 0" in second.stdout
     note = _run("from deik.solver import readiness as r; print(r.compile_note(r.pending('float64')))", str(tmp_path))
-    assert "(DE float64)" in note.stdout and "on a 2-core machine" in note.stdout
-    again = "from deik.solver import readiness as r; print(r.compile_note(['DE float64 without polish']))"
+    assert "(DE float64)" in note.stdout and "on this machine, scaled from its earlier compiles" in note.stdout
+    again = "from deik.solver import readiness as r; print(r.compile_note(['DE float64 without polish [position]']))"
     assert "on this machine, as measured here before" in _run(again, str(tmp_path)).stdout
+
+
+@pytest.mark.slow  # compiles a build of its own the first time (about 30 s on 2 cores)
+def test_the_build_for_a_problems_own_kinds_gives_the_answers_of_the_build_for_every_kind(monkeypatch):
+    from deik.backends import builds
+    from deik.backends.targets import ALL_KINDS, cpu_entry
+
+    sk = deik.chain(6, dims=3)
+    pose = np.random.default_rng(5).uniform(sk.lower, sk.upper)
+    kinematics = deik.forward_kinematics(sk, pose)
+    goals = [
+        deik.Position("tip", kinematics.position("tip"), tolerance=1e-6),
+        deik.Orientation("tip", kinematics.rotation("tip"), tolerance=1e-5),
+    ]
+    problem = deik.Problem(sk, goals)
+    run = {"population": 16, "generations": 40, "dtype": "float64", "seed": 2}
+    switches = builds.switches_of(deik.Engine(problem, deik.Settings(**run)).inputs.terms.term_int)
+    assert switches == {"POSITION_ON", "ORIENTATION_ON"}
+    answers = []
+    for build in (switches, ALL_KINDS):  # which build serves the solve: the one chosen, then the other
+        monkeypatch.setattr(cpu_backend, "_LAUNCHES", {("float64", True, switches): (build, True)})
+        monkeypatch.setattr(cpu_backend, "_ENTRY_POINTS", {})
+        answers.append(deik.solve(problem, **run))
+    own, every = answers
+    np.testing.assert_array_equal(own.angles, every.angles)
+    assert float(own.fitness) == float(every.fitness) and int(own.generations) == int(every.generations)
+    assert cpu_entry("launch", switches).overloads and cpu_entry("launch", ALL_KINDS).overloads  # both ran

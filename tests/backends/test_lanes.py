@@ -15,7 +15,7 @@ import pytest
 from numba import njit
 
 import deik
-from deik.backends import cpu_kernels as cpu
+from deik.backends.targets import cpu
 from deik.backends.targets import cpu as dev
 from deik.device.layout import LANES
 from helpers import BUILTIN_SKELETONS, random_poses

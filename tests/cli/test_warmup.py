@@ -8,7 +8,7 @@ import sys
 import deik.solver.readiness as readiness
 from deik.cli.app import main
 
-CHECK_LOCATION = "from deik.backends import cpu_kernels as cpu; print(cpu.run_generations.entry._cache._cache_path)"
+CHECK_LOCATION = "from deik.backends.targets import cpu_entry; print(cpu_entry('run_generations')._cache._cache_path)"
 
 
 def _python(code: str, **env) -> str:

@@ -29,10 +29,10 @@ from readme_commands import (
 
 import deik
 from benchmarks.wheel_install import MAX_PACKAGES, MB, index_reachable, install, measure, outside_env
-from deik.backends import cpu_kernels as cpu
+from deik.backends.targets import cpu
 
 CACHE_PATH = (
-    "from deik.backends import cpu_kernels as cpu; print(cpu.launch.entry._cache._cache_path)"  # Numba's, private
+    "from deik.backends.targets import cpu_entry; print(cpu_entry('launch')._cache._cache_path)"  # Numba's, private
 )
 
 

@@ -9,8 +9,8 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Segment, Site, build_skeleton, euler, hinge, translation
-from deik.backends.cpu_kernels import forward_kinematics_batch
 from deik.backends.pack import pack_skeleton
+from deik.backends.targets import cpu
 from deik.model.rotations import axis_angle_matrix, euler_matrix, rotation_angle
 
 TAIT_BRYAN = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
@@ -220,7 +220,7 @@ def _kernel_fk(sk, poses, dtype):
     skel = pack_skeleton(sk, dtype)
     N, F = len(poses), sk.n_frames
     R, p = np.empty((N, F * 9), dtype), np.empty((N, F * 3), dtype)
-    forward_kinematics_batch(np.ascontiguousarray(poses, dtype), skel, R, p)
+    cpu.forward_kinematics_batch(np.ascontiguousarray(poses, dtype), skel, R, p)
     return R.reshape(N, F, 3, 3), p.reshape(N, F, 3)
 
 

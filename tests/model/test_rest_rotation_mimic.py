@@ -10,8 +10,8 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik import Joint, Site, build_skeleton
-from deik.backends.cpu_kernels import forward_kinematics_batch
 from deik.backends.pack import pack_skeleton
+from deik.backends.targets import cpu
 from deik.model.joints import ROTATE, TRANSLATE, Dof
 
 R_A = Rotation.from_euler("xyz", [0.3, -0.7, 1.1]).as_matrix()
@@ -84,7 +84,7 @@ def test_kernel_fk_with_rest_rotations_and_mimic_matches_numpy(dtype, atol):
     poses = np.random.default_rng(1).uniform(sk.lower, sk.upper, (16, 2))
     F = sk.n_frames
     R, p = np.empty((16, F * 9), dtype), np.empty((16, F * 3), dtype)
-    forward_kinematics_batch(np.ascontiguousarray(poses, dtype), pack_skeleton(sk, dtype), R, p)
+    cpu.forward_kinematics_batch(np.ascontiguousarray(poses, dtype), pack_skeleton(sk, dtype), R, p)
     kin = deik.forward_kinematics(sk, poses.astype(dtype).astype(np.float64))
     np.testing.assert_allclose(p.reshape(16, F, 3), kin.p_world_frame, atol=atol)
     np.testing.assert_allclose(R.reshape(16, F, 3, 3), kin.R_world_frame, atol=atol)

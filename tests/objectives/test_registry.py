@@ -8,8 +8,8 @@ import numpy as np
 
 import deik
 from deik import Joint, Site, build_skeleton, translation
-from deik.backends import cpu_kernels as cpu
 from deik.backends.pack import pack_skeleton, pack_terms
+from deik.backends.targets import cpu
 from deik.objectives import kinds, registry
 from deik.objectives.goals import Goal
 from deik.objectives.registry import KIND_NAMES, KINDS, kind_of

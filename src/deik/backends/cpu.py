@@ -1,80 +1,77 @@
-"""Host side of the CPU kernels: chunking, thread count and argument order (deik.backends.cpu_kernels).
+"""Host side of the CPU kernels: the build that serves a problem, chunking, thread count and
+argument order (deik.backends.cpu_kernels, deik.backends.builds).
 
-Every launch goes through the one compiled kernel `cpu.launch`, so a solve compiles one kernel per
-dtype. A solve without the LM polish passes no PolishSchedule (None), which compiles a kernel without the
-LM, unless the kernel with it is compiled already (deik.solver.readiness): it gives the same
-answers with the polish turned off, and one kernel loads faster than two compile.
+Every launch goes through the one compiled kernel `launch` of a build, so a solve compiles one
+kernel per dtype, and only for the kinds of its goals (or loads a build for more kinds compiled
+before). A solve without the LM polish passes no PolishSchedule (None), which compiles a kernel
+without the LM, unless a kernel with it is compiled already: it gives the same answers with the
+polish turned off, and one kernel loads faster than two compile.
 """
 
 from __future__ import annotations
-
-from functools import cache
 
 import numba
 import numpy as np
 from numba.core import types
 
-from deik.backends import cpu_kernels as cpu
+from deik.backends import builds
 from deik.backends.contract import KernelInputs, Seeds, SolveBuffers
 from deik.backends.pack import kernel_array
+from deik.backends.targets import cpu_entry
 
-# argument positions in cpu.launch's signature
+# argument positions in cpu_kernels.launch's signature
 LAUNCH_BUFFERS, LAUNCH_SCHEDULE = 1, 7
 
 
 def launch_kind(signature) -> tuple[str, bool]:
-    """(dtype, with the LM polish) of a cpu.launch signature (a tuple of Numba types)."""
+    """(dtype, with the LM polish) of a cpu_kernels.launch signature (a tuple of Numba types)."""
     return str(signature[LAUNCH_BUFFERS].types[0].dtype), not isinstance(signature[LAUNCH_SCHEDULE], types.NoneType)
 
 
 def evaluate_dtype(signature) -> str:
-    """The dtype of a cpu.evaluate_poses or cpu.point_jacobians signature (of its poses)."""
+    """The dtype of a cpu_kernels.evaluate_poses or point_jacobians signature (of its poses)."""
     return str(signature[0].dtype)
 
 
-def launch_ready(dtype: str, polish: bool) -> bool:
-    """Whether cpu.launch for `dtype` ("float32", "float64") with the LM polish (or without) is
-    compiled in this process or cached on disk."""
-    return (dtype, polish) in map(launch_kind, cpu.launch.ready_signatures())
+_LAUNCHES = {}  # (dtype, polish wanted, switches) -> (the build that serves it, with the polish)
 
 
-def report_ready() -> bool:
-    """Whether the float64 evaluation of a float32 solve's report (cpu.evaluate_poses) is ready."""
-    return "float64" in map(evaluate_dtype, cpu.evaluate_poses.ready_signatures())
+def launch_build(dtype: str, polish: bool, switches: frozenset[str]) -> tuple[frozenset[str], bool]:
+    """(build, with the LM polish) of the launch kernel a solve in `dtype` with the polish (or
+    without) on a problem needing `switches` runs: a ready one that covers them (without the
+    polish: one without it first, else one with it), else its own, to compile. Decided once per
+    process: the disk check costs milliseconds."""
+    key = (dtype, polish, switches)
+    if key not in _LAUNCHES:
+        _LAUNCHES[key] = (switches, polish)
+        for with_polish in (True,) if polish else (False, True):
+            build = builds.ready_build("launch", switches, lambda sig, p=with_polish: launch_kind(sig) == (dtype, p))
+            if build is not None:
+                _LAUNCHES[key] = (build, with_polish)
+                break
+    return _LAUNCHES[key]
 
 
-def jacobians_ready() -> bool:
-    """Whether the clip warm start's float64 point Jacobians (cpu.point_jacobians) are ready."""
-    return "float64" in map(evaluate_dtype, cpu.point_jacobians.ready_signatures())
+_REPORTS = {}  # switches -> the build whose float64 evaluate_poses serves them
 
 
-@cache
-def _without_polish(dtype: str) -> bool:
-    """Whether a polish-free launch in `dtype` compiles the kernel without the LM (decided once a
-    process: the disk check costs milliseconds)."""
-    return not launch_ready(dtype, polish=True)
+def report_build(switches: frozenset[str]) -> frozenset[str]:
+    """The build whose float64 evaluate_poses evaluates a problem needing `switches`: a ready
+    one that covers them, else their own (decided once per process)."""
+    if switches not in _REPORTS:
+        ready = builds.ready_build("evaluate_poses", switches, is_report)
+        _REPORTS[switches] = switches if ready is None else ready
+    return _REPORTS[switches]
 
 
-def _schedule(schedule, dtype):
-    """The PolishSchedule to pass, or None for the kernel without the polish (see the module doc)."""
-    return None if schedule.iterations == 0 and _without_polish(np.dtype(dtype).name) else schedule
-
-
-_ENTRIES = {}  # (dtype, with the polish) -> the compiled entry point of cpu.launch for them
-
-
-def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]) -> int:
-    """cpu.launch with the argument types it is compiled for; generations (first, count);
-    returns the buffer swaps.
-
-    Numba's dispatcher types every argument on every call (some 40 arrays in NamedTuples: 6 us
-    of a 40 us robot solve), while an Engine's arguments are always the same types for a dtype
-    and PolishSchedule or None: the same NamedTuples of C-contiguous, writable arrays
-    (kernel_array) and the same scalar types. The first launch of each kind in a process
-    dispatches (compiling or loading) and keeps the overload's entry point, which later
-    launches call directly."""
+def launch_args(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]):
+    """The arguments of cpu_kernels.launch for a launch, in the types it is compiled for;
+    generations (first, count). The PolishSchedule is None where the serving kernel has no LM."""
     cur = work.current
-    args = (
+    dtype = cur.pop.dtype.name
+    polish = inputs.polish.iterations > 0
+    _, with_polish = launch_build(dtype, polish, builds.switches_of(inputs.terms.term_int))
+    return (
         fresh,
         cur,
         work.spare,
@@ -82,7 +79,7 @@ def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds,
         inputs.skeleton,
         inputs.terms,
         inputs.evolution,
-        _schedule(inputs.polish, cur.pop.dtype),
+        inputs.polish if with_polish else None,
         inputs.rules,
         work.history,
         seeds.poses,
@@ -91,14 +88,79 @@ def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds,
         np.int64(generations[1]),
         numba.get_num_threads(),
     )
-    key = (cur.pop.dtype, args[LAUNCH_SCHEDULE] is None)
-    entry = _ENTRIES.get(key)
+
+
+def launch_ready(dtype: str, polish: bool, build: frozenset[str]) -> bool:
+    """Whether the launch kernel of `build` in `dtype` with the LM polish (or without) is
+    compiled in this process or cached on disk."""
+    return (dtype, polish) in map(launch_kind, cpu_entry("launch", build).ready_signatures())
+
+
+def is_report(signature) -> bool:
+    """Whether an evaluate_poses signature is the float64 report's."""
+    return evaluate_dtype(signature) == "float64"
+
+
+def jacobians_ready() -> bool:
+    """Whether the clip warm start's float64 point Jacobians (cpu_kernels.point_jacobians) are ready."""
+    return "float64" in map(evaluate_dtype, cpu_entry("point_jacobians").ready_signatures())
+
+
+def launch_job(
+    inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, build: frozenset[str] | None = None
+) -> tuple[str, frozenset[str], tuple] | None:
+    """("launch", build, signature) of the DE kernel a solve with these inputs runs, or None when
+    this process has loaded it; `build`: that build's instead (of the same dtype and polish)."""
+    switches = builds.switches_of(inputs.terms.term_int)
+    key = (work.current.pop.dtype, bool(inputs.polish.iterations > 0), switches)
+    if build is None and key in _ENTRY_POINTS:
+        return None
+    serving, _ = launch_build(key[0].name, key[1], switches)
+    signature = tuple(numba.typeof(a) for a in launch_args(True, inputs, work, seeds, (0, 0)))
+    return "launch", serving if build is None else build, signature
+
+
+def report_job(skel, terms, build: frozenset[str] | None = None) -> tuple[str, frozenset[str], tuple] | None:
+    """("evaluate_poses", build, signature) of the float64 report of a float32 solve whose packed
+    float64 skeleton and terms these are, or None when this process has loaded it; `build`: that
+    build's instead."""
+    serving = report_build(builds.switches_of(terms.term_int))
+    if build is None and (np.dtype(np.float64), serving) in _ENTRY_POINTS:
+        return None
+    signature = tuple(numba.typeof(a) for a in _evaluate_args(np.zeros((1, 1)), skel, terms, 1)[0])
+    return "evaluate_poses", serving if build is None else build, signature
+
+
+def jacobians_job(skel) -> tuple[str, frozenset[str], tuple] | None:
+    """("point_jacobians", build, signature) of the clip warm start's float64 point Jacobians
+    (skel: a float64 packed skeleton), or None when this process has loaded them."""
+    if "point_jacobians" in _ENTRY_POINTS:
+        return None
+    return (
+        "point_jacobians",
+        builds.ALL_KINDS,
+        tuple(numba.typeof(a) for a in _jacobian_args(np.zeros((1, 1)), [0], skel)[0]),
+    )
+
+
+_ENTRY_POINTS = {}  # (dtype, polish wanted, switches) or (dtype, build) -> the compiled kernel they run
+
+
+def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]) -> int:
+    """cpu_kernels.launch of the serving build; returns the buffer swaps.
+
+    Numba's dispatcher types every argument on every call (some 40 arrays in NamedTuples: 6 us
+    of a 40 us robot solve), while an Engine's arguments are always the same types for a dtype
+    and PolishSchedule or None: the same NamedTuples of C-contiguous, writable arrays
+    (kernel_array) and the same scalar types. The first launch of each kind in a process loads
+    (or compiles) the kernel and keeps its compiled function, which later launches call."""
+    args = launch_args(fresh, inputs, work, seeds, generations)
+    key = (work.current.pop.dtype, bool(inputs.polish.iterations > 0), builds.switches_of(inputs.terms.term_int))
+    entry = _ENTRY_POINTS.get(key)
     if entry is None:
-        kernel = cpu.launch.entry
-        swaps = kernel(*args)
-        _ENTRIES[key] = kernel.overloads[tuple(numba.typeof(a) for a in args)].entry_point
-    else:
-        swaps = entry(*args)
+        build, _ = launch_build(key[0].name, key[1], key[2])
+        entry = _ENTRY_POINTS[key] = cpu_entry("launch", build).entry_point(args)
+    swaps = entry(*args)
     if swaps % 2:
         work.current, work.spare = work.spare, work.current
     return int(swaps)
@@ -128,32 +190,49 @@ class CpuBackend:
         """Nothing to do: the CPU kernels work in the host buffers."""
 
 
-def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
-    """(levels (N, L), total (N,), raw (N, T)) of poses (N, D), pose n against problem
-    problem_index[n], in the dtype of the packed arrays."""
+def _evaluate_args(poses, skel, terms, n_levels: int, problem_index=None) -> tuple[tuple, np.ndarray]:
+    """(the arguments of cpu_kernels.evaluate_poses for poses (N, D), the array of the results
+    levels, total, raw they fill)."""
     N, T = len(poses), terms.term_int.shape[0]
     dtype = skel.joint_frame.dtype
+    index = np.zeros(N, np.int64) if problem_index is None else kernel_array(problem_index, np.int64)
     levels, total, raw = np.empty((N, n_levels), dtype), np.empty(N, dtype), np.empty((N, T), dtype)
-    cpu.evaluate_poses(
-        kernel_array(poses, dtype),
-        kernel_array(problem_index, np.int64),
-        skel,
-        terms,
-        levels,
-        total,
-        raw,
-        0,
-        numba.get_num_threads(),
-    )
-    return levels, total, raw
+    args = (kernel_array(poses, dtype), index, skel, terms, levels, total, raw, 0, numba.get_num_threads())
+    return args, (levels, total, raw)
 
 
-def point_jacobians(poses, frames, skel):
-    """(x (N, G, 3), jacobian (N, G, 3, D)) of frames (G,) (-1: the centre of mass) at poses
-    (N, D), in the dtype of the packed skeleton (cpu.point_jacobians)."""
+def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
+    """(levels (N, L), total (N,), raw (N, T)) of poses (N, D), pose n against problem
+    problem_index[n], in the dtype of the packed arrays (float32: the build for every kind;
+    float64, the report of every solve: the build that serves the terms' kinds)."""
+    dtype = skel.joint_frame.dtype
+    build = report_build(builds.switches_of(terms.term_int)) if dtype == np.float64 else builds.ALL_KINDS
+    args, results = _evaluate_args(poses, skel, terms, n_levels, problem_index)
+    key = (dtype, build)
+    entry = _ENTRY_POINTS.get(key)
+    if entry is None:
+        entry = _ENTRY_POINTS[key] = cpu_entry("evaluate_poses", build).entry_point(args)
+    entry(*args)
+    return results
+
+
+def _jacobian_args(poses, frames, skel) -> tuple[tuple, tuple[np.ndarray, np.ndarray]]:
+    """(the arguments of cpu_kernels.point_jacobians, the arrays x and jacobian they fill)."""
     dtype = skel.joint_frame.dtype
     poses = kernel_array(poses, dtype)
     N, D = poses.shape
     x, jacobian = np.empty((N, len(frames), 3), dtype), np.empty((N, len(frames), 3, D), dtype)
-    cpu.point_jacobians(poses, kernel_array(frames, np.int64), skel, x, jacobian, 0, numba.get_num_threads())
-    return x, jacobian
+    return (poses, kernel_array(frames, np.int64), skel, x, jacobian, 0, numba.get_num_threads()), (x, jacobian)
+
+
+def point_jacobians(poses, frames, skel):
+    """(x (N, G, 3), jacobian (N, G, 3, D)) of frames (G,) (-1: the centre of mass) at poses
+    (N, D), in the dtype of the packed skeleton (cpu_kernels.point_jacobians)."""
+    args, results = _jacobian_args(poses, frames, skel)
+    entry = _ENTRY_POINTS.get("point_jacobians")
+    if entry is None or skel.joint_frame.dtype != np.float64:
+        entry = cpu_entry("point_jacobians").entry_point(args)
+        if skel.joint_frame.dtype == np.float64:
+            _ENTRY_POINTS["point_jacobians"] = entry
+    entry(*args)
+    return results

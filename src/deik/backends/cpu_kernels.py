@@ -1,5 +1,10 @@
 """CPU kernels: the parallel ping-pong DE of Figure 1 with numba prange.
 
+Plain Python as written here (run as such, they call the device maths as Python); compiled, a
+copy of every function joins the device maths in one namespace per build
+(deik.backends.targets.cpu_build: `linked` marks how each is compiled), and Python calls a
+kernel through its entry point (deik.backends.targets.cpu_entry).
+
 Every generation reads the current Buffers (pop, levels, total, raw, rates; deik.device.layout)
 and writes the next; individuals are split into chunks of whole blocks of LANES, one scratch
 allocation per chunk, and each block is bred (or a first population evaluated) together in SIMD
@@ -12,24 +17,17 @@ computes, and the per-problem bookkeeping runs in index order.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numba import prange
 
-from deik.backends import targets
 from deik.backends.linking import linked
+from deik.device import driver as device_driver
+from deik.device import evolution as device_evolution
+from deik.device import lanes as device_lanes
+from deik.device import maths as device_maths
+from deik.device import polish as device_polish
+from deik.device import terms as device_terms
 from deik.device.layout import LANES, WORK_SIZE, LaneScratch, LmScratch, Scratch
-
-if TYPE_CHECKING:  # what a reader's go-to-definition reaches: the device maths as plain Python
-    from deik.device import driver as device_driver
-    from deik.device import evolution as device_evolution
-    from deik.device import lanes as device_lanes
-    from deik.device import maths as device_maths
-    from deik.device import polish as device_polish
-    from deik.device import terms as device_terms
-else:  # what runs: the same functions compiled for the CPU, all in one namespace (deik.backends.targets)
-    device_driver = device_evolution = device_lanes = device_maths = device_polish = device_terms = targets.cpu
 
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster

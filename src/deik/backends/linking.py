@@ -20,13 +20,13 @@ compiler) as they are in Numba 0.60-0.68.
 from __future__ import annotations
 
 import importlib.util
-import inspect
 import sys
 from contextlib import contextmanager
 
-from numba import njit
 from numba.core import codegen, compiler, dispatcher, registry
 from numba.core import types as numba_types
+
+from deik.backends.entries import Entry
 
 
 def _import_numba_arraymath_without_scipy() -> None:
@@ -121,33 +121,18 @@ class _LinkKey:
         return f"<linked {self.name}>"
 
 
-def _trampoline(target: LinkOnlyDispatcher):
-    """An njit function of the same name, arguments, file and first line as `target`'s (so it
-    caches beside it) that calls `target`."""
-    func = target.py_func
-    parameters = inspect.signature(func).parameters.values()
-    if any(p.default is not p.empty or p.kind is not p.POSITIONAL_OR_KEYWORD for p in parameters):
-        raise TypeError(f"{func.__qualname__}: a linked function takes plain positional arguments only")
-    names = [p.name for p in parameters]
-    code = func.__code__
-    source = "\n" * (code.co_firstlineno - 1) + f"def {func.__name__}({', '.join(names)}):\n"
-    source += f"    return _target({', '.join(names)})\n"
-    namespace = {"_target": target, "__name__": func.__module__}
-    exec(compile(source, code.co_filename, "exec"), namespace)
-    trampoline = namespace[func.__name__]
-    trampoline.__qualname__ = func.__qualname__
-    return njit(cache=True, nogil=True)(trampoline)
-
-
 class LinkOnlyDispatcher(registry.CPUDispatcher):
     """A function compiled only into the jitted functions that call it; constant arguments are
     typed as their plain types, so `f(x, 0)` and `f(x, 1)` share one compile. Called from
-    Python, it runs `entry`, its cached trampoline."""
+    Python, it runs `entry`, its cached trampoline (deik.backends.entries)."""
 
-    def __init__(self, py_func, targetoptions):
+    def __init__(self, py_func, targetoptions, original, entry_name: str):
+        """py_func: the copy to compile (deik.backends.targets.compile_namespace); original: the
+        function it copies, whose module, file and first line the entry takes; entry_name:
+        the entry's qualified name (its cache files' name)."""
         super().__init__(py_func, targetoptions=targetoptions)
         self._compiler = _LinkOnlyCompiler(py_func, self.targetdescr, targetoptions, self.locals, compiler.Compiler)
-        self._entry = None
+        self._original, self._entry_name = original, entry_name
 
     def get_call_template(self, args, kws):
         return super().get_call_template(tuple(numba_types.unliteral(a) for a in args), kws)
@@ -158,34 +143,21 @@ class LinkOnlyDispatcher(registry.CPUDispatcher):
         self.overloads[tuple(cres.signature.args)] = cres._replace(entry_point=key)
 
     @property
-    def entry(self):
-        """The cached njit dispatcher that Python calls run (numba's in-memory and disk caches)."""
-        if self._entry is None:
-            self._entry = _trampoline(self)
-        return self._entry
+    def entry(self) -> Entry:
+        """The cached entry point that Python calls run (deik.backends.entries)."""
+        return Entry.of(self._original, self._entry_name, lambda: self)
 
     def __call__(self, *args):
         return self.entry(*args)
 
-    def ready_signatures(self) -> list[tuple]:
-        """Argument types (tuples of Numba types) the entry is compiled for in this process or
-        cached for on disk for this machine. Numba's cache index is private API: if it cannot be
-        read, only the process's own compiles count (the worst outcome is an unneeded note)."""
-        ready = list(self.entry.overloads)
-        try:
-            index = self.entry._cache._cache_file._load_index()
-            magic = self.targetctx.codegen().magic_tuple()
-            ready += [tuple(key[0]) for key in index if key[1] == magic]
-        except Exception:  # no cache (read-only, disabled) or another Numba's internals
-            pass
-        return ready
-
-    def compile_seconds(self) -> dict:
-        """{argument types: seconds} of the entry's compiles in this process (not cache loads)."""
-        timers = {sig: (cres.metadata or {}).get("timers", {}) for sig, cres in self.entry.overloads.items()}
-        return {sig: t["compiler_lock"] for sig, t in timers.items() if "compiler_lock" in t}
-
 
 def linked(**options):
-    """Decorator: a LinkOnlyDispatcher with njit `options` (parallel, nogil, _nrt)."""
-    return lambda func: LinkOnlyDispatcher(func, {"nopython": True, **options})
+    """Decorator: marks a function to be compiled as a LinkOnlyDispatcher with njit `options`
+    (parallel, nogil, _nrt, forceinline) when deik.backends.targets.compile_namespace puts a
+    copy of it into a compiled namespace; the function itself stays plain Python."""
+
+    def mark(func):
+        func.linked_options = {"nopython": True, **options}
+        return func
+
+    return mark

@@ -21,12 +21,14 @@ import inspect
 import re
 import sys
 import types
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 from numba.core import caching
 
-from deik.backends.linking import linked
+from deik.backends.entries import Entry
+from deik.backends.linking import LinkOnlyDispatcher
+from deik.device.compiled_kinds import CENTRE_OF_MASS_SWITCHES, SWITCHES
 
 DEVICE_DIR = Path(__file__).resolve().parent.parent / "device"
 BACKEND_DIR = Path(__file__).resolve().parent
@@ -116,25 +118,31 @@ def register_cuda_kernel_cache() -> None:
     )
 
 
-def compile_namespace(sources, name: str, decorate, decorate_inline=None) -> types.ModuleType:
+def compile_namespace(sources, name: str, wrap, overrides: dict | None = None) -> types.ModuleType:
     """One new module `name` with the names of the modules `sources` and a copy of every
-    function they define, bound to it and wrapped in `decorate`, or in `decorate_inline` for
-    those a source lists in its INLINE tuple (when given): a call between device functions
-    (imported from each other for linters and readers) resolves to the same target's compiled
-    function, and other names (layout and term-kind constants) are the modules' own. Copies of
-    the functions, not the sources run again: no parsing or compiling per process."""
-    module = types.ModuleType(name)
+    function they define, bound to it and wrapped by `wrap(copy, original, inline)` (inline:
+    the source lists it in its INLINE tuple): a call between device functions (imported from
+    each other for linters and readers) resolves to the same target's compiled function, a
+    source's name for another source module (`from deik.device import driver as device_driver`)
+    names the new module, and other names (layout and term-kind constants) are the modules' own,
+    except `overrides` (the switches of deik.device.compiled_kinds). Copies of the functions,
+    not the sources run again: no parsing or compiling per process."""
+    module = sys.modules.get(name) or types.ModuleType(name)  # cpu_entry may have named it already
     namespace = vars(module)
     for source in sources:
         namespace.update({key: value for key, value in vars(source).items() if not key.startswith("__")})
     namespace.pop("INLINE", None)
     for source in sources:
-        inline = set(getattr(source, "INLINE", ())) if decorate_inline else set()
+        inline = set(getattr(source, "INLINE", ()))
         for key, value in vars(source).items():
             if inspect.isfunction(value) and value.__module__ == source.__name__:
                 copy = types.FunctionType(value.__code__, namespace, key, value.__defaults__, value.__closure__)
                 copy.__qualname__, copy.__doc__ = value.__qualname__, value.__doc__
-                namespace[key] = (decorate_inline if key in inline else decorate)(copy)
+                namespace[key] = wrap(copy, value, key in inline)
+    for key, value in list(namespace.items()):
+        if isinstance(value, types.ModuleType) and value in sources:
+            namespace[key] = module
+    namespace.update(overrides or {})
     sys.modules[name] = module
     return module
 
@@ -158,19 +166,73 @@ DEVICE_SOURCES = (
     device_driver,
     device_lanes,
 )
-# The device maths never allocates, so it is compiled without Numba's reference counting: every
-# array taken from a tuple or sliced would otherwise cost an atomic increment and decrement, which
-# doubled the time of a small robot's fitness evaluation. The kernels in cpu.py that call it keep
-# NRT (they allocate scratch); the device functions only borrow their arrays.
-# The loops over SIMD lanes (device/lanes.py) call helpers inlined by Numba itself (INLINE):
-# LLVM does not inline a helper whose vectorised loop makes it large, and the call would cost
-# more than its lanes of work.
-cpu = compile_namespace(
-    DEVICE_SOURCES,
-    "deik.backends._device_cpu",
-    linked(nogil=True, _nrt=False),
-    linked(nogil=True, _nrt=False, inline="always"),
-)
+# every switch of deik.device.compiled_kinds: a build with all of them serves every problem
+ALL_KINDS = frozenset(SWITCHES)
+
+
+def build_suffix(switches: frozenset[str]) -> str:
+    """What a build's module and cache files are named with: "" for every kind, else "_k" and the
+    switches as a hexadecimal mask in SWITCHES' order (names, so that two builds' machine code
+    never shares a symbol in one process)."""
+    if switches == ALL_KINDS:
+        return ""
+    return f"_k{sum(1 << k for k, name in enumerate(SWITCHES) if name in switches):03x}"
+
+
+def _cpu_wrap(suffix: str):
+    """compile_namespace's `wrap` for the CPU: every function a LinkOnlyDispatcher, with the
+    options its `linked` mark gives (the kernels of deik.backends.cpu_kernels) or the device
+    maths' own. The device maths never allocates, so it is compiled without Numba's reference
+    counting: every array taken from a tuple or sliced would otherwise cost an atomic increment
+    and decrement, which doubled the time of a small robot's fitness evaluation; the kernels
+    that call it keep NRT (they allocate scratch). The loops over SIMD lanes (device/lanes.py)
+    call helpers inlined by Numba itself (INLINE): LLVM does not inline a helper whose
+    vectorised loop makes it large, and the call would cost more than its lanes of work."""
+
+    def wrap(copy, original, inline: bool) -> LinkOnlyDispatcher:
+        options = getattr(original, "linked_options", None)
+        if options is None:
+            options = {"nopython": True, "nogil": True, "_nrt": False, "forceinline": inline}
+        else:  # explicit: a function compiled inside another's compile inherits the caller's
+            options = {"forceinline": False, **options}
+        return LinkOnlyDispatcher(copy, options, original, copy.__qualname__ + suffix)
+
+    return wrap
+
+
+@cache
+def cpu_build(switches: frozenset[str] = ALL_KINDS) -> types.ModuleType:
+    """The device maths and the CPU kernels (deik.backends.cpu_kernels) compiled for the term
+    kinds of `switches` (names of deik.device.compiled_kinds.SWITCHES; the others off), as one
+    namespace of link-only functions. Nothing compiles until a kernel's entry point needs it."""
+    from deik.backends import cpu_kernels
+
+    overrides = {name: name in switches for name in SWITCHES}
+    overrides["CENTRE_OF_MASS_ON"] = bool(switches & CENTRE_OF_MASS_SWITCHES)
+    suffix = build_suffix(switches)
+    sources = DEVICE_SOURCES + (cpu_kernels,)
+    return compile_namespace(sources, f"deik.backends._cpu{suffix}", _cpu_wrap(suffix), overrides)
+
+
+def cpu_entry(name: str, switches: frozenset[str] = ALL_KINDS) -> Entry:
+    """The entry point of kernel `name` (a function of deik.backends.cpu_kernels) in the build
+    for `switches`: loading it from the cache builds nothing else (deik.backends.entries)."""
+    from deik.backends import cpu_kernels
+
+    suffix = build_suffix(switches)
+    # the build's module, empty until the build is made: what a cached kernel's environment
+    # (its globals, for Numba) is loaded from
+    module = f"deik.backends._cpu{suffix}"
+    sys.modules.setdefault(module, types.ModuleType(module))
+    return Entry.of(getattr(cpu_kernels, name), name + suffix, lambda: getattr(cpu_build(switches), name))
+
+
+def __getattr__(attribute: str):
+    """`cpu`: the build for every kind (the device maths and kernels as compiled for the CPU),
+    made on first use."""
+    if attribute == "cpu":
+        return cpu_build()
+    raise AttributeError(f"module {__name__!r} has no attribute {attribute!r}")
 
 
 @lru_cache(maxsize=1)
@@ -179,4 +241,5 @@ def cuda_device() -> types.ModuleType:
     from deik.backends.gpu import numba_cuda
 
     cuda = numba_cuda()
-    return compile_namespace(DEVICE_SOURCES, "deik.backends._device_cuda", cuda.jit(device=True))
+    device = cuda.jit(device=True)
+    return compile_namespace(DEVICE_SOURCES, "deik.backends._device_cuda", lambda copy, original, inline: device(copy))

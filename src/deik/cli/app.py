@@ -33,7 +33,7 @@ from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
 from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line, numbers
-from deik.console import add_output_flags, configure_logging, show_progress
+from deik.console import add_output_flags, configure_logging, show_compile_bars, show_progress
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -153,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args)
+        show_compile_bars(show_progress(args))
         return args.run(args)
     except SystemExit as done:  # --help
         return done.code

@@ -102,21 +102,13 @@ def check_device(device: str) -> None:
 
 
 def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
-    """Say in one note on stderr (the "deik" logger) before a solve that must compile kernels
-    first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
-    their names (give them to record_compiles once the solve is done)."""
+    """Say in one note on stderr (the "deik" logger), before work whose solves run elsewhere
+    (a library run's worker processes), which kernels they may compile first and about how long
+    (deik.solver.readiness), so nobody waits in silence; returns their names. (A solve in this
+    process says so itself, readiness.prepare.)"""
     from deik.solver.readiness import compile_note, pending
 
     names = pending(dtype, polish, clip, device)
     if names:
         logging.getLogger(__name__).info(compile_note(names, certain=not clip))
     return names
-
-
-def record_compiles(names: list[str]) -> None:
-    """After a command compiled `names` (announce_compile), keep their measured times for the
-    next estimate on this machine."""
-    if names:
-        from deik.solver.readiness import record_compiles as record
-
-        record()

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import UsageError, check_device, check_outputs
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
@@ -402,11 +402,9 @@ def run_clip(
     overrides = {
         k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
     }
-    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         progress = frames_reporter(bar, "every goal", on_frames)
         fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
-    record_compiles(compiling)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
     floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
     document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)

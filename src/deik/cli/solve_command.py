@@ -16,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
+from deik.cli.arguments import UsageError, check_device, check_outputs, numbers
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
@@ -28,7 +28,7 @@ from deik.solver.problem import Problem
 from deik.solver.problem_file import load_problem
 from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
-from deik.solver.solve import solve
+from deik.solver.solve import prepare_solve, solve
 from deik.viz import plot
 from deik.viz.marks import goal_targets, length_unit
 from deik.viz.text import format_table, shown
@@ -244,11 +244,10 @@ def run_solve(args: argparse.Namespace) -> int:
             )
     if loaded is not None and loaded.kind == "bvh":
         log.info(f"note: masses {loaded.mass_source}")
-    compiling = announce_compile(settings.device, settings.dtype, polish=settings.polish > 0)
+    prepare_solve(problem, settings, initial)  # compiling first, with its own bar
     with progress_bar(settings.generations, "deik solve", "gen", show_progress(args)) as bar:
         progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
         result = solve(problem, settings, initial=initial, progress=progress)
-    record_compiles(compiling)
     rows = [
         [
             r.label,

@@ -13,6 +13,7 @@ for a lower one and never leaves the limits. lm is a layout.LmScratch.
 
 import math
 
+from deik.device.compiled_kinds import CENTRE_OF_MASS_ON, COMFORT_ON
 from deik.device.evolution import keep_trial, within_tolerances
 from deik.device.layout import LOWER, UPPER
 from deik.device.maths import centre_of_mass, forward_kinematics
@@ -62,7 +63,7 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
     if not frames_ready:
         forward_kinematics(q, skel, R, p, scratch.work, axes, True)
     cx, cy, cz = 0.0, 0.0, 0.0
-    if uses_centre_of_mass(term_int):
+    if CENTRE_OF_MASS_ON and uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)
     for e in range(D * D):
         A[e] = 0.0
@@ -105,7 +106,7 @@ def jacobian_rows(q, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready)
     if not frames_ready:
         forward_kinematics(q, skel, R, p, scratch.work, axes, True)
     cx, cy, cz = 0.0, 0.0, 0.0
-    if uses_centre_of_mass(term_int):
+    if CENTRE_OF_MASS_ON and uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)
     row, cost = 0, 0.0
     for t in range(term_int.shape[0]):
@@ -168,6 +169,8 @@ def comfort_step(b, q, terms, lm, D, pull, limits, halt):
     weights, v = pull * (reference - (q + delta)) and a stiffness far below J^T J's scale (the
     acceptance test catches what the curvature adds). Overwrites lm.A (damped_step refills it).
     Returns whether problem b has a comfort term with weight (else nothing is added)."""
+    if not COMFORT_ON:  # compiled without comfort terms (device/compiled_kinds.py)
+        return False
     term_int, dof_weight, reference = terms.term_int, terms.dof_weight, terms.reference
     A, normal = lm.A, lm.normal
     v, w = lm.jac[0:D], lm.jac[D : 2 * D]

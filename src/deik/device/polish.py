@@ -12,6 +12,7 @@ world axis; mimic motions add scale times that to their source DOF's column.
 
 import math
 
+from deik.device.compiled_kinds import COM_ON, ORIENTATION_ON, POSITION_ON
 from deik.device.layout import (
     MASS_FRACTION,
     MOTION_END,
@@ -127,14 +128,16 @@ def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
         return 0.0, 0.0, 0.0
     unit = term_float[t, TOLERANCE] if term_float[t, TOLERANCE] > 0.0 else term_float[t, SCALE]
     s = math.sqrt(w) / unit
-    if kind == POSITION:
+    if POSITION_ON and kind == POSITION:
         point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], frame_joint(f, skel), skel, axes, s, jac, D)
         return s * (p[3 * f] - g[0]), s * (p[3 * f + 1] - g[1]), s * (p[3 * f + 2] - g[2])
-    if kind == ORIENTATION:
+    if ORIENTATION_ON and kind == ORIENTATION:
         rotation_rows(frame_joint(f, skel), skel, axes, s, jac, D)
         rx, ry, rz = rotation_vector(R, f, g)
         log_derivative(rx, ry, rz, jac, D)
         return s * rx, s * ry, s * rz
+    if not COM_ON:  # the kernel is compiled without centre-of-mass goals (device/compiled_kinds.py)
+        return 0.0, 0.0, 0.0
     com_rows(skel, R, p, axes, s, jac, D)
     rx, ry, rz = s * (cx - g[0]), s * (cy - g[1]), s * (cz - g[2])
     if kind == COM_GROUND:

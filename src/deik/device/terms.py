@@ -7,6 +7,19 @@ columns are the constants of deik.objectives.kinds.
 import math
 
 from deik.device.collision import self_collision_error
+from deik.device.compiled_kinds import (
+    AIM_ON,
+    CENTRE_OF_MASS_ON,
+    COM_ON,
+    COMFORT_ON,
+    FLOOR_ON,
+    LIMITS_ON,
+    OBSTACLE_ON,
+    ORIENTATION_ON,
+    POSITION_ON,
+    SELF_COLLISION_ON,
+    SUPPORT_POLYGON_ON,
+)
 from deik.device.layout import HORIZONTAL_U, HORIZONTAL_V, LOWER, PARENT, UP, UPPER
 from deik.device.maths import centre_of_mass, forward_kinematics, rotate_point
 from deik.objectives.kinds import (
@@ -24,6 +37,7 @@ from deik.objectives.kinds import (
     POSITION,
     PRIORITY_TOLERANCE,
     SCALE,
+    SELF_COLLISION,
     SUPPORT_POLYGON,
     TERM_FRAME_COUNT,
     TERM_FRAMES,
@@ -111,41 +125,45 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     limits, ground = skel.limits, skel.ground
     kind, f = term_int[t, TERM_KIND], term_int[t, TERM_FRAMES]
     g = terms.params[b, t]
-    if kind == POSITION:
+    # each kind's branch behind its switch (device/compiled_kinds.py): a CPU kernel compiled for
+    # a problem's own kinds leaves the others out
+    if POSITION_ON and kind == POSITION:
         dx, dy, dz = p[3 * f] - g[0], p[3 * f + 1] - g[1], p[3 * f + 2] - g[2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
-    if kind == ORIENTATION:
+    if ORIENTATION_ON and kind == ORIENTATION:
         _, _, _, angle = rotation_error(R, f, g)
         return angle
-    if kind == AIM:
+    if AIM_ON and kind == AIM:
         ax, ay, az = rotate_point(R, 9 * f, g[0], g[1], g[2])
         vx, vy, vz = g[3] - p[3 * f], g[4] - p[3 * f + 1], g[5] - p[3 * f + 2]
         kx, ky, kz = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
         return math.atan2(math.sqrt(kx * kx + ky * ky + kz * kz), ax * vx + ay * vy + az * vz)
-    if kind == COM or kind == COM_GROUND:
+    if COM_ON and (kind == COM or kind == COM_GROUND):
         dx, dy, dz = cx - g[0], cy - g[1], cz - g[2]
         if kind == COM_GROUND:
             h = dx * ground[UP, 0] + dy * ground[UP, 1] + dz * ground[UP, 2]
             dx, dy, dz = dx - h * ground[UP, 0], dy - h * ground[UP, 1], dz - h * ground[UP, 2]
         return math.sqrt(dx * dx + dy * dy + dz * dz)
-    if kind == SUPPORT_POLYGON:
+    if SUPPORT_POLYGON_ON and kind == SUPPORT_POLYGON:
         return polygon_distance(cx, cy, cz, term_int[t, TERM_FRAMES:], term_int[t, TERM_FRAME_COUNT], ground, p, work)
-    if kind == COMFORT_SUM or kind == COMFORT_MAX:
+    if COMFORT_ON and (kind == COMFORT_SUM or kind == COMFORT_MAX):
         total = 0.0
         for d in range(dof_weight.shape[1]):
             e = dof_weight[t, d] * abs(q[d] - reference[b, t, d])
             total = total + e if kind == COMFORT_SUM else max(total, e)
         return total
-    if kind == LIMITS:
+    if LIMITS_ON and kind == LIMITS:
         total = 0.0
         for d in range(limits.shape[0]):
             total += max(limits[d, LOWER] - q[d], 0.0) + max(q[d] - limits[d, UPPER], 0.0)
         return total
-    if kind == OBSTACLE:
+    if OBSTACLE_ON and kind == OBSTACLE:
         return obstacle_error(g, skel, p)
-    if kind == FLOOR:
+    if FLOOR_ON and kind == FLOOR:
         return floor_error(g[0], skel, p)
-    return self_collision_error(t, g[0], terms, skel, p)
+    if SELF_COLLISION_ON and kind == SELF_COLLISION:
+        return self_collision_error(t, g[0], terms, skel, p)
+    return 0.0  # a kind this kernel is not compiled for (never reached: see compiled_kinds)
 
 
 def floor_error(height, skel, p):
@@ -191,7 +209,7 @@ def score(q, b, skel, terms, scratch, levels, raw):
     R, p, work = scratch.R, scratch.p, scratch.work
     term_int, term_float = terms.term_int, terms.term_float
     cx, cy, cz = 0.0, 0.0, 0.0
-    if uses_centre_of_mass(term_int):
+    if CENTRE_OF_MASS_ON and uses_centre_of_mass(term_int):
         cx, cy, cz = centre_of_mass(skel, R, p)
     for lv in range(levels.shape[0]):
         levels[lv] = 0.0

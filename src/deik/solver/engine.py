@@ -108,6 +108,7 @@ class Engine:
             migration=np.int64(settings.migration),
         )
         self.backend = backend_for(settings.device)
+        self.kernels_ready = False  # set once the kernels it runs are loaded (readiness.prepare)
 
     @property
     def inputs(self) -> KernelInputs:

@@ -18,6 +18,10 @@ def point_jacobians(skeleton: Skeleton, poses: np.ndarray, frames: Sequence[int]
     the kernel."""
     from deik.backends.cpu import point_jacobians as compiled  # loads Numba: `import deik` stays light
     from deik.backends.pack import pack_skeleton
+    from deik.console import compile_bars
+    from deik.solver.readiness import prepare_jacobians
 
     poses = np.atleast_2d(np.asarray(poses, np.float64))
-    return compiled(poses, np.asarray(frames, np.int64), pack_skeleton(skeleton, np.float64))
+    packed = pack_skeleton(skeleton, np.float64)
+    prepare_jacobians(packed, compile_bars())
+    return compiled(poses, np.asarray(frames, np.int64), packed)

@@ -1,23 +1,34 @@
-"""Which kernels a command must compile before it can solve, about how long that takes, and
-the one line it prints first, so that nobody waits in silence.
+"""Which kernels a solve must compile before it can run, about how long that takes, the one line
+a command prints first, and compiling them side by side with a bar, so that nobody waits in
+silence or longer than needed.
 
-A CPU solve runs one compiled kernel per dtype (deik.backends.cpu_kernels.launch, with or without the LM
-polish) and, in float32, the float64 evaluation of its report; a clip fix also the float64 point
-Jacobians of its warm start; a GPU solve the two CUDA kernels of its dtype
-(deik.backends.cuda_kernels) and the same report. Each is compiled on first use and cached on
-disk (deik.backends.targets). The estimate is the compile time measured on this machine, which a
-command records beside the cache after compiling, else the time benchmarks/cold_start.py
-measured on the reference machine below.
+A CPU solve runs one compiled kernel per dtype (deik.backends.cpu_kernels.launch, with or
+without the LM polish) and, in float32, the float64 evaluation of its report, each in the build
+for its goals' term kinds or a build for more kinds compiled before (deik.backends.builds); a
+clip fix also the float64 point Jacobians of its warm start; a GPU solve the two CUDA kernels of
+its dtype (deik.backends.cuda_kernels) and the same report. Each is compiled once and cached on
+disk (deik.backends.targets); missing CPU kernels compile side by side in worker processes
+(deik.backends.compiling). The estimate is each kernel's compile time measured on this machine,
+which is recorded beside the cache after compiling, else the reference machine's below, scaled
+by how this machine's earlier compiles compared with it.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import os
+import statistics
 import tempfile
+from typing import TYPE_CHECKING
 
-# seconds each compile took on the reference machine, a shared 2-core AMD EPYC VM (Numba's compile
-# timers of the first solves of benchmarks/cold_start.py, median of its runs, 2026-11-25)
+if TYPE_CHECKING:
+    from deik.backends.contract import Seeds, SolveBuffers
+    from deik.device.layout import PackedSkeleton
+    from deik.solver.engine import Engine
+
+# CPU seconds each compile of the build for every kind took on the reference machine, a shared
+# 2-core AMD EPYC VM (benchmarks/cold_start.py, median of its runs, 2026-11-27)
 REFERENCE_SECONDS = {
     "DE float32": 18.4,
     "DE float32 without polish": 14.1,
@@ -30,28 +41,62 @@ REFERENCE_SECONDS = {
     "CUDA kernels float32": 149.0,
     "CUDA kernels float64": 147.0,
 }
+# the share of a build's compile that the build for position goals alone takes, and what each
+# other switch of deik.device.compiled_kinds adds to it (the same reference runs)
+BASE_SHARE = 0.62
+SWITCH_SHARE = {
+    "POSITION_ON": 0.0,
+    "ORIENTATION_ON": 0.07,
+    "AIM_ON": 0.02,
+    "COM_ON": 0.05,
+    "SUPPORT_POLYGON_ON": 0.07,
+    "COMFORT_ON": 0.03,
+    "LIMITS_ON": 0.01,
+    "OBSTACLE_ON": 0.03,
+    "SELF_COLLISION_ON": 0.08,
+    "FLOOR_ON": 0.02,
+}
 REFERENCE_MACHINE = "a 2-core machine"
 RECORD_FILE = "deik-compile-seconds.json"
+STARTUP_SECONDS = 1.0  # worker processes' start and this process's loads, beside their compiles
 
 
-def _launch_name(dtype: str, polish: bool) -> str:
-    return f"DE {dtype}" + ("" if polish else " without polish")
+def launch_name(dtype: str, polish: bool, switches: frozenset[str] | None = None) -> str:
+    """A DE kernel's name in notes, e.g. "DE float32" (every kind) or "DE float32 [position]"."""
+    return f"DE {dtype}" + ("" if polish else " without polish") + _kinds(switches)
 
 
-def pending(dtype: str, polish: bool = True, clip: bool = False, device: str = "cpu") -> list[str]:
+def report_name(switches: frozenset[str] | None = None) -> str:
+    """The float64 report's name in notes, e.g. "report float64 [position]"."""
+    return "report float64" + _kinds(switches)
+
+
+def _kinds(switches: frozenset[str] | None) -> str:
+    from deik.backends.builds import ALL_KINDS, name_of
+
+    return "" if switches is None or switches == ALL_KINDS else f" [{name_of(switches)}]"
+
+
+def pending(
+    dtype: str, polish: bool = True, clip: bool = False, device: str = "cpu", switches: frozenset[str] | None = None
+) -> list[str]:
     """Names of the kernels a solve in `dtype` ("float32", "float64") on `device` ("cpu", "gpu"),
-    with the LM polish or without (which on the CPU uses the kernel with it when that one is
-    ready), must compile first; `clip`: a clip fix, which also needs the warm start's Jacobians."""
+    with the LM polish or without, of goals needing `switches` (default: every kind) must
+    compile first; `clip`: a clip fix, which also needs the warm start's Jacobians."""
     from deik.backends import cpu as cpu_backend
+    from deik.backends.builds import ALL_KINDS, ready_build
 
+    switches = ALL_KINDS if switches is None else switches
     names = []
     if device == "gpu":
         if not cuda_ready(dtype):
             names.append(f"CUDA kernels {dtype}")
-    elif not (cpu_backend.launch_ready(dtype, polish) or (not polish and cpu_backend.launch_ready(dtype, True))):
-        names.append(_launch_name(dtype, polish))
-    if dtype == "float32" and not cpu_backend.report_ready():
-        names.append("report float64")
+    else:
+        build, with_polish = cpu_backend.launch_build(dtype, polish, switches)
+        if build == switches and with_polish == polish and not cpu_backend.launch_ready(dtype, polish, build):
+            names.append(launch_name(dtype, polish, switches))
+    if dtype == "float32" and ready_build("evaluate_poses", switches, cpu_backend.is_report) is None:
+        names.append(report_name(switches))
     if clip and not cpu_backend.jacobians_ready():
         names.append("clip warm start float64")
     return names
@@ -76,12 +121,9 @@ def cuda_ready(dtype: str) -> bool:
 def cache_folder() -> str | None:
     """The folder of the CPU kernels' disk cache, where per-machine records are kept (None if
     there is no cache)."""
-    from deik.backends import cpu_kernels as cpu
+    from deik.backends.targets import cpu_entry
 
-    try:
-        return cpu.launch.entry._cache._cache_path
-    except AttributeError:  # caching off, or another Numba's internals
-        return None
+    return cpu_entry("launch").cache_folder
 
 
 def _record_path() -> str | None:
@@ -101,44 +143,152 @@ def measured_seconds() -> dict:
         return {}
 
 
-def estimate(names: list[str]) -> tuple[float, bool]:
-    """(seconds to compile `names`, whether every part was measured on this machine)."""
+def reference_seconds(name: str) -> float:
+    """The reference machine's compile seconds of a kernel named as in notes: a build's share of
+    its full build's seconds."""
+    base, _, kinds = name.partition(" [")
+    seconds = REFERENCE_SECONDS[base]
+    if not kinds:
+        return seconds
+    from deik.backends.builds import switches_named
+
+    return seconds * (BASE_SHARE + sum(SWITCH_SHARE[s] for s in switches_named(kinds.rstrip("]"))))
+
+
+def machine_factor(measured: dict) -> float | None:
+    """How much longer this machine's recorded compiles took than the reference machine's
+    (median of the ratios), or None before any."""
+    ratios = [seconds / reference_seconds(name) for name, seconds in measured.items() if _known(name)]
+    return statistics.median(ratios) if ratios else None
+
+
+def _known(name: str) -> bool:
+    return name.partition(" [")[0] in REFERENCE_SECONDS
+
+
+def kernel_seconds(names: list[str]) -> tuple[dict[str, float], str]:
+    """({name: expected compile seconds}, where the figures come from: "measured" on this
+    machine, "scaled" from the reference by this machine's earlier compiles, or "reference")."""
     measured = measured_seconds()
-    return sum(measured.get(n, REFERENCE_SECONDS[n]) for n in names), all(n in measured for n in names)
+    factor = machine_factor(measured)
+    expected = {n: measured.get(n, reference_seconds(n) * (factor or 1.0)) for n in names}
+    source = "measured" if all(n in measured for n in names) else "scaled" if factor is not None else "reference"
+    return expected, source
+
+
+def estimate(names: list[str]) -> tuple[float, str]:
+    """(seconds to compile `names` side by side, where the figures come from: kernel_seconds)."""
+    from deik.backends.compiling import KernelJob, expected_seconds
+
+    seconds, source = kernel_seconds(names)
+    cpu = [KernelJob("", frozenset(), (), n, s) for n, s in seconds.items() if not n.startswith("CUDA")]
+    gpu = sum(s for n, s in seconds.items() if n.startswith("CUDA"))
+    return (STARTUP_SECONDS + expected_seconds(cpu) if cpu else 0.0) + gpu, source
+
+
+WHERE = {
+    "measured": "on this machine, as measured here before",
+    "scaled": "on this machine, scaled from its earlier compiles",
+    "reference": f"on {REFERENCE_MACHINE}",
+}
 
 
 def compile_note(names: list[str], certain: bool = True) -> str:
     """The one line to print before compiling `names` (from pending); not `certain`: the
     command may need only some of them (a clip fix whose warm start meets every goal runs no DE)."""
-    seconds, here = estimate(names)
-    where = "on this machine, as measured here before" if here else f"on {REFERENCE_MACHINE}"
+    seconds, source = estimate(names)
     doing, wait = ("compiling", "about") if certain else ("may compile", "up to about")
     which = "GPU and CPU" if any(n.startswith("CUDA") for n in names) else "CPU"
     return (
-        f"deik: {doing} the {which} kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {where}; "
+        f"deik: {doing} the {which} kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {WHERE[source]}; "
         "once after an install or upgrade (`deik warmup` does it ahead of time)"
     )
 
 
-def record_compiles() -> dict:
-    """Add the compile times of the kernels compiled in this process to this machine's record
-    (best effort: a read-only cache keeps none); returns {name: seconds} added."""
-    from deik.backends import cpu as cpu_backend
-    from deik.backends import cpu_kernels as cpu
-
-    compiled = {}
-    for sig, seconds in cpu.launch.compile_seconds().items():
-        compiled[_launch_name(*cpu_backend.launch_kind(sig))] = seconds
-    for sig, seconds in cpu.evaluate_poses.compile_seconds().items():
-        if cpu_backend.evaluate_dtype(sig) == "float64":
-            compiled["report float64"] = seconds
-    for sig, seconds in cpu.point_jacobians.compile_seconds().items():
-        if cpu_backend.evaluate_dtype(sig) == "float64":
-            compiled["clip warm start float64"] = seconds
+def record(compiled: dict[str, float]) -> None:
+    """Add compile seconds {kernel name: seconds} measured in this run to this machine's record
+    (best effort: a read-only cache keeps none)."""
     path = _record_path()
     if compiled and path:
         write_json(path, {**measured_seconds(), **compiled})
-    return compiled
+
+
+def prepare(engine: Engine, work: SolveBuffers, seeds: Seeds, show: bool | None = False) -> None:
+    """Before a solve's first launch: load the CPU kernels it runs (its DE kernel on the CPU,
+    the float64 report of a float32 solve) into this process, compiling the missing ones side by
+    side with a bar (`show`: console.progress_bar's flag) after the compile note (the "deik"
+    logger), and record their compile seconds. engine: an Engine; work, seeds: its SolveBuffers
+    and Seeds (deik.backends.contract)."""
+    from deik.backends import cpu as cpu_backend
+
+    found = []
+    if engine.settings.device == "cpu":
+        found.append(cpu_backend.launch_job(engine.inputs, work, seeds))
+    if engine.settings.dtype == "float32":
+        found.append(cpu_backend.report_job(engine.skel64, engine.terms64))
+    _load([job for job in found if job is not None], show)
+
+
+def prepare_jacobians(skel: PackedSkeleton, show: bool | None = False) -> None:
+    """prepare() for the clip warm start's float64 point Jacobians (skel: a float64 packed skeleton)."""
+    from deik.backends import cpu as cpu_backend
+
+    job = cpu_backend.jacobians_job(skel)
+    _load([] if job is None else [job], show)
+
+
+def warmup(dtypes: list[str], show: bool | None = None) -> list[str]:
+    """Load or compile the CPU kernels of the build for every kind: the DE kernel with the polish
+    in each of `dtypes`, the float64 report and the clip warm start's Jacobians, side by side
+    with a bar; returns the names of those compiled."""
+    import numpy as np
+
+    from deik.backends import cpu as cpu_backend
+    from deik.backends.builds import ALL_KINDS
+    from deik.model.builders import chain
+    from deik.objectives.goals import Position
+    from deik.solver.engine import Engine
+    from deik.solver.problem import Problem
+    from deik.solver.settings import Settings
+    from deik.solver.workspace import Workspace
+
+    problem = Problem(chain(2, dims=3), [Position("tip", np.ones(3))])
+    found = []
+    for dtype in dtypes:
+        engine = Engine(problem, Settings(population=8, dtype=dtype))
+        work = Workspace()
+        work.prepare(engine)
+        found.append(cpu_backend.launch_job(engine.inputs, work.work, engine.initial_poses(None), ALL_KINDS))
+    found.append(cpu_backend.report_job(engine.skel64, engine.terms64, ALL_KINDS))
+    found.append(cpu_backend.jacobians_job(engine.skel64))
+    return _load([job for job in found if job is not None], show)
+
+
+def _load(found: list[tuple], show: bool | None) -> list[str]:
+    """Load the (kernel, build, signature) entry points found, compiling the missing ones side by
+    side after the compile note, and record their seconds; returns the names compiled."""
+    from deik.backends import cpu as cpu_backend
+    from deik.backends.compiling import KernelJob, compile_all, missing
+
+    if not found:
+        return []
+    names = [_name(kernel, build, signature, cpu_backend) for kernel, build, signature in found]
+    seconds, _ = kernel_seconds(names)
+    jobs = [KernelJob(*job, name, seconds[name]) for job, name in zip(found, names)]
+    to_compile = [job.label for job in missing(jobs)]
+    if to_compile:
+        logging.getLogger(__name__).info(compile_note(to_compile))
+    record(compile_all(jobs, show))
+    return to_compile
+
+
+def _name(kernel: str, build: frozenset[str], signature: tuple, cpu_backend) -> str:
+    """A kernel's name in notes from its entry (kernel, build, signature)."""
+    if kernel == "launch":
+        return launch_name(*cpu_backend.launch_kind(signature), build)
+    if kernel == "evaluate_poses":
+        return report_name(build)
+    return "clip warm start float64"
 
 
 def write_json(path: str, data: dict) -> None:

@@ -11,12 +11,13 @@ from dataclasses import fields
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.console import Progress, generation_reporter
+from deik.console import Progress, compile_bars, generation_reporter
 from deik.solver.engine import Engine, EvolutionState
 from deik.solver.halting import guarded
 from deik.solver.kept import kept_engine
 from deik.solver.launches import Launches, polish_flops
 from deik.solver.problem import Problem
+from deik.solver.readiness import prepare
 from deik.solver.result import Result
 from deik.solver.settings import Settings
 from deik.solver.workspace import Workspace
@@ -69,6 +70,7 @@ def run_engine(
     polish = polish_flops(skeleton.n_dofs, problem.table.n_terms, n_frames) * settings.polish * problem.batch_size
     work = Workspace() if workspace is None else workspace
     work.prepare(engine)
+    _load_kernels(engine, work, initial, True if progress is True else compile_bars())
     # no progress asked (a reused Solver's solves): no generator-based context to enter and leave
     reporter = (
         nullcontext() if progress is None else generation_reporter(progress, settings.generations, problem.batch_size)
@@ -112,6 +114,25 @@ def run_engine(
             wall,
         )
     return make_result(problem, engine, work, wall, batch_shape)
+
+
+def prepare_solve(
+    problem: Problem, settings: Settings, initial: ArrayLike | None = None, show: bool | None = None
+) -> None:
+    """Load the kernels a solve of `problem` with `settings` (and `initial` poses) runs, compiling
+    any not compiled before, side by side with a bar (`show`: console.progress_bar's flag; default
+    the command's, console.compile_bars), as solve() does first: a command calls it before it
+    draws bars of its own."""
+    with kept_engine(problem, settings) as (engine, workspace):
+        workspace.prepare(engine)
+        _load_kernels(engine, workspace, initial, compile_bars() if show is None else show)
+
+
+def _load_kernels(engine: Engine, work: Workspace, initial: ArrayLike | None, show) -> None:
+    """Once per engine: load (or compile) the kernels it runs (deik.solver.readiness.prepare)."""
+    if not engine.kernels_ready:
+        prepare(engine, work.work, engine.initial_poses(initial), show)
+        engine.kernels_ready = True
 
 
 def solve_batch(
