@@ -24,6 +24,16 @@ def _gpu_available() -> bool:
         return False
 
 
+def pytest_sessionstart(session):
+    """Load the CPU kernels' build for every goal kind (compiling it once per checkout, side by
+    side): it serves every problem (deik.backends.builds), so the suite compiles it alone instead
+    of one build per set of goal kinds its tests happen to use. The tests of the per-kind builds
+    choose theirs (tests/backends/test_compiling.py)."""
+    from deik.solver.readiness import warmup
+
+    warmup(["float32", "float64"], show=False)
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "shared_data" in getattr(item, "fixturenames", ()) and item.get_closest_marker("shared_data") is None:
