@@ -37,13 +37,13 @@ def test_every_way_of_solving_runs_one_kernel_per_dtype():
     assert kinds.count(("float64", True)) == 1, kinds
 
 
-def _run(code: str, cache: str) -> subprocess.CompletedProcess:
+def _run(code: str, cache: str, **env: str) -> subprocess.CompletedProcess:
     done = subprocess.run(
         [sys.executable, "-c", code],
         capture_output=True,
         text=True,
         timeout=600,
-        env={**os.environ, "NUMBA_CACHE_DIR": cache},
+        env={**os.environ, "NUMBA_CACHE_DIR": cache, **env},
     )
     assert done.returncode == 0, done.stderr
     return done
@@ -105,3 +105,30 @@ def test_the_build_for_a_problems_own_kinds_gives_the_answers_of_the_build_for_e
     np.testing.assert_array_equal(own.angles, every.angles)
     assert float(own.fitness) == float(every.fitness) and int(own.generations) == int(every.generations)
     assert cpu_entry("launch", switches).overloads and cpu_entry("launch", ALL_KINDS).overloads  # both ran
+
+
+FIRST_FLOAT32_SOLVE = (
+    "from deik.cli.app import main\n"
+    "main(['solve', 'chain:3', '--reach', 'tip', '1', '1', '0.5', '--polish', '0', '--generations', '5'])\n"
+    "from deik.backends.targets import cpu_entry\n"
+    "position = frozenset({'POSITION_ON'})\n"
+    "kernels = (cpu_entry('launch', position), cpu_entry('evaluate_poses', position))\n"
+    "print('compiled here', sum(sum(k._cache_misses.values()) for k in kernels))\n"
+    "print('loaded', sum(sum(k._cache_hits.values()) for k in kernels))\n"
+)
+
+
+@pytest.mark.slow  # a real cold compile of two kernels (about 20 s on 2 cores)
+def test_a_first_float32_solve_compiles_its_two_kernels_in_workers_for_its_goal_kinds_only(tmp_path):
+    first = _run(FIRST_FLOAT32_SOLVE, str(tmp_path), DEIK_COMPILE_WORKERS="2")
+    note = "compiling the CPU kernels first (DE float32 without polish [position], report float64 [position])"
+    assert note in first.stderr
+    # the workers compiled both into the cache; this process loaded them
+    assert "compiled here 0" in first.stdout and "loaded 2" in first.stdout
+    cached = sorted(
+        os.path.basename(path).split("-")[0] for path in glob.glob(str(tmp_path / "**" / "*.nbi"), recursive=True)
+    )
+    assert cached == ["cpu_kernels.evaluate_poses_k001", "cpu_kernels.launch_k001"]  # no other kind, no other kernel
+    (record,) = glob.glob(str(tmp_path / "**" / "deik-compile-seconds.json"), recursive=True)
+    with open(record) as file:
+        assert set(json.load(file)) == {"DE float32 without polish [position]", "report float64 [position]"}

@@ -26,6 +26,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import NamedTuple
 
+from deik.errors import UsageError
+
 TICK = 0.25  # seconds between the bar's moves
 
 
@@ -51,7 +53,9 @@ def workers() -> int:
     try:
         return int(os.environ.get("DEIK_COMPILE_WORKERS", "").strip() or cores())
     except ValueError:
-        raise ValueError("DEIK_COMPILE_WORKERS must be a whole number of processes (0: none)") from None
+        raise UsageError(
+            "DEIK_COMPILE_WORKERS must be a whole number of processes (0 or 1: compile in this process)"
+        ) from None
 
 
 def shares(jobs: list[KernelJob], workers: int) -> list[list[KernelJob]]:

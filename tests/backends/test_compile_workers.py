@@ -1,0 +1,57 @@
+"""Compiling side by side (deik.backends.compiling): how the missing kernels are shared among
+worker processes, what the estimate is, the DEIK_COMPILE_WORKERS setting, and the bar that moves
+while a compile runs."""
+
+import time
+
+import pytest
+
+from deik.backends import compiling
+from deik.backends.compiling import KernelJob, expected_seconds, shares, time_bar
+from deik.errors import UsageError
+
+
+def _jobs(*seconds: float) -> list[KernelJob]:
+    return [KernelJob("launch", frozenset(), (), f"kernel {k}", s) for k, s in enumerate(seconds)]
+
+
+def test_each_job_goes_once_the_longest_first_to_the_least_loaded_worker():
+    jobs = _jobs(3.0, 10.0, 4.0, 5.0, 1.0)
+    split = shares(jobs, 2)
+    assert sorted(j.label for share in split for j in share) == sorted(j.label for j in jobs)
+    # 10 and 5 open the two workers, 4 and 3 go to the lighter (5, then 9), 1 to the 10
+    assert [[j.seconds for j in share] for share in split] == [[10.0, 1.0], [5.0, 4.0, 3.0]]
+    assert len(shares(jobs, 8)) == len(jobs) and len(shares(jobs[:1], 4)) == 1 and len(shares(jobs, 0)) == 1
+
+
+def test_the_estimate_is_the_busiest_workers_share(monkeypatch):
+    jobs = _jobs(18.0, 5.0, 2.0)
+    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "2")
+    assert expected_seconds(jobs) == 18.0
+    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "1")
+    assert expected_seconds(jobs) == 25.0
+    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "0")  # none: this process compiles them one after another
+    assert expected_seconds(jobs) == 25.0 and compiling.workers() == 0
+    monkeypatch.delenv("DEIK_COMPILE_WORKERS")
+    assert compiling.workers() == compiling.cores() >= 1
+
+
+def test_a_bad_worker_count_names_the_variable(monkeypatch):
+    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "two")
+    with pytest.raises(UsageError, match="DEIK_COMPILE_WORKERS must be a whole number"):
+        compiling.workers()
+
+
+def test_the_compile_bar_moves_while_the_body_runs_and_ends_full(capsys, monkeypatch):
+    monkeypatch.setattr(compiling, "TICK", 0.01)
+    with time_bar("compiling DE float32", 5.0, show=True):
+        moved = ""
+        deadline = time.monotonic() + 60  # a loaded machine's thread switches, not a timing
+        while "1/5" not in moved and time.monotonic() < deadline:
+            time.sleep(0.05)
+            moved += capsys.readouterr().err
+    assert "compiling DE float32" in moved and "1/5" in moved  # drawn at once, then moving
+    assert "5/5" in capsys.readouterr().err  # filled when the compile is done
+    with time_bar("compiling nothing", 5.0, show=False):
+        pass
+    assert capsys.readouterr().err == ""
