@@ -164,6 +164,14 @@ def cpu_info() -> tuple[str, list[str]]:
     return model, flags
 
 
+def _host_cpu_name() -> str:
+    """LLVM's name of this CPU (e.g. "znver4"), the target Numba compiles for by default."""
+    import llvmlite.binding as llvm
+
+    llvm.initialize_native_target()
+    return llvm.get_host_cpu_name()
+
+
 def environment(device: str, load_before: list[float]) -> dict:
     """What the figures depend on: CPU model and SIMD flags, CPU and Numba thread counts and
     threading layer, load average before and after, platform and versions; with --device gpu the
@@ -179,6 +187,9 @@ def environment(device: str, load_before: list[float]) -> dict:
         "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
         "numba_threads": numba.get_num_threads(),
         "numba_threading_layer": threading_layer(),
+        # what Numba compiles the kernels for: this CPU unless NUMBA_CPU_NAME / NUMBA_CPU_FEATURES say otherwise
+        "numba_cpu_name": numba.config.CPU_NAME or _host_cpu_name(),
+        "numba_cpu_features_set": numba.config.CPU_FEATURES is not None,
         "load_average_before": load_before,
         "load_average_after": list(os.getloadavg()),
         "platform": platform.platform(),
