@@ -8,7 +8,9 @@ from the mid-limit pose. The targets are split into chunks and on each chunk eve
 its turn (harness.take_turns): deik one target per call (building the Problem and deik.solve),
 deik through one reused deik.Solver that swaps the targets, deik on the chunk as one batch, then
 each peer, a long-lived process in .venv-peers (benchmarks.peer_process) whose local solvers
-restart from random in-limit poses within 5 ms per target. A peer is skipped, with the reason
+restart from random in-limit poses within 5 ms per target. deik's settings are DEIK's, or
+--deik's (e.g. `--deik dtype=float32 polish_count=16 patience=300`, the defaults beside the
+README's population=32). A peer is skipped, with the reason
 recorded, when that venv is missing or the peer fails. Every answer is scored by
 robot_targets.pose_errors (deik's float64 FK): strict = within 1e-5 m and 1e-4 rad with every
 joint in its limits; loose = 1e-3 m and 1e-2 rad; "<= 5 ms" = strict within TRAC-IK's budget.
@@ -34,7 +36,16 @@ DEIK = {"population": 32, "polish_count": 32, "generations": 2000, "patience": 5
 DEIK_TURNS = ("deik", "deik-solver", "deik-batch")
 
 
-def deik_runners(skeleton, targets: dict, seed: int) -> dict:
+def deik_settings(overrides: list[str]) -> dict:
+    """DEIK with the --deik KEY=VALUE overrides (whole numbers as int, e.g. dtype=float32 polish_count=16)."""
+    settings = dict(DEIK)
+    for item in overrides:
+        key, _, value = item.partition("=")
+        settings[key] = int(value) if value.isdigit() else value
+    return settings
+
+
+def deik_runners(skeleton, targets: dict, seed: int, settings: dict) -> dict:
     """deik's three turns as runners (start, stop) -> {"angles", "seconds"} (+ "wall" per batch);
     compilation and the reused Solver's set-up happen here, untimed. Target k gets seed + k in
     the single and reused solves; a batch gets seed + its first index."""
@@ -46,15 +57,15 @@ def deik_runners(skeleton, targets: dict, seed: int) -> dict:
         goals = [deik.Position(tip, P[part], tolerance=STRICT[0]), deik.Orientation(tip, R[part], tolerance=STRICT[1])]
         return deik.Problem(skeleton, goals)
 
-    solver = deik.Solver(problem(0), **DEIK)
+    solver = deik.Solver(problem(0), **settings)
     labels = solver.problem.table.labels
     singles = {
-        "deik": lambda k: deik.solve(problem(k), seed=seed + k, initial=start, **DEIK).angles,
+        "deik": lambda k: deik.solve(problem(k), seed=seed + k, initial=start, **settings).angles,
         "deik-solver": lambda k: solver.solve({labels[0]: P[k], labels[1]: R[k]}, initial=start, seed=seed + k).angles,
     }
     for one in singles.values():
         one(0)
-    deik.solve(problem(0, 2), seed=seed, initial=start, **DEIK)
+    deik.solve(problem(0, 2), seed=seed, initial=start, **settings)
 
     def timed(one):
         def run(a: int, b: int) -> dict:
@@ -69,7 +80,7 @@ def deik_runners(skeleton, targets: dict, seed: int) -> dict:
 
     def batch(a: int, b: int) -> dict:
         began = time.perf_counter()
-        angles = deik.solve(problem(a, b), seed=seed + a, initial=start, **DEIK).angles
+        angles = deik.solve(problem(a, b), seed=seed + a, initial=start, **settings).angles
         wall = time.perf_counter() - began
         return {"angles": list(angles), "seconds": [wall / (b - a)] * (b - a), "wall": [wall]}
 
@@ -95,11 +106,11 @@ def score(skeleton, targets: dict, angles, seconds) -> dict:
     }
 
 
-def rows_of(skeleton, targets: dict, outputs: dict, peers: dict) -> dict:
+def rows_of(skeleton, targets: dict, outputs: dict, peers: dict, settings: dict) -> dict:
     """Per solver its row: deik's single solves with its reused Solver and batch beside them;
     each peer's answers rescored here (attempts = local solves per target)."""
     single, reused, batch = (outputs[name] for name in DEIK_TURNS)
-    deik_row = {"version": deik.__version__, "settings": DEIK}
+    deik_row = {"version": deik.__version__, "settings": settings}
     deik_row |= score(skeleton, targets, np.array(single["angles"]), single["seconds"])
     deik_row["solver"] = score(skeleton, targets, np.array(reused["angles"]), reused["seconds"])
     wall, n = float(np.sum(batch["wall"])), len(targets["positions"])
@@ -137,7 +148,7 @@ def run_case(case: str, args, peers: tuple, folder: Path) -> dict:
             processes[name] = PeerProcess(name, folder / "targets.npz")
         except PeerFailed as error:
             infos[name] = {"skipped": str(error)}
-    runners = deik_runners(skeleton, targets, args.seed)
+    runners = deik_runners(skeleton, targets, args.seed, deik_settings(args.deik))
     for name, process in processes.items():
         try:
             infos[name] = process.ready()
@@ -149,7 +160,7 @@ def run_case(case: str, args, peers: tuple, folder: Path) -> dict:
     finally:
         for process in processes.values():
             process.close()
-    rows = rows_of(skeleton, targets, outputs, {name: infos[name] for name in peers})
+    rows = rows_of(skeleton, targets, outputs, {name: infos[name] for name in peers}, deik_settings(args.deik))
     return {"dofs": skeleton.n_dofs, "base": targets["base"], "tip": targets["tip"], "solvers": rows}
 
 
@@ -180,6 +191,7 @@ def main(argv=None) -> dict:
     p.add_argument("--chunks", type=int, default=10, help="chunks of targets the solvers take turns on")
     p.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     p.add_argument("--peers", default="all", help="all, none, or a comma list of " + ",".join(PEERS))
+    p.add_argument("--deik", nargs="*", default=[], metavar="KEY=VALUE", help="deik settings replacing DEIK's")
     run = harness.start("robots", p, argv)
     args = run.args
     peers = PEERS if args.peers == "all" else () if args.peers == "none" else tuple(args.peers.split(","))
@@ -223,7 +235,7 @@ def main(argv=None) -> dict:
         "strict": STRICT,
         "loose": LOOSE,
         "budget_s": BUDGET_S,
-        "deik": DEIK,
+        "deik": deik_settings(args.deik),
         "peers": list(peers),
         "turns": ", ".join(DEIK_TURNS + peers),
     }
