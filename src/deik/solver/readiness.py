@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 # Seconds each kernel of the build for every kind takes to compile on an idle 2-core AMD EPYC VM
 # without AVX-512 (the machine of issue 28: a first float32 solve 42-48 s wall, `deik warmup`
 # 74.5 s, both compiling in one process), split among the kernels as Numba's compile timers split
-# them in benchmarks/cold_start.py's runs of 2026-11-27 (results/compare/cold_start_b549e62_*.json)
+# them in benchmarks/cold_start.py's runs of 2026-11-27 (results/compare/cold_start_*_b90ee42.json)
 REFERENCE_SECONDS = {
     "DE float32": 34.0,
     "DE float32 without polish": 26.0,
@@ -43,22 +43,22 @@ REFERENCE_SECONDS = {
     "CUDA kernels float32": 149.0,
     "CUDA kernels float64": 147.0,
 }
-# The share of a build's compile that the build for position goals alone takes (the float64 DE
-# kernel for position goals took 0.86 of the one for every kind in the runs above, whose load
-# moved it by about a tenth), and what each other switch of deik.device.compiled_kinds adds to
-# it: the rest split by how much device code each kind's branch holds (estimated, not timed).
-BASE_SHARE = 0.80
+# The share of a build's compile that the build for position goals alone takes (its DE kernel
+# took 0.86-0.91 of the full build's in the runs above), and what each other switch of
+# deik.device.compiled_kinds adds to it: the rest split by how much device code each kind's
+# branch holds (estimated, not timed).
+BASE_SHARE = 0.88
 SWITCH_SHARE = {
     "POSITION_ON": 0.0,
-    "ORIENTATION_ON": 0.04,
+    "ORIENTATION_ON": 0.02,
     "AIM_ON": 0.01,
-    "COM_ON": 0.03,
-    "SUPPORT_POLYGON_ON": 0.04,
-    "COMFORT_ON": 0.02,
+    "COM_ON": 0.02,
+    "SUPPORT_POLYGON_ON": 0.02,
+    "COMFORT_ON": 0.01,
     "LIMITS_ON": 0.01,
     "OBSTACLE_ON": 0.01,
-    "SELF_COLLISION_ON": 0.03,
-    "FLOOR_ON": 0.01,
+    "SELF_COLLISION_ON": 0.02,
+    "FLOOR_ON": 0.0,
 }
 REFERENCE_MACHINE = "a 2-core machine"
 RECORD_FILE = "deik-compile-seconds.json"
