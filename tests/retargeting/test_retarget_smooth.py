@@ -15,7 +15,7 @@ from deik.model.capsules import bone_starts
 from deik.retargeting.collision import BonePairs, body_pairs, collision_rows, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
-from deik.retargeting.smooth import smooth_motion
+from deik.retargeting.smooth import MotionGoals, smooth_motion
 
 POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
 POINTS += ("left_knee", "right_knee", "chest", "pelvis")
@@ -150,9 +150,10 @@ def test_the_space_time_pass_plants_a_sliding_contact_without_a_jolt():
     # no capsule pairs: the humanoid's hanging hands graze its thighs' capsules, and the swinging
     # truth puts them in; the arm test below checks the pass's capsule rows
     pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    found = smooth_motion(
-        h, drifting, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT
+    goals = MotionGoals(
+        h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach
     )
+    found = smooth_motion(goals, drifting)
     assert (found >= h.lower).all() and (found <= h.upper).all()
     slide, error, _, toe_acceleration = _measured(h, found, names, targets)
     slide_before, error_before, _, toe_acceleration_before = _measured(h, drifting, names, targets)
@@ -195,9 +196,10 @@ def test_the_space_time_pass_pushes_an_arm_out_of_the_torso():
     names = ["left_wrist", "head", "pelvis"]
     targets = np.stack([deik.forward_kinematics(h, poses).position(name) for name in names], axis=1)
     weights = dof_weights(Trajectory(h, poses, 1 / 30))
-    found = smooth_motion(
-        h, poses, names, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, 1 / 30
+    goals = MotionGoals(
+        h, names, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, 1 / 30, h.reach
     )
+    found = smooth_motion(goals, poses)
     assert penetration_depths(h, found, pairs).max() < 1e-3
     assert (found >= h.lower).all() and (found <= h.upper).all()
 

@@ -10,9 +10,10 @@ from deik.io.bvh.preview import view_clip
 from deik.io.files import FilePath
 from deik.io.load import load_skeleton
 from deik.io.motion import Clip
+from deik.io.urdf import read_velocity_limits
 from deik.model.skeleton import Skeleton
+from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.maps import JointMap, read_map
-from deik.retargeting.measures import within_limits
 from deik.retargeting.outcome import Retarget, frame_range
 from deik.retargeting.proportions import check_same_rig, retarget_proportions
 from deik.retargeting.rig import retarget_rig
@@ -33,7 +34,7 @@ def _bvh_clip(result: Retarget, target_clip: Clip | None) -> Clip:
     """The BVH clip of a rig retarget: the target clip's layout for a BVH target, the skeleton's
     own where BVH can carry it (the built-in humanoid), else a view of the robot."""
     motion = result.motion
-    frames = within_limits(motion.skeleton, motion.frames)
+    frames = continuous_within_limits(motion.skeleton, motion.frames)
     if target_clip is not None and target_clip.skeleton.n_dofs == motion.skeleton.n_dofs:
         clip = Clip(target_clip.skeleton, frames, motion.frame_time, target_clip.layout, motion.source)
         return clip.with_continuous_channels()
@@ -51,6 +52,7 @@ def retarget(
     joint_map: JointMap | FilePath | None = None,
     frames: tuple[int, int] | None = None,
     up: ArrayLike | None = None,
+    velocity: dict[str, float] | None = None,
     **settings: object,
 ) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
@@ -59,7 +61,9 @@ def retarget(
     - Other proportions, same rig: `to` a BVH path or Clip with the same joint names and other
       bone lengths, or `scale` {joint: factor} scaling the bones below those joints.
     - Another skeleton: `joint_map` (a JointMap or a TOML/JSON path) and `to` a BVH or URDF
-      path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it.
+      path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it;
+      `velocity` {DOF name: limit, rad/s or length units/s} bounds each DOF's step between
+      frames (default: a URDF's own `<limit velocity>`s, none for another target).
     `frames` = (start, stop) cuts the source first (stop exclusive); `settings` go to the clip
     fix of a same-rig retarget (population, generations, seed, device); a joint-map retarget
     runs no DE and takes only `progress(met, stage)` from them. ValueError for a mistake in
@@ -78,7 +82,9 @@ def retarget(
     joint_map = joint_map if isinstance(joint_map, JointMap) else read_map(joint_map)
     target, target_clip = _target(to, joint_map.up or up)
     hinges = None if target_clip is None else hinge_channels(target_clip)
-    result = retarget_rig(clip, target, joint_map, hinges=hinges, **settings)
+    if velocity is None and not isinstance(to, (Skeleton, Clip)) and str(to).lower().endswith(".urdf"):
+        velocity = read_velocity_limits(to)
+    result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, **settings)
     return Retarget(
         result.motion,
         _bvh_clip(result, target_clip),
