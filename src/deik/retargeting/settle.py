@@ -7,8 +7,9 @@ with other bone lengths) with per-frame poses of the target that follow their ke
    (contacts.resting_contacts: feet, hands, knees, elbows, the back, the pelvis, the head) is a
    contact of the target frame it maps to, on the target's floor (height `floor`);
 2. the steps each DOF may take between frames (step_limits): its velocity limit times the frame
-   time, and for a rotation without one STEP_ALLOWANCE x the source's largest joint turn in one
-   frame, so no joint swings round where the source does not;
+   time, and on a robot with velocity limits, for a rotation without one (the floating root's),
+   STEP_ALLOWANCE x the source's largest joint turn in one frame, so no joint swings round
+   where the source does not;
 3. the poses written as the same poses nearest the frame before (continuity.py), then the
    space-time pass (smooth.py), then written so again within the limits;
 4. the report (measures.py) with the floor, the contacts and the steps past a velocity limit.
@@ -53,7 +54,8 @@ class Settling:
     `points` {source frame: target frame} whose contacts carry over; the `searched` DOFs,
     their `weights` (dof_weights); the frames of the `body`; `velocity` {DOF name: limit,
     rad/s or length units/s} (a URDF's); `steering` the sites dropped from the output's
-    skeleton; `began` the wall clock (time.perf_counter) the retarget started at."""
+    skeleton; `began` the wall clock (time.perf_counter) the retarget started at; `scaled` the
+    source's angles on the target (a same-rig retarget: the report's joint angle deviation)."""
 
     source: Clip
     floor: float
@@ -70,6 +72,7 @@ class Settling:
     velocity: dict
     steering: Sequence[str] = ()
     began: float = 0.0
+    scaled: Clip | None = None
 
 
 def largest_turn(clip: Clip) -> float:
@@ -83,9 +86,12 @@ def largest_turn(clip: Clip) -> float:
 
 def step_limits(skeleton: Skeleton, velocity: dict, frame_time: float, turn: float) -> np.ndarray:
     """(D,) the largest step of each DOF between two frames `frame_time` s apart: its
-    `velocity` {DOF name: limit} x frame_time, STEP_ALLOWANCE x `turn` (radians) for a rotation
-    without one, inf for a translation without one."""
-    largest = np.where(skeleton.dof_kind == ROTATE, STEP_ALLOWANCE * max(turn, 1e-9), np.inf)
+    `velocity` {DOF name: limit} x frame_time; for a rotation without one on a robot with
+    velocity limits (a floating root's turns), STEP_ALLOWANCE x `turn` (radians); inf for the
+    rest (a character's Euler channels, which may turn fast near gimbal lock for a small turn
+    of the joint)."""
+    capped = (skeleton.dof_kind == ROTATE) & bool(velocity)
+    largest = np.where(capped, STEP_ALLOWANCE * max(turn, 1e-9), np.inf)
     for d, name in enumerate(skeleton.dof_names):
         if name in velocity:
             largest[d] = velocity[name] * frame_time
@@ -138,8 +144,9 @@ def settle(settling: Settling) -> tuple[Trajectory, Contacts | None, dict]:
     kin = forward_kinematics(target, motion.poses())
     clear = np.zeros(0) if contacts is None else clearance(kin, target, contacts)
     K = settling.reported.shape[1]
+    reported = list(settling.names)[:K]
     report = retarget_report(
-        motion, list(settling.names)[:K], settling.reported, contacts, clear, metres, wall, pairs=pairs
+        motion, reported, settling.reported, contacts, clear, metres, wall, scaled=settling.scaled, pairs=pairs
     )
     limited = step_limits(target, velocity, source.frame_time, np.inf)
     report["velocity_violations"] = velocity_violations(motion, limited)

@@ -16,8 +16,7 @@ clip finds the displacement from those poses that
   needs starts before the contact does and fades after it, so the motion keeps the per-frame
   IK's velocities and accelerations instead of jumping where a contact starts or ends;
 - keeps every DOF's step between two frames within its largest step (a robot's velocity limit
-  times the frame time; for a rotation without one, STEP_ALLOWANCE x the source's largest
-  joint turn in a frame): a row per DOF and pair of frames whose step goes past STEP_MARGIN of
+  times the frame time; settle.step_limits): a row per DOF and pair of frames whose step goes past STEP_MARGIN of
   it, counted as the held rows are, so a joint that would swing round in a frame (a shoulder
   at gimbal lock) takes the turn the key points leave free instead.
 Each iteration solves the block-banded normal equations (clips.spacetime.spacetime_step) with
