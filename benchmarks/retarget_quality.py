@@ -57,8 +57,8 @@ URDF_MAP = ROOT / "examples" / "maps" / "shared_bvh_to_human_urdf.toml"
 RESULTS = Path(__file__).resolve().parent / "results"
 # the judge's contact: slower than REST_SPEED statures/s or REST_RATIO x the body's mean point,
 # within REST_BAND statures of its own lowest resting height, which lies within REST_NEAR
-# statures of the floor, for REST_FRAMES frames
-REST_SPEED, REST_RATIO, REST_BAND, REST_NEAR, REST_FRAMES = 0.08, 0.5, 0.02, 0.08, 3
+# statures of the floor, for REST_TIME seconds
+REST_SPEED, REST_RATIO, REST_BAND, REST_NEAR, REST_TIME = 0.08, 0.5, 0.02, 0.08, 0.1
 STEP_ALLOWANCE = 1.5  # x the source's largest joint turn per frame (or the velocity limit)
 WRIST_BOUND = 0.1  # statures of the target: the bound on a hand's distance from its scaled source point
 SLIDING_BOUND, PENETRATION_BOUND = 1.0, 2.0  # mm per frame, mm
@@ -244,10 +244,10 @@ def rest_mask(points: np.ndarray, frame_time: float, floor: float, size: float) 
     slow = _slow(points, frame_time, size)
     lowest = np.where(slow, height, np.inf).min(axis=0)
     mask = slow & (height <= lowest + REST_BAND * size) & (lowest <= REST_NEAR * size)
-    for p in range(mask.shape[1]):  # runs shorter than REST_FRAMES do not count
+    for p in range(mask.shape[1]):  # rests shorter than REST_TIME do not count
         edges = np.flatnonzero(np.diff(np.concatenate([[0], mask[:, p].astype(int), [0]])))
         for a, b in zip(edges[::2], edges[1::2]):
-            if b - a < REST_FRAMES:
+            if (b - a) * frame_time < REST_TIME - 1e-9:
                 mask[a:b, p] = False
     return mask
 
@@ -307,7 +307,8 @@ class Pairing:
     (every link origin and mapped point of a robot, every joint and site of a BVH), the
     target's rest positions `rest` (K, 3) and rest `rest_body` (B, 3), `pelvis` the source name
     of the target's root point, `floor` the target's floor height, `rotation` (3, 3) source
-    axes to target axes."""
+    axes to target axes; `same_world` for a target in the source's world (the same rig), else
+    the target's world has its origin on the floor below the source's root in frame 0."""
 
     source: list
     target: np.ndarray
@@ -317,6 +318,7 @@ class Pairing:
     pelvis: str
     floor: float
     rotation: np.ndarray
+    same_world: bool = False
 
 
 def robot_pairing(robot: Robot, csv_path: Path, joint_map: dict) -> tuple[Pairing, list, np.ndarray, float]:
@@ -359,7 +361,7 @@ def rig_pairing(source: Bvh, out: Bvh, floor: float) -> Pairing:
     """Pairing of a same-rig retarget: every node to itself, the floor the source's."""
     positions = bvh_transforms(out)[0]
     rest = bvh_transforms(replace(out, frames=np.zeros((1, out.frames.shape[1]))))[0][0]
-    return Pairing(list(out.names), positions, positions, rest, rest, out.names[0], floor, np.eye(3))
+    return Pairing(list(out.names), positions, positions, rest, rest, out.names[0], floor, np.eye(3), True)
 
 
 def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: dict | None = None) -> dict:
@@ -383,7 +385,7 @@ def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: di
     ]
     origin = positions[0, 0] * [1, 0, 1] + [0, floor, 0]
     mapped = (positions[:, index] - origin) @ pairing.rotation.T
-    root_path = mapped[:, root] * legs[1] / legs[0] + pairing.floor * np.array([0, 1, 0])
+    root_path = mapped[:, root] * legs[1] / legs[0] + (origin if pairing.same_world else 0.0)
     scaled = limb_scaled(mapped, parents, lengths, root, root_path)
     target_size = float(np.ptp(pairing.rest_body[:, 1]))
     error = np.linalg.norm(pairing.target - scaled, axis=-1)

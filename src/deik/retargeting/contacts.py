@@ -18,7 +18,8 @@ span of the skeleton at rest (keypoints.stature).
   statures of the floor. Hands, knees, elbows, the back, the pelvis and the head rest as the
   feet do (a cartwheel's wrists 4-6 cm over the floor, the pelvis of a body lying on its back
   14 cm). A walking foot lifts (the band) and a kicking foot flies (the speed); gaps shorter
-  than MIN_FRAMES frames are filled and runs shorter than it dropped (cleanup.contacts).
+  than MIN_FRAMES frames are filled (cleanup.contacts), and rests shorter than REST_TIME
+  seconds dropped (a sprinting foot rests 0.1 s).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ REST_BAND = 0.03  # statures (5 cm) above a point's resting height: a heel raise
 RESTING_PERCENTILE = 10.0
 REST_NEAR = 0.09  # statures (15 cm): a joint resting this near the floor touches it (the pelvis lying down)
 FLOOR_PERCENTILE = 25.0
+REST_TIME = 0.08  # seconds: a shorter rest is a pause in a moving point (a crawling pelvis), not a contact
 
 
 def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float) -> np.ndarray:
@@ -67,4 +69,10 @@ def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: fl
         resting[s] = np.percentile(heights[slow[:, s], s], RESTING_PERCENTILE)
     near = resting <= REST_NEAR * size
     mask = drop_short(fill_gaps(slow & near & (heights <= resting + REST_BAND * size)))
+    found = Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
+    shortest = REST_TIME / clip.frame_time
+    for s in range(len(points)):
+        for a, b in found.intervals(s):
+            if b - a < shortest:
+                mask[a:b, s] = False
     return Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)

@@ -6,10 +6,10 @@ with other bone lengths) with per-frame poses of the target that follow their ke
 1. the contacts: every mapped source point at rest near the source's floor
    (contacts.resting_contacts: feet, hands, knees, elbows, the back, the pelvis, the head) is a
    contact of the target frame it maps to, on the target's floor (height `floor`);
-2. the steps each DOF may take between frames (step_limits): its velocity limit times the frame
-   time, and on a robot with velocity limits, for a rotation without one (the floating root's),
-   STEP_ALLOWANCE x the source's largest joint turn in one frame, so no joint swings round
-   where the source does not;
+2. on a robot with velocity limits, the step each DOF may take between frames (step_limits):
+   a rotation at most the larger of its velocity limit times the frame time and STEP_ALLOWANCE
+   x the source's largest joint turn in one frame, so no joint swings round where the source
+   does not; steps past a velocity limit itself are reported per frame and DOF;
 3. the poses written as the same poses nearest the frame before (continuity.py), then the
    space-time pass (smooth.py), then written so again within the limits;
 4. the report (measures.py) with the floor, the contacts and the steps past a velocity limit.
@@ -85,17 +85,25 @@ def largest_turn(clip: Clip) -> float:
 
 
 def step_limits(skeleton: Skeleton, velocity: dict, frame_time: float, turn: float) -> np.ndarray:
-    """(D,) the largest step of each DOF between two frames `frame_time` s apart: its
-    `velocity` {DOF name: limit} x frame_time; for a rotation without one on a robot with
-    velocity limits (a floating root's turns), STEP_ALLOWANCE x `turn` (radians); inf for the
-    rest (a character's Euler channels, which may turn fast near gimbal lock for a small turn
-    of the joint)."""
-    capped = (skeleton.dof_kind == ROTATE) & bool(velocity)
-    largest = np.where(capped, STEP_ALLOWANCE * max(turn, 1e-9), np.inf)
-    for d, name in enumerate(skeleton.dof_names):
-        if name in velocity:
-            largest[d] = velocity[name] * frame_time
-    return largest
+    """(D,) the largest step of each DOF between two frames `frame_time` s apart on a robot with
+    velocity limits {DOF name: limit} (`velocity`; none: every step free, inf): a rotation's the
+    larger of its limit x frame_time and STEP_ALLOWANCE x `turn` (radians, the source's largest
+    joint turn in a frame: a robot playing the clip at its speed turns as fast as the source
+    does, and a limit tighter than that is reported, not met by leaving the key points
+    behind), a translation's its limit x frame_time (inf without one). A character without
+    limits keeps every step free: its Euler channels may turn fast near gimbal lock for a small
+    turn of the joint."""
+    if not velocity:
+        return np.full(skeleton.n_dofs, np.inf)
+    rotation = skeleton.dof_kind == ROTATE
+    limit = np.array([velocity.get(name, 0.0 if rotation[d] else np.inf) for d, name in enumerate(skeleton.dof_names)])
+    return np.where(rotation, np.maximum(limit * frame_time, STEP_ALLOWANCE * turn), limit * frame_time)
+
+
+def velocity_steps(skeleton: Skeleton, velocity: dict, frame_time: float) -> np.ndarray:
+    """(D,) each DOF's velocity limit x `frame_time` (inf without one): the steps the report
+    checks."""
+    return np.array([velocity.get(name, np.inf) * frame_time for name in skeleton.dof_names])
 
 
 def target_contacts(settling: Settling, size: float) -> Contacts | None:
@@ -148,7 +156,7 @@ def settle(settling: Settling) -> tuple[Trajectory, Contacts | None, dict]:
     report = retarget_report(
         motion, reported, settling.reported, contacts, clear, metres, wall, scaled=settling.scaled, pairs=pairs
     )
-    limited = step_limits(target, velocity, source.frame_time, np.inf)
+    limited = velocity_steps(target, velocity, source.frame_time)
     report["velocity_violations"] = velocity_violations(motion, limited)
     report["summary"]["velocity_violations_count"] = len(report["velocity_violations"])
     report["summary"]["floor_height"] = settling.target_floor
