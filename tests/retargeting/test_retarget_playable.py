@@ -1,4 +1,4 @@
-"""Retargets a robot can play, judged by an independent measurement (benchmarks/retarget_quality.py:
+"""Retargets a robot can play, judged by an independent measurement (benchmarks/retarget_judge.py:
 yourdfpy's transforms of the written trajectory CSV, its own BVH reader and contact detector),
 on shared clips and on cases made from them: continuous joint values (no wraps or Euler twins),
 steps within the URDF's velocity limits or listed per frame and DOF, every resting point planted
@@ -16,7 +16,8 @@ import pytest
 import deik
 import deik.io.trajectory
 import deik.io.urdf
-from benchmarks import retarget_quality as judge
+from benchmarks import retarget_judge as judge
+from benchmarks import retarget_quality as quality
 from deik.io.load import load_skeleton
 from deik.retargeting.continuity import continuous_within_limits, rotation_triples
 from deik.retargeting.maps import read_map
@@ -32,15 +33,15 @@ def _cut(path, frames, folder, case=None):
     bvh = judge.read_bvh_file(path)
     bvh.frames = bvh.frames[frames[0] : frames[1]]
     if case:
-        bvh = judge.source_case(bvh, case)
+        bvh = quality.source_case(bvh, case)
     out = folder / f"{path.stem}_{case or 'cut'}.bvh"
-    judge.write_bvh_file(out, bvh)
+    quality.write_bvh_file(out, bvh)
     return out
 
 
 def _onto_robot(source, robot, joint_map, folder, hands=HANDS):
     """Retarget through the command line, judge the files it wrote; (figures, deik's report)."""
-    figures = judge.onto_robot(source, robot, joint_map, folder, hands)
+    figures = quality.onto_robot(source, robot, joint_map, folder, hands)
     return figures, figures.pop("deik")
 
 
@@ -158,8 +159,8 @@ def test_hard_cases_onto_the_robot_stay_playable(tmp_path, case, clip, frames):
     source = _cut(shared_path("humanoid", f"humanoid3d_{clip}.bvh"), frames, tmp_path, case)
     joint_map, hands = URDF_MAP, HANDS
     if case == "studio":  # centimetres, a Reference root, position channels on every joint, other names
-        joint_map, hands = tmp_path / "studio.toml", judge.STUDIO_WRISTS
-        joint_map.write_text(judge.toml_text(judge.studio_map(tomllib.loads(URDF_MAP.read_text()))))
+        joint_map, hands = tmp_path / "studio.toml", quality.STUDIO_WRISTS
+        joint_map.write_text(quality.toml_text(quality.studio_map(tomllib.loads(URDF_MAP.read_text()))))
     figures, report = _onto_robot(source, shared_path("robots", "human.urdf"), joint_map, tmp_path, hands)
     assert figures["resting_points"]  # the feet rest, whatever the rig calls them
     _assert_playable(figures)
@@ -169,7 +170,7 @@ def test_hard_cases_onto_the_robot_stay_playable(tmp_path, case, clip, frames):
 def test_robots_with_another_joint_order_and_continuous_joints(tmp_path):
     text = shared_path("robots", "human.urdf").read_text()
     robot = tmp_path / "human_mixed.urdf"
-    robot.write_text(judge.robot_case(judge.robot_case(text, "continuous"), "reordered"))
+    robot.write_text(quality.robot_case(quality.robot_case(text, "continuous"), "reordered"))
     source = _cut(shared_path("humanoid", "humanoid3d_dance_a.bvh"), (0, 40), tmp_path)
     figures, report = _onto_robot(source, robot, URDF_MAP, tmp_path)
     _assert_playable(figures)
@@ -180,7 +181,7 @@ def test_robots_with_another_joint_order_and_continuous_joints(tmp_path):
 @pytest.mark.shared_data
 def test_the_scaled_rig_has_the_same_contacts_and_floor(tmp_path):
     source = _cut(shared_path("humanoid", "humanoid3d_crawl.bvh"), (60, 120), tmp_path)
-    figures = judge.onto_rig(source, tmp_path)
+    figures = quality.onto_rig(source, tmp_path)
     report = figures.pop("deik")
     assert {"LeftKnee", "RightKnee"} & set(figures["resting_points"])
     _assert_playable(figures)
