@@ -23,7 +23,9 @@ for a robot, at the source's floor for the same rig):
 - `wrist_distance_max_mm`: the largest distance of a hand (the source's wrists) from its
   scaled source point (the source's directions with the target's limb lengths, the pelvis's
   path scaled by the pelvis heights' ratio), against WRIST_BOUND statures of the target;
-- `keypoint_error_mean_mm`: the mean distance of every mapped point from its scaled source.
+- `keypoint_error_mean_mm`: the mean distance of every mapped point from its scaled source;
+- `speed_peak_ratio_max`: the largest, over the mapped points, of a point's top speed over its
+  scaled source point's (1: as fast; a flicking forearm shows as several), with the point.
 """
 
 from __future__ import annotations
@@ -364,9 +366,21 @@ def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: di
         "wrist_distance_max_mm": float(error[:, hands].max() * mm),
         "wrist_bound_mm": WRIST_BOUND * target_size * mm,
         "keypoint_error_mean_mm": float(error.mean() * mm),
+        **_speed_peaks(pairing.source, scaled, pairing.target),
     }
     figures.update(step_figures(source, steps) if steps else {})
     return figures
+
+
+def _speed_peaks(names: list[str], scaled: np.ndarray, target: np.ndarray) -> dict:
+    """The largest, over the mapped points, of a point's top speed between two frames over its
+    scaled source point's (a flail or a flick shows here), and which point."""
+    if len(target) < 2:
+        return {"speed_peak_ratio_max": None, "speed_peak_point": None}
+    top = [np.linalg.norm(np.diff(p, axis=0), axis=-1).max(axis=0) for p in (scaled, target)]
+    ratio = top[1] / np.maximum(top[0], 1e-9)
+    k = int(np.argmax(ratio))
+    return {"speed_peak_ratio_max": float(ratio[k]), "speed_peak_point": names[k]}
 
 
 def _mapped_parents(source: Bvh, names: list[str]) -> list[int]:

@@ -295,6 +295,7 @@ SHOWN = (
     ("step_excess_max", "step / allowance"),
     ("wrap_count", "wraps"),
     ("wrist_distance_max_mm", "wrist mm"),
+    ("speed_peak_ratio_max", "speed peak / source's"),
     ("keypoint_error_mean_mm", "key points mm"),
 )
 
