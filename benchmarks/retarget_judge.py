@@ -7,7 +7,8 @@ BVH files are read and posed by the small parser below (a joint's local transfor
 plus its position channels, then its rotation channels in file order, intrinsic).
 
 Per retarget (judge; lengths in mm of the target, the target's floor at height 0 of its world
-for a robot, at the source's floor for the same rig):
+for a robot, the floor deik states for the same rig, whose world is the source's; the judge's
+own estimate of the source's floor decides what rests):
 - contacts: every point of the source (joint or end site) at rest near the floor (rest_mask:
   slower than REST_SPEED statures/s or REST_RATIO x the mean point, within REST_BAND statures
   of its own lowest resting height, which lies within REST_NEAR statures of the floor, for

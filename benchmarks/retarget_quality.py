@@ -243,15 +243,19 @@ def onto_robot(source_path: Path, robot_path: Path, map_path: Path, folder: Path
 
 
 def onto_rig(source_path: Path, folder: Path, scale: str = SCALE) -> dict:
-    """Retarget `source_path` onto its own rig with other proportions (--scale) and judge it."""
+    """Retarget `source_path` onto its own rig with other proportions (--scale) and judge it
+    against the floor deik states (the target keeps the source's world, whose floor only the
+    capture knows), with the judge's own estimate of that floor beside it."""
     out, report = folder / (source_path.stem + "_scaled.bvh"), folder / (source_path.stem + "_scaled.json")
     wall = deik_retarget([str(source_path), "--scale", scale, "--out", str(out), "--json", str(report)])
     source = read_bvh_file(source_path)
-    positions = bvh_transforms(source)[0]
-    floor = source_floor(positions, source.frame_time, stature(source))
-    mm = 1000.0 if stature(source) < 10 else 10.0  # the rig's unit: metres or centimetres
+    size = stature(source)
+    deik = json.loads(report.read_text())
+    floor = deik["floor"]["height"]
+    mm = 1000.0 if size < 10 else 10.0  # the rig's unit: metres or centimetres
     figures = judge(source, rig_pairing(source, read_bvh_file(out), floor), WRISTS, mm)
-    return {**figures, "wall_s": wall, "deik": json.loads(report.read_text())["summary"]}
+    own = source_floor(bvh_transforms(source)[0], source.frame_time, size)
+    return {**figures, "floor_stated_mm_from_judge": (floor - own) * mm, "wall_s": wall, "deik": deik["summary"]}
 
 
 def plan(clips: list[Path], quick: bool) -> list[dict]:
