@@ -93,6 +93,7 @@ def run_retarget(
     from deik.io.bvh import read_bvh, write_bvh
     from deik.io.motion import Clip
     from deik.io.trajectory import write_trajectory
+    from deik.model.joints import ROTATE
     from deik.retargeting.api import retarget
     from deik.retargeting.outcome import frame_range
 
@@ -120,10 +121,12 @@ def run_retarget(
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
+    dofs = result.motion.skeleton
     for step in result.report.get("velocity_violations", [])[:SHOWN_STEPS]:
+        unit = "rad" if dofs.dof_kind[dofs.dof_names.index(step["dof"])] == ROTATE else "m"  # a URDF's units
         print(
-            f"frame {step['frame']}->{step['frame'] + 1}: {step['dof']} steps {step['step']:.4g}, "
-            f"its velocity limit allows {step['largest']:.4g}"
+            f"frame {step['frame']}->{step['frame'] + 1}: {step['dof']} steps {step['step']:.4g} {unit}, "
+            f"its velocity limit allows {step['largest']:.4g} {unit} a frame"
         )
     with all_or_nothing():
         if args.out.lower().endswith(".bvh"):
