@@ -18,10 +18,8 @@ span of the skeleton at rest (keypoints.stature).
   statures of the floor. Hands, knees, elbows, the back, the pelvis and the head rest as the
   feet do (a cartwheel's wrists 4-6 cm over the floor, the pelvis of a body lying on its back
   14 cm). A walking foot lifts (the band) and a kicking foot flies (the speed); gaps shorter
-  than MIN_FRAMES frames are filled (cleanup.contacts), and so are gaps shorter than
-  REST_TIME seconds over which the point moves less than REGRIP statures (a shoulder lifted
-  for three frames lands where it was: two plants there jerk the body between them); then
-  rests shorter than REST_TIME seconds are dropped (a sprinting foot rests 0.1 s).
+  than MIN_FRAMES frames are filled (cleanup.contacts), and rests shorter than REST_TIME
+  seconds dropped (a sprinting foot rests 0.1 s).
 """
 
 from __future__ import annotations
@@ -41,7 +39,6 @@ RESTING_PERCENTILE = 10.0
 REST_NEAR = 0.09  # statures (15 cm): a joint resting this near the floor touches it (the pelvis lying down)
 FLOOR_PERCENTILE = 25.0
 REST_TIME = 0.08  # seconds: a shorter rest is a pause in a moving point (a crawling pelvis), not a contact
-REGRIP = 0.01  # statures: a point that lifts for less than REST_TIME and lands this near where it left rests on
 
 
 def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float) -> np.ndarray:
@@ -74,13 +71,6 @@ def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: fl
     mask = drop_short(fill_gaps(slow & near & (heights <= resting + REST_BAND * size)))
     found = Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
     shortest = REST_TIME / clip.frame_time
-    for s in range(len(points)):
-        runs = found.intervals(s)
-        for (_, stop), (start, _) in zip(runs, runs[1:]):  # a brief lift that lands where it left
-            moved = np.linalg.norm(p[start, s] - p[stop - 1, s])
-            if start - stop < shortest and moved <= REGRIP * size:
-                mask[stop:start, s] = True
-    found = Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
     for s in range(len(points)):
         for a, b in found.intervals(s):
             if b - a < shortest:
