@@ -14,7 +14,7 @@ from deik.io.urdf import read_velocity_limits
 from deik.model.skeleton import Skeleton
 from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.maps import JointMap, read_map
-from deik.retargeting.outcome import Retarget, frame_range
+from deik.retargeting.outcome import Progress, Retarget, frame_range
 from deik.retargeting.proportions import check_same_rig, retarget_proportions
 from deik.retargeting.rig import retarget_rig
 from deik.retargeting.skeletons import scaled_bones
@@ -53,7 +53,7 @@ def retarget(
     frames: tuple[int, int] | None = None,
     up: ArrayLike | None = None,
     velocity: dict[str, float] | None = None,
-    **settings: object,
+    progress: Progress | None = None,
 ) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
@@ -64,19 +64,17 @@ def retarget(
       path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it;
       `velocity` {DOF name: limit, rad/s or length units/s} bounds each DOF's step between
       frames (default: a URDF's own `<limit velocity>`s, none for another target).
-    `frames` = (start, stop) cuts the source first (stop exclusive); `settings` go to the clip
-    fix of a same-rig retarget (population, generations, seed, device); a joint-map retarget
-    runs no DE and takes only `progress(met, stage)` from them. ValueError for a mistake in
-    the inputs."""
+    `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
+    is called after each stage. ValueError for a mistake in the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     if joint_map is None:
         if (to is None) == (scale is None):
             raise ValueError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
-            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), **settings)
+            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
         target, _ = _target(to, None)
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
-        return retarget_proportions(clip, target, **settings)
+        return retarget_proportions(clip, target, progress)
     if to is None or scale is not None:
         raise ValueError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
     joint_map = joint_map if isinstance(joint_map, JointMap) else read_map(joint_map)
@@ -84,7 +82,7 @@ def retarget(
     hinges = None if target_clip is None else hinge_channels(target_clip)
     if velocity is None and not isinstance(to, (Skeleton, Clip)) and str(to).lower().endswith(".urdf"):
         velocity = read_velocity_limits(to)
-    result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, **settings)
+    result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, progress=progress)
     return Retarget(
         result.motion,
         _bvh_clip(result, target_clip),
@@ -93,5 +91,4 @@ def retarget(
         result.keypoints,
         result.targets,
         result.report,
-        result.fix,
     )

@@ -29,7 +29,7 @@ from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting.contacts import rest_floor
 from deik.retargeting.keypoints import floor_origin, rest_heights, stature
-from deik.retargeting.outcome import Retarget
+from deik.retargeting.outcome import Progress, Retarget
 from deik.retargeting.settle import Settling, settle
 
 
@@ -81,9 +81,9 @@ def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:
     return replace(target, lower=lower, upper=upper)
 
 
-def retarget_proportions(clip: Clip, target: Skeleton, **settings: object) -> Retarget:
+def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None = None) -> Retarget:
     """Retarget `clip` onto `target`, the same rig with other bone lengths (see the module
-    notes). `settings`: only `progress(met, stage)` is called, after the space-time pass."""
+    notes); `progress(frames, stage)` is called after the space-time pass."""
     began = time.perf_counter()
     sk = clip.skeleton
     floor = rest_floor(clip, stature(sk))
@@ -113,7 +113,8 @@ def retarget_proportions(clip: Clip, target: Skeleton, **settings: object) -> Re
         scaled=scaled,
     )
     motion, contacts, report = settle(settling)
-    (settings.get("progress") or (lambda met, stage: None))(clip.n_frames, "contacts, the floor and self-collision")
+    if progress is not None:
+        progress(clip.n_frames, "contacts, the floor and self-collision")
     report["summary"]["leg_ratio"] = ratio
     out = Clip(target, motion.frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
-    return Retarget(out, out, clip, contacts, tuple(names), targets, report, None)
+    return Retarget(out, out, clip, contacts, tuple(names), targets, report)

@@ -13,12 +13,14 @@
 3. The same IK again with every joint and site of the body kept above the floor, outliers
    repaired, then REBASIN times from the clip's poses smoothed over the frames, so that
    neighbouring frames share a basin (ik.rebasin).
-4. The space-time pass (smooth.py): all frames at once, the source's contacts (detected there,
-   on the mapped target sites) planted and held still, the body above the floor and out of
-   itself (bone capsules), the key points as near as that allows, the motion as smooth as the
-   IK's, within the limits. No DE repair: on targets whose limits cannot follow the source,
-   DE's repairs within tight contact tolerances moved whole bodies tens of centimetres off
-   their key points.
+4. The last steps (settle.py): every mapped source point at rest near the source's floor
+   planted on the target frame it maps to, each DOF's step within its allowance (a robot's
+   velocity limits), the joint values continuous, and the space-time pass (smooth.py): all
+   frames at once, contacts held still, the body above the floor and out of itself (bone
+   capsules), the key points as near as that allows, the motion as smooth as the IK's,
+   within the limits. No DE repair: on targets whose limits cannot follow the source, DE's
+   repairs within tight contact tolerances moved whole bodies tens of centimetres off their
+   key points.
 A target whose root does not move (a URDF robot) gets a floating root first, and a built-in
 character's root limits are freed (skeletons.py).
 """
@@ -39,7 +41,7 @@ from deik.retargeting import keypoints as kp
 from deik.retargeting.contacts import rest_floor
 from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
-from deik.retargeting.outcome import Retarget
+from deik.retargeting.outcome import Progress, Retarget
 from deik.retargeting.settle import Settling, settle
 from deik.retargeting.skeletons import with_floating_root, with_free_root, with_sites
 
@@ -103,14 +105,13 @@ def retarget_rig(
     joint_map: JointMap,
     hinges: np.ndarray | None = None,
     velocity: dict | None = None,
-    **settings: object,
+    progress: Progress | None = None,
 ) -> Retarget:
     """Retarget the clip `source` onto `target` through `joint_map` (see the module notes).
     `hinges` (D,) bool of the target's DOFs to keep at 0 (a BVH rig's hinge channels, from
     clips.coherence.hinge_channels of its own clip), default none; `velocity` {DOF name: limit}
-    (rad/s or length units/s, a URDF's) bounds each DOF's step between frames. `settings` are
-    those of a clip fix (seed, device, population, ...), which this retarget does not run:
-    only `progress(met, stage)` is called, after each IK pass."""
+    (rad/s or length units/s, a URDF's) bounds each DOF's step between frames (settle.py);
+    `progress(frames, stage)` is called after each IK pass and the space-time pass."""
     began = time.perf_counter()
     check_map(joint_map, source.skeleton, target)
     rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
@@ -151,7 +152,7 @@ def retarget_rig(
     # (a hand swinging down to the floor) refuses every step and stalls
     goals = KeypointGoals(target, points, wanted, searched, weights, size=size)
     poses = repair_outliers(goals, solve_keypoints(goals, poses))
-    progress = settings.get("progress") or (lambda met, stage: None)
+    progress = progress or (lambda frames, stage: None)
     progress(len(poses), "key points")
     goals = goals.above(0.0, body)  # the floor at 0
     poses = solve_keypoints(goals, poses)
@@ -183,7 +184,7 @@ def retarget_rig(
     motion, contacts, report = settle(settling)
     progress(len(poses), "contacts, the floor, self-collision and velocity limits, all frames at once")
     report["summary"]["body_scale"] = scale
-    return Retarget(motion, None, source, contacts, tuple(names), targets, report, None)
+    return Retarget(motion, None, source, contacts, tuple(names), targets, report)
 
 
 def _held_translations(skeleton: Skeleton) -> np.ndarray:
