@@ -1,6 +1,6 @@
 """What the GPU kernels cost the hardware: registers, local and shared memory, occupancy.
 
-    PYTHONPATH=src python -m benchmarks.gpu_kernels --device gpu [--quick] [--ncu] [--out DIR]
+    python -m benchmarks.gpu_kernels --device gpu [--quick] [--ncu] [--out DIR]
 
 For each case (a 100-link chain batch in DE-only mode, the Panda with the default memetic
 settings) the engine runs two generations so Numba compiles the kernels, then each kernel
@@ -9,14 +9,12 @@ there), shared memory per block, and the theoretical occupancy at the launch's b
 resident blocks per multiprocessor from the thread, register, shared-memory and block limits
 (`blocks_per_multiprocessor`), and which of them binds. With --ncu, Nsight Compute (when on
 PATH) profiles one `run` launch of the throughput benchmark for achieved occupancy and compute
-and memory throughput; its text goes to gpu_kernels_ncu.txt. Writes gpu_kernels.json and
-gpu_kernels.png into --out. In Numba's CUDA simulator the resource queries do not exist and
-are reported as unavailable.
+and memory throughput; its text goes to gpu_kernels_ncu.txt. In Numba's CUDA simulator the
+resource queries do not exist and are reported as unavailable.
 """
 
 from __future__ import annotations
 
-import math
 import shutil
 import subprocess
 import sys
@@ -96,7 +94,7 @@ def cases(quick: bool) -> list[tuple[str, deik.Problem, deik.Settings]]:
     ]
     try:
         skeleton, case, _ = robot_targets.load_case("panda")
-    except (FileNotFoundError, OSError) as error:
+    except (SystemExit, OSError) as error:
         print(f"Panda case skipped: {error}", file=sys.stderr)
         return out
     targets = robot_targets.make_targets("panda", 4 if quick else 1024, seed=0)
@@ -169,10 +167,10 @@ def run_ncu(args) -> dict:
         "gpu",
         "--links",
         "100",
+        "--configs",
+        "chain100x1024",
         "--populations",
         "500",
-        "--batches",
-        "1024",
         "--seconds",
         "0.05",
         "--repeats",
@@ -193,65 +191,34 @@ def run_ncu(args) -> dict:
     }
 
 
-def plot(rows: list[dict]):
-    fig, axes = harness.figure()
-    ax = axes[0, 0]
-    shown = [r for r in rows if "theoretical_occupancy" in r]
-    ax.barh([f"{r['case']}: {r['kernel']}" for r in shown], [100 * r["theoretical_occupancy"] for r in shown])
-    ax.set_xlabel("theoretical occupancy (% of resident threads)")
-    ax.set_xlim(0, 100)
-    ax.set_title("GPU kernels: occupancy at the launch's block size")
-    fig.tight_layout()
-    return fig
-
-
-def main(argv=None) -> int:
+def main(argv=None) -> dict:
     p = harness.parser(__doc__)
     p.add_argument("--ncu", action="store_true", help="also profile one launch with Nsight Compute")
-    args = p.parse_args(argv)
+    run = harness.start("gpu_kernels", p, argv)
+    args = run.args
     if args.device != "gpu":
         raise SystemExit("gpu_kernels profiles the CUDA kernels: run it with --device gpu")
-    opening = harness.start(args)
     sm = device_limits()
     rows = [row for name, problem, settings in cases(args.quick) for row in profile_case(name, problem, settings, sm)]
-    result = harness.finish(
-        "gpu_kernels",
-        args,
-        opening,
-        {
-            "multiprocessor": vars(sm),
-            "rows": rows,
-            "ncu": run_ncu(args) if args.ncu else {"ran": False, "why": "no --ncu"},
-            "targets": [],
-        },
-        plot(rows),
+    ncu = run_ncu(args) if args.ncu else {"ran": False, "why": "no --ncu"}
+    shown = [r for r in rows if "theoretical_occupancy" in r]
+    fig, axes = harness.figure()
+    harness.bars(
+        axes[0, 0],
+        [f"{r['case']}: {r['kernel']}" for r in shown],
+        [100 * r["theoretical_occupancy"] for r in shown],
+        True,
     )
-
-    def shown(value):
-        return (
-            "-" if value is None else (f"{value:.2f}" if isinstance(value, float) and not math.isnan(value) else value)
-        )
-
-    harness.print_report(
-        result,
-        ["case", "kernel", "threads", "registers", "local B", "shared B", "blocks/SM", "limit", "occupancy"],
-        [
-            [
-                r["case"],
-                r["kernel"],
-                r["threads_per_block"],
-                shown(r["registers_per_thread"]),
-                shown(r["local_bytes_per_thread"]),
-                shown(r["shared_bytes_per_block"]),
-                shown(r.get("blocks_per_multiprocessor")),
-                shown(r.get("binding_limit")),
-                shown(r.get("theoretical_occupancy")),
-            ]
-            for r in rows
-        ],
+    harness.style_axes(
+        axes[0, 0], "theoretical occupancy, %", "", "GPU kernels at the launch's block size", False, False
     )
-    return 0
+    keys = ["threads_per_block", "registers_per_thread", "local_bytes_per_thread", "shared_bytes_per_block"]
+    keys += ["blocks_per_multiprocessor", "binding_limit", "theoretical_occupancy"]
+    cells = [[r["case"], r["kernel"], *("-" if r.get(k) is None else r[k] for k in keys)] for r in rows]
+    body = harness.md_table(["case", "kernel", *keys], cells)
+    figures = {f"{r['case']} {r['kernel']} {k}": r.get(k) for r in rows for k in keys[1:4] + keys[-1:]}
+    return run.finish({"multiprocessor": vars(sm), "rows": rows, "ncu": ncu}, body, fig, figures)
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

@@ -1,7 +1,7 @@
 """What each step of a joint-map retarget buys: every shared clip onto deik.humanoid() with the
 whole pipeline (retargeting/rig.py) and with one step left out.
 
-    PYTHONPATH=src python -m benchmarks.retarget_steps [--out benchmarks/results]
+    python -m benchmarks.retarget_steps [--out benchmarks/results]
 
 Ways (each a patch of module names of retargeting/rig.py or settle.py for the run, nothing else changed):
 - all steps;
@@ -12,26 +12,21 @@ Ways (each a patch of module names of retargeting/rig.py or settle.py for the ru
   capsules not kept apart; the floor only as the per-frame IK keeps it).
 Per clip and way the report's summary (retargeting/measures.py): key-point error mean and worst (mm),
 contact sliding max (mm/frame), floor and self-penetration max (mm), the key points' speed and
-acceleration peaks over their targets', jolted frames and time per frame (ms). Writes
-retarget_steps.json and retarget_steps.md into --out (atomically); prints the table.
+acceleration peaks over their targets', jolted frames and time per frame (ms).
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import importlib
-import os
 from pathlib import Path
 from unittest import mock
 
-from benchmarks.harness import machine
-from deik.experiments.shared import markdown_table
-from deik.io.atomic import write_json_atomically, write_text_atomically
+from benchmarks import harness
+from benchmarks.data import need
 from deik.retargeting.api import retarget
 
 ROOT = Path(__file__).resolve().parents[1]
-CLIPS = ROOT.parent / "shared" / "data" / "humanoid"
 MAP = ROOT / "examples" / "maps" / "shared_bvh_to_humanoid.toml"
 RIG, SETTLE = "deik.retargeting.rig", "deik.retargeting.settle"  # modules, not deik.retarget (the function)
 WAYS = {  # way: {module: {name: patch}}
@@ -55,7 +50,7 @@ MEASURES = (
 
 def measure() -> dict:
     """{way: {clip: the report's summary}} over every shared clip."""
-    clips = sorted(CLIPS.glob("*.bvh"))
+    clips = sorted(need("humanoid").glob("*.bvh"))
     out = {}
     for way, modules in WAYS.items():
         with contextlib.ExitStack() as stack:
@@ -66,29 +61,23 @@ def measure() -> dict:
     return out
 
 
-def markdown(result: dict) -> str:
-    lines = ["# What each step of a joint-map retarget buys (benchmarks/retarget_steps.py)", ""]
-    lines += [f"`{result['command']}`, {result['machine']['cpu_model']}, every shared clip onto deik.humanoid()", ""]
+def main(argv=None) -> dict:
+    run = harness.start("retarget_steps", harness.parser(__doc__), argv)
+    ways = measure()
     header = ["clip", "way", *(label for _, label in MEASURES)]
-    rows = []
-    for clip in next(iter(result["ways"].values())):
-        for way, summaries in result["ways"].items():
-            rows.append([clip, way, *(f"{summaries[clip].get(key, float('nan')):.4g}" for key, _ in MEASURES)])
-    return "\n".join(lines + [markdown_table(header, rows), ""])
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
-    args = parser.parse_args()
-    opening = {"load_before": list(os.getloadavg())}
-    result = {"command": "python -m benchmarks.retarget_steps", "ways": measure()}
-    result["machine"] = machine("cpu", opening)
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / "retarget_steps.json", result, missing_as_null=True)
-    text = markdown(result)
-    write_text_atomically(args.out / "retarget_steps.md", text)
-    print(text)
+    cells = [
+        [clip, way, *(f"{ways[way][clip].get(key, float('nan')):.4g}" for key, _ in MEASURES)]
+        for clip in next(iter(ways.values()))
+        for way in ways
+    ]
+    body = "Every shared clip onto deik.humanoid().\n\n" + harness.md_table(header, cells)
+    figures = {
+        f"{clip}, {way}, {key}": summary.get(key)
+        for way, clips in ways.items()
+        for clip, summary in clips.items()
+        for key in ("keypoint_error_mean_mm", "keypoint_acceleration_peak_ratio")
+    }
+    return run.finish({"ways": ways}, body, figures=figures)
 
 
 if __name__ == "__main__":

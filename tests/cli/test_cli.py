@@ -72,11 +72,8 @@ def test_plot_pose_draws_3d_skeletons_in_two_views(tmp_path):
         skeleton,
         np.full(skeleton.n_dofs, 0.3),
         path,
-        targets=[(1, 1, 1)],
-        com=(0.5, 0.2, 0.1),
-        support=(0, 0, 0),
+        plot.PoseMarks(targets=[(1, 1, 1)], com=(0.5, 0.2, 0.1), support=(0, 0, 0), obstacles=[((1, 0, 0), 0.2)]),
         title="3-D",
-        obstacles=[((1, 0, 0), 0.2)],
     )
     assert path.read_bytes()[:8] == PNG_MAGIC
 

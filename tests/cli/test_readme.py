@@ -1,8 +1,8 @@
 """README.md runs as written, from a clone: every line of its bash blocks in order (a later
 command may read what an earlier one wrote), from a folder laid out like a clone beside shared/
-(in one process: benchmarks.readme_commands.run_lines), and every Python block. A bash line
+(in one process: readme_commands.run_lines), and every Python block. A bash line
 that is neither a `deik` command nor an example script must be in
-benchmarks.readme_commands.EXCLUDED with the reason it cannot run here and what runs it
+readme_commands.EXCLUDED with the reason it cannot run here and what runs it
 instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every
 goal within its tolerances. tests/cli/test_wheel.py runs the same lines against a fresh wheel
 install."""
@@ -11,8 +11,7 @@ import os
 import sys
 
 import pytest
-
-from benchmarks.readme_commands import (
+from readme_commands import (
     EXCLUDED,
     ROOT,
     SLOW,

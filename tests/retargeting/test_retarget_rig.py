@@ -10,7 +10,7 @@ import pytest
 import deik
 from deik.io.euler import tait_bryan_triples
 from deik.retargeting import keypoints as kp
-from deik.retargeting.collision import body_pairs, penetration_depths
+from deik.retargeting.capsule_overlaps import body_pairs, penetration_depths
 from deik.retargeting.contacts import rest_floor, resting_contacts
 from deik.retargeting.ik import KeypointGoals, solve_keypoints
 from deik.retargeting.maps import read_map

@@ -14,7 +14,7 @@ from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.warmstart import dof_weights, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
-from deik.retargeting.collision import BonePairs, body_pairs, collision_rows, penetration_depths
+from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
 from deik.retargeting.smooth import MotionGoals, smooth_motion

@@ -22,7 +22,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from deik.backends.pack import pack_skeleton
 from deik.cleanup.balance import horizontal_axes
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
@@ -32,6 +31,7 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
+from deik.solver.jacobians import point_jacobians
 
 DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
 STEPS = 4  # space-time steps over the whole clip
@@ -54,11 +54,9 @@ def position_jacobian(
     """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
-    both (deik.backends.cpu.point_jacobians)."""
-    from deik.backends.cpu import point_jacobians  # loads Numba: `import deik` stays light
-
+    both (deik.solver.jacobians)."""
     frames = [skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass
-    return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
+    return point_jacobians(skeleton, poses, frames)
 
 
 def dof_weights(clip: Motion) -> np.ndarray:

@@ -35,11 +35,10 @@ def _solve(dtype: str) -> None:
 def _jacobians() -> None:
     """The clip warm start's point Jacobians (float64)."""
     import deik
-    from deik.backends.cpu import point_jacobians
-    from deik.backends.pack import pack_skeleton
+    from deik.solver.jacobians import point_jacobians
 
     sk = deik.chain(3, dims=3)
-    point_jacobians(np.zeros((1, sk.n_dofs)), np.array([sk.frame_index("tip")]), pack_skeleton(sk, np.float64))
+    point_jacobians(sk, np.zeros(sk.n_dofs), [sk.frame_index("tip")])
 
 
 def steps(dtypes: Iterable[str] = DTYPES) -> list[tuple[str, Callable[[], None]]]:

@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 import deik
-from deik.experiments.serial_numpy import CompiledSerialDE, SerialDE
+from deik.experiments.serial_numpy import SerialDE
 from deik.experiments.shared import CONVERGED_FRACTION
 from deik.model.kinematics import forward_kinematics
 from deik.solver.problem import Problem
@@ -54,6 +54,8 @@ def time_serial_compiled(
     """Seconds per generation of the compiled serial Algorithm 1 (one CPU thread, the kernels'
     maths): best of `repeats` runs of `generations` epochs after a warm-up epoch (compilation
     excluded); "all_seconds_per_generation" lists every repeat."""
+    from deik.experiments.serial_compiled import CompiledSerialDE  # loads Numba and the device maths
+
     de = CompiledSerialDE(problem, population=population, F=0.5, CR=0.5, seed=seed, dtype=dtype).run(1)
     times = []
     for _ in range(repeats):

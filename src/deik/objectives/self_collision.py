@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -77,14 +77,13 @@ class SelfCollision(Goal):
         return tuple(zip(a[apart].tolist(), b[apart].tolist(), reach[apart].tolist()))
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        _radius(self.margin, "margin")
+        """The margin in column 0 and the tested pairs; scale: the reach."""
+        margin = _radius(self.margin, "margin")
         pairs = self.pairs(skeleton)
         if not pairs:
             raise ValueError(
                 f"self collision: skeleton {skeleton.name!r} has no bone pair to test (every pair is within "
                 f"{self.skip} links or overlaps in the reference pose); lower skip or the radii"
             )
-        return replace(self._row(SELF_COLLISION, (), skeleton.reach, LENGTH_TOLERANCE), pairs=pairs)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(np.full((1, 1), _radius(self.margin, "margin")))
+        params = pack(np.full((1, 1), margin))
+        return self._row(SELF_COLLISION, params, LENGTH_TOLERANCE, scale=skeleton.reach, pairs=pairs)

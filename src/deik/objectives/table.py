@@ -17,21 +17,25 @@ import numpy as np
 from deik.objectives.kinds import MAX_LEVELS, MAX_TERM_FRAMES, MU, SCALE, TERM_KIND
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TermRow:
-    """One compiled objective term (see the module docstring); params (N_PARAMS,); pairs: the
-    bone pairs a self-collision term tests, (bone a, bone b, radius a + radius b) each."""
+    """One compiled goal (see the module docstring), what Goal.row returns: its kind and label,
+    its per-problem parameters (B, N_PARAMS) (B = 1 without a batch axis; the gain column is
+    set by the Problem), up to MAX_TERM_FRAMES frame indices, weight, mu, distance scale,
+    tolerance (-1: none) and level; a comfort term's per-DOF weights (D,) and reference poses
+    (B, D); a self-collision term's bone pairs, (bone a, bone b, radius a + radius b) each."""
 
     kind: int
     label: str
+    params: np.ndarray
     frames: tuple[int, ...] = ()
-    params: tuple[float, ...] = ()
     weight: float = 1.0
     mu: float = 1.0
     scale: float = 1.0
     tolerance: float = -1.0
     level: int = 0
     dof_weight: np.ndarray | None = None
+    reference: np.ndarray | None = None
     pairs: tuple[tuple[int, int, float], ...] = ()
 
 

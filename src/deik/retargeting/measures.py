@@ -42,7 +42,7 @@ from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import BonePairs, body_pairs, penetration_depths
+from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, penetration_depths
 
 LIMIT_SLACK = 1e-9  # radians or length units: rounding is no violation
 

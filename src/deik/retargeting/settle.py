@@ -32,7 +32,7 @@ from deik.io.trajectory import Trajectory
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import body_pairs
+from deik.retargeting.capsule_overlaps import body_pairs
 from deik.retargeting.contacts import resting_contacts
 from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.ik import Targets

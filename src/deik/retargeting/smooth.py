@@ -39,7 +39,7 @@ from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import BonePairs, collision_rows
+from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
 from deik.retargeting.ik import Targets, full_turns, targets_at
 
 HELD_WEIGHT = 1e7  # contacts, floor, capsules and steps: their squared error in size units, against the spring

@@ -197,7 +197,6 @@ def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -
     goal = cls(**kwargs)
     try:
         goal.row(skeleton)
-        goal.params(skeleton)
     except (ValueError, KeyError) as error:
         raise ValueError(f"{where}: {error.args[0]}") from None
     return goal

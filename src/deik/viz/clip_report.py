@@ -19,7 +19,6 @@ from deik.io.motion import Clip
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.viz.marks import frame_parents
 from deik.viz.plot import add_pose_axes, require_matplotlib
 from deik.viz.pose_axes import draw_skeleton, fit_axes
 from deik.viz.report_marks import marks_at
@@ -62,11 +61,9 @@ def _draw_pose(container, panel: PosePanel) -> None:
     """The panel's frame: the pose before the fix in grey under the pose after, with its marks."""
     sk = panel.skeleton
     points = forward_kinematics(sk, np.stack([panel.before, panel.after])).p_world_frame
-    parents = frame_parents(sk)
     for k, (ax, basis) in enumerate(add_pose_axes(container, sk, panel.projection, panel.unit)):
-        names = sk.frame_names
-        under = draw_skeleton(ax, basis, points[0], parents, sk.n_joints, names, None, "compare", True, "before")
-        over = draw_skeleton(ax, basis, points[1], parents, sk.n_joints, names, panel.marks, bone_label="after")
+        under = draw_skeleton(ax, basis, sk, points[0], None, "compare", True, "before")
+        over = draw_skeleton(ax, basis, sk, points[1], panel.marks, bone_label="after")
         fit_axes(ax, np.concatenate([under, over]))
         if k == 0:
             ax.legend(loc="upper left", fontsize="x-small", markerscale=0.8)

@@ -1,8 +1,8 @@
 """README.md's code blocks, and how to run their lines as a user would: from a folder laid out
 like a clone beside shared/, with `deik` either from a checkout or from an installed wheel.
 
-Used by tests/cli/test_readme.py (the clone) and tests/cli/test_wheel.py with
-benchmarks.wheel_install (a fresh wheel install). A bash line that is neither a `deik` command
+Used by tests/cli/test_readme.py (the clone) and tests/cli/test_wheel.py (a fresh wheel
+install, benchmarks.wheel_install's steps). A bash line that is neither a `deik` command
 nor an example script is listed in EXCLUDED with the reason it cannot run in a test and what
 runs it instead; SLOW names the `deik` commands left out and where they are tested.
 """
