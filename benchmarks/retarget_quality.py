@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.data import need, shared_data
 from benchmarks.retarget_judge import (
     PENETRATION_BOUND,
     SLIDING_BOUND,
@@ -44,8 +45,7 @@ from benchmarks.retarget_judge import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
-HUMAN_URDF = DATA / "robots" / "human.urdf"
+HUMAN_URDF = shared_data("robots", "human.urdf")
 URDF_MAP = ROOT / "examples" / "maps" / "shared_bvh_to_human_urdf.toml"
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -336,10 +336,12 @@ def main(argv: list[str] | None = None) -> int:
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="the walk alone")
-    p.add_argument("--clips", type=Path, default=DATA / "humanoid", help="folder of clips (default the shared ones)")
+    p.add_argument("--clips", type=Path, help="folder of clips (default the shared ones)")
     p.add_argument("--out", type=Path, default=RESULTS)
     p.add_argument("--only", help="run only the plan entries whose clip, case or target contains this text")
     args = p.parse_args(argv)
+    args.clips = args.clips or need("humanoid")
+    need("robots", "human.urdf")
     clips = {c.stem.removeprefix("humanoid3d_"): c for c in sorted(args.clips.glob("*.bvh"))}
     specs = plan(list(clips.values()), args.quick)
     if args.only:

@@ -28,7 +28,6 @@ NOT_YET = {
     "deik/backends/cuda.py:run": 11,
     "deik/solver/result.py:result": 9,
     "deik/retargeting/measures.py:retarget_report": 9,
-    "deik/retargeting/smooth.py:smooth_motion": 11,
 }
 
 

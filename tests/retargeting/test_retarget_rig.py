@@ -11,10 +11,11 @@ import deik
 from deik.io.euler import tait_bryan_triples
 from deik.retargeting import keypoints as kp
 from deik.retargeting.capsule_overlaps import body_pairs, penetration_depths
-from deik.retargeting.contacts import rest_floor, resting_contacts
+from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.ik import KeypointGoals, solve_keypoints
 from deik.retargeting.maps import read_map
-from deik.retargeting.measures import limit_violations, within_limits
+from deik.retargeting.measures import limit_violations
+from deik.retargeting.resting import rest_floor, resting_contacts
 from deik.retargeting.skeletons import with_free_root
 from helpers import ROOT, shared_path
 
@@ -63,7 +64,7 @@ def test_an_euler_twin_outside_the_limits_is_written_inside_as_the_same_rotation
         twins[:, triple] += np.pi
         twins[:, triple[1]] = np.pi - frames[:, triple[1]]
     assert limit_violations(h, twins).any()
-    fixed = within_limits(h, twins)
+    fixed = continuous_within_limits(h, twins)
     assert not limit_violations(h, fixed).any()
     a, b = deik.forward_kinematics(h, twins), deik.forward_kinematics(h, fixed)
     assert np.abs(a.p_world_frame - b.p_world_frame).max() < 1e-9

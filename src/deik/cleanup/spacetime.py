@@ -75,9 +75,7 @@ def spring_energy(x: np.ndarray, length: float, stiffness: np.ndarray | None = N
 
 
 def spacetime_step(
-    rows: np.ndarray,
-    errors: np.ndarray,
-    weights: np.ndarray,
+    goal: tuple[np.ndarray, np.ndarray, np.ndarray],
     x: np.ndarray,
     movable: np.ndarray,
     length: float,
@@ -86,14 +84,15 @@ def spacetime_step(
     steps: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(N, D) step s minimising sum_n |sqrt(weights[n]) (rows[n] s[n] - errors[n])|^2 + E(x + s)
-    + damping |s|^2 (module notes) over the `movable` (N, D) entries (the others stay 0): goal
-    `rows` (N, R, D) per unit of the weighted DOFs, their `errors` (N, R) and `weights` (N, R);
+    + damping |s|^2 (module notes) over the `movable` (N, D) entries (the others stay 0): `goal`
+    = (rows (N, R, D) per unit of the weighted DOFs, their errors (N, R), weights (N, R));
     x (N, D) the current displacement in weighted units; E's fade `length` in frames; `damping`
     (Levenberg-Marquardt) keeps a step short along directions the rows barely move, where goals
     that cannot all be met would otherwise pull a joint round for a micron; `stiffness` (D,)
     scales each DOF's E (default 1); `steps` = (weights (N-1, D), errors (N-1, D)) adds a row
     per DOF and pair of frames asking s[n+1] - s[n] to be errors[n] (a DOF's step between frames
     shrunk to its velocity limit), which couples frame n only to n+1 on the same DOF."""
+    rows, errors, weights = goal
     N, D = x.shape
     movable = np.asarray(movable, bool)
     # a DOF no row of any frame moves, and that is not displaced yet, stays where it is: leave it out

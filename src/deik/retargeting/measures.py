@@ -37,7 +37,6 @@ from deik.cleanup import floor
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.metrics import joint_angles, sliding_steps
-from deik.io.euler import tait_bryan_triples
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
@@ -53,35 +52,6 @@ def limit_violations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     rotation = skeleton.dof_kind == ROTATE
     shifted = np.where(rotation, lower + np.mod(frames - lower, 2 * math.pi), frames)
     return (shifted < lower) | (shifted > upper)
-
-
-def _turned_in(skeleton, frames: np.ndarray) -> np.ndarray:
-    """`frames` (N, D) with each rotation narrower than a turn moved by whole turns into its
-    limits where that is possible."""
-    rotation = (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower < 2 * math.pi)
-    shifted = skeleton.lower + np.mod(frames - skeleton.lower, 2 * math.pi)
-    return np.where(rotation & (shifted <= skeleton.upper + LIMIT_SLACK), shifted, frames)
-
-
-def within_limits(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
-    """`frames` (N, D) with the same rotations written within the limits where that is possible
-    (a robot controller reads the values as they are): each rotation moved by whole turns, and
-    a Tait-Bryan triple (a, b, c) outside them replaced by its twin (a + pi, pi - b, c + pi)
-    when that lies within (keeping Euler channels continuous can pick the twin outside)."""
-    out = _turned_in(skeleton, np.asarray(frames, float))
-    outside = limit_violations(skeleton, out)
-    for triple in tait_bryan_triples(skeleton):
-        rows = outside[:, triple].any(axis=1)
-        if not rows.any():
-            continue
-        twin = out[:, triple][rows] + math.pi
-        twin[:, 1] = 2 * math.pi - twin[:, 1]  # pi - b, from b + pi
-        candidate = out[rows].copy()
-        candidate[:, triple] = twin
-        candidate = _turned_in(skeleton, candidate)
-        inside = ~limit_violations(skeleton, candidate)[:, triple].any(axis=1)
-        out[np.flatnonzero(rows)[inside]] = candidate[inside]
-    return out
 
 
 def velocity_violations(motion: Motion, largest: np.ndarray) -> list[dict]:

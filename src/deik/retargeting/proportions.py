@@ -27,9 +27,9 @@ from deik.io.motion import Clip
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.retargeting.contacts import rest_floor
 from deik.retargeting.keypoints import floor_origin, rest_heights, stature
 from deik.retargeting.outcome import Progress, Retarget
+from deik.retargeting.resting import rest_floor
 from deik.retargeting.settle import Settling, settle
 
 

@@ -38,10 +38,10 @@ from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
-from deik.retargeting.contacts import rest_floor
 from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.outcome import Progress, Retarget
+from deik.retargeting.resting import rest_floor
 from deik.retargeting.settle import Settling, settle
 from deik.retargeting.skeletons import with_floating_root, with_free_root, with_sites
 

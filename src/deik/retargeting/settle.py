@@ -4,7 +4,7 @@ joint values a robot can play, and the report.
 Both kinds of retarget end here (rig.py through a joint map, proportions.py onto the same rig
 with other bone lengths) with per-frame poses of the target that follow their key points:
 1. the contacts: every mapped source point at rest near the source's floor
-   (contacts.resting_contacts: feet, hands, knees, elbows, the back, the pelvis, the head) is a
+   (resting.resting_contacts: feet, hands, knees, elbows, the back, the pelvis, the head) is a
    contact of the target frame it maps to, on the target's floor (height `floor`);
 2. on a robot with velocity limits, the step each DOF may take between frames (step_limits):
    a rotation at most the larger of its velocity limit times the frame time and STEP_ALLOWANCE
@@ -33,11 +33,11 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import body_pairs
-from deik.retargeting.contacts import resting_contacts
 from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.ik import Targets
 from deik.retargeting.keypoints import stature
 from deik.retargeting.measures import retarget_report, velocity_violations
+from deik.retargeting.resting import resting_contacts
 from deik.retargeting.skeletons import without_sites
 from deik.retargeting.smooth import MotionGoals, smooth_motion
 
@@ -47,7 +47,7 @@ STEP_ALLOWANCE = 1.5  # x the source's largest joint turn in a frame: a rotation
 @dataclass(frozen=True)
 class Settling:
     """What the last steps take: the `source` clip and its `floor` (height along its up, where
-    it rests: contacts.rest_floor), and where that floor lies in the target's world,
+    it rests: resting.rest_floor), and where that floor lies in the target's world,
     `target_floor`; the `target` as solved (with any steering sites) and its
     `poses` (N, D) from the key-point IK; the key points `names` (K,) with their `targets`
     (ik.Targets) and, for the report, `reported` (N, R, 3) where the first R of them belong;
@@ -107,7 +107,7 @@ def velocity_steps(skeleton: Skeleton, velocity: dict, frame_time: float) -> np.
 
 
 def target_contacts(settling: Settling, size: float) -> Contacts | None:
-    """The source's resting points (contacts.resting_contacts) on the target frames they map
+    """The source's resting points (resting.resting_contacts) on the target frames they map
     to, on the target's floor; None when no mapped point rests."""
     sources = list(settling.points)
     found = resting_contacts(settling.source, sources, settling.floor, size)
@@ -166,5 +166,5 @@ def settle(settling: Settling) -> tuple[Trajectory, Contacts | None, dict]:
 
 FLOOR_FOUND = (
     "where the source rests: the median height of its lowest point over the frames that point is slow in "
-    "(deik.retargeting.contacts.rest_floor), carried into the target's world"
+    "(deik.retargeting.resting.rest_floor), carried into the target's world"
 )

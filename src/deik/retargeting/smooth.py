@@ -147,11 +147,11 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
             plants = plants_at(q)
             cost, errors, rows, row_weights, steps = measured(q, plants)
         x = (q - base) * weights
-        step = spacetime_step(rows, errors, row_weights, x, movable, FADE, damping, stiffness, steps) * scale
+        step = spacetime_step((rows, errors, row_weights), x, movable, FADE, damping, stiffness, steps) * scale
         held = ((q <= lower) & (step < 0)) | ((q >= upper) & (step > 0))
         if held.any():  # those DOFs stay at their limit; the others make up for them
             free = movable & ~held
-            step = spacetime_step(rows, errors, row_weights, x, free, FADE, damping, stiffness, steps) * scale
+            step = spacetime_step((rows, errors, row_weights), x, free, FADE, damping, stiffness, steps) * scale
         trial = np.clip(q + step, lower, upper)
         measured_trial = measured(trial, plants)
         if measured_trial[0] < cost:
