@@ -201,7 +201,7 @@ def warm_start(
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
             damping = HELD_WEIGHT * DAMPING**2
             step = spacetime_step(
-                rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
+                (rows, error, row_weights / skeleton.reach**2), d * weights, free, fade, damping, stiffness
             )
             d += step * scale * free
     for _ in range(settle):

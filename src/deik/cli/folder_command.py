@@ -136,7 +136,7 @@ def _outputs(args, stem: str, folders: dict) -> dict:
 
 def _check_first(args) -> None:
     """Mistakes every clip would fail on, found before any work."""
-    check_device(args.device)
+    check_device(getattr(args, "device", None))
     if getattr(args, "report", None):
         from deik.viz.plot import require_matplotlib
 
@@ -219,13 +219,16 @@ def run_folder(args: argparse.Namespace) -> int:
         if others:
             shown = ", ".join(others[:6]) + (f" and {len(others) - 6} more" if len(others) > 6 else "")
             print(f"{len(jobs)} clips in {args.clip}; skipped (not *.bvh, or a sub-folder): {shown}", file=sys.stderr)
-        announce_compile(args.device or "cpu", "float32", polish=False, clip=True)  # the workers compile
+        announce_compile(
+            getattr(args, "device", None) or "cpu", "float32", polish=False, clip=True
+        )  # the workers compile
     try:
         run = run_library(
             jobs,
             do_clip,
             executor=args.executor or "local",
-            workers=args.workers or (1 if args.device == "gpu" and args.executor != "ray" else None),  # one GPU
+            workers=args.workers
+            or (1 if getattr(args, "device", None) == "gpu" and args.executor != "ray" else None),  # one GPU
             address=args.address,
             quiet=args.quiet,
         )

@@ -13,11 +13,12 @@ import os
 import re
 from collections.abc import Callable
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import UsageError, announce_compile, check_outputs, record_compiles
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
+SHOWN_STEPS = 10  # velocity violations printed; --json lists them all
 FRAMES = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
 SHOWN = (
     ("keypoint_error_mean_mm", "key-point error, mean", "mm"),
@@ -30,6 +31,8 @@ SHOWN = (
     ("keypoint_acceleration_peak_ratio", "key-point acceleration peak / targets'", "ratio"),
     ("joint_angle_deviation_mean_deg", "joint angle from the source, mean", "deg"),
     ("limit_violations_count", "limit violations", "count"),
+    ("velocity_violations_count", "steps past a velocity limit (frame, DOF)", "count"),
+    ("floor_height", "floor height (target world)", "length unit"),
     ("time_per_frame_ms", "time per frame", "ms"),
 )
 
@@ -51,8 +54,6 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
-    r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
-    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
     add_output_flags(r)
 
 
@@ -92,6 +93,7 @@ def run_retarget(
     from deik.io.bvh import read_bvh, write_bvh
     from deik.io.motion import Clip
     from deik.io.trajectory import write_trajectory
+    from deik.model.joints import ROTATE
     from deik.retargeting.api import retarget
     from deik.retargeting.outcome import frame_range
 
@@ -100,14 +102,12 @@ def run_retarget(
         {"--out": (".bvh", ".csv", ".json"), "--view": (".bvh",), "--json": (".json",)},
         (args.clip, args.to, args.map),
     )
-    check_device(args.device)
-    settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
     clip = frame_range(read_bvh(args.clip), _frames(args.frames))
-    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    compiling = announce_compile("cpu", "float32", polish=False, clip=True)
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
         progress = frames_reporter(bar, "their contacts", on_frames)
-        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
+        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress)
     record_compiles(compiling)
     trajectory = not isinstance(result.motion, Clip)
     if not trajectory and not args.out.lower().endswith(".bvh"):
@@ -121,6 +121,13 @@ def run_retarget(
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
+    dofs = result.motion.skeleton
+    for step in result.report.get("velocity_violations", [])[:SHOWN_STEPS]:
+        unit = "rad" if dofs.dof_kind[dofs.dof_names.index(step["dof"])] == ROTATE else "m"  # a URDF's units
+        print(
+            f"frame {step['frame']}->{step['frame'] + 1}: {step['dof']} steps {step['step']:.4g} {unit}, "
+            f"its velocity limit allows {step['largest']:.4g} {unit} a frame"
+        )
     with all_or_nothing():
         if args.out.lower().endswith(".bvh"):
             write_bvh(args.out, result.clip)
