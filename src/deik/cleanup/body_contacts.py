@@ -25,7 +25,6 @@ import numpy as np
 
 from deik.cleanup.contacts import SPEED_FRACTION, Contacts, drop_short, fill_gaps, site_positions, speeds, threshold
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
 FLOOR_PERCENTILE = 5.0
@@ -39,7 +38,7 @@ def detect_floor(clip: Motion) -> float:
     frames of each frame's lowest joint or site."""
     if clip.n_frames == 0:
         raise ValueError("the clip has no frames: there is no floor to detect")
-    heights = forward_kinematics(clip.skeleton, clip.frames).p_world_frame @ clip.skeleton.up
+    heights = clip.kinematics.p_world_frame @ clip.skeleton.up
     return float(np.percentile(heights.min(axis=1), FLOOR_PERCENTILE))
 
 

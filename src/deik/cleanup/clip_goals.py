@@ -26,7 +26,6 @@ from deik.cleanup.contacts import Contacts
 from deik.cleanup.plants import planted_targets
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
@@ -84,7 +83,7 @@ def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: 
 def blended_track(clip: Motion, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
     """(mask (N,), targets (N, 3)): the reach track eased in and out over `reach.blend`
     frames from the site's original path (eased_track)."""
-    path = forward_kinematics(clip.skeleton, clip.poses()).position(reach.site)
+    path = clip.kinematics.position(reach.site)
     return eased_track(path, reach.mask, reach.targets, max(reach.blend, 0))
 
 

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
 FOOT_WORDS = ("foot", "toe", "heel", "ankle")
@@ -108,7 +107,7 @@ class Contacts:
 def site_positions(clip: Motion, sites: Sequence[str]) -> np.ndarray:
     """World positions (N, S, 3) of `sites` in every frame; KeyError for unknown names."""
     index = [clip.skeleton.frame_index(name) for name in sites]
-    return forward_kinematics(clip.skeleton, clip.frames).p_world_frame[:, index]
+    return clip.kinematics.p_world_frame[:, index]
 
 
 def threshold(value: float | None, default: float, what: str) -> float:

@@ -32,13 +32,13 @@ from deik.cleanup.contacts import Contacts
 from deik.io.trajectory import Motion
 from deik.model.geometry import ground_frame, polygon_distance
 from deik.model.joints import ROTATE
-from deik.model.kinematics import Kinematics, forward_kinematics
+from deik.model.kinematics import Kinematics
 from deik.model.rotations import rotation_angle
 from deik.model.skeleton import Skeleton
 
 
 def _kinematics(clip) -> Kinematics:
-    return forward_kinematics(clip.skeleton, clip.frames)
+    return clip.kinematics
 
 
 def _site_index(clip, sites) -> list[int]:

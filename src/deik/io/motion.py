@@ -14,12 +14,14 @@ import math
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.io.euler import AXIS_TOLERANCE, continuous_angles, continuous_frames
 from deik.model.joints import ROTATE, TRANSLATE
+from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
 
@@ -43,8 +45,22 @@ class JointChannels:
     children: tuple[str, ...]
 
 
+class KinematicsOnce:
+    """A motion's forward kinematics, computed on first use and kept: a clip's frames never
+    change (a new clip is made instead), so every measure of the same clip reads one Kinematics."""
+
+    @cached_property
+    def kinematics(self) -> Kinematics:
+        """Kinematics of every frame (batch (N,)): world frames (N, F, 3, 3), positions (N, F, 3)
+        in length units and the centre of mass (N, 3); read-only."""
+        kin = forward_kinematics(self.skeleton, self.frames)
+        for array in (kin.R_world_frame, kin.p_world_frame, kin.p_world_com):
+            array.setflags(write=False)
+        return kin
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class Clip:
+class Clip(KinematicsOnce):
     """A skeleton and N frames of its DOF values: `frames` (N, D) float64, read-only, radians /
     length units in skeleton DOF order; `frame_time` seconds; `layout` the BVH joints in file
     order; `source` where it came from; `mass_source` where its masses came from.

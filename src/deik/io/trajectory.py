@@ -24,14 +24,14 @@ from numpy.typing import ArrayLike
 from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.io.euler import continuous_angles, continuous_frames
 from deik.io.files import FilePath
-from deik.io.motion import Clip
+from deik.io.motion import Clip, KinematicsOnce
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
 
 
 @dataclass(frozen=True, eq=False)
-class Trajectory:
+class Trajectory(KinematicsOnce):
     """N frames of a skeleton's DOF values: `frames` (N, D) float64 (radians / length units),
     `frame_time` seconds, `source` where it came from."""
 

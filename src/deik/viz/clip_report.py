@@ -44,8 +44,7 @@ class PosePanel:
 def most_changed_frame(original: Motion, fixed: Motion) -> int:
     """The frame of two clips (deik.Clip, same skeleton and length) whose joints and sites lie
     farthest apart on average: where the fix did the most."""
-    before = forward_kinematics(original.skeleton, original.poses()).p_world_frame
-    after = forward_kinematics(fixed.skeleton, fixed.poses()).p_world_frame
+    before, after = original.kinematics.p_world_frame, fixed.kinematics.p_world_frame
     return int(np.argmax(np.linalg.norm(after - before, axis=-1).mean(axis=1)))
 
 
