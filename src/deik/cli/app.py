@@ -28,13 +28,13 @@ import sys
 from deik import __version__
 from deik.cli import clip_command as cli_clip
 from deik.cli import folder_command as cli_library
+from deik.cli import info_command as cli_info
 from deik.cli import retarget_command as cli_retarget
 from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
-from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line, numbers
+from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line
 from deik.console import add_output_flags, configure_logging, show_progress
-from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
@@ -48,16 +48,6 @@ def run_demo(args: argparse.Namespace) -> int:
 
     rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
-
-
-def run_info(args: argparse.Namespace) -> int:
-    """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
-    from deik.cli.info_command import describe
-
-    up = numbers("--up", args.up) if args.up else None
-    loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
-    print(describe(loaded, args.skeleton))
-    return 0
 
 
 def run_limits(args: argparse.Namespace) -> int:
@@ -98,7 +88,7 @@ def build_parser() -> Parser:
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
     add_output_flags(i, progress=False)
-    i.set_defaults(run=run_info)
+    i.set_defaults(run=cli_info.run_info)
     c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
     cli_library.add_arguments(c)

@@ -46,6 +46,8 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from deik.io.files import FilePath, read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
@@ -61,14 +63,16 @@ TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KE
 
 @dataclass(frozen=True)
 class ProblemFile:
-    """A loaded problem file: the Problem, its settings (a dict for deik.solve), the skeleton
-    as loaded (deik.io.load.Loaded: its clip for a BVH) and the clip frame the search starts
-    from (None unless the file sets `frame`)."""
+    """A problem as a file or the flags of `deik solve` pose it: the Problem, its settings (a
+    dict for deik.solve), the skeleton as loaded (deik.io.load.Loaded: its clip for a BVH), the
+    clip frame the search starts from (None unless the file sets `frame`) and the pose (D,)
+    the search starts around (that frame's, or None: anywhere within the limits)."""
 
     problem: Problem
     settings: dict
     loaded: Loaded
     frame: int | None = None
+    start: np.ndarray | None = None
 
 
 def load_problem(path: FilePath) -> ProblemFile:
@@ -118,14 +122,14 @@ def load_problem(path: FilePath) -> ProblemFile:
             'type = "position", frame = "tip", target = [x, y, z]'
         )
     goals = [goal_from_table(skeleton, table, n, path) for n, table in enumerate(tables, start=1)]
+    pose = None if frame is None else loaded.clip.pose(frame)
     if frame is not None:
-        pose = loaded.clip.pose(frame)
         goals = [
             replace(goal, reference=pose) if isinstance(goal, g.Comfort) and goal.reference is None else goal
             for goal in goals
         ]
     try:
-        return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame)
+        return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame, pose)
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
 
