@@ -35,6 +35,7 @@ from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
 from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line
 from deik.console import add_output_flags, configure_logging, show_progress
+from deik.experiments import flags as experiment_flags
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
@@ -66,12 +67,11 @@ def run_limits(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_experiments(argv: list[str]) -> int:
-    """`deik experiments NAME|all [--quick] --out DIR`: the paper's figures (deik.experiments
-    parses its own flags, --help included)."""
-    from deik.experiments.runner import main as experiments_main
+def run_experiments(args: argparse.Namespace) -> int:
+    """`deik experiments NAME|all [--quick] --out DIR`: the paper's figures (deik.experiments.runner)."""
+    from deik.experiments.runner import run
 
-    return experiments_main(argv)
+    return run(args)
 
 
 def build_parser() -> Parser:
@@ -99,10 +99,11 @@ def build_parser() -> Parser:
     r.set_defaults(run=cli_library.run)
     e = commands.add_parser(
         "experiments",
-        add_help=False,
-        help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)",
+        help="reproduce the paper's figures: `deik experiments all --out DIR`",
+        description=experiment_flags.DESCRIPTION,
     )
-    e.add_argument("rest", nargs=argparse.REMAINDER)
+    experiment_flags.add_arguments(e)
+    e.set_defaults(run=run_experiments)
     lim = commands.add_parser("limits", help="measure joint limits from a BVH clip's range of motion")
     lim.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
     lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
@@ -138,8 +139,6 @@ def build_parser() -> Parser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["experiments"]:
-        return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args)

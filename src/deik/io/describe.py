@@ -1,7 +1,7 @@
 """deik.describe_skeleton(): what `deik info` shows of a skeleton, as data (JSON-able).
 
-    info = deik.describe_skeleton("panda.urdf", base="panda_link0")
-    info["dofs"][0]    # {"name": "panda_joint1", "kind": "rotate", "axis": [0, 0, 1], "lower": -2.9, ...}
+info = deik.describe_skeleton("panda.urdf", base="panda_link0")
+info["dofs"][0]    # {"name": "panda_joint1", "kind": "rotate", "axis": [0, 0, 1], "lower": -2.9, ...}
 """
 
 from __future__ import annotations
