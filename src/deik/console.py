@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
+from deik.errors import InputError
+
 if TYPE_CHECKING:  # tqdm is imported when a bar is made
     from tqdm import tqdm
 
@@ -161,5 +163,5 @@ def _level(args: argparse.Namespace | None) -> int:
         return logging.WARNING
     name = os.environ.get("DEIK_LOG", "").strip().lower()
     if name and name not in LEVELS:
-        raise ValueError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
+        raise InputError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
     return LEVELS.get(name, logging.INFO)

@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable
 
 from deik.console import configure_logging, progress_bar, show_progress
-from deik.errors import UsageError
+from deik.errors import DeikError, UsageError
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
 from deik.experiments.flags import DESCRIPTION, DEVICES, add_arguments
@@ -217,6 +217,6 @@ def main(argv: list[str] | None = None) -> int:
         return run(args)
     except SystemExit as done:  # --help
         return int(done.code or 0)
-    except (UsageError, ImportError, ValueError) as error:
+    except (DeikError, ImportError, OSError) as error:
         print(f"deik: error: {error}", file=sys.stderr)
         return USAGE_ERROR

@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from deik.errors import InputError
 from deik.library.jobs import Job, Outcome, Task, skipped
 from deik.library.local import default_workers, local_events, threads_per_worker
 from deik.library.ray_cluster import ray_events, require_ray
@@ -58,11 +59,11 @@ def _events(jobs, task, executor: str, workers: int | None, address: str | None)
 def _check(executor: str, workers, address) -> None:
     """ValueError or ImportError (with the fix) for a bad executor choice, before any work."""
     if executor not in EXECUTORS:
-        raise ValueError(f"executor {executor!r}: use {' or '.join(EXECUTORS)}")
+        raise InputError(f"executor {executor!r}: use {' or '.join(EXECUTORS)}")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
-        raise ValueError(f"workers {workers!r}: use a whole number >= 1")
+        raise InputError(f"workers {workers!r}: use a whole number >= 1")
     if address is not None and executor != "ray":
-        raise ValueError("an address names a Ray cluster: give it with the ray executor (--executor ray)")
+        raise InputError("an address names a Ray cluster: give it with the ray executor (--executor ray)")
     if executor == "ray":
         require_ray()
 

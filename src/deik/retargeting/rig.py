@@ -33,6 +33,7 @@ from deik.cleanup.contacts import Contacts, detect_contacts
 from deik.cleanup.floor import clearance
 from deik.cleanup.units import guess_unit, metres_per_unit
 from deik.cleanup.warmstart import dof_weights
+from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
@@ -130,7 +131,7 @@ def retarget_rig(
     origin = kp.floor_origin(source.skeleton, source.pose(0), source_contacts.ground)
     if joint_map.limbs:
         if joint_map.pelvis[0] not in source_names:
-            raise ValueError(
+            raise InputError(
                 f'{joint_map.source}: scale = "limbs" needs the pelvis {joint_map.pelvis[0]!r} among the points'
             )
         root = source_names.index(joint_map.pelvis[0])

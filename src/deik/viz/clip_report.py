@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.atomic import save_atomically
 from deik.io.files import FilePath
 from deik.io.motion import Clip
@@ -82,14 +83,14 @@ def plot_clip_report(
     `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
     drawn above the series, or None."""
     if not series:
-        raise ValueError("there is no error series to plot")
+        raise InputError("there is no error series to plot")
     if not frame_time > 0:
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+        raise InputError(f"frame_time must be a positive number of seconds, got {frame_time}")
     lines = {}
     for name, (before, after) in series.items():
         before, after = np.asarray(before, float), np.asarray(after, float)
         if before.shape != after.shape or before.ndim != 1:
-            raise ValueError(
+            raise InputError(
                 f"series {name!r}: before and after must be (N,) arrays of one "
                 f"length, got {before.shape} and {after.shape}"
             )
