@@ -11,7 +11,15 @@ import logging
 _MODULES = {
     "deik.cleanup.api": ("CleanedClip", "CleanOptions", "clean_clip"),
     "deik.cli.solve_command": ("problem_from_flags",),
-    "deik.errors": ("DeikError", "DeviceError", "FileFormatError", "InputError", "SolveError", "UsageError"),
+    "deik.errors": (
+        "DeikError",
+        "DeviceError",
+        "FileFormatError",
+        "InputError",
+        "SolveError",
+        "UnknownNameError",
+        "UsageError",
+    ),
     "deik.experiments.demo": ("demo",),
     "deik.experiments.runner": ("run_experiments",),
     "deik.io.bvh": ("read_bvh", "write_bvh"),

@@ -233,6 +233,7 @@ def run_folder(args: argparse.Namespace) -> int:
             workers=args.workers or (1 if args.device == "gpu" and args.executor != "ray" else None),  # one GPU
             address=args.address,
             quiet=args.quiet,
+            progress=args.progress,
         )
     except KeyboardInterrupt:
         print("deik: interrupted; the clips finished are kept, and rerunning the command goes on", file=sys.stderr)
