@@ -82,8 +82,9 @@ def run_library(
     """Run every job of `jobs` that is not done yet (jobs.read_sidecar) with `task`, on
     `executor` "local" (`workers` processes, default one per core) or "ray" (`address` of the
     cluster, default a local instance; `workers` tasks in flight at most). Progress bars go to
-    stderr when it is a terminal, or always with `progress`, never when `quiet`; `note(line)` is called with a line for each failed clip as it fails
-    (default: printed on stderr, above the bars)."""
+    stderr when it is a terminal, or always with `progress`, never when `quiet`; `note(line)`
+    is called with a line for each failed clip as it fails (default: printed on stderr, above
+    the bars)."""
     _check(executor, workers, address)
     began = time.perf_counter()
     outcomes, pending = {}, []
