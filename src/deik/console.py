@@ -1,5 +1,6 @@
 """What deik shows on stderr besides errors: progress bars (tqdm) and log lines (the "deik"
-logger), and the flags that set both on every command that works for more than a moment.
+logger), the flags that set both on every command that works for more than a moment, and the
+argument parser every command shares (mistakes as UsageError, with close matches).
 
 - Python: nothing unless asked. `deik.solve(..., progress=True)` (also `solve_batch`,
   `Solver.solve`) draws a bar over generations, a callable gets `(generation, best_fitness)`;
@@ -19,16 +20,19 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
-from deik.errors import InputError
+from deik.errors import InputError, UsageError
+from deik.suggest import did_you_mean
 
 if TYPE_CHECKING:  # tqdm is imported when a bar is made
     from tqdm import tqdm
 
+INVALID_CHOICE = re.compile(r"invalid choice: '([^']*)' \(choose from (.*)\)")
 DELAY = 1.0  # seconds of work before a bar appears on a terminal: shorter work shows none
 LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}
 
@@ -165,3 +169,34 @@ def _level(args: argparse.Namespace | None) -> int:
     if name and name not in LEVELS:
         raise InputError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
     return LEVELS.get(name, logging.INFO)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that raises UsageError instead of printing usage and exiting: the message says
+    which choice or option was meant when one is close, and points to the `--help` of the
+    (sub)command whose flags were wrong."""
+
+    def error(self, message: str) -> NoReturn:
+        choice = INVALID_CHOICE.search(message)
+        if choice:
+            message += did_you_mean(choice[1], re.findall(r"'([^']*)'", choice[2]))
+        raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+    def parse_args(self, args=None, namespace=None) -> argparse.Namespace:
+        """As argparse's, but an unknown option is refused by the subcommand it was given to."""
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parser = self._chosen(namespace)
+            options = [flag for action in parser._actions for flag in action.option_strings]
+            unknown = next((word.split("=")[0] for word in extras if word.startswith("-")), "")
+            parser.error(f"unrecognized arguments: {' '.join(extras)}{did_you_mean(unknown, options)}")
+        return namespace
+
+    def _chosen(self, namespace: argparse.Namespace) -> argparse.ArgumentParser:
+        """The innermost subcommand's parser that `namespace` chose (this one without subcommands)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                chosen = action.choices.get(getattr(namespace, action.dest, None))
+                if chosen is not None:
+                    return chosen._chosen(namespace) if isinstance(chosen, Parser) else chosen
+        return self

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import os
 from collections.abc import Iterable
-from typing import NoReturn
 
 from deik.errors import DeikError, UsageError
 
@@ -25,13 +23,6 @@ def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
     cut)."""
     line = " ".join(str(error).split())
     return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse that raises UsageError instead of printing usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
 def numbers(flag: str, words: Iterable[str]) -> list[float]:

@@ -18,7 +18,6 @@ from dataclasses import replace
 import numpy as np
 
 from deik.cli.arguments import (
-    Parser,
     UsageError,
     announce_compile,
     check_device,
@@ -27,7 +26,7 @@ from deik.cli.arguments import (
     record_compiles,
 )
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
-from deik.console import add_output_flags, progress_bar, show_generation, show_progress
+from deik.console import Parser, add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton

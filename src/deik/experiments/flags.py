@@ -9,7 +9,7 @@ from deik.console import add_output_flags
 
 NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "fig8", "fig9")  # runner.EXPERIMENTS, in run order
 DEVICES = ("auto", "cpu", "gpu")
-DESCRIPTION = "Reproduce the paper's figures: PNG, CSV and a report section each."
+SUMMARY = "reproduce the paper's figures: PNG, CSV and a report section each"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

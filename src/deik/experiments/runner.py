@@ -20,11 +20,11 @@ import sys
 import time
 from collections.abc import Callable
 
-from deik.console import configure_logging, progress_bar, show_progress
+from deik.console import Parser, configure_logging, progress_bar, show_progress
 from deik.errors import DeikError, UsageError
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
-from deik.experiments.flags import DESCRIPTION, DEVICES, add_arguments
+from deik.experiments.flags import DEVICES, SUMMARY, add_arguments
 from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
 from deik.io.atomic import save_atomically, write_text_atomically
@@ -62,14 +62,9 @@ Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f}
 """
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of `python -m deik.experiments` (the same flags as `deik experiments`)."""
-    parser = _Parser(prog=PROG, description=DESCRIPTION)
+    parser = Parser(prog=PROG, description=f"{SUMMARY[0].upper()}{SUMMARY[1:]}.")
     add_arguments(parser)
     return parser
 
