@@ -65,18 +65,13 @@ def show_generation(bar: tqdm, generation: int, best: float, running: int = 1, p
     bar.update(generation - bar.n)
 
 
-def frames_reporter(
-    bar: tqdm, meeting: str, on_frames: Callable[[int, int], None] | None = None
-) -> Callable[[int, str], None]:
+def frames_reporter(bar: tqdm, meeting: str) -> Callable[[int, str], None]:
     """What a clip fix or retarget calls after each stage, report(met_frames, stage): moves
-    `bar` (over the clip's frames) to the frames that meet `meeting` ("every goal"), and tells
-    `on_frames(met, total)` (a library run's per-clip progress) when given."""
+    `bar` (over the clip's frames) to the frames that meet `meeting` ("every goal")."""
 
     def report(met: int, stage: str) -> None:
         bar.set_postfix_str(f"{stage}: frames meeting {meeting}", refresh=False)
         bar.update(met - bar.n)
-        if on_frames is not None:
-            on_frames(met, bar.total)
 
     return report
 
