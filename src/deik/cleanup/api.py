@@ -188,7 +188,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     unit, floor and contacts it took. InputError for a spec that does not fit the clip."""
     options = CleanOptions() if options is None else options
     if not isinstance(options, CleanOptions):
-        raise InputError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
+        raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
     clip = read_clip(clip)
     if options.limits:
         clip = _within_limits(clip, options.limits)
