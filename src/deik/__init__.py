@@ -9,7 +9,7 @@ import logging
 
 # the module that defines each public name
 _MODULES = {
-    "deik.cleanup.api": ("CleanedClip", "CleanOptions", "clean_clip"),
+    "deik.cleanup.clean": ("CleanedClip", "CleanOptions", "clean_clip"),
     "deik.cli.solve_command": ("problem_from_flags",),
     "deik.errors": (
         "DeikError",

@@ -23,8 +23,8 @@ from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
 from deik.viz.text import format_table
 
-if TYPE_CHECKING:  # deik.cleanup.api loads when a clip is cleaned
-    from deik.cleanup.api import CleanedClip, CleanOptions
+if TYPE_CHECKING:  # deik.cleanup.clean loads when a clip is cleaned
+    from deik.cleanup.clean import CleanedClip, CleanOptions
 
 log = logging.getLogger(__name__)
 
@@ -218,7 +218,7 @@ def _far_warning(document: dict, far_degrees: float) -> str | None:
 
 def clean_options(args: argparse.Namespace) -> CleanOptions:
     """The CleanOptions of `deik clip`'s flags (each field is the flag of the same name)."""
-    from deik.cleanup.api import CleanOptions
+    from deik.cleanup.clean import CleanOptions
 
     return CleanOptions(**{option.name: getattr(args, option.name) for option in fields(CleanOptions)})
 
@@ -294,7 +294,7 @@ def run_clip(args: argparse.Namespace) -> int:
         (args.clip, args.segments, args.limits),
         args.overwrite,
     )
-    from deik.cleanup.api import plan_clean
+    from deik.cleanup.clean import plan_clean
 
     check_first(args)
     plan = plan_clean(read_bvh(args.clip, segments=args.segments), clean_options(args))

@@ -95,7 +95,7 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
 
 def _clean_one(payload: dict, progress: Callable[[int, int], None]) -> dict:
     """deik.clean_clip of one clip of a folder, its outputs written; its library record."""
-    from deik.cleanup.api import clean_clip
+    from deik.cleanup.clean import clean_clip
 
     clip = read_bvh(payload["source"], segments=payload["segments"])
     cleaned = clean_clip(clip, payload["options"], progress=lambda met, stage: progress(met, clip.n_frames))
