@@ -381,7 +381,7 @@ def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
 def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert main(["experiments", "fig99", "--quick", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("deik experiments: error: unknown experiment 'fig99'") and err.count("\n") == 1
+    assert err.startswith("deik: error: unknown experiment 'fig99'") and err.count("\n") == 1
     assert main(["experiments", "fig7", "--quick", "--out", str(tmp_path / "y")]) == 0
     assert (tmp_path / "y" / "fig7.csv").stat().st_size > 0
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import deik
 
 LAYERS = [
+    "errors",
     "suggest",
     "console",
-    "errors",
     "model",
     "io",
     "objectives",

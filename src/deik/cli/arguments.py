@@ -2,36 +2,27 @@
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import os
 from collections.abc import Iterable
-from typing import NoReturn
 
-from deik.errors import DeviceError, UsageError
+from deik.errors import DeikError, UsageError
 
 MESSAGE_LIMIT = 500
 
 
-# what a user's mistake raises (deik's own errors are InputError, a ValueError; a missing
-# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
-USER_ERRORS = (UsageError, DeviceError, ValueError, ImportError, OSError, KeyError)
+# what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
+# as asked, a GPU that cannot run it), a missing optional package's ImportError, an unreadable
+# file's OSError. Anything else is a bug in deik.
+USER_ERRORS = (DeikError, ImportError, OSError)
 
 
 def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
     """The message of `error` on one line and at most `limit` characters (a whole echoed input is
-    cut); a KeyError's message is its args[0] (str() would add quotes)."""
-    message = error.args[0] if isinstance(error, KeyError) and error.args else error
-    line = " ".join(str(message).split())
+    cut)."""
+    line = " ".join(str(error).split())
     return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse that raises UsageError instead of printing usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
 def numbers(flag: str, words: Iterable[str]) -> list[float]:

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from deik.backends.contract import KernelInputs, Seeds, SolveBuffers, backend_for
 from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
 from deik.device.layout import Buffers, KernelSettings, PackedTerms, PolishSchedule, SearchRules, Status
+from deik.errors import InputError
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
@@ -146,10 +147,10 @@ class Engine:
             return Seeds(np.zeros((B, 1, D), dtype), 0)
         init = self.problem.skeleton.check_angles(initial, "initial poses")
         if init.ndim > 3:
-            raise ValueError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
+            raise InputError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
         if init.shape[0] not in (1, B) or init.shape[1] > P:
-            raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
+            raise InputError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
         if init.shape[0] != B:
             init = np.broadcast_to(init, (B,) + init.shape[1:])
         return Seeds(kernel_array(init, dtype), init.shape[1])

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.console import Progress
-from deik.errors import SolveError
+from deik.errors import InputError, SolveError, UnknownNameError
 from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
@@ -129,7 +129,7 @@ class Solver:
             raise TypeError(f"goal {t} ({self._labels[t]}) has no target to swap; build a new Problem instead")
         values, batched = goal.target_params(self.problem.skeleton, target)
         if values.shape[0] not in (1, B):
-            raise ValueError(
+            raise InputError(
                 f"goal {t} ({self._labels[t]}): {values.shape[0]} targets for a problem batch of "
                 f"{B}; give one target or {B}"
             )
@@ -143,4 +143,4 @@ class Solver:
             if 0 <= key < len(self._labels):
                 return int(key)
             raise IndexError(f"goal index {key} out of range: the problem has {len(self._labels)} goals")
-        raise KeyError(f"no goal {key!r}; the goals are {list(self._labels)}")
+        raise UnknownNameError(f"no goal {key!r}; the goals are {list(self._labels)}")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.atomic import save_atomically
 from deik.io.files import FilePath
 from deik.io.motion import Clip
@@ -44,8 +45,7 @@ class PosePanel:
 def most_changed_frame(original: Motion, fixed: Motion) -> int:
     """The frame of two clips (deik.Clip, same skeleton and length) whose joints and sites lie
     farthest apart on average: where the fix did the most."""
-    before = forward_kinematics(original.skeleton, original.poses()).p_world_frame
-    after = forward_kinematics(fixed.skeleton, fixed.poses()).p_world_frame
+    before, after = original.kinematics.p_world_frame, fixed.kinematics.p_world_frame
     return int(np.argmax(np.linalg.norm(after - before, axis=-1).mean(axis=1)))
 
 
@@ -83,14 +83,14 @@ def plot_clip_report(
     `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
     drawn above the series, or None."""
     if not series:
-        raise ValueError("there is no error series to plot")
+        raise InputError("there is no error series to plot")
     if not frame_time > 0:
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+        raise InputError(f"frame_time must be a positive number of seconds, got {frame_time}")
     lines = {}
     for name, (before, after) in series.items():
         before, after = np.asarray(before, float), np.asarray(after, float)
         if before.shape != after.shape or before.ndim != 1:
-            raise ValueError(
+            raise InputError(
                 f"series {name!r}: before and after must be (N,) arrays of one "
                 f"length, got {before.shape} and {after.shape}"
             )
