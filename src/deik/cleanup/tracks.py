@@ -13,7 +13,6 @@ file and the line (CSV) or element (JSON).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -22,7 +21,7 @@ import numpy as np
 
 from deik.errors import FileFormatError
 from deik.io.bvh.hierarchy import number
-from deik.io.files import FilePath, read_input_text
+from deik.io.files import FilePath, integer_value, number_value, parse_csv, parse_json, read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
 SPEC_FORMS = (
@@ -38,11 +37,11 @@ def _valid_frames(n_frames: int) -> str:
 
 def _csv_rows(source: str, text: str) -> list[tuple[int, list[str]]]:
     """[(line, [frame, x, y, z])] of a CSV track, values still text."""
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1) if line.strip()]
+    lines = parse_csv(text, source)
     if not lines:
         raise FileFormatError(source, "empty track: expected a header frame,x,y,z and rows")
     header_line, header = lines[0]
-    names = [name.strip().lower() for name in header.split(",")]
+    names = [name.lower() for name in header]
     missing = [c for c in COLUMNS if c not in names]
     if missing:
         raise FileFormatError(
@@ -53,8 +52,7 @@ def _csv_rows(source: str, text: str) -> list[tuple[int, list[str]]]:
         )
     where = [names.index(c) for c in COLUMNS]
     rows = []
-    for n, line in lines[1:]:
-        fields = [field.strip() for field in line.split(",")]
+    for n, fields in lines[1:]:
         if len(fields) != len(names):
             raise FileFormatError(source, f"{len(fields)} fields where the header has {len(names)}", line=n)
         rows.append((n, [fields[k] for k in where]))
@@ -75,22 +73,13 @@ def _csv_values(source: str, rows) -> list[tuple[str, int, int, list[float]]]:
 def _json_value(source: str, where: str, value, integer: bool):
     """A JSON frame (integer) or coordinate (finite number) checked, else FileFormatError."""
     if integer:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise FileFormatError(source, f"frame must be a whole number, got {value!r:.40}", element=where)
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise FileFormatError(source, f"must be a finite number, got {value!r:.40}", element=where)
-    return float(value)
+        return integer_value(value, source, where, -(2**62), 2**62)  # the clip's range is checked later
+    return number_value(value, source, where)
 
 
 def _json_values(source: str, text: str) -> list[tuple[str, None, int, list[float]]]:
     """[(element, None, frame, [x, y, z])] of a JSON track (see the module notes)."""
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
-    except RecursionError:
-        raise FileFormatError(source, "JSON nested too deeply") from None
+    data = parse_json(text, source, "track")
     if isinstance(data, dict) and {"frames", "positions"} <= set(data):
         frames, positions = data["frames"], data["positions"]
         if not isinstance(frames, list) or not isinstance(positions, list) or len(frames) != len(positions):

@@ -9,14 +9,15 @@ import os
 from collections.abc import Iterable
 from typing import NoReturn
 
-from deik.errors import DeviceError, UsageError
+from deik.errors import DeikError, UsageError
 
 MESSAGE_LIMIT = 500
 
 
-# what a user's mistake raises (deik's own errors are InputError, a ValueError; a missing
-# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
-USER_ERRORS = (UsageError, DeviceError, ValueError, ImportError, OSError, KeyError)
+# what a user's mistake or a solve that cannot run as asked raises (deik's own errors are
+# DeikError: InputError, a ValueError, SolveError, DeviceError; a missing optional package
+# ImportError; an unreadable or unwritable file OSError; an unknown joint KeyError)
+USER_ERRORS = (DeikError, ValueError, ImportError, OSError, KeyError)
 
 
 def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:

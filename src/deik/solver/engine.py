@@ -209,6 +209,7 @@ class Engine:
     def start(self, n_generations: int, initial: ArrayLike | None = None) -> EvolutionState:
         """init(initial) then run(state, n_generations) as one backend call (on the CPU one
         compiled call: no Python between set-up, generations, polish and stopping)."""
+        _check_generations(n_generations)
         work, seeds = self._fresh(initial, n_generations)
         advanced = self.backend.start(self.inputs, work, seeds, n_generations)
         self.backend.fetch(work)
@@ -216,6 +217,7 @@ class Engine:
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
+        _check_generations(n_generations)
         B = state.pop.shape[0]
         # generation-major and left unfilled: a launch touches only the rows it runs, however
         # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
@@ -244,6 +246,14 @@ class Engine:
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
+
+
+def _check_generations(n_generations: int) -> None:
+    """ValueError unless `n_generations` is a whole number >= 0 (the generations to run)."""
+    if isinstance(n_generations, (bool, np.bool_)) or not isinstance(n_generations, (int, np.integer)):
+        raise ValueError(f"n_generations must be a whole number >= 0, got {n_generations!r}")
+    if n_generations < 0:
+        raise ValueError(f"n_generations must be >= 0 (the generations to run), got {n_generations}")
 
 
 def _sizes(problem: Problem, settings: Settings) -> tuple:

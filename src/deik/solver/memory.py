@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import os
 
+from deik.errors import SolveError
+
 MEMORY_FRACTION = 0.8  # default limit: this share of the machine's physical memory
 
 
@@ -29,13 +31,19 @@ def solve_bytes(
     return 3 * batch * population * per_individual + 2 * batch * generations * 2 * 8
 
 
+def gib(size: int) -> str:
+    """`size` bytes in GiB to 3 digits (a size beyond the float range, from absurd inputs, too)."""
+    return f"{size / 2**30:.3g}" if size < 2**1000 else "more than 1e+291"
+
+
 def check_memory(needed: int, limit: int | None, what: str) -> None:
-    """ValueError when `needed` bytes exceed `limit` (default MEMORY_FRACTION of physical memory)."""
+    """SolveError (a solve that cannot run as asked) when `needed` bytes exceed `limit`
+    (default MEMORY_FRACTION of physical memory)."""
     if limit is None:
         limit = int(MEMORY_FRACTION * physical_memory())
     if limit > 0 and needed > limit:
-        raise ValueError(
-            f"{what} needs about {needed / 2**30:.3g} GiB, more than the {limit / 2**30:.3g} GiB allowed; "
+        raise SolveError(
+            f"{what} needs about {gib(needed)} GiB, more than the {gib(limit)} GiB allowed; "
             "use a smaller population, batch or generation budget, or raise the limit "
             "(Settings(memory_limit=BYTES), --memory-limit GIB)"
         )

@@ -9,6 +9,7 @@ from numpy.typing import ArrayLike
 
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
+from deik.model.values import real_array
 
 
 def poses_around(
@@ -28,10 +29,15 @@ def poses_around(
             f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
             f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]"
         )
-    if count < 1:
-        raise ValueError(f"count must be at least 1, got {count}")
+    if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"count must be a whole number >= 1, got {count!r}")
     rotation = skeleton.dof_kind == ROTATE
-    spread = np.broadcast_to(np.asarray(spread, np.float64).reshape(-1, 1), (count - 1, 1))
+    spread = real_array(spread, "spread")
+    if spread.ndim > 1 or spread.size not in (1, count - 1) or not (np.isfinite(spread) & (spread >= 0)).all():
+        raise ValueError(
+            f"spread must be a finite number >= 0, or {count - 1} of them (one per perturbed copy), got {spread!r:.80}"
+        )
+    spread = np.broadcast_to(spread.reshape(-1, 1), (count - 1, 1))
     sigma = spread * np.where(rotation, 1.0, skeleton.reach)
     shape = pose.shape[:-1] + (count - 1, skeleton.n_dofs)
     noise = np.random.default_rng(seed).normal(size=shape) * sigma

@@ -5,7 +5,6 @@ The strategy, limit-mode and device names map to the kernels' codes (deik.device
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -150,9 +149,9 @@ def _number(name: str, value, meaning: str) -> None:
     if (
         isinstance(value, (bool, np.bool_))
         or not isinstance(value, (int, float, np.integer, np.floating))
-        or not math.isfinite(value)
+        or not abs(value) < 1e300  # finite, and an integer of 400 digits is not
     ):
-        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
+        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r:.60}")
 
 
 def _boolean(name: str, value) -> None:
