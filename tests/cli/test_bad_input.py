@@ -162,8 +162,8 @@ def test_all_or_nothing_leaves_no_file_when_a_later_write_fails(tmp_path):
     first, second = tmp_path / "a.json", tmp_path / "b.png"
     first.write_text("old\n")
 
-    def broken(temporary):
-        open(temporary, "w").write("part")
+    def broken(file):
+        file.write(b"part")
         raise OSError("disk full")
 
     with pytest.raises(OSError, match="disk full"):
@@ -187,7 +187,7 @@ def json_load(path):
 def test_a_temporary_file_stranded_by_a_killed_process_is_removed_by_the_next_write(tmp_path):
     from deik.io import atomic
 
-    stranded = tmp_path / f".pose{atomic.PARTIAL}999999999.json"
+    stranded = tmp_path / f"{atomic.PARTIAL}{atomic.HOST}-999999999-0123abcd.pose.json"
     stranded.write_text("{")
     atomic.write_json_atomically(tmp_path / "pose.json", {"ok": True})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"]

@@ -3,6 +3,7 @@ clips, fingerprints that change with every setting, input byte and output, skipp
 done, a failed clip that stops no other, and a worker killed mid-clip that fails only its clip
 while a rerun redoes it and skips the rest. Local worker processes are real (spawned)."""
 
+import json
 import os
 import signal
 import sys
@@ -83,7 +84,7 @@ def test_a_rerun_skips_what_is_done_and_redoes_a_changed_setting_or_a_lost_outpu
     jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh"])
     first = run_library(jobs, library_task, workers=2, quiet=True)
     assert [o.status for o in first.outcomes] == ["done", "done"]
-    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[0])["record"]["frames"] == 2
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[0])[0]["record"]["frames"] == 2
     assert first.frames_done() == 4 and "2 clips: 2 done, 0 skipped" in summary_line(first)
     again = run_library(jobs, library_task, workers=2, quiet=True)
     assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
@@ -143,7 +144,7 @@ def test_a_killed_worker_fails_its_clip_only_and_a_rerun_redoes_it(tmp_path):
     rerun = run_library(_jobs(tmp_path, out, names), library_task, workers=2, quiet=True)
     assert [o.status for o in rerun.outcomes] == ["skipped", "done", "skipped", "skipped"]
     assert sorted(os.listdir(out)) == sorted(
-        ["pid"] + [f"{n[0]}.txt" for n in names] + [f"{n[0]}.deik.json" for n in names]
+        ["pid"] + [f"{n[0]}.txt" for n in names] + [f".{n}.deik.json" for n in names]
     )
 
 
@@ -181,3 +182,63 @@ def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
     assert "on Ray" in summary_line(run)
     again = run_library(jobs[:2], library_task, executor="ray", quiet=True)
     assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
+
+
+DAMAGED = {
+    "deeply nested": lambda path: path.write_text("[" * 100_000 + "]" * 100_000),
+    "nested past the bound": lambda path: path.write_text("[" * 40 + "]" * 40),
+    "not JSON": lambda path: path.write_text("{"),
+    "a link to /dev/zero": lambda path: path.symlink_to("/dev/zero"),
+    "a FIFO": lambda path: os.mkfifo(path),
+    "a wrong-typed field": lambda path: path.write_text(json.dumps(_sidecar(path, frames="two"))),
+    "a wrong-typed metric": lambda path: path.write_text(json.dumps(_sidecar(path, metrics={"pid": "x"}))),
+    "a 400-digit number": lambda path: path.write_text(json.dumps({**_sidecar(path), "seconds": 10**400})),
+    "a folder": lambda path: path.mkdir(),
+}
+
+
+def _sidecar(path, **record):
+    """The sidecar the rerun's job expects (its fingerprint is read back from the good one) with
+    `record` fields changed."""
+    good = json.loads(path.with_name(path.name + ".good").read_text())
+    good["record"].update(record)
+    return good
+
+
+@pytest.mark.parametrize("damage", DAMAGED)
+def test_a_damaged_sidecar_redoes_its_clip_and_says_so(tmp_path, damage):
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh"])
+    assert [o.status for o in run_library(jobs, library_task, quiet=True).outcomes] == ["done", "done"]
+    sidecar = out / ".a.bvh.deik.json"
+    good = sidecar.read_text()
+    sidecar.with_name(sidecar.name + ".good").write_text(good)
+    sidecar.unlink()
+    DAMAGED[damage](sidecar)
+    lines = []
+    rerun = run_library(jobs, library_task, quiet=True, note=lines.append)
+    statuses = [o.status for o in rerun.outcomes]
+    if damage == "a folder":  # the clip is redone, but its record cannot replace a folder: said
+        assert statuses == ["failed", "skipped"] and "its record is not" in rerun.outcomes[0].reason
+    else:
+        assert statuses == ["done", "skipped"]
+        assert json.loads(sidecar.read_text())["record"]["frames"] == 2  # a good record again
+    assert lines[0].startswith("deik: a.bvh: its record is damaged (") and lines[0].endswith("; redoing the clip")
+    assert str(sidecar) in lines[0]
+
+
+def test_a_full_disk_while_the_record_is_written_fails_that_clip_with_the_reason(tmp_path, monkeypatch):
+    from deik.library import local
+
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh"])
+
+    def full(job, record, seconds):
+        raise OSError(28, "No space left on device", job.sidecar)
+
+    monkeypatch.setattr(local, "write_sidecar", full)
+    status, reason, _ = local.attempt(library_task, jobs[0], lambda done, total: None)
+    assert status == "failed" and "internal error" not in reason
+    assert reason.startswith("its outputs are written but its record is not (") and "No space left on device" in reason

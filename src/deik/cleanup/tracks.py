@@ -190,6 +190,15 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
     return mask, targets
 
 
+def track_file(spec: str) -> str | None:
+    """The track file a --reach SITE=TARGET argument names (TARGET ending in .csv or .json, or
+    any path that exists), or None for a fixed point X,Y,Z[@A:B]."""
+    value = spec.partition("=")[2].strip()
+    if os.path.splitext(value)[1].lower() in (".csv", ".json") or os.path.lexists(value):
+        return value
+    return None
+
+
 def parse_reach_spec(spec: str, n_frames: int) -> tuple[str, np.ndarray, np.ndarray]:
     """A --reach argument -> (site name, mask (N,) bool, targets (N, 3) length units, NaN
     where inactive). Forms: SITE=track.csv, SITE=track.json (or any existing file: see
@@ -200,7 +209,7 @@ def parse_reach_spec(spec: str, n_frames: int) -> tuple[str, np.ndarray, np.ndar
     site, value = site.strip(), value.strip()
     if not equals or not site or not value:
         raise ValueError(f"reach {spec!r} is not SITE=TARGET; the accepted forms are {SPEC_FORMS}")
-    if os.path.splitext(value)[1].lower() in (".csv", ".json") or os.path.isfile(value):
+    if track_file(spec) is not None:
         mask, targets = read_track(value, n_frames)
     else:
         mask, targets = _fixed_point(spec, value, n_frames)

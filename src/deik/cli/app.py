@@ -32,8 +32,10 @@ from deik.cli import retarget_command as cli_retarget
 from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
-from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line, numbers
+from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, numbers
 from deik.console import add_output_flags, configure_logging, show_progress
+from deik.errors import error_line
+from deik.io.files import command_inputs
 from deik.io.load import load_skeleton
 
 USAGE_ERROR = 2
@@ -153,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args)
-        return args.run(args)
+        with command_inputs(protect=not getattr(args, "overwrite", False)):  # no output replaces an input
+            return args.run(args)
     except SystemExit as done:  # --help
         return done.code
     except BrokenPipeError:

@@ -10,22 +10,12 @@ from collections.abc import Iterable
 from typing import NoReturn
 
 from deik.errors import DeikError, UsageError
-
-MESSAGE_LIMIT = 500
-
+from deik.io.files import inputs_read
 
 # what a user's mistake or a solve that cannot run as asked raises (deik's own errors are
 # DeikError: InputError, a ValueError, SolveError, DeviceError; a missing optional package
 # ImportError; an unreadable or unwritable file OSError; an unknown joint KeyError)
 USER_ERRORS = (DeikError, ValueError, ImportError, OSError, KeyError)
-
-
-def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
-    """The message of `error` on one line and at most `limit` characters (a whole echoed input is
-    cut); a KeyError's message is its args[0] (str() would add quotes)."""
-    message = error.args[0] if isinstance(error, KeyError) and error.args else error
-    line = " ".join(str(message).split())
-    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
 
 
 class Parser(argparse.ArgumentParser):
@@ -58,7 +48,10 @@ def check_outputs(
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one
-    of `inputs` (the files the command reads) unless `overwrite`."""
+    of `inputs` (the files the command names) or of the files it has read so far (inside
+    deik.io.files.command_inputs: those named inside other inputs too) unless `overwrite`.
+    Call it again once every input is read."""
+    inputs = [*inputs, *inputs_read()]
     given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
     for flag, path in given.items():
         folder = os.path.dirname(path)

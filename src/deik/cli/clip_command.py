@@ -356,12 +356,13 @@ def run_clip(
     from deik.cleanup.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
 
-    check_outputs(
+    outputs = (
         {"--out": args.out, "--report": args.report, "--json": args.json},
         {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
         (args.clip, args.segments, args.limits),
         args.overwrite,
     )
+    check_outputs(*outputs)
     check_device(args.device)
     if args.report_3d and not args.report:
         raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
@@ -379,6 +380,7 @@ def run_clip(
     floor, keep_floor = _floor(args, clip)
     contacts = _contacts(args, clip, floor)
     reach = _reaches(args, clip)
+    check_outputs(*outputs)  # the reach tracks are inputs too
     unit = args.units or guess_unit(clip.skeleton)
     goals = ClipGoals(
         contacts,

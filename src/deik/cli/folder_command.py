@@ -22,7 +22,9 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from deik.cli.arguments import USER_ERRORS, UsageError, check_device, error_line
+from deik.cli.arguments import USER_ERRORS, UsageError, check_device
+from deik.errors import InputError, error_line
+from deik.io.files import check_not_input, command_inputs
 
 if TYPE_CHECKING:  # deik.library loads when a folder is run
     from deik.library.jobs import Job
@@ -30,7 +32,7 @@ if TYPE_CHECKING:  # deik.library loads when a folder is run
 FOLDER_FLAGS = ("workers", "executor", "address")
 OUTPUT_FLAGS = {"out": "--out", "json": "--json", "report": "--report", "view": "--view"}
 # not settings: where the outputs go and how the run is shown or spread
-NOT_SETTINGS = {"clip", "run", "command", "quiet", "overwrite", *OUTPUT_FLAGS, *FOLDER_FLAGS}
+NOT_SETTINGS = {"clip", "run", "command", "quiet", "verbose", "progress", "overwrite", *OUTPUT_FLAGS, *FOLDER_FLAGS}
 FILE_SETTINGS = ("segments", "limits", "map", "to")  # flags naming a file whose bytes shape the outputs
 FAILED = 1  # exit status when a clip failed
 INTERRUPTED = 130
@@ -85,9 +87,10 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
 
     command = {"clip": cli_clip.run_clip, "retarget": cli_retarget.run_retarget}[payload["command"]]
     record, printed = {}, io.StringIO()
+    args = argparse.Namespace(**payload["args"])
     try:
-        with contextlib.redirect_stdout(printed):
-            command(argparse.Namespace(**payload["args"]), on_frames=progress, record=record)
+        with contextlib.redirect_stdout(printed), command_inputs(protect=not getattr(args, "overwrite", False)):
+            command(args, on_frames=progress, record=record)
     except USER_ERRORS as error:
         raise JobFailed(error_line(error)) from None
     except Exception as error:  # noqa: BLE001 - a bug: this clip fails, the others go on
@@ -102,6 +105,8 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
 def _settings(args) -> tuple[dict, dict]:
     """(settings: every flag that shapes the outputs, {flag: file} of the files they name).
     UsageError for a named file that is missing."""
+    from deik.cleanup.tracks import track_file
+
     settings = {key: value for key, value in sorted(vars(args).items()) if key not in NOT_SETTINGS}
     files = {}
     for key in FILE_SETTINGS:
@@ -109,11 +114,11 @@ def _settings(args) -> tuple[dict, dict]:
         if value is not None and (key != "to" or os.path.splitext(value)[1]):  # --to humanoid names no file
             files[key] = value
     for k, spec in enumerate(settings.get("reach") or ()):
-        track = spec.partition("=")[2]
-        if os.path.splitext(track)[1].lower() in (".csv", ".json"):
+        track = track_file(spec)
+        if track is not None:
             files[f"reach {k}"] = track
     for key, path in files.items():
-        if not os.path.isfile(path):
+        if not os.path.lexists(path):
             raise UsageError(f"--{key.split()[0]} {path!r}: no such file")
     return settings, files
 
@@ -171,7 +176,12 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
         outputs = _outputs(args, os.path.splitext(name)[0], folders)
         one = {key: value for key, value in vars(args).items() if key != "run"}
         one.update(outputs, clip=path, quiet=True)
-        key = fingerprint(args.command, settings, path, files, outputs.values())
+        key = fingerprint(args.command, settings, path, files, outputs.values())  # reads every input
+        for flag, output in outputs.items():
+            try:
+                check_not_input(output)
+            except InputError as error:
+                raise UsageError(f"{OUTPUT_FLAGS[flag]}: {error}") from None
         payload = {"command": args.command, "args": one}
         jobs.append(
             Job(name, path, tuple(outputs.values()), sidecar_path(folders["out"], name), key, settings, payload)

@@ -213,17 +213,14 @@ def run_solve(args: argparse.Namespace) -> int:
         args.limits,
         args.start[0] if args.start and len(args.start) == 1 else None,
     )
-    check_outputs(
-        {"--out": args.out, "--plot": args.plot},
-        {"--out": (".json", ".bvh"), "--plot": (".png",)},
-        inputs,
-        args.overwrite,
-    )
+    outputs = ({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)})
+    check_outputs(*outputs, inputs, args.overwrite)
     if args.plot_3d and not args.plot:
         raise UsageError("--plot-3d sets how --plot draws the pose: add --plot pose.png")
     if args.plot:
         plot.require_matplotlib()
     problem, settings, loaded, frame_pose, frame = _problem(args)
+    check_outputs(*outputs, inputs, args.overwrite)  # the files a --problem file names are inputs too
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
     if args.memory_limit is not None:
         if not args.memory_limit > 0:

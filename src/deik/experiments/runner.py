@@ -142,7 +142,8 @@ def report(sections: list[Section], command: str, total: float, quick: bool, loa
 def _copy(source: str, target: str) -> None:
     if os.path.exists(target) and os.path.samefile(source, target):
         return
-    save_atomically(target, lambda temporary: shutil.copyfile(source, temporary))
+    with open(source, "rb") as original:
+        save_atomically(target, lambda file: shutil.copyfileobj(original, file))
 
 
 def main(argv: list[str] | None = None) -> int:

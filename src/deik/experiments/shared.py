@@ -113,7 +113,7 @@ def save_figure(figure: Figure, path: str, dpi: int = 110) -> None:
     """Save a matplotlib `figure` as PNG to `path` atomically and close it."""
     plt = require_matplotlib()
     try:
-        save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=dpi))
+        save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=dpi))
     finally:
         plt.close(figure)
 

@@ -36,6 +36,7 @@ INPUT_LIMIT_VARIABLE = "DEIK_MAX_INPUT_BYTES"
 MAX_DEPTH = 32  # nesting of JSON arrays and objects, TOML arrays and tables: deik's files need 4
 MAX_NUMBER = 1e12  # the default bound of a number field: larger is corruption (squares overflow float32)
 _MISSING = object()
+PROTECT = "protect"  # the key of command_inputs' switch among the recorded (device, inode) keys
 _inputs: contextvars.ContextVar[dict | None] = contextvars.ContextVar("deik_inputs", default=None)
 
 
@@ -50,9 +51,10 @@ def max_input_bytes() -> int:
 
 
 @contextlib.contextmanager
-def command_inputs() -> Iterator[None]:
-    """Record every file read inside the block (see inputs_read and input_named)."""
-    token = _inputs.set({})
+def command_inputs(protect: bool = True) -> Iterator[None]:
+    """Record every file read inside the block (see inputs_read and input_named); `protect`:
+    refuse to write over any of them (check_not_input; a command's --overwrite turns it off)."""
+    token = _inputs.set({PROTECT: protect})
     try:
         yield
     finally:
@@ -61,7 +63,7 @@ def command_inputs() -> Iterator[None]:
 
 def inputs_read() -> list[str]:
     """The paths of the files read so far inside command_inputs() (empty outside it)."""
-    return list((_inputs.get() or {}).values())
+    return [path for key, path in (_inputs.get() or {}).items() if key != PROTECT]
 
 
 def input_named(path: FilePath) -> str | None:
@@ -75,6 +77,19 @@ def input_named(path: FilePath) -> str | None:
     except OSError:
         return None
     return recorded.get((info.st_dev, info.st_ino))
+
+
+def check_not_input(path: FilePath) -> None:
+    """InputError when writing `path` would replace a file the command read (inside
+    command_inputs(protect=True)), naming both."""
+    recorded = _inputs.get()
+    source = input_named(path) if recorded and recorded[PROTECT] else None
+    if source is not None:
+        shown = "" if os.path.abspath(source) == os.path.abspath(path) else f" (read as {source})"
+        raise InputError(
+            f"{path}: this output is also an input of the command{shown}; write it elsewhere "
+            "(or add --overwrite where the command has it)"
+        )
 
 
 def _fail_open(source: str, what: str, error: OSError) -> NoReturn:
@@ -91,7 +106,10 @@ def open_input(path: FilePath, what: str, record: bool = True) -> Iterator[tuple
     block. FileFormatError naming the file when it is missing, unreadable, not a regular file
     or larger than max_input_bytes(). `record`: count it among the command's inputs (False
     for deik's own records, which a command rewrites)."""
+    from deik.io.atomic import tidy  # lazily: atomic writes through this module
+
     source = str(path)
+    tidy(os.path.dirname(os.path.abspath(path)))  # a command killed while it moved its files: finish them
     try:
         handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as error:

@@ -18,6 +18,7 @@ from collections import deque
 from collections.abc import Iterable, Iterator
 from multiprocessing.connection import wait
 
+from deik.errors import error_line
 from deik.library.jobs import Event, FrameProgress, Job, JobFailed, Outcome, Task, write_sidecar
 
 THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -39,7 +40,13 @@ def perform(task: Task, job: Job, progress: FrameProgress) -> tuple[dict, float]
     began = time.perf_counter()
     record = task(job.payload, progress)
     seconds = time.perf_counter() - began
-    write_sidecar(job, record, seconds)
+    try:
+        write_sidecar(job, record, seconds)
+    except OSError as error:  # a full disk, or a folder where the record goes: the user's to fix
+        raise JobFailed(
+            f"its outputs are written but its record is not ({error_line(error)}); fix that and rerun "
+            "(the clip is redone)"
+        ) from None
     return record, seconds
 
 
