@@ -156,3 +156,73 @@ def test_the_folder_flags_mistakes_get_one_line(tmp_path, capsys):
         main(["retarget", str(tmp_path), "--map", str(tmp_path / "nomap.toml"), "--to", "humanoid", "--out", "o"]) == 2
     )
     assert "nomap.toml" in capsys.readouterr().err
+
+
+TOY_CLIP = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0.9 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 0.2 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 0.3 0
+    }
+  }
+  JOINT LeftFoot
+  {
+    OFFSET 0.1 -0.4 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 -0.4 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.033333
+0 0.9 0 0 0 0 0 5 0 0 0 0
+0 0.9 0.01 1 2 3 0 6 0 1 0 0
+0 0.91 0.02 2 4 6 0 7 0 2 0 0
+"""
+
+
+def test_a_rerun_follows_every_reach_track_ignores_how_it_is_shown_and_keeps_reports_apart(tmp_path, capsys):
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    for name in ("a.bvh", "a.deik.bvh"):  # a.deik.bvh's report a.deik.json once shared a.bvh's record
+        (clips / name).write_text(TOY_CLIP)
+    track = tmp_path / "track"  # a track file whose name ends in neither .csv nor .json
+    track.write_text("frame,x,y,z\n0,0,1.4,0.1\n")
+    out = tmp_path / "out"
+    argv = ["clip", str(clips), "--out", str(out), "--json", str(out), "--reach", f"Spine_end={track}"]
+    argv += ["--workers", "1", "--quiet"]
+    assert main(argv) == 0
+    assert "2 clips: 2 done" in capsys.readouterr().out
+    reports = {name: (out / name).read_text() for name in ("a.json", "a.deik.json")}
+    assert all(json.loads(text)["frames"] == 3 for text in reports.values())
+    for shown in ([], ["--verbose"], ["--progress"]):  # how a run is shown is no setting
+        assert main(argv[:-1] + shown) == 0
+        assert "2 clips: 0 done, 2 skipped" in capsys.readouterr().out
+    assert {name: (out / name).read_text() for name in reports} == reports
+    track.write_text("frame,x,y,z\n1,0,1.4,0.1\n")  # the track changed: both clips are redone
+    assert main(argv) == 0
+    assert "2 clips: 2 done, 0 skipped" in capsys.readouterr().out
+
+
+def test_a_library_output_that_is_an_input_is_refused_before_any_work(tmp_path, capsys):
+    clips, reports = tmp_path / "clips", tmp_path / "reports"
+    clips.mkdir()
+    reports.mkdir()
+    (clips / "a.bvh").write_text(TOY_CLIP)
+    track = reports / "a.json"  # clip a.bvh's --json report would replace its own reach track
+    track.write_text('[{"frame": 0, "x": 0, "y": 1.4, "z": 0.1}]')
+    argv = ["clip", str(clips), "--out", str(tmp_path / "out"), "--json", str(reports)]
+    assert main(argv + ["--reach", f"Spine_end={track}", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("deik: error: --json: ") and "is also an input of the command" in err
+    assert err.count("\n") == 1 and json.loads(track.read_text())[0]["frame"] == 0

@@ -145,7 +145,10 @@ def test_a_kill_before_the_moves_leaves_every_old_file_and_its_temporaries_are_c
     folder = _killed_writer(tmp_path, "before")
     assert _contents(folder) == ["old clip", "old report", "old picture"]
     assert len(_hidden(folder)) == 3  # the temporary files of the killed process
-    code = f"from deik.io import atomic; atomic.write_text_atomically({str(folder / 'other.txt')!r}, 'x'); atomic.write_text_atomically({str(folder / 'sub' / 'x')!r}, 'x')"
+    writes = [
+        f"atomic.write_text_atomically({str(path)!r}, 'x')" for path in (folder / "other.txt", folder / "sub" / "x")
+    ]
+    code = "from deik.io import atomic; " + "; ".join(writes)
     subprocess.run([sys.executable, "-c", code], check=True)
     assert _contents(folder) == ["old clip", "old report", "old picture"] and _hidden(folder) == []
 
