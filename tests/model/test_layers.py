@@ -13,6 +13,7 @@ LAYERS = [
     "suggest",
     "console",
     "errors",
+    "memory",
     "model",
     "io",
     "objectives",

@@ -28,7 +28,7 @@ SPEC_FORMS = (
     "SITE=track.csv, SITE=track.json, or SITE=X,Y,Z@A:B (a fixed point over frames "
     "A..B inclusive; without @A:B, the whole clip)"
 )
-FRAME_RANGE = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
+FRAME_RANGE = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
 
 
 def _valid_frames(n_frames: int) -> str:
@@ -63,7 +63,7 @@ def _csv_values(source: str, rows) -> list[tuple[str, int, int, list[float]]]:
     """[(where, line, frame, [x, y, z])] of the CSV rows, checked numbers."""
     values = []
     for n, (frame, *xyz) in rows:
-        if not re.fullmatch(r"[+-]?\d+", frame):
+        if not re.fullmatch(r"[+-]?\d{1,12}", frame):
             raise FileFormatError(source, f"frame {frame!r:.40} is not a whole number", line=n)
         point = [number(source, v, n, f"column {c}") for c, v in zip("xyz", xyz)]
         values.append((f"line {n}", n, int(frame), point))

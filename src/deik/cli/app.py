@@ -32,7 +32,7 @@ from deik.cli import retarget_command as cli_retarget
 from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
-from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, numbers
+from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, number, numbers
 from deik.console import add_output_flags, configure_logging, show_progress
 from deik.errors import error_line
 from deik.io.files import command_inputs
@@ -120,14 +120,14 @@ def build_parser() -> Parser:
     lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
     lim.add_argument(
         "--margin",
-        type=float,
+        type=number(0.0, 180.0),
         default=10.0,
         metavar="DEGREES",
         help="added to each rotation's range on both sides (default 10)",
     )
     lim.add_argument(
         "--margin-length",
-        type=float,
+        type=number(0.0),
         default=0.0,
         metavar="LENGTH",
         help="added to each translation's range on both sides (default 0)",

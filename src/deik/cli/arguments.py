@@ -6,6 +6,7 @@ import argparse
 import logging
 import math
 import os
+import re
 from collections.abc import Iterable
 from typing import NoReturn
 
@@ -18,11 +19,39 @@ from deik.io.files import inputs_read
 USER_ERRORS = (DeikError, ValueError, ImportError, OSError, KeyError)
 
 
+# a word that is a negative number (-1e-3, -.5, -1e300, -inf), never an option: argparse's own
+# pattern knows only -1 and -1.5, so `--reach tip 1.5 -1e-3 0` failed as if -1e-3 were a flag
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+MAX_MAGNITUDE = 1e12  # of a number on the command line: larger is a typo (squares overflow float32)
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse that raises UsageError instead of printing usage and exiting."""
+    """argparse that raises UsageError instead of printing usage and exiting, and reads every
+    negative number as a value."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+
+def number(low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE, above: bool = False):
+    """An argparse `type` for a flag's number: finite, within [low, high] (above `low` when
+    `above`), else one line naming the flag (argparse adds it) and the range."""
+    shown = f"{'above' if above else 'from'} {low:g}" + (f" to {high:g}" if high < MAX_MAGNITUDE else "")
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text[:40]!r} is not a number") from None
+        if not (math.isfinite(value) and (value > low if above else value >= low) and value <= high):
+            raise argparse.ArgumentTypeError(f"{text[:40]!r} is out of range: give a finite number {shown}")
+        return value
+
+    return parse
 
 
 def numbers(flag: str, words: Iterable[str]) -> list[float]:
@@ -33,8 +62,8 @@ def numbers(flag: str, words: Iterable[str]) -> list[float]:
             value = float(word)
         except ValueError:
             raise UsageError(f"{flag}: {word!r} is not a number") from None
-        if not math.isfinite(value):
-            raise UsageError(f"{flag}: {word!r} is not a finite number")
+        if not (math.isfinite(value) and abs(value) <= MAX_MAGNITUDE):
+            raise UsageError(f"{flag}: {word[:40]!r} is out of range: give a finite number from -1e+12 to 1e+12")
         values.append(value)
     return values
 

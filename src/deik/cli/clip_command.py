@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, number, record_compiles
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
@@ -65,11 +65,11 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--contact-height",
-        type=float,
+        type=number(0.0),
         metavar="LENGTH",
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
-    c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
+    c.add_argument("--contact-speed", type=number(0.0), metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument(
         "--balance",
         action="store_true",
@@ -78,7 +78,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--self-collision",
-        type=float,
+        type=number(0.0),
         metavar="MARGIN",
         help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
     )
@@ -90,11 +90,15 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)",
     )
     c.add_argument(
-        "--fidelity", type=float, default=1.0, metavar="W", help="DE repairs: weight of staying near the original (0-1)"
+        "--fidelity",
+        type=number(0.0, 1.0),
+        default=1.0,
+        metavar="W",
+        help="DE repairs: weight of staying near the original (0-1)",
     )
     c.add_argument(
         "--coherence",
-        type=float,
+        type=number(0.0, 1.0),
         default=0.5,
         metavar="W",
         help="DE repairs: weight of moving like the neighbours (0-1)",
@@ -140,7 +144,7 @@ def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, 
     out = []
     for span in spans.split(","):
         start, _, stop = span.partition("-")
-        if not (start.strip().isdigit() and stop.strip().isdigit()):
+        if not all(part.strip().isdigit() and len(part.strip()) <= 12 for part in (start, stop)):
             raise UsageError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
         start, stop = int(start), int(stop)
         if not start <= stop < n_frames:
@@ -220,11 +224,11 @@ def _floor(args, clip) -> tuple[float, bool]:
     if args.floor in ("auto", "none"):
         return detect_floor(clip), args.floor == "auto"
     try:
-        height = float(args.floor)
-    except ValueError:
-        height = float("nan")
-    if not np.isfinite(height):
-        raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
+        height = number()(args.floor)
+    except argparse.ArgumentTypeError:
+        raise UsageError(
+            f"--floor {args.floor[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
+        ) from None
     return height, True
 
 

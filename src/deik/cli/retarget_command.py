@@ -18,7 +18,7 @@ from deik.console import add_output_flags, frames_reporter, progress_bar, show_p
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
 
-FRAMES = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
+FRAMES = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
 SHOWN = (
     ("keypoint_error_mean_mm", "key-point error, mean", "mm"),
     ("keypoint_worst_max_mm", "key-point error, worst", "mm"),

@@ -16,7 +16,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
+from deik.cli.arguments import (
+    UsageError,
+    announce_compile,
+    check_device,
+    check_outputs,
+    number,
+    numbers,
+    record_compiles,
+)
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
@@ -75,7 +83,12 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
     s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
-    s.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop after this wall time (default: none)")
+    s.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop after this wall time (default: none)",
+    )
     s.add_argument(
         "--polish",
         type=int,
@@ -90,7 +103,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
     s.add_argument(
         "--memory-limit",
-        type=float,
+        type=number(0.0, above=True),
         metavar="GIB",
         help="memory a solve may use, GiB (default: 80%% of this machine's)",
     )
@@ -223,9 +236,7 @@ def run_solve(args: argparse.Namespace) -> int:
     check_outputs(*outputs, inputs, args.overwrite)  # the files a --problem file names are inputs too
     settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
     if args.memory_limit is not None:
-        if not args.memory_limit > 0:
-            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
-        settings["memory_limit"] = int(args.memory_limit * 2**30)
+        settings["memory_limit"] = max(1, int(args.memory_limit * 2**30))
     settings = Settings(**settings)
     check_device(settings.device)
     initial = None

@@ -45,7 +45,7 @@ def max_input_bytes() -> int:
     value = os.environ.get(INPUT_LIMIT_VARIABLE)
     if value is None:
         return MAX_INPUT_BYTES
-    if not (value.isascii() and value.isdigit()) or int(value) <= 0:
+    if not (value.isascii() and value.isdigit() and len(value) <= 15) or int(value) <= 0:
         raise InputError(f"{INPUT_LIMIT_VARIABLE}={value[:40]!r} must be a positive whole number of bytes")
     return int(value)
 

@@ -158,7 +158,8 @@ class Clip:
         if values.ndim != 2 or values.shape[1] != len(dofs):
             raise ValueError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
         frames = np.empty((values.shape[0], skeleton.n_dofs))
-        frames[:, dofs] = values / scale
+        for column, (dof, factor) in enumerate(zip(dofs, scale)):  # column by column: no (N, C) temporary
+            np.divide(values[:, column], factor, out=frames[:, dof])
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
 
     @classmethod

@@ -17,8 +17,9 @@ from numpy.typing import ArrayLike
 from deik.backends.contract import KernelInputs, Seeds, SolveBuffers, backend_for
 from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
 from deik.device.layout import Buffers, KernelSettings, PackedTerms, PolishSchedule, SearchRules, Status
+from deik.memory import check_memory
 from deik.objectives.kinds import TOLERANCE, WEIGHT
-from deik.solver.memory import check_memory, solve_bytes
+from deik.solver.memory import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.result import ReportTerms
 from deik.solver.routing import choose_device
@@ -156,7 +157,7 @@ class Engine:
 
     def check_memory(self) -> None:
         """ValueError with the estimate and the fix when a solve's buffers would not fit
-        (deik.solver.memory)."""
+        (deik.memory)."""
         B, P, D, T, L, dtype, _ = self.sizes
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")

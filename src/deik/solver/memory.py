@@ -1,24 +1,6 @@
-"""The memory a solve needs, estimated before anything is allocated, and the limit it must fit.
-
-A population of a billion, or a batch far larger than the machine, would otherwise allocate
-until the machine runs out. `check_memory` refuses such a solve with the estimate and the fix.
-"""
+"""The memory a solve needs, estimated before anything is allocated (checked by deik.memory)."""
 
 from __future__ import annotations
-
-import os
-
-from deik.errors import SolveError
-
-MEMORY_FRACTION = 0.8  # default limit: this share of the machine's physical memory
-
-
-def physical_memory() -> int:
-    """Bytes of physical memory on this machine (0 when the system does not say)."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return 0
 
 
 def solve_bytes(
@@ -29,21 +11,3 @@ def solve_bytes(
     copies) and the float64 history of best and mean fitness per problem and generation."""
     per_individual = (n_dofs + n_levels + 1 + n_terms + 2) * itemsize
     return 3 * batch * population * per_individual + 2 * batch * generations * 2 * 8
-
-
-def gib(size: int) -> str:
-    """`size` bytes in GiB to 3 digits (a size beyond the float range, from absurd inputs, too)."""
-    return f"{size / 2**30:.3g}" if size < 2**1000 else "more than 1e+291"
-
-
-def check_memory(needed: int, limit: int | None, what: str) -> None:
-    """SolveError (a solve that cannot run as asked) when `needed` bytes exceed `limit`
-    (default MEMORY_FRACTION of physical memory)."""
-    if limit is None:
-        limit = int(MEMORY_FRACTION * physical_memory())
-    if limit > 0 and needed > limit:
-        raise SolveError(
-            f"{what} needs about {gib(needed)} GiB, more than the {gib(limit)} GiB allowed; "
-            "use a smaller population, batch or generation budget, or raise the limit "
-            "(Settings(memory_limit=BYTES), --memory-limit GIB)"
-        )
