@@ -148,11 +148,22 @@ TRACKS = {
             'no_z.json: [0]: missing z: each element needs "frame", "x", "y" and "z"',
         ),
         (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
-        (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
+        (["--fidelity", "3"], "argument --fidelity: '3' is out of range: give a finite number from 0 to 1"),
+        (["--floor", "-1e300"], "--floor '-1e300': use a height (a finite number of length units, within +-1e12)"),
+        (["--passes", "1000000000"], "--passes 1000000000: give a whole number from 0 to 1000"),
+        (
+            ["--population", "10000000", "--balance", "--quiet"],
+            "a clip fix of 39 frames x population 10000000 needs about",
+        ),
+        (["--contact-speed", "inf"], "argument --contact-speed: 'inf' is out of range"),
+        (["--memory-limit", "inf"], "argument --memory-limit: 'inf' is out of range"),
         (["--contact", "LeftKnee-Hips@1-3"], "--contact 'LeftKnee-Hips@1-3' (a joint, an end site or a bone"),
         (["--contact", "LeftKnee@3-1"], "frames 3-1 are outside the clip or reversed; valid frames: 0..38"),
         (["--contact", "auto", "--contact", "none"], "--contact none cannot be combined"),
-        (["--floor", "low"], "--floor 'low': use a height (a finite number in length units), auto or none"),
+        (
+            ["--floor", "low"],
+            "--floor 'low': use a height (a finite number of length units, within +-1e12), auto or none",
+        ),
     ],
 )
 def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fragment):

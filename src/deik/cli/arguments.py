@@ -7,7 +7,7 @@ import logging
 import math
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import NoReturn
 
 from deik.errors import DeikError, UsageError
@@ -29,7 +29,7 @@ class Parser(argparse.ArgumentParser):
     """argparse that raises UsageError instead of printing usage and exiting, and reads every
     negative number as a value."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_NUMBER
 
@@ -37,7 +37,7 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
-def number(low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE, above: bool = False):
+def number(low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE, above: bool = False) -> Callable[[str], float]:
     """An argparse `type` for a flag's number: finite, within [low, high] (above `low` when
     `above`), else one line naming the flag (argparse adds it) and the range."""
     shown = f"{'above' if above else 'from'} {low:g}" + (f" to {high:g}" if high < MAX_MAGNITUDE else "")

@@ -19,7 +19,7 @@ from deik.cli.arguments import UsageError, announce_compile, check_device, check
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
-from deik.viz.text import format_table
+from deik.viz.text import figure, format_table
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
 CONTACT_FORMS = (
@@ -108,7 +108,19 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         type=int,
         help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
     )
+    c.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop the DE passes after this wall time (the warm start always runs; default: none)",
+    )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
+    c.add_argument(
+        "--memory-limit",
+        type=number(0.0, above=True),
+        metavar="GIB",
+        help="memory the DE passes may use, GiB (default: 80%% of this machine's)",
+    )
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
@@ -275,7 +287,7 @@ def _print_tables(document: dict, quiet: bool) -> None:
     if not quiet:
         for name, note in document["goal_notes"].items():
             print(f"  {name}: {note}")
-    rows = [[v["label"], v["unit"], f"{v['before']:.4g}", f"{v['after']:.4g}"] for v in document["metrics"].values()]
+    rows = [[v["label"], v["unit"], figure(v["before"]), figure(v["after"])] for v in document["metrics"].values()]
     print(format_table(["metric", "unit", "before", "after"], rows))
 
 
@@ -305,8 +317,12 @@ def _summary_notes(document: dict) -> list[str]:
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
-        lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+        lines.append(
+            f"{m['label']}: {figure(m['before'], '.3g')} before, {figure(m['after'], '.3g')} after ({m['unit']})"
+        )
+    ratios = ", ".join(
+        f"{k.replace('_', ' ')} x{figure(v, '.2f')}" for k, v in document["dynamics"]["peak_ratios"].items()
+    )
     return lines + [f"peaks against the capture's: {ratios}"]
 
 
@@ -325,7 +341,7 @@ def _outcome_lines(document: dict) -> list[str]:
             )
         lines.append(line)
     dynamics = document["dynamics"]
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{figure(v, '.3f')}" for k, v in dynamics["peak_ratios"].items())
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
@@ -356,7 +372,7 @@ def run_clip(
     from deik.cleanup.clip_goals import GRAVITY, ClipGoals
     from deik.cleanup.document import clip_document
     from deik.cleanup.dynamics import FAR_DEGREES
-    from deik.cleanup.fix import fix_clip
+    from deik.cleanup.fix import MAX_PASSES, fix_clip
     from deik.cleanup.units import guess_unit, span
     from deik.io.bvh import read_bvh, write_bvh
 
@@ -368,6 +384,8 @@ def run_clip(
     )
     check_outputs(*outputs)
     check_device(args.device)
+    if args.passes is not None and not 0 <= args.passes <= MAX_PASSES:
+        raise UsageError(f"--passes {args.passes}: give a whole number from 0 to {MAX_PASSES}")
     if args.report_3d and not args.report:
         raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
     if args.report:
@@ -406,8 +424,12 @@ def run_clip(
         described = contacts.describe().replace("\n", "\n  ")
         log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
     overrides = {
-        k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
+        k: getattr(args, k)
+        for k in ("population", "generations", "seed", "device", "time_limit")
+        if getattr(args, k, None) is not None
     }
+    if getattr(args, "memory_limit", None) is not None:
+        overrides["memory_limit"] = max(1, int(args.memory_limit * 2**30))
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         progress = frames_reporter(bar, "every goal", on_frames)

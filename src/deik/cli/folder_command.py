@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 from deik.cli.arguments import USER_ERRORS, UsageError, check_device
 from deik.errors import InputError, error_line
 from deik.io.files import check_not_input, command_inputs
+from deik.viz.text import figure
 
 if TYPE_CHECKING:  # deik.library loads when a folder is run
     from deik.library.jobs import Job
@@ -193,8 +194,7 @@ def _cell(key: str):
     """A summary column's pick: the record's metric `key` to 4 digits, "-" when absent."""
 
     def pick(record: dict) -> str:
-        value = (record.get("metrics") or {}).get(key)
-        return "-" if value is None else f"{value:.4g}"
+        return figure((record.get("metrics") or {}).get(key))
 
     return pick
 

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
-from deik.viz.text import format_table
+from deik.viz.text import figure, format_table
 
 FRAMES = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
 SHOWN = (
@@ -115,7 +115,7 @@ def run_retarget(
     summary = result.report["summary"]
     if record is not None:
         record.update(frames=summary["frames_count"], metrics=dict(summary))
-    rows = [[label, unit, f"{summary[key]:.4g}"] for key, label, unit in SHOWN if key in summary]
+    rows = [[label, unit, figure(summary[key])] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
     print(
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
