@@ -383,6 +383,25 @@ def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
     assert "MISSED: a_chain_reach" in capsys.readouterr().out
 
 
+def test_ctrl_c_during_the_demo_writes_nothing_as_it_says(tmp_path, capsys, monkeypatch):
+    from deik.experiments import demo
+
+    scenarios, solved = chain_scenarios(n_links=3, seed=1), []
+
+    def interrupted(problem, **settings):
+        if solved:  # the first scenario is solved and drawn, the second interrupted
+            raise KeyboardInterrupt
+        solved.append(deik.solve(problem, **settings))
+        return solved[-1]
+
+    monkeypatch.setattr(demo, "solve", interrupted)
+    monkeypatch.setattr(demo, "chain_scenarios", lambda: scenarios)
+    monkeypatch.setattr(demo, "humanoid_scenario", lambda: scenarios[0])
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--quiet"]) == 130
+    assert "deik: interrupted; nothing was written" in capsys.readouterr().err
+    assert solved and list((tmp_path / "demo").iterdir()) == []
+
+
 def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert main(["experiments", "fig99", "--quick", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err

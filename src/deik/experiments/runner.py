@@ -17,15 +17,16 @@ import sys
 import time
 
 from deik.console import add_output_flags, configure_logging, progress_bar, show_progress
-from deik.errors import UsageError
+from deik.errors import UsageError, error_line
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
 from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
-from deik.io.atomic import save_atomically, write_text_atomically
+from deik.io.atomic import all_or_nothing, save_atomically, write_text_atomically
 
 PROG = "deik experiments"
 USAGE_ERROR = 2
+INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 EXPERIMENTS = {
     "fig2": fig2_chain.run,
     "fig3": fig3_population.run,
@@ -164,14 +165,36 @@ def main(argv: list[str] | None = None) -> int:
         return USAGE_ERROR
 
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
-    device, sections, start = DEVICES[args.device], [], time.perf_counter()
+    sections: list[Section] = []
+    try:
+        _run(args, names, sections, load)
+    except KeyboardInterrupt:
+        kept = ", ".join(s.name for s in sections) or "none"
+        print(
+            f"{PROG}: interrupted; the figures finished are kept whole ({kept}), nothing else was written",
+            file=sys.stderr,
+        )
+        return INTERRUPTED
+    except OSError as error:  # a full disk, a folder that turned read-only
+        kept = ", ".join(s.name for s in sections) or "none"
+        print(f"{PROG}: error: {error_line(error)}; the figures finished are kept whole ({kept})", file=sys.stderr)
+        return USAGE_ERROR
+    return 0
+
+
+def _run(args: argparse.Namespace, names: list[str], sections: list[Section], load: str) -> None:
+    """Run the experiments `names`, appending each finished Section to `sections`, then write
+    the report (and the --doc document). Each figure's PNG, CSV and section, and the report
+    with the document and its pictures, appear together or not at all (deik.io.atomic)."""
+    device, start = DEVICES[args.device], time.perf_counter()
     with progress_bar(len(names), PROG, "figure", show_progress(args)) as bar:
         for name in names:
             bar.set_postfix_str(name)
             began = time.perf_counter()
-            section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
-            section.seconds = time.perf_counter() - began
-            section.write(args.out)
+            with all_or_nothing():
+                section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
+                section.seconds = time.perf_counter() - began
+                section.write(args.out)
             sections.append(section)
             bar.update()
             with bar.external_write_mode():  # the lines go above the bar, not through it
@@ -183,14 +206,18 @@ def main(argv: list[str] | None = None) -> int:
     command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"
     if args.doc:
         command += f" --doc {os.path.relpath(args.doc)}"
+    with all_or_nothing():
+        if len(sections) > 1:
+            write_text_atomically(
+                os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load)
+            )
+        if args.doc:
+            figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures")
+            os.makedirs(figures, exist_ok=True)
+            for section in sections:
+                _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
+            write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
     if len(sections) > 1:
-        write_text_atomically(os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load))
         print(f"report: {os.path.join(args.out, 'report.md')} ({total:.0f} s in all)")
     if args.doc:
-        figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures")
-        os.makedirs(figures, exist_ok=True)
-        for section in sections:
-            _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
-        write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
         print(f"document: {args.doc}, pictures in {figures}")
-    return 0
