@@ -9,8 +9,13 @@ machine until Ctrl-C (needs deik[view]).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ipaddress
 import os
+import re
+import socket
 import sys
+import threading
 import webbrowser
 
 from deik.cleanup.units import METRES
@@ -22,6 +27,7 @@ from deik.viz.scene import Scene, figure_from_pose_file, figure_from_poses, targ
 
 DEFAULT_PORT = 8080
 DEFAULT_UP = (0.0, 1.0, 0.0)
+LOOKUP_SECONDS = 5.0  # how long --host may take to look up
 
 
 def add_arguments(v: argparse.ArgumentParser) -> None:
@@ -132,6 +138,41 @@ def build_scene(args: argparse.Namespace) -> Scene:
     return scene
 
 
+def check_host(host: str, timeout: float = LOOKUP_SECONDS) -> None:
+    """UsageError unless `host` (--host) is an address of this machine that can be served on:
+    a malformed address, a name that cannot be looked up within `timeout` seconds, or an
+    address of another machine would otherwise keep the server trying port after port."""
+    if re.fullmatch(r"[0-9.]+", host):
+        try:
+            ipaddress.IPv4Address(host)
+        except ValueError:
+            raise UsageError(f"--host {host!r} is not an IPv4 address (four numbers from 0 to 255)") from None
+    found: list = []
+    lookup = threading.Thread(target=lambda: found.append(_addresses(host)), daemon=True)
+    lookup.start()
+    lookup.join(timeout)
+    if not found:
+        raise UsageError(f"--host {host!r}: no answer looking it up within {timeout:g} s; give an IP address")
+    if not found[0]:
+        raise UsageError(f"--host {host!r}: no such host name; give an IP address such as 127.0.0.1")
+    for family, address in found[0]:
+        with contextlib.suppress(OSError), socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.bind((address, 0))
+            return
+    raise UsageError(
+        f"--host {host!r} is not an address of this machine; use 127.0.0.1 (this machine only) or 0.0.0.0 (every "
+        "network it is on)"
+    )
+
+
+def _addresses(host: str) -> list[tuple[int, str]]:
+    """(family, address) of each address `host` names; none when it cannot be looked up."""
+    try:
+        return [(info[0], info[4][0]) for info in socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)]
+    except (OSError, UnicodeError):
+        return []
+
+
 def _can_open_browser() -> bool:
     """Whether a graphical browser can open here: a display, macOS, Windows, or $BROWSER set
     (without one, Python's webbrowser may start a text browser in this terminal)."""
@@ -145,6 +186,7 @@ def run_view(args: argparse.Namespace) -> int:
 
     if not 0 <= args.port <= 65535:
         raise UsageError(f"--port {args.port}: give a port from 1 to 65535 (0: any free port)")
+    check_host(args.host)
     require_viser()
     scene = build_scene(args)
 
