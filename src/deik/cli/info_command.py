@@ -29,13 +29,17 @@ def joint_tree(skeleton: Skeleton) -> list[str]:
     """One line per joint (frame), indented by depth, with the URDF joint that moves it where its
     name differs (the key of its values in a pose), its DOF count and sites."""
     depth = np.zeros(skeleton.n_joints, int)
+    mimic_counts = np.bincount(skeleton.mimic_joint, minlength=skeleton.n_joints)
+    sites_on = {}  # joint -> its sites, gathered once (not one scan of every site per joint)
+    for site, joint in zip(skeleton.site_names, skeleton.site_joint.tolist()):
+        sites_on.setdefault(joint, []).append(site)
     lines = []
     for k, name in enumerate(skeleton.joint_names):
         if k:
             depth[k] = depth[skeleton.parents[k]] + 1
         dofs = skeleton.joint_dof_start[k + 1] - skeleton.joint_dof_start[k]
-        mimics = int((skeleton.mimic_joint == k).sum())
-        sites = [s for s, j in zip(skeleton.site_names, skeleton.site_joint) if j == k]
+        mimics = int(mimic_counts[k])
+        sites = sites_on.get(k, [])
         label = skeleton.joint_labels[k]
         notes = (
             ([f"moved by joint {label}"] if label != name else [])
