@@ -242,3 +242,68 @@ def test_a_full_disk_while_the_record_is_written_fails_that_clip_with_the_reason
     status, reason, _ = local.attempt(library_task, jobs[0], lambda done, total: None)
     assert status == "failed" and "internal error" not in reason
     assert reason.startswith("its outputs are written but its record is not (") and "No space left on device" in reason
+
+
+CTRL_C_RUN = """
+import sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[2])
+from helpers import library_task
+from deik.library.jobs import Job, fingerprint, sidecar_path
+from deik.library.run import run_library
+
+folder = Path(sys.argv[1])
+jobs = []
+for name in ("a.bvh", "b.bvh"):
+    source = folder / name
+    source.write_text("clip")
+    outputs = (str(folder / "out" / (source.stem + ".txt")),)
+    payload = {"outputs": outputs, "text": "x", "mode": "hang", "pid_file": str(folder / "out" / f"{name}.pid")}
+    key = fingerprint("test", {}, source, {}, outputs)
+    jobs.append(Job(name, str(source), outputs, sidecar_path(folder / "out", name), key, {}, payload))
+try:
+    run_library(jobs, library_task, workers=2, quiet=True)
+except KeyboardInterrupt:
+    print("interrupted", file=sys.stderr)
+    sys.exit(130)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_ctrl_c_ends_busy_workers_at_once_and_leaves_no_warning(tmp_path):
+    import subprocess
+
+    (tmp_path / "out").mkdir()
+    tests = os.path.dirname(os.path.abspath(__file__)).rsplit(os.sep, 1)[0]
+    run = subprocess.Popen(  # -c: the spawned workers do not run the script again as their __main__
+        [sys.executable, "-c", CTRL_C_RUN, str(tmp_path), tests],
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(list((tmp_path / "out").glob("*.pid"))) < 2:  # both workers busy
+            assert run.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        workers = [int(path.read_text()) for path in (tmp_path / "out").glob("*.pid")]
+        for pid in workers:  # a worker ignores SIGINT from its first instruction: the parent stops it
+            os.kill(pid, signal.SIGINT)
+        time.sleep(4.0)  # a worker that took it for Ctrl-C had ended by now
+        assert all(map(_running, workers))
+        os.killpg(run.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
+        status = run.wait(timeout=60)
+    finally:
+        run.kill()
+    err = run.stderr.read()
+    assert status == 130 and err == "interrupted\n", err  # no traceback, no leaked-semaphore warning
+    assert not any(map(_running, workers))
+
+
+def _running(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie, ended but not yet reaped by its parent, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as file:
+            return file.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
