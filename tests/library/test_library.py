@@ -167,6 +167,23 @@ def test_bad_executor_choices_say_what_to_do(tmp_path, monkeypatch):
         run_library(jobs, library_task, executor="ray")
 
 
+def test_a_ray_that_cannot_start_is_said_so_not_called_a_bug(tmp_path, monkeypatch):
+    ray = pytest.importorskip("ray", reason='Ray is an optional extra (pip install "deik[ray]"): not installed here')
+    from deik.errors import SolveError
+
+    def timed_out(**options):  # what ray.init raises when its processes start too slowly (a memory cap)
+        raise RuntimeError(
+            "The current node timed out during startup. This could happen because some of the Ray "
+            "processes failed to startup.\nsee the logs"
+        )
+
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", timed_out)
+    jobs = _jobs(tmp_path, tmp_path, ["a.bvh"])
+    with pytest.raises(SolveError, match=r"the Ray executor could not start Ray on this machine \(.*timed out"):
+        run_library(jobs, library_task, executor="ray", quiet=True)
+
+
 def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
     pytest.importorskip("ray", reason='Ray is an optional extra (pip install "deik[ray]"): not installed here')
     # Ray's workers import the task by name: the instance started here passes them this path
@@ -178,7 +195,7 @@ def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
     run = run_library(jobs, library_task, executor="ray", quiet=True, note=lambda line: None)
     assert [o.status for o in run.outcomes] == ["done", "done", "failed"]
     assert run.outcomes[2].reason == "this clip is broken on purpose"
-    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[1]) is not None
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[1])[0] is not None
     assert "on Ray" in summary_line(run)
     again = run_library(jobs[:2], library_task, executor="ray", quiet=True)
     assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
