@@ -238,7 +238,7 @@ def parse_csv(text: str, source: str) -> list[tuple[int, list[str]]]:
     """[(line number, fields stripped of spaces)] of the non-blank lines of CSV `text` (commas,
     double quotes as in RFC 4180); FileFormatError naming the file and the line when malformed."""
     rows = []
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True, skipinitialspace=True)
     try:
         for fields in reader:
             if any(field.strip() for field in fields):
