@@ -59,11 +59,11 @@ def _not_a_dof(skeleton: Skeleton, name: str) -> str:
 
 def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, float]]:
     """The table in JSON file `path` for `skeleton`, rotations converted to radians; every
-    mistake raises a ValueError (or KeyError for an unknown DOF) naming the file."""
+    mistake (an unknown DOF too) raises a FileFormatError naming the file."""
     path = str(path)
     table = read_json(path, "limits (JSON)")
     if not isinstance(table, dict) or not table:
-        raise ValueError(f'{path}: must be a JSON object {{"DOF name": [lower, upper], ...}}')
+        raise FileFormatError(path, 'must be a JSON object {"DOF name": [lower, upper], ...}')
     limits = {}
     for name, bounds in table.items():
         if not (isinstance(bounds, list) and len(bounds) == 2):
@@ -75,7 +75,7 @@ def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, fl
     try:
         with_limits(skeleton, limits)
     except (KeyError, ValueError) as error:
-        raise type(error)(f"{path}: {error.args[0]}") from None
+        raise FileFormatError(path, error.args[0]) from None
     return limits
 
 
