@@ -8,7 +8,7 @@ a folder through the one-clip command, resumable, on local workers or Ray (deik.
 With a folder, the flags that name one output file name a folder instead, each created when
 its parent exists: each clip NAME.bvh gives OUTDIR/NAME.bvh (a URDF target's trajectory:
 NAME.csv), --json DIR/NAME.json, --report DIR/NAME.png, --view DIR/NAME.bvh, and its record
-OUTDIR/NAME.deik.json (deik.library.jobs), whose presence with the same settings and input
+OUTDIR/.NAME.bvh.deik.json (hidden; deik.library.jobs), whose presence with the same settings and input
 makes a rerun skip the clip. Every other flag applies to every clip.
 """
 
