@@ -246,3 +246,20 @@ def library_task(payload, progress):
         write_text_atomically(path, payload["text"])
     progress(2, 2)
     return {"frames": 2, "metrics": {"pid": os.getpid()}}
+
+
+def kill_when_ready(process, ready, timeout: float = 600) -> None:
+    """SIGKILL subprocess `process` as soon as the file `ready` (a Path) exists; the process
+    must still be running then (it is killed in any case)."""
+    import signal
+    import time
+
+    try:
+        deadline = time.monotonic() + timeout
+        while not ready.exists():
+            assert process.poll() is None and time.monotonic() < deadline, "the process ended before it was killed"
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        assert process.wait(timeout=60) == -signal.SIGKILL
+    finally:
+        process.kill()

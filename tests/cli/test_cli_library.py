@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import deik
+from benchmarks.fuzz_cli import SEED_BVH
 from deik.cli.app import main
 from helpers import ROOT, shared_path
 
@@ -158,37 +159,7 @@ def test_the_folder_flags_mistakes_get_one_line(tmp_path, capsys):
     assert "nomap.toml" in capsys.readouterr().err
 
 
-TOY_CLIP = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0.9 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Spine
-  {
-    OFFSET 0 0.2 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 0.3 0
-    }
-  }
-  JOINT LeftFoot
-  {
-    OFFSET 0.1 -0.4 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 -0.4 0
-    }
-  }
-}
-MOTION
-Frames: 3
-Frame Time: 0.033333
-0 0.9 0 0 0 0 0 5 0 0 0 0
-0 0.9 0.01 1 2 3 0 6 0 1 0 0
-0 0.91 0.02 2 4 6 0 7 0 2 0 0
-"""
+TOY_CLIP = SEED_BVH.replace("JOINT Leg", "JOINT LeftFoot")  # a foot: its contacts are detected
 
 
 def test_a_rerun_follows_every_reach_track_ignores_how_it_is_shown_and_keeps_reports_apart(tmp_path, capsys):

@@ -10,12 +10,12 @@ import resource
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
 from deik.cli.app import main
 from deik.io import atomic
+from helpers import kill_when_ready
 
 SOLVE = ["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--generations", "3", "--quiet"]
 
@@ -66,16 +66,7 @@ def test_a_solve_killed_between_its_moves_is_completed_by_the_next_command(tmp_p
     out.write_text('{"old": true}\n')
     ready = tmp_path / "ready"
     argv = [str(a) for a in SOLVE + ["--out", out, "--plot", picture]]
-    run = subprocess.Popen([sys.executable, "-c", KILLED_BETWEEN_MOVES, str(ready), *argv])
-    try:
-        deadline = time.monotonic() + 600
-        while not ready.exists():
-            assert run.poll() is None and time.monotonic() < deadline, "the solve ended before its moves"
-            time.sleep(0.05)
-        run.send_signal(signal.SIGKILL)
-        assert run.wait(timeout=60) == -signal.SIGKILL
-    finally:
-        run.kill()
+    kill_when_ready(subprocess.Popen([sys.executable, "-c", KILLED_BETWEEN_MOVES, str(ready), *argv]), ready)
     journals = [p.name for p in tmp_path.iterdir() if p.name.startswith(atomic.JOURNAL)]
     assert len(journals) == 1  # the commit was under way: one file moved, the other still to go
     # the next deik command reading in the folder completes the set before it reads

@@ -5,17 +5,16 @@ process is killed between its moves (deik.io.atomic)."""
 
 import json
 import os
-import signal
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
 
 from deik.errors import InputError
 from deik.io import atomic
 from deik.io.files import command_inputs, read_input
+from helpers import kill_when_ready
 
 
 def test_a_symlink_planted_at_the_temporary_name_is_never_written_through(tmp_path, monkeypatch):
@@ -103,16 +102,7 @@ def _killed_writer(tmp_path, pause: str):
         (folder / name).write_text(text)
     script = tmp_path / "writer.py"
     script.write_text(textwrap.dedent(WRITER))
-    process = subprocess.Popen([sys.executable, str(script), str(folder), pause])
-    try:
-        deadline = time.monotonic() + 120
-        while not (tmp_path / "ready").exists():
-            assert process.poll() is None and time.monotonic() < deadline, "the writer ended before it was killed"
-            time.sleep(0.02)
-        process.send_signal(signal.SIGKILL)
-        assert process.wait(timeout=30) == -signal.SIGKILL
-    finally:
-        process.kill()
+    kill_when_ready(subprocess.Popen([sys.executable, str(script), str(folder), pause]), tmp_path / "ready")
     return folder
 
 
