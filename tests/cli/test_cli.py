@@ -428,3 +428,11 @@ def test_demo_prints_its_table_without_matplotlib(tmp_path):
     assert "every scenario met its targets" in run.stdout and "no pictures" in run.stdout
     assert "position tip" in run.stdout and not list(tmp_path.glob("*.png"))
     assert (tmp_path / "demo.json").exists()
+
+
+def test_negative_numbers_in_any_notation_are_values_not_options(tmp_path):
+    out = tmp_path / "pose.json"
+    argv = ["solve", "chain3d:3", "--reach", "tip", "1.5", "-1e-3", "-.5", "--generations", "3", "--quiet"]
+    assert main(argv + ["--out", str(out)]) == 0
+    targets = json.loads(out.read_text())["targets"]
+    assert targets[0]["position"] == [1.5, -0.001, -0.5]
