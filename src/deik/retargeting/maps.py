@@ -104,7 +104,9 @@ def parse_map(data: object, source: str) -> JointMap:
     scale = data.get("scale", "height")
     if scale not in ("height", "limbs"):
         if isinstance(scale, str) or isinstance(scale, bool) or not isinstance(scale, (int, float)):
-            raise FileFormatError(source, f'must be "limbs", "height" or a number, got {scale!r:.40}', element="scale")
+            raise FileFormatError(
+                source, f'must be "limbs", "height" or a number > 0, got {scale!r:.40}', element="scale"
+            )
         scale = number_value(scale, source, "scale", 0.0, MAX_LENGTH)
         if scale <= 0:
             raise FileFormatError(source, f'must be "limbs", "height" or a number > 0, got {scale:g}', element="scale")

@@ -156,7 +156,7 @@ class Engine:
         return Seeds(kernel_array(init, dtype), init.shape[1])
 
     def check_memory(self) -> None:
-        """ValueError with the estimate and the fix when a solve's buffers would not fit
+        """SolveError with the estimate and the fix when a solve's buffers would not fit
         (deik.memory)."""
         B, P, D, T, L, dtype, _ = self.sizes
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)

@@ -5,6 +5,7 @@ The strategy, limit-mode and device names map to the kernels' codes (deik.device
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,9 +150,17 @@ def _number(name: str, value, meaning: str) -> None:
     if (
         isinstance(value, (bool, np.bool_))
         or not isinstance(value, (int, float, np.integer, np.floating))
-        or not abs(value) < 1e300  # finite, and an integer of 400 digits is not
+        or not _finite(value)
     ):
         raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r:.60}")
+
+
+def _finite(value) -> bool:
+    """Whether a number is finite (an integer too large for a float, of 400 digits, is not)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _boolean(name: str, value) -> None:
