@@ -4,9 +4,10 @@ The frame count and channel count are known before any frame is read, so the (N,
 sized once, after two checks: the file must have room for N lines of C numbers (a header that
 claims more frames than the bytes left is a truncated or corrupt file, refused before any
 allocation), and the array, the clip built from it and its copy must fit the memory limit
-(deik.memory). Each block of about BLOCK_BYTES is converted by NumPy's C reader in one call; only
-a block that fails is checked line by line, so that the error names the first bad line. Peak
-memory is about three times the frames' float64 size (the file is never held whole).
+(deik.memory). Each block of about BLOCK_BYTES is converted by NumPy's C reader in one call, from
+its bytes; only a block that fails is decoded and checked line by line, so that the error names
+the first bad line. Peak memory is about twice the frames' float64 size, the values and the
+clip's frames, plus a block (the file is never held whole).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from deik.memory import check_memory
 
 BLOCK_BYTES = 8 << 20
 MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
-COPIES = 3  # float64 arrays of the frames' size alive at once: the values, the clip's frames, its copy
+COPIES = 2  # float64 arrays of the frames' size alive at once: the values, the clip's frames
 
 
 class FrameReader:
@@ -101,21 +102,22 @@ class FrameReader:
 
     def _block(self, block: bytes, values: np.ndarray, row: int, frames_line: int) -> int:
         """Convert the lines of `block` (starting at line self.line) into values[row:]; the next row."""
-        text = self._text(block)
-        if not text.strip():
+        if not block.strip():
             return row
         count, expected = values.shape
         parsed = None
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                parsed = np.loadtxt(io.StringIO(text), dtype=np.float64, comments=None, ndmin=2)
-            except ValueError:
-                pass
+        if block.isascii() and b"\0" not in block:  # numbers are ASCII: read the bytes, no text copy
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                try:
+                    parsed = np.loadtxt(io.BytesIO(block), dtype=np.float64, comments=None, ndmin=2)
+                except ValueError:
+                    pass
         good = parsed is not None and parsed.shape[1:] == (expected,) and np.all(np.abs(parsed) <= MAX_MAGNITUDE)
         if good and row + len(parsed) <= count:  # (NaN fails the magnitude test)
             values[row : row + len(parsed)] = parsed
             return row + len(parsed)
+        text = self._text(block)
         for k, line in enumerate(text.split("\n")):  # line by line: the first bad line is named
             line = line.strip()
             if not line:
