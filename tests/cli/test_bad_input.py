@@ -252,7 +252,7 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
     assert not list(tmp_path.glob("*.json")) and not list(tmp_path.glob(".*"))
 
 
-def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
+def test_a_solve_beyond_memory_is_refused_before_allocating(tmp_path, capsys):
     problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
     with pytest.raises(
         SolveError, match=r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"
@@ -262,6 +262,11 @@ def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
         deik.solve(problem, population=100_000, memory_limit=2**20)
     status, err = _cli(["solve", "chain:10", "--reach", "tip", 5, 5, 0, "--population", 1_000_000_000], capsys)
     assert status == 2 and "--memory-limit GIB" in err and err.count("\n") == 1
+    clip = tmp_path / "walk.bvh"  # a clip frame seeds a quarter of the population around it: guarded too
+    clip.write_text(TOY_BVH)
+    argv = ["solve", "--skeleton", clip, "--frame", 0, "--reach", "Arm_end", 0, 1.5, 0.5, "--population", 10**9]
+    status, err = _cli(argv + ["--quiet"], capsys)
+    assert status == 2 and "250000000 poses around a pose needs about" in err and err.count("\n") == 1
 
 
 def test_memory_estimate_covers_what_a_solve_allocates():

@@ -241,8 +241,9 @@ def run_solve(args: argparse.Namespace) -> int:
     check_device(settings.device)
     initial = None
     if frame_pose is not None:
+        count = max(1, settings.population // SEED_FRACTION)
         initial = poses_around(
-            problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed
+            problem.skeleton, frame_pose, count, seed=settings.seed, memory_limit=settings.memory_limit
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
