@@ -270,7 +270,7 @@ def test_a_solve_beyond_memory_is_refused_before_allocating(tmp_path, capsys):
 
 
 def test_memory_estimate_covers_what_a_solve_allocates():
-    from deik.solver.memory import solve_bytes
+    from deik.solver.footprint import solve_bytes
 
     problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
     engine = deik.Engine(problem, deik.Settings(population=64, generations=50, polish=0))

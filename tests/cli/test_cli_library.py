@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import deik
-from benchmarks.fuzz_cli import SEED_BVH
 from deik.cli.app import main
 from helpers import ROOT, shared_path
 
@@ -159,7 +158,7 @@ def test_the_folder_flags_mistakes_get_one_line(tmp_path, capsys):
     assert "nomap.toml" in capsys.readouterr().err
 
 
-TOY_CLIP = SEED_BVH.replace("JOINT Leg", "JOINT LeftFoot")  # a foot: its contacts are detected
+TOY_CLIP = (ROOT / "benchmarks/fuzz_seeds/seed.bvh").read_text().replace("JOINT Leg", "JOINT LeftFoot")  # a foot
 
 
 def test_a_rerun_follows_every_reach_track_ignores_how_it_is_shown_and_keeps_reports_apart(tmp_path, capsys):

@@ -43,7 +43,7 @@ from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
 from deik.objectives.reference import raw_errors
 from deik.objectives.self_collision import SelfCollision
-from deik.solver.memory import solve_bytes
+from deik.solver.footprint import solve_bytes
 from deik.solver.seeding import poses_around
 from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, solve

@@ -19,7 +19,7 @@ from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
 from deik.device.layout import Buffers, KernelSettings, PackedTerms, PolishSchedule, SearchRules, Status
 from deik.memory import check_memory
 from deik.objectives.kinds import TOLERANCE, WEIGHT
-from deik.solver.memory import solve_bytes
+from deik.solver.footprint import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.result import ReportTerms
 from deik.solver.routing import choose_device

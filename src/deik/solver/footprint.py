@@ -1,4 +1,4 @@
-"""The memory a solve needs, estimated before anything is allocated (checked by deik.memory)."""
+"""A solve's memory footprint, estimated before anything is allocated (checked by deik.memory)."""
 
 from __future__ import annotations
 
