@@ -92,10 +92,10 @@ def info(path: Path) -> str:
 
 def peak_read_memory(path: Path) -> float:
     """Peak resident memory a fresh process adds while it reads the BVH at `path`, over its size."""
-    code = (
-        "import resource, sys, deik; from deik.io.bvh import read_bvh; "
-        "before = int(open('/proc/self/status').read().split('VmRSS:')[1].split()[0]); read_bvh(sys.argv[1]); "
-        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before)"
+    code = (  # VmHWM, the process's own peak (ru_maxrss keeps the forking parent's)
+        "import sys, deik; from deik.io.bvh import read_bvh; "
+        "status = lambda key: int(open('/proc/self/status').read().split(key + ':')[1].split()[0]); "
+        "before = status('VmRSS'); read_bvh(sys.argv[1]); print(status('VmHWM') - before)"
     )
     run = subprocess.run([sys.executable, "-c", code, str(path)], check=True, capture_output=True, text=True)
     return int(run.stdout) * 1024 / path.stat().st_size

@@ -229,7 +229,15 @@ def _fake_experiment(name, failure=None):
         write_text_atomically(f"{out_dir}/{name}.png", "not really a picture")
         if failure is not None:
             raise failure
-        return Section(name, f"Fig. {name}: x", "claim", "headline", "measurement", "differences", "command")
+        return Section(
+            name=name,
+            title=f"Fig. {name}: x",
+            claim="claim",
+            headline="headline",
+            measurement="measurement",
+            differences="differences",
+            command="command",
+        )
 
     return run
 

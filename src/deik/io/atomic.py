@@ -198,6 +198,18 @@ def all_or_nothing() -> Iterator[None]:
         _commit(pending)
 
 
+@contextlib.contextmanager
+def scratch() -> Iterator[None]:
+    """Inside the block every save_atomically moves its file into place at once, even within
+    all_or_nothing(): for scratch files a command writes and reads back (a picture drawn into
+    another), which are no outputs of it."""
+    token = _pending.set(None)
+    try:
+        yield
+    finally:
+        _pending.reset(token)
+
+
 def write_text_atomically(path: FilePath, text: str) -> None:
     """Write `text` (UTF-8) to `path` atomically."""
     save_atomically(path, lambda file: file.write(text.encode("utf-8")))
