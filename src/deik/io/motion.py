@@ -82,7 +82,9 @@ class Clip(KinematicsOnce):
 
     def __post_init__(self):
         sk = self.skeleton
-        frames = np.array(self.frames, dtype=np.float64)
+        frames = self.frames
+        if not (isinstance(frames, np.ndarray) and frames.dtype == np.float64 and _sealed(frames)):
+            frames = np.array(frames, dtype=np.float64)  # the caller's array: a copy nobody else can change
         if frames.ndim != 2 or frames.shape[1] != sk.n_dofs:
             raise InputError(f"frames must have shape (N, {sk.n_dofs}), got {frames.shape}")
         if not np.isfinite(frames).all():
@@ -175,7 +177,9 @@ class Clip(KinematicsOnce):
         if values.ndim != 2 or values.shape[1] != len(dofs):
             raise InputError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
         frames = np.empty((values.shape[0], skeleton.n_dofs))
-        frames[:, dofs] = values / scale
+        for column, (dof, factor) in enumerate(zip(dofs, scale)):  # column by column: no (N, C) temporary
+            np.divide(values[:, column], factor, out=frames[:, dof])
+        frames.setflags(write=False)  # sealed: the clip takes it as it is, without a copy
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
 
     @classmethod
@@ -189,6 +193,12 @@ class Clip(KinematicsOnce):
             raise InputError(f"poses must have shape (N, {skeleton.n_dofs}), got {poses.shape}")
         mass_source = f"skeleton {skeleton.name!r} ({skeleton.total_mass:g} kg)"
         return cls(skeleton, poses, frame_time, layout, source or f"<poses of {skeleton.name}>", mass_source)
+
+
+def _sealed(array: np.ndarray) -> bool:
+    """Whether `array` is read-only and owns its memory (no writable view of it exists), so a
+    Clip may keep it without a copy."""
+    return not array.flags.writeable and array.flags.owndata and array.flags.c_contiguous
 
 
 def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
