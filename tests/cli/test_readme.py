@@ -4,10 +4,12 @@ command may read what an earlier one wrote), from a folder laid out like a clone
 that is neither a `deik` command nor an example script must be in
 readme_commands.EXCLUDED with the reason it cannot run here and what runs it
 instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every
-goal within its tolerances. tests/cli/test_wheel.py runs the same lines against a fresh wheel
-install."""
+goal within its tolerances; mypy checks the Python blocks against deik's real types.
+tests/cli/test_wheel.py runs the same lines against a fresh wheel install."""
 
 import os
+import re
+import subprocess
 import sys
 
 import pytest
@@ -55,3 +57,46 @@ def test_every_python_block_runs_and_the_first_meets_its_goals(capsys):
             result = namespace["result"]
             assert bool(result.converged) and all(bool(goal.met) for goal in result.goals)
             assert "pelvis" in namespace["pose"] and capsys.readouterr().out.count("met=True") == len(result.goals)
+            # the units its comment lists are those the goals print
+            listed = re.findall(r'"([^"]+)"', re.search(r"# .*in goal\.unit: (.*)", block)[1])
+            assert {goal.unit for goal in result.goals} <= set(listed), listed
+
+
+# Four mistakes a type checker must catch in code like the README's: a setting's name and a
+# tolerance's type, a result field's type, a public name that does not exist. Each would pass if
+# deik's lazily loaded names (PEP 562) reached mypy as Any.
+WRONG = """
+import deik
+problem = deik.Problem(deik.chain(3), [deik.Position("tip", [1, 1, 0], tolerance="big")])
+result = deik.solve(problem, populaton=64)
+converged: str = result.converged
+deik.solv(problem)
+"""
+WRONG_ERRORS = (
+    'wrong.py:3: error: Argument "tolerance" to "Position" has incompatible type "str"',
+    'wrong.py:4: error: Unexpected keyword argument "populaton" for "solve"; did you mean "population"?',
+    'wrong.py:5: error: Incompatible types in assignment (expression has type "ndarray',
+    'wrong.py:6: error: Module has no attribute "solv"',
+)
+
+
+@pytest.mark.slow  # mypy reads deik and NumPy: 40 s without its cache on two loaded cores
+def test_mypy_passes_the_readme_python_blocks_and_sees_deik_s_real_types(tmp_path):
+    pytest.importorskip("mypy", reason="mypy type-checks the README's Python: pip install mypy (in deik[test])")
+    files = []
+    for number, block in enumerate(blocks("python")):
+        files.append(tmp_path / f"readme_block_{number + 1}.py")
+        files[-1].write_text(block)
+    (tmp_path / "wrong.py").write_text(WRONG)
+    run = subprocess.run(
+        [sys.executable, "-m", "mypy", "--cache-dir", str(tmp_path / "cache"), *map(str, files), "wrong.py"],
+        cwd=tmp_path,
+        env={**os.environ, "MYPYPATH": str(ROOT / "src")},
+        capture_output=True,
+        text=True,
+    )
+    errors = [line for line in run.stdout.splitlines() if ": error: " in line]
+    assert [line for line in errors if not line.startswith("wrong.py")] == [], run.stdout
+    for expected in WRONG_ERRORS:
+        assert any(line.startswith(expected) for line in errors), (expected, run.stdout)
+    assert len(errors) == len(WRONG_ERRORS), run.stdout
