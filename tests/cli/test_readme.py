@@ -4,7 +4,8 @@ command may read what an earlier one wrote), from a folder laid out like a clone
 that is neither a `deik` command nor an example script must be in
 readme_commands.EXCLUDED with the reason it cannot run here and what runs it
 instead, so no line goes unchecked unnoticed; a solve that writes a pose JSON must meet every
-goal within its tolerances; mypy checks the Python blocks against deik's real types.
+goal within its tolerances, and the numbers the README states beside a command must be what it
+measures (readme_figures); mypy checks the Python blocks against deik's real types.
 tests/cli/test_wheel.py runs the same lines against a fresh wheel install."""
 
 import os
@@ -24,6 +25,7 @@ from readme_commands import (
     run_lines,
     runnable,
 )
+from readme_figures import FIGURES, check, command_record
 
 
 def test_every_bash_line_is_run_or_excluded_with_a_reason():
@@ -35,6 +37,19 @@ def test_every_bash_line_is_run_or_excluded_with_a_reason():
     assert sum(runnable(line, gpu=False) for line in lines) >= 13
 
 
+def _table_units(printed: str) -> list[str]:
+    """The units of the error and tolerance cells of `deik solve`'s goal table in `printed`."""
+    lines = printed.splitlines()
+    start = next(k for k, line in enumerate(lines) if line.split() == ["goal", "error", "tolerance", "met"])
+    units = []
+    for line in lines[start + 2 :]:
+        cells = re.split(r" {2,}", line.strip())
+        if len(cells) != 4:
+            break
+        units += [cell.split(" ", 1)[1].replace("rad+", "") for cell in cells[1:3] if cell != "-"]
+    return units
+
+
 @pytest.mark.shared_data
 def test_every_readme_line_runs_as_written(tmp_path, shared_data):
     clone = clone_beside_shared(tmp_path, shared_data)
@@ -44,7 +59,15 @@ def test_every_readme_line_runs_as_written(tmp_path, shared_data):
     for record in records:
         assert record["status"] == 0, f"{record['line']}\n{record['stderr']}"
         assert record.get("converged", True), f"{record['line']}: a README solve misses a goal"
+        if record.get("length_unit"):  # the solve's table names the unit its pose file names
+            assert set(_table_units(record["stdout"])) <= {record["length_unit"], "deg"}, record["line"]
     assert len(records) == len(lines) >= 13
+    # the numbers the README states beside these commands are what they measure
+    contradicted = []
+    for figure in FIGURES:
+        if not figure.from_results:
+            contradicted += check(figure, command_record(figure, records, clone))
+    assert contradicted == []
 
 
 def test_every_python_block_runs_and_the_first_meets_its_goals(capsys):
