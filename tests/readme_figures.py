@@ -10,6 +10,8 @@ or heading before or after it, outside `code spans`) is either
 - a SETTING: a number that is not a measurement (a flag's value, a threshold deik uses, an exit
   status), listed with the reason.
 A number in neither list fails the test, which names it and asks for it to be added to one.
+Figures of other documents (docs/install.md's tables) are checked the same way, against the
+results files they quote.
 """
 
 from __future__ import annotations
@@ -43,12 +45,14 @@ class Figure:
     command that measures them (the start of its line) or a results file under
     benchmarks/results ("clip_quality.json"); `measure(record)`, the measured values, one per
     group, from the command's record ({"stdout": str, "json": what it wrote with --json}) or
-    the results file's JSON; `tolerance`, one for every group or one per group."""
+    the results file's JSON; `tolerance`, one for every group or one per group; `document`, the
+    file under the checkout that states it (the README unless said)."""
 
     pattern: str
     source: str
     measure: Callable[[dict], list[float]]
     tolerance: Tolerance | tuple[Tolerance, ...] = "shown"
+    document: str = "README.md"
 
     @property
     def from_results(self) -> bool:
@@ -229,6 +233,41 @@ FIGURES = (
     ),
 )
 
+# docs/install.md's table of what `pip install .` brings, and its extras, from the same results
+INSTALL = "docs/install.md"
+FIGURES += tuple(
+    Figure(rf"\| {name} \| [\d.]+ \| ([\d.]+) \|", WHEEL, lambda r, name=name: [_package(r, name)], document=INSTALL)
+    for name in ("llvmlite", "numpy", "numba", "lxml", "deik", "tqdm")
+) + (
+    Figure(
+        r"\*\*Numba's stack\*\* \| \| \*\*([\d.]+)\*\*.*\*\*deik's additions\*\* \| \| \*\*([\d.]+)\*\*.*"
+        r"\*\*(\d+) packages\*\* \| \| \*\*([\d.]+)\*\*",
+        WHEEL,
+        lambda r: [r["numba_stack"]["megabytes"], r["deik_additions"]["megabytes"], r["package_count"], r["megabytes"]],
+        document=INSTALL,
+    ),
+    Figure(
+        r"matplotlib and its dependencies: (\d+) packages and ([\d.]+) MB with deik's own, (\d+) MB more",
+        "benchmarks/results/wheel_install_viz.json",
+        lambda r: [
+            r["package_count"],
+            r["megabytes"],
+            r["megabytes"] - json.loads((ROOT / WHEEL).read_text())["megabytes"],
+        ],
+        document=INSTALL,
+    ),
+    Figure(
+        r"pycollada \(DAE meshes, ([\d.]+) MB with its dependencies\): (\d+) packages and (\d+) MB beside",
+        "benchmarks/results/view_install.json",
+        lambda r: [
+            sum(r["added_mb_by_package"][name] for name in ("pycollada", "python-dateutil", "tzdata")),
+            r["added_packages"],
+            r["added_mb"],
+        ],
+        document=INSTALL,
+    ),
+)
+
 # Numbers beside a command that are not measurements: {pattern: why}. Every number a pattern's
 # match covers counts as explained.
 SETTINGS = {
@@ -288,11 +327,15 @@ def agrees(text: str, measured: float, tolerance: Tolerance) -> bool:
 
 
 def check(figure: Figure, record: dict, text: str | None = None) -> list[str]:
-    """What the README (or `text`) states that `record` (figure.measure's input) contradicts:
-    one line per number, or a line saying the pattern does not match once; [] when all agree."""
-    found = re.findall(figure.pattern, collapsed(README.read_text() if text is None else text))
+    """What the figure's document (or `text`) states that `record` (figure.measure's input)
+    contradicts: one line per number, or a line saying the pattern does not match once; []
+    when all agree."""
+    found = re.findall(figure.pattern, collapsed((ROOT / figure.document).read_text() if text is None else text))
     if len(found) != 1:
-        return [f"README: {len(found)} matches of {figure.pattern!r} (one expected): reword the figure or the pattern"]
+        return [
+            f"{figure.document}: {len(found)} matches of {figure.pattern!r} (one expected): reword the figure or "
+            "the pattern"
+        ]
     groups = found[0] if isinstance(found[0], tuple) else (found[0],)
     tolerances = figure.tolerance if isinstance(figure.tolerance, tuple) else (figure.tolerance,) * len(groups)
     numbers = [(part, tol) for group, tol in zip(groups, tolerances) for part in values(group)]
@@ -300,7 +343,8 @@ def check(figure: Figure, record: dict, text: str | None = None) -> list[str]:
     if len(measured) != len(numbers):
         return [f"{figure.pattern!r}: {len(measured)} measured values for {len(numbers)} stated"]
     return [
-        f"README states {part} where {figure.source} measures {value:.6g} (tolerance: {tol}): {figure.pattern!r}"
+        f"{figure.document} states {part} where {figure.source} measures {value:.6g} (tolerance: {tol}): "
+        f"{figure.pattern!r}"
         for (part, tol), value in zip(numbers, measured)
         if not agrees(part, value, tol)
     ]

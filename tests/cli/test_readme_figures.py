@@ -1,6 +1,6 @@
 """The README's numbers against their measurements (tests/readme_figures.py): every number in the
 prose beside a command is a figure, measured, or a setting, explained; each figure a results file
-measures agrees with it; and the check catches a drifted figure, a number nobody explained and a
+measures agrees with it (docs/install.md's too); and the check catches a drifted figure, a number nobody explained and a
 pattern that no longer matches. The figures a README command measures are checked by
 tests/cli/test_readme.py::test_every_readme_line_runs_as_written, once the commands have run."""
 
@@ -49,7 +49,7 @@ def test_a_drifted_figure_a_lost_pattern_and_an_unexplained_number_are_caught():
     fixed_in = re.search(timing.pattern, collapsed(text))[1]
     drifted = collapsed(text).replace(f"fixed in {fixed_in} s", f"fixed in {float(fixed_in) * 2:.2f} s")
     (problem,) = check(timing, record, drifted)
-    assert f"README states {float(fixed_in) * 2:.2f} where benchmarks/results/clip_frames.json measures" in problem
+    assert f"README.md states {float(fixed_in) * 2:.2f} where benchmarks/results/clip_frames.json measures" in problem
     lost = collapsed(text).replace("best of three runs", "the best of three runs")
     assert "0 matches" in check(timing, record, lost)[0]
     added = text.replace(
