@@ -44,7 +44,7 @@ def _table_units(printed: str) -> list[str]:
     units = []
     for line in lines[start + 2 :]:
         cells = re.split(r" {2,}", line.strip())
-        if len(cells) != 4:
+        if len(cells) != 4 or cells[3] not in ("yes", "NO"):
             break
         units += [cell.split(" ", 1)[1].replace("rad+", "") for cell in cells[1:3] if cell != "-"]
     return units
