@@ -22,8 +22,8 @@ CHAIN_UNIT = "link lengths"
 
 # One colour per kind of mark (RGB, 0-255), the same in PNGs and in the 3-D view, each distinct
 # enough to be found in a picture by its colour (the picture tests do). Bones are coloured by side
-# as a ship's or an aircraft's lights are: left (port) red, right (starboard) green, the middle
-# (spine, head, a robot's links) blue.
+# as a ship's or an aircraft's lights are: left (port) red (a crimson apart from the targets' red),
+# right (starboard) green, the middle (spine, head, a robot's links) blue.
 COLOURS = {
     "bone": (31, 119, 180),
     "left": (150, 20, 60),

@@ -22,7 +22,7 @@ from deik.viz.viewer_nodes import SceneNodes
 VIEW_HINT = 'the 3-D view needs viser: pip install "deik[view]"'
 BATCH_STEP_SECONDS = 0.5  # playing a batch shows each problem this long
 LEGEND = (
-    "**Colours**: bones and body of the left side red, of the right side green, of the middle blue; "
+    "**Colours**: bones and body of the left side crimson, of the right side green, of the middle blue; "
     "joints navy, **root** green, **tips** pink (named; frame axes: x red, y green, z blue), "
     "sites brown, targets red, centre of mass orange, support cyan, contacts olive, obstacles purple, "
     "the compared figure grey."

@@ -1,6 +1,6 @@
 """URDF robots in: `read_urdf(path, base=None, tip=None) -> Skeleton` (robot.py), on our own safe
 XML reader (safe_xml.py), the link tree (tree.py) and checked `<link>`/`<joint>` elements
-(elements.py)."""
+(elements.py); what they look like, for the 3-D view only: `read_visuals` (visuals.py)."""
 
 from deik.io.urdf.robot import read_urdf
 
