@@ -65,3 +65,4 @@ def test_a_stated_number_agrees_within_its_tolerance():
     assert agrees("28", 27.3, "shown") and not agrees("28", 26.9, "shown")
     assert agrees("3", 2.1, "at most") and not agrees("3", 3.01, "at most") and agrees("2,000", 2001, "at least")
     assert agrees("300", 299.0 * 1.1, 0.15) and not agrees("300", 400.0, 0.15)
+    assert agrees("0.5", 0.47, 0.05) and not agrees("0.5", 0.39, 0.05)  # a fraction, or one unit of the last digit

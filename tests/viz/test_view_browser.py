@@ -104,9 +104,10 @@ def _open(browser, url, body=False):
     page.on("pageerror", lambda error: console.append(("pageerror", str(error))))
     page.goto(url)
     page.get_by_text("Connected").wait_for(timeout=60_000)
-    page.get_by_label("names").uncheck()  # labels would cover the marks
+    # a loaded machine's software WebGL may take a while to answer a click
+    page.get_by_label("names").uncheck(timeout=120_000)  # labels would cover the marks
     if not body:
-        page.get_by_label("body").uncheck()
+        page.get_by_label("body").uncheck(timeout=120_000)
     for _ in range(100):  # until the scene has arrived over the websocket and been drawn
         if _bones(_shot(page)).sum() > 100:
             break

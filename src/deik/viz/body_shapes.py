@@ -4,12 +4,11 @@ A URDF robot shows its visual geometry (deik.io.urdf.visuals): its mesh files (S
 read by trimesh, with pycollada for DAE) where they are found, its boxes, cylinders, spheres and
 capsules otherwise. A link whose mesh cannot be found or read, and every link of a robot with
 no visual at all, falls back to a capsule along each bone that leaves it (ROBOT_RADIUS of the
-robot's height thick). A BVH character or a
-built-in skeleton gets a capsule along each bone, its radius the one self-collision gives the
-bone's joint (deik.model.capsules.default_radii: from the segment masses, or a tenth of the bone
-without masses), at least MIN_RADIUS of the body's height. Bones and solids of the left side
-are red, of the right side green, the middle blue (viz.marks.COLOURS); a robot's links keep
-their URDF colour.
+robot's height thick). A BVH character or a built-in skeleton gets a capsule along each bone,
+its radius the one self-collision gives the bone's joint (deik.model.capsules.default_radii:
+from the segment masses, or a tenth of the bone without masses), at least MIN_RADIUS of the
+body's height. Solids of the left side are crimson and of the right side green, as the bones
+(viz.marks.COLOURS); those of the middle take a robot link's URDF colour, else blue.
 
 trimesh (a dependency of viser, in the `view` extra) builds and reads the meshes; it is imported
 here only, when a view is built.

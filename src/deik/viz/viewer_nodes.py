@@ -177,17 +177,19 @@ class SceneNodes:
             frame = shape.frame
             if frame not in nodes:
                 nodes[frame] = api.add_frame(
-                    f"/figure/body/{figure.names[frame]}",
+                    f"/figure/body/{frame}",  # by index: a link name may hold a "/"
                     show_axes=False,
                     wxyz=tuple(figure.quaternions_wxyz[0, frame]),
                     position=tuple(figure.positions[0, frame]),
                 )
             api.add_mesh_simple(
-                f"/figure/body/{figure.names[frame]}/{k}",
+                f"/figure/body/{frame}/{k}",
                 shape.vertices,
                 shape.faces,
                 color=shape.colour,
                 opacity=BODY_OPACITY,
+                cast_shadow=False,  # shadows of many solids slow a browser without a GPU down to a crawl
+                receive_shadow=False,
             )
         return nodes
 
