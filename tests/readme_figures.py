@@ -98,9 +98,10 @@ def _walk(record: dict, part: str) -> dict:
     return next(clip for clip in record["clips"] if clip["clip"] == "humanoid3d_walk")[part]
 
 
-def _library(record: dict, key: str) -> list[float]:
-    """`key` of every clip retargeted onto every body in library.json."""
-    return [row[key] for rows in record["quality"].values() for row in rows if row["status"] == "done"]
+def _library(record: dict, key: str, body: str | None = None) -> list[float]:
+    """`key` of every clip retargeted onto every body (or onto `body`) in library.json."""
+    bodies = record["quality"] if body is None else {body: record["quality"][body]}
+    return [row[key] for rows in bodies.values() for row in rows if row["status"] == "done"]
 
 
 def _package(record: dict, name: str) -> float:
@@ -213,15 +214,29 @@ FIGURES = (
     ),
     Figure(
         r"key points ([\d-]+) mm from their targets on average, no limit violation, contacts sliding at most "
-        r"([\d.]+) mm per frame, nothing more than ([\d.]+) mm into the floor and bone capsules overlapping by at "
-        r"most ([\d.]+) mm",
+        r"([\d.]+) mm per frame on the robot and ([\d.]+) mm on the humanoid .*?, nothing more than ([\d.]+) mm "
+        r"into the floor and bone capsules overlapping by at most ([\d.]+) mm",
         "benchmarks/results/library.json",
         lambda r: [
             *_span(_library(r, "keypoint_error_mean_mm")),
-            max(_library(r, "contact_sliding_max_mm_per_frame")),
+            max(_library(r, "contact_sliding_max_mm_per_frame", "human.urdf")),
+            max(_library(r, "contact_sliding_max_mm_per_frame", "deik.humanoid()")),
             max(_library(r, "penetration_max_mm")),
             max(_library(r, "self_penetration_max_mm")),
         ],
+    ),
+    Figure(
+        r"slides at most ([\d.]+) mm per frame over every point resting in the source, goes at most ([\d.]+) mm "
+        r"under the floor, takes no joint step past its allowance and no wrap, and keeps each hand within (\d+) mm "
+        r"of its scaled source point \(the bound: 0\.1 statures, (\d+) mm on `human\.urdf`\)",
+        "benchmarks/results/retarget_quality.json",
+        lambda r: [
+            max(run["sliding_max_mm_per_frame"] for run in r["runs"]),
+            max(run["penetration_max_mm"] for run in r["runs"]),
+            max(run["wrist_distance_max_mm"] for run in r["runs"]),
+            max(run["wrist_bound_mm"] for run in r["runs"] if run["target"] == "human.urdf"),
+        ],
+        ("at most", "at most", "at most", "shown"),
     ),
     Figure(
         r"keeps the Panda's base and wrist within (\d+) degrees of their zero and its elbow between (-\d+) and "
@@ -290,8 +305,12 @@ SETTINGS = {
     r"by more than 5 % of the capture's largest acceleration": "the balance track's acceleration budget",
     r"moving more than 8 % of the body's reach": "the balance track's reach budget",
     r"A 1000-frame clip": "the benchmark's clip length",
-    r"10 % longer legs put them 8\.7 cm under it": "the legs' scale is the example's; the depth is measured by "
+    r"10 % longer legs put the feet 8\.7 cm under the floor": "the legs' scale is the example's; the depth is measured by "
     "tests/cli/test_readme_claims.py::test_longer_legs_sink_as_far_as_the_readme_says_without_a_retarget",
+    r"no \+-180 degree wraps": "a half turn: the wrap a joint value must not make between frames",
+    r"velocity limit and 1\.5 times the source's largest joint turn": "the step allowance onto a robot "
+    "(deik.retargeting.continuity), which benchmarks/retarget_quality.py checks every step against",
+    r"\(the bound: 0\.1 statures,": "the wrist bound of benchmarks/retarget_quality.py",
     r"\(exit status 1\)": "the exit status of a folder run with a failed clip",
     r"exit status 2": "the exit status of bad input",
     r"\(exit 3;": "the exit status of an internal error",

@@ -67,8 +67,26 @@ __version__ = "0.1.0"
 # The type checker sees each public name with its real type (imported `as` itself: an explicit re-export);
 # tests/model/test_annotations.py keeps these imports in step with _MODULES.
 if TYPE_CHECKING:
+    from deik.cleanup.clean import CleanedClip as CleanedClip
+    from deik.cleanup.clean import CleanOptions as CleanOptions
+    from deik.cleanup.clean import clean_clip as clean_clip
+    from deik.cli.solve_command import problem_from_flags as problem_from_flags
+    from deik.errors import DeikError as DeikError
+    from deik.errors import DeviceError as DeviceError
+    from deik.errors import FileFormatError as FileFormatError
+    from deik.errors import InputError as InputError
+    from deik.errors import SolveError as SolveError
+    from deik.errors import UnknownNameError as UnknownNameError
+    from deik.errors import UsageError as UsageError
+    from deik.experiments.demo import demo as demo
+    from deik.experiments.runner import run_experiments as run_experiments
     from deik.io.bvh import read_bvh as read_bvh
     from deik.io.bvh import write_bvh as write_bvh
+    from deik.io.describe import describe_skeleton as describe_skeleton
+    from deik.io.limits import range_of_motion as range_of_motion
+    from deik.io.limits import read_limits as read_limits
+    from deik.io.limits import with_limits as with_limits
+    from deik.io.limits import write_limits as write_limits
     from deik.io.load import load_skeleton as load_skeleton
     from deik.io.motion import Clip as Clip
     from deik.io.urdf import read_urdf as read_urdf
@@ -100,6 +118,8 @@ if TYPE_CHECKING:
     from deik.solver.engine import Engine as Engine
     from deik.solver.engine import EvolutionState as EvolutionState
     from deik.solver.problem import Problem as Problem
+    from deik.solver.problem_file import ProblemFile as ProblemFile
+    from deik.solver.problem_file import load_problem as load_problem
     from deik.solver.result import GoalReport as GoalReport
     from deik.solver.result import Result as Result
     from deik.solver.reusable import Solver as Solver
@@ -107,6 +127,10 @@ if TYPE_CHECKING:
     from deik.solver.settings import Settings as Settings
     from deik.solver.solve import solve as solve
     from deik.solver.solve import solve_batch as solve_batch
+    from deik.solver.warmup import warmup as warmup
+    from deik.viz.view import ViewOptions as ViewOptions
+    from deik.viz.view import view as view
+    from deik.viz.view import view_scene as view_scene
 else:  # at run time each name is imported on first use
 
     def __getattr__(name: str):
