@@ -3,12 +3,12 @@ whole pipeline (retargeting/rig.py) and with one step left out.
 
     python -m benchmarks.retarget_steps [--out benchmarks/results]
 
-Ways (each a patch of retargeting/rig.py's module names for the run, nothing else changed):
+Ways (each a patch of module names of retargeting/rig.py or settle.py for the run, nothing else changed):
 - all steps;
 - no outlier repair: ik.repair_outliers returns its poses (frames that settled in another basin
   than their neighbours stay there);
 - no smoothed restarts: REBASIN = 0 (each frame keeps the basin its own IK found);
-- no space-time pass: smooth.smooth_motion returns step 3's poses (no contact held, the
+- no space-time pass: settle.py's smooth_motion returns step 3's poses (no contact held, the
   capsules not kept apart; the floor only as the per-frame IK keeps it).
 Per clip and way the report's summary (retargeting/measures.py): key-point error mean and worst (mm),
 contact sliding max (mm/frame), floor and self-penetration max (mm), the key points' speed and
@@ -28,12 +28,12 @@ from deik.retargeting.api import retarget
 
 ROOT = Path(__file__).resolve().parents[1]
 MAP = ROOT / "examples" / "maps" / "shared_bvh_to_humanoid.toml"
-RIG = "deik.retargeting.rig"  # the module, not deik.retarget (the function of the same name)
-WAYS = {
+RIG, SETTLE = "deik.retargeting.rig", "deik.retargeting.settle"  # modules, not deik.retarget (the function)
+WAYS = {  # way: {module: {name: patch}}
     "all steps": {},
-    "no outlier repair": {"repair_outliers": lambda goals, poses: poses},
-    "no smoothed restarts": {"REBASIN": 0},
-    "no space-time pass": {"smooth_motion": lambda skeleton, first, *args, **kwargs: first},
+    "no outlier repair": {RIG: {"repair_outliers": lambda goals, poses: poses}},
+    "no smoothed restarts": {RIG: {"REBASIN": 0}},
+    "no space-time pass": {SETTLE: {"smooth_motion": lambda goals, first: first}},
 }
 MEASURES = (
     ("keypoint_error_mean_mm", "key points mean mm"),
@@ -50,11 +50,12 @@ MEASURES = (
 
 def measure() -> dict:
     """{way: {clip: the report's summary}} over every shared clip."""
-    rig = importlib.import_module(RIG)
     clips = sorted(need("humanoid").glob("*.bvh"))
     out = {}
-    for way, patches in WAYS.items():
-        with mock.patch.multiple(rig, **patches) if patches else contextlib.nullcontext():
+    for way, modules in WAYS.items():
+        with contextlib.ExitStack() as stack:
+            for module, patches in modules.items():
+                stack.enter_context(mock.patch.multiple(importlib.import_module(module), **patches))
             out[way] = {clip.name: retarget(clip, "humanoid", joint_map=MAP).report["summary"] for clip in clips}
         print(f"{way}: {len(clips)} clips", flush=True)
     return out

@@ -29,9 +29,9 @@ def pytest_sessionstart(session):
     side): it serves every problem (deik.backends.builds), so the suite compiles it alone instead
     of one build per set of goal kinds its tests happen to use. The tests of the per-kind builds
     choose theirs (tests/backends/test_compiling.py)."""
-    from deik.solver.readiness import warmup
+    from deik.solver.warmup import warmup
 
-    warmup(["float32", "float64"], show=False)
+    warmup(["float32", "float64"], progress=False)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -21,7 +21,6 @@ COMPILED_DECORATORS = {"linked", "njit", "jit"}
 NOT_YET = {
     "deik/solver/result.py:result": 9,
     "deik/retargeting/measures.py:retarget_report": 9,
-    "deik/retargeting/smooth.py:smooth_motion": 11,
 }
 
 

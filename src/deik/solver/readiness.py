@@ -15,12 +15,14 @@ by how this machine's earlier compiles compared with it.
 
 from __future__ import annotations
 
-import json
+import contextlib
 import logging
 import os
 import statistics
-import tempfile
 from typing import TYPE_CHECKING
+
+from deik.io.atomic import write_json_atomically
+from deik.io.files import read_json
 
 if TYPE_CHECKING:
     from deik.backends.contract import Seeds, SolveBuffers
@@ -138,12 +140,18 @@ def _record_path() -> str | None:
 
 def measured_seconds() -> dict:
     """{kernel name: compile seconds} recorded on this machine (empty if none or unreadable)."""
-    path = _record_path()
+    return read_record(_record_path())
+
+
+def read_record(path: str | None) -> dict:
+    """The JSON object deik recorded at `path` (a compile-time or crossover record), through the one
+    input reader; empty when there is none or it is damaged (deik's own record, never an input)."""
+    if path is None or not os.path.exists(path):
+        return {}
     try:
-        with open(path) as file:
-            data = json.load(file)
+        data = read_json(path, "deik record", record=False)
         return {str(k): float(v) for k, v in data.items()}
-    except (TypeError, OSError, ValueError, AttributeError):
+    except (TypeError, ValueError, AttributeError, OverflowError):
         return {}
 
 
@@ -230,7 +238,7 @@ def prepare(engine: Engine, work: SolveBuffers, seeds: Seeds, show: bool | None 
         found.append(cpu_backend.launch_job(engine.inputs, work, seeds))
     if engine.settings.dtype == "float32":
         found.append(cpu_backend.report_job(engine.skel64, engine.terms64))
-    _load([job for job in found if job is not None], show)
+    load_kernels([job for job in found if job is not None], show)
 
 
 def prepare_jacobians(skel: PackedSkeleton, show: bool | None = False) -> None:
@@ -238,39 +246,14 @@ def prepare_jacobians(skel: PackedSkeleton, show: bool | None = False) -> None:
     from deik.backends import cpu as cpu_backend
 
     job = cpu_backend.jacobians_job(skel)
-    _load([] if job is None else [job], show)
+    load_kernels([] if job is None else [job], show)
 
 
-def warmup(dtypes: list[str], show: bool | None = None) -> list[str]:
-    """Load or compile the CPU kernels of the build for every kind: the DE kernel with the polish
-    in each of `dtypes`, the float64 report and the clip warm start's Jacobians, side by side
-    with a bar; returns the names of those compiled."""
-    import numpy as np
-
-    from deik.backends import cpu as cpu_backend
-    from deik.backends.builds import ALL_KINDS
-    from deik.model.builders import chain
-    from deik.objectives.goals import Position
-    from deik.solver.engine import Engine
-    from deik.solver.problem import Problem
-    from deik.solver.settings import Settings
-    from deik.solver.workspace import Workspace
-
-    problem = Problem(chain(2, dims=3), [Position("tip", np.ones(3))])
-    found = []
-    for dtype in dtypes:
-        engine = Engine(problem, Settings(population=8, dtype=dtype))
-        work = Workspace()
-        work.prepare(engine)
-        found.append(cpu_backend.launch_job(engine.inputs, work.work, engine.initial_poses(None), ALL_KINDS))
-    found.append(cpu_backend.report_job(engine.skel64, engine.terms64, ALL_KINDS))
-    found.append(cpu_backend.jacobians_job(engine.skel64))
-    return _load([job for job in found if job is not None], show)
-
-
-def _load(found: list[tuple], show: bool | None) -> list[str]:
-    """Load the (kernel, build, signature) entry points found, compiling the missing ones side by
-    side after the compile note, and record their seconds; returns the names compiled."""
+def load_kernels(found: list[tuple], show: bool | None) -> list[str]:
+    """Load the (kernel, build, signature) entry points `found` (deik.backends.cpu's launch_job,
+    report_job, jacobians_job), compiling the missing ones side by side after the compile note,
+    with a bar (`show`: console.progress_bar's flag), and record their seconds; returns the
+    names of those compiled."""
     from deik.backends import cpu as cpu_backend
     from deik.backends.compiling import KernelJob, compile_all, missing
 
@@ -296,15 +279,7 @@ def _name(kernel: str, build: frozenset[str], signature: tuple, cpu_backend) -> 
 
 
 def write_json(path: str, data: dict) -> None:
-    """Replace the file at `path` with `data` in one step (a reader never sees half of it); a
-    folder that refuses it is left as it was."""
-    try:
-        handle, temporary = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
-    except OSError:
-        return
-    try:
-        with os.fdopen(handle, "w") as file:
-            json.dump(data, file)
-        os.replace(temporary, path)
-    except OSError:
-        os.unlink(temporary)
+    """Replace the file at `path` with `data` in one step (deik.io.atomic: a reader never sees
+    half of it); a folder that refuses it is left as it was."""
+    with contextlib.suppress(OSError):
+        write_json_atomically(path, data)
