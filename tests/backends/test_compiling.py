@@ -132,3 +132,24 @@ def test_a_first_float32_solve_compiles_its_two_kernels_in_workers_for_its_goal_
     (record,) = glob.glob(str(tmp_path / "**" / "deik-compile-seconds.json"), recursive=True)
     with open(record) as file:
         assert set(json.load(file)) == {"DE float32 without polish [position]", "report float64 [position]"}
+
+
+WARMUP_THEN_SOLVE = (
+    "import logging, sys\n"
+    "logging.basicConfig(stream=sys.stderr, level=logging.INFO, format='%(message)s')\n"
+    "from deik.solver.warmup import warmup\n"
+    "print('warmup compiled', warmup(['float64'])['compiled'])\n"
+    "print('after warmup', file=sys.stderr)\n"
+    "from deik.cli.app import main\n"
+    "main(['solve', 'chain:3', '--reach', 'tip', '1', '1', '0.5', '--dtype', 'float64'])\n"
+    "from deik.backends.targets import cpu_entry\n"
+    "print('position build used', bool(cpu_entry('launch', frozenset({'POSITION_ON'})).overloads))\n"
+)
+
+
+@pytest.mark.slow  # a real cold compile of the build for every kind (about 40 s on 2 cores)
+def test_after_a_cold_warmup_a_solve_in_the_same_process_runs_the_build_it_compiled(tmp_path):
+    run = _run(WARMUP_THEN_SOLVE, str(tmp_path))
+    assert "warmup compiled ['DE float64', 'report float64', 'clip warm start float64']" in run.stdout
+    assert "compiling" not in run.stderr.split("after warmup")[1]
+    assert "position build used False" in run.stdout

@@ -64,13 +64,21 @@ def report_build(switches: frozenset[str]) -> frozenset[str]:
     return _REPORTS[switches]
 
 
-def launch_args(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]):
+def launch_args(
+    fresh: bool,
+    inputs: KernelInputs,
+    work: SolveBuffers,
+    seeds: Seeds,
+    generations: tuple[int, int],
+    with_polish: bool | None = None,
+):
     """The arguments of cpu_kernels.launch for a launch, in the types it is compiled for;
-    generations (first, count). The PolishSchedule is None where the serving kernel has no LM."""
+    generations (first, count). The PolishSchedule is None where the kernel has no LM: the
+    serving kernel's (launch_build), or as `with_polish` says."""
     cur = work.current
-    dtype = cur.pop.dtype.name
-    polish = inputs.polish.iterations > 0
-    _, with_polish = launch_build(dtype, polish, builds.switches_of(inputs.terms.term_int))
+    if with_polish is None:
+        polish = inputs.polish.iterations > 0
+        _, with_polish = launch_build(cur.pop.dtype.name, polish, builds.switches_of(inputs.terms.term_int))
     return (
         fresh,
         cur,
@@ -110,25 +118,30 @@ def launch_job(
     inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, build: frozenset[str] | None = None
 ) -> tuple[str, frozenset[str], tuple] | None:
     """("launch", build, signature) of the DE kernel a solve with these inputs runs, or None when
-    this process has loaded it; `build`: that build's instead (of the same dtype and polish)."""
+    this process has loaded it; `build`: that build's instead, with the polish as the inputs ask
+    (which decides nothing about which build serves them: that build may not be compiled yet)."""
     switches = builds.switches_of(inputs.terms.term_int)
     key = (work.current.pop.dtype, bool(inputs.polish.iterations > 0), switches)
-    if build is None and key in _ENTRY_POINTS:
+    if build is not None:
+        args = launch_args(True, inputs, work, seeds, (0, 0), with_polish=key[1])
+        return "launch", build, tuple(numba.typeof(a) for a in args)
+    if key in _ENTRY_POINTS:
         return None
     serving, _ = launch_build(key[0].name, key[1], switches)
-    signature = tuple(numba.typeof(a) for a in launch_args(True, inputs, work, seeds, (0, 0)))
-    return "launch", serving if build is None else build, signature
+    return "launch", serving, tuple(numba.typeof(a) for a in launch_args(True, inputs, work, seeds, (0, 0)))
 
 
 def report_job(skel, terms, build: frozenset[str] | None = None) -> tuple[str, frozenset[str], tuple] | None:
     """("evaluate_poses", build, signature) of the float64 report of a float32 solve whose packed
     float64 skeleton and terms these are, or None when this process has loaded it; `build`: that
-    build's instead."""
-    serving = report_build(builds.switches_of(terms.term_int))
-    if build is None and (np.dtype(np.float64), serving) in _ENTRY_POINTS:
-        return None
+    build's instead (deciding nothing about which build serves them)."""
     signature = tuple(numba.typeof(a) for a in _evaluate_args(np.zeros((1, 1)), skel, terms, 1)[0])
-    return "evaluate_poses", serving if build is None else build, signature
+    if build is not None:
+        return "evaluate_poses", build, signature
+    serving = report_build(builds.switches_of(terms.term_int))
+    if (np.dtype(np.float64), serving) in _ENTRY_POINTS:
+        return None
+    return "evaluate_poses", serving, signature
 
 
 def jacobians_job(skel) -> tuple[str, frozenset[str], tuple] | None:
