@@ -109,3 +109,11 @@ def test_each_goal_kind_compiles_in_one_method_into_a_row_built_by_keyword():
         )
     for record in (registry.GoalKind, registry.Posed, registry.Term, deik.objectives.table.TermRow):
         assert all(f.kw_only for f in dataclasses.fields(record)), record.__name__
+
+
+def test_every_kind_has_exactly_one_compile_switch():
+    """A CPU build for a problem's kinds (deik.device.compiled_kinds) must know every kind."""
+    from deik.device.compiled_kinds import SWITCHES
+
+    switched = [kind for term_kinds in SWITCHES.values() for kind in term_kinds]
+    assert sorted(switched) == sorted(row.kind for row in KINDS)

@@ -9,20 +9,7 @@ orientation, centre of mass, support polygon or self-collision code. A switch ch
 compiled, never a result: a problem only ever reaches the branches of its own kinds.
 """
 
-from deik.objectives.kinds import (
-    AIM,
-    COM,
-    COM_GROUND,
-    COMFORT_MAX,
-    COMFORT_SUM,
-    FLOOR,
-    LIMITS,
-    OBSTACLE,
-    ORIENTATION,
-    POSITION,
-    SELF_COLLISION,
-    SUPPORT_POLYGON,
-)
+from deik.objectives import kinds
 
 POSITION_ON = True
 ORIENTATION_ON = True
@@ -38,15 +25,15 @@ CENTRE_OF_MASS_ON = True  # on when COM_ON or SUPPORT_POLYGON_ON is: the COM is 
 
 # each switch and the term kinds it compiles (CENTRE_OF_MASS_ON follows from the others)
 SWITCHES = {
-    "POSITION_ON": (POSITION,),
-    "ORIENTATION_ON": (ORIENTATION,),
-    "AIM_ON": (AIM,),
-    "COM_ON": (COM, COM_GROUND),
-    "SUPPORT_POLYGON_ON": (SUPPORT_POLYGON,),
-    "COMFORT_ON": (COMFORT_SUM, COMFORT_MAX),
-    "LIMITS_ON": (LIMITS,),
-    "OBSTACLE_ON": (OBSTACLE,),
-    "SELF_COLLISION_ON": (SELF_COLLISION,),
-    "FLOOR_ON": (FLOOR,),
+    "POSITION_ON": (kinds.POSITION,),
+    "ORIENTATION_ON": (kinds.ORIENTATION,),
+    "AIM_ON": (kinds.AIM,),
+    "COM_ON": (kinds.COM, kinds.COM_GROUND),
+    "SUPPORT_POLYGON_ON": (kinds.SUPPORT_POLYGON,),
+    "COMFORT_ON": (kinds.COMFORT_SUM, kinds.COMFORT_MAX),
+    "LIMITS_ON": (kinds.LIMITS,),
+    "OBSTACLE_ON": (kinds.OBSTACLE,),
+    "SELF_COLLISION_ON": (kinds.SELF_COLLISION,),
+    "FLOOR_ON": (kinds.FLOOR,),
 }
 CENTRE_OF_MASS_SWITCHES = frozenset({"COM_ON", "SUPPORT_POLYGON_ON"})  # the switches that sum the COM
