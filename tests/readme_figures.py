@@ -122,19 +122,23 @@ BALANCE = "deik clip ../shared/data/humanoid/humanoid3d_walk.bvh --plant-feet au
 
 WHEEL = "benchmarks/results/wheel_install.json"
 VIEW = "benchmarks/results/wheel_install_view.json"
-COLD = "benchmarks/results/compare/cold_start_372fd46_c98e650.json"
+COLD = "benchmarks/results/compare/cold_start_b549e62_9f6735a.json"
 
 
 def _cpu(record: dict, case: str) -> float:
-    """CPU seconds of a cold_start case on the checkout measured ("after")."""
-    return record["cases"][case]["after"]["cpu"]
+    """CPU seconds of a cold_start case on the checkout measured ("after", its first round)."""
+    return record["runs"]["after"][0]["cases"][case]["cpu"]
+
+
+def _cores(record: dict) -> int:
+    return record["runs"]["after"][0]["environment"]["cpu_count"]
 
 
 FIGURES = (
     Figure(
         r"says so first \(([\d-]+) s of CPU time on (\d+) cores",
         COLD,
-        lambda r: [*_span([_cpu(r, "first solve float32"), _cpu(r, "first solve float64")]), r["cpu_count"]],
+        lambda r: [*_span([_cpu(r, "first solve float32"), _cpu(r, "first solve float64")]), _cores(r)],
     ),
     Figure(r"about (\d+) s of CPU time on 2 cores for both dtypes", COLD, lambda r: [_cpu(r, "warmup")], 0.15),
     Figure(
