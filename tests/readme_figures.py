@@ -309,7 +309,8 @@ SETTINGS = {
     r"by more than 5 % of the capture's largest acceleration": "the balance track's acceleration budget",
     r"moving more than 8 % of the body's reach": "the balance track's reach budget",
     r"A 1000-frame clip": "the benchmark's clip length",
-    r"10 % longer legs put the feet 8\.7 cm under the floor": "the legs' scale is the example's; the depth is measured by "
+    r"10 % longer legs put the feet 8\.7 cm under the floor": "the legs' scale is the example's; the depth is "
+    "measured by "
     "tests/cli/test_readme_claims.py::test_longer_legs_sink_as_far_as_the_readme_says_without_a_retarget",
     r"no \+-180 degree wraps": "a half turn: the wrap a joint value must not make between frames",
     r"velocity limit and 1\.5 times the source's largest joint turn": "the step allowance onto a robot "
