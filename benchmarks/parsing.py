@@ -84,10 +84,10 @@ def bvh_siblings(n: int) -> str:
 
 def info(path: Path) -> str:
     """What `deik info` prints for the file at `path` (read and described)."""
-    from deik.cli.info_command import describe
-    from deik.io.load import load_skeleton
+    from deik.cli.info_command import format_info
+    from deik.io.describe import describe_skeleton
 
-    return describe(load_skeleton(str(path)), str(path))
+    return format_info(describe_skeleton(str(path)), str(path))
 
 
 def peak_read_memory(path: Path) -> float:
