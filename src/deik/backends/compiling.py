@@ -92,6 +92,7 @@ def time_bar(description: str, seconds: float, show: bool | None) -> Iterator[No
             yield
             return
         bar.delay = 0.0
+        bar.bar_format = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} s expected [{elapsed}]"
         done = threading.Event()
 
         def tick() -> None:
