@@ -84,6 +84,47 @@ def test_simulated_cuda_start_equals_cpu_bit_for_bit_in_float64():
         np.testing.assert_array_equal(np.array(cpu[key]), np.array(sim[key]), err_msg=key)
 
 
+def _team_runs(case, dtype="float64", paths=("team", "thread", "cpu")):
+    """tests/scripts/team_polish_run.py's answers per path: the GPU's team per problem, its thread
+    per problem (both in the simulator) and the CPU."""
+    return {path: json.loads(_run("team_polish_run.py", case, path, dtype, simulator=path != "cpu")) for path in paths}
+
+
+def _meets_strict_targets(run):
+    """Every problem met by the first polish, inside the limits, every goal within its strict
+    tolerance (1e-5 m, 1e-4 rad) by NumPy's forward kinematics of the answer."""
+    n = len(run["pose"])
+    assert run["converged"] == [True] * n and run["generations"] == [0] * n and run["inside_limits"]
+    for label, error in run["errors"].items():
+        assert error <= (1e-5 if label.startswith("position") else 1e-4), (label, error)
+
+
+@pytest.mark.parametrize(("case", "dofs"), [("arm", 7), ("chain", 24)])
+def test_team_polish_meets_strict_targets_in_the_bits_of_the_thread_kernel_and_the_cpu(case, dofs):
+    # a 7-DOF arm's 6-D targets (the dual step) and a 24-DOF chain's (the dual step, and on one
+    # problem 36 rows: the normal equations, three DOFs a lane), random in-limit poses' FK
+    runs = _team_runs(case)
+    assert runs["team"]["ran"] == "first_polish_team" and runs["thread"]["ran"] == "first_polish"
+    assert runs["team"]["dofs"] == dofs and len(runs["team"]["errors"]) >= 2
+    _meets_strict_targets(runs["team"])
+    for other in ("thread", "cpu"):
+        for key in ("pose", "raw"):
+            np.testing.assert_array_equal(np.array(runs["team"][key]), np.array(runs[other][key]), err_msg=other)
+
+
+def test_team_polish_agrees_with_the_thread_kernel_in_float32():
+    runs = _team_runs("arm", "float32", ("team", "thread"))
+    assert runs["team"]["ran"] == "first_polish_team"
+    _meets_strict_targets(runs["team"])
+    np.testing.assert_allclose(np.array(runs["team"]["pose"]), np.array(runs["thread"]["pose"]), atol=1e-3)
+
+
+def test_skeletons_beyond_a_teams_shared_slab_keep_the_thread_per_problem_polish():
+    run = _team_runs("wide", paths=("team",))["team"]
+    assert run["dofs"] == 34 and run["ran"] == "first_polish"
+    _meets_strict_targets(run)
+
+
 def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
     # Without the LM polish: Numba evaluates float32 * float-literal in float64 on the CPU while
     # the simulator (NumPy 2 scalars) stays in float32, and the polish's accept/reject steps
