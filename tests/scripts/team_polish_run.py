@@ -5,8 +5,9 @@ kernel ran.
     PYTHONPATH=src python tests/scripts/team_polish_run.py CASE PATH [DTYPE]
 
 CASE "arm": a 7-DOF arm (the Franka Panda's kinematics: joint origins, axes and limits from its
-URDF), 6-D targets (1e-5 m, 1e-4 rad), nine problems, six residual rows for seven DOFs (the
-m x m dual step). "chain": a 24-DOF chain (12 ball joints), five problems: tip targets at 1e-5 m,
+URDF), 6-D targets (1e-5 m, 1e-4 rad), 18 problems, six residual rows for seven DOFs (the
+m x m dual step); the GPU is told it holds 128 threads at once, so one block of 16 teams takes
+the problems in two groups, the second with 14 teams idle. "chain": a 24-DOF chain (12 ball joints), five problems: tip targets at 1e-5 m,
 on problem 0 an orientation of link 5 too, on problem 1 the positions of links 1-11 too (36 rows
 for 24 DOFs: the normal equations, three DOFs per lane). "wide": a 34-DOF chain's tip targets,
 more DOFs than a team's shared slab holds (the thread-per-problem kernel runs). Every target is
@@ -58,7 +59,7 @@ def arm():
 def problem(case):
     """(skeleton, Problem, start poses, goals: [(kind, frame, targets, active)] as lists)."""
     if case == "arm":
-        skeleton, end, n = arm(), "flange", 9
+        skeleton, end, n = arm(), "flange", 18
     else:
         skeleton, end, n = deik.chain(12 if case == "chain" else 17, dims=3, lower=-1.0, upper=1.0), "tip", 5
     poses = np.random.default_rng(11).uniform(skeleton.lower, skeleton.upper, (n, skeleton.n_dofs))
@@ -91,6 +92,8 @@ settings = deik.Settings(population=4, dtype=dtype, device="cpu" if path == "cpu
 engine = deik.Engine(prob, settings)
 if path != "cpu":
     engine.backend.cooperative_polish = path == "team"
+    if case == "arm":
+        engine.backend._resident_threads = 128
 state = engine.start(0, initial=start[:, None, :])
 # the team's scratch pool exists once first_polish_team has run (CudaBackend._team_geometry)
 ran = "cpu" if path == "cpu" else ("first_polish_team" if engine.backend.team_pool is not None else "first_polish")

@@ -154,7 +154,7 @@ class CudaBackend:
         D, B = sizes.dofs, sizes.problems
         if not (self.cooperative_polish and team.fits(D)) or (inputs.terms.term_float[:, TOLERANCE] < 0).any():
             return None
-        teams = team.teams_per_block(D)
+        teams = min(team.teams_per_block(D), B)  # a small batch: a small block, no idle teams
         threads = teams * team.TEAM_LANES
         rows = self.kernels.thread_rows(sizes)
         itemsize = self.cur.pop.dtype.itemsize
