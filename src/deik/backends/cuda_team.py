@@ -1,21 +1,28 @@
 """The first polish with a team of GPU threads per problem (GPU only; numba-cuda).
 
 `first_polish_team` does what cuda_kernels.first_polish does, with TEAM_LANES threads per
-problem and many problems per block. What is sequential by nature, the forward kinematics along
-the chain, the scoring, the LM's decisions, every lane runs alike on its own scratch (so no lane
-waits for another and every lane knows the pose, the cost and the damping); what grows with the
-DOFs is split by DOF, lane l taking the DOFs d with d % TEAM_LANES == l:
+problem and many problems per block. What is sequential along the chain, the forward
+kinematics, the scoring, each goal's three Jacobian rows (device_polish.term_rows walks the
+joints from the goal's frame to the root), and the LM's decisions, every lane runs alike on its
+own scratch, so no lane waits for another and every lane knows the pose, the cost and the
+damping. What grows with the square or the cube of the DOFs is split by DOF, lane l taking the
+DOFs d with d % TEAM_LANES == l:
 
-- the Jacobian columns (device_polish.term_rows with cols = (lane, LANE_MASK)),
 - the rows of the normal matrix J^T J and of the gradient J^T r, or with fewer residual rows
-  than DOFs, the elements of the m x m matrix I + J Lambda^-1 J^T and the step's entries,
-- the rows below each pivot of the Cholesky factorisation, and the substitutions.
+  than DOFs, the columns of J, the elements of the m x m matrix I + J Lambda^-1 J^T and the
+  step's entries,
+- the entries below each pivot of the Cholesky factorisation, and the substitutions.
 
-The polish's matrices (the damped and undamped D x D, the gradient, the Jacobian rows, the step)
-live in shared memory: one array of TEAM_SHARED_FLOATS per block, carved into a slab per team
-for the skeleton's D (team_floats), so a 7-DOF arm fits 16 problems in a block of 128 threads
-and a 32-DOF skeleton one. Skeletons of more DOFs (fits() is False) keep the thread-per-problem
-kernel, and so do goal tables with a goal without tolerance (comfort: device_lm.relax).
+The polish's matrices (the damped and undamped D x D, the gradient, the step and three work
+vectors) live in shared memory: one array of TEAM_SHARED_FLOATS per block, carved into a slab per
+team for the skeleton's D (team_floats), so a 7-DOF arm fits 16 problems in a block of 128
+threads and a 32-DOF skeleton one. Skeletons of more DOFs (fits() is False) keep the
+thread-per-problem kernel, and so do goal tables with a goal without tolerance (comfort:
+device_lm.relax).
+
+The Jacobian's columns are not split: told which columns to write, device_polish's Jacobian
+functions made the CPU's Panda solve 6 % slower (one source for both), and a lane's Jacobian
+rows cost about its forward kinematics, which it runs anyway.
 
 Every element is summed in the order device_lm sums it for a thread alone, so in float64 a team
 gives the same bits as a thread alone, and as the CPU (the CUDA simulator checks it). The lanes
@@ -41,9 +48,14 @@ cuda = numba_cuda()
 targets.register_cuda_kernel_cache()
 
 if TYPE_CHECKING:  # what a reader's go-to-definition reaches: the device maths as plain Python
-    from deik.device import driver as device
+    from deik.device import driver as device_driver
+    from deik.device import evolution as device_evolution
+    from deik.device import lm as device_lm
+    from deik.device import maths as device_maths
+    from deik.device import polish as device_polish
+    from deik.device import terms as device_terms
 else:  # what runs: the same functions compiled with cuda.jit(device=True) (deik.backends.targets)
-    device = targets.cuda_device()
+    device_driver = device_evolution = device_lm = device_maths = device_polish = device_terms = targets.cuda_device()
 
 TEAM_LANES = 8  # threads per problem (a power of two: lane l takes the DOFs d with d & LANE_MASK == l)
 LANE_MASK = TEAM_LANES - 1
@@ -53,7 +65,7 @@ TEAM_MAX_DOFS = 32  # the most DOFs a team polishes; beyond, the thread-per-prob
 
 def team_floats(D: int) -> int:
     """Shared floats of one team's slab: A and the normal matrix (D*D each), the gradient, three
-    Jacobian rows and the step (D, 3D, D)."""
+    work vectors (the damping's inverse and diagonal, the Cholesky pivots) and the step (D, 3D, D)."""
     return 2 * D * D + 5 * D
 
 
@@ -82,8 +94,8 @@ def first_owned(start, lane):
 
 @cuda.jit(device=True)
 def team_lm(slab, lm, D):
-    """The LmScratch of a team: A, the normal matrix, the gradient, the Jacobian rows and the
-    step in the team's shared slab; the polished pose, its levels and raw errors the lane's own."""
+    """The LmScratch of a team: A, the normal matrix, the gradient, the work vectors (in `jac`)
+    and the step in the team's shared slab; the polished pose, its levels and raw errors the lane's own."""
     A, o = take(slab, 0, D * D)
     normal, o = take(slab, o, D * D)
     gradient, o = take(slab, o, D)
@@ -93,58 +105,57 @@ def team_lm(slab, lm, D):
 
 
 @cuda.jit(device=True)
-def team_normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, lane, work):
-    """device_lm.normal_equations by a team (frames of pose x ready in the lane's scratch): each
-    term's Jacobian columns by lane, then the rows of J^T J and J^T r by lane. 2 T barriers;
-    `work` False: the barriers only."""
+def team_normal_equations(b, top, skel, terms, scratch, axes, lm, rows, D, lane, work):
+    """device_lm.normal_equations by a team (the pose's frames ready in the lane's scratch): every
+    lane forms each term's three Jacobian rows in its own `rows` (3*D,), then adds them into its
+    rows of J^T J and J^T r. 1 barrier; `work` False: the barrier only."""
     R, p, term_int = scratch.R, scratch.p, terms.term_int
-    A, gradient, jac = lm.normal, lm.gradient, lm.jac
-    cx, cy, cz = 0.0, 0.0, 0.0
+    A, gradient = lm.normal, lm.gradient
     if work:
-        if device.uses_centre_of_mass(term_int):
-            cx, cy, cz = device.centre_of_mass(skel, R, p)
+        cx, cy, cz = 0.0, 0.0, 0.0
+        if device_terms.uses_centre_of_mass(term_int):
+            cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
         for a in range(lane, D, TEAM_LANES):
             for c in range(D):
                 A[a * D + c] = 0.0
             gradient[a] = 0.0
-    for t in range(term_int.shape[0]):
-        used = work and term_int[t, TERM_LEVEL] <= top
-        r0, r1, r2 = 0.0, 0.0, 0.0
-        if used:
-            r0, r1, r2 = device.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D, (lane, LANE_MASK))
-        cuda.syncthreads()
-        if used:
+        for t in range(term_int.shape[0]):
+            if term_int[t, TERM_LEVEL] > top:
+                continue
+            r0, r1, r2 = device_polish.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, rows, D)
             for row in range(3):
                 r = r0 if row == 0 else (r1 if row == 1 else r2)
                 for a in range(lane, D, TEAM_LANES):
-                    ja = jac[row * D + a]
+                    ja = rows[row * D + a]
                     if ja != 0.0:
                         gradient[a] += ja * r
                         for c in range(D):
-                            A[a * D + c] += ja * jac[row * D + c]
-        cuda.syncthreads()
+                            A[a * D + c] += ja * rows[row * D + c]
+    cuda.syncthreads()
 
 
 @cuda.jit(device=True)
-def team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, D, lane, work):
-    """device_lm.jacobian_rows by a team (frames ready): J (m, D) in lm.normal by lane's columns,
-    r (m,) in lm.A[m*m:m*m+m], then J^T r by lane. 2 barriers; `work` False: the barriers only."""
+def team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, rows, D, lane, work):
+    """device_lm.jacobian_rows by a team (frames ready): every lane forms each term's rows in its
+    own `rows` (3*D,) and copies its columns of them into J (m, D) in lm.normal; r (m,) in
+    lm.A[m*m:m*m+m]; then J^T r by lane. 2 barriers; `work` False: the barriers only."""
     R, p, term_int = scratch.R, scratch.p, terms.term_int
     J, r, gradient = lm.normal, lm.A[m * m : m * m + m], lm.gradient
     if work:
         cx, cy, cz = 0.0, 0.0, 0.0
-        if device.uses_centre_of_mass(term_int):
-            cx, cy, cz = device.centre_of_mass(skel, R, p)
+        if device_terms.uses_centre_of_mass(term_int):
+            cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
         row = 0
         for t in range(term_int.shape[0]):
             if (
                 term_int[t, TERM_LEVEL] <= top
-                and device.weight_of(terms, b, t) > 0.0
-                and device.is_polished(term_int[t, TERM_KIND])
+                and device_terms.weight_of(terms, b, t) > 0.0
+                and device_polish.is_polished(term_int[t, TERM_KIND])
             ):
-                r0, r1, r2 = device.term_rows(
-                    t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D, (lane, LANE_MASK)
-                )
+                r0, r1, r2 = device_polish.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, rows, D)
+                for k in range(3):
+                    for d in range(lane, D, TEAM_LANES):
+                        J[(row + k) * D + d] = rows[k * D + d]
                 if lane == 0:
                     r[row], r[row + 1], r[row + 2] = r0, r1, r2
                 row += 3
@@ -318,7 +329,7 @@ def team_step(lm, D, m, damping, x, limits, halt, lane, work):
 
 
 @cuda.jit(device=True)
-def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, halt, lane, live):
+def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, rows, q, lv, rw, halt, lane, live):
     """device_lm.converge of individual 0 of problem b by a team (its frames ready in every
     lane's scratch), step for step; `live` False: a team without a problem, at the barriers."""
     pop, levels, total, raw = state.pop, state.levels, state.total, state.raw
@@ -331,13 +342,13 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, r
     for t in range(T):
         pose_raw[t] = raw[b, 0, t]
     pose_total = total[b, 0]
-    top = device.first_unmet_level(levels[b, 0])
-    cost = device.polished_cost(b, pose_raw, terms, top)
-    m = device.polished_rows(b, terms, top)
+    top = device_lm.first_unmet_level(levels[b, 0])
+    cost = device_lm.polished_cost(b, pose_raw, terms, top)
+    m = device_lm.polished_rows(b, terms, top)
     dual = m < D
     anchor, since = cost, 0
     damping = REDUNDANT_DAMPING if dual else DAMPING
-    met = device.within_tolerances(b, pose_raw, terms, T)
+    met = device_evolution.within_tolerances(b, pose_raw, terms, T)
     formed, done = False, not live
     for _ in range(iterations):
         if not done and (met or cost == 0.0 or since >= STALL_ITERATIONS or halt[0] != 0):
@@ -346,8 +357,8 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, r
             break  # every team of the block has finished
         working = not done
         form = working and not formed
-        team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, D, lane, form and dual)
-        team_normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, lane, form and not dual)
+        team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, rows, D, lane, form and dual)
+        team_normal_equations(b, top, skel, terms, scratch, axes, lm, rows, D, lane, form and not dual)
         if working:
             since += 1
             formed = True
@@ -356,13 +367,13 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, r
         if stepped:
             for d in range(D):
                 q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
-            device.forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
-            tot = device.score(q, b, skel, terms, scratch, lv, rw)
-            trial_cost = device.polished_cost(b, rw, terms, top)
-            if trial_cost < cost and device.keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
-                device.keep_pose(x, pose_levels, pose_raw, q, lv, rw)
+            device_maths.forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
+            tot = device_terms.score(q, b, skel, terms, scratch, lv, rw)
+            trial_cost = device_lm.polished_cost(b, rw, terms, top)
+            if trial_cost < cost and device_lm.keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
+                device_lm.keep_pose(x, pose_levels, pose_raw, q, lv, rw)
                 pose_total, cost = tot, trial_cost
-                met = device.within_tolerances(b, rw, terms, T)
+                met = device_evolution.within_tolerances(b, rw, terms, T)
                 if cost < 0.5 * anchor:
                     anchor, since = cost, 0
                 damping = max(damping * 0.3, 1e-7)
@@ -371,10 +382,10 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, r
             damping *= 10.0
             if damping > MAX_DAMPING:
                 done = True
-    keep = live and (met or device.improves(pose_levels, pose_total, levels[b, 0], total[b, 0]))
+    keep = live and (met or device_lm.improves(pose_levels, pose_total, levels[b, 0], total[b, 0]))
     cuda.syncthreads()  # every lane has read the individual
     if keep and lane == 0:
-        device.keep_trial(state, b, 0, x, pose_levels, pose_raw, pose_total, state.rates[b, 0])
+        device_evolution.keep_trial(state, b, 0, x, pose_levels, pose_raw, pose_total, state.rates[b, 0])
     cuda.syncthreads()
 
 
@@ -398,19 +409,23 @@ def first_polish_team(cur, status, skel, terms, settings, schedule, rules, initi
         live = first + team < B
         b = min(first + team, B - 1)  # a team past the last problem reads the last one and writes nothing
         if live:  # every lane alike: the same pose, frames and scores in every lane's scratch
-            device.seed_individual(b, 0, cur, skel, settings, initial, n_initial)
-            device.forward_kinematics(cur.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
-            cur.total[b, 0] = device.score(cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0])
-        team_converge(b, cur, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, status.halt, lane, live)
-        met = live and device.within_tolerances(b, cur.raw[b, 0], terms, T)
+            device_driver.seed_individual(b, 0, cur, skel, settings, initial, n_initial)
+            device_maths.forward_kinematics(cur.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
+            cur.total[b, 0] = device_terms.score(
+                cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0]
+            )
+        team_converge(
+            b, cur, schedule.iterations, skel, terms, scratch, axes, lm, own.jac, q, lv, rw, status.halt, lane, live
+        )
+        met = live and device_evolution.within_tolerances(b, cur.raw[b, 0], terms, T)
         if met:
             for i in range(1 + lane, P, TEAM_LANES):
-                device.copy_individual(cur, cur, b, 0, i)
+                device_evolution.copy_individual(cur, cur, b, 0, i)
         cuda.syncthreads()
         if live and lane == 0:
             if met:
-                device.rank_first(b, cur, status)
-                device.settle_after_polish(b, 0, cur, terms, status, rules, False)
+                device_evolution.rank_first(b, cur, status)
+                device_evolution.settle_after_polish(b, 0, cur, terms, status, rules, False)
                 write_answer(b, 0, cur, status, answers)
             else:
                 unmet[int(cuda.atomic.add(answers, (B, 0), 1.0))] = b

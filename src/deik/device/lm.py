@@ -16,7 +16,7 @@ import math
 from deik.device.evolution import keep_trial, within_tolerances
 from deik.device.layout import LOWER, UPPER
 from deik.device.maths import centre_of_mass, forward_kinematics
-from deik.device.polish import ALL_COLUMNS, is_polished, term_rows
+from deik.device.polish import is_polished, term_rows
 from deik.device.terms import score, uses_centre_of_mass, weight_of
 from deik.objectives.kinds import (
     COMFORT_MAX,
@@ -72,7 +72,7 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
     for t in range(term_int.shape[0]):
         if term_int[t, TERM_LEVEL] > top:
             continue
-        r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D, ALL_COLUMNS)
+        r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D)
         cost += r0 * r0 + r1 * r1 + r2 * r2
         for row in range(3):
             r = r0 if row == 0 else (r1 if row == 1 else r2)
@@ -111,7 +111,7 @@ def jacobian_rows(q, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready)
     for t in range(term_int.shape[0]):
         if term_int[t, TERM_LEVEL] <= top and weight_of(terms, b, t) > 0.0 and is_polished(term_int[t, TERM_KIND]):
             r[row], r[row + 1], r[row + 2] = term_rows(
-                t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D, ALL_COLUMNS
+                t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D
             )
             cost += r[row] * r[row] + r[row + 1] * r[row + 1] + r[row + 2] * r[row + 2]
             row += 3

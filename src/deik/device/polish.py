@@ -8,11 +8,6 @@ is the goal's tolerance (or its distance scale when it has none), so LM minimise
 counted in tolerances. Jacobians are geometric: a rotation motion turns every frame below its
 joint about its world axis through its pivot, a translation motion moves them along its
 world axis; mimic motions add scale times that to their source DOF's column.
-
-`cols` = (lane, mask) names the Jacobian columns a thread writes: DOF d when d & mask == lane.
-The CPU and a thread polishing alone pass ALL_COLUMNS; a team of 2^k GPU threads polishing one
-problem together (deik.backends.cuda_team) splits the columns by lane, each column's sums in
-the same order as a thread alone.
 """
 
 import math
@@ -41,8 +36,6 @@ from deik.objectives.kinds import (
     TOLERANCE,
 )
 
-ALL_COLUMNS = (0, 0)  # (lane, mask): every DOF's column
-
 
 def frame_joint(f, skel):
     """The joint that carries frame f (a joint, or a site's joint)."""
@@ -50,16 +43,14 @@ def frame_joint(f, skel):
     return f if f < J else skel.site_joint[f - J]
 
 
-def point_rows(x, y, z, j, skel, axes, weight, jac, D, cols):
+def point_rows(x, y, z, j, skel, axes, weight, jac, D):
     """jac[0:3*D] += weight * d(point)/dq for a world point (x, y, z) carried by joint j (every
-    motion of j and of its ancestors moves it), in the columns `cols` names."""
+    motion of j and of its ancestors moves it)."""
     joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
     k = j
     while k >= 0:
         for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
             d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
-            if d & cols[1] != cols[0]:
-                continue
             ax, ay, az = axes[6 * n], axes[6 * n + 1], axes[6 * n + 2]
             if motion_int[n, MOTION_KIND] == ROTATE_MOTION:
                 vx, vy, vz = x - axes[6 * n + 3], y - axes[6 * n + 4], z - axes[6 * n + 5]
@@ -70,16 +61,15 @@ def point_rows(x, y, z, j, skel, axes, weight, jac, D, cols):
         k = joint_int[k, PARENT]
 
 
-def rotation_rows(j, skel, axes, weight, jac, D, cols):
+def rotation_rows(j, skel, axes, weight, jac, D):
     """jac[0:3*D] += weight * (angular velocity of joint j's frame per unit dq): the rotations
-    of j and of its ancestors, in the columns `cols` names."""
+    of j and of its ancestors."""
     joint_int, motion_int, motion_float = skel.joint_int, skel.motion_int, skel.motion_float
     k = j
     while k >= 0:
         for n in range(joint_int[k, MOTION_START], joint_int[k, MOTION_END]):
-            d = motion_int[n, SOURCE]
-            if motion_int[n, MOTION_KIND] == ROTATE_MOTION and d & cols[1] == cols[0]:
-                s = weight * motion_float[n, MOTION_SCALE]
+            if motion_int[n, MOTION_KIND] == ROTATE_MOTION:
+                d, s = motion_int[n, SOURCE], weight * motion_float[n, MOTION_SCALE]
                 jac[d] += s * axes[6 * n]
                 jac[D + d] += s * axes[6 * n + 1]
                 jac[2 * D + d] += s * axes[6 * n + 2]
@@ -94,15 +84,15 @@ def rotation_vector(R, f, target):
     return vx * ratio, vy * ratio, vz * ratio
 
 
-def log_derivative(rx, ry, rz, jac, D, cols):
+def log_derivative(rx, ry, rz, jac, D):
     """Map angular-velocity columns jac (3 rows of D) to derivatives of the rotation vector
     r = (rx, ry, rz): multiply by the inverse left Jacobian of SO(3),
-    I - [r]/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) [r]^2 with t = |r|; the columns `cols` names."""
+    I - [r]/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) [r]^2 with t = |r|."""
     t = math.sqrt(rx * rx + ry * ry + rz * rz)
     c = 1.0 / 12.0
     if t >= 1e-4:
         c = 1.0 / (t * t) - (1.0 + math.cos(t)) / max(2.0 * t * math.sin(t), 1e-12)
-    for d in range(cols[0], D, cols[1] + 1):
+    for d in range(D):
         wx, wy, wz = jac[d], jac[D + d], jac[2 * D + d]
         ux, uy, uz = ry * wz - rz * wy, rz * wx - rx * wz, rx * wy - ry * wx
         vx, vy, vz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux
@@ -111,12 +101,11 @@ def log_derivative(rx, ry, rz, jac, D, cols):
         jac[2 * D + d] = wz - 0.5 * uz + c * vz
 
 
-def com_rows(skel, R, p, axes, weight, jac, D, cols):
-    """jac[0:3*D] += weight * d(centre of mass)/dq (mass fractions in mass_data), in the columns
-    `cols` names."""
+def com_rows(skel, R, p, axes, weight, jac, D):
+    """jac[0:3*D] += weight * d(centre of mass)/dq (mass fractions in mass_data)."""
     for m in range(skel.mass_joint.shape[0]):
         x, y, z = mass_point(skel, R, p, m)
-        point_rows(x, y, z, skel.mass_joint[m], skel, axes, weight * skel.mass_data[m, MASS_FRACTION], jac, D, cols)
+        point_rows(x, y, z, skel.mass_joint[m], skel, axes, weight * skel.mass_data[m, MASS_FRACTION], jac, D)
 
 
 def is_polished(kind):
@@ -125,12 +114,12 @@ def is_polished(kind):
     return kind <= COM_GROUND and kind != AIM
 
 
-def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D, cols):
-    """Scaled residual (3,) of smooth term t, its Jacobian rows in jac[0:3*D] (the columns
-    `cols` names); (0, 0, 0) and zero rows for terms the polish leaves to DE."""
+def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D):
+    """Scaled residual (3,) of smooth term t, its Jacobian rows in jac[0:3*D]; (0, 0, 0) and
+    zero rows for terms the polish leaves to DE."""
     term_int, term_float = terms.term_int, terms.term_float
-    for d in range(cols[0], D, cols[1] + 1):
-        jac[d], jac[D + d], jac[2 * D + d] = 0.0, 0.0, 0.0
+    for e in range(3 * D):
+        jac[e] = 0.0
     kind, f = term_int[t, TERM_KIND], term_int[t, TERM_FRAMES]
     g = terms.params[b, t]
     w = weight_of(terms, b, t)
@@ -139,20 +128,20 @@ def term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D, cols):
     unit = term_float[t, TOLERANCE] if term_float[t, TOLERANCE] > 0.0 else term_float[t, SCALE]
     s = math.sqrt(w) / unit
     if kind == POSITION:
-        point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], frame_joint(f, skel), skel, axes, s, jac, D, cols)
+        point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], frame_joint(f, skel), skel, axes, s, jac, D)
         return s * (p[3 * f] - g[0]), s * (p[3 * f + 1] - g[1]), s * (p[3 * f + 2] - g[2])
     if kind == ORIENTATION:
-        rotation_rows(frame_joint(f, skel), skel, axes, s, jac, D, cols)
+        rotation_rows(frame_joint(f, skel), skel, axes, s, jac, D)
         rx, ry, rz = rotation_vector(R, f, g)
-        log_derivative(rx, ry, rz, jac, D, cols)
+        log_derivative(rx, ry, rz, jac, D)
         return s * rx, s * ry, s * rz
-    com_rows(skel, R, p, axes, s, jac, D, cols)
+    com_rows(skel, R, p, axes, s, jac, D)
     rx, ry, rz = s * (cx - g[0]), s * (cy - g[1]), s * (cz - g[2])
     if kind == COM_GROUND:
         up = skel.ground[UP]
         h = rx * up[0] + ry * up[1] + rz * up[2]
         rx, ry, rz = rx - h * up[0], ry - h * up[1], rz - h * up[2]
-        for d in range(cols[0], D, cols[1] + 1):
+        for d in range(D):
             h = jac[d] * up[0] + jac[D + d] * up[1] + jac[2 * D + d] * up[2]
             jac[d] -= h * up[0]
             jac[D + d] -= h * up[1]
