@@ -4,10 +4,13 @@
       InputError (ValueError) a user's input is wrong: a value, a name, a flag or a file
         FileFormatError       a malformed or unsupported input file, named with its line or element
         UsageError            a mistake on the command line (exit status 2)
+        UnknownNameError      a joint, site, link, DOF or goal name that is not there (a KeyError too)
       SolveError              a solve that cannot run as asked (too large for memory, interrupted)
       DeviceError             the GPU (or its packages) cannot run the solve
 
-InputError derives from ValueError, so code written against ValueError keeps working.
+InputError derives from ValueError, and UnknownNameError from KeyError as well, so code written
+against ValueError or KeyError keeps working. The command line prints a DeikError's message as
+one line `deik: error: ...` and exits with status 2.
 """
 
 from __future__ import annotations
@@ -37,6 +40,13 @@ class UsageError(InputError):
     """A mistake in a command line or its inputs: reported in one line, exit status 2."""
 
 
+class UnknownNameError(InputError, KeyError):
+    """A name that is not there (a joint, site, link, DOF or goal), with the close matches."""
+
+    def __str__(self) -> str:  # KeyError's would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
 class SolveError(DeikError, RuntimeError):
     """A solve that cannot run as asked: its buffers would not fit the memory limit, it was
     interrupted, or its settings contradict each other."""
@@ -44,3 +54,19 @@ class SolveError(DeikError, RuntimeError):
 
 class DeviceError(DeikError, RuntimeError):
     """The GPU path cannot run: no NVIDIA GPU, numba-cuda missing, or a broken package pairing."""
+
+
+MESSAGE_LIMIT = 500  # characters of a one-line error message
+
+
+def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
+    """The message of `error` on one line, safe for a terminal (control characters such as an
+    escape sequence in a joint name are shown escaped, never run) and at most `limit` characters
+    (a whole echoed input is cut); a KeyError's message is its args[0] (str() would add quotes),
+    an OSError about a file reads "FILE: what happened"."""
+    message = error.args[0] if isinstance(error, KeyError) and error.args else error
+    if isinstance(error, OSError) and error.filename is not None and error.strerror:
+        message = f"{error.filename}: {error.strerror}"
+    line = " ".join(str(message).split())
+    line = "".join(c if c.isprintable() else repr(c)[1:-1] for c in line)
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 
@@ -193,7 +194,7 @@ def test_cli_solves_a_toml_problem_with_setting_overrides(tmp_path, capsys):
     assert json.loads(out.read_text())["skeleton"] == "chain:3"
 
 
-def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
+def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys, monkeypatch):
     path = write(
         tmp_path,
         'skeleton = "chain:3"\nlimits = "penalty"\n[settings]\npopulation = 24\n'
@@ -201,13 +202,18 @@ def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
         '[[goal]]\ntype = "aim"\nframe = "tip"\ntarget = [3, 0, 0]\n',
     )
     out = tmp_path / "pose.json"
-    assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
+    drawn = []
+    monkeypatch.setattr(plot, "plot_result", lambda *args: drawn.append(args[-1]))  # the picture's length unit
+    argv = ["solve", "--problem", str(path), "--generations", "25", "--out", str(out), "--plot", "p.png"]
+    assert main(argv) == 0
     rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
-    # a rotation-only chain's joint-limit violation is an angle, not metres; the CLI shows angles in
-    # degrees while the JSON keeps the Python API's radians
-    assert rows["position tip"].split()[3:6] == ["m", "0.01", "m"]
+    # a chain's lengths are link lengths in the table, the pose file and the picture alike; a
+    # rotation-only chain's joint-limit violation is an angle; the CLI shows angles in degrees
+    # while the JSON keeps the Python API's radians
+    assert re.fullmatch(r"position tip +\S+ link lengths +0\.01 link lengths +(yes|NO)", rows["position tip"])
     assert rows["aim tip"].split()[3] == "deg" and rows["joint limits"].split()[3] == "deg"
     data = json.loads(out.read_text())
+    assert data["length_unit"] == "link lengths" and drawn == ["link lengths"]
     goals = data["goals"]
     assert [(g["kind"], g["unit"]) for g in goals] == [("position", "m"), ("aim", "rad"), ("joint_limits", "rad")]
     shown = float(rows["aim tip"].split()[2])
@@ -323,14 +329,19 @@ def test_skeleton_specs():
         (["solve", "chain:3", "--reach", "tipp", "1", "1", "0"], "did you mean 'tip'"),
         (["solve", "chian:3", "--reach", "tip", "1", "1", "0"], "unknown skeleton 'chian:3'"),
         (["solve", "chain:3", "--reach", "tip", "9", "1", "0"], "unreachable"),
-        (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "not a finite number"),
+        (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "--reach: 'nan' is out of range"),
+        (["solve", "chain:3", "--reach", "tip", "1", "9" * 5000, "0"], "--reach: '9999"),
+        (["solve", "chain:3", "--population", "9" * 5000], "argument --population: invalid int value"),
         (["solve", "chain:3", "--reach", "tip", "1", "one", "0"], "'one' is not a number"),
         (["solve", "chain:3", "--reach", "tip", "1", "1"], "expected 4 arguments"),
         (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--population", "2"], "population must be"),
         (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--strategy", "fast"], "invalid choice"),
         (["solve", "chain:3"], "no goals"),
         (["solve"], "give a SKELETON"),
-        (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
+        (
+            ["solve", "chain:3", "--comfort", "3"],
+            "argument --comfort: '3' is out of range: give a finite number from -1 to 1",
+        ),
         (["solve", "--problem", "missing.toml"], "missing.toml: no such problem (TOML) file"),
         (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
     ],
@@ -378,10 +389,29 @@ def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
     assert "MISSED: a_chain_reach" in capsys.readouterr().out
 
 
+def test_ctrl_c_during_the_demo_writes_nothing_as_it_says(tmp_path, capsys, monkeypatch):
+    from deik.experiments import demo
+
+    scenarios, solved = chain_scenarios(n_links=3, seed=1), []
+
+    def interrupted(problem, **settings):
+        if solved:  # the first scenario is solved and drawn, the second interrupted
+            raise KeyboardInterrupt
+        solved.append(deik.solve(problem, **settings))
+        return solved[-1]
+
+    monkeypatch.setattr(demo, "solve", interrupted)
+    monkeypatch.setattr(demo, "chain_scenarios", lambda: scenarios)
+    monkeypatch.setattr(demo, "humanoid_scenario", lambda: scenarios[0])
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--quiet"]) == 130
+    assert "deik: interrupted; nothing was written" in capsys.readouterr().err
+    assert solved and list((tmp_path / "demo").iterdir()) == []
+
+
 def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert main(["experiments", "fig99", "--quick", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("deik experiments: error: unknown experiment 'fig99'") and err.count("\n") == 1
+    assert err.startswith("deik: error: unknown experiment 'fig99'") and err.count("\n") == 1
     assert main(["experiments", "fig7", "--quick", "--out", str(tmp_path / "y")]) == 0
     assert (tmp_path / "y" / "fig7.csv").stat().st_size > 0
 
@@ -404,3 +434,11 @@ def test_demo_prints_its_table_without_matplotlib(tmp_path):
     assert "every scenario met its targets" in run.stdout and "no pictures" in run.stdout
     assert "position tip" in run.stdout and not list(tmp_path.glob("*.png"))
     assert (tmp_path / "demo.json").exists()
+
+
+def test_negative_numbers_in_any_notation_are_values_not_options(tmp_path):
+    out = tmp_path / "pose.json"
+    argv = ["solve", "chain3d:3", "--reach", "tip", "1.5", "-1e-3", "-.5", "--generations", "3", "--quiet"]
+    assert main(argv + ["--out", str(out)]) == 0
+    targets = json.loads(out.read_text())["targets"]
+    assert targets[0]["position"] == [1.5, -0.001, -0.5]

@@ -10,9 +10,10 @@ from pathlib import Path
 import deik
 
 LAYERS = [
+    "errors",
     "suggest",
     "console",
-    "errors",
+    "memory",
     "model",
     "io",
     "objectives",

@@ -24,8 +24,8 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from deik.cleanup.contacts import SPEED_FRACTION, Contacts, drop_short, fill_gaps, site_positions, speeds, threshold
+from deik.errors import InputError
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
 FLOOR_PERCENTILE = 5.0
@@ -38,8 +38,8 @@ def detect_floor(clip: Motion) -> float:
     """The floor height along up (length units): the FLOOR_PERCENTILE-th percentile over the
     frames of each frame's lowest joint or site."""
     if clip.n_frames == 0:
-        raise ValueError("the clip has no frames: there is no floor to detect")
-    heights = forward_kinematics(clip.skeleton, clip.frames).p_world_frame @ clip.skeleton.up
+        raise InputError("the clip has no frames: there is no floor to detect")
+    heights = clip.kinematics.p_world_frame @ clip.skeleton.up
     return float(np.percentile(heights.min(axis=1), FLOOR_PERCENTILE))
 
 
@@ -67,7 +67,7 @@ def detect_body_contacts(
     every = points is None
     points = tuple(sk.frame_names if every else points)
     if not points:
-        raise ValueError("detect_body_contacts needs at least one joint or site")
+        raise InputError("detect_body_contacts needs at least one joint or site")
     floor = detect_floor(clip) if floor is None else float(floor)
     band = threshold(band, BAND_FRACTION * sk.reach, "height")
     speed = threshold(speed, SPEED_FRACTION * sk.reach, "speed")

@@ -24,7 +24,6 @@ from deik.cleanup.banded import solve_spd_band
 from deik.cleanup.spacetime import spring_bands
 from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, Floor, Goal, Position
 
@@ -71,7 +70,7 @@ def near_floor(clip: Motion, height: float) -> np.ndarray:
     """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
     (or below it) in the frame or a neighbouring one: those a search may have to lift."""
     sk = clip.skeleton
-    near = forward_kinematics(sk, clip.frames).p_world_frame @ sk.up <= height + NEAR_FLOOR * sk.reach
+    near = clip.kinematics.p_world_frame @ sk.up <= height + NEAR_FLOOR * sk.reach
     out = near.copy()
     out[1:] |= near[:-1]
     out[:-1] |= near[1:]

@@ -17,7 +17,6 @@ import numpy as np
 
 from deik.cleanup.metrics import joint_angles, point_motion, spikes
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 
 PEAK_RATIO = 1.1
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture changes the performance
@@ -29,7 +28,7 @@ SLACK = {"dof_velocity": 10.0, "dof_acceleration": 200.0, "position_velocity": 0
 
 def _peaks(clip) -> dict:
     """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`."""
-    moves = spikes(clip, forward_kinematics(clip.skeleton, clip.frames))
+    moves = spikes(clip, clip.kinematics)
     return {
         "dof_velocity": (np.abs(moves["dof_velocity"]), 0),
         "dof_acceleration": (np.abs(moves["dof_acceleration"]), 1),

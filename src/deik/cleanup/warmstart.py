@@ -28,7 +28,6 @@ from deik.cleanup.coherence import active_frames
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 from deik.solver.jacobians import point_jacobians
@@ -66,7 +65,7 @@ def dof_weights(clip: Motion) -> np.ndarray:
     1 per length unit too (metres as radians), lifting the whole body would be the cheap way to
     move a hand."""
     sk = clip.skeleton
-    p = forward_kinematics(sk, clip.poses()).p_world_frame
+    p = clip.kinematics.p_world_frame
     r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 

@@ -10,23 +10,22 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-from collections.abc import Callable
+from dataclasses import fields
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from deik.cleanup.specs import CONTACT_FORMS, PLANT_FORMS
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, number, record_compiles
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
-from deik.suggest import did_you_mean
-from deik.viz.text import format_table
+from deik.io.bvh import read_bvh, write_bvh
+from deik.viz.text import figure, format_table
 
-PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
-CONTACT_FORMS = (
-    "auto (every joint and end site, detected), none, or POINT[@A-B[,A-B...]] (repeatable): POINT a "
-    "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
-    "(inclusive) with it"
-)
+if TYPE_CHECKING:  # deik.cleanup.clean loads when a clip is cleaned
+    from deik.cleanup.clean import CleanedClip, CleanOptions
+
 log = logging.getLogger(__name__)
 
 
@@ -65,11 +64,11 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--contact-height",
-        type=float,
+        type=number(0.0),
         metavar="LENGTH",
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
-    c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
+    c.add_argument("--contact-speed", type=number(0.0), metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument(
         "--balance",
         action="store_true",
@@ -78,7 +77,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--self-collision",
-        type=float,
+        type=number(0.0),
         metavar="MARGIN",
         help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
     )
@@ -90,11 +89,15 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)",
     )
     c.add_argument(
-        "--fidelity", type=float, default=1.0, metavar="W", help="DE repairs: weight of staying near the original (0-1)"
+        "--fidelity",
+        type=number(0.0, 1.0),
+        default=1.0,
+        metavar="W",
+        help="DE repairs: weight of staying near the original (0-1)",
     )
     c.add_argument(
         "--coherence",
-        type=float,
+        type=number(0.0, 1.0),
         default=0.5,
         metavar="W",
         help="DE repairs: weight of moving like the neighbours (0-1)",
@@ -104,7 +107,19 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         type=int,
         help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
     )
+    c.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop the DE passes after this wall time (the warm start always runs; default: none)",
+    )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
+    c.add_argument(
+        "--memory-limit",
+        type=number(0.0, above=True),
+        metavar="GIB",
+        help="memory the DE passes may use, GiB (default: 80%% of this machine's)",
+    )
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
@@ -122,130 +137,6 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="the clip's length unit (default: guessed from the skeleton's size, and said)",
     )
     add_output_flags(c)
-
-
-def _check_site(clip, site: str, flag: str) -> None:
-    """UsageError naming `flag`, the unknown `site` and the names to choose from."""
-    sk = clip.skeleton
-    if site not in sk.frame_names:
-        raise UsageError(
-            f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
-            f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
-            f"and its joints {', '.join(sk.joint_names)}"
-        )
-
-
-def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, int]]:
-    """(start, stop) ranges, stop exclusive, of A-B[,A-B...] (inclusive), else UsageError."""
-    out = []
-    for span in spans.split(","):
-        start, _, stop = span.partition("-")
-        if not (start.strip().isdigit() and stop.strip().isdigit()):
-            raise UsageError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
-        start, stop = int(start), int(stop)
-        if not start <= stop < n_frames:
-            raise UsageError(
-                f"{flag} {form!r}: frames {start}-{stop} are outside the clip or "
-                f"reversed; valid frames: 0..{n_frames - 1} (A-B, both inclusive)"
-            )
-        out.append((start, stop + 1))
-    return out
-
-
-def _feet(args, clip):
-    """The --plant-feet contacts (None for none); auto when neither it nor --contact is given."""
-    from deik.cleanup.contacts import contacts_from_ranges, detect_contacts, foot_sites
-
-    forms = args.plant_feet or ([] if args.contact else ["auto"])
-    if not forms or forms == ["none"]:
-        return None
-    if "auto" in forms:
-        if len(forms) > 1:
-            raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
-        return detect_contacts(clip, foot_sites(clip.skeleton), height=args.contact_height, speed=args.contact_speed)
-    ranges = {}
-    for form in forms:
-        site, _, spans = form.partition(":")
-        if not site or not spans:
-            raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
-        _check_site(clip, site, f"--plant-feet {form!r}")
-        ranges.setdefault(site, []).extend(_frames(form, spans, clip.n_frames, "--plant-feet"))
-    return contacts_from_ranges(clip, ranges)
-
-
-def _point(clip, point: str, form: str):
-    """(parent, child) of a bone PARENT-CHILD, or (point,) of a joint or site; else UsageError."""
-    from deik.cleanup.body_contacts import bone_ends
-
-    if point in clip.skeleton.frame_names:
-        return (point,)
-    ends = bone_ends(clip.skeleton, point)
-    if ends is None:
-        _check_site(clip, point, f"--contact {form!r} (a joint, an end site or a bone PARENT-CHILD)")
-    return ends
-
-
-def _body(args, clip, floor: float) -> list:
-    """The --contact contacts, one Contacts per form."""
-    from deik.cleanup.body_contacts import bone_contacts, detect_body_contacts
-    from deik.cleanup.contacts import Contacts
-
-    if args.contact == ["none"]:
-        return []
-    detect = dict(floor=floor, band=args.contact_height, speed=args.contact_speed)
-    parts = []
-    for form in args.contact:
-        if form in ("auto", "none"):
-            if form == "none":
-                raise UsageError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
-            parts.append(detect_body_contacts(clip, **detect))
-            continue
-        point, at, spans = form.partition("@")
-        ends = _point(clip, point.strip(), form)
-        if not at:
-            parts.append(detect_body_contacts(clip, ends, **detect))
-            continue
-        frames = np.zeros(clip.n_frames, bool)
-        for start, stop in _frames(form, spans, clip.n_frames, "--contact"):
-            frames[start:stop] = True
-        masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
-        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
-    return parts
-
-
-def _floor(args, clip) -> tuple[float, bool]:
-    """(floor height, whether it is kept as a goal): --floor auto, none or a number."""
-    from deik.cleanup.body_contacts import detect_floor
-
-    if args.floor in ("auto", "none"):
-        return detect_floor(clip), args.floor == "auto"
-    try:
-        height = float(args.floor)
-    except ValueError:
-        height = float("nan")
-    if not np.isfinite(height):
-        raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
-    return height, True
-
-
-def _contacts(args, clip, floor: float):
-    """Every contact the flags ask for, merged on the floor at `floor`; None for none."""
-    from deik.cleanup.body_contacts import merge_contacts
-
-    parts = [part for part in [_feet(args, clip), *_body(args, clip, floor)] if part is not None]
-    return merge_contacts(parts, floor) if parts else None
-
-
-def _reaches(args, clip):
-    from deik.cleanup.clip_goals import Reach
-    from deik.cleanup.tracks import parse_reach_spec
-
-    out = []
-    for spec in args.reach:
-        site, mask, targets = parse_reach_spec(spec, clip.n_frames)
-        _check_site(clip, site, f"--reach {spec!r}")
-        out.append(Reach(site, mask, targets))
-    return tuple(out)
 
 
 def _shown(values, pick) -> str:
@@ -271,7 +162,7 @@ def _print_tables(document: dict, quiet: bool) -> None:
     if not quiet:
         for name, note in document["goal_notes"].items():
             print(f"  {name}: {note}")
-    rows = [[v["label"], v["unit"], f"{v['before']:.4g}", f"{v['after']:.4g}"] for v in document["metrics"].values()]
+    rows = [[v["label"], v["unit"], figure(v["before"]), figure(v["after"])] for v in document["metrics"].values()]
     print(format_table(["metric", "unit", "before", "after"], rows))
 
 
@@ -301,8 +192,12 @@ def _summary_notes(document: dict) -> list[str]:
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
-        lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+        lines.append(
+            f"{m['label']}: {figure(m['before'], '.3g')} before, {figure(m['after'], '.3g')} after ({m['unit']})"
+        )
+    ratios = ", ".join(
+        f"{k.replace('_', ' ')} x{figure(v, '.2f')}" for k, v in document["dynamics"]["peak_ratios"].items()
+    )
     return lines + [f"peaks against the capture's: {ratios}"]
 
 
@@ -321,7 +216,7 @@ def _outcome_lines(document: dict) -> list[str]:
             )
         lines.append(line)
     dynamics = document["dynamics"]
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{figure(v, '.3f')}" for k, v in dynamics["peak_ratios"].items())
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
@@ -341,104 +236,98 @@ def _far_warning(document: dict, far_degrees: float) -> str | None:
     )
 
 
-def run_clip(
-    args: argparse.Namespace,
-    on_frames: Callable[[int, int], None] | None = None,
-    record: dict | None = None,
-) -> int:
-    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
-    For a library (deik.cli.folder_command): `on_frames(done, total)` follows the frames that meet
-    their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
-    from deik.cleanup.clip_goals import GRAVITY, ClipGoals
-    from deik.cleanup.document import clip_document
-    from deik.cleanup.dynamics import FAR_DEGREES
-    from deik.cleanup.fix import fix_clip
-    from deik.cleanup.units import guess_unit, span
-    from deik.io.bvh import read_bvh, write_bvh
+def clean_options(args: argparse.Namespace) -> CleanOptions:
+    """The CleanOptions of `deik clip`'s flags (each field is the flag of the same name)."""
+    from deik.cleanup.clean import CleanOptions
 
-    check_outputs(
-        {"--out": args.out, "--report": args.report, "--json": args.json},
-        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
-        (args.clip, args.segments, args.limits),
-        args.overwrite,
-    )
+    return CleanOptions(**{option.name: getattr(args, option.name) for option in fields(CleanOptions)})
+
+
+def check_first(args: argparse.Namespace) -> None:
+    """Mistakes in the flags found before any work, for one clip or a folder."""
+    from deik.cleanup.fix import MAX_PASSES
+
     check_device(args.device)
+    if args.passes is not None and not 0 <= args.passes <= MAX_PASSES:
+        raise UsageError(f"--passes {args.passes}: give a whole number from 0 to {MAX_PASSES}")
     if args.report_3d and not args.report:
         raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
     if args.report:
         from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
-    clip = read_bvh(args.clip, segments=args.segments)
-    if args.limits:
-        from deik.io.limits import clip_within, read_limits, with_limits
 
-        clip = clip_within(
-            clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
+
+def print_outcome(cleaned: CleanedClip, quiet: bool) -> None:
+    """What `deik clip` prints on stdout: the goal and metric tables, the reaches out of reach,
+    the summary line, balance and the peaks; then the warning about joints far from the capture."""
+    document, fix = cleaned.report, cleaned.fix
+    n_frames = cleaned.original.n_frames
+    _print_tables(document, quiet)
+    for key, missed in cleaned.unreachable.items():
+        print(
+            f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
+            f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
         )
-    floor, keep_floor = _floor(args, clip)
-    contacts = _contacts(args, clip, floor)
-    reach = _reaches(args, clip)
-    unit = args.units or guess_unit(clip.skeleton)
-    goals = ClipGoals(
-        contacts,
-        reach,
-        args.balance,
-        args.fidelity,
-        args.coherence,
-        self_collision=args.self_collision,
-        floor=floor if keep_floor else None,
-        gravity=GRAVITY / METRES[unit],
-    )
-    if not args.units:
-        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
-    log.info(
-        f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
-        f"{'' if keep_floor else ', not kept: --floor none'})",
-    )
-    if contacts is not None:
-        described = contacts.describe().replace("\n", "\n  ")
-        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
-    overrides = {
-        k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
-    }
-    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
-    with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
-        progress = frames_reporter(bar, "every goal", on_frames)
-        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
-    record_compiles(compiling)
-    reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
-    floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
-    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
-    if record is not None:
-        metrics = {key: value["after"] for key, value in document["metrics"].items()}
-        record.update(frames=clip.n_frames, frames_met=document["frames_met"], metrics=metrics)
-    _print_tables(document, args.quiet)
-    for key, missed in document["reach_unreached"].items():
-        if missed["frames"]:
-            print(
-                f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
-                f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
-            )
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
-        f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
+        f"{n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
+        f"{int(fix.met.sum())}/{n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
     for line in _outcome_lines(document):
         print(line)
+    from deik.cleanup.dynamics import FAR_DEGREES
+
     far = _far_warning(document, FAR_DEGREES)
     if far:
         log.warning(far)
+
+
+def write_outputs(cleaned: CleanedClip, paths: dict[str, str | None], report_3d: bool = False) -> None:
+    """Write the fixed clip to paths["out"] and, where given, the JSON record to paths["json"]
+    and the report picture to paths["report"] (drawn in 3-D with `report_3d`): all or none."""
+    document = cleaned.report
     with all_or_nothing():
-        write_bvh(args.out, fix.clip)
-        if args.json:
-            write_json_atomically(args.json, document, missing_as_null=True)
-        if args.report:
+        write_bvh(paths["out"], cleaned.clip)
+        if paths.get("json"):
+            write_json_atomically(paths["json"], document, missing_as_null=True)
+        if paths.get("report"):
             from deik.viz.clip_report import plot_clip_report, pose_panel
 
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
-            title = f"deik clip {os.path.basename(args.clip)}"
-            panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document), panel)
+            original = cleaned.original
+            title = f"deik clip {os.path.basename(original.source)}"
+            panel = pose_panel(original, cleaned.clip, document, "3d" if report_3d else "2d", cleaned.unit)
+            plot_clip_report(series, paths["report"], original.frame_time, title, _summary_notes(document), panel)
+
+
+def library_record(cleaned: CleanedClip) -> dict:
+    """What a folder run keeps of one clip (its sidecar record and summary row): frames,
+    frames meeting their goals and the metrics after the fix."""
+    document = cleaned.report
+    metrics = {key: value["after"] for key, value in document["metrics"].items()}
+    return {"frames": cleaned.original.n_frames, "frames_met": document["frames_met"], "metrics": metrics}
+
+
+def run_clip(args: argparse.Namespace) -> int:
+    """`deik clip` on one clip: check the flags, clean it (deik.clean_clip), print, write
+    (atomically; nothing is written on an error)."""
+    outputs = (
+        {"--out": args.out, "--report": args.report, "--json": args.json},
+        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
+        (args.clip, args.segments, args.limits),
+        args.overwrite,
+    )
+    check_outputs(*outputs)
+    from deik.cleanup.clean import plan_clean
+
+    check_first(args)
+    plan = plan_clean(read_bvh(args.clip, segments=args.segments), clean_options(args))
+    check_outputs(*outputs)  # the reach tracks it read are inputs too
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
+        cleaned = plan.run(progress=frames_reporter(bar, "every goal"))
+    record_compiles(compiling)
+    print_outcome(cleaned, args.quiet)
+    write_outputs(cleaned, {"out": args.out, "json": args.json, "report": args.report}, args.report_3d)
     return 0

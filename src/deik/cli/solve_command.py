@@ -12,20 +12,29 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
+from deik.cli.arguments import (
+    UsageError,
+    announce_compile,
+    check_device,
+    check_outputs,
+    number,
+    numbers,
+    record_compiles,
+)
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
-from deik.console import add_output_flags, progress_bar, show_generation, show_progress
+from deik.console import Parser, add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.pose_json import pose_angles, read_pose_json
 from deik.model.joints import ROTATE
 from deik.solver.problem import Problem
-from deik.solver.problem_file import load_problem
+from deik.solver.problem_file import ProblemFile, load_problem
 from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
@@ -75,7 +84,12 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
     s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
-    s.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop after this wall time (default: none)")
+    s.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop after this wall time (default: none)",
+    )
     s.add_argument(
         "--polish",
         type=int,
@@ -90,7 +104,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
     s.add_argument(
         "--memory-limit",
-        type=float,
+        type=number(0.0, above=True),
         metavar="GIB",
         help="memory a solve may use, GiB (default: 80%% of this machine's)",
     )
@@ -140,9 +154,10 @@ def _file_flags_used(args) -> bool:
     return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up, args.limits))
 
 
-def _problem(args):
-    """(problem, settings dict, loaded skeleton or None, start pose or None, BVH frame number or
-    None) from the flags or the --problem file."""
+def pose_problem(args: argparse.Namespace) -> ProblemFile:
+    """The problem the flags pose (deik.solver.problem_file.ProblemFile): from --problem FILE,
+    or the skeleton, its options, --start and the goal flags; its settings hold the file's and
+    the setting flags' (the flags win). UsageError for a mistake in the flags."""
     spec = args.skeleton_flag or args.skeleton
     if args.skeleton_flag and args.skeleton:
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
@@ -153,8 +168,7 @@ def _problem(args):
                 "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file"
             )
         file = load_problem(args.problem)
-        pose = None if file.frame is None else _clip_pose(file.loaded.clip, file.frame)
-        return file.problem, file.settings, file.loaded, pose, file.frame
+        return replace(file, settings=file.settings | _settings(args))
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
@@ -172,7 +186,27 @@ def _problem(args):
         frame_pose = _start_pose(args.start, loaded.skeleton)
     if not has_goals(args):
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
-    return Problem(loaded.skeleton, goals_from_flags(args, frame_pose)), {}, loaded, frame_pose, args.frame
+    problem = Problem(loaded.skeleton, goals_from_flags(args, frame_pose))
+    return ProblemFile(problem, _settings(args), loaded, args.frame, frame_pose)
+
+
+def _settings(args) -> dict:
+    """The settings the setting flags give (--seed, --population, ..., --memory-limit in GiB)."""
+    settings = {k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None}
+    if args.memory_limit is not None:
+        settings["memory_limit"] = max(1, int(args.memory_limit * 2**30))
+    return settings
+
+
+def problem_from_flags(words: Sequence[str]) -> ProblemFile:
+    """The problem `deik solve WORDS` would solve, e.g. problem_from_flags(["chain:20", "--reach",
+    "tip", "12", "8", "0", "--seed", "3"]) (or ["--problem", "problem.toml"]): its Problem, its
+    settings and the pose the search starts around; solve it with
+    deik.solve(spec.problem, **spec.settings). Flags that only write or show (--out, --plot,
+    --quiet, ...) are accepted and ignored. UsageError (a deik.InputError) for a mistake."""
+    parser = Parser(prog="deik solve")
+    add_arguments(parser)
+    return pose_problem(parser.parse_args([str(word) for word in words]))
 
 
 def _clip_pose(clip, frame: int):
@@ -213,28 +247,22 @@ def run_solve(args: argparse.Namespace) -> int:
         args.limits,
         args.start[0] if args.start and len(args.start) == 1 else None,
     )
-    check_outputs(
-        {"--out": args.out, "--plot": args.plot},
-        {"--out": (".json", ".bvh"), "--plot": (".png",)},
-        inputs,
-        args.overwrite,
-    )
+    outputs = ({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)})
+    check_outputs(*outputs, inputs, args.overwrite)
     if args.plot_3d and not args.plot:
         raise UsageError("--plot-3d sets how --plot draws the pose: add --plot pose.png")
     if args.plot:
         plot.require_matplotlib()
-    problem, settings, loaded, frame_pose, frame = _problem(args)
-    settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
-    if args.memory_limit is not None:
-        if not args.memory_limit > 0:
-            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
-        settings["memory_limit"] = int(args.memory_limit * 2**30)
-    settings = Settings(**settings)
+    posed = pose_problem(args)
+    check_outputs(*outputs, inputs, args.overwrite)  # the files a --problem file names are inputs too
+    problem, loaded, frame = posed.problem, posed.loaded, posed.frame
+    settings = Settings(**posed.settings)
     check_device(settings.device)
     initial = None
-    if frame_pose is not None:
+    if posed.start is not None:
+        count = max(1, settings.population // SEED_FRACTION)
         initial = poses_around(
-            problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed
+            problem.skeleton, posed.start, count, seed=settings.seed, memory_limit=settings.memory_limit
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"
@@ -249,11 +277,13 @@ def run_solve(args: argparse.Namespace) -> int:
         progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
         result = solve(problem, settings, initial=initial, progress=progress)
     record_compiles(compiling)
+    # the table, the pose file and the picture name one length unit
+    unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
     rows = [
         [
             r.label,
-            shown(float(r.error), r.unit),
-            shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
+            shown(float(r.error), r.unit, unit),
+            shown(r.tolerance, r.unit, unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals
@@ -263,7 +293,6 @@ def run_solve(args: argparse.Namespace) -> int:
         f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
         f"converged {'yes' if result.converged else 'no'}"
     )
-    unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
     with all_or_nothing():
         if args.out:
             _write_pose(args.out, problem, result, loaded, frame, unit)

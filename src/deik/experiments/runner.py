@@ -5,7 +5,10 @@ section) into DIR; running more than one also writes DIR/report.md, every sectio
 side-by-side table of the paper's claims and our measurements. `--doc PATH` (with `all`)
 writes that report to PATH too, its pictures copied to figures/ beside it: this is how
 docs/paper-reproduction.md and docs/figures/ are made. Bad input gets one line on stderr,
-`deik experiments: error: ...`, and exit status 2.
+`deik: error: ...`, and exit status 2, as for every deik command.
+
+In Python, `deik.run_experiments(["fig7"], "figures", quick=True)` runs them and returns their
+sections (deik.experiments.shared.Section: title, claim, headline, notes, seconds).
 """
 
 from __future__ import annotations
@@ -15,17 +18,20 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable
 
-from deik.console import add_output_flags, configure_logging, progress_bar, show_progress
-from deik.errors import UsageError
+from deik.console import Parser, configure_logging, progress_bar, show_progress
+from deik.errors import DeikError, UsageError, error_line
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
+from deik.experiments.flags import DEVICES, SUMMARY, add_arguments
 from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
-from deik.io.atomic import save_atomically, write_text_atomically
+from deik.io.atomic import all_or_nothing, save_atomically, write_text_atomically
 
 PROG = "deik experiments"
 USAGE_ERROR = 2
+INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 EXPERIMENTS = {
     "fig2": fig2_chain.run,
     "fig3": fig3_population.run,
@@ -36,7 +42,6 @@ EXPERIMENTS = {
     "fig8": fig8_timing.run,
     "fig9": fig9_speedup.run,
 }
-DEVICES = {"cpu": "cpu", "gpu": "gpu", "cuda": "gpu", "auto": "auto"}
 
 INTRO = """\
 This document is generated: `{command}` ran every experiment of
@@ -58,29 +63,10 @@ Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f}
 """
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
-
-
 def build_parser() -> argparse.ArgumentParser:
-    """The argparse parser of `deik experiments`."""
-    parser = _Parser(prog=PROG, description="Reproduce the paper's figures: PNG, CSV and a report section each.")
-    parser.add_argument(
-        "names", nargs="+", metavar="NAME|all", help=f"experiments to run: {', '.join(EXPERIMENTS)}, or all"
-    )
-    parser.add_argument("--out", required=True, metavar="DIR", help="folder for the outputs (created if missing)")
-    parser.add_argument("--quick", action="store_true", help="few seeds, small sizes (seconds, for tests)")
-    parser.add_argument(
-        "--device",
-        choices=list(DEVICES),
-        default="auto",
-        help="GPU parts of fig8/fig9: auto (when a GPU is present), gpu/cuda, or cpu only",
-    )
-    parser.add_argument(
-        "--doc", metavar="PATH.md", help="with all: also write the report to PATH, its pictures in figures/ beside it"
-    )
-    add_output_flags(parser)
+    """The argparse parser of `python -m deik.experiments` (the same flags as `deik experiments`)."""
+    parser = Parser(prog=PROG, description=f"{SUMMARY[0].upper()}{SUMMARY[1:]}.")
+    add_arguments(parser)
     return parser
 
 
@@ -142,54 +128,120 @@ def report(sections: list[Section], command: str, total: float, quick: bool, loa
 def _copy(source: str, target: str) -> None:
     if os.path.exists(target) and os.path.samefile(source, target):
         return
-    save_atomically(target, lambda temporary: shutil.copyfile(source, temporary))
+    with open(source, "rb") as original:
+        save_atomically(target, lambda file: shutil.copyfileobj(original, file))
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run `deik experiments` with `argv` (default sys.argv[1:]); returns the exit status."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    try:
-        args = build_parser().parse_args(argv)
-        names = resolve(args.names)
-        _check_paths(args, names)
-        configure_logging(args)
-        from deik.viz.plot import require_matplotlib
-
-        require_matplotlib()
-    except SystemExit as done:  # --help
-        return int(done.code or 0)
-    except (UsageError, ImportError, ValueError) as error:
-        print(f"{PROG}: error: {error}", file=sys.stderr)
-        return USAGE_ERROR
-
-    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
-    device, sections, start = DEVICES[args.device], [], time.perf_counter()
-    with progress_bar(len(names), PROG, "figure", show_progress(args)) as bar:
+def run_experiments(
+    names: list[str],
+    out_dir: str,
+    *,
+    quick: bool = False,
+    device: str = "auto",
+    progress: bool | None = False,
+    on_section: Callable[[Section], object] | None = None,
+) -> list[Section]:
+    """Run the experiments `names` (fig2 ... fig9, or "all") into `out_dir` (created if
+    missing): each writes NAME.png, NAME.csv and NAME.md there (`report` combines their
+    sections). `quick`: few seeds, small sizes; `device` "auto", "cpu" or "gpu" for the GPU
+    parts of fig8 and fig9; a bar over the figures with `progress` (deik.console.progress_bar's
+    `show`); `on_section(section)` is called as each one finishes. Each figure's PNG, CSV and
+    section appear together or not at all (deik.io.atomic), so an interrupted run keeps the
+    figures it finished whole. Returns their Sections."""
+    names = resolve(names)
+    if device not in DEVICES:
+        raise UsageError(f"device {device!r}: use one of {', '.join(DEVICES)}")
+    os.makedirs(out_dir, exist_ok=True)
+    sections = []
+    with progress_bar(len(names), PROG, "figure", progress) as bar:
         for name in names:
             bar.set_postfix_str(name)
             began = time.perf_counter()
-            section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
-            section.seconds = time.perf_counter() - began
-            section.write(args.out)
+            with all_or_nothing():
+                section = EXPERIMENTS[name](out_dir, quick=quick, device=device)
+                section.seconds = time.perf_counter() - began
+                section.write(out_dir)
             sections.append(section)
             bar.update()
-            with bar.external_write_mode():  # the lines go above the bar, not through it
-                print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
-                for note in section.notes:
-                    print(f"{name}: note: {note}", flush=True)
-    total = time.perf_counter() - start
+            if on_section is not None:
+                with bar.external_write_mode():  # its lines go above the bar, not through it
+                    on_section(section)
+    return sections
+
+
+def run(args: argparse.Namespace) -> int:
+    """`deik experiments`: check the flags, run the experiments, say where each one went, and
+    with --doc write the report and its pictures there. Ctrl-C and a full disk end in one line
+    that names the figures kept whole; the report and the document appear together or not at all."""
+    names = resolve(args.names)
+    _check_paths(args, names)
+    from deik.viz.plot import require_matplotlib
+
+    require_matplotlib()
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
+    start = time.perf_counter()
+    finished: list[Section] = []
+
+    def say(section: Section) -> None:
+        finished.append(section)
+        name = section.name
+        print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
+        for note in section.notes:
+            print(f"{name}: note: {note}", flush=True)
+
+    try:
+        run_experiments(
+            names, args.out, quick=args.quick, device=args.device, progress=show_progress(args), on_section=say
+        )
+        _write_report(args, finished, time.perf_counter() - start, load)
+    except KeyboardInterrupt:
+        kept = ", ".join(s.name for s in finished) or "none"
+        print(
+            f"deik: interrupted; the figures finished are kept whole ({kept}), nothing else was written",
+            file=sys.stderr,
+        )
+        return INTERRUPTED
+    except OSError as error:  # a full disk, a folder that turned read-only
+        kept = ", ".join(s.name for s in finished) or "none"
+        print(f"deik: error: {error_line(error)}; the figures finished are kept whole ({kept})", file=sys.stderr)
+        return USAGE_ERROR
+    return 0
+
+
+def _write_report(args: argparse.Namespace, sections: list[Section], total: float, load: str) -> None:
+    """With more than one section, DIR/report.md; with --doc, the document and its pictures
+    in figures/ beside it: all or none."""
     quick = " --quick" if args.quick else ""
     command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"
     if args.doc:
         command += f" --doc {os.path.relpath(args.doc)}"
+    figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures") if args.doc else None
+    with all_or_nothing():
+        if len(sections) > 1:
+            write_text_atomically(
+                os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load)
+            )
+        if figures:
+            os.makedirs(figures, exist_ok=True)
+            for section in sections:
+                _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
+            write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
     if len(sections) > 1:
-        write_text_atomically(os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load))
         print(f"report: {os.path.join(args.out, 'report.md')} ({total:.0f} s in all)")
-    if args.doc:
-        figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures")
-        os.makedirs(figures, exist_ok=True)
-        for section in sections:
-            _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
-        write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
+    if figures:
         print(f"document: {args.doc}, pictures in {figures}")
-    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m deik.experiments` with `argv` (default sys.argv[1:]); returns the exit status.
+    Mistakes print `deik: error: ...` and return 2, as `deik experiments` does."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args = build_parser().parse_args(argv)
+        configure_logging(args)
+        return run(args)
+    except SystemExit as done:  # --help
+        return int(done.code or 0)
+    except (DeikError, ImportError, OSError) as error:
+        print(f"deik: error: {error}", file=sys.stderr)
+        return USAGE_ERROR

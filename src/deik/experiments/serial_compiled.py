@@ -18,6 +18,7 @@ from numba import njit
 
 from deik.backends.targets import cpu as dev
 from deik.device.layout import LOWER, UPPER, WORK_SIZE, Buffers, PackedSkeleton, PackedTerms, Scratch
+from deik.errors import InputError
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
 from deik.solver.settings import LIMIT_CODES, Settings
@@ -95,7 +96,7 @@ class CompiledSerialDE:
         dtype: str = "float32",
     ):
         if problem.batch_size != 1:
-            raise ValueError(f"CompiledSerialDE solves one problem at a time, got a batch of {problem.batch_size}")
+            raise InputError(f"CompiledSerialDE solves one problem at a time, got a batch of {problem.batch_size}")
         self.problem = problem
         settings = Settings(population=population, F=F, CR=CR, seed=seed, dtype=dtype, adaptive=False, polish=0)
         self._engine = Engine(problem, settings)

@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.objectives.reference import fitness
 from deik.solver.problem import Problem
 
@@ -78,13 +79,13 @@ class SerialDE:
         if not isinstance(problem, Problem):
             raise TypeError(f"SerialDE takes a deik.Problem, got {type(problem).__name__}")
         if problem.batch_size != 1:
-            raise ValueError(f"SerialDE solves one problem at a time, got a batch of {problem.batch_size}")
+            raise InputError(f"SerialDE solves one problem at a time, got a batch of {problem.batch_size}")
         if not (isinstance(population, (int, np.integer)) and population >= 4):
-            raise ValueError(f"population must be an integer >= 4 (x and 3 distinct donors), got {population!r}")
+            raise InputError(f"population must be an integer >= 4 (x and 3 distinct donors), got {population!r}")
         if not (0 < F <= 2):
-            raise ValueError(f"F (differential weight) must lie in (0, 2], got {F!r}")
+            raise InputError(f"F (differential weight) must lie in (0, 2], got {F!r}")
         if not 0 <= CR <= 1:
-            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {CR!r}")
+            raise InputError(f"CR (crossover probability) must lie in [0, 1], got {CR!r}")
         self.problem, self.population, self.F, self.CR, self.seed = problem, int(population), F, CR, seed
         self.rng = np.random.default_rng(seed)
         self.pop = self.levels = self.total = self.raw = None

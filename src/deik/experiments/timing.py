@@ -184,7 +184,7 @@ def load_line() -> str:
     return f"Load average at the end: {one:.2f}, {five:.2f}, {fifteen:.2f} on {os.cpu_count()} CPUs."
 
 
-GPU_COMMAND = "PYTHONPATH=src python -m deik.experiments fig8 fig9 --device cuda --out DIR"
+GPU_COMMAND = "deik experiments fig8 fig9 --device gpu --out DIR"
 
 
 def gpu_plan(device: str) -> tuple[bool, str | None]:
@@ -197,5 +197,5 @@ def gpu_plan(device: str) -> tuple[bool, str | None]:
     if available:
         return True, None
     return False, (
-        f"GPU column pending: needs a run on the lent GPU machine ({description}); there run `{GPU_COMMAND}`"
+        f"GPU column pending: it needs an NVIDIA GPU ({description}); on a machine with one run `{GPU_COMMAND}`"
     )

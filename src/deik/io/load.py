@@ -9,6 +9,7 @@ from pathlib import Path
 
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.files import FilePath
 from deik.model.skeleton import Skeleton
 
@@ -42,9 +43,9 @@ def load_skeleton(
     urdf_only = {"--base": base, "--tip": tip, "--up": up}
     misplaced = [flag for flag, value in urdf_only.items() if value is not None and len(value) > 0]
     if suffix != ".urdf" and misplaced:
-        raise ValueError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
+        raise InputError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
     if suffix != ".bvh" and segments is not None:
-        raise ValueError(f"--segments only applies to a BVH character, not {spec!r}")
+        raise InputError(f"--segments only applies to a BVH character, not {spec!r}")
     if suffix == ".bvh":
         from deik.io.bvh import read_bvh
 
@@ -82,6 +83,6 @@ def skeleton_from_spec(spec: str) -> Skeleton:
     kind, _, count = str(spec).partition(":")
     if kind == "humanoid" and not count:
         return humanoid()
-    if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
+    if kind in ("chain", "chain3d") and count.isdigit() and len(count) <= 12 and int(count) >= 1:
         return chain(int(count), dims=2 if kind == "chain" else 3)
-    raise ValueError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")
+    raise InputError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")

@@ -16,8 +16,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.orientations import FORMS, passes_rotation_check, rotation_from
 from deik.model.skeleton import Skeleton
+from deik.model.values import real_array
 from deik.objectives.goal_values import (
     check_reachable,
     dof_weights,
@@ -84,18 +86,18 @@ class Goal:
             return np.ones(1)
         active = np.asarray(self.active)
         if active.dtype != np.bool_ or active.ndim != 1 or active.size == 0:
-            raise ValueError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
+            raise InputError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
         return active.astype(np.float64)
 
     def _check_settings(self, label: str) -> None:
         if not (-1.0 <= self.weight <= 1.0):
-            raise ValueError(f"{label}: weight {self.weight!r} must lie in [-1, 1] (Eq. 2)")
+            raise InputError(f"{label}: weight {self.weight!r} must lie in [-1, 1] (Eq. 2)")
         if not (self.mu > 0 and math.isfinite(self.mu)):
-            raise ValueError(f"{label}: mu {self.mu!r} must be a positive finite number")
+            raise InputError(f"{label}: mu {self.mu!r} must be a positive finite number")
         if not (isinstance(self.level, int) and self.level >= 0):
-            raise ValueError(f"{label}: level {self.level!r} must be an integer >= 0")
+            raise InputError(f"{label}: level {self.level!r} must be an integer >= 0")
         if self.tolerance is not None and not (self.tolerance >= 0 and math.isfinite(self.tolerance)):
-            raise ValueError(f"{label}: tolerance {self.tolerance!r} must be >= 0 (metres or radians)")
+            raise InputError(f"{label}: tolerance {self.tolerance!r} must be >= 0 (metres or radians)")
 
     def row(self, skeleton: Skeleton) -> TermRow:
         """This goal compiled for `skeleton`: its checked term row, with its parameters (B,
@@ -157,7 +159,7 @@ class Position(Goal):
         within = reach_test(skeleton, skeleton.frame_index(self.frame))
 
         def quick(target: ArrayLike) -> np.ndarray | None:
-            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            a = real_array(target, "target")  # raises as target_params' conversion would
             if a.shape != (3,):
                 return None
             x, y, z = a.tolist()
@@ -200,7 +202,7 @@ class Orientation(Goal):
             return None
 
         def quick(target: ArrayLike) -> np.ndarray | None:
-            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            a = real_array(target, "target")  # raises as target_params' conversion would
             return a.reshape(9) if a.shape == (3, 3) and passes_rotation_check(a.tolist()) else None
 
         return quick
@@ -221,7 +223,7 @@ class Aim(Goal):
         """The frame, the unit axis in columns 0-2, the target in columns 3-5."""
         axis = np.asarray(self.axis, float)
         if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
-            raise ValueError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
+            raise InputError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
         params = pack((axis / np.linalg.norm(axis))[None], vector(self.target, (3,), "aim target"))
         return self._row(AIM, params, ANGLE_TOLERANCE, frames=(skeleton.frame_index(self.frame),))
 
@@ -270,7 +272,7 @@ class ComInPolygon(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_in_polygon")
         if not 1 <= len(self.frames) <= MAX_TERM_FRAMES:
-            raise ValueError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
+            raise InputError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
         frames = tuple(skeleton.frame_index(f) for f in self.frames)
         return self._row(SUPPORT_POLYGON, NO_PARAMS, 0.0, frames=frames, scale=skeleton.reach)
 
@@ -294,7 +296,7 @@ class Comfort(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         """The per-DOF weights and the reference poses (B, D), the skeleton's by default."""
         if self.mode not in ("sum", "max"):
-            raise ValueError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
+            raise InputError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
         kind = COMFORT_SUM if self.mode == "sum" else COMFORT_MAX
         reference = skeleton.reference[None] if self.reference is None else self.reference
         reference = vector(reference, (skeleton.n_dofs,), "comfort reference")
@@ -315,7 +317,7 @@ class Obstacle(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         """The centre in columns 0-2, the radius in 3 and the bone radius in 4; met at 0."""
         if not (self.radius > 0 and self.bone_radius >= 0):
-            raise ValueError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
+            raise InputError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
         centre = vector(self.centre, (3,), "obstacle centre")
         params = pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
         return self._row(OBSTACLE, params, 0.0, scale=skeleton.reach)
@@ -335,7 +337,7 @@ class Floor(Goal):
         """The height in column 0 (one per problem with a batch axis); scale: the reach."""
         height = np.asarray(self.height, float)
         if height.ndim > 1 or not np.isfinite(height).all():
-            raise ValueError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
+            raise InputError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
         return self._row(FLOOR, pack(height.reshape(-1, 1)), LENGTH_TOLERANCE, scale=skeleton.reach)
 
 

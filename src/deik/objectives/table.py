@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.objectives.kinds import MAX_LEVELS, MAX_TERM_FRAMES, MU, SCALE, TERM_KIND
 
 
@@ -82,14 +83,14 @@ def compile_rows(rows: list[TermRow], params_batch: np.ndarray, n_dofs: int) -> 
     T = len(rows)
     levels = sorted({r.level for r in rows})
     if len(levels) > MAX_LEVELS:
-        raise ValueError(f"at most {MAX_LEVELS} priority levels are supported, got {levels}")
+        raise InputError(f"at most {MAX_LEVELS} priority levels are supported, got {levels}")
     dense = {lv: k for k, lv in enumerate(levels)}
     term_int = np.full((T, 3 + MAX_TERM_FRAMES), -1, np.int32)
     term_float = np.zeros((T, 5))
     dof_weight = np.zeros((T, n_dofs))
     for t, r in enumerate(rows):
         if len(r.frames) > MAX_TERM_FRAMES:
-            raise ValueError(f"{r.label}: at most {MAX_TERM_FRAMES} frames per term")
+            raise InputError(f"{r.label}: at most {MAX_TERM_FRAMES} frames per term")
         term_int[t, :3] = (r.kind, dense[r.level], len(r.frames))
         term_int[t, 3 : 3 + len(r.frames)] = r.frames
         prioritised = len(levels) > 1 and r.tolerance >= 0 and r.weight > 0

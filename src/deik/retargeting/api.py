@@ -5,6 +5,7 @@ from __future__ import annotations
 from numpy.typing import ArrayLike
 
 from deik.cleanup.coherence import hinge_channels
+from deik.errors import InputError
 from deik.io.bvh import read_bvh
 from deik.io.bvh.preview import view_clip
 from deik.io.files import FilePath
@@ -69,14 +70,14 @@ def retarget(
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     if joint_map is None:
         if (to is None) == (scale is None):
-            raise ValueError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
+            raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
             return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
         target, _ = _target(to, None)
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
         return retarget_proportions(clip, target, progress)
     if to is None or scale is not None:
-        raise ValueError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
+        raise InputError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
     joint_map = joint_map if isinstance(joint_map, JointMap) else read_map(joint_map)
     target, target_clip = _target(to, joint_map.up or up)
     hinges = None if target_clip is None else hinge_channels(target_clip)

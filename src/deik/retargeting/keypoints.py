@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import euler_angles
@@ -42,7 +43,7 @@ def height_ratio(source: Skeleton, target: Skeleton, source_names: Sequence[str]
     the source's mapped frames span no height (map a head and a foot)."""
     spans = [np.ptp(rest_heights(sk, names)) for sk, names in ((source, source_names), (target, target_names))]
     if not spans[0] > 1e-9 * stature(source):
-        raise ValueError("the mapped source points span no height at rest; map a head and a foot, or give scale")
+        raise InputError("the mapped source points span no height at rest; map a head and a foot, or give scale")
     return float(spans[1] / spans[0])
 
 
@@ -101,7 +102,7 @@ def limb_scales(
     legs = [X[root] @ sk.up - (frames @ sk.up).min() for X, frames, sk in zip((P, Q), rest, (source, target))]
     size = stature(source)
     if not legs[0] > 1e-2 * size:
-        raise ValueError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
+        raise InputError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
     parents = np.array(limb_tree(source, source_names, root))
     up = np.where(parents >= 0, parents, root)
     far = [np.linalg.norm(X - X[up], axis=1) for X in (P, Q)]

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from deik.cleanup.contacts import Contacts
+from deik.errors import InputError
 from deik.io.motion import Clip
 
 
@@ -39,7 +40,7 @@ def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
         return clip
     start, stop = (operator.index(v) for v in frames)
     if not 0 <= start < stop <= clip.n_frames:
-        raise ValueError(
+        raise InputError(
             f"frames {start}:{stop} are empty or outside the clip; give START:STOP with "
             f"0 <= START < STOP <= {clip.n_frames} (STOP exclusive)"
         )

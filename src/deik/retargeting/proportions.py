@@ -23,6 +23,7 @@ import numpy as np
 
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.warmstart import dof_weights
+from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
@@ -34,12 +35,12 @@ from deik.retargeting.settle import Settling, settle
 
 
 def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None:
-    """ValueError unless `target` has the source's joints, sites and DOFs by name and order."""
+    """InputError unless `target` has the source's joints, sites and DOFs by name and order."""
     for what in ("joint_names", "site_names", "dof_names"):
         ours, theirs = getattr(source, what), getattr(target, what)
         if ours != theirs:
             missing = sorted(set(ours) ^ set(theirs))[:3] or ["(same names, other order)"]
-            raise ValueError(
+            raise InputError(
                 f"--to {target_name}: its {what.replace('_', ' ')} differ from the source's "
                 f"({', '.join(missing)}); --to takes the same rig with other bone lengths, "
                 "use --map MAP.toml for another skeleton"
@@ -51,7 +52,7 @@ def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str]) -> float
     heights = [rest_heights(sk, (sk.joint_names[0], *sites)) for sk in (source, target)]
     legs = [h[0] - h[1:].min() for h in heights]
     if not legs[0] > 0:
-        raise ValueError("the source's root is not above its contact sites at rest: no leg length to scale by")
+        raise InputError("the source's root is not above its contact sites at rest: no leg length to scale by")
     return float(legs[1] / legs[0])
 
 
@@ -63,7 +64,7 @@ def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np
     start = sk.joint_dof_start[0]
     kinds = sk.dof_kind[start : start + 3]
     if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(sk.dof_axis[start : start + 3], np.eye(3)):
-        raise ValueError(f"the root {sk.joint_names[0]!r} needs X, Y and Z position channels first to be scaled")
+        raise InputError(f"the root {sk.joint_names[0]!r} needs X, Y and Z position channels first to be scaled")
     root = forward_kinematics(sk, clip.poses()).p_world_frame[:, 0]
     origin = floor_origin(sk, clip.pose(0), ground)
     wanted = origin + ratio * (root - origin)

@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 from deik.cleanup.warmstart import dof_weights
+from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.joints import TRANSLATE
@@ -123,7 +124,7 @@ def retarget_rig(
     origin = kp.floor_origin(source.skeleton, source.pose(0), floor)
     if joint_map.limbs:
         if joint_map.pelvis[0] not in source_names:
-            raise ValueError(
+            raise InputError(
                 f'{joint_map.source}: scale = "limbs" needs the pelvis {joint_map.pelvis[0]!r} among the points'
             )
         root = source_names.index(joint_map.pelvis[0])

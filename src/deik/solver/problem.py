@@ -14,6 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Goal, LimitsPenalty
 from deik.objectives.kinds import GAIN, N_PARAMS
@@ -36,7 +37,8 @@ class Compiled:
 
 @dataclass(frozen=True, eq=False)
 class Problem:
-    """An IK problem. `goals`: Goal instances (deik.Position, deik.Comfort, ...). `limits`:
+    """An IK problem. `goals`: Goal instances (deik.Position, deik.Comfort, ...), any sequence,
+    kept as a tuple. `limits`:
     "reflect" (default) or "clip" fold or clamp trial angles into the joint limits; "penalty"
     lets them leave and ranks any violation below every feasible pose (a top-priority term);
     "paper" applies the paper's Algorithm 2 (only the +-2 pi range, limits used for sampling).
@@ -45,7 +47,7 @@ class Problem:
     then the first part's)."""
 
     skeleton: Skeleton
-    goals: tuple
+    goals: Sequence[Goal]
     limits: str = "reflect"
     parts: tuple = field(default=(), repr=False)
 
@@ -59,14 +61,14 @@ class Problem:
         if not isinstance(self.skeleton, Skeleton):
             raise TypeError(f"skeleton must be a deik.Skeleton, got {type(self.skeleton).__name__}")
         if not self.goals:
-            raise ValueError("a problem needs at least one goal, e.g. deik.Position('tip', target)")
+            raise InputError("a problem needs at least one goal, e.g. deik.Position('tip', target)")
         for g in self.goals:
             if not isinstance(g, Goal):
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
-            raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
+            raise InputError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
         if self.skeleton.n_dofs == 0:
-            raise ValueError(
+            raise InputError(
                 f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
                 "another); choose a base and tip with moving joints between them"
             )
@@ -76,10 +78,10 @@ class Problem:
             or len(first.goals) != len(self.goals)
             or any(a is not b for a, b in zip(first.goals, self.goals))
         ):
-            raise ValueError("a stacked problem's parts must be Problems and its goals the first part's")
+            raise InputError("a stacked problem's parts must be Problems and its goals the first part's")
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
-            raise ValueError(
+            raise InputError(
                 f"DOF {self.skeleton.dof_names[bad[0]]!r} has infinite limits; DE samples its "
                 "first population inside the limits, so give every DOF finite limits"
             )
@@ -146,7 +148,7 @@ class Problem:
         sizes |= {r.reference.shape[0] for r in rows if r.reference is not None}
         sizes.discard(1)
         if len(sizes) > 1:
-            raise ValueError(f"goal targets have different batch sizes {sorted(sizes)}; use one B or none")
+            raise InputError(f"goal targets have different batch sizes {sorted(sizes)}; use one B or none")
         B = sizes.pop() if sizes else 1
         params = np.zeros((B, len(rows), N_PARAMS))
         reference = np.zeros((B, len(rows), sk.n_dofs))
@@ -176,7 +178,7 @@ def _merge_parts(parts) -> tuple[tuple, np.ndarray, np.ndarray]:
             _check_stackable(first, p, k)  # names what differs
     weights = np.array([[r.weight for r in p.rows] for p in parts])  # (N, T)
     if ((weights > 0).any(axis=0) & (weights < 0).any(axis=0)).any():
-        raise ValueError("Problem.stack: a goal has positive weights in some problems and negative in others")
+        raise InputError("Problem.stack: a goal has positive weights in some problems and negative in others")
     magnitude = np.abs(weights).max(axis=0)
     sign = np.where((weights < 0).any(axis=0), -1.0, 1.0)
     rows = tuple(replace(r, weight=float(s * m)) for r, s, m in zip(first.rows, sign, magnitude))
@@ -210,11 +212,11 @@ def _check_stackable(first, other, k: int) -> None:
     """Raise unless problem k can share a term table with the first one (_row_keys, and the
     skeleton and limit mode); the error names what differs."""
     if other.skeleton is not first.skeleton:
-        raise ValueError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
+        raise InputError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
     if other.limits != first.limits:
-        raise ValueError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
+        raise InputError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
     if len(other.rows) != len(first.rows):
-        raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
+        raise InputError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
     for t, (a, b) in enumerate(zip(first.rows, other.rows)):
         same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level, a.pairs) == (
             b.kind,
@@ -231,7 +233,7 @@ def _check_stackable(first, other, k: int) -> None:
             or (a.dof_weight is None) != (b.dof_weight is None)
             or (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight))
         ):
-            raise ValueError(
+            raise InputError(
                 f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
                 f"({a.label}) in more than its target, weight, reference or active mask"
             )

@@ -18,17 +18,18 @@ deik.solve, whose kept engines serve one call at a time).
 from __future__ import annotations
 
 import threading
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.console import Progress
-from deik.errors import SolveError
+from deik.errors import InputError, SolveError, UnknownNameError
 from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
 from deik.solver.result import Result
-from deik.solver.settings import Settings
+from deik.solver.settings import Settings, SettingsChanges
 from deik.solver.solve import merge_settings, run_engine
 from deik.solver.workspace import Workspace
 
@@ -37,7 +38,7 @@ class Solver:
     """Solves `problem` (a deik.Problem) with settings from `settings` and keyword overrides
     (as deik.solve); `solve(targets)` swaps goal targets between calls."""
 
-    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides: object):
+    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides: Unpack[SettingsChanges]):
         if not isinstance(problem, Problem):
             raise TypeError(f"Solver takes a deik.Problem, got {type(problem).__name__}")
         self.problem = problem
@@ -129,7 +130,7 @@ class Solver:
             raise TypeError(f"goal {t} ({self._labels[t]}) has no target to swap; build a new Problem instead")
         values, batched = goal.target_params(self.problem.skeleton, target)
         if values.shape[0] not in (1, B):
-            raise ValueError(
+            raise InputError(
                 f"goal {t} ({self._labels[t]}): {values.shape[0]} targets for a problem batch of "
                 f"{B}; give one target or {B}"
             )
@@ -143,4 +144,4 @@ class Solver:
             if 0 <= key < len(self._labels):
                 return int(key)
             raise IndexError(f"goal index {key} out of range: the problem has {len(self._labels)} goals")
-        raise KeyError(f"no goal {key!r}; the goals are {list(self._labels)}")
+        raise UnknownNameError(f"no goal {key!r}; the goals are {list(self._labels)}")

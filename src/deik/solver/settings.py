@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 
 from deik.device.layout import BEST_1, CLIP, CURRENT_TO_BEST_1, MAX_POLISH_COUNT, PAPER, PENALTY, RAND_1, REFLECT
+from deik.errors import InputError
 
 STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
 LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
@@ -60,7 +62,7 @@ class Settings:
     memory_limit: int | None = None
 
     @classmethod
-    def paper(cls, **changes: object) -> Settings:
+    def paper(cls, **changes: Unpack[SettingsChanges]) -> Settings:
         """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
         CR, no polish, no restarts."""
         return cls(
@@ -96,10 +98,10 @@ class Settings:
         _integer("generations", self.generations, 1)
         _number("F", self.F, "the differential weight, in (0, 2]")
         if not 0 < self.F <= 2:
-            raise ValueError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
+            raise InputError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
         _number("CR", self.CR, "the crossover probability, in [0, 1]")
         if not 0 <= self.CR <= 1:
-            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
+            raise InputError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
         _boolean("adaptive", self.adaptive)
         _seed(self.seed)
         _integer("patience", self.patience, 1)
@@ -108,13 +110,13 @@ class Settings:
         _integer("polish_every", self.polish_every, 1)
         _integer("polish_count", self.polish_count, 1)
         if self.polish_count > MAX_POLISH_COUNT:
-            raise ValueError(
+            raise InputError(
                 f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
                 f"got {self.polish_count}"
             )
         _integer("islands", self.islands, 1)
         if self.population % self.islands or self.population // self.islands < 4:
-            raise ValueError(
+            raise InputError(
                 f"islands must divide the population into groups of at least 4 individuals, "
                 f"got {self.islands!r} islands for population {self.population}"
             )
@@ -124,25 +126,51 @@ class Settings:
         if self.time_limit is not None:
             _number("time_limit", self.time_limit, "seconds, or None for no limit")
             if not self.time_limit > 0:
-                raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
+                raise InputError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
         _choice("device", self.device, DEVICES)
         _choice("dtype", self.dtype, ("float32", "float64"))
         if self.memory_limit is not None:
             _integer("memory_limit", self.memory_limit, 1, "bytes; None: 80 % of physical memory")
 
 
+class SettingsChanges(TypedDict, total=False):
+    """Settings fields given by keyword (`deik.solve(problem, population=64)`, `deik.Solver`,
+    `Settings.paper`): the same names and types as Settings' fields (a test keeps them equal),
+    so that a type checker flags a misspelt or mistyped setting; run time checks them again."""
+
+    population: int
+    generations: int
+    strategy: str
+    F: float
+    CR: float
+    adaptive: bool
+    polish: int
+    polish_every: int
+    polish_count: int
+    restarts: int
+    islands: int
+    migration: int
+    seed: int
+    patience: int
+    stop_on_converged: bool | None
+    time_limit: float | None
+    device: str
+    dtype: str
+    memory_limit: int | None
+
+
 def _integer(name: str, value, minimum: int, note: str = "") -> None:
     """ValueError unless `value` is an integer (not a bool) >= minimum."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
         hint = f" ({note})" if note else ""
-        raise ValueError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
+        raise InputError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
 
 
 def _seed(value) -> None:
     """ValueError unless `value` is an integer in [0, 2**64) (the kernels' counter-based seed)."""
     _integer("seed", value, 0)
     if value >= 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {value!r}")
+        raise InputError(f"seed must be an integer in [0, 2**64), got {value!r}")
 
 
 def _number(name: str, value, meaning: str) -> None:
@@ -150,18 +178,26 @@ def _number(name: str, value, meaning: str) -> None:
     if (
         isinstance(value, (bool, np.bool_))
         or not isinstance(value, (int, float, np.integer, np.floating))
-        or not math.isfinite(value)
+        or not _finite(value)
     ):
-        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
+        raise InputError(f"{name} must be a finite number ({meaning}), got {value!r:.60}")
+
+
+def _finite(value) -> bool:
+    """Whether a number is finite (an integer too large for a float, of 400 digits, is not)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _boolean(name: str, value) -> None:
     """ValueError unless `value` is True or False."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
+        raise InputError(f"{name} must be true or false, got {value!r}")
 
 
 def _choice(name: str, value, choices: tuple) -> None:
     """ValueError unless `value` is one of `choices` (strings)."""
     if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+        raise InputError(f"{name} must be one of {list(choices)}, got {value!r}")

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.atomic import save_atomically
 from deik.io.files import FilePath
 from deik.model.joints import ROTATE
@@ -73,7 +74,7 @@ def axis_name(v: np.ndarray) -> str:
 def views(skeleton: Skeleton, projection: str) -> list[tuple[str, np.ndarray]]:
     """[(title, basis (3, 2) or (3, 3) whose columns are the picture's axes in world coordinates)]."""
     if projection not in PROJECTIONS:
-        raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
+        raise InputError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
     across, depth, up = view_axes(skeleton.up)
     if projection == "3d":
         return [("perspective", np.stack([across, depth, up], axis=1))]  # right-handed
@@ -125,7 +126,7 @@ def pose_figure(
     """The matplotlib Figure plot_pose saves (see there); the caller closes it."""
     angles = skeleton.check_angles(angles)
     if angles.ndim != 1:
-        raise ValueError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
+        raise InputError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
     views(skeleton, projection)  # a bad projection fails before matplotlib is loaded
     plt = require_matplotlib()
     points = forward_kinematics(skeleton, angles).p_world_frame
@@ -178,11 +179,11 @@ def plot_pose(
     if angles is None:
         angles = getattr(result_or_skeleton, "angles", None)
         if angles is None:
-            raise ValueError("plot_pose needs angles (D,) when given a Skeleton")
+            raise InputError("plot_pose needs angles (D,) when given a Skeleton")
     figure = pose_figure(skeleton, angles, marks, title, projection, unit)
     plt = require_matplotlib()
     try:
-        save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
+        save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=100))
     finally:
         plt.close(figure)
 

@@ -1,0 +1,165 @@
+"""The contact, floor and reach specs of a clip cleaning (deik.CleanOptions, the flags of
+`deik clip`) resolved against one clip: which sites are planted when, the floor, the tracks.
+
+Specs are text in the flags' forms, so a folder run can give the same ones to every clip and
+each clip resolves them against its own frames and names. A spec that does not fit the clip
+raises InputError naming the flag, the spec and what to give instead.
+
+    plant_feet   auto | none | SITE:A-B[,A-B...]            (repeatable; A-B inclusive)
+    contact      auto | none | POINT | POINT@A-B[,A-B...]   (POINT a joint, an end site or a bone PARENT-CHILD)
+    floor        auto | none | HEIGHT                       (length units along up)
+    reach        SITE=track.csv | SITE=track.json | SITE=X,Y,Z@A:B
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from deik.cleanup.body_contacts import bone_contacts, bone_ends, detect_body_contacts, detect_floor, merge_contacts
+from deik.cleanup.clip_goals import Reach
+from deik.cleanup.contacts import Contacts, contacts_from_ranges, detect_contacts, foot_sites
+from deik.cleanup.tracks import parse_reach_spec
+from deik.errors import InputError
+from deik.io.trajectory import Motion
+from deik.suggest import did_you_mean
+
+PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
+CONTACT_FORMS = (
+    "auto (every joint and end site, detected), none, or POINT[@A-B[,A-B...]] (repeatable): POINT a "
+    "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
+    "(inclusive) with it"
+)
+
+
+def check_site(clip: Motion, site: str, flag: str) -> None:
+    """InputError naming `flag`, the unknown `site` and the names to choose from."""
+    sk = clip.skeleton
+    if site not in sk.frame_names:
+        raise InputError(
+            f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
+            f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
+            f"and its joints {', '.join(sk.joint_names)}"
+        )
+
+
+def frame_spans(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, int]]:
+    """(start, stop) ranges, stop exclusive, of A-B[,A-B...] (inclusive), else InputError."""
+    out = []
+    for span in spans.split(","):
+        start, _, stop = span.partition("-")
+        if not all(part.strip().isdigit() and len(part.strip()) <= 12 for part in (start, stop)):
+            raise InputError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
+        start, stop = int(start), int(stop)
+        if not start <= stop < n_frames:
+            raise InputError(
+                f"{flag} {form!r}: frames {start}-{stop} are outside the clip or "
+                f"reversed; valid frames: 0..{n_frames - 1} (A-B, both inclusive)"
+            )
+        out.append((start, stop + 1))
+    return out
+
+
+def planted_feet(
+    clip: Motion, forms: Sequence[str], height: float | None, speed: float | None, default: bool
+) -> Contacts | None:
+    """The plant_feet contacts of `forms` (None for none); auto when `forms` is empty and
+    `default` (no contact spec was given either); detection thresholds `height` and `speed`."""
+    forms = list(forms) or (["auto"] if default else [])
+    if not forms or forms == ["none"]:
+        return None
+    if "auto" in forms:
+        if len(forms) > 1:
+            raise InputError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
+        return detect_contacts(clip, foot_sites(clip.skeleton), height=height, speed=speed)
+    ranges = {}
+    for form in forms:
+        site, _, spans = form.partition(":")
+        if not site or not spans:
+            raise InputError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
+        check_site(clip, site, f"--plant-feet {form!r}")
+        ranges.setdefault(site, []).extend(frame_spans(form, spans, clip.n_frames, "--plant-feet"))
+    return contacts_from_ranges(clip, ranges)
+
+
+def _point(clip: Motion, point: str, form: str) -> tuple[str, ...]:
+    """(parent, child) of a bone PARENT-CHILD, or (point,) of a joint or site; else InputError."""
+    if point in clip.skeleton.frame_names:
+        return (point,)
+    ends = bone_ends(clip.skeleton, point)
+    if ends is None:
+        check_site(clip, point, f"--contact {form!r} (a joint, an end site or a bone PARENT-CHILD)")
+    return ends
+
+
+def body_contacts(
+    clip: Motion, forms: Sequence[str], floor: float, height: float | None, speed: float | None
+) -> list[Contacts]:
+    """The contact specs `forms` of points anywhere on the body, one Contacts per form, on the
+    floor at `floor`; detection thresholds `height` (above each point's resting height) and `speed`."""
+    if list(forms) == ["none"]:
+        return []
+    detect = dict(floor=floor, band=height, speed=speed)
+    parts = []
+    for form in forms:
+        if form in ("auto", "none"):
+            if form == "none":
+                raise InputError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
+            parts.append(detect_body_contacts(clip, **detect))
+            continue
+        point, at, spans = form.partition("@")
+        ends = _point(clip, point.strip(), form)
+        if not at:
+            parts.append(detect_body_contacts(clip, ends, **detect))
+            continue
+        frames = np.zeros(clip.n_frames, bool)
+        for start, stop in frame_spans(form, spans, clip.n_frames, "--contact"):
+            frames[start:stop] = True
+        masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
+        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
+    return parts
+
+
+MAX_FLOOR = 1e12  # a floor height beyond this is a typo (its squares overflow float32)
+
+
+def floor_height(clip: Motion, spec: str | float | None) -> tuple[float, bool]:
+    """(floor height, whether it is kept as a goal) of the floor spec: "auto" (detected and
+    kept), "none" or None (detected, for the measures, and not kept) or a height."""
+    if spec is None or spec in ("auto", "none"):
+        return detect_floor(clip), spec == "auto"
+    try:
+        height = float(spec)
+    except (TypeError, ValueError, OverflowError):
+        height = float("nan")
+    if not (np.isfinite(height) and abs(height) <= MAX_FLOOR):
+        raise InputError(
+            f"--floor {str(spec)[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
+        )
+    return height, True
+
+
+def reaches(clip: Motion, specs: Sequence[str]) -> tuple[Reach, ...]:
+    """The reach tracks of `specs` (SITE=TRACK) over `clip`'s frames."""
+    out = []
+    for spec in specs:
+        site, mask, targets = parse_reach_spec(spec, clip.n_frames)
+        check_site(clip, site, f"--reach {spec!r}")
+        out.append(Reach(site, mask, targets))
+    return tuple(out)
+
+
+def all_contacts(
+    clip: Motion,
+    plant_feet: Sequence[str],
+    contact: Sequence[str],
+    floor: float,
+    thresholds: tuple[float | None, float | None],
+) -> Contacts | None:
+    """Every contact the plant_feet and contact specs ask for, merged on the floor at `floor`;
+    None for none. `thresholds`: (height, speed) of detected contacts, None for the defaults."""
+    feet = planted_feet(clip, plant_feet, *thresholds, default=not contact)
+    parts = [part for part in [feet, *body_contacts(clip, contact, floor, *thresholds)] if part is not None]
+    return merge_contacts(parts, floor) if parts else None
