@@ -1,20 +1,20 @@
 """Strict targets from forward kinematics of random in-limit poses, polished by the first polish
-on the device and path named in argv, and print, as JSON, the answers and which first-polish
-kernel ran.
+on the device and path named in argv; print, as JSON, the answers, each goal's largest error by
+NumPy's forward kinematics of the answers, and which first-polish kernel ran.
 
     PYTHONPATH=src python tests/scripts/team_polish_run.py CASE PATH [DTYPE]
 
 CASE "arm": a 7-DOF arm (the Franka Panda's kinematics: joint origins, axes and limits from its
 URDF), 6-D targets (1e-5 m, 1e-4 rad), 18 problems, six residual rows for seven DOFs (the
 m x m dual step); the GPU is told it holds 128 threads at once, so one block of 16 teams takes
-the problems in two groups, the second with 14 teams idle. "chain": a 24-DOF chain (12 ball joints), five problems: tip targets at 1e-5 m,
-on problem 0 an orientation of link 5 too, on problem 1 the positions of links 1-11 too (36 rows
-for 24 DOFs: the normal equations, three DOFs per lane). "wide": a 34-DOF chain's tip targets,
-more DOFs than a team's shared slab holds (the thread-per-problem kernel runs). Every target is
-the forward kinematics of a random in-limit pose; the start is that pose moved by up to 0.3 rad
-a DOF. PATH: "team" (the GPU's team per problem where it can), "thread" (a thread per problem)
-or "cpu".
-Used by tests/backends/test_cuda_team.py in subprocesses (the CUDA simulator needs its own process).
+the problems in two groups, the second with 14 teams idle. "chain": a 24-DOF chain (12 ball
+joints), five problems: tip targets at 1e-5 m, on problem 0 an orientation of link 5 too, on
+problem 1 the positions of links 1-11 too (36 rows for 24 DOFs: the normal equations, three
+DOFs per lane). "wide": a 34-DOF chain's tip targets, more DOFs than a team's shared slab holds
+(the thread-per-problem kernel runs). Every target is the forward kinematics of a random
+in-limit pose; the start is that pose moved by up to 0.3 rad a DOF. PATH: "team" (the GPU's
+team per problem where it can), "thread" (a thread per problem) or "cpu". Used by
+tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
 """
 
 import json
