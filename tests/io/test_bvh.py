@@ -208,11 +208,15 @@ def test_units_limits_and_reference():
     rotation = sk.dof_kind == ROTATE
     assert (sk.lower[rotation] == -math.pi).all() and (sk.upper[rotation] == math.pi).all()
     assert clip.frames[0, sk.dof_names.index("base.Yrotation")] == pytest.approx(math.radians(10))
-    # translations: the clip's range widened by the reach on both sides
-    k = sk.dof_names.index("arm.Xposition")
+    # the root's translation: the clip's range widened by the reach on both sides; the arm's,
+    # below a joint that translates, held at the capture's range so its bone keeps its length
+    k, root = sk.dof_names.index("arm.Xposition"), sk.dof_names.index("base.Xposition")
     assert sk.dof_kind[k] == TRANSLATE
-    reach = sk.upper[k] - 2.0
-    assert reach > 3 and sk.lower[k] == pytest.approx(0.25 - reach)
+    assert (sk.lower[k], sk.upper[k]) == (0.25, 2.0)
+    reach = sk.upper[root] - clip.frames[:, root].max()
+    assert reach > 3 and sk.lower[root] == pytest.approx(clip.frames[:, root].min() - reach)
+    freed = parse_bvh(TOY, "toy.bvh", free_translations=True).skeleton
+    assert freed.upper[k] == pytest.approx(2.0 + reach) and freed.lower[k] == pytest.approx(0.25 - reach)
     assert (sk.reference == 0).all() and not clip.frames.flags.writeable
 
 

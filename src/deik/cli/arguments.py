@@ -124,3 +124,14 @@ def record_compiles(names: list[str]) -> None:
         from deik.solver.readiness import record_compiles as record
 
         record()
+
+
+def add_free_translations(parser: argparse.ArgumentParser) -> None:
+    """--free-translations on `parser` (solve, clip, retarget): position channels below a BVH's
+    first translating joint keep the capture's values unless it is given (deik.io.bvh.read_bvh)."""
+    parser.add_argument(
+        "--free-translations",
+        action="store_true",
+        help="BVH: let deik move position channels below the first joint that translates (by default they "
+        "keep the capture's values, so bones keep their lengths)",
+    )

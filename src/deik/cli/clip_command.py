@@ -15,7 +15,14 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import (
+    UsageError,
+    add_free_translations,
+    announce_compile,
+    check_device,
+    check_outputs,
+    record_compiles,
+)
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.suggest import did_you_mean
@@ -37,6 +44,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         "--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout); a folder for a folder"
     )
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
+    add_free_translations(c)
     c.add_argument(
         "--limits",
         metavar="FILE.json",
@@ -369,7 +377,7 @@ def run_clip(
         from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
-    clip = read_bvh(args.clip, segments=args.segments)
+    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
     if args.limits:
         from deik.io.limits import clip_within, read_limits, with_limits
 

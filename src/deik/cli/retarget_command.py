@@ -13,7 +13,14 @@ import os
 import re
 from collections.abc import Callable
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, record_compiles
+from deik.cli.arguments import (
+    UsageError,
+    add_free_translations,
+    announce_compile,
+    check_device,
+    check_outputs,
+    record_compiles,
+)
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.viz.text import format_table
@@ -53,6 +60,7 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
     r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
     r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
+    add_free_translations(r)
     add_output_flags(r)
 
 
@@ -102,7 +110,7 @@ def run_retarget(
     )
     check_device(args.device)
     settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    clip = frame_range(read_bvh(args.clip), _frames(args.frames))
+    clip = frame_range(read_bvh(args.clip, free_translations=args.free_translations), _frames(args.frames))
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:

@@ -16,7 +16,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.arguments import UsageError, announce_compile, check_device, check_outputs, numbers, record_compiles
+from deik.cli.arguments import (
+    UsageError,
+    add_free_translations,
+    announce_compile,
+    check_device,
+    check_outputs,
+    numbers,
+    record_compiles,
+)
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
@@ -56,6 +64,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--problem", metavar="FILE.toml", help="read skeleton, goals and settings from a TOML file")
     s.add_argument("--frame", type=int, metavar="N", help="BVH: pose frame N (0-based) of the clip")
     s.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated from bone lengths)")
+    add_free_translations(s)
     s.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world (default: the root link)")
     s.add_argument(
         "--tip",
@@ -137,7 +146,8 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
 
 
 def _file_flags_used(args) -> bool:
-    return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up, args.limits))
+    flags = (args.frame, args.segments, args.base, args.tip, args.up, args.limits)
+    return any(v not in (None, []) for v in flags) or args.free_translations
 
 
 def _problem(args):
@@ -158,7 +168,9 @@ def _problem(args):
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
-    loaded = load_skeleton(spec, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    loaded = load_skeleton(
+        spec, base=args.base, tip=args.tip, segments=args.segments, up=up, free_translations=args.free_translations
+    )
     if args.limits:
         loaded = replace(loaded, skeleton=with_limits(loaded.skeleton, read_limits(args.limits, loaded.skeleton)))
     frame_pose = None
