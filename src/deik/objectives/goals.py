@@ -360,14 +360,28 @@ class Obstacle(Goal):
 class Floor(Goal):
     """A floor at `height` (length units along skeleton.up) that every joint and site stays at
     or above (so every bone does: a segment reaches lowest at one of its ends); error = summed
-    depth below it (length units). Default tolerance: LENGTH_TOLERANCE."""
+    depth below it (length units). `clearance` (F,) per joint then site (length units, NaN
+    for a point the floor ignores), if given, keeps each point that far above the floor: the
+    body's surface around it (a limb's radius) stays on or above it. Default tolerance:
+    LENGTH_TOLERANCE."""
 
     LABEL = "floor"
     BATCH_FIELDS = (("height", 0),)
     height: object
+    clearance: object = None
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        return self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
+        row = self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
+        if self.clearance is None:
+            return row
+        clearance = np.asarray(self.clearance, float)
+        if clearance.shape != (skeleton.n_frames,) or np.isinf(clearance).any() or (clearance < 0).any():
+            raise ValueError(
+                f"floor clearance must be (F,) = ({skeleton.n_frames},) finite lengths >= 0 or NaN, one per joint "
+                f"then site, got shape {clearance.shape}"
+            )
+        points = np.flatnonzero(np.isfinite(clearance))
+        return replace(row, pairs=tuple((int(f), int(f), float(clearance[f])) for f in points))
 
     def params(self, skeleton: Skeleton) -> np.ndarray:
         height = np.asarray(self.height, float)

@@ -35,6 +35,7 @@ from deik.cleanup.units import guess_unit, metres_per_unit
 from deik.cleanup.warmstart import dof_weights
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
+from deik.model.build import with_sites
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
@@ -43,7 +44,7 @@ from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_k
 from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.measures import retarget_report, within_limits
 from deik.retargeting.outcome import Retarget
-from deik.retargeting.skeletons import with_floating_root, with_free_root, with_sites, without_sites
+from deik.retargeting.skeletons import with_floating_root, with_free_root, without_sites
 from deik.retargeting.smooth import smooth_motion
 
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
