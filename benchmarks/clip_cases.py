@@ -17,7 +17,7 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - limbs: the left leg's bones 8 % longer and the right leg's 4 % shorter, the arms 10 % longer,
   the root raised by the mean change of the legs: one foot sinks through the floor, the other
   floats, the feet slide.
-- noisy: capture noise (0.6 degrees on every rotation channel, 2 mm on the root) and the whole
+- noisy: capture noise (0.2 degrees on every rotation channel, 1 mm on the root) and the whole
   body 12 mm lower, so the feet rest under the floor.
 """
 
@@ -194,9 +194,9 @@ def noisy(case: Case, seed: int = 0) -> Case:
     frames = rig.frames.copy()
     for k, (j, channel) in enumerate(rig.columns):
         if channel.endswith("rotation"):
-            frames[:, k] += rng.normal(0.0, 0.6, len(frames))
+            frames[:, k] += rng.normal(0.0, 0.2, len(frames))
         elif j == 0:
-            frames[:, k] += rng.normal(0.0, 0.002 * case.unit, len(frames))
+            frames[:, k] += rng.normal(0.0, 0.001 * case.unit, len(frames))
             if channel == "Yposition":
                 frames[:, k] -= 0.012 * case.unit
     rig = dataclasses.replace(rig, frames=frames)

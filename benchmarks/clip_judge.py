@@ -31,8 +31,8 @@ import numpy as np
 from benchmarks.clip_cases import Case
 from benchmarks.clip_rigs import Rig, world_frames
 
-BAND = 0.025  # metres above the floor
-SPEED = 0.25  # metres per second
+BAND = 0.02  # metres above the floor
+SPEED = 0.15  # metres per second
 REST_SECONDS = 0.05
 STEP_SLACK = 0.07  # seconds
 FOOT_BOX = ((0.045, -0.0225, 0.0), (0.0885, 0.0275, 0.045))  # centre, half sizes in the ankle's frame

@@ -106,16 +106,17 @@ def bone_contacts(clip: Motion, parent: str, child: str, frames: np.ndarray) -> 
 
 
 def merge_contacts(parts: Iterable[Contacts], floor: float) -> Contacts:
-    """One Contacts of `parts` (Contacts): each site in contact in a frame where any part says so,
-    on the floor at `floor`; detected (with the first detected part's thresholds) when any
-    part was."""
-    masks = {}
+    """One Contacts of `parts` (Contacts): each site in contact in a frame where any part says so
+    (its clearance the first part's that has it), on the floor at `floor`; detected (with the
+    first detected part's thresholds) when any part was."""
+    masks, clear = {}, {}
     for part in parts:
         for s, site in enumerate(part.sites):
             masks[site] = masks.get(site, False) | part.mask[:, s]
+            clear.setdefault(site, float(part.clearance[s]))
     detected = [part for part in parts if part.detected]
     first = detected[0] if detected else None
     sites = tuple(masks)
     mask = np.stack([masks[site] for site in sites], axis=1) if sites else np.zeros((len(parts[0].mask), 0), bool)
     height, speed = (first.height, first.speed) if first else (None, None)
-    return Contacts(sites, mask, bool(detected), height, speed, floor)
+    return Contacts(sites, mask, bool(detected), height, speed, floor, np.array([clear[site] for site in sites]))

@@ -62,16 +62,31 @@ def hinge_channels(clip: Motion) -> np.ndarray:
     return zero & joint_moves[sk.dof_joint]
 
 
+def held_dofs(clip: Motion) -> np.ndarray:
+    """(D,) bool: translations whose limits leave them no room beyond the clip's own range of
+    values (a BVH's position channels below its first translating joint, deik.io.bvh): the clip
+    holds them at its values, so a fix never moves them and bones keep their lengths."""
+    sk = clip.skeleton
+    if not clip.n_frames:
+        return np.zeros(sk.n_dofs, bool)
+    frames = clip.frames
+    slack = 1e-9 * max(sk.reach, 1e-300)
+    inside = (sk.lower >= frames.min(axis=0) - slack) & (sk.upper <= frames.max(axis=0) + slack)
+    return (sk.dof_kind == TRANSLATE) & inside
+
+
 def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
     """(N,) bool: the frames where deik goal `goal` applies (its `active` mask; all if None)."""
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
 
 
-def near_floor(clip: Motion, height: float) -> np.ndarray:
+def near_floor(clip: Motion, height: float, clearance: np.ndarray | None = None) -> np.ndarray:
     """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
-    (or below it) in the frame or a neighbouring one: those a search may have to lift."""
+    plus their `clearance` (F,) (default 0; NaN: never) in the frame or a neighbouring one:
+    those a search may have to lift."""
     sk = clip.skeleton
-    near = forward_kinematics(sk, clip.frames).p_world_frame @ sk.up <= height + NEAR_FLOOR * sk.reach
+    level = height + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+    near = forward_kinematics(sk, clip.frames).p_world_frame @ sk.up <= level + NEAR_FLOOR * sk.reach
     out = near.copy()
     out[1:] |= near[:-1]
     out[:-1] |= near[1:]
@@ -82,20 +97,21 @@ def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
     """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
     that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
     chains of the points near it (near_floor), any other goal (the centre of mass over the
-    support) every DOF, in the frames where it is active; hinge_channels never move."""
+    support) every DOF, in the frames where it is active; hinge_channels and held_dofs never
+    move."""
     sk = clip.skeleton
     out = np.zeros((clip.n_frames, sk.n_dofs), bool)
     for goal in goals:
         if isinstance(goal, Comfort):
             continue
         if isinstance(goal, Floor):
-            near = near_floor(clip, goal.height)
+            near = near_floor(clip, goal.height, goal.clearance)
             chains = np.array([moving_dofs(sk, name) for name in sk.frame_names])
             out |= (near[:, :, None] & chains[None]).any(axis=1)
             continue
         chain = moving_dofs(sk, goal.frame) if isinstance(goal, Position) else True
         out |= active_frames(goal, clip.n_frames)[:, None] & chain
-    return out & ~hinge_channels(clip)[None, :]
+    return out & ~(hinge_channels(clip) | held_dofs(clip))[None, :]
 
 
 def _solve_bands(a0, a1, a2, rhs):

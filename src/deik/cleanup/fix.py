@@ -14,6 +14,12 @@
    every such goal is within tolerance (stop_on_converged), the fidelity and coherence
    terms (the last level) choosing among the poses that are.
 
+The fix works on the body (cleanup/body.py): the clip's skeleton with the soles of its feet,
+every tolerance a share of its span, the floor kept under the surface of each joint and site (its
+clearance, cleanup/ground.py), the position channels the clip holds (coherence.held_dofs) never
+moved. Last, calm.py takes the change back wherever it makes a joint or site accelerate beyond
+its own peak in the capture (no new pops); those frames are reported.
+
 Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
 per pass population x (generations + 1) pose evaluations per repaired frame, about
 population evaluations per frame that is left alone. Planted feet and reach tracks rarely
@@ -32,11 +38,22 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
-from deik.cleanup.clip_goals import FIDELITY_LEVEL, ClipGoals, clip_balance, clip_problem, fixed_goals, goal_names
-from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
+from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.calm import calm
+from deik.cleanup.clip_goals import (
+    FIDELITY_LEVEL,
+    ClipGoals,
+    clip_balance,
+    clip_problem,
+    fixed_goals,
+    goal_names,
+    sized_goals,
+)
+from deik.cleanup.coherence import ease, held_dofs, hinge_channels, searched_dofs
 from deik.cleanup.dynamics import jolted_frames
+from deik.cleanup.ground import body_paths, clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
-from deik.io.trajectory import Motion
+from deik.io.trajectory import Motion, Trajectory
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -72,7 +89,9 @@ class ClipFix:
     generations, mean and max, pose evaluations: population x (generations + 1) summed over
     them, and the failed repairs refused because they would make a frame jolt); `balance` the
     centre-of-mass track with --balance (its balanced and skipped frames, cleanup/balance.py),
-    else None."""
+    else None; `body` the body it was fixed on (cleanup/body.py), `calmed` (N,) the frames whose
+    change was taken back so that nothing jolts (cleanup/calm.py), and `goals` the goals as
+    fixed (every tolerance sized, the floor's clearance set)."""
 
     clip: object
     original: object
@@ -86,6 +105,13 @@ class ClipFix:
     settings: Settings
     stages: tuple[dict, ...]
     balance: BalanceTrack | None = None
+    body: Body | None = None
+    calmed: np.ndarray | None = None
+    goals: ClipGoals | None = None
+
+    def on_body(self) -> tuple[Trajectory, Trajectory]:
+        """(original, fixed) on the body's skeleton, soles included: what the reports measure."""
+        return on_body(self.original, self.body), on_body(self.clip, self.body)
 
 
 def _errors(problem, poses) -> np.ndarray:
@@ -131,7 +157,7 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray):
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, points: np.ndarray):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
     `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
     start without it), and where the balanced warm start makes a frame jolt or turns a joint far
@@ -150,7 +176,7 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     balance = clip_balance(clip, goals, frames=unbalanced)
     for round_ in range(GUARD_ROUNDS):
         displacement, fixed = warm(goals, balance)
-        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
+        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
         jolting = (np.convolve(jolted, np.ones(2 * GUARD_REACH + 1), "same") > 0) & balance.balanced
         if round_ == GUARD_ROUNDS - 1 or not jolting.any():
             break
@@ -158,7 +184,7 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     return displacement, fixed, balance
 
 
-def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[np.ndarray, int]:
+def _without_jolts(clip, displacement, found, repaired, met, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
     `found` (N, D), eased into their neighbours, except those that still miss their goals
     (`met` (N,) False) where the repair would make a frame jolt that did not (cleanup/dynamics.py):
@@ -170,8 +196,8 @@ def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[
         return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, EASE))
 
     candidate = taken(repaired)
-    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
-    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate)) & ~before
+    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
     refused = repaired & ~met & (np.convolve(new, np.ones(3), mode="same") > 0)
     return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
 
@@ -183,16 +209,19 @@ def fix_clip(
     settings: Settings | None = None,
     *,
     progress: Callable[[int, str], object] | None = None,
+    body: Body | None = None,
     **overrides: object,
 ) -> ClipFix:
-    """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
+    """Fix every frame of `clip` (a deik.Clip) for `goals` on its `body` (default body_of(clip);
+    contacts may name its sole sites): the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
     settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
     by keyword (population, generations, seed, device, ...).
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
     stage)`, if given, is called with the number of frames that meet their goals after the
-    warm start and each DE pass, during a pass every 100 generations, and once at the end."""
+    warm start and each DE pass, during a pass every 100 generations, and once at the end.
+    Last, the change is taken back wherever it makes a joint or site jolt (cleanup/calm.py)."""
     if not isinstance(goals, ClipGoals):
         raise TypeError(f"goals must be a deik.cleanup.clip_goals.ClipGoals, got {type(goals).__name__}")
     if passes is None:  # a collision repair eased into its neighbours can push them into collision
@@ -204,14 +233,22 @@ def fix_clip(
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
     settings = merge_settings("fix_clip()", settings, overrides, defaults)
     start = time.perf_counter()
+    written, body = clip, body_of(clip) if body is None else body
+    clip = on_body(written, body)
+    goals = sized_goals(goals, body.span)
+    if goals.floor is not None and goals.floor_clearance is None:
+        clear = clearances(body, body_paths(clip, body), goals.floor)
+        goals = dataclasses.replace(goals, floor_clearance=np.where(body.part, clear, np.nan))
     sk = clip.skeleton
     rotation = sk.dof_kind == ROTATE
     original = clip.poses()
     weights = dof_weights(clip)
-    movable = np.broadcast_to(~hinge_channels(clip), original.shape)
-    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable)
+    fixed_dofs = hinge_channels(clip) | held_dofs(clip)
+    movable = np.broadcast_to(~fixed_dofs, original.shape)
+    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
+    displacement, calmed = calm(clip, displacement, body.part)  # DE repairs what this takes back
     searched = searched_dofs(clip, fixed_part)
-    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
+    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(calmed.sum())}]
     report = progress or (lambda met, stage: None)
     for k in range(passes):
         began = time.perf_counter()
@@ -224,7 +261,7 @@ def fix_clip(
         if not unmet.any():
             break
         # a frame in collision may move every DOF but the hinge channels
-        searched = searched | (_colliding(problem, errors)[:, None] & ~hinge_channels(clip)[None, :])
+        searched = searched | (_colliding(problem, errors)[:, None] & ~fixed_dofs[None, :])
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         stage = f"DE pass {k + 1}"
@@ -232,7 +269,7 @@ def fix_clip(
         result = solve(problem, settings, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
         repaired = _met(problem, np.clip(wrap_rotations(original + found, rotation), sk.lower, sk.upper))[1]
-        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched)
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched, body.part)
         generations = result.generations[unmet]
         stages.append(
             {
@@ -245,6 +282,9 @@ def fix_clip(
                 "refused": refused,
             }
         )
+    began = time.perf_counter()
+    displacement, calmed = calm(clip, displacement, body.part)
+    stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})
     wall = time.perf_counter() - start
     logging.getLogger(__name__).debug(
         "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
@@ -253,16 +293,19 @@ def fix_clip(
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
     report(int(met.sum()), "done")
     return ClipFix(
-        clip.with_frames(clip.frames + displacement).with_continuous_channels(),
-        clip,
-        tuple(goal_names(goals)),
-        problem.table.term_float[: len(problem.goals), 3].copy(),
-        _errors(problem, original),
-        after,
-        met,
-        len(stages) - 1,
-        wall,
-        settings,
-        tuple(stages),
-        balance,
+        clip=written.with_frames(written.frames + displacement).with_continuous_channels(),
+        original=written,
+        labels=tuple(goal_names(goals)),
+        tolerances=problem.table.term_float[: len(problem.goals), 3].copy(),
+        before=_errors(problem, original),
+        after=after,
+        met=met,
+        passes=len(stages) - 2,
+        wall_time=wall,
+        settings=settings,
+        stages=tuple(stages),
+        balance=balance,
+        body=body,
+        calmed=calmed,
+        goals=goals,
     )

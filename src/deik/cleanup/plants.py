@@ -1,10 +1,13 @@
 """Where each contact plants: one target per contact interval of each site (planted_targets).
 
-A plant is the site's mean position over its interval in the capture at the median of its
-heights there (a one-frame dip does not lower it), raised where the site or a site rigidly
-linked to it sank through the floor (a leg made longer), and put on the floor when within
-SNAP_FRACTION x reach of it. Plants of two rigidly linked sites (an ankle and its toe) are
-placed relative to each other (_linked_plants), so both can be met at once.
+A plant is the site's median position along the ground over its interval in the capture (the
+frames it rests in outweigh a fast first or last one) at the median of its heights there (a
+one-frame dip does not lower it), raised where the site or a site rigidly linked to it sank
+through the floor (a leg made longer), and put on the floor when within SNAP_FRACTION x reach
+of it; "the floor" of a site is the floor's height plus the site's clearance (how far above it
+a knee joint sits when the knee touches, Contacts.clearance). Plants of two rigidly linked
+sites (an ankle and its toe) are placed relative to each other (_linked_plants), so both can be
+met at once.
 """
 
 from __future__ import annotations
@@ -101,10 +104,10 @@ def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
     return out
 
 
-def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
-    """(N, S) heights of the contact sites, each frame's raised by the depth below `floor` of
-    the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then: a
-    foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
+def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: np.ndarray) -> np.ndarray:
+    """(N, S) heights of the contact sites, each frame's raised by the depth below its `floor`
+    (S,) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
+    a foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
     its toe is above the sole."""
     depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
     lift = depth.copy()
@@ -117,27 +120,28 @@ def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) 
 def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
-    Per contact interval, the mean world position of the site over the interval in `clip` (the
+    Per contact interval, the median world position of the site over the interval in `clip` (the
     original), at the median of its heights along up there (a one-frame dip does not lower
     it), each frame's height first raised by how far the site or a site rigidly linked to it
-    is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
-    is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
-    overlap get targets that distance apart (_linked_plants), so both can be met at once.
+    is below its floor (`contacts.ground` plus its clearance); a height within SNAP_FRACTION x
+    reach of that is put on it. Two sites a fixed distance apart (an ankle and its toe) whose
+    intervals overlap get targets that distance apart (_linked_plants), so both can be met at
+    once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
     pairs = _rigid_pairs(p, clip.skeleton.reach)
-    floor = contacts.ground
+    floor = contacts.ground + contacts.clearance
     heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
-            mean = p[a:b, s].mean(axis=0)
+            mean = np.median(p[a:b, s], axis=0)
             height = float(np.median(heights[a:b, s]))
-            if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
-                height = floor
+            if abs(height - floor[s]) <= SNAP_FRACTION * clip.skeleton.reach:
+                height = floor[s]
             plants[s, a, b] = mean + (height - mean @ up) * up
     plants = _linked_plants(plants, pairs, p, up)
     targets = np.full(p.shape, np.nan)

@@ -45,7 +45,7 @@ REACH_WEIGHT = 1e5
 ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
-FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
+FLOOR_MARGIN = 1e-4  # of reach: how far above the floor (and its clearance) a point pushed out of it ends
 
 
 def position_jacobian(
@@ -104,12 +104,16 @@ def _position_rows(x, jac, rows, longest: float):
     return error.reshape(N, -1), (jac[:, index] * active[:, :, None, None]).reshape(N, -1, D)
 
 
-def floor_rows(x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
-    """(errors (N, F), Jacobian rows (N, F, D)): each joint or site lower than floor + 2
-    FLOOR_MARGIN is lifted to floor + FLOOR_MARGIN (the band between holds it there)."""
+def floor_rows(
+    x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float, margin: float, clearance: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, F), Jacobian rows (N, F, D)): each joint or site at positions x (N, F, 3) lower
+    than floor + its `clearance` (F,) (default 0; NaN: ignored) + 2 `margin` is lifted to floor +
+    clearance + margin (the band between holds it there)."""
     height = x @ up
-    low = height < floor + 2 * FLOOR_MARGIN
-    return np.where(low, floor + FLOOR_MARGIN - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
+    level = floor + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+    low = height < level + 2 * margin
+    return np.where(low, level + margin - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
 
 def _solve(B: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
@@ -129,7 +133,8 @@ def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     error, rows = _position_rows(x, jac, held_rows, longest)
     errors, parts = [error], [rows]
     for floor in floors:
-        error, rows = floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
+        F, margin = skeleton.n_frames, FLOOR_MARGIN * skeleton.reach
+        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, floor.height, margin, floor.clearance)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:

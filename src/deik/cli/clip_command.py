@@ -160,25 +160,31 @@ def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, 
     return out
 
 
-def _feet(args, clip):
-    """The --plant-feet contacts (None for none); auto when neither it nor --contact is given."""
-    from deik.cleanup.contacts import contacts_from_ranges, detect_contacts, foot_sites
+def _feet(args, motion, body, floor: float, paths):
+    """The --plant-feet contacts (None for none; auto by default): each foot's heel and toe."""
+    from deik.cleanup.ground import detect_resting, given_contacts
 
-    forms = args.plant_feet or ([] if args.contact else ["auto"])
-    if not forms or forms == ["none"]:
+    forms = args.plant_feet or ["auto"]
+    if forms == ["none"]:
         return None
     if "auto" in forms:
         if len(forms) > 1:
             raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
-        return detect_contacts(clip, foot_sites(clip.skeleton), height=args.contact_height, speed=args.contact_speed)
-    ranges = {}
+        points = tuple(name for foot in body.feet for name in (foot.heel, foot.toe))
+        if not points:
+            return None
+        detect = dict(band=args.contact_height, speed=args.contact_speed, paths=paths)
+        return detect_resting(motion, body, floor, points, idle=False, **detect)
+    masks = {}
     for form in forms:
         site, _, spans = form.partition(":")
         if not site or not spans:
             raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
-        _check_site(clip, site, f"--plant-feet {form!r}")
-        ranges.setdefault(site, []).extend(_frames(form, spans, clip.n_frames, "--plant-feet"))
-    return contacts_from_ranges(clip, ranges)
+        _check_site(motion, site, f"--plant-feet {form!r}")
+        mask = masks.setdefault(site, np.zeros(motion.n_frames, bool))
+        for start, stop in _frames(form, spans, motion.n_frames, "--plant-feet"):
+            mask[start:stop] = True
+    return given_contacts(motion, body, floor, masks, paths)
 
 
 def _point(clip, point: str, form: str):
@@ -193,54 +199,60 @@ def _point(clip, point: str, form: str):
     return ends
 
 
-def _body(args, clip, floor: float) -> list:
-    """The --contact contacts, one Contacts per form."""
-    from deik.cleanup.body_contacts import bone_contacts, detect_body_contacts
-    from deik.cleanup.contacts import Contacts
+def _body(args, motion, body, floor: float, paths) -> list:
+    """The --contact contacts, one Contacts per form (auto by default: every point of the body
+    that rests, the feet's heels and toes aside, which --plant-feet gives)."""
+    from deik.cleanup.body_contacts import bone_contacts
+    from deik.cleanup.ground import detect_resting, given_contacts
 
-    if args.contact == ["none"]:
+    forms = args.contact or ["auto"]
+    if forms == ["none"]:
         return []
-    detect = dict(floor=floor, band=args.contact_height, speed=args.contact_speed)
+    detect = dict(band=args.contact_height, speed=args.contact_speed, paths=paths)
+    feet = {name for foot in body.feet for name in (foot.heel, foot.toe)}
     parts = []
-    for form in args.contact:
+    for form in forms:
         if form in ("auto", "none"):
             if form == "none":
                 raise UsageError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
-            parts.append(detect_body_contacts(clip, **detect))
+            points = tuple(name for name in body.contact_points() if name not in feet)
+            parts.append(detect_resting(motion, body, floor, points, idle=False, **detect))
             continue
         point, at, spans = form.partition("@")
-        ends = _point(clip, point.strip(), form)
+        ends = _point(motion, point.strip(), form)
         if not at:
-            parts.append(detect_body_contacts(clip, ends, **detect))
+            parts.append(detect_resting(motion, body, floor, ends, **detect))
             continue
-        frames = np.zeros(clip.n_frames, bool)
-        for start, stop in _frames(form, spans, clip.n_frames, "--contact"):
+        frames = np.zeros(motion.n_frames, bool)
+        for start, stop in _frames(form, spans, motion.n_frames, "--contact"):
             frames[start:stop] = True
-        masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
-        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
+        masks = bone_contacts(motion, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
+        parts.append(given_contacts(motion, body, floor, masks, paths))
     return parts
 
 
-def _floor(args, clip) -> tuple[float, bool]:
-    """(floor height, whether it is kept as a goal): --floor auto, none or a number."""
-    from deik.cleanup.body_contacts import detect_floor
+def _floor(args, motion, body, paths):
+    """(the floor, a deik.cleanup.ground.FloorChoice; whether it is kept as a goal): --floor auto,
+    none or a number."""
+    from deik.cleanup.ground import FloorChoice, detect_floor
 
     if args.floor in ("auto", "none"):
-        return detect_floor(clip), args.floor == "auto"
+        return detect_floor(motion, body, paths), args.floor == "auto"
     try:
         height = float(args.floor)
     except ValueError:
         height = float("nan")
     if not np.isfinite(height):
         raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
-    return height, True
+    return FloorChoice(height, "given"), True
 
 
-def _contacts(args, clip, floor: float):
+def _contacts(args, motion, body, floor: float, paths):
     """Every contact the flags ask for, merged on the floor at `floor`; None for none."""
     from deik.cleanup.body_contacts import merge_contacts
 
-    parts = [part for part in [_feet(args, clip), *_body(args, clip, floor)] if part is not None]
+    parts = [part for part in [_feet(args, motion, body, floor, paths), *_body(args, motion, body, floor, paths)]]
+    parts = [part for part in parts if part is not None and part.sites]
     return merge_contacts(parts, floor) if parts else None
 
 
@@ -357,11 +369,13 @@ def run_clip(
     """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
     For a library (deik.cli.folder_command): `on_frames(done, total)` follows the frames that meet
     their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
+    from deik.cleanup.body import body_of, on_body
     from deik.cleanup.clip_goals import GRAVITY, ClipGoals
     from deik.cleanup.document import clip_document
     from deik.cleanup.dynamics import FAR_DEGREES
     from deik.cleanup.fix import fix_clip
-    from deik.cleanup.units import guess_unit, span
+    from deik.cleanup.ground import body_paths
+    from deik.cleanup.units import unit_of_span
     from deik.io.bvh import read_bvh, write_bvh
 
     check_outputs(
@@ -384,10 +398,13 @@ def run_clip(
         clip = clip_within(
             clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
         )
-    floor, keep_floor = _floor(args, clip)
-    contacts = _contacts(args, clip, floor)
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    floor, keep_floor = _floor(args, motion, body, paths)
+    contacts = _contacts(args, motion, body, floor.height, paths)
     reach = _reaches(args, clip)
-    unit = args.units or guess_unit(clip.skeleton)
+    unit = args.units or unit_of_span(body.span)
     goals = ClipGoals(
         contacts,
         reach,
@@ -395,15 +412,15 @@ def run_clip(
         args.fidelity,
         args.coherence,
         self_collision=args.self_collision,
-        floor=floor if keep_floor else None,
+        floor=floor.height if keep_floor else None,
         gravity=GRAVITY / METRES[unit],
     )
     if not args.units:
-        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
-    log.info(
-        f"floor at {floor:.4g} {unit} along up ({'given' if args.floor not in ('auto', 'none') else 'detected'}"
-        f"{'' if keep_floor else ', not kept: --floor none'})",
-    )
+        log.info(
+            f"reports in {unit}: the body spans {body.span:.4g} length units from end to end, a person's size in "
+            f"{unit}; --units sets them (the fix itself needs no unit)"
+        )
+    log.info(floor.describe(unit) + ("" if keep_floor else "; not kept: --floor none"))
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
         log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
@@ -413,10 +430,10 @@ def run_clip(
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         progress = frames_reporter(bar, "every goal", on_frames)
-        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, **overrides)
+        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, body=body, **overrides)
     record_compiles(compiling)
     reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
-    floor_record = {"height": floor, "detected": args.floor in ("auto", "none"), "kept": keep_floor}
+    floor_record = floor.record() | {"kept": keep_floor}
     document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
     if record is not None:
         metrics = {key: value["after"] for key, value in document["metrics"].items()}

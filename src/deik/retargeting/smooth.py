@@ -31,7 +31,7 @@ import numpy as np
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
-from deik.cleanup.warmstart import FADE, floor_rows, motion_stiffness, position_jacobian
+from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
 from deik.retargeting.collision import BonePairs, collision_rows
@@ -91,7 +91,9 @@ def smooth_motion(
         x, jac = position_jacobian(skeleton, q, frames)
         held_errors = [np.where(mask[..., None], plants - x[:, sites], 0.0).reshape(N, -1)]
         held_rows = [(jac[:, sites] * mask[:, :, None, None]).reshape(N, -1, D)]
-        error, rows = floor_rows(x[:, floor_points], jac[:, floor_points], skeleton.up, floor)
+        error, rows = floor_rows(
+            x[:, floor_points], jac[:, floor_points], skeleton.up, floor, FLOOR_MARGIN * skeleton.reach
+        )
         held_errors.append(error)
         held_rows.append(rows)
         error, rows = collision_rows(x, jac, pairs, CAPSULE_MARGIN * skeleton.reach)
