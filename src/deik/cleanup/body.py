@@ -37,8 +37,8 @@ from deik.model.skeleton import Skeleton
 STANDING = 0.9
 FOOT_END = 0.12
 FOOT_CHAIN = 0.07
-HEEL_BACK = 0.3
-SOLE_WIDTH = 0.22
+HEEL_BACK = 0.33
+SOLE_WIDTH = 0.25
 SOLE_SITES = ("heel", "heel_left", "heel_right", "toe", "toe_left", "toe_right")
 
 
@@ -197,6 +197,17 @@ def _soles(skeleton: Skeleton, chain, kin, height) -> tuple[list, float]:
     return sites, sole
 
 
+def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """(F,) per joint and site the radius of the thinnest bone with a radius that ends or starts
+    there (a bone's radius is its start joint's, `joint_radius` (J,)); 0 where none has one."""
+    F = skeleton.n_frames
+    ending = np.where(start >= 0, joint_radius[np.maximum(start, 0)], 0.0)  # the bone that ends at f
+    thinnest = np.where(ending > 0, ending, np.inf)
+    leaving = np.concatenate([joint_radius, np.zeros(F - skeleton.n_joints)])  # bones that start at f
+    thinnest = np.where(leaving > 0, np.minimum(thinnest, leaving), thinnest)
+    return np.where(np.isfinite(thinnest), thinnest, 0.0)
+
+
 def body_of(clip: Motion) -> Body:
     """The Body of `clip` (module notes)."""
     sk = clip.skeleton
@@ -218,9 +229,7 @@ def body_of(clip: Motion) -> Body:
         foot_radius.update({f: height[f] - sole for f in chain})
     body = with_sites(sk, sites)
     joint_radius = np.where(carriers, 0.0, default_radii(sk, standing))
-    ends = joint_radius[sk.site_joint]
-    starts = np.concatenate([joint_radius, np.zeros(len(sk.site_names))])
-    own = np.maximum(np.concatenate([joint_radius, ends]), np.where(start >= 0, starts[np.maximum(start, 0)], 0.0))
+    own = _thinnest(sk, joint_radius, start)
     for f, value in foot_radius.items():
         own[f] = value
     radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])

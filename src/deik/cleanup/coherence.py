@@ -22,6 +22,7 @@ import numpy as np
 
 from deik.cleanup.banded import solve_spd_band
 from deik.cleanup.spacetime import spring_bands
+from deik.io.motion import held_translations
 from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
@@ -62,19 +63,6 @@ def hinge_channels(clip: Motion) -> np.ndarray:
     return zero & joint_moves[sk.dof_joint]
 
 
-def held_dofs(clip: Motion) -> np.ndarray:
-    """(D,) bool: translations whose limits leave them no room beyond the clip's own range of
-    values (a BVH's position channels below its first translating joint, deik.io.bvh): the clip
-    holds them at its values, so a fix never moves them and bones keep their lengths."""
-    sk = clip.skeleton
-    if not clip.n_frames:
-        return np.zeros(sk.n_dofs, bool)
-    frames = clip.frames
-    slack = 1e-9 * max(sk.reach, 1e-300)
-    inside = (sk.lower >= frames.min(axis=0) - slack) & (sk.upper <= frames.max(axis=0) + slack)
-    return (sk.dof_kind == TRANSLATE) & inside
-
-
 def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
     """(N,) bool: the frames where deik goal `goal` applies (its `active` mask; all if None)."""
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
@@ -97,8 +85,8 @@ def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
     """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
     that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
     chains of the points near it (near_floor), any other goal (the centre of mass over the
-    support) every DOF, in the frames where it is active; hinge_channels and held_dofs never
-    move."""
+    support) every DOF, in the frames where it is active; hinge_channels and the translations
+    the clip holds (deik.io.motion.held_translations) never move."""
     sk = clip.skeleton
     out = np.zeros((clip.n_frames, sk.n_dofs), bool)
     for goal in goals:
@@ -111,7 +99,7 @@ def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
             continue
         chain = moving_dofs(sk, goal.frame) if isinstance(goal, Position) else True
         out |= active_frames(goal, clip.n_frames)[:, None] & chain
-    return out & ~(hinge_channels(clip) | held_dofs(clip))[None, :]
+    return out & ~(hinge_channels(clip) | held_translations(clip.skeleton, clip.frames))[None, :]
 
 
 def _solve_bands(a0, a1, a2, rhs):

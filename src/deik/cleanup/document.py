@@ -154,14 +154,12 @@ def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None =
 
 def grounding(fix: ClipFix, height: float) -> Grounding:
     """The floor the report measures against: at `height`, each point's clearance as the fix kept
-    it, and every point of the body that rests in the capture (cleanup/ground.py), planted or not."""
+    it (its radius), and every point of the body that rests in the capture (cleanup/ground.py),
+    planted or not."""
     body = fix.body
     original = fix.on_body()[0]
     paths = body_paths(original, body)
-    clearance = fix.goals.floor_clearance
-    if clearance is None or fix.goals.floor != height:
-        clearance = np.where(body.part, clearances(body, paths, height), np.nan)
-    return Grounding(height, clearance, detect_resting(original, body, height, paths=paths))
+    return Grounding(height, clearances(body), detect_resting(original, body, height, paths=paths))
 
 
 def _far(original, fixed, degrees: float) -> dict:

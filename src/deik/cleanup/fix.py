@@ -16,8 +16,8 @@
 
 The fix works on the body (cleanup/body.py): the clip's skeleton with the soles of its feet,
 every tolerance a share of its span, the floor kept under the surface of each joint and site (its
-clearance, cleanup/ground.py), the position channels the clip holds (coherence.held_dofs) never
-moved. Last, calm.py takes the change back wherever it makes a joint or site accelerate beyond
+clearance, cleanup/ground.py), the position channels the clip holds (deik.io.motion.
+held_translations) never moved. Last, calm.py takes the change back wherever it makes a joint or site accelerate beyond
 its own peak in the capture (no new pops); those frames are reported.
 
 Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
@@ -45,14 +45,17 @@ from deik.cleanup.clip_goals import (
     ClipGoals,
     clip_balance,
     clip_problem,
+    contact_plants,
     fixed_goals,
     goal_names,
     sized_goals,
 )
-from deik.cleanup.coherence import ease, held_dofs, hinge_channels, searched_dofs
+from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
+from deik.cleanup.contacts import site_positions
 from deik.cleanup.dynamics import jolted_frames
-from deik.cleanup.ground import body_paths, clearances
+from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
+from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
@@ -71,7 +74,7 @@ CLIP_SETTINGS = {"population": 24, "generations": 60, "patience": 20, **LOCAL}
 PASSES = 1
 BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCAL}
 BALANCE_PASSES = 3
-EASE = 8.0  # frames over which a displacement decays where no goal holds it
+EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal holds it
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
 GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
@@ -167,7 +170,8 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
 
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
-        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=EASE)), fixed
+        fade = _ease_frames(clip)
+        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=fade)), fixed
 
     if not goals.balance:
         return *warm(goals, None), None
@@ -184,21 +188,39 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     return displacement, fixed, balance
 
 
+def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
+    """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
+    its floor): the warm start holds contacts still along the ground only, and DE, whose contact
+    goals are points, must not pull them back to the plants' heights."""
+    contacts, up = goals.contacts, clip.skeleton.up
+    plants = contact_plants(clip, goals)
+    heights = site_positions(clip.with_frames(poses), contacts.sites) @ up
+    if goals.floor is not None:
+        heights = np.maximum(heights, goals.floor + contacts.clearance)
+    moved = plants + (heights - plants @ up)[..., None] * up
+    return dataclasses.replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
+
+
+def _ease_frames(clip) -> float:
+    """EASE_SECONDS in frames of `clip` (at least 2)."""
+    return max(EASE_SECONDS / clip.frame_time, 2.0)
+
+
 def _without_jolts(clip, displacement, found, repaired, met, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
-    `found` (N, D), eased into their neighbours, except those that still miss their goals
-    (`met` (N,) False) where the repair would make a frame jolt that did not (cleanup/dynamics.py):
-    a DE search starts each frame afresh and may land a pose apart from its neighbours'.
-    `refused` counts them."""
+    `found` (N, D), eased into their neighbours, except where the repair would make a frame jolt
+    that did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose
+    apart from its neighbours'. `refused` counts them; `met` (N,) is whether each repair met its
+    goals (a refused one is listed unmet either way)."""
     sk, original = clip.skeleton, clip.poses()
 
     def taken(frames):
-        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, EASE))
+        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, _ease_frames(clip)))
 
     candidate = taken(repaired)
     before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
     new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
-    refused = repaired & ~met & (np.convolve(new, np.ones(3), mode="same") > 0)
+    refused = repaired & (np.convolve(new, np.ones(3), mode="same") > 0)
     return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
 
 
@@ -237,16 +259,18 @@ def fix_clip(
     clip = on_body(written, body)
     goals = sized_goals(goals, body.span)
     if goals.floor is not None and goals.floor_clearance is None:
-        clear = clearances(body, body_paths(clip, body), goals.floor)
-        goals = dataclasses.replace(goals, floor_clearance=np.where(body.part, clear, np.nan))
+        goals = dataclasses.replace(goals, floor_clearance=clearances(body))
     sk = clip.skeleton
     rotation = sk.dof_kind == ROTATE
     original = clip.poses()
     weights = dof_weights(clip)
-    fixed_dofs = hinge_channels(clip) | held_dofs(clip)
+    fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs, original.shape)
     displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
     displacement, calmed = calm(clip, displacement, body.part)  # DE repairs what this takes back
+    if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
+        goals = _plants_at_heights(clip, goals, original + displacement)
+        fixed_part = fixed_goals(clip, goals, weights, balance)
     searched = searched_dofs(clip, fixed_part)
     stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(calmed.sum())}]
     report = progress or (lambda met, stage: None)

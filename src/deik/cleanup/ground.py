@@ -11,9 +11,7 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   floor is the file's ground plane, height 0: captures are made on it, and their resting
   contacts sit on it, a little above or below (a long leg's foot sinks, a radius is an
   estimate). FloorChoice says which and how.
-- Clearance: how far above the floor a point sits when it touches: its radius, or less where
-  the capture rests it lower (the RESTING_QUANTILE-th percentile of its heights above the floor
-  over the frames it is slow in), and never below 0.
+- Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow, its surface (its height
   above floor + clearance) is at most BAND x span, and it is at most RISE x span above its own
   resting level (the RESTING_QUANTILE-th percentile of its heights while slow: a heel that has
@@ -38,8 +36,8 @@ SPEED = 0.1
 SMOOTH = 0.02
 GROUND_PLANE = 0.04
 RESTING_QUANTILE = 25.0
-BAND = 0.015
-RISE = 0.004
+BAND = 0.02
+RISE = 0.01
 TOUCH = 0.004
 TOUCH_SPEED = 1.5
 GAP = 0.05
@@ -143,9 +141,10 @@ def resting_levels(paths: Paths) -> np.ndarray:
     return levels
 
 
-def clearances(body: Body, paths: Paths, floor: float) -> np.ndarray:
-    """(F,) each point's clearance above the floor at `floor` (module notes)."""
-    return np.clip(np.minimum(body.radius, resting_levels(paths) - floor), 0.0, None)
+def clearances(body: Body) -> np.ndarray:
+    """(F,) each point's clearance above the floor (module notes); NaN for what is no part of
+    the body (a carrier joint)."""
+    return np.where(body.part, body.radius, np.nan)
 
 
 def _runs_in_seconds(mask: np.ndarray, frame_time: float) -> np.ndarray:
@@ -192,7 +191,7 @@ def detect_resting(
     band = BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
-    clear = clearances(body, paths, floor)[index]
+    clear = body.radius[index]
     heights = paths.heights[:, index]
     low = (heights - floor - clear <= band) & (heights <= resting_levels(paths)[index] + RISE * body.span)
     rest = _runs_in_seconds(slow & low, clip.frame_time)
@@ -203,14 +202,12 @@ def detect_resting(
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
 
 
-def given_contacts(
-    clip: Motion, body: Body, floor: float, masks: dict[str, np.ndarray], paths: Paths | None = None
-) -> Contacts:
+def given_contacts(clip: Motion, body: Body, floor: float, masks: dict[str, np.ndarray]) -> Contacts:
     """Contacts the user gave, {joint or site of body.skeleton: frames in contact (N,) bool}, on
     the floor at `floor`, each with its clearance (module notes). KeyError for unknown names."""
     sites = tuple(masks)
     index = [body.skeleton.frame_index(name) for name in sites]
-    clear = clearances(body, paths or body_paths(clip, body), floor)[index]
+    clear = body.radius[index]
     columns = [np.asarray(masks[name], bool) for name in sites]
     mask = np.stack(columns, axis=1) if sites else np.zeros((clip.n_frames, 0), bool)
     return Contacts(sites, mask, False, None, None, floor, clear)

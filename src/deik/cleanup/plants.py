@@ -3,9 +3,12 @@
 A plant is the site's median position along the ground over its interval in the capture (the
 frames it rests in outweigh a fast first or last one) at the median of its heights there (a
 one-frame dip does not lower it), raised where the site or a site rigidly linked to it sank
-through the floor (a leg made longer), and put on the floor when within SNAP_FRACTION x reach
-of it; "the floor" of a site is the floor's height plus the site's clearance (how far above it
-a knee joint sits when the knee touches, Contacts.clearance). Plants of two rigidly linked
+through the floor (a leg made longer); "the floor" of a site is the floor's height plus the
+site's clearance (how far above it a knee joint sits when the knee touches, Contacts.clearance).
+A plant within SNAP_FRACTION x reach above the floor is put on it when the site has no
+clearance (a sole, a toe tip); one with a clearance stays where the capture rests it, since a
+clearance is an estimate and lowering a hand onto a guessed radius could push the real hand
+into the floor. Plants of two rigidly linked
 sites (an ankle and its toe) are placed relative to each other (_linked_plants), so both can be
 met at once.
 """
@@ -18,7 +21,7 @@ from deik.cleanup.contacts import Contacts, site_positions
 from deik.io.trajectory import Motion
 
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
-SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
+SNAP_FRACTION = 0.01  # of reach: a plant without clearance this close to the floor is put on it
 HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
 
 
@@ -124,9 +127,9 @@ def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     original), at the median of its heights along up there (a one-frame dip does not lower
     it), each frame's height first raised by how far the site or a site rigidly linked to it
     is below its floor (`contacts.ground` plus its clearance); a height within SNAP_FRACTION x
-    reach of that is put on it. Two sites a fixed distance apart (an ankle and its toe) whose
-    intervals overlap get targets that distance apart (_linked_plants), so both can be met at
-    once.
+    reach of the floor is put on it when the site has no clearance. Two sites a fixed distance
+    apart (an ankle and its toe) whose intervals overlap get targets that distance apart
+    (_linked_plants), so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
@@ -139,8 +142,8 @@ def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
             mean = np.median(p[a:b, s], axis=0)
-            height = float(np.median(heights[a:b, s]))
-            if abs(height - floor[s]) <= SNAP_FRACTION * clip.skeleton.reach:
+            height = max(float(np.median(heights[a:b, s])), floor[s])
+            if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * clip.skeleton.reach:
                 height = floor[s]
             plants[s, a, b] = mean + (height - mean @ up) * up
     plants = _linked_plants(plants, pairs, p, up)

@@ -3,7 +3,7 @@ what it leaves unmet.
 
 Each frame's contacts, floor and balance goals (cleanup/clip_goals.py's levels 0 and 1) and, below
 them, its reach tracks (level 2) are met by a displacement of the whole clip from the capture,
-found in a few space-time Gauss-Newton steps (cleanup/spacetime.py): every frame's goal rows, on
+found in space-time Gauss-Newton steps (cleanup/spacetime.py): every frame's goal rows, on
 the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides along its
 world axis), weighted against the spring energy of the displacement, each DOF counted by how
 much of the body it moves (motion_stiffness). A correction therefore starts before a contact
@@ -11,9 +11,10 @@ does and bends the legs rather than the hips; where no goal holds a DOF it fades
 capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
 centre of mass's horizontal Jacobian, steering it along a track over the support
 (balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
-unreachable reach pulls a planted contact only a little, and the last steps, frame by frame,
-meet the contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
-with its priorities and tolerances.
+unreachable reach pulls a planted contact only a little. Steps repeat until the goal rows are
+met to SETTLED x reach or stop improving (at most STEPS): every step moves the whole clip at
+once, so none lands a frame apart from its neighbours. Goals that cannot all be met are left to
+DE, with its priorities and tolerances.
 """
 
 from __future__ import annotations
@@ -34,18 +35,20 @@ from deik.model.skeleton import Skeleton
 from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 
 DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
-STEPS = 4  # space-time steps over the whole clip
-SETTLE = 2  # last steps, frame by frame, meeting the contacts, floor and balance rows to microns
+STEPS = 12  # most space-time steps over the whole clip, per phase
+SETTLED = 1e-5  # of reach: goal rows met this closely need no more steps
+IMPROVING = 0.9  # a step that leaves the worst row above this share of it is the last
 FADE = 8.0  # frames over which a correction fades where no goal holds it (cleanup/spacetime.py)
 # weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
 # contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
-# the settling steps take back), reach tracks far above the energy
+# the later steps take back), reach tracks far above the energy
 HELD_WEIGHT = 1e6
 REACH_WEIGHT = 1e5
 ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
 FLOOR_MARGIN = 1e-4  # of reach: how far above the floor (and its clearance) a point pushed out of it ends
+FLOOR_HOLD = 30.0  # margins: a point this close to the floor is held where it is
 
 
 def position_jacobian(
@@ -96,45 +99,48 @@ def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return index, targets.reshape(len(goals), N, 3).transpose(1, 0, 2), active
 
 
-def _position_rows(x, jac, rows, longest: float):
-    """(errors (N, 3H), Jacobian rows (N, 3H, D)) of the Position rows (index, targets, active)."""
+def _position_rows(x, jac, rows, longest: float, axes: np.ndarray | None = None):
+    """(errors (N, kH), Jacobian rows (N, kH, D)) of the Position rows (index, targets, active),
+    along the k = 3 world axes or, given `axes` (k, 3), along those (a contact: the ground's)."""
     index, targets, active = rows
     N, D = jac.shape[0], jac.shape[-1]
     error = at_most(np.where(active[..., None], targets - x[:, index], 0.0), longest)
-    return error.reshape(N, -1), (jac[:, index] * active[:, :, None, None]).reshape(N, -1, D)
+    part = jac[:, index] * active[:, :, None, None]
+    if axes is not None:
+        error, part = error @ axes.T, np.einsum("ij,nhjd->nhid", axes, part)
+    return error.reshape(N, -1), part.reshape(N, -1, D)
 
 
 def floor_rows(
-    x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float, margin: float, clearance: np.ndarray | None = None
+    x: np.ndarray,
+    jac: np.ndarray,
+    up: np.ndarray,
+    floor: float,
+    margin: float,
+    clearance: np.ndarray | None = None,
+    hold: float = 2.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, F), Jacobian rows (N, F, D)): each joint or site at positions x (N, F, 3) lower
-    than floor + its `clearance` (F,) (default 0; NaN: ignored) + 2 `margin` is lifted to floor +
-    clearance + margin (the band between holds it there)."""
+    than floor + its `clearance` (F,) (default 0; NaN: ignored) + `margin` is lifted to floor +
+    clearance + margin, and one less than `hold` margins above that is held where it is (a
+    step's spring, pulling a lifted point back towards the capture, would drop it through the
+    floor again)."""
     height = x @ up
-    level = floor + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
-    low = height < level + 2 * margin
-    return np.where(low, level + margin - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
-
-
-def _solve(B: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
-    """(N, D) the least-squares step meeting rows B (N, R, D) for `error` (N, R), damped by
-    `damping` (length units per weighted DOF unit)."""
-    N, R, D = B.shape
-    if R == 0:
-        return np.zeros((N, D))
-    inverse = np.linalg.solve(B @ B.transpose(0, 2, 1) + damping**2 * np.eye(R), np.eye(R))
-    return (B.transpose(0, 2, 1) @ inverse @ error[..., None])[..., 0]
+    level = floor + margin + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+    low = height < level + (hold - 1.0) * margin
+    return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
 
 def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
-    """(errors (N, H), rows (N, H, D)) of the contacts, floor and balance (ComOverSupport goals:
-    two rows, the COM's ground position onto its point) rows at the positions `x` and
-    Jacobian `jac`."""
-    error, rows = _position_rows(x, jac, held_rows, longest)
+    """(errors (N, H), rows (N, H, D)) of the contacts (along the ground: a contact holds a point
+    still there, while the floor rows keep it out of the floor and the spring near its height in
+    the capture), floor and balance (ComOverSupport goals: two rows, the COM's ground position
+    onto its point) rows at the positions `x` and Jacobian `jac`."""
+    error, rows = _position_rows(x, jac, held_rows, longest, ground)
     errors, parts = [error], [rows]
     for floor in floors:
         F, margin = skeleton.n_frames, FLOOR_MARGIN * skeleton.reach
-        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, floor.height, margin, floor.clearance)
+        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, floor.height, margin, floor.clearance, FLOOR_HOLD)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:
@@ -153,7 +159,6 @@ def warm_start(
     movable: np.ndarray,
     weights: np.ndarray,
     steps: int = STEPS,
-    settle: int = SETTLE,
     fade: float = FADE,
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
@@ -161,14 +166,13 @@ def warm_start(
     keeps every joint and site above a Floor, steers the centre of mass onto the points of its
     ComOverSupport goals (a balance track, cleanup/balance.py) and, below those, meets the
     Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
-    (dof_weights). `steps` space-time steps over the whole clip (cleanup/spacetime.py): every frame's rows weighted
-    (HELD_WEIGHT, REACH_WEIGHT) against the spring energy of the displacement with fade
-    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; with reach
-    tracks, `steps` more that add them, moving only the frames of their (eased) windows, so a
-    reach changes nothing outside them; then `settle` damped Gauss-Newton steps per frame
-    meet the contacts, floor and balance rows to microns. A step moves a site or the COM at
-    most LONGEST_STEP x reach, so an unreachable target is approached, not chased. Limits are
-    not applied here (fix_clip does)."""
+    (dof_weights). At most `steps` space-time steps over the whole clip (cleanup/spacetime.py,
+    module notes): every frame's rows weighted (HELD_WEIGHT, REACH_WEIGHT) against the spring
+    energy of the displacement with fade `fade` frames, so corrections start, stop and hand
+    over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
+    frames of their (eased) windows, so a reach changes nothing outside them. A step moves a
+    site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
+    chased. Limits are not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -198,8 +202,13 @@ def warm_start(
         window = np.any([active_frames(goal, N) for goal in reach], axis=0)
         phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
+        worst = np.inf
         for _ in range(steps):
             x, jac, error, rows = rows_at(d, free)
+            now = np.abs(error).max(initial=0.0)
+            if now <= SETTLED * skeleton.reach or now > IMPROVING * worst:
+                break
+            worst = now
             row_weights = np.full(error.shape, HELD_WEIGHT)
             if with_reach:
                 reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
@@ -211,9 +220,6 @@ def warm_start(
                 rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
             )
             d += step * scale * free
-    for _ in range(settle):
-        _, _, error, rows = rows_at(d, movable)
-        d += _solve(rows, error, DAMPING * skeleton.reach) * scale * movable
     return d
 
 

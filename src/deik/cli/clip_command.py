@@ -184,7 +184,7 @@ def _feet(args, motion, body, floor: float, paths):
         mask = masks.setdefault(site, np.zeros(motion.n_frames, bool))
         for start, stop in _frames(form, spans, motion.n_frames, "--plant-feet"):
             mask[start:stop] = True
-    return given_contacts(motion, body, floor, masks, paths)
+    return given_contacts(motion, body, floor, masks)
 
 
 def _point(clip, point: str, form: str):
@@ -227,7 +227,7 @@ def _body(args, motion, body, floor: float, paths) -> list:
         for start, stop in _frames(form, spans, motion.n_frames, "--contact"):
             frames[start:stop] = True
         masks = bone_contacts(motion, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
-        parts.append(given_contacts(motion, body, floor, masks, paths))
+        parts.append(given_contacts(motion, body, floor, masks))
     return parts
 
 

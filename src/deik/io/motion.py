@@ -182,6 +182,17 @@ class Clip:
         return cls(skeleton, poses, frame_time, layout, source or f"<poses of {skeleton.name}>", mass_source)
 
 
+def held_translations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """(D,) bool: translations whose limits leave them no room beyond their range over `frames`
+    (N, D): the clip holds them at its values (a BVH's position channels below its first joint
+    that translates, deik.io.bvh), so solves and fixes keep bones at their lengths."""
+    if not len(frames):
+        return np.zeros(skeleton.n_dofs, bool)
+    slack = 1e-9 * max(skeleton.reach, 1e-300)
+    inside = (skeleton.lower >= frames.min(axis=0) - slack) & (skeleton.upper <= frames.max(axis=0) + slack)
+    return (skeleton.dof_kind == TRANSLATE) & inside
+
+
 def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
     """Check `layout` against the skeleton; return channel_dofs (C,) int, channel_scale (C,) and
     channel_bias (C,)."""
