@@ -7,17 +7,19 @@ threshold and tolerance of deik.cleanup is a share of it, never a DOF limit or a
 above the body that only carry it (deik.model.capsules.carrier_joints: a `Reference` joint on the
 ground) are not part of it.
 
-Standing pose: the reference pose (rotations 0, translations at their median over the capture)
-when it stands at least STANDING as tall as the tallest frame, else the tallest frame. Feet: in
-that pose, the ends of the body within FOOT_END x span of its lowest point (toes, not hands),
-each with the chain of joints above it that lie within FOOT_CHAIN x span of that end (an ankle,
-a toe joint); the chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose.
+Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
+a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
+the tallest frame (a rig that rests folded), then that frame. Feet: in that pose, the ends of
+the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
+joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
+chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose.
 On it lie the foot's sole sites, fixed in the ankle's frame (the toe's in the frame carrying the
 toe tip): its heel, HEEL_BACK of the ankle-to-toe length behind the ankle, its toe under the toe
 tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either side.
 
 Radius (how far the body's surface lies from a point): the capsule radius (default_radii, in the
-standing pose) of the thickest bone the point ends or starts; for a point of a foot its height
+standing pose) of the thinnest bone with one that the point ends or starts (a shoulder is as
+thick as its upper arm, not as the chest it hangs from); for a point of a foot its height
 above the sole; 0 for the sole sites.
 """
 
@@ -34,7 +36,7 @@ from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
-STANDING = 0.9
+STANDING = 0.5
 FOOT_END = 0.12
 FOOT_CHAIN = 0.07
 HEEL_BACK = 0.33

@@ -12,8 +12,9 @@ capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two
 centre of mass's horizontal Jacobian, steering it along a track over the support
 (balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
 unreachable reach pulls a planted contact only a little. Steps repeat until the goal rows are
-met to SETTLED x reach or stop improving (at most STEPS): every step moves the whole clip at
-once, so none lands a frame apart from its neighbours. Goals that cannot all be met are left to
+met to SETTLED x reach or, after FIRST_STEPS, their root-mean-square error stops falling (at
+most STEPS): every step moves the whole clip at once, so none lands a frame apart from its
+neighbours. Goals that cannot all be met are left to
 DE, with its priorities and tolerances.
 """
 
@@ -36,8 +37,8 @@ from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 
 DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
 STEPS = 12  # most space-time steps over the whole clip, per phase
-SETTLED = 1e-5  # of reach: goal rows met this closely need no more steps
-IMPROVING = 0.9  # a step that leaves the worst row above this share of it is the last
+SETTLED = 2e-5  # of reach: goal rows met this closely need no more steps
+FIRST_STEPS = 4  # steps taken before one that does not lower the rows' root-mean-square error ends them
 FADE = 8.0  # frames over which a correction fades where no goal holds it (cleanup/spacetime.py)
 # weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
 # contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
@@ -202,13 +203,13 @@ def warm_start(
         window = np.any([active_frames(goal, N) for goal in reach], axis=0)
         phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
-        worst = np.inf
-        for _ in range(steps):
+        before = np.inf
+        for k in range(steps):
             x, jac, error, rows = rows_at(d, free)
-            now = np.abs(error).max(initial=0.0)
-            if now <= SETTLED * skeleton.reach or now > IMPROVING * worst:
+            now = np.sqrt(np.mean(error**2)) if error.size else 0.0
+            if np.abs(error).max(initial=0.0) <= SETTLED * skeleton.reach or (k >= FIRST_STEPS and now >= before):
                 break
-            worst = now
+            before = now
             row_weights = np.full(error.shape, HELD_WEIGHT)
             if with_reach:
                 reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
