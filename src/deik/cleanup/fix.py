@@ -206,22 +206,27 @@ def _ease_frames(clip) -> float:
     return max(EASE_SECONDS / clip.frame_time, 2.0)
 
 
-def _without_jolts(clip, displacement, found, repaired, met, searched, points) -> tuple[np.ndarray, int]:
+def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
-    `found` (N, D), eased into their neighbours, except where the repair would make a frame jolt
-    that did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose
-    apart from its neighbours'. `refused` counts them; `met` (N,) is whether each repair met its
-    goals (a refused one is listed unmet either way)."""
+    `found` (N, D), eased into their neighbours, except where that would make a frame jolt that
+    did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose apart
+    from its neighbours'. The repairs within an easing of a new jolt are refused and the rest
+    tried again, until none jolts. `refused` counts them (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
+    reach = int(np.ceil(_ease_frames(clip)))
 
     def taken(frames):
         return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, _ease_frames(clip)))
 
-    candidate = taken(repaired)
     before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
-    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
-    refused = repaired & (np.convolve(new, np.ones(3), mode="same") > 0)
-    return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
+    kept = repaired.copy()
+    while kept.any():
+        candidate = taken(kept)
+        new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
+        if not new.any():
+            return candidate, int((repaired & ~kept).sum())
+        kept &= ~(np.convolve(new, np.ones(2 * reach + 1), mode="same") > 0)
+    return displacement, int(repaired.sum())
 
 
 def fix_clip(
@@ -292,8 +297,7 @@ def fix_clip(
         during = _pass_progress(progress, int((~unmet).sum()), stage) if progress else None
         result = solve(problem, settings, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
-        repaired = _met(problem, np.clip(wrap_rotations(original + found, rotation), sk.lower, sk.upper))[1]
-        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched, body.part)
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.part)
         generations = result.generations[unmet]
         stages.append(
             {
