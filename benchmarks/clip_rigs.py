@@ -106,7 +106,7 @@ def format_rig(rig: Rig) -> str:
         pad = "\t" * depth
         lines.append(f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {rig.names[j]}")
         lines.append(f"{pad}{{")
-        lines.append(f"{pad}\tOFFSET {' '.join(f'{v:.6f}' for v in rig.offsets[j])}")
+        lines.append(f"{pad}\tOFFSET {' '.join(f'{v:.10g}' for v in rig.offsets[j])}")
         if rig.channels[j]:
             lines.append(f"{pad}\tCHANNELS {len(rig.channels[j])} {' '.join(rig.channels[j])}")
         for child in (c for c, p in enumerate(rig.parents) if p == j):
@@ -117,7 +117,7 @@ def format_rig(rig: Rig) -> str:
                     [
                         f"{pad}\tEnd Site",
                         f"{pad}\t{{",
-                        f"{pad}\t\tOFFSET {' '.join(f'{v:.6f}' for v in offset)}",
+                        f"{pad}\t\tOFFSET {' '.join(f'{v:.10g}' for v in offset)}",
                         f"{pad}\t}}",
                     ]
                 )
@@ -125,7 +125,7 @@ def format_rig(rig: Rig) -> str:
 
     joint(0, 0)
     lines += ["MOTION", f"Frames: {len(rig.frames)}", f"Frame Time: {rig.frame_time:.8f}"]
-    lines += [" ".join(f"{v:.6f}" for v in row) for row in rig.frames]
+    lines += [" ".join(f"{v:.10g}" for v in row) for row in rig.frames]
     return "\n".join(lines) + "\n"
 
 

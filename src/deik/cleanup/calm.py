@@ -44,7 +44,7 @@ def calm(
         return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points)
 
     share = np.ones(N)
-    length = max(EASE_SECONDS / motion.frame_time, 2.0)
+    length = min(max(EASE_SECONDS / motion.frame_time, 2.0), max(N, 2))
     for _ in range(ROUNDS):
         jolts = jolting(share)
         if not jolts.any():

@@ -202,8 +202,8 @@ def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
 
 
 def _ease_frames(clip) -> float:
-    """EASE_SECONDS in frames of `clip` (at least 2)."""
-    return max(EASE_SECONDS / clip.frame_time, 2.0)
+    """EASE_SECONDS in frames of `clip` (at least 2, at most its length: longer is the same)."""
+    return min(max(EASE_SECONDS / clip.frame_time, 2.0), max(clip.n_frames, 2))
 
 
 def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:

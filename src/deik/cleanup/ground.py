@@ -182,8 +182,8 @@ def detect_resting(
     span. Points never at rest are kept when `idle` (default: when `points` are given). The
     Contacts carry each point's clearance. KeyError with suggestions for unknown names."""
     sk = body.skeleton
-    every = not idle if idle is not None else points is None
-    points = tuple(body.contact_points() if every else points)
+    drop_idle = not idle if idle is not None else points is None
+    points = tuple(body.contact_points() if points is None else points)
     if not points:
         raise ValueError("detect_resting needs at least one joint or site")
     index = [sk.frame_index(name) for name in points]
@@ -197,7 +197,7 @@ def detect_resting(
     rest = _runs_in_seconds(slow & low, clip.frame_time)
     fast = point_speeds(paths.positions[:, index], clip.frame_time) <= TOUCH_SPEED * limit
     rest = _touching(rest, fast & (heights - floor - clear <= TOUCH * body.span))
-    keep = rest.any(axis=0) if every else np.ones(len(points), bool)
+    keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
 
