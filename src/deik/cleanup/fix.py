@@ -272,12 +272,12 @@ def fix_clip(
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs, original.shape)
     displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
-    displacement, calmed = calm(clip, displacement, body.part)  # DE repairs what this takes back
+    displacement, first_calmed = calm(clip, displacement, body.part)  # DE repairs what this takes back
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         goals = _plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)
     searched = searched_dofs(clip, fixed_part)
-    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(calmed.sum())}]
+    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(first_calmed.sum())}]
     report = progress or (lambda met, stage: None)
     for k in range(passes):
         began = time.perf_counter()
@@ -312,6 +312,7 @@ def fix_clip(
         )
     began = time.perf_counter()
     displacement, calmed = calm(clip, displacement, body.part)
+    calmed |= first_calmed
     stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})
     wall = time.perf_counter() - start
     logging.getLogger(__name__).debug(

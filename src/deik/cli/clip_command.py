@@ -127,7 +127,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     c.add_argument(
         "--units",
         choices=sorted(METRES),
-        help="the clip's length unit (default: guessed from the skeleton's size, and said)",
+        help="the clip's length unit in the reports (default: read from the body's size, and said; the fix needs none)",
     )
     add_output_flags(c)
 
@@ -327,8 +327,23 @@ def _summary_notes(document: dict) -> list[str]:
 
 
 def _outcome_lines(document: dict) -> list[str]:
-    """Lines after the tables: balance kept and skipped, peaks against the capture's."""
+    """Lines after the tables: the floor, the frames missing a goal and those whose change was
+    taken back, balance kept and skipped, peaks against the capture's (the worst point's)."""
     lines = []
+    floor, unit = document["floor"], document["length_unit"]
+    if floor is not None:
+        from deik.cleanup.ground import FloorChoice
+
+        choice = FloorChoice(floor["height"], floor["how"], floor["resting_contacts_height"])
+        lines.append(choice.describe(unit) + ("" if floor["kept"] else "; not kept (--floor none)"))
+    unmet = [n for n, met in enumerate(document["met_per_frame"]) if not met]
+    if unmet:
+        lines.append(f"frames missing a contact/floor/balance/reach goal: {_spans(unmet)}")
+    if document["calmed_frames"]:
+        lines.append(
+            f"frames whose fix was partly taken back so that no point accelerates past x"
+            f"{document['dynamics']['peak_ratio_limit']:g} its capture peak: {_spans(document['calmed_frames'])}"
+        )
     balance = document["balance"]
     if balance is not None:
         kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
@@ -342,6 +357,9 @@ def _outcome_lines(document: dict) -> list[str]:
         lines.append(line)
     dynamics = document["dynamics"]
     ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    worst = dynamics["worst_point"]
+    if worst is not None:
+        ratios += f"; worst point's acceleration {worst['point']} x{worst['ratio']:.3f}"
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
@@ -420,7 +438,6 @@ def run_clip(
             f"reports in {unit}: the body spans {body.span:.4g} length units from end to end, a person's size in "
             f"{unit}; --units sets them (the fix itself needs no unit)"
         )
-    log.info(floor.describe(unit) + ("" if keep_floor else "; not kept: --floor none"))
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
         log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)

@@ -9,6 +9,7 @@ import numpy as np
 from deik.io.load import Loaded
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
+from deik.viz.marks import length_unit
 from deik.viz.text import format_table
 
 
@@ -50,11 +51,13 @@ def joint_tree(skeleton: Skeleton) -> list[str]:
 def describe(loaded: Loaded, source: str) -> str:
     """The text `deik info` prints for a loaded skeleton."""
     sk = loaded.skeleton
+    unit, where = length_unit(sk, loaded.kind)
     lines = [
         f"{source}: {loaded.kind} skeleton {sk.name!r}",
         f"{sk.n_joints} joints, {sk.n_dofs} DOFs"
         + (f" (+{len(sk.mimic_names)} mimic)" if sk.mimic_names else "")
-        + f", {len(sk.site_names)} sites, reach {sk.reach:.6g}, up {tuple(float(u) for u in sk.up)}",
+        + f", {len(sk.site_names)} sites, reach {sk.reach:.6g} {unit}, up {tuple(float(u) for u in sk.up)}",
+        f"lengths in {unit}: {where}",
         f"mass: {sk.total_mass:.6g} kg, {loaded.mass_source}",
     ]
     if loaded.clip is not None:

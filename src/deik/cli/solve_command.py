@@ -261,11 +261,13 @@ def run_solve(args: argparse.Namespace) -> int:
         progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
         result = solve(problem, settings, initial=initial, progress=progress)
     record_compiles(compiling)
+    unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
+    own = {"m": unit, "rad+m": f"rad+{unit}"}  # "m" is the skeleton's length unit (docs/conventions.md)
     rows = [
         [
             r.label,
-            shown(float(r.error), r.unit),
-            shown(r.tolerance, r.unit) if r.tolerance >= 0 else "-",
+            shown(float(r.error), own.get(r.unit, r.unit)),
+            shown(r.tolerance, own.get(r.unit, r.unit)) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals
@@ -275,7 +277,6 @@ def run_solve(args: argparse.Namespace) -> int:
         f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
         f"converged {'yes' if result.converged else 'no'}"
     )
-    unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
     with all_or_nothing():
         if args.out:
             _write_pose(args.out, problem, result, loaded, frame, unit)
