@@ -168,8 +168,8 @@ def main(argv=None) -> int:
         )
         print(f"  {stage['stage']}: {stage['seconds']:.2f} s{extra}")
     for name in (
-        "foot_sliding_mean_mm_per_frame",
-        "foot_sliding_max_mm_per_frame",
+        "sliding_mean_mm_per_frame",
+        "sliding_max_mm_per_frame",
         "joint_angle_deviation_mean_deg",
         "joint_angle_deviation_max_deg",
         "position_acceleration_max_m_per_s2",

@@ -40,7 +40,7 @@ def test_benchmark_smoke_run_writes_json_and_png(shared_data, tmp_path, capsys):
     # frame 20 of the looped walk is met on about half the seeds, with this kernel and the one
     # before it (seeds 0-3: 59/60/59/59 frames now, 60/59/59/60 before): every other frame is
     assert result["frames_met"] >= 59
-    sliding = result["metrics"]["foot_sliding_mean_mm_per_frame"]
+    sliding = result["metrics"]["sliding_mean_mm_per_frame"]
     assert sliding["before"] > 1.0 and sliding["after"] < 1.0
     assert result["environment"]["numba_threads"] >= 1 and result["target"]["per_1000_frames"] == 10.0
     assert (tmp_path / "clip_frames.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

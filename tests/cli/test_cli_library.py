@@ -53,8 +53,8 @@ def test_a_folder_of_clips_is_fixed_and_a_rerun_skips_what_is_done(tmp_path, cap
         assert report["frames_met"] == original.n_frames  # planted feet met in every frame
         sidecar = json.loads((out / f"{stem}.deik.json").read_text())
         assert sidecar["record"]["frames"] == original.n_frames
-        assert sidecar["record"]["metrics"]["foot_sliding_max_mm_per_frame"] == pytest.approx(
-            report["metrics"]["foot_sliding_max_mm_per_frame"]["after"]
+        assert sidecar["record"]["metrics"]["sliding_max_mm_per_frame"] == pytest.approx(
+            report["metrics"]["sliding_max_mm_per_frame"]["after"]
         )
     before = _mtimes(out)
     assert main(argv + ["--quiet"]) == 0

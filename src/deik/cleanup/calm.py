@@ -32,15 +32,21 @@ def _cut(taken: np.ndarray, length: float) -> np.ndarray:
 
 
 def calm(
-    motion: Motion, displacement: np.ndarray, points: np.ndarray | None = None, ratio: float = PEAK_RATIO
+    motion: Motion,
+    displacement: np.ndarray,
+    points: np.ndarray | None = None,
+    ratio: float = PEAK_RATIO,
+    base: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(displacement (N, D), taken back (N,) bool): `displacement` (N, D) of `motion`'s frames
-    with its change taken back, as the module notes say, where it makes a joint or site of
-    `points` (F,) bool (default all) jolt."""
+    """(displacement (N, D), taken back (N,) bool): `displacement` (N, D) of `motion`'s frames,
+    a change made on top of `base` (N, D) (default none: the capture), with the change taken
+    back, as the module notes say, where it makes a joint or site of `points` (F,) bool
+    (default all) jolt against the capture."""
     N = len(displacement)
+    start = motion.frames if base is None else motion.frames + base
 
     def jolting(share):
-        moved = motion.with_frames(motion.frames + share[:, None] * displacement)
+        moved = motion.with_frames(start + share[:, None] * displacement)
         return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points)
 
     share = np.ones(N)

@@ -188,6 +188,19 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     return displacement, fixed, balance
 
 
+def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, points):
+    """(displacement (N, D), taken back (N,) bool): the warm start's `displacement` calmed
+    (cleanup/calm.py; DE repairs what is taken back), with reach tracks, level by level: first
+    the contacts, floor and balance alone, then what the reach tracks add to them, so a reach that
+    would make a point jolt is taken back before a contact is."""
+    if not goals.reach:
+        return calm(clip, displacement, points)
+    held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points)
+    held, first = calm(clip, held, points)
+    added, second = calm(clip, displacement - held, points, base=held)
+    return held + added, first | second
+
+
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
     """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
     its floor): the warm start holds contacts still along the ground only, and DE, whose contact
@@ -272,7 +285,7 @@ def fix_clip(
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs, original.shape)
     displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
-    displacement, first_calmed = calm(clip, displacement, body.part)  # DE repairs what this takes back
+    displacement, first_calmed = _calm_by_priority(clip, goals, displacement, weights, movable, body.part)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         goals = _plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)

@@ -15,10 +15,9 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
 - Resting (detect_resting): a point rests in a frame when it is slow, its surface (its height
   above floor + clearance) is at most BAND x span, and it is at most RISE x span above its own
   resting level (the RESTING_QUANTILE-th percentile of its heights while slow: a heel that has
-  begun to lift no longer rests); runs are extended over the frames before
-  and after in which it touches (its surface within TOUCH x span, at most TOUCH_SPEED times the
-  speed limit: an impact, a lift-off), gaps shorter than GAP seconds filled and runs shorter
-  than SHORTEST seconds dropped (each at least a frame or two).
+  begun to lift no longer rests); gaps shorter than GAP seconds are filled and runs shorter than
+  SHORTEST seconds dropped (each at least a frame or two). A point still sliding fast as it
+  lands does not rest until it slows: planting it sooner would stop it in a frame, a jolt.
 """
 
 from __future__ import annotations
@@ -27,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.cleanup.body import Body
+from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
@@ -38,8 +37,6 @@ GROUND_PLANE = 0.04
 RESTING_QUANTILE = 25.0
 BAND = 0.02
 RISE = 0.01
-TOUCH = 0.004
-TOUCH_SPEED = 1.5
 GAP = 0.05
 SHORTEST = 0.05
 
@@ -154,18 +151,6 @@ def _runs_in_seconds(mask: np.ndarray, frame_time: float) -> np.ndarray:
     return drop_short(fill_gaps(mask, gap + 1), shortest)
 
 
-def _touching(rest: np.ndarray, touch: np.ndarray) -> np.ndarray:
-    """`rest` (N, K) with each run extended over the frames next to it where `touch` (N, K) holds."""
-    out = rest.copy()
-    for k in range(rest.shape[1]):
-        column, near = out[:, k], touch[:, k]
-        for n in range(1, len(column)):  # forwards: a lift-off
-            column[n] |= column[n - 1] and near[n]
-        for n in range(len(column) - 2, -1, -1):  # backwards: an impact
-            column[n] |= column[n + 1] and near[n]
-    return out
-
-
 def detect_resting(
     clip: Motion,
     body: Body,
@@ -195,8 +180,6 @@ def detect_resting(
     heights = paths.heights[:, index]
     low = (heights - floor - clear <= band) & (heights <= resting_levels(paths)[index] + RISE * body.span)
     rest = _runs_in_seconds(slow & low, clip.frame_time)
-    fast = point_speeds(paths.positions[:, index], clip.frame_time) <= TOUCH_SPEED * limit
-    rest = _touching(rest, fast & (heights - floor - clear <= TOUCH * body.span))
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
@@ -211,3 +194,15 @@ def given_contacts(clip: Motion, body: Body, floor: float, masks: dict[str, np.n
     columns = [np.asarray(masks[name], bool) for name in sites]
     mask = np.stack(columns, axis=1) if sites else np.zeros((clip.n_frames, 0), bool)
     return Contacts(sites, mask, False, None, None, floor, clear)
+
+
+def resting_body(clip: Motion) -> tuple[Body, FloorChoice, Contacts | None]:
+    """(the body, its floor, every point of it that rests: the contacts `deik clip IN --out OUT`
+    plants with no other flags) of `clip` (cleanup/body.py; module notes). Contacts name the
+    body's joints and sites, sole sites included: fix with fix_clip(clip, goals, body=body)."""
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    floor = detect_floor(motion, body, paths)
+    contacts = detect_resting(motion, body, floor.height, paths=paths)
+    return body, floor, contacts if contacts.sites else None

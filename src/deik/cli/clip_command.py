@@ -309,7 +309,7 @@ def _summary_notes(document: dict) -> list[str]:
     """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
     metrics = document["metrics"]
     keys = (
-        "foot_sliding_max_mm_per_frame",
+        "sliding_max_mm_per_frame",
         "foot_skating_ratio_share",
         "penetration_max_mm",
         "floating_max_mm",

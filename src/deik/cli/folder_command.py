@@ -192,7 +192,7 @@ def _cell(key: str):
 COLUMNS = {
     "clip": [
         ("frames met", lambda record: f"{record.get('frames_met', '-')}/{record.get('frames', '-')}"),
-        ("sliding max mm/frame", _cell("foot_sliding_max_mm_per_frame")),
+        ("sliding max mm/frame", _cell("sliding_max_mm_per_frame")),
         ("penetration max mm", _cell("penetration_max_mm")),
         ("angle from capture mean deg", _cell("joint_angle_deviation_mean_deg")),
     ],
