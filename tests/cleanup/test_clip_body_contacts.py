@@ -140,8 +140,8 @@ def test_an_unreachable_reach_is_reported_and_does_not_drag_the_contacts():
     alone, contacts = fixed(clip)
     reaching, _ = fixed(clip, reach=(Reach("RightElbow_end", mask, targets),))
     held = [t for t, label in enumerate(reaching.labels) if label.startswith("contact ")]
-    within = reaching.after[:, held] <= reaching.tolerances[held]
-    assert (np.isnan(reaching.after[:, held]) | within)[alone.met].all()  # where they held alone, they hold
+    within = reaching.after[:, held] <= 0.001  # a millimetre of drag at most, where they held alone
+    assert (np.isnan(reaching.after[:, held]) | within)[alone.met].all()
     column = reaching.labels.index("reach RightElbow_end")
     missed = reaching.after[:, column] > reaching.tolerances[column]
     assert missed[mask].all() and not reaching.met[mask].any()

@@ -41,13 +41,17 @@ def calm(
     """(displacement (N, D), taken back (N,) bool): `displacement` (N, D) of `motion`'s frames,
     a change made on top of `base` (N, D) (default none: the capture), with the change taken
     back, as the module notes say, where it makes a joint or site of `points` (F,) bool
-    (default all) jolt against the capture."""
+    (default all) jolt against the capture in a frame the base alone does not."""
     N = len(displacement)
     start = motion.frames if base is None else motion.frames + base
 
     def jolting(share):
         moved = motion.with_frames(start + share[:, None] * displacement)
-        return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points)
+        return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points) & ~already
+
+    already = np.zeros(N, bool)
+    if base is not None:
+        already = jolting(np.zeros(N))
 
     share = np.ones(N)
     length = min(max(EASE_SECONDS / motion.frame_time, 2.0), max(N, 2))

@@ -189,16 +189,15 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
 
 
 def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, points):
-    """(displacement (N, D), taken back (N,) bool): the warm start's `displacement` calmed
-    (cleanup/calm.py; DE repairs what is taken back), with reach tracks, level by level: first
-    the contacts, floor and balance alone, then what the reach tracks add to them, so a reach that
-    would make a point jolt is taken back before a contact is."""
+    """((displacement (N, D), taken back (N,) bool), what the reach tracks add (N, D) or None):
+    the warm start's `displacement` calmed (cleanup/calm.py; DE repairs what is taken back).
+    With reach tracks, only what the contacts, floor and balance change is calmed: a reach is a
+    motion the user asks for, and what it adds is kept as the warm start made it."""
     if not goals.reach:
-        return calm(clip, displacement, points)
+        return calm(clip, displacement, points), None
     held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points)
-    held, first = calm(clip, held, points)
-    added, second = calm(clip, displacement - held, points, base=held)
-    return held + added, first | second
+    calmed, taken = calm(clip, held, points)
+    return (calmed + (displacement - held), taken), displacement - held
 
 
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
@@ -285,7 +284,7 @@ def fix_clip(
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs, original.shape)
     displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
-    displacement, first_calmed = _calm_by_priority(clip, goals, displacement, weights, movable, body.part)
+    (displacement, first_calmed), reached = _calm_by_priority(clip, goals, displacement, weights, movable, body.part)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         goals = _plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)
@@ -324,7 +323,11 @@ def fix_clip(
             }
         )
     began = time.perf_counter()
-    displacement, calmed = calm(clip, displacement, body.part)
+    if reached is None:
+        displacement, calmed = calm(clip, displacement, body.part)
+    else:  # what the reach tracks add is the user's motion: calm the rest on top of it
+        rest, calmed = calm(clip, displacement - reached, body.part, base=reached)
+        displacement = reached + rest
     calmed |= first_calmed
     stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})
     wall = time.perf_counter() - start

@@ -98,7 +98,7 @@ def _measure(clip, contacts, reach, clear, metres: float, grounding: Grounding |
     resting = contacts if grounding is None else grounding.resting
     if resting is not None:
         index = [sk.frame_index(name) for name in resting.sites]
-        out["sliding_mm_per_frame"] = mm * sliding_steps(kin, index, resting.mask), 1
+        out["sliding_mm_per_frame"] = mm * sliding_steps(kin, index, resting.mask, sk.up), 1
     if grounding is not None:
         depth = floor.penetration(kin, sk, grounding.height, grounding.clearance)
         out["penetration_mm"] = mm * depth[:, None], 0

@@ -171,8 +171,7 @@ def warm_start(
     module notes): every frame's rows weighted (HELD_WEIGHT, REACH_WEIGHT) against the spring
     energy of the displacement with fade `fade` frames, so corrections start, stop and hand
     over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
-    frames of their (eased) windows, so a reach changes nothing outside them, and as many more
-    without them there, so a reach out of range leaves the contacts where they were. A step moves a
+    frames of their (eased) windows, so a reach changes nothing outside them. A step moves a
     site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
     chased. Limits are not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
@@ -200,9 +199,9 @@ def warm_start(
     # first the contacts, floor and balance; then the reach tracks, moving only the frames of
     # their eased windows: outside them the fix is the same as without the reach
     phases = [(False, movable)] if (held or balance or floors) else []
-    if reach:  # then the contacts, floor and balance again: a reach out of range drags them a little
+    if reach:
         window = np.any([active_frames(goal, N) for goal in reach], axis=0)
-        phases += [(True, movable & window[:, None]), (False, movable & window[:, None])]
+        phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
         before = np.inf
         for k in range(steps):

@@ -123,7 +123,7 @@ def retarget_report(
         peaks = point_peak_ratios(targets, points, dt)
     if contacts is not None:
         index = [sk.frame_index(name) for name in contacts.sites]
-        steps = sliding_steps(kin, index, contacts.mask) * mm
+        steps = sliding_steps(kin, index, contacts.mask, sk.up) * mm
         per_frame["contact_sliding_mm_per_frame"] = np.concatenate([[np.nan], _row_stat(steps, np.nanmax)])
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
         per_frame["penetration_mm"] = floor.penetration(kin, sk, contacts.ground) * mm
