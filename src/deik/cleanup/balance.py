@@ -30,6 +30,7 @@ import numpy as np
 
 from deik.cleanup.banded import band_apply, band_compose, band_transpose, solve_spd_band
 from deik.cleanup.contacts import Contacts
+from deik.cleanup.dynamics import widened
 from deik.cleanup.spacetime import spring_bands
 from deik.io.trajectory import Motion
 from deik.model.geometry import convex_hull, ground_frame, polygon_distance
@@ -215,7 +216,7 @@ def _worst_in_each_stretch(over: np.ndarray, candidates: np.ndarray, need: np.nd
     """One frame per stretch of `over` (N,) frames (stretches closer than 2 `reach` frames are one):
     the `candidates` (N,) frame within `reach` frames of it with the largest `need` (N,)."""
     N = len(over)
-    near = np.convolve(over, np.ones(2 * reach + 1), mode="same") > 0  # each stretch widened by reach
+    near = widened(over, reach)  # each stretch widened by reach
     edges = np.flatnonzero(np.diff(np.concatenate([[0], near.astype(np.int8), [0]])))
     picked = []
     for start, stop in zip(edges[::2], edges[1::2]):

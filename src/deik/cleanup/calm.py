@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames
+from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, widened
 from deik.io.trajectory import Motion
 
 EASE_SECONDS = 0.15
@@ -59,7 +59,7 @@ def calm(
         jolts = jolting(share)
         if not jolts.any():
             return share[:, None] * displacement, share < 1.0
-        share = share * (1.0 - CUT * _cut(np.convolve(jolts, np.ones(3), mode="same") > 0, length))
+        share = share * (1.0 - CUT * _cut(widened(jolts, 1), length))
     if jolting(share).any():
         return np.zeros_like(displacement), np.ones(N, bool)
     return share[:, None] * displacement, share < 1.0

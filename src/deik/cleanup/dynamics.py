@@ -31,6 +31,16 @@ POINT_MEASURES = MEASURES[2:]
 SLACK = {"dof_velocity": 10.0, "dof_acceleration": 200.0, "position_velocity": 0.005, "position_acceleration": 0.02}
 
 
+def widened(frames: np.ndarray, reach: int) -> np.ndarray:
+    """(N,) bool: the frames within `reach` frames of a True one of `frames` (N,)."""
+    frames = np.asarray(frames, bool)
+    out = frames.copy()
+    for k in range(1, min(reach, len(frames)) + 1):
+        out[k:] |= frames[:-k]
+        out[:-k] |= frames[k:]
+    return out
+
+
 def _peaks(clip, points: np.ndarray | None = None) -> dict:
     """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`, the position
     measures of the joints and sites `points` (F,) bool (default all)."""

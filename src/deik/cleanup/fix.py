@@ -52,7 +52,7 @@ from deik.cleanup.clip_goals import (
 )
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.contacts import site_positions
-from deik.cleanup.dynamics import jolted_frames
+from deik.cleanup.dynamics import jolted_frames, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
 from deik.io.motion import held_translations
@@ -181,7 +181,7 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     for round_ in range(GUARD_ROUNDS):
         displacement, fixed = warm(goals, balance)
         jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
-        jolting = (np.convolve(jolted, np.ones(2 * GUARD_REACH + 1), "same") > 0) & balance.balanced
+        jolting = widened(jolted, GUARD_REACH) & balance.balanced
         if round_ == GUARD_ROUNDS - 1 or not jolting.any():
             break
         balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
@@ -237,7 +237,7 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
         new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
-        kept &= ~(np.convolve(new, np.ones(2 * reach + 1), mode="same") > 0)
+        kept &= ~widened(new, reach)
     return displacement, int(repaired.sum())
 
 

@@ -206,16 +206,16 @@ def warm_start(
         before = np.inf
         for k in range(steps):
             x, jac, error, rows = rows_at(d, free)
-            now = np.sqrt(np.mean(error**2)) if error.size else 0.0
-            if np.abs(error).max(initial=0.0) <= SETTLED * skeleton.reach or (k >= FIRST_STEPS and now >= before):
-                break
-            before = now
             row_weights = np.full(error.shape, HELD_WEIGHT)
             if with_reach:
                 reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
                 error = np.concatenate([error, reach_error], axis=1)
                 rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
+            now = np.sqrt(np.mean(error**2)) if error.size else 0.0
+            if np.abs(error).max(initial=0.0) <= SETTLED * skeleton.reach or (k >= FIRST_STEPS and now >= before):
+                break
+            before = now
             damping = HELD_WEIGHT * DAMPING**2
             step = spacetime_step(
                 rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
