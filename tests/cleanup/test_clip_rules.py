@@ -41,11 +41,12 @@ def test_the_default_command_meets_every_target_on_a_generated_walk(transform, t
     assert measured["depth_mm"] <= 2.0
     assert measured["peak_ratio"] <= PEAK_RATIO
     assert abs(measured["travel_m"] - measured["travel_capture_m"]) <= max(0.05 * measured["travel_capture_m"], 0.02)
-    assert measured["steps_matched"] == measured["steps"] > 0
     assert measured["misses_listed"]
     assert report["floor"]["how"] == "ground plane" and report["floor"]["height"] == 0.0
-    if transform == "noisy":  # the capture slid and sank: the cleaned clip does not
+    if transform == "noisy":  # the capture slid and sank: the cleaned clip does not, and steps as the walk did
         assert measured["sliding_capture_mm_per_frame"] > 5 and measured["depth_capture_mm"] > 5
+        measured = judge(walk, walk.rig, result)  # noise breaks the capture's own rests into pieces
+    assert measured["steps_matched"] == measured["steps"] > 0
 
 
 def test_position_channels_below_the_first_translating_joint_keep_the_capture_s_values(tmp_path):
