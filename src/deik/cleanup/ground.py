@@ -12,11 +12,11 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   contacts sit on it, a little above or below (a long leg's foot sinks, a radius is an
   estimate). FloorChoice says which and how.
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
-- Resting (detect_resting): a point rests in a frame when it is slow, its surface (its height
-  above floor + clearance) is at most BAND x span, and it is at most RISE x span above its own
-  resting level (the RESTING_QUANTILE-th percentile of its heights while slow: a heel that has
-  begun to lift no longer rests); gaps shorter than GAP seconds are filled and runs shorter than
-  SHORTEST seconds dropped (each at least a frame or two). A point still sliding fast as it
+- Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
+  above floor + clearance) is at most BAND x span; gaps shorter than GAP seconds are filled and
+  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A plant holds a point
+  still along the ground only (cleanup/plants.py), so a heel that begins to lift as the foot
+  rolls onto its toes may still rest: it rises about the toe without sliding. A point still sliding fast as it
   lands does not rest until it slows: planting it sooner would stop it in a frame, a jolt.
 """
 
@@ -34,9 +34,7 @@ from deik.model.kinematics import forward_kinematics
 SPEED = 0.1
 SMOOTH = 0.02
 GROUND_PLANE = 0.04
-RESTING_QUANTILE = 25.0
 BAND = 0.02
-RISE = 0.01
 GAP = 0.05
 SHORTEST = 0.05
 
@@ -127,17 +125,6 @@ def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorC
     return FloorChoice(level, "resting contacts", level)
 
 
-def resting_levels(paths: Paths) -> np.ndarray:
-    """(F,) each point's resting height: the RESTING_QUANTILE-th percentile of its heights in
-    the frames it is slow in (inf for a point never slow)."""
-    levels = np.full(paths.heights.shape[1], np.inf)
-    seen = paths.slow.any(axis=0)
-    if seen.any():
-        slow = np.where(paths.slow, paths.heights, np.nan)
-        levels[seen] = np.nanpercentile(slow[:, seen], RESTING_QUANTILE, axis=0)
-    return levels
-
-
 def clearances(body: Body) -> np.ndarray:
     """(F,) each point's clearance above the floor (module notes); NaN for what is no part of
     the body (a carrier joint)."""
@@ -177,8 +164,7 @@ def detect_resting(
     limit = SPEED * body.span if speed is None else speed
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
     clear = body.radius[index]
-    heights = paths.heights[:, index]
-    low = (heights - floor - clear <= band) & (heights <= resting_levels(paths)[index] + RISE * body.span)
+    low = paths.heights[:, index] - floor - clear <= band
     rest = _runs_in_seconds(slow & low, clip.frame_time)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
