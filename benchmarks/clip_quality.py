@@ -1,9 +1,9 @@
 """Every shared humanoid clip fixed as an animator would use it: contacts, floor, balance, and a
 known answer (issue 17 item 7). One table: JSON, markdown and PNG.
 
-    PYTHONPATH=src python -m benchmarks.clip_quality [--quick] [--clips walk run ...] [--out benchmarks/results]
+    python -m benchmarks.clip_quality [--quick] [--clips walk run ...] [--out benchmarks/results]
 
-Each clip of ../shared/data/humanoid (--clips: those named; with --quick, the first 40 frames of
+Each clip of the shared data's humanoid/ (--clips: those named; with --quick, the first 40 frames of
 each) with its segment masses:
 
 1. contacts, as `deik clip` fixes it with no flags (every point of the body that rests, soles
@@ -25,8 +25,7 @@ each) with its segment masses:
    Measured: the joint-position RMS error against the clean clip before and after the fix
    (target: after <= half of before).
 
-Writes clip_quality.json (every number, the settings and the machine), clip_quality.md (the
-table; a target not met is marked) and clip_quality.png, atomically.
+Records every number and the settings; in the table a target not met is marked "(missed)".
 """
 
 from __future__ import annotations
@@ -37,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.harness import machine, parser, start
+from benchmarks import harness
+from benchmarks.data import need
 from deik.cleanup.body import on_body
 from deik.cleanup.clip_goals import ClipGoals
 from deik.cleanup.coherence import hinge_channels
@@ -46,14 +46,10 @@ from deik.cleanup.dynamics import PEAK_RATIO, peak_ratios
 from deik.cleanup.fix import fix_clip
 from deik.cleanup.ground import resting_body
 from deik.cleanup.summary import clip_report, per_frame_errors
-from deik.experiments.shared import markdown_table, save_figure
-from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
-from deik.viz.plot import require_matplotlib
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "humanoid"
 QUICK_FRAMES = 40
 TARGETS = {"sliding_mm_per_frame": 0.5, "skating_ratio": 0.0, "penetration_mm": 1.0, "peak_ratio": PEAK_RATIO}
 NOISE_DEGREES, NOISE_SECONDS, LEGS = 4.0, 0.05, ("Hip", "Knee", "Ankle")
@@ -212,16 +208,15 @@ def table(rows: list[dict]) -> str:
                 f"{k['rms_before_mm']:.3g} -> " + _cell(k["rms_after_mm"], ok["known_answer"]),
             ]
         )
-    return markdown_table(header, out)
+    return harness.md_table(header, out)
 
 
-def figure(rows: list[dict], path: Path, title: str) -> None:
+def figure(rows: list[dict], title: str):
     """Four panels, one bar per clip: sliding, penetration, peak ratios, known-answer ratio, with
     their target lines."""
-    plt = require_matplotlib()
     names = [row["clip"].replace("humanoid3d_", "") for row in rows]
     x = np.arange(len(rows))
-    fig, axes = plt.subplots(2, 2, figsize=(12, 7), layout="constrained")
+    fig, axes = harness.figure(2, 2, width=6, height=3.5)
     panels = [
         (axes[0, 0], [r["contacts"]["sliding_mm_per_frame"] for r in rows], 0.5, "sliding max (mm/frame)"),
         (axes[0, 1], [r["contacts"]["penetration_mm"] for r in rows], 1.0, "penetration max (mm)"),
@@ -247,22 +242,21 @@ def figure(rows: list[dict], path: Path, title: str) -> None:
         ax.set_xticks(x, names, rotation=30, fontsize="small")
         ax.grid(alpha=0.3, axis="y")
     fig.suptitle(title)
-    save_figure(fig, str(path))
+    return fig
 
 
 def main(argv=None) -> dict:
-    """Measure every clip, write the JSON, markdown and PNG, print the table."""
-    p = parser(__doc__)
+    """Measure every clip; write the JSON, Markdown and PNG."""
+    p = harness.parser(__doc__)
     p.add_argument("--clips", nargs="+", metavar="NAME", help="clips by name (walk, run, ...; default all)")
-    args = p.parse_args(argv)
-    opening = start(args)
+    run = harness.start("clip_quality", p, argv)
+    args = run.args
     frames = QUICK_FRAMES if args.quick else 0
-    paths = sorted(DATA.glob("*.bvh"))
-    if args.clips:
-        paths = [DATA / f"humanoid3d_{name}.bvh" for name in args.clips]
-        missing = [str(path) for path in paths if not path.is_file()]
-        if missing:
-            raise SystemExit(f"--clips: no clip {', '.join(missing)}")
+    folder = need("humanoid")
+    paths = [folder / f"humanoid3d_{name}.bvh" for name in args.clips] if args.clips else sorted(folder.glob("*.bvh"))
+    missing = [str(path) for path in paths if not path.is_file()]
+    if missing:
+        raise SystemExit(f"--clips: no clip {', '.join(missing)}")
     rows = []
     for k, path in enumerate(paths):
         clip = load(path, frames)
@@ -273,28 +267,27 @@ def main(argv=None) -> dict:
         row["verdicts"] = verdicts(row)
         rows.append(row)
         print(f"{path.stem}: {row['verdicts']}", flush=True)
-    command = "python -m benchmarks.clip_quality" + (" --quick" if args.quick else "")
-    command += f" --clips {' '.join(args.clips)}" if args.clips else ""
+    met = all(all(row["verdicts"].values()) for row in rows)
+    run.target("clips meeting every target", len(rows), sum(all(r["verdicts"].values()) for r in rows), "clips")
     result = {
-        "benchmark": "clip_quality",
-        "command": command,
         "frames": frames,
-        "targets": {**TARGETS, "known_answer_ratio": KNOWN_ANSWER_RATIO},
+        "goals": {**TARGETS, "known_answer_ratio": KNOWN_ANSWER_RATIO},
         "noise": {"degrees_rms": NOISE_DEGREES, "gaussian_sd_s": NOISE_SECONDS, "joints": list(LEGS)},
-        "seed": args.seed,
         "clips": rows,
-        "all_met": all(all(row["verdicts"].values()) for row in rows),
-        "machine": machine("cpu", opening),
-        "seconds": time.perf_counter() - opening["t0"],
+        "all_met": met,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / "clip_quality.json", result, missing_as_null=True)
-    text = table(rows)
-    cpu = result["machine"]["cpu_model"]
-    write_text_atomically(args.out / "clip_quality.md", f"`{command}` on {cpu}\n\n{text}\n")
-    figure(rows, args.out / "clip_quality.png", f"deik clip on the shared humanoid clips ({command})")
-    print(text)
-    return result
+    figures = {
+        f"{r['clip']} {part} {key}": r[part][key]
+        for r in rows
+        for part, key in (
+            ("contacts", "sliding_mm_per_frame"),
+            ("contacts", "penetration_mm"),
+            ("contacts", "peak_ratio"),
+            ("balance", "peak_ratio"),
+            ("known_answer", "ratio"),
+        )
+    }
+    return run.finish(result, table(rows), figure(rows, "deik clip on the shared humanoid clips"), figures)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ acceleration peak rises above 1.1 times its own peak in the capture; every frame
 one of those listed by deik as unmet; the pelvis travels as far as in the capture (within 5 %
 or 2 cm); every resting run of the feet found again (lifting and landing within 0.07 s).
 Writes clip_targets.json (every number, the machine) and clip_targets.md (the table, a target
-not met marked), atomically.
+not met marked) through the benchmarks' harness.
 """
 
 from __future__ import annotations
@@ -33,11 +33,9 @@ import numpy as np
 from benchmarks.clip_cases import cases
 from benchmarks.clip_judge import judge
 from benchmarks.clip_rigs import format_rig, parse_rig
-from benchmarks.harness import machine, parser, start
-from deik.experiments.shared import markdown_table
-from deik.io.atomic import write_json_atomically, write_text_atomically
+from benchmarks.data import need
+from benchmarks.harness import md_table, parser, start
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "humanoid"
 TARGETS = {"sliding_mm_per_frame": 1.0, "depth_mm": 2.0, "peak_ratio": 1.1, "travel_share": 0.05, "travel_m": 0.02}
 
 
@@ -110,43 +108,30 @@ def table(rows: list[dict]) -> str:
             f"{row['deik_frames_met']}/{row['frames']}" + ("" if row["verdicts"]["listed"] else " (misses unlisted)"),
             f"{row['seconds']:.1f}",
         ])  # fmt: skip
-    return markdown_table(header, out)
+    return md_table(header, out)
 
 
 def main(argv=None) -> dict:
     """Clean and judge every case; write the JSON and markdown; print the table."""
     p = parser(__doc__)
     p.add_argument("--clips", nargs="+", metavar="NAME", help="shared clips by name (walk, run, ...; default all)")
-    args = p.parse_args(argv)
-    opening = start(args)
-    if not DATA.is_dir():
-        raise SystemExit(f"no shared clips at {DATA}")
+    run = start("clip_targets", p, argv)
+    folder = need("humanoid")
     rows = []
-    with tempfile.TemporaryDirectory() as folder:
-        for case in cases(DATA, args.clips):
-            row = run_case(case, Path(folder))
+    with tempfile.TemporaryDirectory() as scratch:
+        for case in cases(folder, run.args.clips):
+            row = run_case(case, Path(scratch))
             rows.append(row)
             print(f"{case.name}: {row['verdicts']}", flush=True)
-    command = "python -m benchmarks.clip_targets" + (f" --clips {' '.join(args.clips)}" if args.clips else "")
-    result = {
-        "benchmark": "clip_targets",
-        "command": command,
-        "targets": TARGETS,
-        "cases": rows,
-        "all_met": all(all(row["verdicts"].values()) for row in rows),
-        "machine": machine("cpu", opening),
-        "seconds": time.perf_counter() - opening["t0"],
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / "clip_targets.json", result, missing_as_null=True)
-    text = table(rows)
     met = sum(all(row["verdicts"].values()) for row in rows)
-    write_text_atomically(
-        args.out / "clip_targets.md",
-        f"`{command}` on {result['machine']['cpu_model']}: {met} of {len(rows)} cases meet every target\n\n{text}\n",
-    )
-    print(text)
-    return result
+    run.target("cases meeting every target", len(rows), met, "cases")
+    result = {"goals": TARGETS, "cases": rows, "all_met": met == len(rows)}
+    figures = {
+        f"{row['case']} {key}": row.get(key)
+        for row in rows
+        for key in ("sliding_mm_per_frame", "depth_mm", "peak_ratio", "travel_m", "deik_frames_met")
+    }
+    return run.finish(result, f"{met} of {len(rows)} cases meet every target\n\n" + table(rows), figures=figures)
 
 
 if __name__ == "__main__":

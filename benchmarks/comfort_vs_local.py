@@ -1,6 +1,6 @@
 """Single poses that stay close to their reference: deik against a local solver started there.
 
-    PYTHONPATH=src python -m benchmarks.comfort_vs_local [--problems 24] [--quick]
+    python -m benchmarks.comfort_vs_local [--problems 24] [--quick]
 
 Issue 17 item 6. Each problem is a standing `deik.humanoid()`: both feet planted where the
 reference pose has them (heel and toe tip, level 0), both hands at targets made by forward
@@ -11,7 +11,6 @@ Levenberg-Marquardt family) from the reference pose on the same position goals i
 which ends near the start because each step is a damped minimum-norm one. Both must meet every
 goal; the deviation from the reference is the Comfort measure itself (Eq. 6: sum over DOFs of
 |angle - reference|, radians, pelvis translation in metres) and the Euclidean joint distance.
-Writes results/comfort_vs_local.{json,png}.
 """
 
 from __future__ import annotations
@@ -20,7 +19,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import deik
-from benchmarks.harness import figure, finish, parser, print_report, start, target
+from benchmarks import harness
 from deik.solver.seeding import poses_around
 
 FEET = ("left_heel", "left_toe_tip", "right_heel", "right_toe_tip")
@@ -97,48 +96,40 @@ def compare(count: int, seed: int, settings: dict) -> dict:
 
 
 def main(argv=None) -> dict:
-    """Run the comparison, write results/comfort_vs_local.{json,png}, print the table."""
-    p = parser(__doc__)
+    """Run the comparison; write results/comfort_vs_local.{json,md,png}."""
+    p = harness.parser(__doc__)
     p.add_argument("--problems", type=int, help="humanoid problems (default 24; 4 with --quick)")
-    args = p.parse_args(argv)
-    opening = start(args, {"problems": 4 if args.quick else 24})
+    run = harness.start("comfort_vs_local", p, argv, {"problems": 24}, {"problems": 4})
+    args = run.args
     settings = {"device": args.device, "dtype": "float64"}
     rows = compare(args.problems, args.seed, settings)
     both = np.array(rows["deik"]["met"]) & np.array(rows["local"]["met"])
     d, c = np.array(rows["deik"]["comfort_sum"]), np.array(rows["local"]["comfort_sum"])
     no_larger = float(np.mean(d[both] <= c[both] * (1 + 1e-3))) if both.any() else 0.0
+    run.target("share of problems both solvers solve", 1.0, float(both.mean()), "")
+    run.target("share where deik's deviation <= the local solver's", 1.0, no_larger, "", not args.quick)
+    summary = {
+        "both_met": int(both.sum()),
+        "deik_no_larger_share": no_larger,
+        "deik_mean_comfort_sum": float(d[both].mean()) if both.any() else None,
+        "local_mean_comfort_sum": float(c[both].mean()) if both.any() else None,
+    }
+    fig, axes = harness.figure()
+    axes[0, 0].scatter(c[both], d[both], s=12)
+    top = max(float(c.max()), float(d.max())) * 1.05
+    axes[0, 0].plot([0, top], [0, top], "k--", lw=0.8, label="equal")
+    xlabel, ylabel = "local solver: sum |q - reference| (rad, m)", "deik: sum |q - reference| (rad, m)"
+    harness.style_axes(axes[0, 0], xlabel, ylabel, "deviation from the reference, goals met", xlog=False, ylog=False)
+    cells = [[b, f"{c[b]:.3f}", f"{d[b]:.3f}", rows["deik"]["met"][b]] for b in range(args.problems)]
+    body = harness.md_table(["problem", "local sum", "deik sum", "deik met"], cells)
     result = {
         "problems": args.problems,
         "settings": settings,
         "tolerance_m": TOLERANCE,
         "rows": rows,
-        "summary": {
-            "both_met": int(both.sum()),
-            "deik_no_larger_share": no_larger,
-            "deik_mean_comfort_sum": float(d[both].mean()) if both.any() else None,
-            "local_mean_comfort_sum": float(c[both].mean()) if both.any() else None,
-        },
-        "targets": [
-            target("share of problems both solvers solve", 1.0, float(both.mean()), "", True),
-            target("share where deik's deviation <= the local solver's", 1.0, no_larger, "", not args.quick),
-        ],
+        "summary": summary,
     }
-    fig, axes = figure()
-    ax = axes[0, 0]
-    ax.scatter(c[both], d[both], s=12)
-    top = max(float(c.max()), float(d.max())) * 1.05
-    ax.plot([0, top], [0, top], "k--", lw=0.8, label="equal")
-    ax.set_xlabel("local solver: sum |q - reference| (rad, m)")
-    ax.set_ylabel("deik: sum |q - reference| (rad, m)")
-    ax.set_title("deviation from the reference, goals met")
-    ax.legend(fontsize=7)
-    result = finish("comfort_vs_local", args, opening, result, fig)
-    table = [
-        [b, f"{rows['local']['comfort_sum'][b]:.3f}", f"{rows['deik']['comfort_sum'][b]:.3f}", rows["deik"]["met"][b]]
-        for b in range(args.problems)
-    ]
-    print_report(result, ["problem", "local sum", "deik sum", "deik met"], table)
-    return result
+    return run.finish(result, body, fig, {k: v for k, v in summary.items() if v is not None})
 
 
 if __name__ == "__main__":

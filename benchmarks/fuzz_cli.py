@@ -1,14 +1,14 @@
 """Fuzz the command line with mutated input files: every case must end in a result or one line
 `deik: error: FILE...` (exit 2), never a traceback, an internal error, a hang or a crash.
 
-Seeds: a small BVH clip, a small URDF arm and a TOML problem built here, plus the BVH and URDF
-files of ../shared/data when present. Each case mutates one seed (a flipped byte, a deleted,
+Seeds: a small BVH clip, a small URDF arm and a TOML problem (benchmarks/fuzz_seeds/), plus the
+BVH and URDF files of the shared data when present. Each case mutates one seed (a flipped byte, a deleted,
 doubled or truncated line, a number swapped for NaN, 1e308, 1_000, 0x10 or nothing, CR-only
 line endings, deep nesting) and runs `deik info` (BVH, URDF) or `deik solve --problem` (TOML)
 in this process, with an alarm as the time bound and an address-space limit as the memory bound.
 The same seed gives the same cases.
 
-    PYTHONPATH=src python -m benchmarks.fuzz_cli --cases 3000     # results/fuzz_cli.json
+    python -m benchmarks.fuzz_cli --cases 3000     # results/fuzz_cli.{json,md,png}
 """
 
 from __future__ import annotations
@@ -24,83 +24,13 @@ import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.harness import figure, finish, parser, print_report, start, target
+from benchmarks import harness
+from benchmarks.data import shared_data
 from deik.cli import main as deik_main
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SEEDS = Path(__file__).resolve().parent / "fuzz_seeds"
 CASE_SECONDS = 30  # a case running longer counts as a hang
 
-SEED_BVH = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0.9 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Spine
-  {
-    OFFSET 0 0.2 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 0.3 0
-    }
-  }
-  JOINT Leg
-  {
-    OFFSET 0.1 -0.4 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 -0.4 0
-    }
-  }
-}
-MOTION
-Frames: 3
-Frame Time: 0.033333
-0 0.9 0 0 0 0 0 5 0 0 0 0
-0 0.9 0.01 1 2 3 0 6 0 1 0 0
-0 0.91 0.02 2 4 6 0 7 0 2 0 0
-"""
-
-SEED_URDF = """<?xml version="1.0"?>
-<robot name="arm">
-  <link name="base"><inertial><origin xyz="0 0 0.05" rpy="0 0 0"/><mass value="2.0"/></inertial></link>
-  <link name="upper"><inertial><mass value="1.0"/></inertial></link>
-  <link name="lower"><inertial><mass value="0.5"/></inertial></link>
-  <link name="tool"/>
-  <joint name="shoulder" type="revolute">
-    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.1" rpy="0 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" effort="10" velocity="1"/>
-  </joint>
-  <joint name="elbow" type="revolute">
-    <parent link="upper"/><child link="lower"/><origin xyz="0 0 0.3" rpy="0 1.5708 0"/>
-    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/>
-  </joint>
-  <joint name="wrist" type="fixed">
-    <parent link="lower"/><child link="tool"/><origin xyz="0 0 0.25" rpy="0.1 0.2 0.3"/>
-  </joint>
-</robot>
-"""
-
-SEED_TOML = """skeleton = "chain:4"
-limits = "reflect"
-
-[settings]
-population = 8
-generations = 5
-seed = 1
-
-[[goal]]
-type = "position"
-frame = "tip"
-target = [2.0, 1.0, 0.0]
-tolerance = 0.01
-
-[[goal]]
-type = "comfort"
-weight = 0.1
-level = 1
-"""
 
 NASTY = [
     "nan",
@@ -128,16 +58,11 @@ NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
 
 
 def seeds() -> list[tuple[str, str, bytes]]:
-    """(name, kind, content) of every seed file: the built-in ones, then the shared BVH and URDFs."""
-    out = [
-        ("seed.bvh", "bvh", SEED_BVH.encode()),
-        ("seed.urdf", "urdf", SEED_URDF.encode()),
-        ("seed.toml", "toml", SEED_TOML.encode()),
-    ]
-    if SHARED.is_dir():
-        for path in sorted(SHARED.glob("humanoid/*.bvh"))[:3] + sorted(SHARED.glob("robots/*.urdf")):
-            out.append((path.name, path.suffix[1:], path.read_bytes()))
-    return out
+    """(name, kind, content) of every seed file: our own, then the shared BVH and URDFs."""
+    shared = shared_data()
+    paths = [SEEDS / f"seed.{kind}" for kind in ("bvh", "urdf", "toml")]
+    paths += sorted(shared.glob("humanoid/*.bvh"))[:3] + sorted(shared.glob("robots/*.urdf"))
+    return [(path.name, path.suffix[1:], path.read_bytes()) for path in paths]
 
 
 def mutate(data: bytes, rng: random.Random) -> bytes:
@@ -249,35 +174,25 @@ def fuzz(cases: int, seed: int, folder: Path) -> dict:
 
 
 def main(argv=None) -> int:
-    p = parser(__doc__)
+    p = harness.parser(__doc__)
     p.add_argument("--cases", type=int, default=3000)
     p.add_argument("--memory-gib", type=float, default=6.0, help="address-space bound of this process (GiB)")
-    args = p.parse_args(argv)
+    run = harness.start("fuzz_cli", p, argv)
+    args = run.args
     # a case that allocates without bound fails with MemoryError (an internal error) instead of
     # exhausting the machine
     resource.setrlimit(resource.RLIMIT_AS, (int(args.memory_gib * 2**30), resource.RLIM_INFINITY))
-    opening = start(args)
     with tempfile.TemporaryDirectory() as folder:
         found = fuzz(args.cases, args.seed, Path(folder))
-    targets = [target("cases that break the rules", 0, len(found["failures"]), "cases", True, at_most=True)]
-    fig, axes = figure()
-    axes[0, 0].bar(
-        ["result", "one-line error", "broke a rule"],
-        [found["outcomes"]["ok"], found["outcomes"]["error"], len(found["failures"])],
-    )
-    axes[0, 0].set_title(f"{found['cases']} mutated inputs through the CLI")
-    result = finish("fuzz_cli", args, opening, {**found, "targets": targets}, fig)
-    print_report(
-        result,
-        ["outcome", "cases"],
-        [
-            ["result", found["outcomes"]["ok"]],
-            ["one-line error", found["outcomes"]["error"]],
-            ["broke a rule", len(found["failures"])],
-        ],
-    )
-    for failure in found["failures"][:20]:
-        print(f"case {failure['case']} ({failure['seed_file']}): {failure['why']}")
+    run.target("cases that break the rules", 0, len(found["failures"]), "cases", at_most=True)
+    counts = {"result": found["outcomes"]["ok"], "one-line error": found["outcomes"]["error"]}
+    counts["broke a rule"] = len(found["failures"])
+    fig, axes = harness.figure()
+    harness.bars(axes[0, 0], list(counts), list(counts.values()))
+    harness.style_axes(axes[0, 0], "", "cases", f"{found['cases']} mutated inputs through the CLI", False, False)
+    body = harness.md_table(["outcome", "cases"], [[k, v] for k, v in counts.items()])
+    body += "".join(f"\n- case {f['case']} ({f['seed_file']}): {f['why']}" for f in found["failures"][:20])
+    run.finish(found, body, fig, counts)
     return 1 if found["failures"] else 0
 
 

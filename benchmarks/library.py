@@ -1,9 +1,9 @@
 """Libraries of clips: throughput of `deik clip DIR` on 1 and 2 local workers and on Ray, and the
 retargeting quality of every shared clip onto human.urdf and deik.humanoid().
 
-    PYTHONPATH=src python -m benchmarks.library [--rounds 2] [--part both|throughput|quality]
+    python -m benchmarks.library [--rounds 2] [--part both|throughput|quality]
 
-Throughput: the folder of shared clips (../shared/data/humanoid, every *.bvh; the segment tables
+Throughput: the folder of shared clips (the shared data's humanoid/, every *.bvh; the segment tables
 beside them are skipped) fixed as `deik clip DIR --out OUTDIR` fixes it (contacts detected and
 planted, the floor kept) and retargeted onto deik.humanoid(), into a fresh folder each time,
 through deik.library exactly as the commands run it. Three ways take turns in each round, in a
@@ -19,7 +19,6 @@ penetration max (mm, deepest joint or site below the floor), self-penetration ma
 overlap of two of the target's bone capsules), the key points' speed and acceleration peaks
 over their targets' (clips.dynamics) and time per frame (ms, one core).
 
-Writes library.json, library.md and library.png into --out (atomically); prints the tables.
 `--part throughput` or `--part quality` measures one part and keeps the other as the JSON in
 --out holds it (the quality part took 70 s on the 2-core machine; the throughput part runs
 both jobs 7 times over), each part with its own command, commit and machine.
@@ -27,28 +26,22 @@ both jobs 7 times over), each part with its own command, commit and machine.
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import statistics
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.harness import machine
+from benchmarks import harness
+from benchmarks.data import shared_data
 from deik.cli.app import build_parser
 from deik.cli.folder_command import do_clip, library_jobs
-from deik.experiments.shared import markdown_table, save_figure
-from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.library.run import run_library
-from deik.viz.plot import require_matplotlib
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
-CLIPS = DATA / "humanoid"
+CLIPS = shared_data("humanoid")
 TARGETS = {
-    "human.urdf": (str(DATA / "robots" / "human.urdf"), str(ROOT / "examples/maps/shared_bvh_to_human_urdf.toml")),
+    "human.urdf": (str(shared_data("robots", "human.urdf")), str(ROOT / "examples/maps/shared_bvh_to_human_urdf.toml")),
     "deik.humanoid()": ("humanoid", str(ROOT / "examples/maps/shared_bvh_to_humanoid.toml")),
 }
 JOBS = ("deik clip", "deik retarget onto deik.humanoid()")
@@ -159,11 +152,11 @@ def _shown(value) -> str:
 def _measured_by(result: dict, part: str) -> list[str]:
     """The lines saying how `part` was measured: its command and machine."""
     run = result["runs"][part]
-    return [f"`{run['command']}` at {run['commit']}, {run['machine']['cpu_model']}", ""]
+    return [f"`{run['command']}` at {run['commit']}, {run['cpu_model']}", ""]
 
 
 def markdown(result: dict) -> str:
-    lines = ["# Libraries of clips (benchmarks/library.py)", ""]
+    lines = []
     if "throughput" in result:
         t = result["throughput"]
         lines += _measured_by(result, "throughput")
@@ -176,21 +169,20 @@ def markdown(result: dict) -> str:
                 + [", ".join(f"{v:.2f}" for v in s["speedup_vs_1_worker_per_round"])]
                 for way, s in measured["summary"].items()
             ]
-            lines += [markdown_table(header, rows), ""]
+            lines += [harness.md_table(header, rows)]
         lines += [f"Ray's start-up (once, not in the turns): {t['ray_start_s']:.1f} s", ""]
     for k, (target, rows) in enumerate(result.get("quality", {}).items()):
         lines += [f"## Retargeting every shared clip onto {target}", ""]
         lines += _measured_by(result, "quality") if k == 0 else []
         header = ["clip", "frames", "status", *(label for _, label in QUALITY)]
         cells = [[r["clip"], r["frames"], r["status"], *(_shown(r[key]) for key, _ in QUALITY)] for r in rows]
-        lines += [markdown_table(header, cells), ""]
+        lines += [harness.md_table(header, cells)]
     return "\n".join(lines) + "\n"
 
 
-def figure(result: dict, path: str) -> None:
-    plt = require_matplotlib()
-    panels = ("throughput" in result) + bool(result.get("quality"))
-    fig, axes = plt.subplots(1, panels, figsize=(6 * panels, 4.2), squeeze=False)
+def figure(result: dict):
+    """Frames per second of each way (throughput) and each clip's key-point error (quality)."""
+    fig, axes = harness.figure(("throughput" in result) + bool(result.get("quality")), width=6, height=4.2)
     axes = list(axes[0])
     if "throughput" in result:
         ax = axes.pop(0)
@@ -215,26 +207,15 @@ def figure(result: dict, path: str) -> None:
         ax.set_ylabel("key-point error, mean (mm)")
         ax.set_title("retargeting every shared clip")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
+    return fig
 
 
-def _commit() -> str:
-    """The checkout's commit (short hash, "+changes" when the tree differs from it), or "unknown"."""
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True)
-    except OSError:
-        return "unknown"
-    return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "") if head.returncode == 0 else "unknown"
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=2, help="turns of each way in the throughput part")
-    parser.add_argument("--part", choices=("both", "throughput", "quality"), default="both")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
-    args = parser.parse_args()
+def main(argv=None) -> dict:
+    p = harness.parser(__doc__)
+    p.add_argument("--rounds", type=int, default=2, help="turns of each way in the throughput part")
+    p.add_argument("--part", choices=("both", "throughput", "quality"), default="both")
+    run = harness.start("library", p, argv)
+    args = run.args
     parts = ("throughput", "quality") if args.part == "both" else (args.part,)
     stored = args.out / "library.json"
     result = {}
@@ -242,18 +223,21 @@ def main() -> None:
         result = {k: v for k, v in json.loads(stored.read_text()).items() if k in ("throughput", "quality", "runs")}
     result.setdefault("runs", {})
     for part in parts:
-        opening = {"load_before": list(os.getloadavg())}
         result[part] = throughput(args.rounds) if part == "throughput" else quality()
-        command = f"python -m benchmarks.library --part {part}" + (
-            f" --rounds {args.rounds}" if part == "throughput" else ""
-        )
-        result["runs"][part] = {"command": command, "commit": _commit(), "machine": machine("cpu", opening)}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(stored, result, missing_as_null=True)
-    text = markdown(result)
-    write_text_atomically(args.out / "library.md", text)
-    figure(result, str(args.out / "library.png"))
-    print(text)
+        command = f"python -m benchmarks.library --part {part}" + (f" --rounds {args.rounds}" * (part == "throughput"))
+        result["runs"][part] = {"command": command, "commit": harness.deik_commit(), "cpu_model": harness.cpu_info()[0]}
+    figures = {
+        f"{job}, {way}, frames/s": s["frames_per_s_median"]
+        for job, m in result.get("throughput", {}).get("jobs", {}).items()
+        for way, s in m["summary"].items()
+    }
+    figures |= {
+        f"onto {target}, {r['clip']}, {key}": r[key]
+        for target, rows in result.get("quality", {}).items()
+        for r in rows
+        for key in ("keypoint_error_mean_mm", "contact_sliding_max_mm_per_frame")
+    }
+    return run.finish(result, markdown(result), figure(result), figures)
 
 
 if __name__ == "__main__":

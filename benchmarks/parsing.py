@@ -7,8 +7,8 @@ a serial chain of revolute joints (URDF), a 13-joint, 42-channel clip with N fra
 chain N joints deep (BVH). Each size is read `--repeats` times, best kept; the first read of a
 URDF in a fresh process (imports included) is timed too.
 
-    PYTHONPATH=src python -m benchmarks.parsing            # full sizes, results/parsing.json
-    PYTHONPATH=src python -m benchmarks.parsing --quick    # small sizes, a few seconds
+    python -m benchmarks.parsing            # full sizes, results/parsing.{json,md,png}
+    python -m benchmarks.parsing --quick    # small sizes, a few seconds
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import deik
-from benchmarks.harness import figure, finish, parser, print_report, start, style_axes, target
+from benchmarks import harness
 
 
 def urdf_chain(n: int) -> str:
@@ -80,79 +80,56 @@ def first_read_in_fresh_process(path: Path) -> float:
     return float(subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout)
 
 
-def main(argv=None) -> int:
-    p = parser(__doc__)
+def main(argv=None) -> dict:
+    p = harness.parser(__doc__)
     p.add_argument("--repeats", type=int, default=3)
-    args = p.parse_args(argv)
-    opening = start(args)
+    run = harness.start("parsing", p, argv)
+    args = run.args
     sizes = (
         {"urdf": [250, 500], "frames": [5_000, 10_000], "deep": [500, 1_000]}
         if args.quick
         else {"urdf": [1_000, 2_000, 4_000], "frames": [50_000, 100_000, 200_000], "deep": [5_000, 10_000, 20_000]}
     )
     makers = {
-        "urdf": (urdf_chain, deik.read_urdf, ".urdf"),
-        "frames": (bvh_frames, deik.read_bvh, ".bvh"),
-        "deep": (bvh_deep, deik.read_bvh, ".bvh"),
+        "urdf": (urdf_chain, deik.read_urdf, ".urdf", "URDF links"),
+        "frames": (bvh_frames, deik.read_bvh, ".bvh", "BVH frames"),
+        "deep": (bvh_deep, deik.read_bvh, ".bvh", "BVH joints deep"),
     }
-    series, rows = {}, []
+    series, cells = {}, []
+    fig, axes = harness.figure()
     with tempfile.TemporaryDirectory() as folder:
         for kind, counts in sizes.items():
-            make, read, suffix = makers[kind]
-            series[kind] = []
+            make, read, suffix, label = makers[kind]
             warm = Path(folder) / f"warm{suffix}"
             warm.write_text(make(10))
             read(warm)  # imports and first-call costs are not parsing (the fresh-process figure has them)
+            series[kind] = []
             for n in counts:
                 path = Path(folder) / f"{kind}_{n}{suffix}"
                 path.write_text(make(n))
                 point = {"size": n, "seconds": best_time(read, path, args.repeats), "bytes": path.stat().st_size}
-                if series[kind]:
+                if series[kind]:  # 2 ** (the exponent of the growth): 2 linear, 4 quadratic
                     before = series[kind][-1]
-                    point["growth_for_double"] = 2 ** (
-                        math.log2(point["seconds"] / before["seconds"]) / math.log2(n / before["size"])
-                    )
+                    exponent = math.log2(point["seconds"] / before["seconds"]) / math.log2(n / before["size"])
+                    point["growth_for_double"] = 2**exponent
                 series[kind].append(point)
-                growth = point.get("growth_for_double")
-                rows.append([kind, n, f"{point['seconds']:.3f}", "-" if growth is None else f"{growth:.2f}"])
+                cells.append([kind, n, f"{point['seconds']:.3f}", f"{point.get('growth_for_double', math.nan):.2f}"])
+            axes[0, 0].plot(counts, [s["seconds"] for s in series[kind]], "o-", label=label)
         fresh = Path(folder) / "fresh.urdf"
         fresh.write_text(urdf_chain(sizes["urdf"][-1]))
         first_read = first_read_in_fresh_process(fresh)
     at = {kind: {s["size"]: s["seconds"] for s in series[kind]} for kind in series}
-    # at --quick sizes the largest measured file stands in, and the verdict is "not measured here"
-    targets = [
-        target(
-            "URDF of 2,000 links read",
-            0.5,
-            at["urdf"].get(2000, max(at["urdf"].values())),
-            "s",
-            not args.quick,
-            at_most=True,
-        ),
-        target(
-            "BVH of 200,000 frames read",
-            5.0,
-            at["frames"].get(200_000, max(at["frames"].values())),
-            "s",
-            not args.quick,
-            at_most=True,
-        ),
-    ]
-    fig, axes = figure()
-    for kind, label in (("urdf", "URDF links"), ("frames", "BVH frames"), ("deep", "BVH joints deep")):
-        axes[0, 0].plot([s["size"] for s in series[kind]], [s["seconds"] for s in series[kind]], "o-", label=label)
-    style_axes(axes[0, 0], "size (links, frames or joints)", "seconds (best of repeats)", "Parsing time")
-    result = finish(
-        "parsing",
-        args,
-        opening,
-        {"series": series, "urdf_first_read_fresh_process_s": first_read, "targets": targets, "quick": args.quick},
-        fig,
-    )
-    print_report(result, ["file", "size", "seconds", "growth for double (2 = linear)"], rows)
-    print(f"first read of the largest URDF in a fresh process (imports included): {first_read:.2f} s")
-    return 0
+    # at --quick sizes the largest measured file stands in, and the verdict is "not judged here"
+    urdf, bvh = at["urdf"].get(2000, max(at["urdf"].values())), at["frames"].get(200_000, max(at["frames"].values()))
+    run.target("URDF of 2,000 links read", 0.5, urdf, "s", not args.quick, at_most=True)
+    run.target("BVH of 200,000 frames read", 5.0, bvh, "s", not args.quick, at_most=True)
+    harness.style_axes(axes[0, 0], "size (links, frames or joints)", "seconds (best of repeats)", "Parsing time")
+    body = harness.md_table(["file", "size", "seconds", "growth for double (2 = linear)"], cells)
+    body += f"\nFirst read of the largest URDF in a fresh process (imports included): {first_read:.2f} s\n"
+    figures = {f"{kind} {s['size']} s": s["seconds"] for kind in series for s in series[kind]}
+    result = {"series": series, "urdf_first_read_fresh_process_s": first_read, "quick": args.quick}
+    return run.finish(result, body, fig, figures | {"URDF first read in a fresh process, s": first_read})
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

@@ -1,6 +1,6 @@
 """This CPU's floating-point peak as Numba reaches it: independent fused multiply-adds in SIMD lanes.
 
-    PYTHONPATH=src python -m benchmarks.peak [--seconds 0.005] [--repeats 200] [--out DIR]
+    python -m benchmarks.peak [--seconds 0.005] [--repeats 200] [--out DIR]
 
 Each thread keeps CHAINS x N values (32 KiB of float32: in the first-level cache) and applies
 DEPTH fused multiply-adds, v = v * a + b, to each of the CHAINS values of a column in turn: the
@@ -12,7 +12,7 @@ load and one store per DEPTH FMAs keep memory out of the way. Compiled with fast
 short runs of about --seconds each (on the shared machine a long run measures its share of the
 cores, a short one mostly runs whole between other processes' turns), on 1 thread and on as
 many threads as Numba has (one array each). The DE kernel's rate is set against it in
-docs/performance.md ("How close to the hardware"). Writes peak.json and peak.png into --out.
+docs/performance.md ("How close to the hardware").
 """
 
 from __future__ import annotations
@@ -87,47 +87,35 @@ def packed_fma(dtype) -> str:
     return "none"
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> dict:
     p = harness.parser(__doc__)
-    p.add_argument("--seconds", type=float, default=0.005, help="target seconds of one timed run")
-    p.add_argument("--repeats", type=int, default=200)
-    args = p.parse_args(argv)
-    if args.quick:
-        args.seconds, args.repeats = 0.002, 3
-    opening = harness.start(args)
-    rows = []
-    for dtype in (np.float32, np.float64):
-        for threads in sorted(set(harness.thread_counts("cpu"))):
-            rows.append(gflops(dtype, threads, args.seconds, args.repeats))
-            print(f"{rows[-1]['dtype']} {threads} thread(s): {rows[-1]['gflops']:.1f} GFLOP/s", flush=True)
+    p.add_argument("--seconds", type=float, help="target seconds of one timed run (default 0.005)")
+    p.add_argument("--repeats", type=int, help="timed runs, best kept (default 200)")
+    run = harness.start("peak", p, argv, {"seconds": 0.005, "repeats": 200}, {"seconds": 0.002, "repeats": 3})
+    args = run.args
+    rows = [
+        gflops(d, t, args.seconds, args.repeats)
+        for d in (np.float32, np.float64)
+        for t in sorted(set(harness.thread_counts("cpu")))
+    ]
     instructions = {np.dtype(d).name: packed_fma(d) for d in (np.float32, np.float64)}
     fig, axes = harness.figure()
-    ax = axes[0, 0]
-    for k, dtype in enumerate(("float32", "float64")):
+    for dtype, instruction in instructions.items():
         line = [(r["threads"], r["gflops"]) for r in rows if r["dtype"] == dtype]
-        ax.plot(*zip(*line), "o-", color=f"C{k}", label=f"{dtype} ({instructions[dtype]})")
-    harness.style_axes(ax, "threads", "GFLOP/s (2 per FMA)", "FMA peak as Numba reaches it")
-    result = harness.finish(
-        "peak",
-        args,
-        opening,
-        {
-            "values_per_chain": N,
-            "chains": CHAINS,
-            "fmas_per_chain": DEPTH,
-            "instructions": instructions,
-            "rows": rows,
-            "targets": [],
-        },
-        fig,
-    )
-    harness.print_report(
-        result,
-        ["dtype", "threads", "GFLOP/s", "instruction"],
-        [[r["dtype"], r["threads"], f"{r['gflops']:.1f}", instructions[r["dtype"]]] for r in rows],
-    )
-    return 0
+        axes[0, 0].plot(*zip(*line), "o-", label=f"{dtype} ({instruction})")
+    harness.style_axes(axes[0, 0], "threads", "GFLOP/s (2 per FMA)", "FMA peak as Numba reaches it")
+    cells = [[r["dtype"], r["threads"], f"{r['gflops']:.1f}", instructions[r["dtype"]]] for r in rows]
+    body = harness.md_table(["dtype", "threads", "GFLOP/s", "instruction"], cells)
+    figures = {f"{r['dtype']}, {r['threads']} thread(s), GFLOP/s": r["gflops"] for r in rows}
+    result = {
+        "values_per_chain": N,
+        "chains": CHAINS,
+        "fmas_per_chain": DEPTH,
+        "instructions": instructions,
+        "rows": rows,
+    }
+    return run.finish(result, body, fig, figures)
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

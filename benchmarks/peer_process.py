@@ -1,6 +1,6 @@
 """A peer IK library as a long-lived subprocess in .venv-peers, fed chunks of targets through pipes.
 
-The process (benchmarks.peers.run_peer --serve) is started once per case and loads, checks and
+The process (benchmarks.peers.run_peer) is started once per case and loads, checks and
 warms up its library before the first chunk, so none of that is in the timed turns. Each request
 is one JSON line with a target range; each answer one JSON line with the solutions, the wall time
 of every target (s) and the attempts made. stderr goes to a file, so a chatty library cannot
@@ -16,35 +16,36 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from benchmarks.harness import Dropped
+
 ROOT = Path(__file__).resolve().parents[1]
 PEERS_PYTHON = ROOT / ".venv-peers" / "bin" / "python"
 SETUP_TIMEOUT_S = 300  # loading a library (torch, jax) on a loaded machine
 CHUNK_TIMEOUT_S = 900  # one chunk of targets; ikpy and pytorch-kinematics have no budget
 
 
-class PeerFailed(RuntimeError):
-    """The peer could not start, answered with an error, died or timed out."""
+class PeerFailed(Dropped):
+    """The peer could not start, answered with an error, died or timed out: it drops out of the
+    remaining turns (harness.take_turns)."""
 
 
 class PeerProcess:
     """One peer adapter serving chunks: PeerProcess(name, targets.npz); .info (version, settings,
     setup_s, frame_check) once ready(); .solve(start, stop) -> dict of lists; .close()."""
 
-    def __init__(self, name: str, targets_file: Path, python: Path = PEERS_PYTHON, path_first: Path | None = None):
-        """path_first: a folder put before the repository on the process's PYTHONPATH (an older
-        deik's src/ for the deik peer)."""
-        if not Path(python).exists():
-            raise PeerFailed(f"{python} is missing (make bench-peers creates it)")
+    def __init__(self, name: str, targets_file: Path):
+        if not PEERS_PYTHON.exists():
+            raise PeerFailed(f"{PEERS_PYTHON} is missing (make bench-peers creates it)")
         self.name, self.info = name, None
         self.log = tempfile.TemporaryFile(mode="w+")
         self.proc = subprocess.Popen(
-            [str(python), "-m", "benchmarks.peers.run_peer", name, str(targets_file), "--serve"],
+            [str(PEERS_PYTHON), "-m", "benchmarks.peers.run_peer", name, str(targets_file)],
             cwd=ROOT,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.log,
             text=True,
-            env={**os.environ, "PYTHONPATH": os.pathsep.join(str(p) for p in (path_first, ROOT) if p)},
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
         )
 
     def _receive(self, timeout: float) -> dict:

@@ -16,15 +16,14 @@ from pathlib import Path
 import numpy as np
 
 import deik
+from benchmarks.data import need
 from benchmarks.peers.common import LIMIT_SLACK
 from deik.model.joints import ROTATE
-
-ROBOTS = Path(__file__).resolve().parents[2] / "shared" / "data" / "robots"
 
 
 @dataclass(frozen=True)
 class Case:
-    """A robot file in shared/data/robots and the chain cut from it."""
+    """A robot file of the shared data's robots/ and the chain cut from it."""
 
     urdf: str
     base: str
@@ -38,16 +37,15 @@ CASES = {
 }
 
 
-def load_case(name: str, robots: Path = ROBOTS) -> tuple[deik.Skeleton, Case, Path]:
-    """The deik skeleton of case `name`, the case and the URDF path."""
+def load_case(name: str, robots: Path | None = None) -> tuple[deik.Skeleton, Case, Path]:
+    """The deik skeleton of case `name`, the case and the URDF path (in `robots`, default the
+    shared data's robots/)."""
     case = CASES[name]
-    path = Path(robots) / case.urdf
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} is missing: the robot benchmark needs shared/data beside the checkout")
+    path = Path(robots) / case.urdf if robots else need("robots", case.urdf)
     return deik.read_urdf(path, case.base, case.tip), case, path
 
 
-def make_targets(name: str, n: int, seed: int = 0, robots: Path = ROBOTS) -> dict:
+def make_targets(name: str, n: int, seed: int = 0, robots: Path | None = None) -> dict:
     """N targets of case `name`: q_true (N, D) uniform in [lower, upper]; positions (N, 3) m and
     rotations (N, 3, 3) of the tip in the base frame; start (D,) mid-limit pose; limits (D,)."""
     skeleton, case, path = load_case(name, robots)

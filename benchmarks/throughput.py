@@ -1,211 +1,135 @@
-"""Joint evaluations per second of the parallel DE engine, vs chain length and population.
+"""Joint evaluations per second of the parallel DE engine, by problem, batch and population.
 
-    PYTHONPATH=src python -m benchmarks.throughput [--device cpu|gpu] [--quick] [--out DIR]
-        [--links 10 20 50 100] [--populations 100 500 2000] [--batches 64] [--seconds 0.5]
+    python -m benchmarks.throughput [--device cpu|gpu] [--quick] [--dtype float32|float64]
+        [--configs chain100x64 humanoidx8 ...] [--populations 100 500 2000] [--seconds 0.5]
 
-Rate = population x joints x generations x batch / seconds of one Engine.run call (joints =
-links of deik.chain(n), one Position goal on its tip). Only DE evaluation runs: polish and
-restarts off, stop_on_converged False and a huge patience, so every generation evaluates every
-individual. Each configuration is warmed up (compile or cache load excluded), its generation
-count calibrated so one run takes about --seconds, then timed --repeats times (best kept).
-The time of a 1-generation run (copies, launch) is recorded; "marginal" rates leave it out.
-On the CPU every configuration is timed with all Numba threads and with 1, side by side.
-Single problems (batch 1) are swept over links x populations; the batched rows fill the device
-(CPU: 64 problems x 500 on the 100-link chain; GPU: 64, 4 and 16 problems per multiprocessor).
+Rate = problems x population x joints x generations / seconds of one Engine.run call. Only DE
+evaluation runs (polish and restarts off, no stopping). A config is PROBLEMxBATCH: chainN (the
+paper's chain, one Position goal on its tip; N joints) or humanoid (deik.humanoid(), Position
+goals on both hands and both heels; its kernel joints), with BATCH problems whose targets are
+the FK of random in-limit poses; every config runs at every population. Default: chain10,
+chain20, chain50, chain100 x1 at populations 100, 500, 2000, and batches that fill the device
+at population 500 (CPU: chain100x64; GPU: x64 and 4 and 16 problems per multiprocessor). Each
+row is warmed up, its generation count calibrated to about --seconds a run, then timed
+--repeats times (best kept); on the CPU with all Numba threads and with one, side by side, the
+one-thread rows also by the thread's CPU time, which other processes inflate far less.
 Targets: >= 5e7 per second on the CPU, >= 1e11 per second on the GPU with a batch.
-Writes throughput.json and throughput.png into --out.
 """
 
 from __future__ import annotations
 
-import math
+import numpy as np
 
 import deik
 from benchmarks import harness
 
 CPU_TARGET, GPU_TARGET = 5e7, 1e11
+HANDS_AND_HEELS = ("left_hand", "right_hand", "left_heel", "right_heel")
 
 
-def measure(links: int, population: int, batch: int, threads: int, args) -> dict:
-    """One configuration's timing row (rates in joint evaluations per second)."""
-    problem = harness.chain_problem(links, batch, args.seed)
-    engine = deik.Engine(problem, harness.evaluation_settings(population, args.device, args.dtype, args.seed))
+def problem(config: str, seed: int) -> tuple[deik.Problem, int, int]:
+    """(the Problem, its kernel joints, its batch) of config PROBLEMxBATCH."""
+    name, batch = config.split("x")
+    if name.startswith("chain"):
+        return harness.chain_problem(int(name[5:]), int(batch), seed), int(name[5:]), int(batch)
+    h = deik.humanoid()
+    poses = np.random.default_rng((seed, int(batch))).uniform(h.lower, h.upper, (int(batch), h.n_dofs))
+    kin = deik.forward_kinematics(h, poses)
+    goals = [deik.Position(site, kin.position(site)) for site in HANDS_AND_HEELS]
+    return deik.Problem(h, goals), len(h.joint_names), int(batch)
+
+
+def default_configs(args) -> list[tuple[str, int]]:
+    """(config, population) pairs of the default sweep: single chains, then batches filling the device."""
+    links, batches = ([5, 10], [4]) if args.quick else ([10, 20, 50, 100], [64])
+    pairs = [(f"chain{n}x1", pop) for n in links for pop in args.populations]
+    if args.device == "gpu" and not args.quick:
+        from numba import cuda
+
+        sm = cuda.get_current_device().MULTIPROCESSOR_COUNT
+        batches = [64, 4 * sm, 16 * sm]
+    population = 500 if 500 in args.populations else args.populations[-1]
+    return pairs + [(f"chain{links[-1]}x{b}", population) for b in batches]
+
+
+def measure(config: str, population: int, threads: int, args) -> dict:
+    """One row: the timing and the rates in joint evaluations per second (wall; CPU time with one thread)."""
+    prob, joints, batch = problem(config, args.seed)
+    engine = deik.Engine(prob, harness.evaluation_settings(population, args.device, args.dtype, args.seed))
     with harness.threads(threads):
         timed = harness.time_engine(engine, args.seconds, args.repeats)
-    work = population * links * batch
-    extra = min(timed["seconds"]) - timed["one_generation_seconds"]
-    marginal = extra / (timed["generations"] - 1) if timed["generations"] > 1 else math.nan
-    return {
-        "links": links,
+    work = population * joints * batch * timed["generations"]
+    row = {
+        "config": config,
         "population": population,
-        "batch": batch,
         "threads": threads,
         **timed,
-        "joint_evaluations_per_second": work / timed["seconds_per_generation"],
-        "marginal_joint_evaluations_per_second": work / marginal if marginal > 0 else math.nan,
+        "rate": work / min(timed["seconds"]),
     }
+    if threads == 1 and args.device == "cpu":
+        row["cpu_time_rate"] = work / float(np.median(timed["cpu_seconds"]))
+    return row
 
 
-def batched_sizes(args) -> list[int]:
-    """Batch sizes that fill the device: --batches, else 64 on the CPU and 64, 4 and 16 blocks
-    per multiprocessor on the GPU."""
-    if args.batches:
-        return args.batches
-    if args.device == "cpu":
-        return [64]
-    from numba import cuda
-
-    sm = cuda.get_current_device().MULTIPROCESSOR_COUNT
-    return [64, 4 * sm, 16 * sm]
-
-
-def plot(rows: list[dict], goal: float, device: str):
-    fig, axes = harness.figure()
-    ax = axes[0, 0]
-    counts = sorted({r["threads"] for r in rows}, reverse=True)
-    for k, p in enumerate(sorted({r["population"] for r in rows if r["batch"] == 1})):
-        for threads, style in zip(counts, ("-", ":")):
-            line = sorted(
-                (r["links"], r["joint_evaluations_per_second"])
-                for r in rows
-                if r["batch"] == 1 and r["population"] == p and r["threads"] == threads
-            )
-            ax.plot(*zip(*line), "o" + style, color=f"C{k}", label=f"population {p}, 1 problem, {threads} thr.")
-    for k, r in enumerate(r for r in rows if r["batch"] > 1):
-        ax.plot(
-            r["links"],
-            r["joint_evaluations_per_second"],
-            "**^v<>"[k % 6],
-            markersize=10,
-            color=f"C{k + 3}",
-            label=f"{r['batch']} problems x population {r['population']}, {r['threads']} thr.",
-        )
-    ax.axhline(goal, color="k", linestyle="--", linewidth=1, label=f"target {goal:.0e}/s")
-    harness.style_axes(ax, "links (joints)", "joint evaluations per second", f"DE throughput, {device.upper()}")
-    links = sorted({r["links"] for r in rows})
-    ax.set_xticks(links, [str(n) for n in links])
-    ax.minorticks_off()
-    fig.tight_layout()
-    return fig
-
-
-def main(argv=None) -> int:
+def main(argv=None) -> dict:
     p = harness.parser(__doc__)
-    p.add_argument("--links", type=int, nargs="+", help="chain lengths (default 10 20 50 100)")
+    p.add_argument("--configs", nargs="+", help="PROBLEMxBATCH configs (default: the sweep above)")
     p.add_argument("--populations", type=int, nargs="+", help="population sizes (default 100 500 2000)")
-    p.add_argument("--batches", type=int, nargs="+", help="batch sizes of the batched rows")
-    p.add_argument("--batch-links", type=int, help="chain length of the batched rows (default 100)")
-    p.add_argument("--batch-population", type=int, help="population of the batched rows (default 500)")
     p.add_argument("--seconds", type=float, help="target seconds of one timed run (default 0.5)")
-    p.add_argument("--repeats", type=int, default=3, help="timed runs per configuration, best kept")
-    args = p.parse_args(argv)
-    sizes = (
-        {
-            "links": [5, 10],
-            "populations": [50, 100],
-            "batches": [4],
-            "batch_links": 10,
-            "batch_population": 100,
-            "seconds": 0.02,
-        }
-        if args.quick
-        else {
-            "links": [10, 20, 50, 100],
-            "populations": [100, 500, 2000],
-            "batch_links": 100,
-            "batch_population": 500,
-            "seconds": 0.5,
-        }
-    )
-    opening = harness.start(args, sizes)
-
+    p.add_argument("--repeats", type=int, help="timed runs per row, best kept (default 3)")
+    quick = {"populations": [50, 100], "seconds": 0.02, "repeats": 1}
+    run = harness.start("throughput", p, argv, {"populations": [100, 500, 2000], "seconds": 0.5, "repeats": 3}, quick)
+    args = run.args
+    pairs = [(c, pop) for c in args.configs for pop in args.populations] if args.configs else default_configs(args)
     rows = []
-    configs = [(n, pop, 1) for n in args.links for pop in args.populations]
-    configs += [(args.batch_links, args.batch_population, b) for b in batched_sizes(args)]
-    for links, population, batch in configs:
+    for config, population in pairs:
         for threads in harness.thread_counts(args.device):
-            row = measure(links, population, batch, threads, args)
-            rows.append(row)
-            print(
-                f"links {links:4d} population {population:5d} batch {batch:5d} threads {threads}: "
-                f"{row['joint_evaluations_per_second']:.3g} joint evaluations/s",
-                flush=True,
-            )
+            rows.append(measure(config, population, threads, args))
+            print(f"{config} population {population} threads {threads}: {rows[-1]['rate']:.3g}/s", flush=True)
 
     gpu = args.device == "gpu"
-    goal = GPU_TARGET if gpu else CPU_TARGET
-    eligible = [r for r in rows if r["batch"] > 1] if gpu else rows
-    best = max(eligible, key=lambda r: r["joint_evaluations_per_second"])
-    settings = evaluation_settings_record(args)
-    result = harness.finish(
-        "throughput",
-        args,
-        opening,
-        {
-            "settings": settings,
-            "rows": rows,
-            "best": {k: best[k] for k in ("links", "population", "batch", "threads", "joint_evaluations_per_second")},
-            "targets": [
-                harness.target(
-                    f"joint evaluations per second ({args.device})",
-                    goal,
-                    best["joint_evaluations_per_second"],
-                    "/s",
-                    not args.quick,
-                )
-            ],
-        },
-        plot(rows, goal, args.device),
+    eligible = [r for r in rows if not gpu or not r["config"].endswith("x1")] or rows
+    best = max(eligible, key=lambda r: r["rate"])
+    run.target(
+        f"joint evaluations per second ({args.device})",
+        GPU_TARGET if gpu else CPU_TARGET,
+        best["rate"],
+        "/s",
+        not args.quick,
     )
-    harness.print_report(
-        result,
-        [
-            "links",
-            "population",
-            "batch",
-            "threads",
-            "generations",
-            "s/gen",
-            "joint evals/s",
-            "marginal /s",
-            "1-gen run s",
-        ],
-        [
-            [
-                r["links"],
-                r["population"],
-                r["batch"],
-                r["threads"],
-                r["generations"],
-                f"{r['seconds_per_generation']:.3g}",
-                f"{r['joint_evaluations_per_second']:.3g}",
-                f"{r['marginal_joint_evaluations_per_second']:.3g}",
-                f"{r['one_generation_seconds']:.3g}",
-            ]
-            for r in rows
-        ],
-    )
-    return 0
-
-
-def evaluation_settings_record(args) -> dict:
-    """The settings every row used, for the JSON."""
-    s = harness.evaluation_settings(4, args.device, args.dtype, args.seed)
-    return {
-        "strategy": s.strategy,
-        "adaptive": s.adaptive,
-        "polish": s.polish,
-        "restarts": s.restarts,
-        "stop_on_converged": s.stop_on_converged,
-        "dtype": s.dtype,
-        "device": s.device,
-        "seed": s.seed,
-        "seconds_per_run": args.seconds,
-        "repeats": args.repeats,
-        "quick": args.quick,
-        "problem": "deik.chain(n), Position('tip', FK of random in-limit poses)",
-    }
+    fig, axes = harness.figure()
+    for label in sorted({(r["config"], r["threads"]) for r in rows}):
+        line = [(r["population"], r["rate"]) for r in rows if (r["config"], r["threads"]) == label]
+        axes[0, 0].plot(*zip(*line), "o-", label=f"{label[0]}, {label[1]} thread(s)")
+    harness.style_axes(axes[0, 0], "population", "joint evaluations per second", f"DE throughput, {args.dtype}")
+    header = [
+        "config",
+        "population",
+        "threads",
+        "generations",
+        "s/gen",
+        "joint evals/s",
+        "CPU-time rate",
+        "1-gen run s",
+    ]
+    cells = [
+        [r["config"], r["population"], r["threads"], r["generations"], f"{r['seconds_per_generation']:.3g}"]
+        + [
+            f"{r['rate']:.3g}",
+            f"{r['cpu_time_rate']:.3g}" if "cpu_time_rate" in r else "",
+            f"{r['one_generation_seconds']:.3g}",
+        ]
+        for r in rows
+    ]
+    figures = {}
+    for r in rows:
+        label = f"{r['config']} population {r['population']}, {r['threads']} thread(s)"
+        figures[label + ", joint evaluations/s"] = r["rate"]
+        if "cpu_time_rate" in r:
+            figures[label + ", by CPU time"] = r["cpu_time_rate"]
+    settings = {"dtype": args.dtype, "seconds": args.seconds, "repeats": args.repeats, "quick": args.quick}
+    return run.finish({"settings": settings, "rows": rows}, harness.md_table(header, cells), fig, figures)
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

@@ -1,18 +1,20 @@
-"""A fresh wheel install, as a user gets one: build deik's wheel, install it into a new virtual
-environment and measure what came with it: every package and its size on disk (its installed
-files, compiled .pyc included), against issue 19's targets of at most 10 packages and 200 MB.
+"""A fresh wheel install, as a user gets one: deik's wheel built from the checkout, installed into a
+new virtual environment, and every package that came with it measured, with its version and its
+size on disk (its installed files, compiled .pyc included; MB of 10^6 bytes), against issue
+19's targets of at most 10 packages and 200 MB.
 
-    python -m benchmarks.wheel_install                 # results/wheel_install.json and .png
-    python -m benchmarks.wheel_install --extras viz    # deik[viz] instead
+    python -m benchmarks.wheel_install                   # results/wheel_install.{json,md,png}
+    python -m benchmarks.wheel_install --extras view     # what `deik[view]` adds: results/wheel_install_view.*
 
-Needs the package index (the build fetches setuptools, the install numpy, numba, llvmlite, lxml
-and tqdm). tests/cli/test_wheel.py uses the same steps and then runs the README's `deik`
-commands against the installed `deik` (benchmarks.readme_commands).
+With --extras the plain wheel is installed first and then `deik[EXTRAS]` into the same
+environment: the record holds both, and what the extras add, package by package. Needs the
+package index (the build fetches setuptools, the install deik's requirements) and stops with a
+one-line reason without it. tests/cli/test_wheel.py uses the same steps and then runs the
+README's commands against the installed `deik`.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -22,9 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.readme_commands import ROOT
+from benchmarks import harness
 
-RESULTS = ROOT / "benchmarks" / "results"
+ROOT = Path(__file__).resolve().parents[1]
 MAX_PACKAGES, MAX_MEGABYTES = 10, 200.0  # issue 19 item 1
 MB = 1e6
 BUILD_FILES = ("pyproject.toml", "README.md", "LICENSE")  # with src/: all a build of deik reads
@@ -51,13 +53,8 @@ def outside_env() -> dict:
 def pip(python: str, *arguments: str) -> subprocess.CompletedProcess:
     """`python -m pip ARGUMENTS`, quiet, outside this checkout; raises CalledProcessError with
     pip's output on failure."""
-    return subprocess.run(
-        [python, "-m", "pip", "--disable-pip-version-check", *arguments, "--quiet"],
-        check=True,
-        capture_output=True,
-        text=True,
-        env=outside_env(),
-    )
+    command = [python, "-m", "pip", "--disable-pip-version-check", *arguments, "--quiet"]
+    return subprocess.run(command, check=True, capture_output=True, text=True, env=outside_env())
 
 
 def index_reachable(python: str = sys.executable) -> tuple[bool, str]:
@@ -72,10 +69,9 @@ def index_reachable(python: str = sys.executable) -> tuple[bool, str]:
 
 
 def build_wheel(folder: Path) -> Path:
-    """Build deik's wheel into `folder` from a copy of what the build reads (pyproject.toml,
-    README.md, LICENSE, src/ without caches), so no build/ or egg-info is left in the checkout
-    and no stale build/ can slip a deleted module into the wheel; an isolated build, as pip
-    does for `pip install .`. Returns the wheel's path."""
+    """deik's wheel, built into `folder` from a copy of what the build reads (no build/ or
+    egg-info left in the checkout, no stale build/ slipping a deleted module into the wheel), an
+    isolated build as `pip install .` makes."""
     source = folder / "source"
     source.mkdir(parents=True)
     for name in BUILD_FILES:
@@ -86,112 +82,71 @@ def build_wheel(folder: Path) -> Path:
     return wheel
 
 
-def fresh_environment(folder: Path) -> str:
-    """A new virtual environment in `folder`, made by this interpreter's base Python; returns
-    its python. pip and what venv puts there besides are not counted (see measure)."""
-    subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True, env=outside_env())
-    return str(folder / "bin" / "python")
-
-
 def installed(python: str) -> list[dict]:
-    """Every distribution in the environment of `python`: name, version, bytes."""
+    """Every distribution in the environment of `python`: name, version, bytes; largest first."""
     out = subprocess.run([python, "-c", SIZES], check=True, capture_output=True, text=True, env=outside_env()).stdout
     return sorted(json.loads(out), key=lambda row: -row["bytes"])
 
 
 def install(python: str, wheel: Path, extras: str = "") -> dict:
-    """Install `wheel` (with `extras`, e.g. "viz") into the environment of `python`; returns the
-    packages it brought (every distribution not there before: deik and its dependencies) with
-    their sizes, the bootstrap packages left out, and the install's seconds."""
+    """Install `wheel` (with `extras`, e.g. "viz") into the environment of `python`: the packages
+    it brought (those not there before), their count and MB, and the install's seconds."""
     before = {row["name"].lower() for row in installed(python)}
     began = time.perf_counter()
     pip(python, "install", f"{wheel}[{extras}]" if extras else str(wheel))
     seconds = time.perf_counter() - began
-    rows = installed(python)
-    brought = [row for row in rows if row["name"].lower() not in before]
-    return {
-        "packages": brought,
-        "package_count": len(brought),
-        "megabytes": sum(row["bytes"] for row in brought) / MB,
-        "bootstrap_left_out": sorted(before),
-        "install_seconds": seconds,
-    }
+    brought = [row for row in installed(python) if row["name"].lower() not in before]
+    megabytes = sum(row["bytes"] for row in brought) / MB
+    return {"packages": brought, "package_count": len(brought), "megabytes": megabytes, "install_seconds": seconds}
 
 
 def measure(folder: Path, extras: str = "") -> dict:
-    """Build, make a fresh environment in `folder` and install; the install's record plus the
-    environment's python and the wheel's size."""
+    """Build, make a fresh environment in `folder` and install the wheel (then its `extras`):
+    the install's record, the environment's python and the wheel's path and size."""
     wheel = build_wheel(folder / "dist")
-    python = fresh_environment(folder / "venv")
-    record = install(python, wheel, extras)
-    return {
-        "python": python,
-        "wheel_path": str(wheel),
-        "wheel": wheel.name,
-        "wheel_bytes": wheel.stat().st_size,
-        **record,
-    }
+    subprocess.run([sys.executable, "-m", "venv", str(folder / "venv")], check=True, env=outside_env())
+    python = str(folder / "venv" / "bin" / "python")
+    bootstrap = sorted(row["name"] for row in installed(python))
+    record = {"python": python, "wheel_path": str(wheel), "wheel": wheel.name, "wheel_bytes": wheel.stat().st_size}
+    record |= {**install(python, wheel), "bootstrap_left_out": bootstrap}
+    if extras:
+        record["extras"] = {"name": extras, **install(python, wheel, extras)}
+    return record
 
 
-def _picture(record: dict, extras: str, path: Path) -> None:
-    """A bar per package, MB, with the 200 MB target for the total."""
-    from deik.experiments.shared import save_figure
-    from deik.viz.plot import require_matplotlib
-
-    plt = require_matplotlib()
-    rows = record["packages"]
-    figure, axes = plt.subplots(figsize=(7, 3.5))
-    axes.barh([row["name"] for row in rows][::-1], [row["bytes"] / MB for row in rows][::-1])
-    axes.set_xlabel("MB on disk")
-    axes.set_title(
-        f"pip install {record['wheel']}{f' [{extras}]' if extras else ''} into a fresh venv:\n"
-        f"{record['package_count']} packages, {record['megabytes']:.0f} MB "
-        f"(targets: at most {MAX_PACKAGES} packages, {MAX_MEGABYTES:.0f} MB)",
-        fontsize=10,
-    )
-    figure.tight_layout()
-    save_figure(figure, str(path))
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--extras", default="", help='install deik[EXTRAS], e.g. "viz" (default: none)')
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results folder (default benchmarks/results)")
-    args = parser.parse_args(argv)
+def main(argv=None) -> dict:
+    p = harness.parser(__doc__)
+    p.add_argument("--extras", default="", help='install deik[EXTRAS] too, e.g. "view" (default: none)')
+    run = harness.start("wheel_install", p, argv)
+    extras = run.args.extras
+    run.name += f"_{extras}" if extras else ""
     reachable, why = index_reachable()
     if not reachable:
         raise SystemExit(f"the package index is unreachable ({why}); this benchmark installs from it")
-    from deik.experiments.timing import cpu_model
-    from deik.io.atomic import write_json_atomically
-
     with tempfile.TemporaryDirectory() as folder:
-        record = measure(Path(folder), args.extras)
+        record = measure(Path(folder), extras)
     del record["python"], record["wheel_path"]  # in a temporary folder, gone
-    name = "wheel_install" + (f"_{args.extras}" if args.extras else "")
-    record = {
-        "benchmark": name,
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "command": f"python -m benchmarks.wheel_install{f' --extras {args.extras}' if args.extras else ''}",
-        **record,
-        "targets": {
-            "packages_at_most": MAX_PACKAGES,
-            "packages_met": record["package_count"] <= MAX_PACKAGES,
-            "megabytes_at_most": MAX_MEGABYTES,
-            "megabytes_met": record["megabytes"] <= MAX_MEGABYTES,
-        },
-        "machine": {"cpu_model": cpu_model(), "python": sys.version.split()[0], "platform": sys.platform},
-    }
-    os.makedirs(args.out, exist_ok=True)
-    write_json_atomically(str(args.out / f"{name}.json"), record)
-    _picture(record, args.extras, args.out / f"{name}.png")
-    for row in record["packages"]:
-        print(f"{row['name']:12s} {row['version']:10s} {row['bytes'] / MB:8.1f} MB")
-    print(
-        f"{record['package_count']} packages, {record['megabytes']:.1f} MB (targets: {MAX_PACKAGES} packages, "
-        f"{MAX_MEGABYTES:.0f} MB); wrote {args.out / name}.json and .png"
-    )
-    return 0
+    run.target("packages a plain install brings", MAX_PACKAGES, record["package_count"], "packages", at_most=True)
+    run.target("MB a plain install brings", MAX_MEGABYTES, record["megabytes"], "MB", at_most=True)
+    shown = record["extras"]["packages"] if extras else record["packages"]
+    fig, axes = harness.figure()
+    harness.bars(axes[0, 0], [row["name"] for row in shown], [row["bytes"] / MB for row in shown], horizontal=True)
+    what = f"deik[{extras}] adds" if extras else "a plain install brings"
+    harness.style_axes(axes[0, 0], "MB on disk", "", f"{what} {len(shown)} packages", xlog=False, ylog=False)
+    header = ["package", "version", "MB", "with"]
+    cells = [[row["name"], row["version"], f"{row['bytes'] / MB:.1f}", "deik"] for row in record["packages"]]
+    cells += [
+        [row["name"], row["version"], f"{row['bytes'] / MB:.1f}", f"[{extras}]"]
+        for row in record.get("extras", {}).get("packages", [])
+    ]
+    figures = {"packages": record["package_count"], "MB": record["megabytes"]}
+    if extras:
+        figures |= {
+            f"[{extras}] adds packages": record["extras"]["package_count"],
+            f"[{extras}] adds MB": record["extras"]["megabytes"],
+        }
+    return run.finish(record, harness.md_table(header, cells), fig, figures)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

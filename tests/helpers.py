@@ -15,6 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import deik
+from benchmarks.data import shared_data
 from deik import Dof, Joint, Site, hinge, translation
 from deik.backends import cpu_kernels as cpu
 from deik.backends.pack import pack_skeleton, pack_terms
@@ -22,10 +23,10 @@ from deik.model.joints import ROTATE
 
 ROOT = Path(__file__).resolve().parents[1]  # the checkout
 
-# The real BVH clips and URDF robots live beside the checkout (shared/data next to the project
-# folder). DEIK_SHARED_DATA points elsewhere; DEIK_SHARED_DATA=/nonexistent runs the suite as a
-# clone without them would.
-SHARED_DATA = Path(os.environ.get("DEIK_SHARED_DATA") or ROOT.parent / "shared" / "data")
+# The real BVH clips and URDF robots: shared/data beside the checkout, or $DEIK_SHARED_DATA
+# (benchmarks.data, the one lookup of benchmarks and tests); DEIK_SHARED_DATA=/nonexistent runs
+# the suite as a clone without them would.
+SHARED_DATA = shared_data()
 SHARED_DATA_REASON = f"the real test data is not at {SHARED_DATA} (clone beside shared/ or set DEIK_SHARED_DATA)"
 
 

@@ -62,14 +62,14 @@ def iterate(step, gap, budget: float = BUDGET_S, cap: int = MAX_ITERATIONS, stal
     return cap
 
 
-def solve_with_restarts(attempt, fk, position, rotation, start, lower, upper, seed, budget=BUDGET_S, clock=None):
+def solve_with_restarts(attempt, fk, target, start, limits, seed, budget=BUDGET_S, clock=None):
     """One local attempt from `start`, then attempts from uniform in-limit poses drawn by
-    numpy default_rng(seed), until an answer reaches the target (pose_gap < 1) with its joints in
-    [lower, upper] or `budget` seconds (wall) have passed since the call; the attempt under way
-    when the budget runs out is told the seconds left and finishes.
-    attempt(q0 (D,), seconds_left) -> q (D,); fk(q) -> (p (3,) m, R (3, 3)).
-    Returns (q (D,): the first success, else the answer in limits nearest the target, else the
-    nearest; attempts made)."""
+    numpy default_rng(seed), until an answer reaches `target` (position (3,) m, rotation (3, 3):
+    pose_gap < 1) with its joints within `limits` (lower (D,), upper (D,)) or `budget` seconds
+    (wall) have passed since the call; the attempt under way when the budget runs out is told
+    the seconds left and finishes. attempt(q0 (D,), seconds_left) -> q (D,); fk(q) -> (p (3,) m,
+    R (3, 3)). Returns (q (D,): the first success, else the answer in limits nearest the
+    target, else the nearest; attempts made)."""
     clock = clock or time.perf_counter
     t0 = clock()
     rng = np.random.default_rng(seed)
@@ -77,13 +77,13 @@ def solve_with_restarts(attempt, fk, position, rotation, start, lower, upper, se
     while True:
         q = np.asarray(attempt(q0, max(budget - (clock() - t0), 0.0)), dtype=float)
         attempts += 1
-        inside = in_limits(q, lower, upper)
-        key = (not inside, pose_gap(fk(q), position, rotation) if np.isfinite(q).all() else math.inf)
+        inside = in_limits(q, *limits)
+        key = (not inside, pose_gap(fk(q), *target) if np.isfinite(q).all() else math.inf)
         if best_key is None or key < best_key:
             best, best_key = q, key
         if (inside and key[1] < 1) or clock() - t0 >= budget:
             return best, attempts
-        q0 = rng.uniform(lower, upper)
+        q0 = rng.uniform(*limits)
 
 
 def index_map(names: list[str], dof_names: list[str]) -> np.ndarray:

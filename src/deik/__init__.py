@@ -9,7 +9,22 @@ import logging
 
 # the module that defines each public name
 _MODULES = {
+    "deik.cleanup.clean": ("CleanedClip", "CleanOptions", "clean_clip"),
+    "deik.cli.solve_command": ("problem_from_flags",),
+    "deik.errors": (
+        "DeikError",
+        "DeviceError",
+        "FileFormatError",
+        "InputError",
+        "SolveError",
+        "UnknownNameError",
+        "UsageError",
+    ),
+    "deik.experiments.demo": ("demo",),
+    "deik.experiments.runner": ("run_experiments",),
     "deik.io.bvh": ("read_bvh", "write_bvh"),
+    "deik.io.describe": ("describe_skeleton",),
+    "deik.io.limits": ("range_of_motion", "read_limits", "with_limits", "write_limits"),
     "deik.io.motion": ("Clip",),
     "deik.io.load": ("load_skeleton",),
     "deik.io.urdf": ("read_urdf",),
@@ -35,11 +50,14 @@ _MODULES = {
     "deik.retargeting.api": ("retarget",),
     "deik.solver.engine": ("Engine", "EvolutionState"),
     "deik.solver.problem": ("Problem",),
+    "deik.solver.problem_file": ("ProblemFile", "load_problem"),
     "deik.solver.result": ("GoalReport", "Result"),
     "deik.solver.seeding": ("poses_around",),
     "deik.solver.settings": ("Settings",),
     "deik.solver.solve": ("solve", "solve_batch"),
     "deik.solver.reusable": ("Solver",),
+    "deik.solver.warmup": ("warmup",),
+    "deik.viz.view": ("ViewOptions", "view", "view_scene"),
 }
 _EXPORTS = {name: module for module, names in _MODULES.items() for name in names}
 __all__ = sorted(_EXPORTS)

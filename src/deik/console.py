@@ -1,5 +1,6 @@
 """What deik shows on stderr besides errors: progress bars (tqdm) and log lines (the "deik"
-logger), and the flags that set both on every command that works for more than a moment.
+logger), the flags that set both on every command that works for more than a moment, and the
+argument parser every command shares (mistakes as UsageError, with close matches).
 
 - Python: nothing unless asked. `deik.solve(..., progress=True)` (also `solve_batch`,
   `Solver.solve`) draws a bar over generations, a callable gets `(generation, best_fitness)`;
@@ -19,14 +20,19 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
+
+from deik.errors import InputError, UsageError
+from deik.suggest import did_you_mean
 
 if TYPE_CHECKING:  # tqdm is imported when a bar is made
     from tqdm import tqdm
 
+INVALID_CHOICE = re.compile(r"invalid choice: '([^']*)' \(choose from (.*)\)")
 DELAY = 1.0  # seconds of work before a bar appears on a terminal: shorter work shows none
 LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}
 
@@ -59,18 +65,13 @@ def show_generation(bar: tqdm, generation: int, best: float, running: int = 1, p
     bar.update(generation - bar.n)
 
 
-def frames_reporter(
-    bar: tqdm, meeting: str, on_frames: Callable[[int, int], None] | None = None
-) -> Callable[[int, str], None]:
+def frames_reporter(bar: tqdm, meeting: str) -> Callable[[int, str], None]:
     """What a clip fix or retarget calls after each stage, report(met_frames, stage): moves
-    `bar` (over the clip's frames) to the frames that meet `meeting` ("every goal"), and tells
-    `on_frames(met, total)` (a library run's per-clip progress) when given."""
+    `bar` (over the clip's frames) to the frames that meet `meeting` ("every goal")."""
 
     def report(met: int, stage: str) -> None:
         bar.set_postfix_str(f"{stage}: frames meeting {meeting}", refresh=False)
         bar.update(met - bar.n)
-        if on_frames is not None:
-            on_frames(met, bar.total)
 
     return report
 
@@ -161,5 +162,38 @@ def _level(args: argparse.Namespace | None) -> int:
         return logging.WARNING
     name = os.environ.get("DEIK_LOG", "").strip().lower()
     if name and name not in LEVELS:
-        raise ValueError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
+        raise InputError(f"DEIK_LOG={name!r} names no level; use one of {', '.join(LEVELS)}, or unset it")
     return LEVELS.get(name, logging.INFO)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that raises UsageError instead of printing usage and exiting: the message says
+    which choice or option was meant when one is close, and points to the `--help` of the
+    (sub)command whose flags were wrong."""
+
+    def error(self, message: str) -> NoReturn:
+        choice = INVALID_CHOICE.search(message)
+        if choice:
+            message += did_you_mean(choice[1], re.findall(r"'([^']*)'", choice[2]))
+        raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+    def parse_args(
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> argparse.Namespace:
+        """As argparse's, but an unknown option is refused by the subcommand it was given to."""
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parser = self._chosen(namespace)
+            options = [flag for action in parser._actions for flag in action.option_strings]
+            unknown = next((word.split("=")[0] for word in extras if word.startswith("-")), "")
+            parser.error(f"unrecognized arguments: {' '.join(extras)}{did_you_mean(unknown, options)}")
+        return namespace
+
+    def _chosen(self, namespace: argparse.Namespace) -> argparse.ArgumentParser:
+        """The innermost subcommand's parser that `namespace` chose (this one without subcommands)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                chosen = action.choices.get(getattr(namespace, action.dest, None))
+                if chosen is not None:
+                    return chosen._chosen(namespace) if isinstance(chosen, Parser) else chosen
+        return self

@@ -4,10 +4,13 @@
       InputError (ValueError) a user's input is wrong: a value, a name, a flag or a file
         FileFormatError       a malformed or unsupported input file, named with its line or element
         UsageError            a mistake on the command line (exit status 2)
+        UnknownNameError      a joint, site, link, DOF or goal name that is not there (a KeyError too)
       SolveError              a solve that cannot run as asked (too large for memory, interrupted)
       DeviceError             the GPU (or its packages) cannot run the solve
 
-InputError derives from ValueError, so code written against ValueError keeps working.
+InputError derives from ValueError, and UnknownNameError from KeyError as well, so code written
+against ValueError or KeyError keeps working. The command line prints a DeikError's message as
+one line `deik: error: ...` and exits with status 2.
 """
 
 from __future__ import annotations
@@ -35,6 +38,13 @@ class FileFormatError(InputError):
 
 class UsageError(InputError):
     """A mistake in a command line or its inputs: reported in one line, exit status 2."""
+
+
+class UnknownNameError(InputError, KeyError):
+    """A name that is not there (a joint, site, link, DOF or goal), with the close matches."""
+
+    def __str__(self) -> str:  # KeyError's would quote the message
+        return str(self.args[0]) if self.args else ""
 
 
 class SolveError(DeikError, RuntimeError):

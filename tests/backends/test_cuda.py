@@ -1,5 +1,7 @@
-"""The GPU path: the CUDA kernels against the CPU kernels (simulator), PTX compilation, and a
-real-GPU check that is skipped, with its reason shown, on machines without one."""
+"""The GPU path: the CUDA kernels against the CPU kernels (simulator), what a reused Solver moves
+between host and device, the kernels compiled to PTX and SASS for sm_90 and loaded from the disk
+cache by another process (no GPU needed), the NumPy 2.5 guard, every GPU failure as one
+DeviceError line, and a real-GPU check that is skipped, with its reason shown, without one."""
 
 import json
 import os
@@ -16,8 +18,22 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
-def _run(script, *args, simulator=False):
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
+# what ptxas may use per thread for each kernel (sm_90, float32 and float64): evolve is capped at 128
+# registers (four 128-thread blocks per multiprocessor), first_polish is not (docs/gpu.md); any spill
+# or stack frame (local memory) would be scratch the pools were meant to hold
+# (benchmarks/results/gpu/kernel_resources.json records the last compile)
+REGISTER_BUDGET = {"evolve": 128, "first_polish": 255}
+LOCAL_BUDGET = {"spill_store_bytes": 0, "spill_load_bytes": 0, "stack_frame_bytes": 0}
+
+
+def _within_budget(name, kernel):
+    assert kernel["registers"] is not None and kernel["registers"] <= REGISTER_BUDGET[name], (name, kernel)
+    for field, limit in LOCAL_BUDGET.items():
+        assert kernel[field] is not None and kernel[field] <= limit, (name, field, kernel[field])
+
+
+def _run(script, *args, simulator=False, env=None, timeout=600):
+    env = {**os.environ, "PYTHONPATH": str(SRC), **(env or {})}
     env.pop("NUMBA_ENABLE_CUDASIM", None)
     if simulator:
         env["NUMBA_ENABLE_CUDASIM"] = "1"
@@ -26,7 +42,7 @@ def _run(script, *args, simulator=False):
         env=env,
         capture_output=True,
         text=True,
-        timeout=600,
+        timeout=timeout,
     )
     assert out.returncode == 0, out.stderr[-3000:]
     return out.stdout
@@ -92,8 +108,22 @@ def test_simulated_cuda_self_collision_equals_cpu_and_the_oracle():
     np.testing.assert_allclose(raw, reference.raw_errors(problem, pop)[:, 0], rtol=0, atol=1e-9)
 
 
-@pytest.mark.slow
-def test_cuda_kernels_compile_to_ptx_for_hopper():
+def test_reused_solver_on_the_gpu_moves_only_targets_in_and_answers_out():
+    # the second solve of a Solver: the new targets and seed poses in (and the 8-byte count of
+    # unmet problems), one answer row per problem out, one launch; the answers are the CPU's bits
+    sim = json.loads(_run("traffic_run.py", "gpu", simulator=True))
+    cpu = json.loads(_run("traffic_run.py", "cpu"))
+    assert sim["converged"] == [True] * 6 and sim["generations"] == [[0, 0, 0], [0, 0, 0]]
+    assert sim["moved"] == {
+        "launches": 1,
+        "bytes_to_device": sim["target_bytes"] + sim["seed_bytes"] + 8,
+        "bytes_to_host": sim["answer_bytes"],
+    }
+    assert sim["answer_bytes"] == (3 + 1) * (7 + 14 + 2) * 8  # B + 1 rows of 7 fields, D angles, T errors
+    np.testing.assert_array_equal(np.array(sim["angles"]), np.array(cpu["angles"]))
+
+
+def _nvvm_or_skip():
     pytest.importorskip("cuda.bindings", reason="numba-cuda's CUDA bindings are not installed")
     try:
         from cuda.pathfinder import load_nvidia_dynamic_lib
@@ -101,9 +131,105 @@ def test_cuda_kernels_compile_to_ptx_for_hopper():
         load_nvidia_dynamic_lib("nvvm")
     except Exception as error:  # noqa: BLE001 - any failure to find NVVM means: skip, and say why
         pytest.skip(f"NVVM not found ({error}); pip install 'numba-cuda[cu13]' to compile PTX")
-    lines = _run("compile_ptx.py").split("\n")
-    kernels = [line.split()[:2] for line in lines if line]
-    assert kernels == [["run", "entry"], ["initialise", "entry"], ["start", "entry"]]
+
+
+def test_numpy_without_row_stack_breaks_numba_cuda_and_deiks_guard_fixes_it(tmp_path):
+    # NumPy 2.5 removed np.row_stack, which numba-cuda 0.30.4 registers an overload for: its
+    # first compile then fails. deik.backends.gpu.numba_cuda() puts the alias back first.
+    _nvvm_or_skip()
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "import sys\n"
+        "import numpy as np\n"
+        "del np.row_stack\n"
+        "if sys.argv[1] == 'guarded':\n"
+        "    from deik.backends.gpu import numba_cuda\n"
+        "    cuda = numba_cuda()\n"
+        "else:\n"
+        "    from numba import cuda\n"
+        "from numba import float32\n"
+        "def twice(a):\n"
+        "    i = cuda.grid(1)\n"
+        "    if i < a.size:\n"
+        "        a[i] *= 2\n"
+        "ptx, _ = cuda.compile_ptx(twice, (float32[:],), cc=(9, 0))\n"
+        "print('entry' if '.entry' in ptx else 'missing')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    env.pop("NUMBA_ENABLE_CUDASIM", None)
+    runs = {
+        how: subprocess.run([sys.executable, "-W", "ignore", str(probe), how], env=env, capture_output=True, text=True)
+        for how in ("plain", "guarded")
+    }
+    assert runs["plain"].returncode != 0 and "has no attribute 'row_stack'" in runs["plain"].stderr
+    assert runs["guarded"].returncode == 0 and runs["guarded"].stdout.strip() == "entry", runs["guarded"].stderr
+
+
+@pytest.mark.slow
+def test_cuda_kernels_compile_once_for_hopper_within_budget_and_load_from_the_cache(tmp_path):
+    # The real numba-cuda compile (NVVM to PTX, nvJitLink's ptxas to sm_90a SASS) of both
+    # kernels, driven by the CUDA back-end's own launches, with numpy.row_stack deleted as NumPy
+    # 2.5 did; then a second process, on another robot, population, batch and goal mix, loads
+    # both from the disk cache instead of compiling.
+    _nvvm_or_skip()
+    cache = {"NUMBA_CACHE_DIR": str(tmp_path)}
+    # a first compile takes about 150 CPU seconds on a 2-core machine, far more wall time under load
+    first = json.loads(_run("compile_cuda.py", "float32", "humanoid", "--without-row-stack", env=cache, timeout=2400))
+    second = json.loads(_run("compile_cuda.py", "float32", "arm", env=cache, timeout=600))
+    assert sorted(first["kernels"]) == sorted(second["kernels"]) == ["evolve", "first_polish"]
+    for name, kernel in first["kernels"].items():
+        again = second["kernels"][name]
+        assert not kernel["from_cache"] and again["from_cache"], name
+        assert again["seconds"] < 0.2 * kernel["seconds"], name
+        assert kernel["ptx_bytes"] > 0 and kernel["sass_bytes"] > 0
+        _within_budget(name, kernel)
+
+
+def test_recorded_kernel_resources_are_within_budget():
+    record = json.loads(
+        (Path(__file__).resolve().parents[2] / "benchmarks/results/gpu/kernel_resources.json").read_text()
+    )
+    assert {row["dtype"] for row in record["compiles"]} == {"float32", "float64"}
+    for row in record["compiles"]:
+        assert sorted(row["kernels"]) == ["evolve", "first_polish"]
+        for name, kernel in row["kernels"].items():
+            _within_budget(name, kernel)
+
+
+def test_every_gpu_failure_is_one_device_error_line():
+    from deik.backends.gpu import device_error, on_gpu
+    from deik.errors import DeviceError
+
+    failures = {
+        "CudaAPIError: [2] Call to cuMemAlloc results in CUDA_ERROR_OUT_OF_MEMORY": "ran out of memory",
+        "NvvmError: Failed to compile\n<unnamed>:1: error: bad IR": "CUDA compiler failed",
+        "AttributeError: module 'numpy' has no attribute 'row_stack'": "does not work with NumPy",
+        "CudaSupportError: Error at driver init:\n\nCUDA driver library cannot be found": "the GPU failed",
+    }
+    for message, meaning in failures.items():
+        error = device_error(RuntimeError(message), "running the first polish")
+        assert isinstance(error, DeviceError) and meaning in str(error), message
+        assert "\n" not in str(error) and "device='cpu'" in str(error)
+    with pytest.raises(DeviceError, match="ran out of memory copying") as raised:
+        with on_gpu("copying the answers"):
+            raise MemoryError("out of memory")
+    assert isinstance(raised.value.__cause__, MemoryError)
+    with pytest.raises(KeyboardInterrupt):  # Ctrl-C is not a GPU failure
+        with on_gpu("running the generations"):
+            raise KeyboardInterrupt
+
+
+def test_gpu_errors_reach_the_command_line_as_one_line(monkeypatch, capsys):
+    import deik.backends.gpu as gpu
+    from deik.cli.app import main
+
+    def broken():
+        raise gpu.device_error(RuntimeError("CUDA_ERROR_NO_DEVICE: no CUDA-capable device\nmore"), "starting")
+
+    monkeypatch.setattr(gpu, "require_gpu", broken)
+    status = main(["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--device", "gpu"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.startswith("deik: error: the GPU failed starting") and err.count("\n") == 1
 
 
 @pytest.mark.gpu  # skipped, with the reason, without a GPU (conftest)
@@ -121,6 +247,8 @@ def test_real_gpu_solves_like_the_cpu():
 
 @pytest.mark.skipif(_gpu_available(), reason="this machine has a GPU")
 def test_gpu_device_without_a_gpu_says_how_to_fix():
+    from deik.errors import DeviceError
+
     problem = deik.Problem(deik.chain(3), [deik.Position("tip", (1.0, 1.0, 0.0))])
-    with pytest.raises(RuntimeError, match="needs an NVIDIA GPU.*device='cpu'"):
+    with pytest.raises(DeviceError, match="needs an NVIDIA GPU.*device='cpu'"):
         deik.solve(problem, device="gpu")

@@ -30,7 +30,7 @@ def test_evolution_state_exposes_buffers_and_status_as_named_tuples():
     state = engine.init()
     assert isinstance(state.buffers, layout.Buffers) and isinstance(state.status, layout.Status)
     assert state.buffers.pop is state.pop and state.status.leaders is state.leaders
-    assert isinstance(engine.kernel_settings, layout.KernelSettings) and engine.memetic.count == 8
+    assert isinstance(engine.kernel_settings, layout.KernelSettings) and engine.polish_schedule.count == 8
 
 
 def test_packed_skeleton_columns_are_named():

@@ -1,5 +1,6 @@
-"""The GPU benchmarks' code paths, run in Numba's CUDA simulator (no timing is meaningful
-there), and the occupancy arithmetic of benchmarks.gpu_kernels."""
+"""The GPU benchmarks' code paths, run in Numba's CUDA simulator (no timing is meaningful there):
+benchmarks/gpu_check.py end to end at --quick sizes, so that a GPU run does not fail on a bug,
+and the throughput benchmark."""
 
 import json
 import os
@@ -9,24 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.gpu_kernels import Multiprocessor, blocks_per_multiprocessor
-
 ROOT = Path(__file__).resolve().parents[2]
-HOPPER = Multiprocessor(threads=2048, registers=65536, shared_bytes=228 * 1024, blocks=32)
-
-
-@pytest.mark.parametrize(
-    "threads, registers, shared, blocks, binding",
-    [
-        (128, 64, 0, 8, "registers"),  # 64 registers per thread: half the resident threads
-        (128, 32, 0, 16, "threads"),  # full occupancy: threads and registers both allow 16 blocks
-        (256, 255, 0, 1, "registers"),  # 255 registers round up to 8192 per warp
-        (64, 16, 100 * 1024, 2, "shared memory"),
-        (32, 16, 0, 32, "blocks"),  # 32-thread blocks: the 32-block limit leaves half the threads idle
-    ],
-)
-def test_blocks_per_multiprocessor_matches_the_occupancy_calculator(threads, registers, shared, blocks, binding):
-    assert blocks_per_multiprocessor(threads, registers, shared, HOPPER) == (blocks, binding)
 
 
 def _simulated(module: str, out: Path) -> dict:
@@ -43,20 +27,36 @@ def _simulated(module: str, out: Path) -> dict:
     return json.loads((out / f"{module}.json").read_text())
 
 
-def test_gpu_kernel_report_runs_in_the_simulator(tmp_path):
-    result = _simulated("gpu_kernels", tmp_path)
-    assert "simulator" in result["environment"]["gpu_name"]
-    rows = result["rows"]
-    assert {r["kernel"] for r in rows} == {"initialise", "start", "run"}  # start: the lazy first population
-    for r in rows:  # the simulator has no resource queries: reported as unknown, never made up
-        assert r["threads_per_block"] % 32 == 0 and r["registers_per_thread"] is None
-        assert "theoretical_occupancy" not in r
+@pytest.mark.slow
+def test_gpu_check_runs_every_stage_in_the_simulator(tmp_path, shared_data):
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "NUMBA_ENABLE_CUDASIM": "1"}
+    done = subprocess.run(
+        [sys.executable, "-W", "ignore", "benchmarks/gpu_check.py", str(tmp_path), "--quick", "--keep-cache"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gpu_check.json", "gpu_check.md"]
+    result = json.loads((tmp_path / "gpu_check.json").read_text())
+    for stage in ("environment", "first_solve", "panda", "evolution", "kernels", "crossover"):
+        assert "error" not in result[stage] and "skipped" not in result[stage], (stage, result[stage])
+    assert result["environment"]["gpu"] == "CUDA simulator"
+    rows = result["panda"]["rows"]
+    assert set(rows) == {"gpu/1", "gpu/4", "cpu/1", "cpu/4"}
+    assert all(row["strict"] == 1.0 for row in rows.values())  # every answer re-scored in float64
+    assert rows["gpu/1"]["launches"] >= 1 and rows["gpu/1"]["bytes_to_host"] > 0
+    assert result["first_solve"]["second_process"]["first_s"] > 0
+    table = (tmp_path / "gpu_check.md").read_text()
+    assert "CUDA simulator" in table and "Panda 2,000 strict targets" in table
 
 
 @pytest.mark.slow
 def test_gpu_throughput_benchmark_runs_in_the_simulator(tmp_path):
     result = _simulated("throughput", tmp_path)
     rows = result["rows"]
-    assert any(r["batch"] > 1 for r in rows) and {r["threads"] for r in rows} == {rows[0]["threads"]}
-    assert all(r["joint_evaluations_per_second"] > 0 for r in rows)
+    assert any(not r["config"].endswith("x1") for r in rows) and {r["threads"] for r in rows} == {rows[0]["threads"]}
+    assert all(r["rate"] > 0 and "cpu_time_rate" not in r for r in rows)
     assert result["targets"][0]["met"] is None  # quick sizes give no verdict

@@ -8,9 +8,9 @@ import time
 import numpy as np
 import pytest
 
+from benchmarks.harness import chunk_bounds, take_turns, turn_order
 from benchmarks.peer_process import PeerFailed
 from benchmarks.peers.common import POS_TOL, solve_with_restarts
-from benchmarks.robot_turns import chunk_bounds, run_turns, turn_order
 
 LOWER, UPPER = -np.ones(3), np.ones(3)
 TARGET, ORIGIN = np.array([0.5, -0.25, 0.75]), np.zeros(3)
@@ -32,7 +32,7 @@ class Clock:
 
 
 def restarts(attempt, seed=7, budget=5.0, clock=None, start=ORIGIN):
-    return solve_with_restarts(attempt, fk, TARGET, np.eye(3), start, LOWER, UPPER, seed, budget, clock)
+    return solve_with_restarts(attempt, fk, (TARGET, np.eye(3)), start, (LOWER, UPPER), seed, budget, clock)
 
 
 def test_restarts_stop_at_the_first_success():
@@ -121,7 +121,7 @@ def test_turns_alternate_chunk_by_chunk():
         assert len({(a, b) for _, a, b in turns}) == 1
 
 
-def test_run_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
+def test_take_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
     log = []
 
     def runner(name, fail_at=None):
@@ -133,7 +133,7 @@ def test_run_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
 
         return run
 
-    out = run_turns({"deik": runner("deik"), "peer": runner("peer", fail_at=4), "other": runner("other")}, 10, 5)
+    out = take_turns({"deik": runner("deik"), "peer": runner("peer", fail_at=4), "other": runner("other")}, 10, 5)
     assert out["deik"]["targets"] == list(range(10)) and out["deik"]["wall"] == [2] * 5
     assert out["other"]["targets"] == list(range(10))
     assert out["peer"] == {"skipped": "crashed"}

@@ -116,7 +116,7 @@ def test_spacetime_step_is_the_dense_least_squares_solution():
         rows, errors = rng.normal(size=(N, 4, D)), rng.normal(size=(N, 4))
         weights, x = rng.random((N, 4)) * 1e4, rng.normal(size=(N, D))
         movable, stiffness = rng.random((N, D)) < 0.8, 1 + rng.random(D)
-        step = spacetime_step(rows, errors, weights, x, movable, 3.0, damping=0.1, stiffness=stiffness)
+        step = spacetime_step((rows, errors, weights), x, movable, 3.0, damping=0.1, stiffness=stiffness)
         K = spring_product(spring_bands(N, 3.0), np.eye(N))  # the spring matrix, column by column
         first, second = np.diff(np.eye(N), axis=0), np.diff(np.eye(N), 2, axis=0)
         np.testing.assert_allclose(K, np.eye(N) / 81 + 2 / 9 * first.T @ first + second.T @ second, atol=1e-12)

@@ -72,11 +72,8 @@ def test_plot_pose_draws_3d_skeletons_in_two_views(tmp_path):
         skeleton,
         np.full(skeleton.n_dofs, 0.3),
         path,
-        targets=[(1, 1, 1)],
-        com=(0.5, 0.2, 0.1),
-        support=(0, 0, 0),
+        plot.PoseMarks(targets=[(1, 1, 1)], com=(0.5, 0.2, 0.1), support=(0, 0, 0), obstacles=[((1, 0, 0), 0.2)]),
         title="3-D",
-        obstacles=[((1, 0, 0), 0.2)],
     )
     assert path.read_bytes()[:8] == PNG_MAGIC
 
@@ -384,7 +381,7 @@ def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
 def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert main(["experiments", "fig99", "--quick", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("deik experiments: error: unknown experiment 'fig99'") and err.count("\n") == 1
+    assert err.startswith("deik: error: unknown experiment 'fig99'") and err.count("\n") == 1
     assert main(["experiments", "fig7", "--quick", "--out", str(tmp_path / "y")]) == 0
     assert (tmp_path / "y" / "fig7.csv").stat().st_size > 0
 

@@ -73,7 +73,7 @@ def test_the_readme_quaternion_is_the_panda_command_s_roll_pitch_yaw():
 
 @pytest.mark.shared_data
 def test_longer_legs_sink_as_far_as_the_readme_says_without_a_retarget():
-    depth = float(re.search(r"10 % longer\s+legs put them ([0-9.]+) cm under it", README)[1])
+    depth = float(re.search(r"10 % longer\s+legs put the\s+feet ([0-9.]+) cm under the floor", README)[1])
     clip = deik.read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh"))
     longer = scaled_bones(clip.skeleton, {"LeftHip": 1.1, "RightHip": 1.1})
     lowest = (deik.forward_kinematics(longer, clip.poses()).p_world_frame @ longer.up).min()

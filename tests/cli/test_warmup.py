@@ -38,9 +38,11 @@ def test_import_deik_loads_no_numpy_or_numba_and_a_name_loads_only_its_module():
 def test_a_read_only_install_caches_in_the_user_folder(tmp_path):
     # as root every folder is writable, so the package folder is made to refuse the cache
     code = (
+        "from numba.core import caching\n"
         "from deik.backends import targets\n"
         "def refuse(self): raise PermissionError('read-only')\n"
-        "targets._InTreeKernelLocator.ensure_cache_path = refuse\n" + CHECK_LOCATION
+        "in_tree = [c for c in caching.CacheImpl._locator_classes if c.__name__ == '_StampedInTreeCacheLocator']\n"
+        "in_tree[0].ensure_cache_path = refuse\n" + CHECK_LOCATION
     )
     path = _python(code, NUMBA_CACHE_DIR="", XDG_CACHE_HOME=str(tmp_path), HOME=str(tmp_path))
     assert path.startswith(str(tmp_path)) and "backends" in path

@@ -17,9 +17,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
-import deik
-from benchmarks.readme_commands import (
+from readme_commands import (
     README,
     bash_lines,
     clone_beside_shared,
@@ -28,6 +26,8 @@ from benchmarks.readme_commands import (
     run_lines,
     runnable,
 )
+
+import deik
 from benchmarks.wheel_install import MAX_PACKAGES, MB, index_reachable, install, measure, outside_env
 from deik.backends import cpu_kernels as cpu
 

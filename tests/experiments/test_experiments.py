@@ -171,10 +171,10 @@ def test_fig8_fig9_timings_are_complete_and_finite(quick_run):
 
 
 def test_gpu_request_without_gpu_is_skipped_with_a_note(tmp_path, capsys):
-    assert runner.main(["fig8", "--quick", "--device", "cuda", "--out", str(tmp_path)]) == 0
+    assert runner.main(["fig8", "--quick", "--device", "gpu", "--out", str(tmp_path)]) == 0
     if not gpu_status()[0]:
         assert "pending" in capsys.readouterr().out
-        assert "--device cuda" in (tmp_path / "fig8.md").read_text()
+        assert "deik experiments fig8 fig9 --device gpu" in (tmp_path / "fig8.md").read_text()
 
 
 @pytest.mark.parametrize(
@@ -192,7 +192,7 @@ def test_bad_input_is_one_line_and_status_2(tmp_path, capsys, argv, message):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     assert runner.main(argv) == 2
     err = capsys.readouterr().err
-    assert err.startswith("deik experiments: error: ") and message in err and err.count("\n") == 1
+    assert err.startswith("deik: error: ") and message in err and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
 
 

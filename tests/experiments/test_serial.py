@@ -174,7 +174,7 @@ def test_compiled_serial_epoch_is_algorithm_1_replayed_in_python():
     with the NumPy oracle: in-place replacement, donors distinct from x, forced gene, reflect."""
     from deik.device import evolution as device_evolution
     from deik.device import maths as device_maths
-    from deik.experiments.serial_numpy import CompiledSerialDE
+    from deik.experiments.serial_compiled import CompiledSerialDE
 
     sk = deik.chain(5, dims=3)
     q = np.random.default_rng(4).uniform(sk.lower, sk.upper)
@@ -196,7 +196,7 @@ def test_compiled_serial_epoch_is_algorithm_1_replayed_in_python():
 
 
 def test_compiled_serial_converges_like_the_numpy_reference():
-    from deik.experiments.serial_numpy import CompiledSerialDE
+    from deik.experiments.serial_compiled import CompiledSerialDE
 
     sk = deik.chain(8)
     q = np.random.default_rng(2).uniform(sk.lower, sk.upper)

@@ -1,15 +1,18 @@
 """The package layers of docs/architecture.md: every deik module imports only from its own
-package and the layers above it, so the data flows one way and no import cycle can form."""
+package and the layers below it, so the data flows one way and no import cycle can form;
+nothing above the solver reaches into the device maths or the back-ends; no two source files
+share a name."""
 
 import ast
+from collections import Counter
 from pathlib import Path
 
 import deik
 
 LAYERS = [
+    "errors",
     "suggest",
     "console",
-    "errors",
     "model",
     "io",
     "objectives",
@@ -24,6 +27,10 @@ LAYERS = [
     "cli",
 ]
 SOURCE = Path(deik.__file__).parent
+KERNELS = ("device", "backends")  # the layers only deik.solver may call
+# experiments/serial_compiled.py is a compiled kernel itself: the paper's serial Algorithm 1 built
+# from the device maths, which it calls directly as the back-ends do (and its host side, beside it)
+REACHES_KERNELS = {"experiments/serial_compiled.py"}
 
 
 def _imports(path: Path):
@@ -55,3 +62,22 @@ def test_imports_go_only_downwards():
             if len(parts) > 1 and parts[1] in LAYERS and LAYERS.index(parts[1]) > LAYERS.index(own):
                 upward.append(f"{path.relative_to(SOURCE)}:{line} imports {module}")
     assert upward == []
+
+
+def test_nothing_above_the_solver_reaches_into_the_kernels():
+    above = LAYERS[LAYERS.index("solver") + 1 :]
+    reach = []
+    for path in SOURCE.rglob("*.py"):
+        where = path.relative_to(SOURCE)
+        if where.parts[0].removesuffix(".py") not in above or where.as_posix() in REACHES_KERNELS:
+            continue
+        for line, module in _imports(path):
+            parts = module.split(".")
+            if len(parts) > 1 and parts[1] in KERNELS:
+                reach.append(f"{where}:{line} imports {module}")
+    assert reach == []
+
+
+def test_no_source_file_name_is_used_twice():
+    names = Counter(p.name for p in SOURCE.rglob("*.py") if p.name not in ("__init__.py", "__main__.py"))
+    assert sorted(name for name, count in names.items() if count > 1) == []

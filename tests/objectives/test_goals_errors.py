@@ -278,7 +278,7 @@ def test_support_polygon_frame_count(chain3):
             {"strategy": "rand/2/exp"},
             r"strategy must be one of \['rand/1/bin', 'best/1/bin', 'current-to-best/1/bin'\]",
         ),
-        ({"device": "tpu"}, r"device must be one of \['cpu', 'gpu'\], got 'tpu'"),
+        ({"device": "tpu"}, r"device must be one of \['cpu', 'gpu', 'auto'\], got 'tpu'"),
         ({"dtype": "float16"}, r"dtype must be one of \['float32', 'float64'\], got 'float16'"),
         ({"seed": -1}, r"seed must be an integer >= 0, got -1"),
         ({"seed": 2**64}, r"seed must be an integer in \[0, 2\*\*64\)"),

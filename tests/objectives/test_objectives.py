@@ -220,7 +220,7 @@ def test_a_floor_height_must_be_finite():
 
 def test_obstacle_parameters_hold_radius_and_bone_radius():
     sk = deik.chain(3)
-    params = deik.Obstacle((1.0, 2.0, 3.0), 0.5, bone_radius=0.1).params(sk)
+    params = deik.Obstacle((1.0, 2.0, 3.0), 0.5, bone_radius=0.1).row(sk).params
     np.testing.assert_array_equal(params[0, :5], [1.0, 2.0, 3.0, 0.5, 0.1])
 
 

@@ -33,12 +33,12 @@ def _forms():
 @pytest.mark.parametrize("batched", [False, True])
 def test_every_form_packs_the_matrix_form_s_parameters(batched):
     sk = deik.chain(3, dims=3)
-    expected = deik.Orientation("tip", ROTATIONS.as_matrix()[0 if not batched else slice(None)]).params(sk)
+    expected = deik.Orientation("tip", ROTATIONS.as_matrix()[0 if not batched else slice(None)]).row(sk).params
     for name, value in _forms().items():
         form = "matrix" if name == "pose" else name
         goal = deik.Orientation("tip", value if batched else value[0], form)
         assert goal.batched() == batched, name
-        np.testing.assert_allclose(goal.params(sk), expected, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(goal.row(sk).params, expected, atol=1e-12, err_msg=name)
         assert deik.Problem(sk, [goal]).batch_shape == ((5,) if batched else ())
 
 

@@ -91,3 +91,21 @@ def test_units_come_from_the_registry():
         ("position tip", "position", "m"),
         ("joint limits", "joint_limits", "rad"),
     ]
+
+
+def test_each_goal_kind_compiles_in_one_method_into_a_row_built_by_keyword():
+    """A goal kind defines `row` and nothing else of the compiling (the shared part is
+    Goal._row and Goal.target_params), and its row carries its parameters, as Problem reads them."""
+    problem = every_goal_problem()
+    compiling = {"row", "params", "compile", "target_params", "_row", "reference_pose"}
+    for kind in KINDS:
+        assert compiling & set(vars(kind.goal)) == {"row"}, kind.name
+    for goal, row, t in zip(problem.goals, problem.rows, range(len(problem.goals))):
+        again = goal.row(problem.skeleton)
+        assert again.kind == row.kind and again.label == row.label == problem.table.labels[t]
+        np.testing.assert_array_equal(
+            problem.table.params[:, t, : kinds.GAIN],
+            np.broadcast_to(again.params[:, : kinds.GAIN], problem.table.params[:, t, : kinds.GAIN].shape),
+        )
+    for record in (registry.GoalKind, registry.Posed, registry.Term, deik.objectives.table.TermRow):
+        assert all(f.kw_only for f in dataclasses.fields(record)), record.__name__

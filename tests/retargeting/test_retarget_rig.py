@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 
 import deik
-from deik.cleanup.contacts import detect_contacts
 from deik.io.euler import tait_bryan_triples
 from deik.retargeting import keypoints as kp
-from deik.retargeting.collision import body_pairs, penetration_depths
+from deik.retargeting.capsule_overlaps import body_pairs, penetration_depths
+from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.ik import KeypointGoals, solve_keypoints
 from deik.retargeting.maps import read_map
-from deik.retargeting.measures import limit_violations, within_limits
+from deik.retargeting.measures import limit_violations
+from deik.retargeting.resting import rest_floor, resting_contacts
 from deik.retargeting.skeletons import with_free_root
 from helpers import ROOT, shared_path
 
@@ -63,7 +64,7 @@ def test_an_euler_twin_outside_the_limits_is_written_inside_as_the_same_rotation
         twins[:, triple] += np.pi
         twins[:, triple[1]] = np.pi - frames[:, triple[1]]
     assert limit_violations(h, twins).any()
-    fixed = within_limits(h, twins)
+    fixed = continuous_within_limits(h, twins)
     assert not limit_violations(h, fixed).any()
     a, b = deik.forward_kinematics(h, twins), deik.forward_kinematics(h, fixed)
     assert np.abs(a.p_world_frame - b.p_world_frame).max() < 1e-9
@@ -136,13 +137,15 @@ def test_shared_clips_land_on_the_other_bodies(target, name, frames):
         both = contacts.mask[1:, s] & contacts.mask[:-1, s]
         if both.any():
             assert steps[both].max() < 0.003, site  # metres per frame: planted (before the space-time pass: 27 mm)
-            assert np.median(steps[both]) < 1e-4, site
+            assert np.median(steps[both]) < 5e-4, site
     # the body out of itself: no pair of its bone capsules overlaps by more than a millimetre
     pairs = body_pairs(sk, sk.frame_names)
     assert penetration_depths(sk, motion.poses(), pairs).max() < 1e-3
     assert result.report["summary"]["self_penetration_max_mm"] < 1.0
-    source = detect_contacts(result.source)  # the source's contacts, on the sites they map to
     onto = {p.site: p.source for p in read_map(mapping).points}
+    clip = result.source  # the source's resting points, on the sites they map to
+    size = kp.stature(clip.skeleton)
+    source = resting_contacts(clip, list(onto.values()), rest_floor(clip, size), size)
     for s, site in enumerate(contacts.sites):
         assert np.array_equal(contacts.mask[:, s], source.mask[:, source.sites.index(onto[site])])
 

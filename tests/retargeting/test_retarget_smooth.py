@@ -3,6 +3,8 @@ points sampled along the bones, the collision rows against finite differences, a
 a jittered FK-made clip (contacts held, key points nearer, accelerations back to the truth's,
 limits kept, an arm pushed out of the torso)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -12,10 +14,10 @@ from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.warmstart import dof_weights, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
-from deik.retargeting.collision import BonePairs, body_pairs, collision_rows, penetration_depths
+from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
-from deik.retargeting.smooth import smooth_motion
+from deik.retargeting.smooth import MotionGoals, smooth_motion
 
 POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
 POINTS += ("left_knee", "right_knee", "chest", "pelvis")
@@ -150,9 +152,10 @@ def test_the_space_time_pass_plants_a_sliding_contact_without_a_jolt():
     # no capsule pairs: the humanoid's hanging hands graze its thighs' capsules, and the swinging
     # truth puts them in; the arm test below checks the pass's capsule rows
     pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    found = smooth_motion(
-        h, drifting, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT
+    goals = MotionGoals(
+        h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach
     )
+    found = smooth_motion(goals, drifting)
     assert (found >= h.lower).all() and (found <= h.upper).all()
     slide, error, _, toe_acceleration = _measured(h, found, names, targets)
     slide_before, error_before, _, toe_acceleration_before = _measured(h, drifting, names, targets)
@@ -195,9 +198,10 @@ def test_the_space_time_pass_pushes_an_arm_out_of_the_torso():
     names = ["left_wrist", "head", "pelvis"]
     targets = np.stack([deik.forward_kinematics(h, poses).position(name) for name in names], axis=1)
     weights = dof_weights(Trajectory(h, poses, 1 / 30))
-    found = smooth_motion(
-        h, poses, names, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, 1 / 30
+    goals = MotionGoals(
+        h, names, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, 1 / 30, h.reach
     )
+    found = smooth_motion(goals, poses)
     assert penetration_depths(h, found, pairs).max() < 1e-3
     assert (found >= h.lower).all() and (found <= h.upper).all()
 
@@ -237,3 +241,22 @@ def test_the_report_gives_each_frame_s_deepest_capsule_overlap_in_mm():
     np.testing.assert_allclose(depth, 1000 * np.maximum(expected, 0.0), atol=3.0)
     assert report["summary"]["self_penetration_max_mm"] == pytest.approx(depth.max())
     assert report["summary"]["keypoint_velocity_peak_ratio"] == pytest.approx(1.0)  # on its targets
+
+
+def test_the_space_time_pass_keeps_each_step_within_its_largest():
+    h = deik.humanoid()
+    truth, _, _ = _clip(h)
+    twist = h.dof_names.index("left_wrist.Zrotation")
+    jumpy = truth.copy()
+    jumpy[20:, twist] = np.clip(jumpy[20:, twist] + 0.6, h.lower[twist], h.upper[twist])  # a wrist snaps round
+    targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
+    weights = dof_weights(Trajectory(h, truth, DT))
+    largest = np.full(h.n_dofs, np.inf)
+    largest[6:] = 0.05  # radians per frame for every joint but the root
+    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
+    goals = MotionGoals(h, POINTS, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
+    found = smooth_motion(replace(goals, largest_step=largest), jumpy)
+    free = smooth_motion(goals, jumpy)
+    assert np.abs(np.diff(free[:, twist])).max() > 0.5  # without the rows the snap stays
+    assert np.abs(np.diff(found[:, 6:], axis=0)).max() < 0.05 * 1.05  # each step within its largest (row margin 5 %)
+    assert (found >= h.lower - 1e-12).all() and (found <= h.upper + 1e-12).all()

@@ -11,7 +11,7 @@ from deik.solver.launches import GROWTH, LAUNCH_SECONDS, PROGRESS_CHUNK, Launche
 
 
 def test_launches_settle_at_a_quarter_second_of_generations():
-    launches = Launches(deik.Settings(generations=10**9), frame_work=10**6, progress=False, start=0.0)
+    launches = Launches(deik.Settings(generations=10**9), frame_work=10**6, polish_work=0.0, progress=False, start=0.0)
     pace, done, sizes = 1e-4, 0, []  # seconds per generation
     for _ in range(12):
         count = launches.next(done)
@@ -22,7 +22,7 @@ def test_launches_settle_at_a_quarter_second_of_generations():
 
 
 def test_launches_stop_at_the_budget_and_report_progress_in_chunks():
-    launches = Launches(deik.Settings(generations=250), frame_work=1, progress=True, start=0.0)
+    launches = Launches(deik.Settings(generations=250), frame_work=1, polish_work=0.0, progress=True, start=0.0)
     assert launches.next(0) == PROGRESS_CHUNK and launches.next(200) == 50
     assert not launches.more(250, any_active=True) and not launches.more(10, any_active=False)
     assert launches.more(0, any_active=True) and not math.isfinite(launches.deadline)

@@ -204,6 +204,7 @@ def test_the_readme_view_commands_run_as_written(tmp_path, browser, shared_data,
     assert len(views) == 3 and all(v.startswith("deik view ") for v in views)
     clone = tmp_path / "deik"
     clone.mkdir()
+    (clone / "out").mkdir()  # as the README's `mkdir -p out` makes it
     (tmp_path / "shared").symlink_to(shared_data.parent)
     monkeypatch.chdir(clone)
     for command in readme_commands(section):  # in this process: tests/cli/test_readme runs them as commands

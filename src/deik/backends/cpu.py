@@ -1,7 +1,7 @@
 """Host side of the CPU kernels: chunking, thread count and argument order (deik.backends.cpu_kernels).
 
 Every launch goes through the one compiled kernel `cpu.launch`, so a solve compiles one kernel per
-dtype. A solve without the LM polish passes no Memetic (None), which compiles a kernel without the
+dtype. A solve without the LM polish passes no PolishSchedule (None), which compiles a kernel without the
 LM, unless the kernel with it is compiled already (deik.solver.readiness): it gives the same
 answers with the polish turned off, and one kernel loads faster than two compile.
 """
@@ -15,15 +15,16 @@ import numpy as np
 from numba.core import types
 
 from deik.backends import cpu_kernels as cpu
+from deik.backends.contract import KernelInputs, Seeds, SolveBuffers
 from deik.backends.pack import kernel_array
 
 # argument positions in cpu.launch's signature
-LAUNCH_BUFFERS, LAUNCH_MEMETIC = 1, 7
+LAUNCH_BUFFERS, LAUNCH_SCHEDULE = 1, 7
 
 
 def launch_kind(signature) -> tuple[str, bool]:
     """(dtype, with the LM polish) of a cpu.launch signature (a tuple of Numba types)."""
-    return str(signature[LAUNCH_BUFFERS].types[0].dtype), not isinstance(signature[LAUNCH_MEMETIC], types.NoneType)
+    return str(signature[LAUNCH_BUFFERS].types[0].dtype), not isinstance(signature[LAUNCH_SCHEDULE], types.NoneType)
 
 
 def evaluate_dtype(signature) -> str:
@@ -54,73 +55,77 @@ def _without_polish(dtype: str) -> bool:
     return not launch_ready(dtype, polish=True)
 
 
-def _memetic(memetic, dtype):
-    """The Memetic to pass, or None for the kernel without the polish (see the module doc)."""
-    return None if memetic.iterations == 0 and _without_polish(np.dtype(dtype).name) else memetic
+def _schedule(schedule, dtype):
+    """The PolishSchedule to pass, or None for the kernel without the polish (see the module doc)."""
+    return None if schedule.iterations == 0 and _without_polish(np.dtype(dtype).name) else schedule
 
 
 _ENTRIES = {}  # (dtype, with the polish) -> the compiled entry point of cpu.launch for them
 
 
-def _launch(fresh, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, gen, n_gens):
-    """cpu.launch with the argument types it is compiled for; returns the buffer swaps.
+def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]) -> int:
+    """cpu.launch with the argument types it is compiled for; generations (first, count);
+    returns the buffer swaps.
 
     Numba's dispatcher types every argument on every call (some 40 arrays in NamedTuples: 6 us
     of a 40 us robot solve), while an Engine's arguments are always the same types for a dtype
-    and Memetic or None: the same NamedTuples of C-contiguous, writable arrays (kernel_array)
-    and the same scalar types. The first launch of each kind in a process dispatches (compiling
-    or loading) and keeps the overload's entry point, which later launches call directly."""
+    and PolishSchedule or None: the same NamedTuples of C-contiguous, writable arrays
+    (kernel_array) and the same scalar types. The first launch of each kind in a process
+    dispatches (compiling or loading) and keeps the overload's entry point, which later
+    launches call directly."""
+    cur = work.current
     args = (
         fresh,
         cur,
-        nxt,
-        status,
-        skel,
-        terms,
-        settings,
-        _memetic(memetic, cur.pop.dtype),
-        control,
-        history,
-        initial,
-        np.int64(n_initial),
-        np.int64(gen),
-        np.int64(n_gens),
+        work.spare,
+        work.status,
+        inputs.skeleton,
+        inputs.terms,
+        inputs.evolution,
+        _schedule(inputs.polish, cur.pop.dtype),
+        inputs.rules,
+        work.history,
+        seeds.poses,
+        np.int64(seeds.count),
+        np.int64(generations[0]),
+        np.int64(generations[1]),
         numba.get_num_threads(),
     )
-    key = (cur.pop.dtype, args[LAUNCH_MEMETIC] is None)
+    key = (cur.pop.dtype, args[LAUNCH_SCHEDULE] is None)
     entry = _ENTRIES.get(key)
-    if entry is not None:
-        return int(entry(*args))
-    kernel = cpu.launch.entry
-    swaps = kernel(*args)
-    _ENTRIES[key] = kernel.overloads[tuple(numba.typeof(a) for a in args)].entry_point
+    if entry is None:
+        kernel = cpu.launch.entry
+        swaps = kernel(*args)
+        _ENTRIES[key] = kernel.overloads[tuple(numba.typeof(a) for a in args)].entry_point
+    else:
+        swaps = entry(*args)
+    if swaps % 2:
+        work.current, work.spare = work.spare, work.current
     return int(swaps)
 
 
 class CpuBackend:
+    """The CPU kernels (deik.backends.cpu_kernels) behind the back-end contract
+    (deik.backends.contract.Backend): the host buffers are the kernels' own."""
+
     name = "cpu"
 
-    def initialise(self, buffers, status, skel, terms, settings, memetic, control, initial, n_initial):
-        """Fill buffers with a first population and status with its best and leaders (a launch
-        of no generations)."""
-        history = np.empty((0, buffers.pop.shape[0], 2))
-        _launch(
-            True, buffers, buffers, status, skel, terms, settings, memetic, control, history, initial, n_initial, 0, 0
-        )
+    def initialise(self, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds) -> None:
+        """A first population and its Status (a launch of no generations that is never lazy)."""
+        plain = inputs._replace(rules=inputs.rules._replace(stop_on_converged=False))
+        _launch(True, plain, work, seeds, (0, 0))
 
-    def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
-        """initialise then run from generation 0 in one compiled call; returns as run."""
-        args = (cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial)
-        swaps = _launch(True, *args, 0, n_gens)
-        return (cur if swaps % 2 == 0 else nxt), swaps
+    def start(self, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, n_generations: int) -> int:
+        """A first population, then up to n_generations, in one compiled call."""
+        return _launch(True, inputs, work, seeds, (0, n_generations))
 
-    def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
-        """Returns (final buffers, generations advanced); status and the first `advanced` rows
-        of history (n_gens, B, 2) are updated."""
-        no_initial = np.empty((0, 0, 0), cur.pop.dtype)
-        args = (cur, nxt, status, skel, terms, settings, memetic, control, history, no_initial, 0)
-        swaps = _launch(False, *args, gen_start, n_gens)
-        return (cur if swaps % 2 == 0 else nxt), swaps
+    def run(self, inputs: KernelInputs, work: SolveBuffers, first_generation: int, n_generations: int) -> int:
+        """Up to n_generations more from first_generation."""
+        no_seeds = Seeds(np.empty((0, 0, 0), work.current.pop.dtype), 0)
+        return _launch(False, inputs, work, no_seeds, (first_generation, n_generations))
+
+    def fetch(self, work: SolveBuffers) -> None:
+        """Nothing to do: the CPU kernels work in the host buffers."""
 
 
 def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):

@@ -12,12 +12,24 @@ computes, and the per-problem bookkeeping runs in index order.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import prange
 
+from deik.backends import targets
 from deik.backends.linking import linked
-from deik.backends.targets import cpu as dev
 from deik.device.layout import LANES, WORK_SIZE, LaneScratch, LmScratch, Scratch
+
+if TYPE_CHECKING:  # what a reader's go-to-definition reaches: the device maths as plain Python
+    from deik.device import driver as device_driver
+    from deik.device import evolution as device_evolution
+    from deik.device import lanes as device_lanes
+    from deik.device import maths as device_maths
+    from deik.device import polish as device_polish
+    from deik.device import terms as device_terms
+else:  # what runs: the same functions compiled for the CPU, all in one namespace (deik.backends.targets)
+    device_driver = device_evolution = device_lanes = device_maths = device_polish = device_terms = targets.cpu
 
 CHUNKS_PER_THREAD = 8
 SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is faster
@@ -26,7 +38,7 @@ SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is fa
 @linked()
 def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
-    frames, t = dev.frame_count(skel), dtype_probe.dtype
+    frames, t = device_maths.frame_count(skel), dtype_probe.dtype
     scratch = Scratch(np.empty(frames * 9, t), np.empty(frames * 3, t), np.empty(WORK_SIZE, t))
     return scratch, np.empty(n_dofs, t), np.empty(n_levels, t), np.empty(n_terms, t)
 
@@ -43,7 +55,7 @@ def _lane_span(c, chunks, n):
 def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """A LaneScratch of one thread, in dtype_probe's dtype; poses start at zero, so lanes a short
     last block leaves unused compute on finite numbers."""
-    frames, t = dev.frame_count(skel), dtype_probe.dtype
+    frames, t = device_maths.frame_count(skel), dtype_probe.dtype
     return LaneScratch(
         np.empty((LANES, n_dofs), t),
         np.zeros((n_dofs, LANES), t),
@@ -90,19 +102,19 @@ def initialise(state, status, skel, terms, settings, initial, n_initial, n_chunk
         for c in prange(n_chunks):
             _initialise_chunk(np.int64(c), n_chunks, state, skel, terms, settings, initial, n_initial)
     for b in range(state.pop.shape[0]):
-        dev.rank_first(b, state, status)
+        device_evolution.rank_first(b, state, status)
 
 
 @linked()
 def launch(
-    fresh, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, gen, n_gens, threads
+    fresh, cur, nxt, status, skel, terms, settings, schedule, rules, history, initial, n_initial, gen, n_gens, threads
 ):
     """The DE kernel every launch runs, so a solve compiles one kernel per dtype: with `fresh`,
     the first population (_first_population) first; then run_generations from generation
-    `gen`; returns its buffer swaps. memetic None compiles the kernel without the LM polish."""
+    `gen`; returns its buffer swaps. schedule None compiles the kernel without the LM polish."""
     if fresh:
-        _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads)
-    swaps = run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen, n_gens, threads)
+        _first_population(cur, status, skel, terms, settings, schedule, rules, initial, n_initial, threads)
+    swaps = run_generations(cur, nxt, skel, terms, settings, schedule, status, rules, history, gen, n_gens, threads)
     if fresh:
         _stopped_first(cur, nxt, status, swaps)
     return swaps
@@ -123,11 +135,11 @@ def _stopped_first(cur, nxt, status, swaps):
     for b in range(status.active.shape[0]):
         if not status.active[b] and status.generations[b] == 0:
             for i in range(cur.pop.shape[1]):
-                dev.copy_individual(cur, nxt, b, i, i)
+                device_evolution.copy_individual(cur, nxt, b, i, i)
 
 
 @linked()
-def _first_population(cur, status, skel, terms, settings, memetic, control, initial, n_initial, threads):
+def _first_population(cur, status, skel, terms, settings, schedule, rules, initial, n_initial, threads):
     """Fill cur with a first population and status with its best and leaders. When the polish
     is on and problems stop once every tolerance is met, it is lazy: each problem's individual
     0 is polished first (device_driver.polish_first); a problem it meets stops there (its
@@ -135,55 +147,55 @@ def _first_population(cur, status, skel, terms, settings, memetic, control, init
     and the rest of the population is sampled and evaluated, in SIMD lanes, only for the
     problems it leaves unmet (most robot targets never need it). Otherwise as initialise."""
     B, P = cur.pop.shape[0], cur.pop.shape[1]
-    if memetic is not None and memetic.iterations > 0 and control.stop_on_converged:
+    if schedule is not None and schedule.iterations > 0 and rules.stop_on_converged:
         met = np.empty(B, np.bool_)
-        chunks = _chunks(B, 3 * memetic.iterations, skel, threads)
-        _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
+        chunks = _chunks(B, 3 * schedule.iterations, skel, threads)
+        _polish_first(chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met)
         unmet, n_unmet = _active_problems(~met)
         n = n_unmet * (P - 1)
         _complete(_chunks(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
         for k in range(n_unmet):
-            _settle_first(unmet[k], cur, status, terms, control)
+            _settle_first(unmet[k], cur, status, terms, rules)
     else:
         initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
 
 
 @linked()
-def _settle_first(b, cur, status, terms, control):
+def _settle_first(b, cur, status, terms, rules):
     """Problem b's bookkeeping once its first population is complete: best, leaders and
     convergence after one polish (not a round: no restart)."""
-    dev.rank_first(b, cur, status)
-    dev.settle(b, 0, cur, terms, status, control, False)
+    device_evolution.rank_first(b, cur, status)
+    device_evolution.settle_after_polish(b, 0, cur, terms, status, rules, False)
 
 
 @linked(parallel=True)
-def _polish_first(chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
+def _polish_first(chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met):
     """Every problem's individual 0 initialised and polished (device_driver.polish_first);
     met (B,) receives whether it meets every tolerance, and such a problem is completed and
     settled at once (_first_population)."""
     if chunks == 1:
-        _polish_first_chunk(0, 1, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met)
+        _polish_first_chunk(0, 1, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met)
     else:
         for c in prange(chunks):
             _polish_first_chunk(
-                np.int64(c), chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met
+                np.int64(c), chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met
             )
 
 
 @linked()
-def _polish_first_chunk(c, chunks, cur, status, skel, terms, settings, memetic, control, initial, n_initial, met):
+def _polish_first_chunk(c, chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met):
     """Chunk c of `chunks` of _polish_first's problems."""
     B, P, D = cur.pop.shape[0], cur.pop.shape[1], cur.pop.shape[2]
     scratch, q, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
     axes, lm = _polish_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
     for b in range(c * B // chunks, (c + 1) * B // chunks):
-        met[b] = dev.polish_first(
-            b, cur, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
+        met[b] = device_driver.polish_first(
+            b, cur, skel, terms, settings, schedule, initial, n_initial, scratch, axes, lm, q, lv, rw, status.halt
         )
         if met[b]:
             for i in range(1, P):  # device_driver.complete_individual's copies
-                dev.copy_individual(cur, cur, b, 0, i)
-            _settle_first(b, cur, status, terms, control)
+                device_evolution.copy_individual(cur, cur, b, 0, i)
+            _settle_first(b, cur, status, terms, rules)
 
 
 @linked(parallel=True)
@@ -203,7 +215,7 @@ def _complete_chunk(c, chunks, n, unmet, state, skel, terms, settings, initial, 
     lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], state.pop.shape[2])
     start, end = _lane_span(c, chunks, n)
     for first in range(start, end, LANES):
-        dev.initialise_lanes(
+        device_lanes.initialise_lanes(
             first, min(LANES, end - first), unmet, 1, state, skel, terms, settings, initial, n_initial, lanes
         )
 
@@ -216,7 +228,7 @@ def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_init
     start, end = _lane_span(c, n_chunks, B * P)
     every = np.arange(B)
     for first in range(start, end, LANES):
-        dev.initialise_lanes(
+        device_lanes.initialise_lanes(
             first, min(LANES, end - first), every, 0, state, skel, terms, settings, initial, n_initial, lanes
         )
 
@@ -226,7 +238,7 @@ def _chunks(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
     a descheduled thread stalls the loop; else a few per thread."""
-    if n_jobs * work_per_job * dev.frame_count(skel) < SERIAL_WORK:
+    if n_jobs * work_per_job * device_maths.frame_count(skel) < SERIAL_WORK:
         return 1
     return max(1, min(n_jobs, CHUNKS_PER_THREAD * threads))
 
@@ -276,22 +288,24 @@ def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, g
     lanes = _lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
     start, end = _lane_span(c, chunks, n)
     for first in range(start, end, LANES):
-        dev.breed_lanes(first, min(LANES, end - first), order, gen, cur, nxt, skel, terms, settings, status, lanes)
+        device_lanes.breed_lanes(
+            first, min(LANES, end - first), order, gen, cur, nxt, skel, terms, settings, status, lanes
+        )
 
 
 @linked(parallel=True)
-def _polish(chunks, n, state, skel, terms, status, memetic, order):
+def _polish(chunks, n, state, skel, terms, status, schedule, order):
     """A polish round over the n active problems in `chunks` work units (parallel on its own as
     _breed)."""
     if chunks == 1:
-        _polish_chunk(0, 1, n, state, skel, terms, status, memetic, order)
+        _polish_chunk(0, 1, n, state, skel, terms, status, schedule, order)
     else:
         for c in prange(chunks):
-            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, memetic, order)
+            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, schedule, order)
 
 
 @linked()
-def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
+def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order):
     """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
     undoes those after the first that does: the same result)."""
@@ -300,38 +314,42 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, memetic, order):
     axes, lm = _polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     for job in range(c * n // chunks, (c + 1) * n // chunks):
         b = order[job]
-        for k in range(memetic.count):
-            i = dev.polish_target(status.leaders[b], k, memetic.count, P)
-            if dev.polish_individual(b, i, state, skel, terms, memetic, scratch, axes, lm, q, lv, rw):
+        for k in range(schedule.count):
+            i = device_evolution.polish_target(status.leaders[b], k, schedule.count, P)
+            if device_driver.polish_individual(
+                b, i, state, skel, terms, schedule, scratch, axes, lm, q, lv, rw, status.halt
+            ):
                 break
 
 
 @linked()
-def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, threads):
+def run_generations(cur, nxt, skel, terms, settings, schedule, status, rules, history, gen_start, n_gens, threads):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
     every inactive problem: only active problems are worked on, and a problem that stops is
-    copied into both. threads: the pool's size (small loops run on the caller's). memetic: the
-    polish (layout.Memetic), or None: compiled without it."""
+    copied into both. threads: the pool's size (small loops run on the caller's). schedule: the
+    polish (layout.PolishSchedule), or None: compiled without it."""
     P = cur.pop.shape[1]
     active = status.active
     fresh = np.zeros(active.shape[0], np.bool_)  # whose last generation restarted (random poses)
     swaps = 0
     for g in range(n_gens):
+        if status.halt[0] != 0:  # the host's time limit or Ctrl-C (Status.halt)
+            break
         gen = gen_start + g
         order, n_active = _active_problems(active)
-        if memetic is not None and n_active and memetic.iterations > 0:
+        if schedule is not None and n_active and schedule.iterations > 0:
             # polish before breeding, so a problem the polish solves stops without a generation
-            due, n_due = _polish_due(order, n_active, fresh, gen % memetic.every == 0)
+            due, n_due = _polish_due(order, n_active, fresh, gen % schedule.every == 0)
             if n_due:
-                chunks = _chunks(n_due, 3 * memetic.iterations * memetic.count, skel, threads)
-                _polish(chunks, n_due, cur, skel, terms, status, memetic, due)
+                chunks = _chunks(n_due, 3 * schedule.iterations * schedule.count, skel, threads)
+                _polish(chunks, n_due, cur, skel, terms, status, schedule, due)
                 for k in range(n_due):
                     b = due[k]
-                    dev.settle(b, gen, cur, terms, status, control, True)
+                    device_evolution.settle_after_polish(b, gen, cur, terms, status, rules, True)
                     if not active[b]:
                         for i in range(P):
-                            dev.copy_individual(cur, nxt, b, i, i)
+                            device_evolution.copy_individual(cur, nxt, b, i, i)
                 order, n_active = _active_problems(active)
         if n_active == 0:
             break
@@ -343,10 +361,10 @@ def run_generations(cur, nxt, skel, terms, settings, memetic, status, control, h
         swaps += 1
         for k in range(n_active):
             b = order[k]
-            dev.update_status(b, gen, g, cur, terms, status, control, history)
+            device_evolution.update_status(b, gen, g, cur, terms, status, rules, history)
             if not active[b]:
                 for i in range(P):
-                    dev.copy_individual(cur, nxt, b, i, i)
+                    device_evolution.copy_individual(cur, nxt, b, i, i)
     return swaps
 
 
@@ -370,7 +388,7 @@ def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, tota
     N, D = poses.shape
     scratch, _, _, _ = _scratch(skel, poses, raw.shape[1], levels.shape[1], D)
     for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
-        total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
+        total[n] = device_terms.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
 
 
 @linked(parallel=True)
@@ -378,7 +396,7 @@ def forward_kinematics_batch(poses, skel, R, p):
     """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
     for n in prange(poses.shape[0]):
         work = np.empty(WORK_SIZE, poses.dtype)
-        dev.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
+        device_maths.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
 
 
 @linked(parallel=True)
@@ -404,17 +422,19 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
     R, p = scratch.R, scratch.p
     axes, jac = np.empty(6 * skel.motion_int.shape[0], poses.dtype), np.empty(3 * D, poses.dtype)
     for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
-        dev.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
+        device_maths.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
         for g in range(frames.shape[0]):
             f = frames[g]
             for e in range(3 * D):
                 jac[e] = 0.0
             if f < 0:
-                x[n, g, 0], x[n, g, 1], x[n, g, 2] = dev.centre_of_mass(skel, R, p)
-                dev.com_rows(skel, R, p, axes, 1.0, jac, D)
+                x[n, g, 0], x[n, g, 1], x[n, g, 2] = device_maths.centre_of_mass(skel, R, p)
+                device_polish.com_rows(skel, R, p, axes, 1.0, jac, D)
             else:
                 x[n, g, 0], x[n, g, 1], x[n, g, 2] = p[3 * f], p[3 * f + 1], p[3 * f + 2]
-                dev.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], dev.frame_joint(f, skel), skel, axes, 1.0, jac, D)
+                device_polish.point_rows(
+                    p[3 * f], p[3 * f + 1], p[3 * f + 2], device_polish.frame_joint(f, skel), skel, axes, 1.0, jac, D
+                )
             for row in range(3):
                 for d in range(D):
                     jacobian[n, g, row, d] = jac[row * D + d]
@@ -430,9 +450,9 @@ def residual_rows(poses, problem_index, term, skel, terms):
     axes, lm = _polish_scratch(skel, poses, terms.term_int.shape[0], 1, D)
     R, p, jac = scratch.R, scratch.p, lm.jac
     for n in range(N):
-        dev.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
-        cx, cy, cz = dev.centre_of_mass(skel, R, p)
-        residual[n, 0], residual[n, 1], residual[n, 2] = dev.term_rows(
+        device_maths.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
+        cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
+        residual[n, 0], residual[n, 1], residual[n, 2] = device_polish.term_rows(
             term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D
         )
         for row in range(3):

@@ -1,266 +1,283 @@
-"""GPU kernels (numba-cuda): one thread block per problem runs every generation in one launch.
+"""Host side of the GPU kernels (deik.backends.cuda_kernels): state kept on the device, copies counted.
 
-Threads stride over the population, so any population size fits one block; the block
-ping-pongs its problem's buffers in global memory and synchronises between generations, and
-thread 0 does the per-problem bookkeeping (device_evolution.update_status) in between. What one
-thread does for one individual is the CPU kernels' own code (device/driver.py, compiled with
-cuda.jit); the kernels here take the NamedTuples of deik.device.layout, device arrays inside.
-Runs in Numba's CUDA simulator when NUMBA_ENABLE_CUDASIM=1 (how CI tests it).
+The CUDA back-end of an Engine keeps on the GPU, from solve to solve, everything that does not
+change while only the targets do: the skeleton, the goal table, the population buffers, the
+Status, the scratch. A solve copies in the target parameters (and the comfort reference or
+seed poses when given) and copies out one answer row per problem: its Status fields and best
+individual (cuda_kernels.write_answer), plus the history rows of the generations it ran. A
+batch of robot targets that the first polish meets is one launch (`first_polish`); problems
+it leaves unmet take a second (`evolve`). `traffic` counts launches and bytes each way.
+
+Every GPU call runs inside deik.backends.gpu.on_gpu, so any failure (compile, launch, out of
+memory) reaches the caller as one DeviceError line.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+from dataclasses import dataclass
 
 import numpy as np
-from numba import cuda, float32, float64, int32
 
-from deik.backends.targets import cuda_device
-from deik.device.layout import THREADS_PER_BLOCK, WORK_SIZE, LmScratch, Scratch
+from deik.backends.contract import KernelInputs, Seeds, SolveBuffers
+from deik.backends.gpu import on_gpu, require_gpu, simulated
+from deik.device.layout import THREADS_PER_BLOCK, Buffers, Status
 
-
-def _bucket(n: int) -> int:
-    """Round local-array sizes up to a power of two so similar skeletons share a compile."""
-    return 1 << max(int(n) - 1, 1).bit_length()
-
-
-@lru_cache(maxsize=16)
-def make_kernels(n_frames: int, n_dofs: int, n_terms: int, n_levels: int, n_motions: int, dtype_name: str):
-    """Compile (initialise, start, run) for local arrays of these (bucketed) sizes and dtype."""
-    dev = cuda_device()
-    initialise_individual, breed_individual, polish_individual = (
-        dev.initialise_individual,
-        dev.breed_individual,
-        dev.polish_individual,
-    )
-    polish_first, complete_individual = dev.polish_first, dev.complete_individual
-    update_status, settle, rank_first = dev.update_status, dev.settle, dev.rank_first
-    copy_individual, polish_target = dev.copy_individual, dev.polish_target
-    ftype = float32 if dtype_name == "float32" else float64
-    n_r, n_p, n_d, n_t, n_l, n_a = 9 * n_frames, 3 * n_frames, n_dofs, n_terms, n_levels, 6 * n_motions
-    n_jac = 3 * n_dofs
-
-    @cuda.jit
-    def initialise(state, status, skel, terms, settings, initial, n_initial):
-        b = cuda.blockIdx.x
-        scratch = Scratch(
-            cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
-        )
-        for i in range(cuda.threadIdx.x, state.pop.shape[1], cuda.blockDim.x):
-            initialise_individual(b, i, state, skel, terms, settings, initial, n_initial, scratch)
-        cuda.syncthreads()
-        if cuda.threadIdx.x == 0:
-            rank_first(b, state, status)
-
-    @cuda.jit
-    def start(state, status, skel, terms, settings, memetic, control, initial, n_initial, polish_matrix):
-        """A lazy first population (cpu._first_population): thread 0 polishes individual 0, then
-        the block completes the population (copies of it when it met every tolerance) and
-        settles."""
-        b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
-        scratch = Scratch(
-            cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
-        )
-        met = cuda.shared.array(1, int32)
-        if tid == 0:
-            q, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
-            axes, matrices = cuda.local.array(n_a, ftype), polish_matrix[b, 0]
-            half = matrices.shape[0] // 2
-            lm = LmScratch(
-                matrices[:half],
-                matrices[half:],
-                cuda.local.array(n_d, ftype),
-                cuda.local.array(n_jac, ftype),
-                cuda.local.array(n_d, ftype),
-                cuda.local.array(n_d, ftype),
-                cuda.local.array(n_l, ftype),
-                cuda.local.array(n_t, ftype),
-            )
-            met[0] = polish_first(
-                b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw
-            )
-        cuda.syncthreads()
-        for i in range(1 + tid, state.pop.shape[1], stride):
-            complete_individual(b, i, met[0], state, skel, terms, settings, initial, n_initial, scratch)
-        cuda.syncthreads()
-        if tid == 0:
-            rank_first(b, state, status)
-            settle(b, 0, state, terms, status, control, False)
-
-    @cuda.jit
-    def run(
-        cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens, advanced, polish_matrix
-    ):
-        b, tid, stride = cuda.blockIdx.x, cuda.threadIdx.x, cuda.blockDim.x
-        scratch = Scratch(
-            cuda.local.array(n_r, ftype), cuda.local.array(n_p, ftype), cuda.local.array(WORK_SIZE, ftype)
-        )
-        trial, lv, rw = cuda.local.array(n_d, ftype), cuda.local.array(n_l, ftype), cuda.local.array(n_t, ftype)
-        trial_rates, axes = cuda.local.array(2, ftype), cuda.local.array(n_a, ftype)
-        # the polish's two D x D matrices live in global memory, one pair per polishing thread: as
-        # local arrays every resident thread would reserve them (64 KiB each at the 128-DOF bucket)
-        matrices = polish_matrix[b, min(tid, polish_matrix.shape[1] - 1)]
-        half = matrices.shape[0] // 2
-        lm = LmScratch(
-            matrices[:half],
-            matrices[half:],
-            cuda.local.array(n_d, ftype),
-            cuda.local.array(n_jac, ftype),
-            cuda.local.array(n_d, ftype),
-            cuda.local.array(n_d, ftype),
-            cuda.local.array(n_l, ftype),
-            cuda.local.array(n_t, ftype),
-        )
-        met = cuda.shared.array(THREADS_PER_BLOCK, int32)
-        P = cur.pop.shape[1]
-        swaps = 0
-        fresh = False  # the last generation restarted (cpu.run_generations polishes it at once)
-        for g in range(n_gens):
-            cuda.syncthreads()
-            if not status.active[b]:
-                break
-            if memetic.iterations > 0 and ((gen_start + g) % memetic.every == 0 or fresh):
-                # polish side by side before breeding, then undo every polish after the first
-                # that meets all tolerances: the CPU's in-order round with its early stop (nxt
-                # is scratch until the breeding writes it)
-                target = polish_target(status.leaders[b], tid, memetic.count, P)
-                if tid < memetic.count:
-                    copy_individual(cur, nxt, b, target, target)
-                    met[tid] = polish_individual(b, target, cur, skel, terms, memetic, scratch, axes, lm, trial, lv, rw)
-                cuda.syncthreads()
-                if tid < memetic.count:
-                    for k in range(tid):
-                        if met[k]:
-                            copy_individual(nxt, cur, b, target, target)
-                            break
-                cuda.syncthreads()
-                if tid == 0:
-                    settle(b, gen_start + g, cur, terms, status, control, True)
-                cuda.syncthreads()
-                if not status.active[b]:
-                    break
-            fresh = status.restarting[b]
-            for i in range(tid, P, stride):
-                breed_individual(
-                    b, i, gen_start + g, cur, nxt, skel, terms, settings, status, scratch, trial, trial_rates, lv, rw
-                )
-            cur, nxt = nxt, cur
-            swaps += 1
-            cuda.syncthreads()
-            if tid == 0:
-                update_status(b, gen_start + g, g, cur, terms, status, control, history)
-        if swaps % 2 == 1:
-            for i in range(tid, P, stride):
-                copy_individual(cur, nxt, b, i, i)
-        if tid == 0:
-            advanced[b] = swaps
-
-    return initialise, start, run
+RESIDENT_THREADS_PER_MULTIPROCESSOR = 2048  # Hopper; the grid never launches more threads than fit at once
+SIMULATED_MULTIPROCESSORS = 2  # the simulator runs threads in Python: keep its grids small
+FIRST_POLISH_THREADS = 32  # problems per block of first_polish (one per thread)
+# the scratch pools of each kernel stay under this; beyond it the grid shrinks and its threads and
+# blocks take several problems each (grid-stride): a 100-link chain's polish needs 90 KB a thread
+SCRATCH_BYTES = 1 << 30
 
 
-def kernels_for(skel, buffers):
-    """(initialise, start, run) compiled for this skeleton's and these buffers' bucketed sizes."""
-    frames = skel.joint_int.shape[0] + skel.site_joint.shape[0]
-    return make_kernels(
-        _bucket(frames),
-        _bucket(buffers.pop.shape[2]),
-        _bucket(buffers.raw.shape[2]),
-        _bucket(buffers.levels.shape[2]),
-        _bucket(skel.motion_int.shape[0]),
-        buffers.pop.dtype.name,
-    )
+@dataclass
+class Traffic:
+    """What the back-end did since it was made: kernel launches and bytes copied each way."""
+
+    launches: int = 0
+    bytes_to_device: int = 0
+    bytes_to_host: int = 0
 
 
 class CudaBackend:
-    """Host side: copies buffers to the GPU, launches one block per problem, copies back."""
+    """The GPU behind the back-end contract (deik.backends.contract.Backend)."""
 
     name = "gpu"
 
     def __init__(self):
-        if not cuda.is_available():
-            raise RuntimeError(
-                "device='gpu' needs an NVIDIA GPU with numba-cuda: pip install \"deik[gpu]\" "
-                "(or run on the CPU with device='cpu')"
-            )
+        self.cuda = require_gpu()
+        with on_gpu("loading the CUDA kernels"):
+            from deik.backends import cuda_kernels
 
-    def _to_device(self, arrays):
-        """The same NamedTuple of arrays, each copied to the GPU."""
-        return type(arrays)(*(cuda.to_device(np.ascontiguousarray(a)) for a in arrays))
+        self.kernels = cuda_kernels
+        self.traffic = Traffic()
+        self._uploaded = {}  # id of a host input array -> (host array, device copy, bytes it held)
+        self._sizes = None  # KernelSizes of the device buffers
+        self._bound = None  # the SolveBuffers whose state the device buffers hold
+        self._no_seeds = None  # the device placeholder for "no seed poses"
+        cuda = self.cuda
+        sms = SIMULATED_MULTIPROCESSORS if simulated() else cuda.get_current_device().MULTIPROCESSOR_COUNT
+        self._resident_threads = sms * RESIDENT_THREADS_PER_MULTIPROCESSOR
 
-    def _threads(self, population: int) -> int:
-        return min(THREADS_PER_BLOCK, 32 * -(-population // 32))
+    # copies, counted ------------------------------------------------------------------------
 
-    def initialise(self, buffers, status, skel, terms, settings, memetic, control, initial, n_initial):
-        """Fill buffers with a first population and status with its best and leaders (memetic
-        and control: unused here, as in the CPU back-end's signature)."""
-        initialise, _, _ = kernels_for(skel, buffers)
-        d_buf, d_status = self._to_device(buffers), self._to_device(status)
-        B, P = buffers.pop.shape[:2]
-        initialise[B, self._threads(P)](
-            d_buf,
-            d_status,
-            self._to_device(skel),
-            self._to_device(terms),
-            settings,
-            cuda.to_device(initial),
-            np.int64(n_initial),
+    def _to_device(self, host: np.ndarray):
+        self.traffic.bytes_to_device += host.nbytes
+        return self.cuda.to_device(host)
+
+    def _to_host(self, device, host: np.ndarray) -> None:
+        self.traffic.bytes_to_host += host.nbytes
+        device.copy_to_host(host)
+
+    def _copy_in(self, host: np.ndarray, device) -> None:
+        self.traffic.bytes_to_device += host.nbytes
+        device.copy_to_device(np.ascontiguousarray(host))
+
+    def _resident(self, host: np.ndarray, changes: bool = False):
+        """The device copy of an input array: uploaded once per array object, and when `changes`
+        (targets a Solver rewrites in place) again whenever its bytes differ from the last upload."""
+        kept = self._uploaded.get(id(host))
+        if kept is None or kept[0] is not host or kept[1].shape != host.shape:
+            device = self._to_device(np.ascontiguousarray(host))
+            self._uploaded[id(host)] = (host, device, host.copy() if changes else None)
+            return device
+        if changes and not np.array_equal(kept[2], host):
+            self._copy_in(host, kept[1])
+            kept[2][...] = host
+        return kept[1]
+
+    def _inputs(self, inputs: KernelInputs) -> KernelInputs:
+        """The inputs with device arrays: the skeleton and goal table kept, the targets and
+        comfort references re-sent only when they changed."""
+        terms = inputs.terms
+        changing = {"params", "reference"}
+        return inputs._replace(
+            skeleton=type(inputs.skeleton)(*(self._resident(a) for a in inputs.skeleton)),
+            terms=type(terms)(*(self._resident(getattr(terms, f), f in changing) for f in terms._fields)),
         )
-        for host, device in zip(buffers + status, d_buf + d_status):
-            device.copy_to_host(host)
 
-    def start(self, cur, nxt, status, skel, terms, settings, memetic, control, history, initial, n_initial, n_gens):
-        """The first population (lazy as cpu._first_population's when the polish is on and
-        problems stop once met), then run from generation 0: two launches."""
-        if memetic.iterations > 0 and control.stop_on_converged:
-            _, start, _ = kernels_for(skel, cur)
-            d_buf, d_status = self._to_device(cur), self._to_device(status)
-            B, P, D = cur.pop.shape
-            start[B, self._threads(P)](
-                d_buf,
-                d_status,
-                self._to_device(skel),
-                self._to_device(terms),
-                settings,
-                memetic,
-                control,
-                cuda.to_device(initial),
-                np.int64(n_initial),
-                cuda.device_array((B, 1, 2 * D * D), cur.pop.dtype),
-            )
-            for host, device in zip(cur + status, d_buf + d_status):
-                device.copy_to_host(host)
-        else:
-            self.initialise(cur, status, skel, terms, settings, memetic, control, initial, n_initial)
-        return self.run(cur, nxt, skel, terms, settings, memetic, status, control, history, 0, n_gens)
+    # device buffers ---------------------------------------------------------------------------
 
-    def run(self, cur, nxt, skel, terms, settings, memetic, status, control, history, gen_start, n_gens):
-        """Returns (final buffers, generations advanced); status and the first `advanced` rows
-        of history (n_gens, B, 2) are updated."""
-        _, _, run = kernels_for(skel, cur)
-        d_cur, d_nxt, d_status = self._to_device(cur), self._to_device(nxt), self._to_device(status)
-        d_history = cuda.device_array(history.shape, history.dtype)  # written by the kernel, never read
+    def _allocate(self, inputs: KernelInputs, work: SolveBuffers) -> None:
+        """Device buffers, scratch and answers for work's sizes (kept while they stay the same)."""
+        kernels, cuda = self.kernels, self.cuda
+        skel, cur = inputs.skeleton, work.current
         B, P, D = cur.pop.shape
-        advanced = cuda.to_device(np.zeros(B, np.int64))
-        shape = (B, int(memetic.count), 2 * D * D) if memetic.iterations > 0 else (B, 1, 2)
-        polish_matrix = cuda.device_array(shape, cur.pop.dtype)
-        run[B, self._threads(P)](
-            d_cur,
-            d_nxt,
-            self._to_device(skel),
-            self._to_device(terms),
-            settings,
-            memetic,
-            d_status,
-            control,
-            d_history,
-            np.int64(gen_start),
-            np.int64(n_gens),
-            advanced,
-            polish_matrix,
+        sizes = kernels.KernelSizes(
+            problems=B,
+            population=P,
+            dofs=D,
+            levels=cur.levels.shape[2],
+            terms=cur.raw.shape[2],
+            frames=skel.joint_int.shape[0] + skel.site_joint.shape[0],
+            motions=skel.motion_int.shape[0],
         )
-        for host, device in zip(cur + status, d_cur + d_status):
-            device.copy_to_host(host)
-        swaps = int(advanced.copy_to_host().max())
-        if swaps:
-            d_history[:swaps].copy_to_host(history[:swaps])  # only the generations that ran
-        return cur, swaps
+        count = max(1, int(inputs.polish.count))
+        if sizes == self._sizes and self._polishers == count:
+            return
+        with on_gpu(f"allocating buffers for {B} problem(s) x population {P}"):
+            self.cur = Buffers(*(cuda.device_array(a.shape, a.dtype) for a in cur))
+            self.nxt = Buffers(*(cuda.device_array(a.shape, a.dtype) for a in cur))
+            self.status = Status(*(cuda.device_array(a.shape, a.dtype) for a in work.status))
+            self.status.halt.copy_to_device(np.zeros(1, np.int64))
+            dtype = cur.pop.dtype
+            rows, matrices = kernels.thread_rows(sizes), kernels.matrix_rows(sizes)
+            self.threads = min(THREADS_PER_BLOCK, 32 * -(-P // 32))
+            per_block = (self.threads * rows + count * max(matrices, 1)) * dtype.itemsize
+            self.blocks = max(1, min(B, self._resident_threads // self.threads, SCRATCH_BYTES // per_block))
+            per_thread = (rows + matrices) * dtype.itemsize
+            threads = max(1, min(B, self._resident_threads, SCRATCH_BYTES // per_thread))
+            self.polish_threads = FIRST_POLISH_THREADS * -(-threads // FIRST_POLISH_THREADS)  # one pool column each
+            self.evolve_pool = cuda.device_array((rows, self.blocks * self.threads), dtype)
+            self.polish_matrices = cuda.device_array((max(matrices, 1), self.blocks * count), dtype)
+            self.first_pool = cuda.device_array((rows + matrices, self.polish_threads), dtype)
+            self.unmet = cuda.device_array(B, np.int64)
+            self.order = self._to_device(np.arange(B, dtype=np.int64))
+            self.answers = cuda.device_array((B + 1, kernels.answer_width(sizes)), np.float64)
+            self.history = cuda.device_array((0, B, 2), np.float64)
+        self.host_answers = np.empty((B + 1, kernels.answer_width(sizes)), np.float64)
+        self._sizes, self._polishers, self._bound = sizes, count, None
+
+    def _history_for(self, n_generations: int):
+        """Device history rows (n, B, 2): a prefix of a buffer kept between launches."""
+        if self.history.shape[0] < n_generations:
+            with on_gpu("allocating the history"):
+                self.history = self.cuda.device_array((n_generations,) + self.history.shape[1:], np.float64)
+        return self.history[:n_generations]
+
+    def _bind(self, work: SolveBuffers, upload: bool) -> None:
+        """Make the device buffers hold work's state: uploaded when `upload` and work is not
+        the state they hold already (Engine.run on a state of the caller's)."""
+        if upload and self._bound is not work:
+            with on_gpu("copying the population to the GPU"):
+                for host, device in zip(work.current + work.status, self.cur + self.status):
+                    self._copy_in(host, device)
+        self._bound = work
+
+    # the contract -----------------------------------------------------------------------------
+
+    def initialise(self, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds) -> None:
+        """A random first population, evaluated, and its Status, into the host buffers."""
+        self._evolve_all(inputs, work, seeds, self.kernels.SAMPLE_FIRST, (0, 0))
+        self.fetch(work)
+
+    def start(self, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, n_generations: int) -> int:
+        """The first population (lazy, as the CPU's, when the polish is on and met problems
+        stop), then up to n_generations; one launch when the first polish meets every problem."""
+        if not (inputs.polish.iterations > 0 and inputs.rules.stop_on_converged):
+            return self._evolve_all(inputs, work, seeds, self.kernels.SAMPLE_FIRST, (0, n_generations))
+        self._allocate(inputs, work)
+        self._bind(work, upload=False)
+        kernels, device = self.kernels, self._inputs(inputs)
+        initial = self._seeds(seeds)
+        B = self._sizes.problems
+        with on_gpu("running the first polish"):
+            self._copy_in(np.zeros(1), self.answers[B, :1])
+            blocks = -(-self.polish_threads // FIRST_POLISH_THREADS)
+            kernels.first_polish[blocks, FIRST_POLISH_THREADS](
+                self.cur,
+                self.status,
+                *device,  # skeleton, terms, evolution, polish, rules
+                initial,
+                np.int64(seeds.count),
+                self.unmet,
+                self.answers,
+                self.first_pool,
+            )
+            self.traffic.launches += 1
+            self._to_host(self.answers, self.host_answers)
+        n_unmet = int(self.host_answers[B, 0])
+        if n_unmet:
+            problems = (self.unmet[:n_unmet], n_unmet)
+            self._evolve(device, problems, (initial, seeds.count), kernels.COMPLETE_FIRST, (0, n_generations))
+        return self._answers(work, np.arange(B), copied=not n_unmet)
+
+    def run(self, inputs: KernelInputs, work: SolveBuffers, first_generation: int, n_generations: int) -> int:
+        """Up to n_generations more from first_generation, for the problems still active."""
+        self._allocate(inputs, work)
+        self._bind(work, upload=True)
+        active = np.flatnonzero(work.status.active)
+        if active.size == 0:
+            return 0
+        device = self._inputs(inputs)
+        with on_gpu("copying the running problems' list"):
+            order = self._to_device(active.astype(np.int64))
+        seeds = (self._seeds(Seeds(work.current.pop[:1, :1], 0)), 0)
+        self._evolve(device, (order, active.size), seeds, self.kernels.CONTINUE, (first_generation, n_generations))
+        return self._answers(work, active)
+
+    def fetch(self, work: SolveBuffers) -> None:
+        """Every individual and Status field into the host buffers."""
+        with on_gpu("copying the population from the GPU"):
+            for device, host in zip(self.cur + self.status, work.current + work.status):
+                self._to_host(device, host)
+
+    # launches ---------------------------------------------------------------------------------
+
+    def _seeds(self, seeds: Seeds):
+        """The seed poses on the device (a placeholder kept on the device when there are none)."""
+        with on_gpu("copying the seed poses"):
+            if seeds.count == 0:
+                if self._no_seeds is None or self._no_seeds.dtype != seeds.poses.dtype:
+                    self._no_seeds = self._to_device(np.zeros((1, 1, 1), seeds.poses.dtype))
+                return self._no_seeds
+            return self._to_device(np.ascontiguousarray(seeds.poses))
+
+    def _evolve_all(self, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, mode: int, generations) -> int:
+        """evolve over every problem from a first population (sampled or completed)."""
+        self._allocate(inputs, work)
+        self._bind(work, upload=False)
+        B = self._sizes.problems
+        self._evolve(self._inputs(inputs), (self.order, B), (self._seeds(seeds), seeds.count), mode, generations)
+        return self._answers(work, np.arange(B))
+
+    def _evolve(self, device: KernelInputs, problems: tuple, seeds: tuple, mode: int, generations: tuple) -> None:
+        """One launch of cuda_kernels.evolve over `problems` (a device index list, its length)
+        from `seeds` (device poses, count), `generations` (first, count)."""
+        order, n = problems
+        first_generation, n_generations = generations
+        self._launch_history = self._history_for(n_generations)
+        with on_gpu("running the generations"):
+            self.kernels.evolve[min(self.blocks, n), self.threads](
+                np.int64(mode),
+                order,
+                np.int64(n),
+                self.cur,
+                self.nxt,
+                self.status,
+                *device,  # skeleton, terms, evolution, polish, rules
+                self._launch_history,
+                seeds[0],
+                np.int64(seeds[1]),
+                np.int64(first_generation),
+                np.int64(n_generations),
+                self.answers,
+                self.evolve_pool,
+                self.polish_matrices,
+            )
+            self.traffic.launches += 1
+
+    def _answers(self, work: SolveBuffers, problems: np.ndarray, copied: bool = False) -> int:
+        """Copy the answer rows out (unless `copied` already), write each of `problems`' best
+        individual and Status fields into the host buffers, and the history rows the last
+        launch wrote; returns the most generations it ran for any of them."""
+        k = self.kernels
+        with on_gpu("copying the answers from the GPU"):
+            if not copied:
+                self._to_host(self.answers, self.host_answers)
+            rows = self.host_answers[problems]
+            advanced = int(rows[:, k.ANSWER_RAN].max()) if len(rows) else 0
+            if advanced:
+                self._to_host(self._launch_history[:advanced], work.history[:advanced])
+        status, cur = work.status, work.current
+        best = rows[:, k.ANSWER_BEST].astype(np.int64)
+        status.best[problems] = best
+        status.active[problems] = rows[:, k.ANSWER_ACTIVE] != 0
+        status.generations[problems] = rows[:, k.ANSWER_GENERATIONS].astype(np.int64)
+        status.converged[problems] = rows[:, k.ANSWER_CONVERGED] != 0
+        status.restarts[problems] = rows[:, k.ANSWER_RESTARTS].astype(np.int64)
+        D = cur.pop.shape[2]
+        cur.total[problems, best] = rows[:, k.ANSWER_TOTAL]
+        cur.pop[problems, best] = rows[:, k.ANSWER_POSE : k.ANSWER_POSE + D]
+        cur.raw[problems, best] = rows[:, k.ANSWER_POSE + D :]
+        return advanced

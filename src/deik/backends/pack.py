@@ -60,6 +60,7 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleto
         mass_joint=kernel_array(s.mass_joint, np.int32),
         mass_data=f(mass_data.reshape(-1, 4)),
         limits=f(limits),
+        bounds=f(limits.reshape(-1)),
         ground=f(ground_frame(s.up)),
     )
 

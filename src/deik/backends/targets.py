@@ -83,23 +83,37 @@ class _KernelStampMixin:
         return super().from_function(py_func, py_file)
 
 
-class _InTreeKernelLocator(_KernelStampMixin, caching.InTreeCacheLocator):
-    pass
+def _register(locator_classes: list, bases: tuple) -> None:
+    """Put the stamped kernel locators first in a cache implementation's locator list. Numba tries
+    locators in order and takes the first whose folder it can write: NUMBA_CACHE_DIR when set,
+    else the package's __pycache__, else (a read-only install) the user's cache folder."""
+    for base in bases:
+        name = f"_Stamped{base.__name__}"
+        if not any(cls.__name__ == name and issubclass(cls, base) for cls in locator_classes):
+            locator_classes.insert(0, type(name, (_KernelStampMixin, base), {}))
 
 
-class _UserWideKernelLocator(_KernelStampMixin, caching.UserWideCacheLocator):
-    pass
+_register(
+    caching.CacheImpl._locator_classes,
+    (caching.UserWideCacheLocator, caching.InTreeCacheLocator, caching.UserProvidedCacheLocator),
+)
 
 
-class _UserProvidedKernelLocator(_KernelStampMixin, caching.UserProvidedCacheLocator):
-    pass
+@lru_cache(maxsize=1)
+def register_cuda_kernel_cache() -> None:
+    """The same stamped locators for numba-cuda's own cache (`cuda.jit(cache=True)` kernels):
+    the CUDA kernels follow the CPU kernels' NUMBA_CACHE_DIR, read-only-install and
+    invalidation rules. Nothing to do in the CUDA simulator, which caches nothing."""
+    from deik.backends.gpu import simulated
 
+    if simulated():
+        return
+    from numba.cuda.core import caching as cuda_caching
 
-# Numba tries locators in order and takes the first whose folder it can write: NUMBA_CACHE_DIR
-# when set, else the package's __pycache__, else (a read-only install) the user's cache folder.
-for _locator in (_UserWideKernelLocator, _InTreeKernelLocator, _UserProvidedKernelLocator):
-    if _locator not in caching.CacheImpl._locator_classes:
-        caching.CacheImpl._locator_classes.insert(0, _locator)
+    _register(
+        cuda_caching.CacheImpl._locator_classes,
+        (cuda_caching._UserWideCacheLocator, cuda_caching._InTreeCacheLocator, cuda_caching._UserProvidedCacheLocator),
+    )
 
 
 def compile_namespace(sources, name: str, decorate, decorate_inline=None) -> types.ModuleType:
@@ -161,7 +175,8 @@ cpu = compile_namespace(
 
 @lru_cache(maxsize=1)
 def cuda_device() -> types.ModuleType:
-    """The device maths compiled for numba-cuda (or its simulator); imports numba.cuda lazily."""
-    from numba import cuda
+    """The device maths compiled for numba-cuda (or its simulator); loads numba-cuda lazily."""
+    from deik.backends.gpu import numba_cuda
 
+    cuda = numba_cuda()
     return compile_namespace(DEVICE_SOURCES, "deik.backends._device_cuda", cuda.jit(device=True))

@@ -246,7 +246,7 @@ def balance_track(
     sk = clip.skeleton
     N = clip.n_frames
     axes = horizontal_axes(sk)
-    kin = forward_kinematics(sk, clip.frames)
+    kin = clip.kinematics
     com = kin.p_world_com if frames is None else forward_kinematics(sk, frames).p_world_com
     peak = np.linalg.norm(np.diff(kin.p_world_frame, 2, axis=0), axis=-1).max(initial=0.0) / clip.frame_time**2
     budget = share * peak

@@ -24,9 +24,9 @@ import numpy as np
 from deik.cleanup.balance import BalanceTrack, balance_track
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.plants import planted_targets
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
@@ -88,7 +88,7 @@ def eased_track(path: np.ndarray, mask: np.ndarray, targets: np.ndarray, blend: 
 def blended_track(clip: Motion, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
     """(mask (N,), targets (N, 3)): the reach track eased in and out over `reach.blend`
     frames from the site's original path (eased_track)."""
-    path = forward_kinematics(clip.skeleton, clip.poses()).position(reach.site)
+    path = clip.kinematics.position(reach.site)
     return eased_track(path, reach.mask, reach.targets, max(reach.blend, 0))
 
 
@@ -125,24 +125,24 @@ class ClipGoals:
         for name in ("fidelity", "coherence"):
             value = getattr(self, name)
             if not (0.0 <= value <= 1.0):
-                raise ValueError(f"{name} weight must lie in [0, 1], got {value}")
+                raise InputError(f"{name} weight must lie in [0, 1], got {value}")
         if self.balance and self.contacts is None:
-            raise ValueError("balance needs contacts: the support polygon is made of the sites in contact")
+            raise InputError("balance needs contacts: the support polygon is made of the sites in contact")
         if not (np.isfinite(self.gravity) and self.gravity > 0):
-            raise ValueError(f"gravity must be a positive number (length units per s^2), got {self.gravity}")
+            raise InputError(f"gravity must be a positive number (length units per s^2), got {self.gravity}")
         if self.plants is not None:
             if self.contacts is None:
-                raise ValueError("plants need contacts: they say where each contact site is held")
+                raise InputError("plants need contacts: they say where each contact site is held")
             plants = np.asarray(self.plants, float)
             expected = self.contacts.mask.shape + (3,)
             if plants.shape != expected or not np.isfinite(plants[self.contacts.mask]).all():
-                raise ValueError(f"plants must be finite where the contacts hold, of shape {expected}")
+                raise InputError(f"plants must be finite where the contacts hold, of shape {expected}")
         if self.floor is not None and not np.isfinite(self.floor):
-            raise ValueError(f"the floor height must be a finite number, got {self.floor}")
+            raise InputError(f"the floor height must be a finite number, got {self.floor}")
         if not (
             self.contacts or self.reach or self.balance or self.floor is not None or self.self_collision is not None
         ):
-            raise ValueError(
+            raise InputError(
                 "nothing to fix: plant contacts, give a floor, add a reach track, ask for balance or self-collision"
             )
 

@@ -25,7 +25,6 @@ from deik.cleanup.spacetime import spring_bands
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, Floor, Goal, Position
 
@@ -74,7 +73,7 @@ def near_floor(clip: Motion, height: float, clearance: np.ndarray | None = None)
     those a search may have to lift."""
     sk = clip.skeleton
     level = height + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
-    near = forward_kinematics(sk, clip.frames).p_world_frame @ sk.up <= level + NEAR_FLOOR * sk.reach
+    near = clip.kinematics.p_world_frame @ sk.up <= level + NEAR_FLOOR * sk.reach
     out = near.copy()
     out[1:] |= near[:-1]
     out[:-1] |= near[1:]

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError, UnknownNameError
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
 FOOT_WORDS = ("foot", "toe", "heel", "ankle")
@@ -40,7 +40,7 @@ def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
     followed by its sites; ValueError when there are none."""
     found = [f for f, name in enumerate(skeleton.frame_names) if any(word in name.lower() for word in FOOT_WORDS)]
     if not found:
-        raise ValueError(
+        raise InputError(
             f"skeleton {skeleton.name!r} has no joint or site named like a foot "
             f"({', '.join(FOOT_WORDS)}); name the contact sites with --contact SITE"
         )
@@ -77,9 +77,9 @@ class Contacts:
     def __post_init__(self):
         sites, mask = tuple(self.sites), np.array(self.mask, dtype=bool)
         if mask.ndim != 2 or mask.shape[1] != len(sites):
-            raise ValueError(f"mask must have shape (N, {len(sites)}), got {mask.shape}")
+            raise InputError(f"mask must have shape (N, {len(sites)}), got {mask.shape}")
         if len(set(sites)) != len(sites):
-            raise ValueError(f"contact sites repeat: {sites}")
+            raise InputError(f"contact sites repeat: {sites}")
         mask.setflags(write=False)
         object.__setattr__(self, "sites", sites)
         object.__setattr__(self, "mask", mask)
@@ -93,7 +93,7 @@ class Contacts:
         """Contact intervals (start, stop) of a site, by index or name; stop exclusive."""
         if isinstance(site, str):
             if site not in self.sites:
-                raise KeyError(f"{site!r} is not a contact site; the sites are {self.sites}")
+                raise UnknownNameError(f"{site!r} is not a contact site; the sites are {self.sites}")
             site = self.sites.index(site)
         return _runs(self.mask[:, site])
 
@@ -116,14 +116,14 @@ class Contacts:
 def site_positions(clip: Motion, sites: Sequence[str]) -> np.ndarray:
     """World positions (N, S, 3) of `sites` in every frame; KeyError for unknown names."""
     index = [clip.skeleton.frame_index(name) for name in sites]
-    return forward_kinematics(clip.skeleton, clip.frames).p_world_frame[:, index]
+    return clip.kinematics.p_world_frame[:, index]
 
 
 def threshold(value: float | None, default: float, what: str) -> float:
     """`value` (default `default` when None) checked to be a number >= 0, else ValueError."""
     value = default if value is None else float(value)
     if not value >= 0:
-        raise ValueError(f"the contact {what} threshold must be a number >= 0, got {value}")
+        raise InputError(f"the contact {what} threshold must be a number >= 0, got {value}")
     return value
 
 
@@ -140,9 +140,9 @@ def detect_contacts(
     sk = clip.skeleton
     sites = foot_sites(sk) if sites is None else tuple(sites)
     if not sites:
-        raise ValueError("detect_contacts needs at least one site")
+        raise InputError("detect_contacts needs at least one site")
     if clip.n_frames == 0:
-        raise ValueError("the clip has no frames: there are no contacts to detect")
+        raise InputError("the clip has no frames: there are no contacts to detect")
     height = threshold(height, HEIGHT_FRACTION * sk.reach, "height")
     speed = threshold(speed, SPEED_FRACTION * sk.reach, "speed")
     p = site_positions(clip, sites)
@@ -197,7 +197,7 @@ def contacts_from_ranges(clip: Motion, ranges: dict[str, list[tuple[int, int]]])
             start, stop = (operator.index(v) for v in span)
             if not 0 <= start < stop <= N:
                 valid = f"0..{N - 1}" if N else "none: the clip has no frames"
-                raise ValueError(
+                raise InputError(
                     f"contact range ({start}, {stop}) of site {name!r} is outside the "
                     f"clip or empty; ranges are (start, stop) with stop exclusive, "
                     f"valid frames: {valid}"

@@ -21,7 +21,6 @@ import numpy as np
 
 from deik.cleanup.metrics import joint_angles, point_motion, spikes
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 
 PEAK_RATIO = 1.1
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture changes the performance
@@ -44,7 +43,7 @@ def widened(frames: np.ndarray, reach: int) -> np.ndarray:
 def _peaks(clip, points: np.ndarray | None = None) -> dict:
     """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`, the position
     measures of the joints and sites `points` (F,) bool (default all)."""
-    moves = spikes(clip, forward_kinematics(clip.skeleton, clip.frames))
+    moves = spikes(clip, clip.kinematics)
     chosen = slice(None) if points is None else np.asarray(points, bool)
     return {
         "dof_velocity": (np.abs(moves["dof_velocity"]), 0),

@@ -55,6 +55,7 @@ from deik.cleanup.contacts import site_positions
 from deik.cleanup.dynamics import jolted_frames, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
+from deik.errors import InputError
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.joints import ROTATE
@@ -266,9 +267,9 @@ def fix_clip(
     if passes is None:  # a collision repair eased into its neighbours can push them into collision
         passes = BALANCE_PASSES if goals.balance or goals.self_collision is not None else PASSES
     if not (isinstance(passes, int) and passes >= 0):
-        raise ValueError(f"passes must be an integer >= 0, got {passes!r}")
+        raise InputError(f"passes must be an integer >= 0, got {passes!r}")
     if clip.n_frames == 0:
-        raise ValueError("the clip has no frames to fix")
+        raise InputError("the clip has no frames to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
     settings = merge_settings("fix_clip()", settings, overrides, defaults)
     start = time.perf_counter()

@@ -30,16 +30,17 @@ from collections.abc import Sequence
 import numpy as np
 
 from deik.cleanup.contacts import Contacts
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.geometry import ground_frame, polygon_distance
 from deik.model.joints import ROTATE
-from deik.model.kinematics import Kinematics, forward_kinematics
+from deik.model.kinematics import Kinematics
 from deik.model.rotations import rotation_angle
 from deik.model.skeleton import Skeleton
 
 
 def _kinematics(clip) -> Kinematics:
-    return forward_kinematics(clip.skeleton, clip.frames)
+    return clip.kinematics
 
 
 def _site_index(clip, sites) -> list[int]:
@@ -113,7 +114,7 @@ def joint_deviation(original: Motion, fixed: Motion) -> tuple[np.ndarray, np.nda
     """Per frame (mean (N,), max (N,)) over the joints with rotation DOFs of the angle between
     the joint's rotation in `original` and in `fixed` (relative to its parent), degrees."""
     if fixed.frames.shape != original.frames.shape:
-        raise ValueError(f"the clips differ: {original.frames.shape} and {fixed.frames.shape} frames x DOFs")
+        raise InputError(f"the clips differ: {original.frames.shape} and {fixed.frames.shape} frames x DOFs")
     angles = joint_angles(original, fixed)
     if angles.shape[1] == 0:
         return np.zeros(len(angles)), np.zeros(len(angles))

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from deik.cleanup.contacts import Contacts, site_positions
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
@@ -132,7 +133,7 @@ def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     (_linked_plants), so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
-        raise ValueError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
+        raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
     pairs = _rigid_pairs(p, clip.skeleton.reach)

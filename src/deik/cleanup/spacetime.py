@@ -75,26 +75,29 @@ def spring_energy(x: np.ndarray, length: float, stiffness: np.ndarray | None = N
 
 
 def spacetime_step(
-    rows: np.ndarray,
-    errors: np.ndarray,
-    weights: np.ndarray,
+    goal: tuple[np.ndarray, np.ndarray, np.ndarray],
     x: np.ndarray,
     movable: np.ndarray,
     length: float,
     damping: float = 0.0,
     stiffness: np.ndarray | None = None,
+    steps: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(N, D) step s minimising sum_n |sqrt(weights[n]) (rows[n] s[n] - errors[n])|^2 + E(x + s)
-    + damping |s|^2 (module notes) over the `movable` (N, D) entries (the others stay 0): goal
-    `rows` (N, R, D) per unit of the weighted DOFs, their `errors` (N, R) and `weights` (N, R);
+    + damping |s|^2 (module notes) over the `movable` (N, D) entries (the others stay 0): `goal`
+    = (rows (N, R, D) per unit of the weighted DOFs, their errors (N, R), weights (N, R));
     x (N, D) the current displacement in weighted units; E's fade `length` in frames; `damping`
     (Levenberg-Marquardt) keeps a step short along directions the rows barely move, where goals
     that cannot all be met would otherwise pull a joint round for a micron; `stiffness` (D,)
-    scales each DOF's E (default 1)."""
+    scales each DOF's E (default 1); `steps` = (weights (N-1, D), errors (N-1, D)) adds a row
+    per DOF and pair of frames asking s[n+1] - s[n] to be errors[n] (a DOF's step between frames
+    shrunk to its velocity limit), which couples frame n only to n+1 on the same DOF."""
+    rows, errors, weights = goal
     N, D = x.shape
     movable = np.asarray(movable, bool)
     # a DOF no row of any frame moves, and that is not displaced yet, stays where it is: leave it out
-    used = movable.any(axis=0) & ((rows != 0).any(axis=(0, 1)) | (x != 0).any(axis=0))
+    used = (rows != 0).any(axis=(0, 1)) | (x != 0).any(axis=0)
+    used = movable.any(axis=0) & (used | (steps is not None and (np.asarray(steps[0]) != 0).any(axis=0)))
     step = np.zeros((N, D))
     if not used.any():
         return step
@@ -108,10 +111,18 @@ def spacetime_step(
     # E's gradient at the whole displacement: a held entry's displacement (a DOF at a limit, a
     # frame outside a reach window) still pulls its movable neighbours towards it
     rhs = np.einsum("nrd,nr->nd", weighted, errors) - c * spring_product(bands, x)
+    coupling = np.zeros((max(N - 1, 0), U))
+    if steps is not None:  # w (s[n+1] - s[n] - e)^2: w on both diagonals, -w between them
+        w, e = (np.asarray(a, float)[:, used] for a in steps)
+        diagonal[:-1, np.arange(U), np.arange(U)] += w
+        diagonal[1:, np.arange(U), np.arange(U)] += w
+        coupling = -w
+        rhs[:-1] -= w * e
+        rhs[1:] += w * e
     # held entries: an identity row and column, no coupling, a zero right-hand side
     diagonal = np.where(movable[:, :, None] & movable[:, None, :], diagonal, 0.0)
     diagonal[:, np.arange(U), np.arange(U)] += ~movable
-    first = np.where(movable[:-1] & movable[1:], bands[1][:, None] * c, 0.0)
+    first = np.where(movable[:-1] & movable[1:], bands[1][:, None] * c + coupling, 0.0)
     second = np.where(movable[:-2] & movable[2:], bands[2][:, None] * c, 0.0)
     step[:, used] = solve_block_bands(diagonal, first, second, np.where(movable, rhs, 0.0))
     return step

@@ -25,7 +25,6 @@ from deik.cleanup.clip_goals import GRAVITY, reach_names
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.metrics import jerk, joint_angles, outside_support, position_deviation, sliding_steps, spikes
 from deik.io.trajectory import Motion
-from deik.model.kinematics import forward_kinematics
 
 
 def _stats(values: np.ndarray) -> tuple[float, float]:
@@ -92,7 +91,7 @@ def _measure(clip, contacts, reach, clear, metres: float, grounding: Grounding |
     """{key: (values (M, K) in the key's unit, the frame of row 0)} of one clip: every joint,
     site or DOF of each SERIES entry (deviations aside) and each reach track."""
     sk, mm = clip.skeleton, 1000.0 * metres
-    kin = forward_kinematics(sk, clip.frames)
+    kin = clip.kinematics
     moves = spikes(clip, kin)
     out = {}
     resting = contacts if grounding is None else grounding.resting
@@ -125,7 +124,7 @@ def _both(original, fixed, contacts, reach, metres: float, grounding: Grounding 
     """_measure of `original` and `fixed`, with the deviations from the capture (0 before)."""
     clear = None
     if contacts is not None:
-        clear = floor.clearance(forward_kinematics(original.skeleton, original.frames), original.skeleton, contacts)
+        clear = floor.clearance(original.kinematics, original.skeleton, contacts)
     before, after = (_measure(clip, contacts, reach, clear, metres, grounding) for clip in (original, fixed))
     angles = joint_angles(original, fixed)
     positions = 1000.0 * metres * position_deviation(original, fixed)
@@ -205,7 +204,7 @@ def clip_report(
     resting = contacts if grounding is None else grounding.resting
     if resting is not None:
         sk = original.skeleton
-        kins = [forward_kinematics(sk, clip.frames) for clip in (original, fixed)]
+        kins = [clip.kinematics for clip in (original, fixed)]
         clear = floor.clearance(kins[0], sk, resting)
         ratios = [floor.skating_ratio(*floor.skating(kin, sk, resting, clear, metres)) for kin in kins]
         report["foot_skating_ratio_share"] = {

@@ -20,7 +20,7 @@ import re
 
 import numpy as np
 
-from deik.errors import FileFormatError
+from deik.errors import FileFormatError, InputError
 from deik.io.bvh.hierarchy import number
 from deik.io.files import FilePath, read_input_text
 
@@ -175,7 +175,7 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
     except ValueError:
         point = []
     if len(point) != 3 or not all(map(math.isfinite, point)):
-        raise ValueError(
+        raise InputError(
             f"reach {spec!r}: {point_text!r} is not a point X,Y,Z of three finite "
             f"numbers and not a .csv or .json track; the accepted forms are "
             f"{SPEC_FORMS}"
@@ -184,13 +184,13 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
     if at:
         match = FRAME_RANGE.fullmatch(span)
         if not match:
-            raise ValueError(
+            raise InputError(
                 f"reach {spec!r}: frame range {span!r} is not A:B (two whole "
                 f"numbers, B inclusive); the accepted forms are {SPEC_FORMS}"
             )
         first, last = int(match[1]), int(match[2])
         if not 0 <= first <= last < n_frames:
-            raise ValueError(
+            raise InputError(
                 f"reach {spec!r}: frames {first}:{last} are outside the clip or "
                 f"reversed; valid frames: {_valid_frames(n_frames)}"
             )
@@ -205,12 +205,12 @@ def parse_reach_spec(spec: str, n_frames: int) -> tuple[str, np.ndarray, np.ndar
     """A --reach argument -> (site name, mask (N,) bool, targets (N, 3) length units, NaN
     where inactive). Forms: SITE=track.csv, SITE=track.json (or any existing file: see
     read_track) and SITE=X,Y,Z@A:B, a fixed point over frames A..B inclusive (the whole clip
-    without @A:B). ValueError naming the accepted forms when malformed; the site name is not
+    without @A:B). InputError naming the accepted forms when malformed; the site name is not
     checked here."""
     site, equals, value = spec.partition("=")
     site, value = site.strip(), value.strip()
     if not equals or not site or not value:
-        raise ValueError(f"reach {spec!r} is not SITE=TARGET; the accepted forms are {SPEC_FORMS}")
+        raise InputError(f"reach {spec!r} is not SITE=TARGET; the accepted forms are {SPEC_FORMS}")
     if os.path.splitext(value)[1].lower() in (".csv", ".json") or os.path.isfile(value):
         mask, targets = read_track(value, n_frames)
     else:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.skeleton import Skeleton
 
 METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
@@ -40,5 +41,5 @@ def guess_unit(skeleton: Skeleton) -> str:
 def metres_per_unit(unit: str) -> float:
     """Metres in one `unit` (a key of METRES); ValueError naming the choices otherwise."""
     if unit not in METRES:
-        raise ValueError(f"unknown length unit {unit!r}; use one of {', '.join(METRES)}")
+        raise InputError(f"unknown length unit {unit!r}; use one of {', '.join(METRES)}")
     return METRES[unit]

@@ -24,16 +24,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from deik.backends.pack import pack_skeleton
 from deik.cleanup.balance import horizontal_axes
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
+from deik.solver.jacobians import point_jacobians
 
 DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
 STEPS = 12  # most space-time steps over the whole clip, per phase
@@ -59,11 +58,9 @@ def position_jacobian(
     """World positions (N, G, 3) of the joints or sites `names` (then of the centre of mass if
     `centre_of_mass`) at `poses` (N, D), and their Jacobian (N, G, 3, D): length units per
     radian (rotations) or per length unit. The kernels' float64 FK and analytic rows compute
-    both (deik.backends.cpu.point_jacobians)."""
-    from deik.backends.cpu import point_jacobians  # loads Numba: `import deik` stays light
-
+    both (deik.solver.jacobians)."""
     frames = [skeleton.frame_index(name) for name in names] + [-1] * centre_of_mass
-    return point_jacobians(np.atleast_2d(np.asarray(poses, np.float64)), frames, pack_skeleton(skeleton, np.float64))
+    return point_jacobians(skeleton, poses, frames)
 
 
 def dof_weights(clip: Motion) -> np.ndarray:
@@ -73,7 +70,7 @@ def dof_weights(clip: Motion) -> np.ndarray:
     1 per length unit too (metres as radians), lifting the whole body would be the cheap way to
     move a hand."""
     sk = clip.skeleton
-    p = forward_kinematics(sk, clip.poses()).p_world_frame
+    p = clip.kinematics.p_world_frame
     r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
@@ -219,7 +216,7 @@ def warm_start(
             before = now
             damping = HELD_WEIGHT * DAMPING**2
             step = spacetime_step(
-                rows, error, row_weights / skeleton.reach**2, d * weights, free, fade, damping, stiffness
+                (rows, error, row_weights / skeleton.reach**2), d * weights, free, fade, damping, stiffness
             )
             d += step * scale * free
     return d

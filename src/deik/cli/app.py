@@ -28,13 +28,14 @@ import sys
 from deik import __version__
 from deik.cli import clip_command as cli_clip
 from deik.cli import folder_command as cli_library
+from deik.cli import info_command as cli_info
 from deik.cli import retarget_command as cli_retarget
 from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
-from deik.cli.arguments import USER_ERRORS, Parser, check_outputs, error_line, numbers
-from deik.console import add_output_flags, configure_logging, show_progress
-from deik.io.load import load_skeleton
+from deik.cli.arguments import USER_ERRORS, check_outputs, error_line
+from deik.console import Parser, add_output_flags, configure_logging, show_progress
+from deik.experiments import flags as experiment_flags
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
@@ -48,16 +49,6 @@ def run_demo(args: argparse.Namespace) -> int:
 
     rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
-
-
-def run_info(args: argparse.Namespace) -> int:
-    """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
-    from deik.cli.info_command import describe
-
-    up = numbers("--up", args.up) if args.up else None
-    loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
-    print(describe(loaded, args.skeleton))
-    return 0
 
 
 def run_limits(args: argparse.Namespace) -> int:
@@ -79,44 +70,46 @@ def run_limits(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_experiments(argv: list[str]) -> int:
-    """`deik experiments NAME|all [--quick] --out DIR`: the paper's figures (deik.experiments
-    parses its own flags, --help included)."""
-    from deik.experiments.runner import main as experiments_main
+def run_experiments(args: argparse.Namespace) -> int:
+    """`deik experiments NAME|all [--quick] --out DIR`: the paper's figures (deik.experiments.runner)."""
+    from deik.experiments.runner import run
 
-    return experiments_main(argv)
+    return run(args)
+
+
+def _command(commands, name: str, summary: str) -> Parser:
+    """The subcommand `name`: `summary` in `deik --help`'s list and, as a sentence, atop its own --help."""
+    return commands.add_parser(name, help=summary, description=f"{summary[0].upper()}{summary[1:]}.")
 
 
 def build_parser() -> Parser:
+    """The parser of the whole command line: every subcommand and its flags."""
     parser = Parser(prog="deik", description="Inverse kinematics by parallel Differential Evolution.")
     parser.add_argument("--version", action="version", version=f"deik {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    s = commands.add_parser("solve", help="pose one problem and report per-goal errors")
+    s = _command(commands, "solve", "pose one problem and report per-goal errors")
     cli_solve.add_arguments(s)
     s.set_defaults(run=cli_solve.run_solve)
-    i = commands.add_parser("info", help="print a skeleton's joint tree, DOFs, limits, masses and sites")
+    i = _command(commands, "info", "print a skeleton's joint tree, DOFs, limits, masses and sites")
     i.add_argument("skeleton", help="a .bvh or .urdf file, or chain:N, chain3d:N, humanoid")
     i.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated)")
     i.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
     i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
     add_output_flags(i, progress=False)
-    i.set_defaults(run=run_info)
-    c = commands.add_parser("clip", help="fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
+    i.set_defaults(run=cli_info.run_info)
+    c = _command(commands, "clip", "fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
     cli_clip.add_arguments(c)
     cli_library.add_arguments(c)
     c.set_defaults(run=cli_library.run)
-    r = commands.add_parser("retarget", help="move a BVH clip onto other bone lengths or another skeleton")
+    r = _command(commands, "retarget", "move a BVH clip onto other bone lengths or another skeleton")
     cli_retarget.add_arguments(r)
     cli_library.add_arguments(r)
     r.set_defaults(run=cli_library.run)
-    e = commands.add_parser(
-        "experiments",
-        add_help=False,
-        help="reproduce the paper's figures: `deik experiments all --out DIR` (see --help)",
-    )
-    e.add_argument("rest", nargs=argparse.REMAINDER)
-    lim = commands.add_parser("limits", help="measure joint limits from a BVH clip's range of motion")
+    e = _command(commands, "experiments", experiment_flags.SUMMARY)
+    experiment_flags.add_arguments(e)
+    e.set_defaults(run=run_experiments)
+    lim = _command(commands, "limits", "measure joint limits from a BVH clip's range of motion")
     lim.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
     lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
     lim.add_argument(
@@ -135,13 +128,13 @@ def build_parser() -> Parser:
     )
     add_output_flags(lim, progress=False)
     lim.set_defaults(run=run_limits)
-    v = commands.add_parser("view", help="a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
+    v = _command(commands, "view", "a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
     cli_view.add_arguments(v)
     v.set_defaults(run=cli_view.run_view)
-    w = commands.add_parser("warmup", help="compile the kernels ahead of time (minutes, once after an install)")
+    w = _command(commands, "warmup", "compile the kernels ahead of time (minutes, once after an install)")
     cli_warmup.add_arguments(w)
     w.set_defaults(run=cli_warmup.run_warmup)
-    d = commands.add_parser("demo", help="run the paper's scenarios, print a table and write pictures")
+    d = _command(commands, "demo", "run the paper's scenarios, print a table and write pictures")
     d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
     add_output_flags(d)
     d.set_defaults(run=run_demo)
@@ -151,8 +144,6 @@ def build_parser() -> Parser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["experiments"]:
-        return run_experiments(argv[1:])
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args)

@@ -7,31 +7,23 @@ import logging
 import math
 import os
 from collections.abc import Iterable
-from typing import NoReturn
 
-from deik.errors import UsageError
+from deik.errors import DeikError, UsageError
 
 MESSAGE_LIMIT = 500
 
 
-# what a user's mistake raises (deik's own errors are InputError, a ValueError; a missing
-# optional package ImportError; an unreadable file OSError; an unknown joint KeyError)
-USER_ERRORS = (UsageError, ValueError, ImportError, OSError, KeyError)
+# what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
+# as asked, a GPU that cannot run it), a missing optional package's ImportError, an unreadable
+# file's OSError. Anything else is a bug in deik.
+USER_ERRORS = (DeikError, ImportError, OSError)
 
 
 def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
     """The message of `error` on one line and at most `limit` characters (a whole echoed input is
-    cut); a KeyError's message is its args[0] (str() would add quotes)."""
-    message = error.args[0] if isinstance(error, KeyError) and error.args else error
-    line = " ".join(str(message).split())
+    cut)."""
+    line = " ".join(str(error).split())
     return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse that raises UsageError instead of printing usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
 
 
 def numbers(flag: str, words: Iterable[str]) -> list[float]:
@@ -92,26 +84,22 @@ def check_outputs(
 
 
 def check_device(device: str) -> None:
-    """UsageError when `device` is "gpu" and no usable CUDA GPU is here."""
+    """DeviceError, one line naming the fix, when `device` is "gpu" and no usable CUDA GPU (or
+    numba-cuda) is here (deik.solver.routing.require_gpu)."""
     if device != "gpu":
         return
-    try:
-        from numba import cuda
-    except ImportError:
-        raise UsageError('--device gpu needs numba-cuda: pip install "deik[gpu]"') from None
-    if not cuda.is_available():
-        raise UsageError("--device gpu: no CUDA GPU is available here; use --device cpu")
+    from deik.solver.routing import require_gpu
+
+    require_gpu()
 
 
 def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
-    """Say in one note on stderr (the "deik" logger) before a CPU solve that must compile kernels
+    """Say in one note on stderr (the "deik" logger) before a solve that must compile kernels
     first which, and about how long (deik.solver.readiness), so nobody waits in silence; returns
     their names (give them to record_compiles once the solve is done)."""
-    if device != "cpu":
-        return []
     from deik.solver.readiness import compile_note, pending
 
-    names = pending(dtype, polish, clip)
+    names = pending(dtype, polish, clip, device)
     if names:
         logging.getLogger(__name__).info(compile_note(names, certain=not clip))
     return names

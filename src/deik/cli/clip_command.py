@@ -10,10 +10,12 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-from collections.abc import Callable
+from dataclasses import fields
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from deik.cleanup.specs import CONTACT_FORMS, PLANT_FORMS
 from deik.cleanup.units import METRES
 from deik.cli.arguments import (
     UsageError,
@@ -25,15 +27,12 @@ from deik.cli.arguments import (
 )
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
-from deik.suggest import did_you_mean
+from deik.io.bvh import read_bvh, write_bvh
 from deik.viz.text import format_table
 
-PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
-CONTACT_FORMS = (
-    "auto (every joint and end site, detected), none, or POINT[@A-B[,A-B...]] (repeatable): POINT a "
-    "joint, an end site or a bone PARENT-CHILD, detected without @, in contact over frames A-B "
-    "(inclusive) with it"
-)
+if TYPE_CHECKING:  # deik.cleanup.clean loads when a clip is cleaned
+    from deik.cleanup.clean import CleanedClip, CleanOptions
+
 log = logging.getLogger(__name__)
 
 
@@ -130,142 +129,6 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="the clip's length unit in the reports (default: read from the body's size, and said; the fix needs none)",
     )
     add_output_flags(c)
-
-
-def _check_site(clip, site: str, flag: str) -> None:
-    """UsageError naming `flag`, the unknown `site` and the names to choose from."""
-    sk = clip.skeleton
-    if site not in sk.frame_names:
-        raise UsageError(
-            f"{flag}: no joint or site {site!r} in {os.path.basename(clip.source) or 'the clip'}"
-            f"{did_you_mean(site, sk.frame_names)}; its sites are {', '.join(sk.site_names)} "
-            f"and its joints {', '.join(sk.joint_names)}"
-        )
-
-
-def _frames(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[int, int]]:
-    """(start, stop) ranges, stop exclusive, of A-B[,A-B...] (inclusive), else UsageError."""
-    out = []
-    for span in spans.split(","):
-        start, _, stop = span.partition("-")
-        if not (start.strip().isdigit() and stop.strip().isdigit()):
-            raise UsageError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
-        start, stop = int(start), int(stop)
-        if not start <= stop < n_frames:
-            raise UsageError(
-                f"{flag} {form!r}: frames {start}-{stop} are outside the clip or "
-                f"reversed; valid frames: 0..{n_frames - 1} (A-B, both inclusive)"
-            )
-        out.append((start, stop + 1))
-    return out
-
-
-def _feet(args, motion, body, floor: float, paths):
-    """The --plant-feet contacts (None for none; auto by default): each foot's heel and toe."""
-    from deik.cleanup.ground import detect_resting, given_contacts
-
-    forms = args.plant_feet or ["auto"]
-    if forms == ["none"]:
-        return None
-    if "auto" in forms:
-        if len(forms) > 1:
-            raise UsageError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
-        points = tuple(name for foot in body.feet for name in (foot.heel, foot.toe))
-        if not points:
-            return None
-        detect = dict(band=args.contact_height, speed=args.contact_speed, paths=paths)
-        return detect_resting(motion, body, floor, points, idle=False, **detect)
-    masks = {}
-    for form in forms:
-        site, _, spans = form.partition(":")
-        if not site or not spans:
-            raise UsageError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
-        _check_site(motion, site, f"--plant-feet {form!r}")
-        mask = masks.setdefault(site, np.zeros(motion.n_frames, bool))
-        for start, stop in _frames(form, spans, motion.n_frames, "--plant-feet"):
-            mask[start:stop] = True
-    return given_contacts(motion, body, floor, masks)
-
-
-def _point(clip, point: str, form: str):
-    """(parent, child) of a bone PARENT-CHILD, or (point,) of a joint or site; else UsageError."""
-    from deik.cleanup.body_contacts import bone_ends
-
-    if point in clip.skeleton.frame_names:
-        return (point,)
-    ends = bone_ends(clip.skeleton, point)
-    if ends is None:
-        _check_site(clip, point, f"--contact {form!r} (a joint, an end site or a bone PARENT-CHILD)")
-    return ends
-
-
-def _body(args, motion, body, floor: float, paths) -> list:
-    """The --contact contacts, one Contacts per form (auto by default: every point of the body
-    that rests, the feet's heels and toes aside, which --plant-feet gives)."""
-    from deik.cleanup.body_contacts import bone_contacts
-    from deik.cleanup.ground import detect_resting, given_contacts
-
-    forms = args.contact or ["auto"]
-    if forms == ["none"]:
-        return []
-    detect = dict(band=args.contact_height, speed=args.contact_speed, paths=paths)
-    feet = {name for foot in body.feet for name in (foot.heel, foot.toe)}
-    parts = []
-    for form in forms:
-        if form in ("auto", "none"):
-            if form == "none":
-                raise UsageError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
-            points = tuple(name for name in body.contact_points() if name not in feet)
-            parts.append(detect_resting(motion, body, floor, points, idle=False, **detect))
-            continue
-        point, at, spans = form.partition("@")
-        ends = _point(motion, point.strip(), form)
-        if not at:
-            parts.append(detect_resting(motion, body, floor, ends, **detect))
-            continue
-        frames = np.zeros(motion.n_frames, bool)
-        for start, stop in _frames(form, spans, motion.n_frames, "--contact"):
-            frames[start:stop] = True
-        masks = bone_contacts(motion, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
-        parts.append(given_contacts(motion, body, floor, masks))
-    return parts
-
-
-def _floor(args, motion, body, paths):
-    """(the floor, a deik.cleanup.ground.FloorChoice; whether it is kept as a goal): --floor auto,
-    none or a number."""
-    from deik.cleanup.ground import FloorChoice, detect_floor
-
-    if args.floor in ("auto", "none"):
-        return detect_floor(motion, body, paths), args.floor == "auto"
-    try:
-        height = float(args.floor)
-    except ValueError:
-        height = float("nan")
-    if not np.isfinite(height):
-        raise UsageError(f"--floor {args.floor!r}: use a height (a finite number in length units), auto or none")
-    return FloorChoice(height, "given"), True
-
-
-def _contacts(args, motion, body, floor: float, paths):
-    """Every contact the flags ask for, merged on the floor at `floor`; None for none."""
-    from deik.cleanup.body_contacts import merge_contacts
-
-    parts = [part for part in [_feet(args, motion, body, floor, paths), *_body(args, motion, body, floor, paths)]]
-    parts = [part for part in parts if part is not None and part.sites]
-    return merge_contacts(parts, floor) if parts else None
-
-
-def _reaches(args, clip):
-    from deik.cleanup.clip_goals import Reach
-    from deik.cleanup.tracks import parse_reach_spec
-
-    out = []
-    for spec in args.reach:
-        site, mask, targets = parse_reach_spec(spec, clip.n_frames)
-        _check_site(clip, site, f"--reach {spec!r}")
-        out.append(Reach(site, mask, targets))
-    return tuple(out)
 
 
 def _shown(values, pick) -> str:
@@ -379,29 +242,15 @@ def _far_warning(document: dict, far_degrees: float) -> str | None:
     )
 
 
-def run_clip(
-    args: argparse.Namespace,
-    on_frames: Callable[[int, int], None] | None = None,
-    record: dict | None = None,
-) -> int:
-    """`deik clip`: read, fix, report, write (atomically; nothing is written on an error).
-    For a library (deik.cli.folder_command): `on_frames(done, total)` follows the frames that meet
-    their goals, and `record` (a dict) receives the clip's frames and summary metrics."""
-    from deik.cleanup.body import body_of, on_body
-    from deik.cleanup.clip_goals import GRAVITY, ClipGoals
-    from deik.cleanup.document import clip_document
-    from deik.cleanup.dynamics import FAR_DEGREES
-    from deik.cleanup.fix import fix_clip
-    from deik.cleanup.ground import body_paths
-    from deik.cleanup.units import unit_of_span
-    from deik.io.bvh import read_bvh, write_bvh
+def clean_options(args: argparse.Namespace) -> CleanOptions:
+    """The CleanOptions of `deik clip`'s flags (each field is the flag of the same name)."""
+    from deik.cleanup.clean import CleanOptions
 
-    check_outputs(
-        {"--out": args.out, "--report": args.report, "--json": args.json},
-        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
-        (args.clip, args.segments, args.limits),
-        args.overwrite,
-    )
+    return CleanOptions(**{option.name: getattr(args, option.name) for option in fields(CleanOptions)})
+
+
+def check_first(args: argparse.Namespace) -> None:
+    """Mistakes in the flags found before any work, for one clip or a folder."""
     check_device(args.device)
     if args.report_3d and not args.report:
         raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
@@ -409,78 +258,77 @@ def run_clip(
         from deik.viz.plot import require_matplotlib
 
         require_matplotlib()
-    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
-    if args.limits:
-        from deik.io.limits import clip_within, read_limits, with_limits
 
-        clip = clip_within(
-            clip, with_limits(clip.skeleton, read_limits(args.limits, clip.skeleton)), f"--limits {args.limits}"
+
+def print_outcome(cleaned: CleanedClip, quiet: bool) -> None:
+    """What `deik clip` prints on stdout: the goal and metric tables, the reaches out of reach,
+    the summary line, balance and the peaks; then the warning about joints far from the capture."""
+    document, fix = cleaned.report, cleaned.fix
+    n_frames = cleaned.original.n_frames
+    _print_tables(document, quiet)
+    for key, missed in cleaned.unreachable.items():
+        print(
+            f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
+            f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
         )
-    body = body_of(clip)
-    motion = on_body(clip, body)
-    paths = body_paths(motion, body)
-    floor, keep_floor = _floor(args, motion, body, paths)
-    contacts = _contacts(args, motion, body, floor.height, paths)
-    reach = _reaches(args, clip)
-    unit = args.units or unit_of_span(body.span)
-    goals = ClipGoals(
-        contacts,
-        reach,
-        args.balance,
-        args.fidelity,
-        args.coherence,
-        self_collision=args.self_collision,
-        floor=floor.height if keep_floor else None,
-        gravity=GRAVITY / METRES[unit],
-    )
-    if not args.units:
-        log.info(
-            f"reports in {unit}: the body spans {body.span:.4g} length units from end to end, a person's size in "
-            f"{unit}; --units sets them (the fix itself needs no unit)"
-        )
-    if contacts is not None:
-        described = contacts.describe().replace("\n", "\n  ")
-        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
-    overrides = {
-        k: getattr(args, k) for k in ("population", "generations", "seed", "device") if getattr(args, k) is not None
-    }
-    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
-    with progress_bar(clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
-        progress = frames_reporter(bar, "every goal", on_frames)
-        fix = fix_clip(clip, goals, passes=args.passes, progress=progress, body=body, **overrides)
-    record_compiles(compiling)
-    reach_tracks = [(r.site, r.mask, r.targets) for r in reach]
-    floor_record = floor.record() | {"kept": keep_floor}
-    document = clip_document(fix, contacts, reach_tracks, unit, METRES[unit], FAR_DEGREES, floor_record)
-    if record is not None:
-        metrics = {key: value["after"] for key, value in document["metrics"].items()}
-        record.update(frames=clip.n_frames, frames_met=document["frames_met"], metrics=metrics)
-    _print_tables(document, args.quiet)
-    for key, missed in document["reach_unreached"].items():
-        if missed["frames"]:
-            print(
-                f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
-                f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
-            )
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
-        f"{clip.n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{clip.n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
+        f"{n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
+        f"{int(fix.met.sum())}/{n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
     )
     for line in _outcome_lines(document):
         print(line)
+    from deik.cleanup.dynamics import FAR_DEGREES
+
     far = _far_warning(document, FAR_DEGREES)
     if far:
         log.warning(far)
+
+
+def write_outputs(cleaned: CleanedClip, paths: dict[str, str | None], report_3d: bool = False) -> None:
+    """Write the fixed clip to paths["out"] and, where given, the JSON record to paths["json"]
+    and the report picture to paths["report"] (drawn in 3-D with `report_3d`): all or none."""
+    document = cleaned.report
     with all_or_nothing():
-        write_bvh(args.out, fix.clip)
-        if args.json:
-            write_json_atomically(args.json, document, missing_as_null=True)
-        if args.report:
+        write_bvh(paths["out"], cleaned.clip)
+        if paths.get("json"):
+            write_json_atomically(paths["json"], document, missing_as_null=True)
+        if paths.get("report"):
             from deik.viz.clip_report import plot_clip_report, pose_panel
 
             series = {f"{v['label']} ({v['unit']})": (v["before"], v["after"]) for v in document["per_frame"].values()}
-            title = f"deik clip {os.path.basename(args.clip)}"
-            panel = pose_panel(fix.original, fix.clip, document, "3d" if args.report_3d else "2d", unit)
-            plot_clip_report(series, args.report, clip.frame_time, title, _summary_notes(document), panel)
+            original = cleaned.original
+            title = f"deik clip {os.path.basename(original.source)}"
+            panel = pose_panel(original, cleaned.clip, document, "3d" if report_3d else "2d", cleaned.unit)
+            plot_clip_report(series, paths["report"], original.frame_time, title, _summary_notes(document), panel)
+
+
+def library_record(cleaned: CleanedClip) -> dict:
+    """What a folder run keeps of one clip (its sidecar record and summary row): frames,
+    frames meeting their goals and the metrics after the fix."""
+    document = cleaned.report
+    metrics = {key: value["after"] for key, value in document["metrics"].items()}
+    return {"frames": cleaned.original.n_frames, "frames_met": document["frames_met"], "metrics": metrics}
+
+
+def run_clip(args: argparse.Namespace) -> int:
+    """`deik clip` on one clip: check the flags, clean it (deik.clean_clip), print, write
+    (atomically; nothing is written on an error)."""
+    check_outputs(
+        {"--out": args.out, "--report": args.report, "--json": args.json},
+        {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
+        (args.clip, args.segments, args.limits),
+        args.overwrite,
+    )
+    from deik.cleanup.clean import plan_clean
+
+    check_first(args)
+    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
+    plan = plan_clean(clip, clean_options(args))
+    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
+        cleaned = plan.run(progress=frames_reporter(bar, "every goal"))
+    record_compiles(compiling)
+    print_outcome(cleaned, args.quiet)
+    write_outputs(cleaned, {"out": args.out, "json": args.json, "report": args.report}, args.report_3d)
     return 0

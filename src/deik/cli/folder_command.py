@@ -15,23 +15,22 @@ makes a rerun skip the clip. Every other flag applies to every clip.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
+import dataclasses
 import os
 import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from deik.cli.arguments import USER_ERRORS, UsageError, check_device, error_line
+from deik.cli import clip_command as cli_clip
+from deik.cli import retarget_command as cli_retarget
+from deik.cli.arguments import USER_ERRORS, UsageError, error_line
+from deik.io.bvh import read_bvh
 
 if TYPE_CHECKING:  # deik.library loads when a folder is run
     from deik.library.jobs import Job
 
 FOLDER_FLAGS = ("workers", "executor", "address")
 OUTPUT_FLAGS = {"out": "--out", "json": "--json", "report": "--report", "view": "--view"}
-# not settings: where the outputs go and how the run is shown or spread
-NOT_SETTINGS = {"clip", "run", "command", "quiet", "overwrite", *OUTPUT_FLAGS, *FOLDER_FLAGS}
-FILE_SETTINGS = ("segments", "limits", "map", "to")  # flags naming a file whose bytes shape the outputs
 FAILED = 1  # exit status when a clip failed
 INTERRUPTED = 130
 
@@ -64,9 +63,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`deik clip` or `deik retarget` on one clip or, for a folder, on every clip in it."""
-    from deik.cli import clip_command as cli_clip
-    from deik.cli import retarget_command as cli_retarget
-
     if os.path.isdir(args.clip):
         return run_folder(args)
     given = [f"--{flag}" for flag in FOLDER_FLAGS if getattr(args, flag) is not None]
@@ -76,18 +72,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
-    """The library task (runs in a worker): the one-clip command on `payload["args"]`; its
-    record holds the frames, the metrics and what it printed. JobFailed with the one-line
-    reason for a mistake in the input or a bug."""
-    from deik.cli import clip_command as cli_clip
-    from deik.cli import retarget_command as cli_retarget
+    """The library task (runs in a worker): clean (deik.clean_clip) or retarget (deik.retarget)
+    the clip payload["source"] with payload["options"], write payload["outputs"], and return
+    its record (frames, metrics). JobFailed with the one-line reason for a mistake in the input
+    or a bug."""
     from deik.library.jobs import JobFailed
 
-    command = {"clip": cli_clip.run_clip, "retarget": cli_retarget.run_retarget}[payload["command"]]
-    record, printed = {}, io.StringIO()
     try:
-        with contextlib.redirect_stdout(printed):
-            command(argparse.Namespace(**payload["args"]), on_frames=progress, record=record)
+        if payload["command"] == "clip":
+            return _clean_one(payload, progress)
+        result = cli_retarget.retarget_file(payload["source"], payload["options"], progress)
+        cli_retarget.write_outputs(result, payload["outputs"])
+        return cli_retarget.library_record(result)
     except USER_ERRORS as error:
         raise JobFailed(error_line(error)) from None
     except Exception as error:  # noqa: BLE001 - a bug: this clip fails, the others go on
@@ -95,27 +91,43 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
             f"internal error: {type(error).__name__}: {error_line(error)} (a bug in deik: rerun this clip alone "
             "with DEIK_DEBUG=1 for the traceback)"
         ) from None
-    record["printed"] = printed.getvalue()
-    return record
 
 
-def _settings(args) -> tuple[dict, dict]:
-    """(settings: every flag that shapes the outputs, {flag: file} of the files they name).
-    UsageError for a named file that is missing."""
-    settings = {key: value for key, value in sorted(vars(args).items()) if key not in NOT_SETTINGS}
-    files = {}
-    for key in FILE_SETTINGS:
-        value = settings.get(key)
-        if value is not None and (key != "to" or os.path.splitext(value)[1]):  # --to humanoid names no file
-            files[key] = value
-    for k, spec in enumerate(settings.get("reach") or ()):
-        track = spec.partition("=")[2]
-        if os.path.splitext(track)[1].lower() in (".csv", ".json"):
-            files[f"reach {k}"] = track
-    for key, path in files.items():
+def _clean_one(payload: dict, progress: Callable[[int, int], None]) -> dict:
+    """deik.clean_clip of one clip of a folder, its outputs written; its library record."""
+    from deik.cleanup.clean import clean_clip
+
+    clip = read_bvh(payload["source"], segments=payload["segments"], free_translations=payload["free_translations"])
+    cleaned = clean_clip(clip, payload["options"], progress=lambda met, stage: progress(met, clip.n_frames))
+    cli_clip.write_outputs(cleaned, payload["outputs"], payload["report_3d"])
+    return cli_clip.library_record(cleaned)
+
+
+def _options(args) -> tuple[dict, dict, dict]:
+    """(the options every clip's job takes, the settings that shape the outputs (JSON-able, for
+    the fingerprint), {flag: file} of the files whose bytes shape them). UsageError for a named
+    file that is missing."""
+    if args.command == "clip":
+        options = cli_clip.clean_options(args)
+        reading = {"segments": args.segments, "free_translations": args.free_translations}
+        common = {"options": options, "report_3d": args.report_3d, **reading}
+        settings = {"report_3d": args.report_3d, **reading, **dataclasses.asdict(options)}
+        files = {"--segments": args.segments, "--limits": options.limits}
+        tracks = [spec.partition("=")[2] for spec in options.reach]
+        files |= {f"--reach {k}": track for k, track in enumerate(tracks) if _is_track_file(track)}
+    else:
+        options = cli_retarget.retarget_options(args)
+        common, settings = {"options": options}, dict(options)
+        files = {"--map": args.map, "--to": args.to if os.path.splitext(args.to or "")[1] else None}  # humanoid: none
+    files = {flag: path for flag, path in files.items() if path is not None}
+    for flag, path in files.items():
         if not os.path.isfile(path):
-            raise UsageError(f"--{key.split()[0]} {path!r}: no such file")
-    return settings, files
+            raise UsageError(f"{flag.split()[0]} {path!r}: no such file")
+    return common, settings, files
+
+
+def _is_track_file(track: str) -> bool:
+    return os.path.splitext(track)[1].lower() in (".csv", ".json")
 
 
 def _outputs(args, stem: str, folders: dict) -> dict:
@@ -136,17 +148,12 @@ def _outputs(args, stem: str, folders: dict) -> dict:
 
 def _check_first(args) -> None:
     """Mistakes every clip would fail on, found before any work."""
-    check_device(args.device)
-    if getattr(args, "report", None):
-        from deik.viz.plot import require_matplotlib
-
-        require_matplotlib()
-    if args.command == "retarget":
-        from deik.cli.retarget_command import _frames, _scale
+    if args.command == "clip":
+        cli_clip.check_first(args)
+    else:
         from deik.retargeting.maps import read_map
 
-        _scale(args.scale)
-        _frames(args.frames)
+        cli_retarget.retarget_options(args)  # --scale and --frames
         if args.map:
             read_map(args.map)
     if args.address is not None and args.executor != "ray":
@@ -164,15 +171,13 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
         for flag in OUTPUT_FLAGS
         if getattr(args, flag, None) is not None
     }
-    settings, files = _settings(args)
+    common, settings, files = _options(args)
     jobs = []
     for path in clips:
         name = os.path.basename(path)
         outputs = _outputs(args, os.path.splitext(name)[0], folders)
-        one = {key: value for key, value in vars(args).items() if key != "run"}
-        one.update(outputs, clip=path, quiet=True)
         key = fingerprint(args.command, settings, path, files, outputs.values())
-        payload = {"command": args.command, "args": one}
+        payload = {"command": args.command, "source": path, "outputs": outputs, **common}
         jobs.append(
             Job(name, path, tuple(outputs.values()), sidecar_path(folders["out"], name), key, settings, payload)
         )
@@ -219,15 +224,19 @@ def run_folder(args: argparse.Namespace) -> int:
         if others:
             shown = ", ".join(others[:6]) + (f" and {len(others) - 6} more" if len(others) > 6 else "")
             print(f"{len(jobs)} clips in {args.clip}; skipped (not *.bvh, or a sub-folder): {shown}", file=sys.stderr)
-        announce_compile(args.device or "cpu", "float32", polish=False, clip=True)  # the workers compile
+        announce_compile(
+            getattr(args, "device", None) or "cpu", "float32", polish=False, clip=True
+        )  # the workers compile
     try:
         run = run_library(
             jobs,
             do_clip,
             executor=args.executor or "local",
-            workers=args.workers or (1 if args.device == "gpu" and args.executor != "ray" else None),  # one GPU
+            workers=args.workers
+            or (1 if getattr(args, "device", None) == "gpu" and args.executor != "ray" else None),  # one GPU
             address=args.address,
             quiet=args.quiet,
+            progress=args.progress,
         )
     except KeyboardInterrupt:
         print("deik: interrupted; the clips finished are kept, and rerunning the command goes on", file=sys.stderr)

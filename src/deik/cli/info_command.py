@@ -1,86 +1,81 @@
-"""`deik info`: a skeleton described in text: joint tree, DOFs and limits, masses and sites."""
+"""`deik info`: a skeleton described in text (deik.describe_skeleton's record): joint tree, DOFs
+and limits, masses and sites."""
 
 from __future__ import annotations
 
+import argparse
 import math
 
-import numpy as np
-
-from deik.io.load import Loaded
-from deik.model.joints import ROTATE
-from deik.model.skeleton import Skeleton
+from deik.cli.arguments import numbers
+from deik.io.describe import describe_skeleton
+from deik.io.load import load_skeleton
 from deik.viz.marks import length_unit
 from deik.viz.text import format_table
 
 
-def _dof_cells(skeleton, d: int) -> list[str]:
-    """Name, kind, lower and upper of DOF d (degrees for rotations, length units otherwise)."""
-    rotation = skeleton.dof_kind[d] == ROTATE
-    scale, unit = (180.0 / math.pi, "deg") if rotation else (1.0, "")
-    bound = lambda v: f"{v * scale:.6g}" if math.isfinite(v) else ("-inf" if v < 0 else "inf")  # noqa: E731
-    axis = " ".join(f"{a:.6g}" for a in skeleton.dof_axis[d])
-    return [
-        skeleton.dof_names[d],
-        ("rotate" if rotation else "slide") + f" ({axis})",
-        f"{bound(skeleton.lower[d])} .. {bound(skeleton.upper[d])} {unit}".rstrip(),
-    ]
+def _number(value: float) -> str:
+    return f"{value:.6g}"
 
 
-def joint_tree(skeleton: Skeleton) -> list[str]:
-    """One line per joint (frame), indented by depth, with the URDF joint that moves it where its
+def _dof_cells(dof: dict) -> list[str]:
+    """Name, motion and axis, and limits of one DOF (degrees for rotations, length units otherwise)."""
+    scale, unit = (180.0 / math.pi, "deg") if dof["kind"] == "rotate" else (1.0, "")
+    bound = lambda v: _number(v * scale) if math.isfinite(v) else ("-inf" if v < 0 else "inf")  # noqa: E731
+    axis = " ".join(map(_number, dof["axis"]))
+    return [dof["name"], f"{dof['kind']} ({axis})", f"{bound(dof['lower'])} .. {bound(dof['upper'])} {unit}".rstrip()]
+
+
+def _joint_line(joint: dict) -> str:
+    """One joint of the tree, indented by depth, with the URDF joint that moves it where its
     name differs (the key of its values in a pose), its DOF count and sites."""
-    depth = np.zeros(skeleton.n_joints, int)
-    lines = []
-    for k, name in enumerate(skeleton.joint_names):
-        if k:
-            depth[k] = depth[skeleton.parents[k]] + 1
-        dofs = skeleton.joint_dof_start[k + 1] - skeleton.joint_dof_start[k]
-        mimics = int((skeleton.mimic_joint == k).sum())
-        sites = [s for s, j in zip(skeleton.site_names, skeleton.site_joint) if j == k]
-        label = skeleton.joint_labels[k]
-        notes = (
-            ([f"moved by joint {label}"] if label != name else [])
-            + [f"{dofs} DOF"]
-            + ([f"{mimics} mimic"] if mimics else [])
-            + ([f"sites: {', '.join(sites)}"] if sites else [])
-        )
-        lines.append(f"{'  ' * depth[k]}{name}  ({'; '.join(notes)})")
-    return lines
+    notes = (
+        ([f"moved by joint {joint['label']}"] if joint["label"] != joint["name"] else [])
+        + [f"{joint['dofs']} DOF"]
+        + ([f"{joint['mimics']} mimic"] if joint["mimics"] else [])
+        + ([f"sites: {', '.join(joint['sites'])}"] if joint["sites"] else [])
+    )
+    return f"{'  ' * joint['depth']}{joint['name']}  ({'; '.join(notes)})"
 
 
-def describe(loaded: Loaded, source: str) -> str:
-    """The text `deik info` prints for a loaded skeleton."""
-    sk = loaded.skeleton
-    unit, where = length_unit(sk, loaded.kind)
+def format_info(info: dict, source: str, unit: tuple[str, str] = ("length units", "the skeleton's own")) -> str:
+    """The text `deik info` prints of describe_skeleton's record `info` of `source`, lengths in
+    `unit` (name, where it comes from: deik.viz.marks.length_unit)."""
+    mimics = f" (+{len(info['mimics'])} mimic)" if info["mimics"] else ""
     lines = [
-        f"{source}: {loaded.kind} skeleton {sk.name!r}",
-        f"{sk.n_joints} joints, {sk.n_dofs} DOFs"
-        + (f" (+{len(sk.mimic_names)} mimic)" if sk.mimic_names else "")
-        + f", {len(sk.site_names)} sites, reach {sk.reach:.6g} {unit}, up {tuple(float(u) for u in sk.up)}",
-        f"lengths in {unit}: {where}",
-        f"mass: {sk.total_mass:.6g} kg, {loaded.mass_source}",
+        f"{source}: {info['kind']} skeleton {info['name']!r}",
+        f"{info['joint_count']} joints, {info['dof_count']} DOFs{mimics}, {info['site_count']} sites, "
+        f"reach {_number(info['reach'])} {unit[0]}, up {tuple(info['up'])}",
+        f"lengths in {unit[0]}: {unit[1]}",
+        f"mass: {_number(info['mass_kg'])} kg, {info['mass_source']}",
     ]
-    if loaded.clip is not None:
-        clip = loaded.clip
-        lines.append(f"clip: {clip.n_frames} frames, {clip.frame_time:g} s per frame")
-    lines += ["", "joint tree:"] + ["  " + line for line in joint_tree(sk)]
-    lines += ["", format_table(["DOF", "motion (axis)", "limits"], [_dof_cells(sk, d) for d in range(sk.n_dofs)])]
-    if sk.mimic_names:
-        rows = [
-            [n, sk.dof_names[s], f"{m:.6g}", f"{b:.6g}"]
-            for n, s, m, b in zip(sk.mimic_names, sk.mimic_source, sk.mimic_scale, sk.mimic_bias)
-        ]
-        lines += ["", format_table(["mimic DOF", "follows", "multiplier", "offset"], rows)]
-    if len(sk.mass_value):
-        rows = [
-            [sk.joint_names[j], f"{m:.6g}", " ".join(f"{x:.6g}" for x in o)]
-            for j, m, o in zip(sk.mass_joint, sk.mass_value, sk.mass_offset)
-        ]
-        lines += ["", format_table(["mass on joint", "kg", "centre (joint frame)"], rows)]
-    if sk.site_names:
-        rows = [
-            [n, sk.joint_names[j], " ".join(f"{x:.6g}" for x in o)]
-            for n, j, o in zip(sk.site_names, sk.site_joint, sk.site_offset)
-        ]
-        lines += ["", format_table(["site", "on joint", "offset"], rows)]
+    if info["clip"] is not None:
+        lines.append(f"clip: {info['clip']['frames']} frames, {info['clip']['frame_time_s']:g} s per frame")
+    lines += ["", "joint tree:"] + ["  " + _joint_line(joint) for joint in info["joints"]]
+    lines += ["", format_table(["DOF", "motion (axis)", "limits"], [_dof_cells(dof) for dof in info["dofs"]])]
+    tables = (
+        ("mimics", ["mimic DOF", "follows", "multiplier", "offset"], ("name", "follows", "multiplier", "offset")),
+        ("masses", ["mass on joint", "kg", "centre (joint frame)"], ("joint", "kg", "centre")),
+        ("sites", ["site", "on joint", "offset"], ("name", "joint", "offset")),
+    )
+    for key, header, fields in tables:
+        if info[key]:
+            rows = [[_cell(entry[field]) for field in fields] for entry in info[key]]
+            lines += ["", format_table(header, rows)]
     return "\n".join(lines)
+
+
+def _cell(value) -> str:
+    """A table cell: a name as it is, a number to 6 digits, a vector's numbers side by side."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, list):
+        return " ".join(map(_number, value))
+    return _number(value)
+
+
+def run_info(args: argparse.Namespace) -> int:
+    """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
+    up = numbers("--up", args.up) if args.up else None
+    loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    print(format_info(describe_skeleton(loaded), args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
+    return 0

@@ -12,19 +12,20 @@ import argparse
 import os
 import re
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from deik.cli.arguments import (
-    UsageError,
-    add_free_translations,
-    announce_compile,
-    check_device,
-    check_outputs,
-    record_compiles,
-)
+from deik.cli.arguments import UsageError, add_free_translations, announce_compile, check_outputs, record_compiles
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
+from deik.io.bvh import read_bvh, write_bvh
+from deik.io.motion import Clip
+from deik.io.trajectory import write_trajectory
 from deik.viz.text import format_table
 
+if TYPE_CHECKING:  # deik.retargeting loads when a clip is retargeted
+    from deik.retargeting.outcome import Retarget
+
+SHOWN_STEPS = 10  # velocity violations printed; --json lists them all
 FRAMES = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
 SHOWN = (
     ("keypoint_error_mean_mm", "key-point error, mean", "mm"),
@@ -37,6 +38,8 @@ SHOWN = (
     ("keypoint_acceleration_peak_ratio", "key-point acceleration peak / targets'", "ratio"),
     ("joint_angle_deviation_mean_deg", "joint angle from the source, mean", "deg"),
     ("limit_violations_count", "limit violations", "count"),
+    ("velocity_violations_count", "steps past a velocity limit (frame, DOF)", "count"),
+    ("floor_height", "floor height (target world)", "length unit"),
     ("time_per_frame_ms", "time per frame", "ms"),
 )
 
@@ -58,8 +61,6 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
-    r.add_argument("--seed", type=int, help="random seed of the contact repairs (same rig; a --map retarget has none)")
-    r.add_argument("--device", choices=["cpu", "gpu"], help="where the contact repairs run (same rig; default cpu)")
     add_free_translations(r)
     add_output_flags(r)
 
@@ -89,53 +90,88 @@ def _frames(text: str | None):
     return int(match[1]), int(match[2])
 
 
-def run_retarget(
-    args: argparse.Namespace,
-    on_frames: Callable[[int, int], None] | None = None,
-    record: dict | None = None,
-) -> int:
-    """`deik retarget`: read, retarget, report, write (all outputs or none). For a library
-    (deik.cli.folder_command): `on_frames(done, total)` follows the frames that meet their contacts,
-    and `record` (a dict) receives the frames and the report's summary."""
-    from deik.io.bvh import read_bvh, write_bvh
-    from deik.io.motion import Clip
-    from deik.io.trajectory import write_trajectory
+def retarget_options(args: argparse.Namespace) -> dict:
+    """deik.retarget's keyword arguments from the flags: to, scale, joint_map and frames (cut
+    from the source first)."""
+    return {"to": args.to, "scale": _scale(args.scale), "joint_map": args.map, "frames": _frames(args.frames)}
+
+
+def retarget_file(path: str, options: dict, progress: Callable[[int, int], None] | None = None) -> Retarget:
+    """deik.retarget of the BVH clip at `path` with `options` (retarget_options);
+    `progress(met, total)` follows the frames that meet their contacts."""
     from deik.retargeting.api import retarget
     from deik.retargeting.outcome import frame_range
 
+    clip = frame_range(read_bvh(path), options["frames"])
+    report = None if progress is None else (lambda met, stage: progress(met, clip.n_frames))
+    return retarget(clip, **{**options, "frames": None}, progress=report)
+
+
+def write_outputs(result: Retarget, paths: dict[str, str | None]) -> None:
+    """Write the motion to paths["out"] (.bvh for a BVH target, else a .csv or .json joint
+    trajectory) and, where given, its BVH view to paths["view"] and the report to
+    paths["json"]: all or none. UsageError for a BVH target's motion asked as a trajectory."""
+    out = paths["out"]
+    if isinstance(result.motion, Clip) and not out.lower().endswith(".bvh"):
+        raise UsageError(f"--out {out!r}: a BVH target's motion is written as .bvh")
+    with all_or_nothing():
+        if out.lower().endswith(".bvh"):
+            write_bvh(out, result.clip)
+        else:
+            write_trajectory(out, result.motion)
+        if paths.get("view"):
+            write_bvh(paths["view"], result.clip)
+        if paths.get("json"):
+            write_json_atomically(paths["json"], result.report, missing_as_null=True)
+
+
+def library_record(result: Retarget) -> dict:
+    """What a folder run keeps of one clip: its frames and the report's summary."""
+    summary = result.report["summary"]
+    return {"frames": summary["frames_count"], "metrics": dict(summary)}
+
+
+def print_velocity_steps(result: Retarget) -> None:
+    """The first SHOWN_STEPS steps between frames that a DOF's velocity limit does not allow,
+    in the target's units (rad, or a URDF's m)."""
+    from deik.model.joints import ROTATE
+
+    dofs = result.motion.skeleton
+    for step in result.report.get("velocity_violations", [])[:SHOWN_STEPS]:
+        unit = "rad" if dofs.dof_kind[dofs.dof_names.index(step["dof"])] == ROTATE else "m"
+        print(
+            f"frame {step['frame']}->{step['frame'] + 1}: {step['dof']} steps {step['step']:.4g} {unit}, "
+            f"its velocity limit allows {step['largest']:.4g} {unit} a frame"
+        )
+
+
+def run_retarget(args: argparse.Namespace) -> int:
+    """`deik retarget` on one clip: check the flags, retarget (deik.retarget), print the
+    report's summary, write (all outputs or none)."""
     check_outputs(
         {"--out": args.out, "--view": args.view, "--json": args.json},
         {"--out": (".bvh", ".csv", ".json"), "--view": (".bvh",), "--json": (".json",)},
         (args.clip, args.to, args.map),
     )
-    check_device(args.device)
-    settings = {k: getattr(args, k) for k in ("seed", "device") if getattr(args, k) is not None}
-    clip = frame_range(read_bvh(args.clip, free_translations=args.free_translations), _frames(args.frames))
-    compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
+    from deik.retargeting.api import retarget
+    from deik.retargeting.outcome import frame_range
+
+    options = retarget_options(args)
+    clip = frame_range(read_bvh(args.clip, free_translations=args.free_translations), options["frames"])
+    compiling = announce_compile("cpu", "float32", polish=False, clip=True)
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
-        progress = frames_reporter(bar, "their contacts", on_frames)
-        result = retarget(clip, args.to, scale=_scale(args.scale), joint_map=args.map, progress=progress, **settings)
+        result = retarget(clip, **{**options, "frames": None}, progress=frames_reporter(bar, "their contacts"))
     record_compiles(compiling)
-    trajectory = not isinstance(result.motion, Clip)
-    if not trajectory and not args.out.lower().endswith(".bvh"):
+    if isinstance(result.motion, Clip) and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")
     summary = result.report["summary"]
-    if record is not None:
-        record.update(frames=summary["frames_count"], metrics=dict(summary))
     rows = [[label, unit, f"{summary[key]:.4g}"] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
     print(
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
-    with all_or_nothing():
-        if args.out.lower().endswith(".bvh"):
-            write_bvh(args.out, result.clip)
-        else:
-            write_trajectory(args.out, result.motion)
-        if args.view:
-            write_bvh(args.view, result.clip)
-        if args.json:
-            write_json_atomically(args.json, result.report, missing_as_null=True)
+    print_velocity_steps(result)
+    write_outputs(result, {"out": args.out, "view": args.view, "json": args.json})
     return 0

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -26,14 +27,14 @@ from deik.cli.arguments import (
     record_compiles,
 )
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
-from deik.console import add_output_flags, progress_bar, show_generation, show_progress
+from deik.console import Parser, add_output_flags, progress_bar, show_generation, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.pose_json import pose_angles, read_pose_json
 from deik.model.joints import ROTATE
 from deik.solver.problem import Problem
-from deik.solver.problem_file import load_problem
+from deik.solver.problem_file import ProblemFile, load_problem
 from deik.solver.seeding import poses_around
 from deik.solver.settings import STRATEGIES, Settings
 from deik.solver.solve import solve
@@ -150,9 +151,10 @@ def _file_flags_used(args) -> bool:
     return any(v not in (None, []) for v in flags) or args.free_translations
 
 
-def _problem(args):
-    """(problem, settings dict, loaded skeleton or None, start pose or None, BVH frame number or
-    None) from the flags or the --problem file."""
+def pose_problem(args: argparse.Namespace) -> ProblemFile:
+    """The problem the flags pose (deik.solver.problem_file.ProblemFile): from --problem FILE,
+    or the skeleton, its options, --start and the goal flags; its settings hold the file's and
+    the setting flags' (the flags win). UsageError for a mistake in the flags."""
     spec = args.skeleton_flag or args.skeleton
     if args.skeleton_flag and args.skeleton:
         raise UsageError("give the skeleton once: either SKELETON or --skeleton FILE")
@@ -163,8 +165,7 @@ def _problem(args):
                 "drop the SKELETON argument, skeleton options, --start and goal flags or put them in the file"
             )
         file = load_problem(args.problem)
-        pose = None if file.frame is None else _clip_pose(file.loaded.clip, file.frame)
-        return file.problem, file.settings, file.loaded, pose, file.frame
+        return replace(file, settings=file.settings | _settings(args))
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
@@ -184,7 +185,29 @@ def _problem(args):
         frame_pose = _start_pose(args.start, loaded.skeleton)
     if not has_goals(args):
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
-    return Problem(loaded.skeleton, goals_from_flags(args, frame_pose)), {}, loaded, frame_pose, args.frame
+    problem = Problem(loaded.skeleton, goals_from_flags(args, frame_pose))
+    return ProblemFile(problem, _settings(args), loaded, args.frame, frame_pose)
+
+
+def _settings(args) -> dict:
+    """The settings the setting flags give (--seed, --population, ..., --memory-limit in GiB)."""
+    settings = {k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None}
+    if args.memory_limit is not None:
+        if not args.memory_limit > 0:
+            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
+        settings["memory_limit"] = int(args.memory_limit * 2**30)
+    return settings
+
+
+def problem_from_flags(words: Sequence[str]) -> ProblemFile:
+    """The problem `deik solve WORDS` would solve, e.g. problem_from_flags(["chain:20", "--reach",
+    "tip", "12", "8", "0", "--seed", "3"]) (or ["--problem", "problem.toml"]): its Problem, its
+    settings and the pose the search starts around; solve it with
+    deik.solve(spec.problem, **spec.settings). Flags that only write or show (--out, --plot,
+    --quiet, ...) are accepted and ignored. UsageError (a deik.InputError) for a mistake."""
+    parser = Parser(prog="deik solve")
+    add_arguments(parser)
+    return pose_problem(parser.parse_args([str(word) for word in words]))
 
 
 def _clip_pose(clip, frame: int):
@@ -235,18 +258,14 @@ def run_solve(args: argparse.Namespace) -> int:
         raise UsageError("--plot-3d sets how --plot draws the pose: add --plot pose.png")
     if args.plot:
         plot.require_matplotlib()
-    problem, settings, loaded, frame_pose, frame = _problem(args)
-    settings.update({k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None})
-    if args.memory_limit is not None:
-        if not args.memory_limit > 0:
-            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
-        settings["memory_limit"] = int(args.memory_limit * 2**30)
-    settings = Settings(**settings)
+    posed = pose_problem(args)
+    problem, loaded, frame = posed.problem, posed.loaded, posed.frame
+    settings = Settings(**posed.settings)
     check_device(settings.device)
     initial = None
-    if frame_pose is not None:
+    if posed.start is not None:
         initial = poses_around(
-            problem.skeleton, frame_pose, max(1, settings.population // SEED_FRACTION), seed=settings.seed
+            problem.skeleton, posed.start, max(1, settings.population // SEED_FRACTION), seed=settings.seed
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"

@@ -9,19 +9,13 @@ machine until Ctrl-C (needs deik[view]).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import webbrowser
 
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, numbers
-from deik.io.load import load_skeleton
-from deik.io.pose_json import pose_angles, read_pose_json
-from deik.viz.marks import length_unit
-from deik.viz.scene import Scene, figure_from_pose_file, figure_from_poses, target_marks, with_compare
-
-DEFAULT_PORT = 8080
-DEFAULT_UP = (0.0, 1.0, 0.0)
+from deik.cli.arguments import numbers
+from deik.viz.scene import Scene
+from deik.viz.view import DEFAULT_PORT, ViewOptions, can_open_browser, view, view_scene
 
 
 def add_arguments(v: argparse.ArgumentParser) -> None:
@@ -53,111 +47,31 @@ def add_arguments(v: argparse.ArgumentParser) -> None:
     v.add_argument("--no-browser", action="store_true", help="print the address instead of opening a browser")
 
 
-def _pose_file_scene(path: str, units: str | None) -> Scene:
-    """The scene of a pose JSON alone: its frames, tree, centre of mass and targets."""
-    pose = read_pose_json(path)
-    figure = figure_from_pose_file(pose)
-    marks, obstacles = target_marks(pose.targets, len(pose.angles))
-    unit, source = (units, "given") if units else (pose.length_unit, "the pose file")
-    return Scene(
-        os.path.basename(path),
-        figure,
-        DEFAULT_UP if pose.up is None else pose.up,
-        unit or "length units",
-        source if unit else "not in the pose file; --units names it",
-        step="problem" if pose.batched else "pose",
-        marks=marks,
-        obstacles=obstacles,
-    )
-
-
-def _skeleton_scene(args) -> tuple[Scene, object]:
-    """(scene, loaded skeleton) of FILE as a skeleton: a BVH clip's frames, or a skeleton in the
-    --pose pose (a batch: one step per problem) or its reference pose."""
-    up = numbers("--up", args.up) if args.up else None
-    loaded = load_skeleton(args.file, base=args.base, tip=args.tip, segments=args.segments, up=up)
-    skeleton = loaded.skeleton
-    unit, source = length_unit(skeleton, loaded.kind, args.units)
-    # the first clause says where the masses behind the centre of mass come from; the rest is detail
-    notes = [f"masses: {loaded.mass_source.split(';')[0]}"] if skeleton.total_mass > 0 else []
-    title = os.path.basename(args.file)
-    if args.pose:
-        pose = read_pose_json(args.pose)
-        angles = pose_angles(pose, skeleton, "--pose")
-        marks, obstacles = target_marks(pose.targets, len(angles))
-        figure = figure_from_poses(skeleton, angles)
-        title = f"{title} in {os.path.basename(args.pose)}"
-        step = "problem" if pose.batched else "pose"
-        scene = Scene(title, figure, skeleton.up, unit, source, step, None, None, marks, None, obstacles, tuple(notes))
-        return scene, loaded
-    if loaded.clip is not None:
-        figure = figure_from_poses(skeleton, loaded.clip.poses())
-        step, step_time = "frame", loaded.clip.frame_time
-    else:
-        figure, step, step_time = figure_from_poses(skeleton, skeleton.reference), "pose", None
-        notes.append("the reference pose: --pose pose.json shows a solved one")
-    return Scene(title, figure, skeleton.up, unit, source, step, step_time, notes=tuple(notes)), loaded
-
-
-def _compared(path: str, args):
-    """The Figure of --compare: a BVH clip's frames or a pose JSON's pose(s)."""
-    if path.lower().endswith(".json"):
-        return figure_from_pose_file(read_pose_json(path), os.path.basename(path))
-    if not path.lower().endswith(".bvh"):
-        raise UsageError(f"--compare {path!r}: give a .bvh clip or a pose .json")
-    loaded = load_skeleton(path, segments=args.segments)
-    return figure_from_poses(loaded.skeleton, loaded.clip.poses(), os.path.basename(path))
+def view_options(args: argparse.Namespace) -> ViewOptions:
+    """The ViewOptions of `deik view`'s flags."""
+    up = tuple(numbers("--up", args.up)) if args.up else None
+    names = ("pose", "compare", "report", "segments", "base", "tip", "units")
+    return ViewOptions(up=up, **{name: getattr(args, name) for name in names})
 
 
 def build_scene(args: argparse.Namespace) -> Scene:
-    """The Scene the flags describe; UsageError or ValueError naming the flag or file at fault."""
-    is_pose_file = args.file.lower().endswith(".json")
-    if is_pose_file and any((args.pose, args.segments, args.base, args.tip, args.up)):
-        raise UsageError(
-            f"{args.file} is a pose JSON and draws itself; --pose and the skeleton flags apply to a "
-            ".bvh, .urdf or built-in FILE"
-        )
-    if is_pose_file:
-        scene, loaded = _pose_file_scene(args.file, args.units), None
-    else:
-        scene, loaded = _skeleton_scene(args)
-    if args.report:
-        if loaded is None or loaded.clip is None or args.pose:
-            raise UsageError("--report marks a clip: give the clip it reports on as FILE (a .bvh), without --pose")
-        from deik.viz.report_marks import read_clip_report, with_clip_report
-
-        scene = with_clip_report(scene, read_clip_report(args.report), args.report)
-    if args.compare:
-        scene = with_compare(scene, _compared(args.compare, args), f"--compare {args.compare}")
-    return scene
-
-
-def _can_open_browser() -> bool:
-    """Whether a graphical browser can open here: a display, macOS, Windows, or $BROWSER set
-    (without one, Python's webbrowser may start a text browser in this terminal)."""
-    shown = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY") or os.environ.get("BROWSER")
-    return bool(shown) or sys.platform in ("darwin", "win32")
+    """The Scene the flags describe (deik.viz.view.view_scene); InputError naming the flag or file at fault."""
+    return view_scene(args.file, view_options(args))
 
 
 def run_view(args: argparse.Namespace) -> int:
-    """`deik view`: build the scene (every input checked first), serve it, open the browser."""
-    from deik.viz.viewer import require_viser, serve
+    """`deik view`: build the scene (every input checked first), serve it (deik.view), open the browser."""
 
-    if not 0 <= args.port <= 65535:
-        raise UsageError(f"--port {args.port}: give a port from 1 to 65535 (0: any free port)")
-    require_viser()
-    scene = build_scene(args)
-
-    def ready(url: str) -> None:
+    def ready(url: str, scene: Scene) -> None:
         steps = f", {scene.n_steps} {scene.step}s" if scene.n_steps > 1 else ""
         print(f"deik view: {scene.title}{steps} at {url} (Ctrl-C stops)", flush=True)
         if args.no_browser:
             return
-        if not (_can_open_browser() and webbrowser.open(url)):
+        if not (can_open_browser() and webbrowser.open(url)):
             print("deik view: no browser to open here; open the address above in one", flush=True)
 
     try:
-        serve(scene, args.host, args.port, on_ready=ready)
+        view(args.file, view_options(args), host=args.host, port=args.port, browser=False, on_ready=ready)
     except KeyboardInterrupt:
         print("deik view: stopped", file=sys.stderr)
     return 0

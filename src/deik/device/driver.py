@@ -34,15 +34,16 @@ def initialise_individual(b, i, state, skel, terms, settings, initial, n_initial
     state.total[b, i] = evaluate(state.pop[b, i], b, skel, terms, scratch, state.levels[b, i], state.raw[b, i])
 
 
-def polish_first(b, state, skel, terms, settings, memetic, initial, n_initial, scratch, axes, lm, q, lv, rw):
+def polish_first(b, state, skel, terms, settings, schedule, initial, n_initial, scratch, axes, lm, q, lv, rw, halt):
     """The start of a lazy first population: individual 0 of problem b (initial[b, 0], else
     its uniform pose) evaluated and polished; returns whether it meets every tolerance, in
     which case the problem stops and the rest of its population is never sampled. Its frames
-    are computed once, with the motion axes, to score it and to start the polish."""
+    are computed once, with the motion axes, to score it and to start the polish. halt: the
+    host's stop flag (device_lm.polish)."""
     seed_individual(b, 0, state, skel, settings, initial, n_initial)
     forward_kinematics(state.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
     state.total[b, 0] = score(state.pop[b, 0], b, skel, terms, scratch, state.levels[b, 0], state.raw[b, 0])
-    polish(b, 0, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw, True)
+    polish(b, 0, state, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, True, halt)
     return within_tolerances(b, state.raw[b, 0], terms, state.raw.shape[2])
 
 
@@ -67,7 +68,7 @@ def propose(b, i, gen, cur, skel, settings, status, trial, trial_rates):
         status.leaders[b, i // (cur.pop.shape[1] // settings.islands)],
         gen,
         settings,
-        skel.limits,
+        skel.bounds,
         trial,
         trial_rates,
         status.restarting[b],
@@ -91,10 +92,10 @@ def breed_individual(b, i, gen, cur, nxt, skel, terms, settings, status, scratch
     select(b, i, cur, nxt, status, trial, lv, rw, tot, trial_rates)
 
 
-def polish_individual(b, target, state, skel, terms, memetic, scratch, axes, lm, q, lv, rw):
+def polish_individual(b, target, state, skel, terms, schedule, scratch, axes, lm, q, lv, rw, halt):
     """LM polish of individual `target` of problem b in place (see device_lm.polish); returns
     whether the round may stop there: it meets every tolerance and no goal without one
     (comfort) is left to improve, which every polished individual then pursues."""
-    polish(b, target, state, memetic.iterations, skel, terms, scratch, axes, lm, q, lv, rw, False)
+    polish(b, target, state, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, False, halt)
     T = state.raw.shape[2]
     return within_tolerances(b, state.raw[b, target], terms, T) and not open_ended(b, terms, T)

@@ -59,10 +59,11 @@ def donor(n, exclude_a, exclude_b, exclude_c, n_exclude, key, draw):
     return r
 
 
-def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates, restart):
+def make_trial(pop, rates, b, i, best, gen, settings, bounds, trial, trial_rates, restart):
     """DE trial vector for individual i of problem b (Figure 1: reads only the current
     population) and the F, CR it used (trial_rates); `best` is the leader of i's island, whose
-    members are its only donors (settings: layout.KernelSettings). Limit modes: reflect and
+    members are its only donors (settings: layout.KernelSettings; bounds: the flat limits,
+    PackedSkeleton.bounds). Limit modes: reflect and
     clip fold or clamp genes into the limits, penalty lets them leave (a top-priority term
     penalises it), paper is Algorithm 2. adaptive (jDE): each individual carries its own F and
     CR in rates (B, P, 2), redrawn with probability 0.1 (F in [0.1, 1], CR in [0, 1]) and
@@ -77,7 +78,8 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
     base = (i // size) * size
     if restart:
         for d in range(D):
-            trial[d] = limits[d, LOWER] + (limits[d, UPPER] - limits[d, LOWER]) * unit(key, 4 + d)
+            lo, hi = bounds[2 * d + LOWER], bounds[2 * d + UPPER]
+            trial[d] = lo + (hi - lo) * unit(key, 4 + d)
         trial_rates[RATE_F], trial_rates[RATE_CR] = settings.F, settings.CR
         return
     t = pop.dtype.type
@@ -104,22 +106,24 @@ def make_trial(pop, rates, b, i, best, gen, settings, limits, trial, trial_rates
     # loop would keep a branch there, and the gene loop would not vectorise
     forced, mode = below(D, key, 3), settings.limit_mode
     if mode == REFLECT:
-        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, REFLECT)
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, bounds, REFLECT)
     elif mode == CLIP:
-        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, CLIP)
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, bounds, CLIP)
     elif mode == PAPER:
-        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, PAPER)
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, bounds, PAPER)
     else:
-        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, PENALTY)
+        _cross(trial, current, a, c, p, q, g, f, cr, forced, key, bounds, PENALTY)
 
 
-def _cross(trial, current, a, c, p, q, g, f, cr, forced, key, limits, limit_mode):
+def _cross(trial, current, a, c, p, q, g, f, cr, forced, key, bounds, limit_mode):
     """trial[d] = the mutant a + g (c - a) + f (p - q) where gene d crosses over (d == forced or
     draw 4 + d of stream `key` below cr), else current[d]; then within_limits (rows (D,); the
     GPU's trial may be longer, padded). The
-    limits are read flat, two per DOF: indexed limits[d, LOWER], their stride would be the
-    array's shape, unknown to LLVM, which then vectorises only for a stride of one."""
-    below_cr, bounds = threshold(cr), limits.reshape(limits.size)
+    limits are read flat, two per DOF (PackedSkeleton.bounds): indexed limits[d, LOWER], their
+    stride would be the array's shape, unknown to LLVM, which then vectorises only for a stride
+    of one; and a reshape in the kernel would link numba-cuda's reshape helper, with which a CUDA
+    kernel cannot be cached."""
+    below_cr = threshold(cr)
     for d in range(current.shape[0]):
         mutant = a[d] + g * (c[d] - a[d]) + f * (p[d] - q[d])
         crossed = (d == forced) | (unit_bits(key, 4 + d) < below_cr)
@@ -251,9 +255,9 @@ def improved(b, k, state, status, rel):
     return state.total[b, k] < status.best_seen[b] - rel * abs(status.best_seen[b]) - 1e-30
 
 
-def settle(b, gen, state, terms, status, control, full_round):
+def settle_after_polish(b, gen, state, terms, status, rules, full_round):
     """After a polish: problem b's best, leaders and convergence (status.converged); a
-    converged problem stops (status.active) when control.stop_on_converged. After a full round
+    converged problem stops (status.active) when rules.stop_on_converged. After a full round
     (full_round) that met nothing, a problem whose every weighted goal the polish sees
     (polish_sees_all) restarts at once, restarts permitting: its round found only local minima
     of those goals, along which DE crept for hundreds of generations before stagnating (the
@@ -261,9 +265,9 @@ def settle(b, gen, state, terms, status, control, full_round):
     k = rank_problem(b, state, status)
     met = within_tolerances(b, state.raw[b, k], terms, state.raw.shape[2])
     status.converged[b] = met
-    if met and control.stop_on_converged:
+    if met and rules.stop_on_converged:
         status.active[b] = False
-    elif full_round and not met and status.restarts[b] < control.max_restarts and polish_sees_all(b, terms):
+    elif full_round and not met and status.restarts[b] < rules.max_restarts and polish_sees_all(b, terms):
         restart(b, k, gen, status)
 
 
@@ -284,9 +288,9 @@ def restart(b, k, gen, status):
     status.last_improved[b] = gen
 
 
-def update_status(b, gen, row, state, terms, status, control, history):
+def update_status(b, gen, row, state, terms, status, rules, history):
     """After a generation: best index, island leaders, migration, history, convergence,
-    stagnation and restarts of problem b (status: layout.Status, control: layout.Control). A
+    stagnation and restarts of problem b (status: layout.Status, rules: layout.SearchRules). A
     problem that stagnates unconverged with restarts left is flagged to restart: its next
     generation replaces every individual but the best by a random pose, and that best stays on
     as the elite, never worse, while the leaders that guide mutation and polish are the best of
@@ -300,20 +304,20 @@ def update_status(b, gen, row, state, terms, status, control, history):
     for i in range(P):
         mean += total[b, i]
     k = rank_problem(b, state, status)
-    if islands > 1 and (gen + 1) % control.migration == 0:
+    if islands > 1 and (gen + 1) % rules.migration == 0:
         migrate(b, state, elite[b], leaders, islands)
     history[row, b, HISTORY_BEST] = total[b, k]
     history[row, b, HISTORY_MEAN] = mean / P
     status.generations[b] += 1
     met = within_tolerances(b, raw[b, k], terms, raw.shape[2])
     status.converged[b] = met
-    if met and control.stop_on_converged:
+    if met and rules.stop_on_converged:
         status.active[b] = False
-    if improved(b, k, state, status, control.rel_improvement):
+    if improved(b, k, state, status, rules.rel_improvement):
         remember_best(b, k, state, status)
         last_improved[b] = gen
-    elif gen - last_improved[b] >= control.patience:
-        if not met and status.restarts[b] < control.max_restarts:
+    elif gen - last_improved[b] >= rules.patience:
+        if not met and status.restarts[b] < rules.max_restarts:
             restart(b, k, gen, status)
         else:
             status.active[b] = False

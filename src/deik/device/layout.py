@@ -62,6 +62,7 @@ class PackedSkeleton(NamedTuple):
     mass_joint: np.ndarray  # (M,) int32: the joint each mass point hangs from
     mass_data: np.ndarray  # (M, 4): MASS_OFFSET, MASS_FRACTION
     limits: np.ndarray  # (D, 2): LOWER, UPPER
+    bounds: np.ndarray  # (2 D,): the same limits flat, LOWER and UPPER of DOF d at 2 d and 2 d + 1
     ground: np.ndarray  # (3, 3) rows: HORIZONTAL_U, HORIZONTAL_V, UP
 
 
@@ -89,9 +90,9 @@ class KernelSettings(NamedTuple):
     islands: np.int64  # groups of P // islands individuals that breed apart
 
 
-class Memetic(NamedTuple):
-    """The LM polish: `iterations` steps (0: off) on up to `count` individuals per problem every
-    `every` generations."""
+class PolishSchedule(NamedTuple):
+    """When and how much the LM polish refines: `iterations` steps (0: off) on up to `count`
+    individuals per problem every `every` generations."""
 
     iterations: np.int64
     every: np.int64
@@ -112,10 +113,11 @@ class Status(NamedTuple):
     restarting: np.ndarray  # bool: the next generation restarts
     elite: np.ndarray  # int64 individual kept through the last restart (-1: none)
     leaders: np.ndarray  # (B, islands) int64 the best of each island but the elite
+    halt: np.ndarray  # (1,) int64, set by the host (time limit, Ctrl-C): the work stops at its next check
 
 
-class Control(NamedTuple):
-    """When problems stop, restart and migrate."""
+class SearchRules(NamedTuple):
+    """When a problem stops, restarts, and passes island leaders on."""
 
     patience: np.int64  # generations without improvement that count as stagnation
     rel_improvement: float  # the relative fall of the best total that counts as improvement

@@ -123,7 +123,7 @@ def jacobian_rows(q, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready)
     return cost
 
 
-def dual_step(lm, D, m, damping, q, limits):
+def dual_step(lm, D, m, damping, q, limits, halt):
     """damped_step's step through an m x m system, for m < D rows J (m, D) and residual r of
     jacobian_rows: with Lambda the damping diagonal, (J^T J + Lambda)^-1 J^T r =
     Lambda^-1 J^T (I + J Lambda^-1 J^T)^-1 r (Woodbury), about m^2 D flops instead of
@@ -150,7 +150,7 @@ def dual_step(lm, D, m, damping, q, limits):
                 v += J[i * D + d] * inverse[d] * J[k * D + d]
             A[i * m + k] = v
         y[i] = r[i]
-    if not cholesky(A, m):
+    if not cholesky(A, m, halt):
         return False
     cholesky_solve(A, y, m)
     for d in range(D):
@@ -161,7 +161,7 @@ def dual_step(lm, D, m, damping, q, limits):
     return True
 
 
-def comfort_step(b, q, terms, lm, D, pull, limits):
+def comfort_step(b, q, terms, lm, D, pull, limits, halt):
     """Add to the step lm.delta a move towards the comfort terms' reference that leaves the
     polished terms' errors unchanged to first order: the minimiser of (x - v)^T W (x - v) +
     |J x|^2 / stiffness, (J^T J + stiffness W)^-1 stiffness W v, with W the comfort's DOF
@@ -197,7 +197,7 @@ def comfort_step(b, q, terms, lm, D, pull, limits):
     for d in range(D):
         A[d * D + d] += stiffness * w[d] + 1e-9 * peak + 1e-30
         v[d] *= stiffness * w[d]
-    if not cholesky(A, D):
+    if not cholesky(A, D, halt):
         return False
     cholesky_solve(A, v, D)
     for d in range(D):
@@ -205,10 +205,13 @@ def comfort_step(b, q, terms, lm, D, pull, limits):
     return True
 
 
-def cholesky(A, D):
+def cholesky(A, D, halt):
     """Factorise the symmetric A (D*D,) in place into L (lower triangle) with L L^T = A;
-    False if A is not positive definite."""
+    False if A is not positive definite, or when the host's stop flag halt (1,) is set (read
+    per column: a factorisation of 3,000 DOFs takes seconds)."""
     for j in range(D):
+        if halt[0] != 0:
+            return False
         s = A[j * D + j]
         for k in range(j):
             s -= A[j * D + k] * A[j * D + k]
@@ -238,7 +241,7 @@ def cholesky_solve(A, x, D):
         x[i] = v / A[i * D + i]
 
 
-def damped_step(lm, D, damping, q, limits):
+def damped_step(lm, D, damping, q, limits, halt):
     """delta = -(N + damping * diag(N))^-1 gradient for the normal matrix N = lm.normal, by a
     Cholesky factorisation in lm.A (N is kept for retries with other damping), DOFs held at
     their limits where the gradient pushes outwards; False if the matrix is not positive
@@ -258,7 +261,7 @@ def damped_step(lm, D, damping, q, limits):
                 A[c * D + a] = 0.0
             A[a * D + a] = 1.0
             delta[a] = 0.0
-    if not cholesky(A, D):
+    if not cholesky(A, D, halt):
         return False
     cholesky_solve(A, delta, D)
     return True
@@ -273,15 +276,17 @@ def open_ended(b, terms, T):
     return False
 
 
-def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
+def polish(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready, halt):
     """Up to `iterations` LM steps on individual i of problem b, in the Buffers `state`, towards
     every tolerance (converge), or where a goal without tolerance is left, on to the smallest
     move from comfort's reference (relax); q (D,), lv (L,), rw (T,) are scratch. frames_ready:
-    scratch.R, scratch.p and axes already hold the individual's frames (else computed)."""
+    scratch.R, scratch.p and axes already hold the individual's frames (else computed). halt
+    (1,): the host's stop flag (Status.halt), read before every iteration: one LM iteration of a
+    large skeleton costs D^3 / 6 multiply-adds, so a time limit or Ctrl-C is honoured within one."""
     if open_ended(b, terms, state.raw.shape[2]):
-        relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready)
+        relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready, halt)
     else:
-        converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready)
+        converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready, halt)
 
 
 def first_unmet_level(levels):
@@ -327,7 +332,7 @@ def keeps_the_rest(b, lv, rw, pose_levels, pose_raw, terms, top):
     return True
 
 
-def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
+def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready, halt):
     """polish() when every weighted goal has a tolerance. LM runs on a copy of the individual
     (lm.pose and its levels and raw errors) and keeps a step when it lowers the cost LM
     minimises, the polished goals' squared errors in tolerances (polished_cost), without
@@ -359,7 +364,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw,
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
     formed = False
     for _ in range(iterations):
-        if met or cost == 0.0 or since >= STALL_ITERATIONS:
+        if met or cost == 0.0 or since >= STALL_ITERATIONS or halt[0] != 0:
             break  # (a zero cost leaves nothing the polish can move: the unmet goals are DE's)
         since += 1
         if not formed:
@@ -368,7 +373,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw,
             else:
                 normal_equations(x, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
             formed = True
-        if dual_step(lm, D, m, damping, x, limits) if dual else damped_step(lm, D, damping, x, limits):
+        if dual_step(lm, D, m, damping, x, limits, halt) if dual else damped_step(lm, D, damping, x, limits, halt):
             for d in range(D):
                 q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
             forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
@@ -400,7 +405,7 @@ def keep_pose(x, pose_levels, pose_raw, q, lv, rw):
         pose_raw[t] = rw[t]
 
 
-def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready):
+def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, frames_ready, halt):
     """polish() when a goal without tolerance (comfort) is left to improve: LM steps in place,
     each kept only if the full strict-priority fitness improves (so the polish never trades a
     higher level for a lower one), every step with a pull towards comfort's reference in the
@@ -415,13 +420,15 @@ def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, fr
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
     formed = False
     for _ in range(iterations):
+        if halt[0] != 0:
+            return
         if not formed:
             normal_equations(pop[b, i], b, top, skel, terms, scratch, axes, lm, D, frames_ready)
             formed = True
         pulled = False
-        if damped_step(lm, D, damping, pop[b, i], limits):
+        if damped_step(lm, D, damping, pop[b, i], limits, halt):
             if pull > 0.0:
-                pulled = comfort_step(b, pop[b, i], terms, lm, D, pull, limits)
+                pulled = comfort_step(b, pop[b, i], terms, lm, D, pull, limits, halt)
             delta = lm.delta
             for d in range(D):
                 q[d] = min(max(pop[b, i, d] + delta[d], limits[d, LOWER]), limits[d, UPPER])

@@ -158,17 +158,18 @@ def _has_matplotlib() -> bool:
     return True
 
 
-def run_demo(out_dir: str, scenarios: list[Scenario] | None = None, show: bool | None = None) -> list[dict]:
-    """Solve `scenarios` (default: the paper's four), print the table, write one PNG each and
-    demo.json into `out_dir` (created if missing), with a progress bar over the scenarios
-    (`show` as in deik.console.progress_bar). Returns the rows; a row's "passed" is False when
-    its scenario missed one of its goals' tolerances."""
+def demo(out_dir: str, scenarios: list[Scenario] | None = None, progress: bool | None = False) -> dict:
+    """Solve `scenarios` (default: the paper's four), write one PNG each (with matplotlib)
+    and demo.json into `out_dir` (created if missing); a bar over the scenarios with
+    `progress` (as deik.console.progress_bar's `show`). Returns demo.json's record:
+    {"scenarios": [{"key", "title", "image", "settings", "passed", "result"}], "rows": one per
+    goal (its error, bound, "met" and the scenario's "passed"), "total_time_s"}."""
     scenarios = chain_scenarios() + [humanoid_scenario()] if scenarios is None else scenarios
     os.makedirs(out_dir, exist_ok=True)
     start = time.perf_counter()
     rows, summary = [], []
     pictures = _has_matplotlib()  # without it: the table and demo.json only
-    with progress_bar(len(scenarios), "deik demo", "scenario", show) as bar:
+    with progress_bar(len(scenarios), "deik demo", "scenario", progress) as bar:
         for scenario in scenarios:
             bar.set_postfix_str(scenario.key)
             result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
@@ -187,13 +188,19 @@ def run_demo(out_dir: str, scenarios: list[Scenario] | None = None, show: bool |
                     "result": result.to_dict(),
                 }
             )
-    total = time.perf_counter() - start
-    write_json_atomically(
-        os.path.join(out_dir, "demo.json"), {"scenarios": summary, "rows": rows, "total_time_s": total}
-    )
-    _print_table(rows)
-    missed = [s["key"] for s in summary if not s["passed"]]
+    document = {"scenarios": summary, "rows": rows, "total_time_s": time.perf_counter() - start}
+    write_json_atomically(os.path.join(out_dir, "demo.json"), document)
+    return document
+
+
+def run_demo(out_dir: str, scenarios: list[Scenario] | None = None, show: bool | None = None) -> list[dict]:
+    """`deik demo`: demo() with a bar (`show`), then the table and the verdict printed.
+    Returns the rows; a row's "passed" is False when its scenario missed one of its goals' tolerances."""
+    document = demo(out_dir, scenarios, show)
+    _print_table(document["rows"])
+    missed = [s["key"] for s in document["scenarios"] if not s["passed"]]
     verdict = f"MISSED: {', '.join(missed)}" if missed else "every scenario met its targets"
+    pictures = _has_matplotlib()
     written = "pictures and demo.json" if pictures else 'demo.json (no pictures: pip install "deik[viz]")'
-    print(f"\n{verdict}; {total:.1f} s in all; {written} in {out_dir}")
-    return rows
+    print(f"\n{verdict}; {document['total_time_s']:.1f} s in all; {written} in {out_dir}")
+    return document["rows"]

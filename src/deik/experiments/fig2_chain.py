@@ -128,14 +128,14 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "median |angle| per joint."
     )
     return Section(
-        NAME,
-        "Fig. 2: one target, three secondary objectives",
-        "Pictures only, no numbers: a serial chain reaches a target with (a) the end-effector "
+        name=NAME,
+        title="Fig. 2: one target, three secondary objectives",
+        claim="Pictures only, no numbers: a serial chain reaches a target with (a) the end-effector "
         "distance alone, (b) plus a secondary bias keeping the links near the start of the chain "
         "straight, (c) the same near the end.",
-        headline,
-        measurement,
-        "The paper folds the straightness term into one weighted sum; we put it on a lower strict "
+        headline=headline,
+        measurement=measurement,
+        differences="The paper folds the straightness term into one weighted sum; we put it on a lower strict "
         "priority level (the reach never pays for straightness) and use a linear per-joint ramp "
         '(`Comfort(joint_weights="start"/"end")`). Settings are the demo\'s (population 256, '
         "best/1/bin), not rand/1/bin; the paper gives no settings, chain length or target for this "
@@ -143,7 +143,7 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "summed |angle| (Eq. 6) is an L1 penalty, so the optimum bends few joints sharply, above all "
         'the joint whose ramp weight is zero (the last for "start", the root for "end"), where '
         "the paper's pictures bend smoothly.",
-        command(NAME, quick),
+        command=command(NAME, quick),
     )
 
 

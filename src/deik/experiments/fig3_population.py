@@ -182,14 +182,14 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         '"never" = not within the budget (counted, not dropped).\n\n' + "\n\n".join(tables)
     )
     return Section(
-        NAME,
-        "Fig. 3: population size vs generations to converge",
-        "Averaged over 100 runs, the number of generations to bring the end effector within 1 % "
+        name=NAME,
+        title="Fig. 3: population size vs generations to converge",
+        claim="Averaged over 100 runs, the number of generations to bring the end effector within 1 % "
         "falls as the population grows, for several chain lengths; even small populations "
         "(under 100) converge within a limited number of generations.",
-        headline,
-        measurement,
-        "We report medians with quartiles rather than the paper's average, which is undefined "
+        headline=headline,
+        measurement=measurement,
+        differences="We report medians with quartiles rather than the paper's average, which is undefined "
         "when a run never converges. The paper's chain lengths, targets, budget and F are not "
         "given: we use planar chains of unit links, targets at the tip of a random in-limit pose "
         "(mostly well inside the reach, so long chains are easy and large populations often hold "
@@ -199,7 +199,7 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "converge cost the whole budget, so that family has 20 seeds and four populations. Our "
         "default strategy is shown beside the paper's rand/1/bin. The CSV also gives the cost in "
         "fitness evaluations (population x generations).",
-        command(NAME, quick),
+        command=command(NAME, quick),
     )
 
 

@@ -170,19 +170,19 @@ def run_fig4(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "meets every bound."
     )
     return Section(
-        "fig4",
-        "Fig. 4: centre of mass and reach, equal weights vs COM first",
-        "Pictures only: with the COM and the end effector at equal priority the character reaches "
+        name="fig4",
+        title="Fig. 4: centre of mass and reach, equal weights vs COM first",
+        claim="Pictures only: with the COM and the end effector at equal priority the character reaches "
         "but its COM leaves the support (it would fall); with the COM as the priority of the "
         "weighted sum it stays balanced.",
-        headline,
-        _table(rows, problems, columns),
-        "The paper gives neither target nor weights. We place the hand target where the right "
+        headline=headline,
+        measurement=_table(rows, problems, columns),
+        differences="The paper gives neither target nor weights. We place the hand target where the right "
         "foot cannot support a full reach, and show the paper's weighted-sum priority (hand weight "
         f"{HAND_WEIGHT_BELOW_COM}) beside deik's strict levels: a smaller weight only shifts the "
         "trade-off, a strict level bounds the COM error by its tolerance. The feet are held by "
         "goals on the same level as the COM (the paper does not say how its character stands).",
-        command("fig4", quick),
+        command=command("fig4", quick),
     )
 
 
@@ -208,15 +208,15 @@ def run_fig5(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         f"comfort level, {met[v2]}/{n} met and {comfort[v2]:.2f} rad."
     )
     return Section(
-        "fig5",
-        "Fig. 5: three priorities: COM over the support, reach, pose coherence",
-        "Pictures only: with the COM over the support point first, the end-effector reach second "
+        name="fig5",
+        title="Fig. 5: three priorities: COM over the support, reach, pose coherence",
+        claim="Pictures only: with the COM over the support point first, the end-effector reach second "
         "and pose coherence last, the character reaches while staying balanced and natural.",
-        headline,
-        _table(rows, problems, columns),
-        "The paper weights the three criteria in one sum; we use strict levels (the demo's "
+        headline=headline,
+        measurement=_table(rows, problems, columns),
+        differences="The paper weights the three criteria in one sum; we use strict levels (the demo's "
         "scenario: the foot planted within 5 mm, the COM within 2 cm, the hand within 1 cm) and "
         "measure pose coherence as the summed absolute departure from the rest pose (Eq. 6 "
         "without its exponential), which the two-level variant does not optimise.",
-        command("fig5", quick),
+        command=command("fig5", quick),
     )

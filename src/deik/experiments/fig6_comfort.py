@@ -139,19 +139,19 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         + '\n\nCells are median [quartiles] over seeds; "never" counts runs not there by the last generation.'
     )
     return Section(
-        NAME,
-        "Fig. 6: comfort as a sum (Eq. 6) vs as a max (Eq. 7)",
-        "The summed joint error converges faster than the maximum joint error: with only the "
+        name=NAME,
+        title="Fig. 6: comfort as a sum (Eq. 6) vs as a max (Eq. 7)",
+        claim="The summed joint error converges faster than the maximum joint error: with only the "
         "largest error fed back, small moves of the other joints go unrewarded, so the "
         "population gets little guidance and improvements come in long, step-like delays.",
-        headline,
-        measurement,
-        "The paper does not say which problem, chain or population its curves come from. We "
+        headline=headline,
+        measurement=measurement,
+        differences="The paper does not say which problem, chain or population its curves come from. We "
         "retarget a chain to a random reference pose with comfort as the only goal, so the curves "
         "isolate the fitness shape, and score both runs on the same yardsticks (mean and max "
         "joint error) rather than on their own, incomparable, fitness values. deik's default "
         f"strategy is shown too: {_default_verdict(curves)}",
-        command(NAME, quick),
+        command=command(NAME, quick),
     )
 
 

@@ -142,19 +142,19 @@ def run(out_dir: str, quick: bool = False, device: str = "cpu") -> Section:
         "median [quartiles] over seeds."
     )
     return Section(
-        NAME,
-        "Fig. 7: random vs sequential target selection (serial algorithm)",
-        "Averaged over 100 runs of the serial algorithm with 20 joints and population 500, the "
+        name=NAME,
+        title="Fig. 7: random vs sequential target selection (serial algorithm)",
+        claim="Averaged over 100 runs of the serial algorithm with 20 joints and population 500, the "
         "average fitness per generation when the candidate to replace is picked at random "
         "(Algorithm 1) is compared with picking the candidates in order; the paper removes the "
         "random pick, which it needs gone for the parallel version.",
-        headline,
-        measurement,
-        f"The serial algorithm is interpreted NumPy (about half a second per generation at this "
+        headline=headline,
+        measurement=measurement,
+        differences=f"The serial algorithm is interpreted NumPy (about half a second per generation at this "
         f"size on our CPU), so we average {len(cfg['seeds'])} seeds over {G} generations, not 100 runs. "
         'The paper\'s plot caption mixes "vs population" and "vs generation"; we plot against '
         "generations. F is 0.5, not the printed FW = 2 (which diverges); CR 0.5.",
-        command(NAME, quick),
+        command=command(NAME, quick),
     )
 
 

@@ -122,18 +122,18 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
         f"run); every point is the best of {cfg['repeats']} repeats (the CSV has all). {load_line()}"
     )
     return Section(
-        NAME,
-        "Fig. 8: time vs generations, CPU and GPU",
-        "With population 500, the time to run a given number of generations grows linearly with "
+        name=NAME,
+        title="Fig. 8: time vs generations, CPU and GPU",
+        claim="With population 500, the time to run a given number of generations grows linearly with "
         "the generations for every joint count, and the GPU implementation's lines lie below the "
         "CPU's.",
-        headline,
-        measurement,
-        "The paper's CPU line is its serial implementation; ours is deik's parallel CPU engine "
+        headline=headline,
+        measurement=measurement,
+        differences="The paper's CPU line is its serial implementation; ours is deik's parallel CPU engine "
         "(Numba threads on every core); the serial algorithm is timed in Fig. 9. The paper names "
         "neither its CPU nor its GPU. On the GPU deik runs one problem per thread block, so one "
         "problem uses one multiprocessor; the paper's kernel layout is not described.",
-        command(NAME, quick),
+        command=command(NAME, quick),
         notes=[note] if note else [],
     )
 

@@ -136,19 +136,19 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
         f"{load_line()}"
     )
     return Section(
-        NAME,
-        "Fig. 9: serial CPU vs parallel",
-        f"Averaged over 100 iterations, the parallel CUDA implementation is {PAPER_SPEEDUP:.0f}x faster than "
+        name=NAME,
+        title="Fig. 9: serial CPU vs parallel",
+        claim=f"Averaged over 100 iterations, the parallel CUDA implementation is {PAPER_SPEEDUP:.0f}x faster than "
         f"the serial CPU version at population {PAPER_POPULATION} with {PAPER_LINKS} links.",
-        headline,
-        measurement,
-        "The ratio is not the paper's quantity: our serial baseline is interpreted NumPy (one "
+        headline=headline,
+        measurement=measurement,
+        differences="The ratio is not the paper's quantity: our serial baseline is interpreted NumPy (one "
         "Python-level fitness call per candidate), the parallel engine is compiled (Numba), so "
         "most of the CPU ratio is compiled vs interpreted code; the 1-thread column isolates it, "
         "and the 1 thread / all threads column is the parallel part on this 2-core CPU. The "
         "paper compared two compiled implementations (C++ and CUDA) and names neither device. "
         "Timings are taken on a shared machine; the CSV keeps every repeat.",
-        command(NAME, quick),
+        command=command(NAME, quick),
         notes=[note] if note else [],
     )
 

@@ -5,7 +5,10 @@ section) into DIR; running more than one also writes DIR/report.md, every sectio
 side-by-side table of the paper's claims and our measurements. `--doc PATH` (with `all`)
 writes that report to PATH too, its pictures copied to figures/ beside it: this is how
 docs/paper-reproduction.md and docs/figures/ are made. Bad input gets one line on stderr,
-`deik experiments: error: ...`, and exit status 2.
+`deik: error: ...`, and exit status 2, as for every deik command.
+
+In Python, `deik.run_experiments(["fig7"], "figures", quick=True)` runs them and returns their
+sections (deik.experiments.shared.Section: title, claim, headline, notes, seconds).
 """
 
 from __future__ import annotations
@@ -15,11 +18,13 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable
 
-from deik.console import add_output_flags, configure_logging, progress_bar, show_progress
-from deik.errors import UsageError
+from deik.console import Parser, configure_logging, progress_bar, show_progress
+from deik.errors import DeikError, UsageError
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
+from deik.experiments.flags import DEVICES, SUMMARY, add_arguments
 from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
 from deik.io.atomic import save_atomically, write_text_atomically
@@ -36,7 +41,6 @@ EXPERIMENTS = {
     "fig8": fig8_timing.run,
     "fig9": fig9_speedup.run,
 }
-DEVICES = {"cpu": "cpu", "gpu": "gpu", "cuda": "gpu", "auto": "auto"}
 
 INTRO = """\
 This document is generated: `{command}` ran every experiment of
@@ -58,29 +62,10 @@ Machine: {machine}. Load average before the run: {load}. Total time: {total:.0f}
 """
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        raise UsageError(f"{message} (see `{self.prog} --help`)")
-
-
 def build_parser() -> argparse.ArgumentParser:
-    """The argparse parser of `deik experiments`."""
-    parser = _Parser(prog=PROG, description="Reproduce the paper's figures: PNG, CSV and a report section each.")
-    parser.add_argument(
-        "names", nargs="+", metavar="NAME|all", help=f"experiments to run: {', '.join(EXPERIMENTS)}, or all"
-    )
-    parser.add_argument("--out", required=True, metavar="DIR", help="folder for the outputs (created if missing)")
-    parser.add_argument("--quick", action="store_true", help="few seeds, small sizes (seconds, for tests)")
-    parser.add_argument(
-        "--device",
-        choices=list(DEVICES),
-        default="auto",
-        help="GPU parts of fig8/fig9: auto (when a GPU is present), gpu/cuda, or cpu only",
-    )
-    parser.add_argument(
-        "--doc", metavar="PATH.md", help="with all: also write the report to PATH, its pictures in figures/ beside it"
-    )
-    add_output_flags(parser)
+    """The argparse parser of `python -m deik.experiments` (the same flags as `deik experiments`)."""
+    parser = Parser(prog=PROG, description=f"{SUMMARY[0].upper()}{SUMMARY[1:]}.")
+    add_arguments(parser)
     return parser
 
 
@@ -145,38 +130,60 @@ def _copy(source: str, target: str) -> None:
     save_atomically(target, lambda temporary: shutil.copyfile(source, temporary))
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run `deik experiments` with `argv` (default sys.argv[1:]); returns the exit status."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    try:
-        args = build_parser().parse_args(argv)
-        names = resolve(args.names)
-        _check_paths(args, names)
-        configure_logging(args)
-        from deik.viz.plot import require_matplotlib
-
-        require_matplotlib()
-    except SystemExit as done:  # --help
-        return int(done.code or 0)
-    except (UsageError, ImportError, ValueError) as error:
-        print(f"{PROG}: error: {error}", file=sys.stderr)
-        return USAGE_ERROR
-
-    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
-    device, sections, start = DEVICES[args.device], [], time.perf_counter()
-    with progress_bar(len(names), PROG, "figure", show_progress(args)) as bar:
+def run_experiments(
+    names: list[str],
+    out_dir: str,
+    *,
+    quick: bool = False,
+    device: str = "auto",
+    progress: bool | None = False,
+    on_section: Callable[[Section], object] | None = None,
+) -> list[Section]:
+    """Run the experiments `names` (fig2 ... fig9, or "all") into `out_dir` (created if
+    missing): each writes NAME.png, NAME.csv and NAME.md there (`report` combines their
+    sections). `quick`: few seeds, small sizes; `device` "auto", "cpu" or "gpu" for the GPU
+    parts of fig8 and fig9; a bar over the figures with `progress` (deik.console.progress_bar's
+    `show`); `on_section(section)` is called as each one finishes. Returns their Sections."""
+    names = resolve(names)
+    if device not in DEVICES:
+        raise UsageError(f"device {device!r}: use one of {', '.join(DEVICES)}")
+    os.makedirs(out_dir, exist_ok=True)
+    sections = []
+    with progress_bar(len(names), PROG, "figure", progress) as bar:
         for name in names:
             bar.set_postfix_str(name)
             began = time.perf_counter()
-            section = EXPERIMENTS[name](args.out, quick=args.quick, device=device)
+            section = EXPERIMENTS[name](out_dir, quick=quick, device=device)
             section.seconds = time.perf_counter() - began
-            section.write(args.out)
+            section.write(out_dir)
             sections.append(section)
             bar.update()
-            with bar.external_write_mode():  # the lines go above the bar, not through it
-                print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
-                for note in section.notes:
-                    print(f"{name}: note: {note}", flush=True)
+            if on_section is not None:
+                with bar.external_write_mode():  # its lines go above the bar, not through it
+                    on_section(section)
+    return sections
+
+
+def run(args: argparse.Namespace) -> int:
+    """`deik experiments`: check the flags, run the experiments, say where each one went, and
+    with --doc write the report and its pictures there."""
+    names = resolve(args.names)
+    _check_paths(args, names)
+    from deik.viz.plot import require_matplotlib
+
+    require_matplotlib()
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
+    start = time.perf_counter()
+
+    def say(section: Section) -> None:
+        name = section.name
+        print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
+        for note in section.notes:
+            print(f"{name}: note: {note}", flush=True)
+
+    sections = run_experiments(
+        names, args.out, quick=args.quick, device=args.device, progress=show_progress(args), on_section=say
+    )
     total = time.perf_counter() - start
     quick = " --quick" if args.quick else ""
     command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"
@@ -193,3 +200,18 @@ def main(argv: list[str] | None = None) -> int:
         write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
         print(f"document: {args.doc}, pictures in {figures}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m deik.experiments` with `argv` (default sys.argv[1:]); returns the exit status.
+    Mistakes print `deik: error: ...` and return 2, as `deik experiments` does."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args = build_parser().parse_args(argv)
+        configure_logging(args)
+        return run(args)
+    except SystemExit as done:  # --help
+        return int(done.code or 0)
+    except (DeikError, ImportError, OSError) as error:
+        print(f"deik: error: {error}", file=sys.stderr)
+        return USAGE_ERROR

@@ -6,7 +6,9 @@ picks a random target x, three distinct donors a, b, c (none equal to x) and a f
 the candidate a + F (b - c) on the genes where a uniform number falls below CR, evaluates that one
 pose and replaces population[x] in place when it is not worse, so later iterations of the epoch
 already read it. deik.experiments.serial_numpy.SerialDE is the same algorithm in NumPy (the readable oracle);
-this one measures what a compiled serial implementation costs.
+this one measures what a compiled serial implementation costs. CompiledSerialDE is its host side.
+It is a compiled kernel itself, so it calls the device maths directly, as the back-ends do (the
+one module above deik.solver that imports deik.device and deik.backends: tests/model/test_layers.py).
 """
 
 from __future__ import annotations
@@ -16,6 +18,10 @@ from numba import njit
 
 from deik.backends.targets import cpu as dev
 from deik.device.layout import LOWER, UPPER, WORK_SIZE, Buffers, PackedSkeleton, PackedTerms, Scratch
+from deik.errors import InputError
+from deik.solver.engine import Engine
+from deik.solver.problem import Problem
+from deik.solver.settings import LIMIT_CODES, Settings
 
 PROBLEM = 0  # the counter's problem index: Algorithm 1 solves one problem
 
@@ -72,3 +78,74 @@ def serial_epochs(
             if not dev.not_worse(levels[0, best], levels[0, i]):
                 best = i
         history[e, 0], history[e, 1] = total[0, best], mean / P
+
+
+class CompiledSerialDE:
+    """Algorithm 1 compiled for one CPU thread (deik.experiments.serial_compiled): the paper's "serial CPU",
+    with the kernels' maths and counter-based random numbers. The first population is the
+    engine's (uniform in the limits, evaluated); `run(n)` runs n epochs; `best_pose`,
+    `best_errors`, `best_total` and `history` ((G, 2)) describe the result."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        population: int = 500,
+        F: float = 0.5,
+        CR: float = 0.5,
+        seed: int = 0,
+        dtype: str = "float32",
+    ):
+        if problem.batch_size != 1:
+            raise InputError(f"CompiledSerialDE solves one problem at a time, got a batch of {problem.batch_size}")
+        self.problem = problem
+        settings = Settings(population=population, F=F, CR=CR, seed=seed, dtype=dtype, adaptive=False, polish=0)
+        self._engine = Engine(problem, settings)
+        self._limit_mode = LIMIT_CODES[problem.limits]
+        state = self._engine.init()
+        self._buffers = tuple(a.copy() for a in state.buffers)
+        self.generation, self._history = 0, np.zeros((0, 2))
+
+    def run(self, generations: int) -> CompiledSerialDE:
+        """Run `generations` more epochs in place."""
+        e = self._engine
+        history = np.empty((int(generations), 2))
+        t = np.dtype(e.settings.dtype).type
+        serial_epochs(
+            Buffers(*self._buffers),
+            e.skel,
+            e.terms,
+            np.int64(self._limit_mode),
+            t(e.settings.F),
+            t(e.settings.CR),
+            np.uint64(e.settings.seed),
+            np.int64(self.generation),
+            np.int64(generations),
+            history,
+        )
+        self.generation += int(generations)
+        self._history = np.concatenate([self._history, history])
+        return self
+
+    @property
+    def best_index(self) -> int:
+        """Index of the best individual by strict priority (first of ties)."""
+        levels = self._buffers[1][0]
+        return int(np.lexsort(levels.T[::-1])[0])
+
+    @property
+    def best_pose(self) -> np.ndarray:
+        return self._buffers[0][0, self.best_index].astype(np.float64)
+
+    @property
+    def best_errors(self) -> np.ndarray:
+        """Raw error of each term (T,) of the best pose, in the kernel's dtype."""
+        return self._buffers[3][0, self.best_index].astype(np.float64)
+
+    @property
+    def best_total(self) -> float:
+        return float(self._buffers[2][0, self.best_index])
+
+    @property
+    def history(self) -> np.ndarray:
+        """(G, 2): best and mean total fitness after each epoch."""
+        return self._history.copy()

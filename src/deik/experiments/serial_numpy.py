@@ -27,11 +27,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from deik.device.layout import Buffers
+from deik.errors import InputError
 from deik.objectives.reference import fitness
-from deik.solver.engine import Engine
 from deik.solver.problem import Problem
-from deik.solver.settings import LIMIT_CODES, Settings
 
 _TWO_PI = 2.0 * np.pi
 
@@ -81,13 +79,13 @@ class SerialDE:
         if not isinstance(problem, Problem):
             raise TypeError(f"SerialDE takes a deik.Problem, got {type(problem).__name__}")
         if problem.batch_size != 1:
-            raise ValueError(f"SerialDE solves one problem at a time, got a batch of {problem.batch_size}")
+            raise InputError(f"SerialDE solves one problem at a time, got a batch of {problem.batch_size}")
         if not (isinstance(population, (int, np.integer)) and population >= 4):
-            raise ValueError(f"population must be an integer >= 4 (x and 3 distinct donors), got {population!r}")
+            raise InputError(f"population must be an integer >= 4 (x and 3 distinct donors), got {population!r}")
         if not (0 < F <= 2):
-            raise ValueError(f"F (differential weight) must lie in (0, 2], got {F!r}")
+            raise InputError(f"F (differential weight) must lie in (0, 2], got {F!r}")
         if not 0 <= CR <= 1:
-            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {CR!r}")
+            raise InputError(f"CR (crossover probability) must lie in [0, 1], got {CR!r}")
         self.problem, self.population, self.F, self.CR, self.seed = problem, int(population), F, CR, seed
         self.rng = np.random.default_rng(seed)
         self.pop = self.levels = self.total = self.raw = None
@@ -134,7 +132,7 @@ class SerialDE:
         accepted = not_worse(levels, self.levels[x])
         if accepted:  # in place: later iterations of this epoch already see it
             self.pop[x], self.levels[x], self.total[x], self.raw[x] = candidate, levels, total, raw
-        return Iteration(x, (a, b, c), forced, mask, candidate, accepted)
+        return Iteration(x=x, donors=(a, b, c), forced=forced, mask=mask, candidate=candidate, accepted=accepted)
 
     def epoch(self, record: bool = False) -> int | list[Iteration]:
         """One generation: POP_SIZE iterations. Returns the number of replacements, or the list
@@ -189,78 +187,3 @@ class SerialDE:
     def history(self) -> np.ndarray:
         """(G, 2): best and mean total fitness after each epoch."""
         return np.array(self._history, dtype=np.float64).reshape(-1, 2)
-
-
-class CompiledSerialDE:
-    """Algorithm 1 compiled for one CPU thread (deik.experiments.serial_compiled): the paper's "serial CPU",
-    with the kernels' maths and counter-based random numbers. The first population is the
-    engine's (uniform in the limits, evaluated); `run(n)` runs n epochs; `best_pose`,
-    `best_errors`, `best_total` and `history` ((G, 2)) describe the result."""
-
-    def __init__(
-        self,
-        problem: Problem,
-        population: int = 500,
-        F: float = 0.5,
-        CR: float = 0.5,
-        seed: int = 0,
-        dtype: str = "float32",
-    ):
-        if problem.batch_size != 1:
-            raise ValueError(f"CompiledSerialDE solves one problem at a time, got a batch of {problem.batch_size}")
-        self.problem = problem
-        settings = Settings(population=population, F=F, CR=CR, seed=seed, dtype=dtype, adaptive=False, polish=0)
-        self._engine = Engine(problem, settings)
-        self._limit_mode = LIMIT_CODES[problem.limits]
-        state = self._engine.init()
-        self._buffers = tuple(a.copy() for a in state.buffers)
-        self.generation, self._history = 0, np.zeros((0, 2))
-
-    def run(self, generations: int) -> CompiledSerialDE:
-        """Run `generations` more epochs in place."""
-        from deik.experiments.serial_compiled import (
-            serial_epochs,  # here: importing it loads Numba and the device maths
-        )
-
-        e = self._engine
-        history = np.empty((int(generations), 2))
-        t = np.dtype(e.settings.dtype).type
-        serial_epochs(
-            Buffers(*self._buffers),
-            e.skel,
-            e.terms,
-            np.int64(self._limit_mode),
-            t(e.settings.F),
-            t(e.settings.CR),
-            np.uint64(e.settings.seed),
-            np.int64(self.generation),
-            np.int64(generations),
-            history,
-        )
-        self.generation += int(generations)
-        self._history = np.concatenate([self._history, history])
-        return self
-
-    @property
-    def best_index(self) -> int:
-        """Index of the best individual by strict priority (first of ties)."""
-        levels = self._buffers[1][0]
-        return int(np.lexsort(levels.T[::-1])[0])
-
-    @property
-    def best_pose(self) -> np.ndarray:
-        return self._buffers[0][0, self.best_index].astype(np.float64)
-
-    @property
-    def best_errors(self) -> np.ndarray:
-        """Raw error of each term (T,) of the best pose, in the kernel's dtype."""
-        return self._buffers[3][0, self.best_index].astype(np.float64)
-
-    @property
-    def best_total(self) -> float:
-        return float(self._buffers[2][0, self.best_index])
-
-    @property
-    def history(self) -> np.ndarray:
-        """(G, 2): best and mean total fitness after each epoch."""
-        return self._history.copy()

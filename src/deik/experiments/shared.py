@@ -137,7 +137,7 @@ def command(name: str, quick: bool, extra: str = "") -> str:
     return f"PYTHONPATH=src python -m deik.experiments {name}{flags}{extra} --out DIR"
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Section:
     """One figure's part of the report. `headline`: our measurement in one line for the
     side-by-side table; `measurement`, `differences`: markdown; `notes`: lines shown in bold

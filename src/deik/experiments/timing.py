@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 import deik
-from deik.experiments.serial_numpy import CompiledSerialDE, SerialDE
+from deik.experiments.serial_numpy import SerialDE
 from deik.experiments.shared import CONVERGED_FRACTION
 from deik.model.kinematics import forward_kinematics
 from deik.solver.problem import Problem
@@ -54,6 +54,8 @@ def time_serial_compiled(
     """Seconds per generation of the compiled serial Algorithm 1 (one CPU thread, the kernels'
     maths): best of `repeats` runs of `generations` epochs after a warm-up epoch (compilation
     excluded); "all_seconds_per_generation" lists every repeat."""
+    from deik.experiments.serial_compiled import CompiledSerialDE  # loads Numba and the device maths
+
     de = CompiledSerialDE(problem, population=population, F=0.5, CR=0.5, seed=seed, dtype=dtype).run(1)
     times = []
     for _ in range(repeats):
@@ -182,7 +184,7 @@ def load_line() -> str:
     return f"Load average at the end: {one:.2f}, {five:.2f}, {fifteen:.2f} on {os.cpu_count()} CPUs."
 
 
-GPU_COMMAND = "PYTHONPATH=src python -m deik.experiments fig8 fig9 --device cuda --out DIR"
+GPU_COMMAND = "deik experiments fig8 fig9 --device gpu --out DIR"
 
 
 def gpu_plan(device: str) -> tuple[bool, str | None]:
@@ -195,5 +197,5 @@ def gpu_plan(device: str) -> tuple[bool, str | None]:
     if available:
         return True, None
     return False, (
-        f"GPU column pending: needs a run on the lent GPU machine ({description}); there run `{GPU_COMMAND}`"
+        f"GPU column pending: it needs an NVIDIA GPU ({description}); on a machine with one run `{GPU_COMMAND}`"
     )

@@ -11,7 +11,7 @@ import json
 import os
 import stat
 
-from deik.errors import FileFormatError
+from deik.errors import FileFormatError, InputError
 
 FilePath = str | os.PathLike  # a file a user names: a string or a pathlib.Path
 MAX_INPUT_BYTES = 1 << 30  # 1 GiB: far above any motion clip or robot file
@@ -24,7 +24,7 @@ def max_input_bytes() -> int:
     if value is None:
         return MAX_INPUT_BYTES
     if not value.isdigit() or int(value) <= 0:
-        raise ValueError(f"{INPUT_LIMIT_VARIABLE}={value!r} must be a positive whole number of bytes")
+        raise InputError(f"{INPUT_LIMIT_VARIABLE}={value!r} must be a positive whole number of bytes")
     return int(value)
 
 

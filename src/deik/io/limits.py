@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from deik.errors import InputError, UnknownNameError
 from deik.io.atomic import write_json_atomically
 from deik.io.files import FilePath, read_input_text
 from deik.io.motion import Clip, held_translations
@@ -35,10 +36,10 @@ def with_limits(skeleton: Skeleton, limits: dict[str, tuple[float, float]]) -> S
     lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
     for name, bounds in limits.items():
         if name not in skeleton.dof_names:
-            raise KeyError(_not_a_dof(skeleton, name))
+            raise UnknownNameError(_not_a_dof(skeleton, name))
         low, high = (float(b) for b in bounds)
         if not (math.isfinite(low) and math.isfinite(high) and low <= high):
-            raise ValueError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
+            raise InputError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
         d = skeleton.dof_names.index(name)
         lower[d], upper[d] = low, high
     return replace(skeleton, lower=lower, upper=upper)
@@ -65,11 +66,11 @@ def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, fl
     try:
         table = json.loads(text)
     except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: not valid JSON: {error}") from None
+        raise InputError(f"{path}: not valid JSON: {error}") from None
     except RecursionError:
-        raise ValueError(f"{path}: JSON nested too deeply; a limits table is one level of [lower, upper]") from None
+        raise InputError(f"{path}: JSON nested too deeply; a limits table is one level of [lower, upper]") from None
     if not isinstance(table, dict) or not table:
-        raise ValueError(f'{path}: must be a JSON object {{"DOF name": [lower, upper], ...}}')
+        raise InputError(f'{path}: must be a JSON object {{"DOF name": [lower, upper], ...}}')
     limits = {}
     for name, bounds in table.items():
         if not (
@@ -77,7 +78,7 @@ def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, fl
             and len(bounds) == 2
             and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)
         ):
-            raise ValueError(f"{path}: {name!r} must be [lower, upper] (two numbers), got {bounds!r}")
+            raise InputError(f"{path}: {name!r} must be [lower, upper] (two numbers), got {bounds!r}")
         if name in skeleton.dof_names and skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE:
             bounds = np.radians(bounds)
         limits[name] = (float(bounds[0]), float(bounds[1]))
@@ -100,10 +101,10 @@ def range_of_motion(
     the body."""
     given = 0.0 if margin_length is None else margin_length
     if not (math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(given) and given >= 0):
-        raise ValueError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
+        raise InputError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
     if clip.n_frames == 0:
-        raise ValueError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
+        raise InputError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
     poses = clip.poses()
     margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), given)
     lower = np.maximum(poses.min(axis=0) - margin, sk.lower)
@@ -121,7 +122,7 @@ def clip_within(clip: Clip, skeleton: Skeleton, source: str) -> Clip:
     if len(outside):
         n, d = outside[0]
         scale = math.degrees(1.0) if skeleton.dof_kind[d] == ROTATE else 1.0
-        raise ValueError(
+        raise InputError(
             f"{source}: frame {n} has {skeleton.dof_names[d]} = {poses[n, d] * scale:.6g}, outside its limits "
             f"[{skeleton.lower[d] * scale:.6g}, {skeleton.upper[d] * scale:.6g}] ({len(outside)} values outside in "
             "all); widen the table, or measure it from the clip with `deik limits`"

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.files import FilePath
 from deik.model.skeleton import Skeleton
 
@@ -45,11 +46,11 @@ def load_skeleton(
     urdf_only = {"--base": base, "--tip": tip, "--up": up}
     misplaced = [flag for flag, value in urdf_only.items() if value is not None and len(value) > 0]
     if suffix != ".urdf" and misplaced:
-        raise ValueError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
+        raise InputError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
     if suffix != ".bvh" and segments is not None:
-        raise ValueError(f"--segments only applies to a BVH character, not {spec!r}")
+        raise InputError(f"--segments only applies to a BVH character, not {spec!r}")
     if suffix != ".bvh" and free_translations:
-        raise ValueError(f"--free-translations only applies to a BVH character, not {spec!r}")
+        raise InputError(f"--free-translations only applies to a BVH character, not {spec!r}")
     if suffix == ".bvh":
         from deik.io.bvh import read_bvh
 
@@ -89,4 +90,4 @@ def skeleton_from_spec(spec: str) -> Skeleton:
         return humanoid()
     if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
         return chain(int(count), dims=2 if kind == "chain" else 3)
-    raise ValueError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")
+    raise InputError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")

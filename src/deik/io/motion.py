@@ -14,12 +14,15 @@ import math
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.euler import AXIS_TOLERANCE, continuous_angles, continuous_frames
 from deik.model.joints import ROTATE, TRANSLATE
+from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
 
@@ -47,8 +50,22 @@ class JointChannels:
     local_position: bool = False
 
 
+class KinematicsOnce:
+    """A motion's forward kinematics, computed on first use and kept: a clip's frames never
+    change (a new clip is made instead), so every measure of the same clip reads one Kinematics."""
+
+    @cached_property
+    def kinematics(self) -> Kinematics:
+        """Kinematics of every frame (batch (N,)): world frames (N, F, 3, 3), positions (N, F, 3)
+        in length units and the centre of mass (N, 3); read-only."""
+        kin = forward_kinematics(self.skeleton, self.frames)
+        for array in (kin.R_world_frame, kin.p_world_frame, kin.p_world_com):
+            array.setflags(write=False)
+        return kin
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class Clip:
+class Clip(KinematicsOnce):
     """A skeleton and N frames of its DOF values: `frames` (N, D) float64, read-only, radians /
     length units in skeleton DOF order; `frame_time` seconds; `layout` the BVH joints in file
     order; `source` where it came from; `mass_source` where its masses came from.
@@ -73,13 +90,13 @@ class Clip:
         sk = self.skeleton
         frames = np.array(self.frames, dtype=np.float64)
         if frames.ndim != 2 or frames.shape[1] != sk.n_dofs:
-            raise ValueError(f"frames must have shape (N, {sk.n_dofs}), got {frames.shape}")
+            raise InputError(f"frames must have shape (N, {sk.n_dofs}), got {frames.shape}")
         if not np.isfinite(frames).all():
-            raise ValueError("frames contain NaN or infinite values")
+            raise InputError("frames contain NaN or infinite values")
         frames.setflags(write=False)
         frame_time = float(self.frame_time)
         if not (math.isfinite(frame_time) and frame_time > 0):
-            raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+            raise InputError(f"frame_time must be a positive number of seconds, got {frame_time}")
         layout = tuple(self.layout)
         dofs, scale, bias = _channel_map(sk, layout)
         for array in (dofs, scale, bias):
@@ -126,7 +143,7 @@ class Clip:
         n = self._frame_index(n)
         pose = self.skeleton.check_angles(pose, "pose")
         if pose.ndim != 1:
-            raise ValueError(f"pose must have shape ({self.skeleton.n_dofs},), got {pose.shape}")
+            raise InputError(f"pose must have shape ({self.skeleton.n_dofs},), got {pose.shape}")
         frames = self.frames.copy()
         frames[n] = continuous_angles(self.skeleton, pose[None], self.frames[n : n + 1])[0]
         return replace(self, frames=frames)
@@ -136,7 +153,7 @@ class Clip:
         the original frame it replaces (same rotations, nearest Euler values)."""
         frames = self.skeleton.check_angles(frames, "frames")
         if frames.shape != self.frames.shape:
-            raise ValueError(f"frames must have shape {self.frames.shape} like the clip's, got {frames.shape}")
+            raise InputError(f"frames must have shape {self.frames.shape} like the clip's, got {frames.shape}")
         return replace(self, frames=continuous_angles(self.skeleton, frames, self.frames))
 
     def with_continuous_channels(self) -> Clip:
@@ -164,7 +181,7 @@ class Clip:
         dofs, scale, bias = _channel_map(skeleton, tuple(layout))
         values = np.asarray(values, dtype=np.float64)
         if values.ndim != 2 or values.shape[1] != len(dofs):
-            raise ValueError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
+            raise InputError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
         frames = np.empty((values.shape[0], skeleton.n_dofs))
         frames[:, dofs] = (values - bias) / scale
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
@@ -177,7 +194,7 @@ class Clip:
         layout = _layout_from_skeleton(skeleton)
         poses = np.atleast_2d(skeleton.check_angles(poses, "poses"))
         if poses.ndim != 2:
-            raise ValueError(f"poses must have shape (N, {skeleton.n_dofs}), got {poses.shape}")
+            raise InputError(f"poses must have shape (N, {skeleton.n_dofs}), got {poses.shape}")
         mass_source = f"skeleton {skeleton.name!r} ({skeleton.total_mass:g} kg)"
         return cls(skeleton, poses, frame_time, layout, source or f"<poses of {skeleton.name}>", mass_source)
 
@@ -200,7 +217,7 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
     site = {name: s for s, name in enumerate(sk.site_names)}
     entries = {e.name: e for e in layout}
     if len(entries) != len(layout) or set(entries) != set(joint) or layout[0].name != sk.joint_names[0]:
-        raise ValueError("the layout must list every joint of the skeleton once, the root first")
+        raise InputError("the layout must list every joint of the skeleton once, the root first")
     order, stack, sites = [], [layout[0].name], []
     while stack:
         name = stack.pop()
@@ -208,30 +225,30 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
         for child in entries[name].children:
             parent = sk.parents[joint[child]] if child in joint else sk.site_joint[site[child]] if child in site else -1
             if parent < 0 or sk.joint_names[parent] != name:
-                raise ValueError(f"layout lists {child!r} under {name!r}, which is not its parent")
+                raise InputError(f"layout lists {child!r} under {name!r}, which is not its parent")
             if child in site:
                 sites.append(child)
         stack.extend(reversed([c for c in entries[name].children if c in joint]))
     if order != [e.name for e in layout] or sorted(sites) != sorted(sk.site_names):
-        raise ValueError("the layout must be the depth-first walk of the skeleton with every site once")
+        raise InputError("the layout must be the depth-first walk of the skeleton with every site once")
     dofs, scale, bias = [], [], []
     for entry in layout:
         k = joint[entry.name]
         own = range(sk.joint_dof_start[k], sk.joint_dof_start[k + 1])
         if len(entry.channels) != len(entry.dofs) or sorted(entry.dofs) != list(own):
-            raise ValueError(f"joint {entry.name!r}: the layout must give one channel per DOF")
+            raise InputError(f"joint {entry.name!r}: the layout must give one channel per DOF")
         for channel, d in zip(entry.channels, entry.dofs):
             kind, axis = CHANNELS.get(channel, (None, 0))
             sign = sk.dof_axis[d][axis]
             if kind != sk.dof_kind[d] or abs(abs(sign) - 1.0) > AXIS_TOLERANCE:
-                raise ValueError(f"channel {channel} of joint {entry.name!r} does not match DOF {sk.dof_names[d]!r}")
+                raise InputError(f"channel {channel} of joint {entry.name!r} does not match DOF {sk.dof_names[d]!r}")
             dofs.append(d)
             scale.append(math.copysign(DEGREES_PER_RADIAN if kind == ROTATE else 1.0, sign))
             bias.append(float(sk.offsets[k][axis]) if entry.local_position and kind != ROTATE else 0.0)
         kinds = sk.dof_kind[own]
         rotations = [d for c, d in zip(entry.channels, entry.dofs) if CHANNELS[c][0] == ROTATE]
         if (np.diff(kinds) > 0).any() or rotations != sorted(rotations):
-            raise ValueError(
+            raise InputError(
                 f"joint {entry.name!r}: DOFs must be its translations, then its rotations in channel order"
             )
     return np.array(dofs, dtype=np.intp), np.array(scale, dtype=np.float64), np.array(bias, dtype=np.float64)
@@ -241,17 +258,17 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
     """Depth-first BVH layout of `sk`; ValueError naming the first DOF or name BVH cannot carry."""
     for name in sk.frame_names:
         if not name or any(c.isspace() or c in "{}" for c in name):
-            raise ValueError(
+            raise InputError(
                 f"name {name!r} cannot be written to BVH: names need at least one character and no spaces or braces"
             )
     turned = np.flatnonzero(np.abs(sk.joint_rotation - np.eye(3)).max(axis=(1, 2)) > AXIS_TOLERANCE)
     if turned.size:
-        raise ValueError(
+        raise InputError(
             f"joint {sk.joint_names[turned[0]]!r} has a fixed rest rotation, which BVH "
             "cannot carry (OFFSETs only); write the pose as JSON instead"
         )
     if sk.mimic_names:
-        raise ValueError(
+        raise InputError(
             f"DOF {sk.mimic_names[0]!r} mimics another; BVH has no mimic channels, write the pose as JSON instead"
         )
     children = [[] for _ in sk.joint_names]
@@ -267,19 +284,19 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
             axis = int(np.argmax(np.abs(sk.dof_axis[d])))
             word = "rotation" if sk.dof_kind[d] == ROTATE else "position"
             if abs(abs(sk.dof_axis[d][axis]) - 1.0) > AXIS_TOLERANCE:
-                raise ValueError(
+                raise InputError(
                     f"DOF {sk.dof_names[d]!r} moves along {tuple(sk.dof_axis[d])}, "
                     "not a coordinate axis: BVH channels are X/Y/Z only"
                 )
             if word == "position" and rotated:
-                raise ValueError(
+                raise InputError(
                     f"DOF {sk.dof_names[d]!r} translates after a rotation of its "
                     "joint; BVH position channels move along the parent's axes, so "
                     "a joint's translations must come before its rotations"
                 )
             channel = f"{'XYZ'[axis]}{word}"
             if channel in channels:
-                raise ValueError(
+                raise InputError(
                     f"DOF {sk.dof_names[d]!r} repeats channel {channel} of its joint; "
                     "BVH allows each channel once per joint"
                 )

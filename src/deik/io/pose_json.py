@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.errors import FileFormatError
+from deik.errors import FileFormatError, InputError
 from deik.io.files import FilePath, read_input_json
 from deik.model.skeleton import Skeleton
 
@@ -151,12 +151,12 @@ def pose_angles(pose: PoseFile, skeleton: Skeleton, flag: str) -> np.ndarray:
     """`pose`'s angles (B, D) for `skeleton`; ValueError naming `flag` and the file when its DOF
     names are not the skeleton's (a pose of another robot, or of other --base/--tip links)."""
     if pose.angles.shape[1] != skeleton.n_dofs:
-        raise ValueError(
+        raise InputError(
             f"{flag} {pose.path}: its angles hold {pose.angles.shape[1]} values, the skeleton has "
             f"{skeleton.n_dofs} DOFs"
         )
     if pose.dof_names is not None and list(pose.dof_names) != list(skeleton.dof_names):
-        raise ValueError(
+        raise InputError(
             f"{flag} {pose.path}: its dof_names {list(pose.dof_names)} are not this skeleton's "
             f"{list(skeleton.dof_names)}; give a pose written for the same skeleton, base and tips"
         )

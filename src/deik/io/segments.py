@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from deik.errors import FileFormatError
+from deik.errors import FileFormatError, InputError
 from deik.io.files import FilePath, read_input_text
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.capsules import carrier_joints
@@ -117,7 +117,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     description of what was done).
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
-        raise ValueError(f"total_mass must be a positive number of kg, got {total_mass}")
+        raise InputError(f"total_mass must be a positive number of kg, got {total_mass}")
     ends = _bone_ends(skeleton)
     lengths = np.where(carrier_joints(skeleton), 0.0, np.linalg.norm(ends, axis=1))  # a carrier is no body part
     names = skeleton.joint_names

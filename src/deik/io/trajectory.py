@@ -21,17 +21,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.atomic import write_json_atomically, write_text_atomically
 from deik.io.euler import continuous_angles, continuous_frames
 from deik.io.files import FilePath
-from deik.io.motion import Clip
+from deik.io.motion import Clip, KinematicsOnce
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
 
 
 @dataclass(frozen=True, eq=False)
-class Trajectory:
+class Trajectory(KinematicsOnce):
     """N frames of a skeleton's DOF values: `frames` (N, D) float64 (radians / length units),
     `frame_time` seconds, `source` where it came from."""
 
@@ -43,9 +44,9 @@ class Trajectory:
     def __post_init__(self):
         frames = self.skeleton.check_angles(np.atleast_2d(self.frames), "frames").copy()
         if frames.ndim != 2:
-            raise ValueError(f"frames must have shape (N, {self.skeleton.n_dofs}), got {frames.shape}")
+            raise InputError(f"frames must have shape (N, {self.skeleton.n_dofs}), got {frames.shape}")
         if not (math.isfinite(self.frame_time) and self.frame_time > 0):
-            raise ValueError(f"frame_time must be a positive number of seconds, got {self.frame_time}")
+            raise InputError(f"frame_time must be a positive number of seconds, got {self.frame_time}")
         frames.setflags(write=False)
         object.__setattr__(self, "frames", frames)
         object.__setattr__(self, "frame_time", float(self.frame_time))
@@ -62,7 +63,7 @@ class Trajectory:
         """A new trajectory of `frames` (N, D), each nearest (whole turns) the frame it replaces."""
         frames = self.skeleton.check_angles(frames, "frames")
         if frames.shape != self.frames.shape:
-            raise ValueError(f"frames must have shape {self.frames.shape}, got {frames.shape}")
+            raise InputError(f"frames must have shape {self.frames.shape}, got {frames.shape}")
         return replace(self, frames=continuous_angles(self.skeleton, frames, self.frames))
 
     def with_continuous_channels(self) -> Trajectory:
@@ -103,4 +104,4 @@ def write_trajectory(path: FilePath, trajectory: Trajectory) -> None:
         }
         write_json_atomically(path, document)
     else:
-        raise ValueError(f"{path}: a trajectory is written as .csv or .json")
+        raise InputError(f"{path}: a trajectory is written as .csv or .json")

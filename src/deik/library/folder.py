@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 
+from deik.errors import InputError
 from deik.io.files import FilePath
 
 CLIP_SUFFIX = ".bvh"
@@ -25,7 +26,7 @@ def find_clips(folder: FilePath) -> tuple[list[str], list[str]]:
     others = [name for name in entries if name not in taken]
     if not clips:
         shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
-        raise ValueError(
+        raise InputError(
             f"{folder}: no {CLIP_SUFFIX} clips in this folder (sub-folders are not searched)"
             + (f"; it holds {shown}" if others else "; it is empty")
         )
@@ -33,7 +34,7 @@ def find_clips(folder: FilePath) -> tuple[list[str], list[str]]:
     for path in clips:
         stem = os.path.splitext(os.path.basename(path))[0]
         if stem in stems:
-            raise ValueError(
+            raise InputError(
                 f"{folder}: {os.path.basename(stems[stem])} and {os.path.basename(path)} would write the same "
                 "outputs; rename one of them"
             )
@@ -47,12 +48,12 @@ def output_folder(flag: str, folder: str, inputs: str) -> str:
     or mix with the clips)."""
     path = os.path.abspath(folder)
     if os.path.exists(path) and not os.path.isdir(path):
-        raise ValueError(f"{flag} {folder!r} is a file; with a folder of clips, {flag} names a folder")
+        raise InputError(f"{flag} {folder!r} is a file; with a folder of clips, {flag} names a folder")
     if not os.path.isdir(os.path.dirname(path)):
-        raise ValueError(f"{flag}: folder {os.path.dirname(path)!r} does not exist; create it first")
+        raise InputError(f"{flag}: folder {os.path.dirname(path)!r} does not exist; create it first")
     if os.path.isdir(path) and os.path.samefile(path, inputs):
-        raise ValueError(f"{flag} {folder!r} is the folder of the input clips; write the outputs to another folder")
+        raise InputError(f"{flag} {folder!r} is the folder of the input clips; write the outputs to another folder")
     os.makedirs(path, exist_ok=True)
     if not os.access(path, os.W_OK | os.X_OK):
-        raise ValueError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+        raise InputError(f"{flag}: folder {folder!r} is not writable; choose another folder")
     return path

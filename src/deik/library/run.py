@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from deik.errors import InputError
 from deik.library.jobs import Job, Outcome, Task, skipped
 from deik.library.local import default_workers, local_events, threads_per_worker
 from deik.library.ray_cluster import ray_events, require_ray
@@ -58,11 +59,11 @@ def _events(jobs, task, executor: str, workers: int | None, address: str | None)
 def _check(executor: str, workers, address) -> None:
     """ValueError or ImportError (with the fix) for a bad executor choice, before any work."""
     if executor not in EXECUTORS:
-        raise ValueError(f"executor {executor!r}: use {' or '.join(EXECUTORS)}")
+        raise InputError(f"executor {executor!r}: use {' or '.join(EXECUTORS)}")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
-        raise ValueError(f"workers {workers!r}: use a whole number >= 1")
+        raise InputError(f"workers {workers!r}: use a whole number >= 1")
     if address is not None and executor != "ray":
-        raise ValueError("an address names a Ray cluster: give it with the ray executor (--executor ray)")
+        raise InputError("an address names a Ray cluster: give it with the ray executor (--executor ray)")
     if executor == "ray":
         require_ray()
 
@@ -76,12 +77,14 @@ def run_library(
     address: str | None = None,
     quiet: bool = False,
     note: Callable[[str], object] | None = None,
+    progress: bool = False,
 ) -> LibraryRun:
     """Run every job of `jobs` that is not done yet (jobs.read_sidecar) with `task`, on
     `executor` "local" (`workers` processes, default one per core) or "ray" (`address` of the
     cluster, default a local instance; `workers` tasks in flight at most). Progress bars go to
-    stderr unless `quiet`; `note(line)` is called with a line for each failed clip as it fails
-    (default: printed on stderr, above the bars)."""
+    stderr when it is a terminal, or always with `progress`, never when `quiet`; `note(line)`
+    is called with a line for each failed clip as it fails (default: printed on stderr, above
+    the bars)."""
     _check(executor, workers, address)
     began = time.perf_counter()
     outcomes, pending = {}, []
@@ -95,16 +98,18 @@ def run_library(
     if pending:
         pending.sort(key=lambda job: -os.path.getsize(job.source))
         events, workers, threads = _events(pending, task, executor, workers, address)
-        _follow(events, len(jobs), len(jobs) - len(pending), outcomes, quiet, note)
+        show = False if quiet else (True if progress else None)  # None: on a terminal only
+        _follow(events, len(jobs), len(jobs) - len(pending), outcomes, show, note)
     ordered = tuple(outcomes[job.name] for job in jobs)
     return LibraryRun(ordered, time.perf_counter() - began, executor, workers if pending else 0, threads)
 
 
-def _follow(events, total: int, initial: int, outcomes: dict, quiet: bool, note) -> None:
-    """Consume `events`, recording each finished Outcome in `outcomes` and drawing the bars."""
+def _follow(events, total: int, initial: int, outcomes: dict, show: bool | None, note) -> None:
+    """Consume `events`, recording each finished Outcome in `outcomes` and drawing the bars
+    (`show` True always, None when stderr is a terminal, False never)."""
     from tqdm import tqdm
 
-    bars = dict(file=sys.stderr, disable=quiet, dynamic_ncols=True)
+    bars = dict(file=sys.stderr, disable=None if show is None else not show, dynamic_ncols=True)
     with (
         tqdm(total=total, initial=initial, desc="clips", unit="clip", position=0, **bars) as clips,
         tqdm(total=0, desc="frames", unit="frame", position=1, **bars) as frames,

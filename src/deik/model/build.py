@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.joints import Dof, Joint, Segment, Site
 from deik.model.skeleton import Skeleton
 
@@ -22,17 +23,17 @@ def _topological_order(joints: list[Joint]) -> list[int]:
     by_name: dict[str, int] = {}
     for k, j in enumerate(joints):
         if j.name in by_name:
-            raise ValueError(f"duplicate joint name {j.name!r}; every joint needs its own name")
+            raise InputError(f"duplicate joint name {j.name!r}; every joint needs its own name")
         by_name[j.name] = k
     roots = [k for k, j in enumerate(joints) if j.parent is None]
     if len(roots) != 1:
         names = [joints[k].name for k in roots]
-        raise ValueError(f"a skeleton needs exactly one root (parent=None), found {names}")
+        raise InputError(f"a skeleton needs exactly one root (parent=None), found {names}")
     children: list[list[int]] = [[] for _ in joints]
     for k, j in enumerate(joints):
         if j.parent is not None:
             if j.parent not in by_name:
-                raise ValueError(f"joint {j.name!r} names unknown parent {j.parent!r}")
+                raise InputError(f"joint {j.name!r} names unknown parent {j.parent!r}")
             children[by_name[j.parent]].append(k)
     order, stack = [], [roots[0]]
     while stack:
@@ -46,7 +47,7 @@ def _topological_order(joints: list[Joint]) -> list[int]:
             path.append(k)
             k = by_name[joints[k].parent]
         cycle = [joints[i].name for i in path[path.index(k) :]] + [joints[k].name]
-        raise ValueError(f"joint parents form a cycle: {' -> '.join(cycle)}")
+        raise InputError(f"joint parents form a cycle: {' -> '.join(cycle)}")
     return order
 
 
@@ -65,7 +66,7 @@ def build_skeleton(
     for j in joints:
         free = [d.mimic is None for d in j.dofs]
         if free != sorted(free, reverse=True):
-            raise ValueError(f"joint {j.name!r}: mimic DOFs must come after its free DOFs")
+            raise InputError(f"joint {j.name!r}: mimic DOFs must come after its free DOFs")
     dofs = [(k, d) for k, j in enumerate(joints) for d in j.dofs if d.mimic is None]
     mimics = [(k, d) for k, j in enumerate(joints) for d in j.dofs if d.mimic is not None]
     dof_names = tuple(_dof_name(joints[k], d) for k, d in dofs)
@@ -73,11 +74,11 @@ def build_skeleton(
     masses = [(index[j.name], (0.0, 0.0, 0.0), j.mass) for j in joints if j.mass != 0.0]
     for s in segments:
         if s.joint not in index:
-            raise ValueError(f"segment {s.name!r} names unknown joint {s.joint!r}")
+            raise InputError(f"segment {s.name!r} names unknown joint {s.joint!r}")
         masses.append((index[s.joint], s.com_offset, s.mass))
     for s in sites:
         if s.joint not in index:
-            raise ValueError(f"site {s.name!r} names unknown joint {s.joint!r}")
+            raise InputError(f"site {s.name!r} names unknown joint {s.joint!r}")
     return Skeleton(
         name=name,
         joint_names=tuple(j.name for j in joints),
@@ -115,7 +116,7 @@ def _mimic_arrays(joints, mimics, dof_names) -> dict:
     for k, d in mimics:
         source = d.mimic[0]
         if source not in dof_names:
-            raise ValueError(
+            raise InputError(
                 f"DOF {_dof_name(joints[k], d)!r} mimics unknown DOF {source!r}; "
                 "a mimic source must be a free DOF of the same skeleton"
             )
@@ -133,13 +134,13 @@ def _mimic_arrays(joints, mimics, dof_names) -> dict:
 
 def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
     """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
-    site on a site lands on that site's joint. ValueError when a name is taken."""
+    site on a site lands on that site's joint. InputError when a name is taken."""
     if not sites:
         return skeleton
     names, joints, offsets, rotations = [], [], [], []
     for name, frame, offset in sites:
         if name in skeleton.frame_names or name in names:
-            raise ValueError(f"site name {name!r} is already used in {skeleton.name!r}")
+            raise InputError(f"site name {name!r} is already used in {skeleton.name!r}")
         f = skeleton.frame_index(frame)
         offset = np.asarray(offset, float)
         if f < skeleton.n_joints:

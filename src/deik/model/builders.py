@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from deik.errors import InputError
 from deik.model.build import build_skeleton
 from deik.model.joints import Joint, Site, euler, hinge
 from deik.model.skeleton import Skeleton
@@ -27,11 +28,11 @@ def chain(
     Named "chain:N" (planar) or "chain3d:N", as the CLI spells them.
     """
     if isinstance(n_links, bool) or not isinstance(n_links, int) or not 1 <= n_links <= MAX_CHAIN_LINKS:
-        raise ValueError(f"n_links must be an integer from 1 to {MAX_CHAIN_LINKS}, got {n_links!r}")
+        raise InputError(f"n_links must be an integer from 1 to {MAX_CHAIN_LINKS}, got {n_links!r}")
     if dims not in (2, 3):
-        raise ValueError(f"dims must be 2 or 3, got {dims!r}")
+        raise InputError(f"dims must be 2 or 3, got {dims!r}")
     if not (math.isfinite(link_length) and link_length > 0):
-        raise ValueError(f"link_length must be a positive finite length, got {link_length!r}")
+        raise InputError(f"link_length must be a positive finite length, got {link_length!r}")
     joints = []
     for k in range(n_links):
         dofs = hinge((0, 0, 1), lower, upper, label="Zrotation") if dims == 2 else euler("ZY", lower, upper)

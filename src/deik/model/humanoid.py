@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import numbers
 
+from deik.errors import InputError
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, HAND, HEAD, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.build import build_skeleton
 from deik.model.joints import Joint, Segment, Site, euler, hinge, translation
@@ -66,7 +67,7 @@ ELBOW_FLEXION, KNEE_FLEXION, TOE_EXTENSION = (0.0, 2.6), (0.0, 2.5), (-0.35, 0.7
 def _check_positive(name: str, value, example: str) -> float:
     if isinstance(value, numbers.Real) and math.isfinite(value) and value > 0:
         return float(value)
-    raise ValueError(f"humanoid {name} must be a finite positive number, got {value!r}; pass e.g. {example}")
+    raise InputError(f"humanoid {name} must be a finite positive number, got {value!r}; pass e.g. {example}")
 
 
 def _rom(joint: str, side_sign: float = 1.0):

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.rotations import AXES
 
 ROTATE, TRANSLATE = 0, 1
@@ -78,7 +79,7 @@ def euler(
     """Rotation DOFs for Euler channels, e.g. euler("ZXY"); limits scalar or one per channel."""
     order = order.upper()
     if not order or any(c not in AXES for c in order):
-        raise ValueError(f"euler order {order!r} must use only the letters X, Y and Z")
+        raise InputError(f"euler order {order!r} must use only the letters X, Y and Z")
     n = len(order)
     lo, hi, ref = (np.broadcast_to(np.asarray(v, float), (n,)) for v in (lower, upper, reference))
     return tuple(
@@ -93,12 +94,12 @@ def hinge(
     a = np.asarray(axis, dtype=float)
     norm = float(np.linalg.norm(a))
     if a.shape != (3,) or not math.isfinite(norm) or norm < 1e-12:
-        raise ValueError(f"hinge axis must be a finite non-zero 3-vector, got {axis!r}")
+        raise InputError(f"hinge axis must be a finite non-zero 3-vector, got {axis!r}")
     return (Dof(ROTATE, tuple(a / norm), float(lower), float(upper), float(reference), label),)
 
 
 def translation(axes: str = "XYZ", lower: ArrayLike = -math.inf, upper: ArrayLike = math.inf) -> tuple[Dof, ...]:
     """Translation DOFs along the named axes, e.g. a free-floating root: translation("XYZ")."""
     if not axes or any(c not in AXES for c in axes.upper()):
-        raise ValueError(f"translation axes {axes!r} must use only the letters X, Y and Z")
+        raise InputError(f"translation axes {axes!r} must use only the letters X, Y and Z")
     return tuple(Dof(TRANSLATE, AXES[c], float(lower), float(upper), 0.0, f"{c}position") for c in axes.upper())

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.rotations import euler_matrix
 
 FORMS = {"matrix": 2, "quat-wxyz": 1, "quat-xyzw": 1, "rpy": 1, "xyz": 1}  # form -> ndim of one value
@@ -41,7 +42,7 @@ def check_rotation(R: np.ndarray, what: str) -> np.ndarray:
         return R
     off = np.abs(R @ np.swapaxes(R, -1, -2) - _EYE) > _ORTHONORMAL_BOUND
     if off.any() or (np.linalg.det(R) <= 0).any():
-        raise ValueError(
+        raise InputError(
             f"{what} is not a rotation matrix (rows must be orthonormal within {ROTATION_TOLERANCE:g}, "
             "determinant +1); give a proper rotation"
         )
@@ -71,13 +72,13 @@ def pose_rotation(T: np.ndarray, what: str) -> np.ndarray:
     """The rotation part (..., 3, 3) of homogeneous poses `T` (..., 4, 4), checked."""
     last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0])
     if (last > POSE_TOLERANCE).any():
-        raise ValueError(f"{what} is a 4x4 pose whose last row is not 0 0 0 1; give a homogeneous transform")
+        raise InputError(f"{what} is a 4x4 pose whose last row is not 0 0 0 1; give a homogeneous transform")
     return check_rotation(T[..., :3, :3], what)
 
 
 def _quaternion_order(order: str) -> str:
     if order not in QUATERNION_ORDERS:
-        raise ValueError(f"quaternion order {order!r} is not one of {', '.join(QUATERNION_ORDERS)}; name it")
+        raise InputError(f"quaternion order {order!r} is not one of {', '.join(QUATERNION_ORDERS)}; name it")
     return order
 
 
@@ -90,7 +91,7 @@ def quaternion_matrix(q: ArrayLike, order: str, what: str = "quaternion") -> np.
     length = np.linalg.norm(q, axis=-1)
     if (np.abs(length - 1.0) > QUATERNION_TOLERANCE).any():
         worst = float(length.flat[np.argmax(np.abs(length - 1.0))])
-        raise ValueError(
+        raise InputError(
             f"{what} has length {worst:.6g}, not 1 (within {QUATERNION_TOLERANCE:g}); give a unit "
             "quaternion (deik does not normalise beyond rounding)"
         )
@@ -132,15 +133,15 @@ def rotation_from(form: str, value: ArrayLike, what: str) -> np.ndarray:
     radians); a ValueError naming `what` for an unknown form, a wrong shape, NaN, a matrix that
     is not a rotation or a quaternion that is not unit length."""
     if form not in FORMS:
-        raise ValueError(f"{what}: orientation form {form!r} is not one of {', '.join(FORMS)}")
+        raise InputError(f"{what}: orientation form {form!r} is not one of {', '.join(FORMS)}")
     a = np.asarray(value, dtype=np.float64)
     shapes = {"matrix": ((3, 3), (4, 4)), "rpy": ((3,),), "xyz": ((3,),)}.get(form, ((4,),))
     ndim = FORMS[form]
     if a.ndim < ndim or a.shape[a.ndim - ndim :] not in shapes:
         wanted = " or ".join(str(s) for s in shapes)
-        raise ValueError(f"{what} in form {form!r} must have shape {wanted} (or a batch of them), got {a.shape}")
+        raise InputError(f"{what} in form {form!r} must have shape {wanted} (or a batch of them), got {a.shape}")
     if not np.isfinite(a).all():
-        raise ValueError(f"{what} contains NaN or infinite values")
+        raise InputError(f"{what} contains NaN or infinite values")
     if form == "matrix":
         return pose_rotation(a, what) if a.shape[-1] == 4 else check_rotation(a, what)
     if form == "rpy":

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
+
 AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
@@ -40,7 +42,7 @@ def euler_matrix(order: str, angles: np.ndarray) -> np.ndarray:
     """Intrinsic Euler rotation: `order` like "ZXY", `angles` (*batch, len(order)) -> (*batch, 3, 3)."""
     angles = np.asarray(angles, dtype=np.float64)
     if angles.shape[-1] != len(order):
-        raise ValueError(f"euler order {order!r} needs {len(order)} angles, got {angles.shape[-1]}")
+        raise InputError(f"euler order {order!r} needs {len(order)} angles, got {angles.shape[-1]}")
     R = np.broadcast_to(np.eye(3), angles.shape[:-1] + (3, 3))
     for k, letter in enumerate(order.upper()):
         R = R @ axis_angle_matrix(np.array(AXES[letter]), angles[..., k])
@@ -74,7 +76,7 @@ def euler_angles(order: str, R: np.ndarray) -> np.ndarray:
     in [-pi/2, pi/2], the others in (-pi, pi]."""
     order = order.upper()
     if len(order) != 3 or set(order) - set(AXES) or len(set(order)) != 3:
-        raise ValueError(f"euler order {order!r} must be three different letters of X, Y and Z")
+        raise InputError(f"euler order {order!r} must be three different letters of X, Y and Z")
     i, j, k = ("XYZ".index(c) for c in order)
     sign = 1.0 if (j - i) % 3 == 1 else -1.0  # cyclic orders (XYZ, YZX, ZXY) and the others
     R = np.asarray(R, dtype=np.float64)

@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError, UnknownNameError
 from deik.model.joints import TRANSLATE
 from deik.suggest import did_you_mean
 
@@ -31,7 +32,7 @@ def _improper(R: np.ndarray) -> np.ndarray:
 
 
 def _fail(message: str) -> None:
-    raise ValueError(message)
+    raise InputError(message)
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,7 +268,9 @@ class Skeleton:
         frames = self.frame_names
         if name in frames:
             return frames.index(name)
-        raise KeyError(f"joint or site {name!r} not found in skeleton {self.name!r}{did_you_mean(name, frames)}")
+        raise UnknownNameError(
+            f"joint or site {name!r} not found in skeleton {self.name!r}{did_you_mean(name, frames)}"
+        )
 
     def joint_dofs(self, name: str) -> slice:
         """The slice of the angle vector that belongs to joint `name`, a joint label (for a URDF
@@ -277,11 +280,13 @@ class Skeleton:
             k = self.joint_labels.index(name)
             return slice(int(self.joint_dof_start[k]), int(self.joint_dof_start[k + 1]))
         if name in self.site_names:
-            raise KeyError(f"{name!r} is a site, not a joint: sites have no degrees of freedom")
+            raise UnknownNameError(f"{name!r} is a site, not a joint: sites have no degrees of freedom")
         if name in self.joint_names:
             label = self.joint_labels[self.joint_names.index(name)]
-            raise KeyError(f"{name!r} is a link (a frame); its degrees of freedom belong to joint {label!r}")
-        raise KeyError(f"joint {name!r} not found in skeleton {self.name!r}{did_you_mean(name, self.joint_labels)}")
+            raise UnknownNameError(f"{name!r} is a link (a frame); its degrees of freedom belong to joint {label!r}")
+        raise UnknownNameError(
+            f"joint {name!r} not found in skeleton {self.name!r}{did_you_mean(name, self.joint_labels)}"
+        )
 
     def angles_by_joint(self, angles: np.ndarray) -> dict[str, np.ndarray]:
         """Split a pose (D,) into {joint label: its DOF values} (radians / length units), joints
@@ -294,9 +299,9 @@ class Skeleton:
         """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim == 0 or a.shape[-1] != self.n_dofs:
-            raise ValueError(f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, got {a.shape}")
+            raise InputError(f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, got {a.shape}")
         if not np.isfinite(a).all():
-            raise ValueError(f"{name} contain NaN or infinite values")
+            raise InputError(f"{name} contain NaN or infinite values")
         return a
 
 

@@ -8,6 +8,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.orientations import QUICK_MARGIN
 from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import N_PARAMS
@@ -20,9 +21,9 @@ def vector(value: ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
     a batch axis; a ValueError naming `what` otherwise."""
     a = np.asarray(value, dtype=np.float64)
     if a.shape[-len(shape) :] != shape or a.ndim > len(shape) + 1:
-        raise ValueError(f"{what} must have shape {shape} or (batch, *{shape}), got {a.shape}")
+        raise InputError(f"{what} must have shape {shape} or (batch, *{shape}), got {a.shape}")
     if not np.isfinite(a).all():
-        raise ValueError(f"{what} contains NaN or infinite values: {value!r}")
+        raise InputError(f"{what} contains NaN or infinite values: {value!r}")
     return a.reshape((-1,) + shape) if a.ndim > len(shape) else a[None]
 
 
@@ -52,7 +53,7 @@ def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, l
     if squared.max() > bound:
         gap = np.sqrt(squared)
         worst = int(np.argmax(gap))
-        raise ValueError(
+        raise InputError(
             f"{label}: target {target[worst].round(6).tolist()} is unreachable: it lies "
             f"{gap[worst]:.6g} from the root's range but the chain to it is only {length:.6g} long"
         )
@@ -78,7 +79,7 @@ def _outside_squared(x: float, y: float, z: float, lo: list, hi: list) -> float:
 def need_mass(skeleton: Skeleton, what: str) -> None:
     """Raise when goal `what` needs masses and the skeleton has none."""
     if skeleton.total_mass <= 0:
-        raise ValueError(f"{what} needs masses, but skeleton {skeleton.name!r} has none")
+        raise InputError(f"{what} needs masses, but skeleton {skeleton.name!r} has none")
 
 
 def dof_weights(skeleton: Skeleton, spec: str | dict[str, float] | ArrayLike | None) -> np.ndarray:
@@ -88,17 +89,17 @@ def dof_weights(skeleton: Skeleton, spec: str | dict[str, float] | ArrayLike | N
         return np.ones(D)
     if isinstance(spec, str):
         if spec not in ("start", "end"):
-            raise ValueError(f"joint_weights string must be 'start' or 'end', got {spec!r}")
+            raise InputError(f"joint_weights string must be 'start' or 'end', got {spec!r}")
         depth = skeleton.dof_joint / max(skeleton.n_joints - 1, 1)
         return 1.0 - depth if spec == "start" else depth
     if isinstance(spec, dict):
         w = np.zeros(D)
         for name, value in spec.items():
             if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"joint_weights[{name!r}] = {value!r} must be finite and >= 0")
+                raise InputError(f"joint_weights[{name!r}] = {value!r} must be finite and >= 0")
             w[skeleton.joint_dofs(name)] = value
         return w
     w = np.asarray(spec, dtype=np.float64)
     if w.shape != (D,) or not np.isfinite(w).all() or (w < 0).any():
-        raise ValueError(f"joint_weights array must be ({D},), finite and >= 0, got shape {w.shape}")
+        raise InputError(f"joint_weights array must be ({D},), finite and >= 0, got shape {w.shape}")
     return w

@@ -1,4 +1,4 @@
-"""Goals a user asks for, each compiled to one row of the term table.
+"""Goals a user asks for, each compiled to one row of the term table by its `row` method.
 
 Targets may carry a leading batch axis (B, ...) to pose B problems at once. Weights lie in
 [-1, 1] (Eq. 2); `level` sets strict priority (0 highest; a lower level never buys a higher
@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.orientations import FORMS, passes_rotation_check, rotation_from
 from deik.model.skeleton import Skeleton
 from deik.objectives.goal_values import (
@@ -45,15 +46,18 @@ from deik.objectives.table import TermRow
 
 LENGTH_TOLERANCE = 1e-3  # length units: 1 mm for metres (URDF, deik.humanoid, most BVH)
 ANGLE_TOLERANCE = math.radians(0.1)  # radians
+NO_PARAMS = np.zeros((1, N_PARAMS))  # the parameters of a goal without targets (read-only)
+NO_PARAMS.setflags(write=False)
 
 
 @dataclass(frozen=True)
 class Goal:
     """Shared settings: weight in [-1, 1], mu > 0, level >= 0, tolerance >= 0 or None.
 
-    Each subclass names its term label (LABEL, formatted with the goal's fields) and the fields
-    that may carry a leading batch axis (BATCH_FIELDS: pairs of a field and the ndim of one
-    problem's value)."""
+    Each kind of goal names its term label (LABEL, formatted with the goal's fields) and the
+    fields that may carry a leading batch axis (BATCH_FIELDS: pairs of a field and the ndim of one
+    problem's value), and compiles itself in one method, `row(skeleton)`, which checks its
+    fields and returns its TermRow through `_row`, the part every kind shares."""
 
     LABEL = ""
     BATCH_FIELDS = ()
@@ -69,10 +73,9 @@ class Goal:
         """The term's label in tables and reports, e.g. "position left_hand"."""
         return self.LABEL.format_map(vars(self))
 
-    def batched(self, **replaced: object) -> bool:
-        """Whether a target, reference or `active` mask carries a batch axis (even of one);
-        `replaced` values stand in for the fields of those names (a new target)."""
-        values = ((replaced.get(name, getattr(self, name)), ndim) for name, ndim in self.BATCH_FIELDS)
+    def batched(self) -> bool:
+        """Whether a target, reference or `active` mask carries a batch axis (even of one)."""
+        values = ((getattr(self, name), ndim) for name, ndim in self.BATCH_FIELDS)
         return self.active is not None or any(v is not None and np.ndim(v) > ndim for v, ndim in values)
 
     def gain(self) -> np.ndarray:
@@ -82,51 +85,47 @@ class Goal:
             return np.ones(1)
         active = np.asarray(self.active)
         if active.dtype != np.bool_ or active.ndim != 1 or active.size == 0:
-            raise ValueError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
+            raise InputError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
         return active.astype(np.float64)
 
     def _check_settings(self, label: str) -> None:
         if not (-1.0 <= self.weight <= 1.0):
-            raise ValueError(f"{label}: weight {self.weight!r} must lie in [-1, 1] (Eq. 2)")
+            raise InputError(f"{label}: weight {self.weight!r} must lie in [-1, 1] (Eq. 2)")
         if not (self.mu > 0 and math.isfinite(self.mu)):
-            raise ValueError(f"{label}: mu {self.mu!r} must be a positive finite number")
+            raise InputError(f"{label}: mu {self.mu!r} must be a positive finite number")
         if not (isinstance(self.level, int) and self.level >= 0):
-            raise ValueError(f"{label}: level {self.level!r} must be an integer >= 0")
+            raise InputError(f"{label}: level {self.level!r} must be an integer >= 0")
         if self.tolerance is not None and not (self.tolerance >= 0 and math.isfinite(self.tolerance)):
-            raise ValueError(f"{label}: tolerance {self.tolerance!r} must be >= 0 (metres or radians)")
+            raise InputError(f"{label}: tolerance {self.tolerance!r} must be >= 0 (metres or radians)")
 
-    def _row(self, kind, frames=(), scale=1.0, default_tol=-1.0, dof_weight=None):
+    def row(self, skeleton: Skeleton) -> TermRow:
+        """This goal compiled for `skeleton`: its checked term row, with its parameters (B,
+        N_PARAMS) (B = 1 without a batch axis). Each kind of goal defines it."""
+        raise NotImplementedError(f"{type(self).__name__} defines no row")
+
+    def _row(self, kind: int, params: np.ndarray, default_tolerance: float = -1.0, **fields: object) -> TermRow:
+        """The part of every row the kinds share: the settings checked, the label, weight, mu,
+        level and tolerance (the goal's, else `default_tolerance`, -1 for none); `fields` are
+        the kind's own (frames, scale, dof_weight, reference, pairs: see TermRow)."""
         self._check_settings(self.label)
-        tol = default_tol if self.tolerance is None else float(self.tolerance)
+        tolerance = default_tolerance if self.tolerance is None else float(self.tolerance)
         return TermRow(
-            kind,
-            self.label,
-            tuple(frames),
-            (),
-            float(self.weight),
-            float(self.mu),
-            float(scale),
-            tol,
-            self.level,
-            dof_weight,
+            kind=kind,
+            label=self.label,
+            params=params,
+            weight=float(self.weight),
+            mu=float(self.mu),
+            tolerance=tolerance,
+            level=self.level,
+            **fields,
         )
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        """Per-problem parameters (B, N_PARAMS); B = 1 when the goal has no batch axis."""
-        return np.zeros((1, N_PARAMS))
-
-    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
-        """row() and params() together (what Problem compiles): goals whose check and packing
-        share work override it, so a target is checked once."""
-        return self.row(skeleton), self.params(skeleton)
 
     def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,
         checked as a new goal's would be (shape, NaN, reach, rotation): what deik.Solver swaps
         in between solves. B = 1 when the target has no batch axis."""
         goal = replace(self, target=target)
-        goal.row(skeleton)
-        return goal.params(skeleton), goal.batched()
+        return goal.row(skeleton).params, goal.batched()
 
     def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None] | None:
         """For deik.Solver, which swaps targets between solves of a few microseconds: a function
@@ -148,18 +147,11 @@ class Position(Goal):
     target: object
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        return self.compile(skeleton)[0]
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(vector(self.target, (3,), f"{self.frame} target"))
-
-    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
-        values = self._checked(skeleton, self.target)
-        return self._row(POSITION, (skeleton.frame_index(self.frame),), skeleton.reach, LENGTH_TOLERANCE), pack(values)
-
-    def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
-        """As Goal.target_params, checking the target once."""
-        return pack(self._checked(skeleton, target)), self.batched(target=target)
+        """The frame, the target in columns 0-2, checked within reach; scale: the reach."""
+        frame = skeleton.frame_index(self.frame)
+        target = vector(self.target, (3,), f"{self.frame} target")
+        check_reachable(skeleton, target, frame, self.label)
+        return self._row(POSITION, pack(target), LENGTH_TOLERANCE, frames=(frame,), scale=skeleton.reach)
 
     def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None]:
         """As Goal.quick_target: a finite 3-vector within reach (goal_values.reach_test)."""
@@ -173,12 +165,6 @@ class Position(Goal):
             return a if math.isfinite(x + y + z) and within(x, y, z) else None  # an overflowing sum just declines
 
         return quick
-
-    def _checked(self, skeleton: Skeleton, target: ArrayLike) -> np.ndarray:
-        """`target` as (B, 3), checked: shape, NaN, within reach of the frame."""
-        values = vector(target, (3,), f"{self.frame} target")
-        check_reachable(skeleton, values, skeleton.frame_index(self.frame), self.label)
-        return values
 
 
 @dataclass(frozen=True)
@@ -198,27 +184,15 @@ class Orientation(Goal):
     def BATCH_FIELDS(self) -> tuple[tuple[str, int], ...]:  # noqa: N802 (the class attribute of Goal): one target's ndim depends on the form
         return (("target", FORMS.get(self.form, 2)),)
 
-    def rotation(self, target: ArrayLike | None = None) -> np.ndarray:
-        """The target (or `target` in the goal's form) as rotation matrices (B, 3, 3), B = 1
-        without a batch axis; checked."""
-        R = rotation_from(
-            self.form, self.target if target is None else target, f"orientation target for {self.frame!r}"
-        )
+    def rotation(self) -> np.ndarray:
+        """The target as rotation matrices (B, 3, 3), B = 1 without a batch axis; checked."""
+        R = rotation_from(self.form, self.target, f"orientation target for {self.frame!r}")
         return vector(R, (3, 3), f"{self.frame} orientation")
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        return self.compile(skeleton)[0]
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(self.rotation())
-
-    def compile(self, skeleton: Skeleton) -> tuple[TermRow, np.ndarray]:
-        R = self.rotation()
-        return self._row(ORIENTATION, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE), pack(R)
-
-    def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
-        """As Goal.target_params, checking the target once."""
-        return pack(self.rotation(target)), self.batched(target=target)
+        """The frame, the target rotation's 9 entries row by row in columns 0-8."""
+        frame = skeleton.frame_index(self.frame)
+        return self._row(ORIENTATION, pack(self.rotation()), ANGLE_TOLERANCE, frames=(frame,))
 
     def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None] | None:
         """As Goal.quick_target, for the "matrix" form: one 3x3 rotation
@@ -245,15 +219,12 @@ class Aim(Goal):
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        if not np.linalg.norm(self.axis) > 0:
-            raise ValueError(f"aim axis for {self.frame!r} must be non-zero")
-        return self._row(AIM, (skeleton.frame_index(self.frame),), 1.0, ANGLE_TOLERANCE)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
+        """The frame, the unit axis in columns 0-2, the target in columns 3-5."""
         axis = np.asarray(self.axis, float)
         if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
-            raise ValueError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
-        return pack((axis / np.linalg.norm(axis))[None], vector(self.target, (3,), "aim target"))
+            raise InputError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
+        params = pack((axis / np.linalg.norm(axis))[None], vector(self.target, (3,), "aim target"))
+        return self._row(AIM, params, ANGLE_TOLERANCE, frames=(skeleton.frame_index(self.frame),))
 
 
 @dataclass(frozen=True)
@@ -266,12 +237,11 @@ class CentreOfMass(Goal):
     target: object
 
     def row(self, skeleton: Skeleton) -> TermRow:
+        """The target in columns 0-2, checked within reach of the root's range; scale: the reach."""
         need_mass(skeleton, "centre_of_mass")
-        check_reachable(skeleton, vector(self.target, (3,), "centre-of-mass target"), None, self.label)
-        return self._row(COM, (), skeleton.reach, LENGTH_TOLERANCE)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(vector(self.target, (3,), "centre-of-mass target"))
+        target = vector(self.target, (3,), "centre-of-mass target")
+        check_reachable(skeleton, target, None, self.label)
+        return self._row(COM, pack(target), LENGTH_TOLERANCE, scale=skeleton.reach)
 
 
 @dataclass(frozen=True)
@@ -284,11 +254,10 @@ class ComOverSupport(Goal):
     point: object
 
     def row(self, skeleton: Skeleton) -> TermRow:
+        """The support point in columns 0-2; scale: the reach."""
         need_mass(skeleton, "com_over_support")
-        return self._row(COM_GROUND, (), skeleton.reach, LENGTH_TOLERANCE)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(vector(self.point, (3,), "support point"))
+        params = pack(vector(self.point, (3,), "support point"))
+        return self._row(COM_GROUND, params, LENGTH_TOLERANCE, scale=skeleton.reach)
 
 
 @dataclass(frozen=True)
@@ -302,9 +271,9 @@ class ComInPolygon(Goal):
     def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_in_polygon")
         if not 1 <= len(self.frames) <= MAX_TERM_FRAMES:
-            raise ValueError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
-        idx = tuple(skeleton.frame_index(f) for f in self.frames)
-        return self._row(SUPPORT_POLYGON, idx, skeleton.reach, 0.0)
+            raise InputError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
+        frames = tuple(skeleton.frame_index(f) for f in self.frames)
+        return self._row(SUPPORT_POLYGON, NO_PARAMS, 0.0, frames=frames, scale=skeleton.reach)
 
 
 @dataclass(frozen=True)
@@ -324,15 +293,13 @@ class Comfort(Goal):
     mu: float = field(default=0.1, kw_only=True)
 
     def row(self, skeleton: Skeleton) -> TermRow:
+        """The per-DOF weights and the reference poses (B, D), the skeleton's by default."""
         if self.mode not in ("sum", "max"):
-            raise ValueError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
+            raise InputError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
         kind = COMFORT_SUM if self.mode == "sum" else COMFORT_MAX
-        return self._row(kind, (), 1.0, -1.0, dof_weights(skeleton, self.joint_weights))
-
-    def reference_pose(self, skeleton: Skeleton) -> np.ndarray | None:
-        if self.reference is None:
-            return None
-        return vector(self.reference, (skeleton.n_dofs,), "comfort reference")
+        reference = skeleton.reference[None] if self.reference is None else self.reference
+        reference = vector(reference, (skeleton.n_dofs,), "comfort reference")
+        return self._row(kind, NO_PARAMS, dof_weight=dof_weights(skeleton, self.joint_weights), reference=reference)
 
 
 @dataclass(frozen=True)
@@ -347,13 +314,12 @@ class Obstacle(Goal):
     bone_radius: float = 0.0
 
     def row(self, skeleton: Skeleton) -> TermRow:
+        """The centre in columns 0-2, the radius in 3 and the bone radius in 4; met at 0."""
         if not (self.radius > 0 and self.bone_radius >= 0):
-            raise ValueError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
-        return self._row(OBSTACLE, (), skeleton.reach, 0.0)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
+            raise InputError(f"obstacle radius must be > 0 and bone_radius >= 0, got {self.radius}, {self.bone_radius}")
         centre = vector(self.centre, (3,), "obstacle centre")
-        return pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
+        params = pack(centre, np.full((1, 1), self.radius), np.full((1, 1), self.bone_radius))
+        return self._row(OBSTACLE, params, 0.0, scale=skeleton.reach)
 
 
 @dataclass(frozen=True)
@@ -371,23 +337,25 @@ class Floor(Goal):
     clearance: object = None
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        row = self._row(FLOOR, (), skeleton.reach, LENGTH_TOLERANCE)
+        """The height in column 0 (one per problem with a batch axis); scale: the reach; with
+        `clearance`, one pair (f, f, clearance) per point the floor keeps above it."""
+        height = np.asarray(self.height, float)
+        if height.ndim > 1 or not np.isfinite(height).all():
+            raise InputError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
+        return self._row(
+            FLOOR, pack(height.reshape(-1, 1)), LENGTH_TOLERANCE, scale=skeleton.reach, pairs=self._pairs(skeleton)
+        )
+
+    def _pairs(self, skeleton: Skeleton) -> tuple:
         if self.clearance is None:
-            return row
+            return ()
         clearance = np.asarray(self.clearance, float)
         if clearance.shape != (skeleton.n_frames,) or np.isinf(clearance).any() or (clearance < 0).any():
-            raise ValueError(
+            raise InputError(
                 f"floor clearance must be (F,) = ({skeleton.n_frames},) finite lengths >= 0 or NaN, one per joint "
                 f"then site, got shape {clearance.shape}"
             )
-        points = np.flatnonzero(np.isfinite(clearance))
-        return replace(row, pairs=tuple((int(f), int(f), float(clearance[f])) for f in points))
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        height = np.asarray(self.height, float)
-        if height.ndim > 1 or not np.isfinite(height).all():
-            raise ValueError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
-        return pack(height.reshape(-1, 1))
+        return tuple((int(f), int(f), float(clearance[f])) for f in np.flatnonzero(np.isfinite(clearance)))
 
 
 @dataclass(frozen=True)
@@ -399,4 +367,5 @@ class LimitsPenalty(Goal):
     LABEL = "joint limits"
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        return TermRow(LIMITS, self.label, (), (), 1.0, 1.0, 1.0, 0.0, self.level)
+        """Weight 1, met at 0, on its own level (which may be negative: no settings check)."""
+        return TermRow(kind=LIMITS, label=self.label, params=NO_PARAMS, tolerance=0.0, level=self.level)

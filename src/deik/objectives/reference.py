@@ -43,14 +43,26 @@ def raw_errors(problem: ProblemLike, poses: np.ndarray, problem_index: np.ndarra
     poses = sk.check_angles(poses).reshape(-1, sk.n_dofs)
     idx = np.zeros(len(poses), int) if problem_index is None else np.asarray(problem_index)
     kin = forward_kinematics(sk, poses)
-    posed = Posed(sk, poses, kin.R_world_frame, kin.p_world_frame, kin.p_world_com, ground_frame(sk.up))
+    posed = Posed(
+        skeleton=sk,
+        poses=poses,
+        R=kin.R_world_frame,
+        p=kin.p_world_frame,
+        com=kin.p_world_com,
+        ground=ground_frame(sk.up),
+    )
     out = np.zeros((len(poses), table.n_terms))
     for t, kind in enumerate(table.kinds):
         frames = table.term_int[t, TERM_FRAMES : TERM_FRAMES + table.term_int[t, TERM_FRAME_COUNT]]
         mine = table.pair_int[:, PAIR_TERM] == t
         pairs = table.pair_int[mine][:, [PAIR_A, PAIR_B]]
         term = Term(
-            frames, table.params[idx, t], table.dof_weight[t], problem.reference[idx, t], pairs, table.pair_radius[mine]
+            frames=frames,
+            params=table.params[idx, t],
+            dof_weight=table.dof_weight[t],
+            reference=problem.reference[idx, t],
+            pairs=pairs,
+            pair_radius=table.pair_radius[mine],
         )
         out[:, t] = kind_of(kind).oracle(posed, term)
     return out

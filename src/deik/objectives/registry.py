@@ -38,7 +38,7 @@ def dof_unit(skeleton: Skeleton) -> str:
     return LENGTH if translates.all() else (ANGLE if not translates.any() else f"{ANGLE}+{LENGTH}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Posed:
     """N poses (N, D) of `skeleton` and their forward kinematics: frame rotations R (N, F, 3, 3),
     frame positions p (N, F, 3), centre of mass com (N, 3); ground (3, 3): two horizontal
@@ -52,7 +52,7 @@ class Posed:
     ground: np.ndarray
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Term:
     """One term row as each pose sees it: frames (k,) frame indices, params (N, N_PARAMS) the
     targets of each pose's problem, dof_weight (D,), reference (N, D) comfort reference poses,
@@ -154,7 +154,7 @@ def floor(x: Posed, term: Term) -> np.ndarray:
     return np.maximum(term.params[:, None, 0] - heights, 0).sum(axis=1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GoalKind:
     """One term kind. `unit`: "m", "rad", or a function of the skeleton for kinds that sum over
     DOFs; `file_type`, `required`, `optional`: the [[goal]] table's type and fields besides
@@ -182,63 +182,124 @@ class GoalKind:
 
 
 COMMON_FIELDS = ("weight", "mu", "level", "tolerance")
+ORIENTATION_FORMS = ("target", "pose", "quaternion_wxyz", "quaternion_xyzw", "rpy_degrees", "euler", "degrees")
 KINDS = (
-    GoalKind(k.POSITION, "position", g.Position, position, LENGTH, True, "position", ("frame", "target")),
     GoalKind(
-        k.ORIENTATION,
-        "orientation",
-        g.Orientation,
-        orientation,
-        ANGLE,
-        True,
-        "orientation",
-        ("frame",),
-        ("target", "pose", "quaternion_wxyz", "quaternion_xyzw", "rpy_degrees", "euler", "degrees"),
-    ),
-    GoalKind(k.AIM, "aim", g.Aim, aim, ANGLE, False, "aim", ("frame", "target"), ("axis",)),
-    GoalKind(k.COM, "centre_of_mass", g.CentreOfMass, centre_of_mass, LENGTH, True, "com", ("target",)),
-    GoalKind(
-        k.COM_GROUND,
-        "com_over_support",
-        g.ComOverSupport,
-        com_over_support,
-        LENGTH,
-        True,
-        "com_over_support",
-        ("point",),
+        kind=k.POSITION,
+        name="position",
+        goal=g.Position,
+        oracle=position,
+        unit=LENGTH,
+        polished=True,
+        file_type="position",
+        required=("frame", "target"),
     ),
     GoalKind(
-        k.SUPPORT_POLYGON,
-        "support_polygon",
-        g.ComInPolygon,
-        support_polygon,
-        LENGTH,
-        False,
-        "com_in_polygon",
-        ("frames",),
+        kind=k.ORIENTATION,
+        name="orientation",
+        goal=g.Orientation,
+        oracle=orientation,
+        unit=ANGLE,
+        polished=True,
+        file_type="orientation",
+        required=("frame",),
+        optional=ORIENTATION_FORMS,
     ),
     GoalKind(
-        k.COMFORT_SUM, "comfort_sum", g.Comfort, comfort_sum, dof_unit, False, "comfort", (), ("mode", "joint_weights")
+        kind=k.AIM,
+        name="aim",
+        goal=g.Aim,
+        oracle=aim,
+        unit=ANGLE,
+        polished=False,
+        file_type="aim",
+        required=("frame", "target"),
+        optional=("axis",),
     ),
     GoalKind(
-        k.COMFORT_MAX, "comfort_max", g.Comfort, comfort_max, dof_unit, False, "comfort", (), ("mode", "joint_weights")
+        kind=k.COM,
+        name="centre_of_mass",
+        goal=g.CentreOfMass,
+        oracle=centre_of_mass,
+        unit=LENGTH,
+        polished=True,
+        file_type="com",
+        required=("target",),
     ),
-    GoalKind(k.LIMITS, "joint_limits", g.LimitsPenalty, joint_limits, dof_unit, False),
     GoalKind(
-        k.OBSTACLE, "obstacle", g.Obstacle, obstacle, LENGTH, False, "obstacle", ("centre", "radius"), ("bone_radius",)
+        kind=k.COM_GROUND,
+        name="com_over_support",
+        goal=g.ComOverSupport,
+        oracle=com_over_support,
+        unit=LENGTH,
+        polished=True,
+        file_type="com_over_support",
+        required=("point",),
     ),
     GoalKind(
-        k.SELF_COLLISION,
-        "self_collision",
-        SelfCollision,
-        self_collision,
-        LENGTH,
-        False,
-        "self_collision",
-        (),
-        ("margin", "radii", "skip"),
+        kind=k.SUPPORT_POLYGON,
+        name="support_polygon",
+        goal=g.ComInPolygon,
+        oracle=support_polygon,
+        unit=LENGTH,
+        polished=False,
+        file_type="com_in_polygon",
+        required=("frames",),
     ),
-    GoalKind(k.FLOOR, "floor", g.Floor, floor, LENGTH, False, "floor", ("height",)),
+    GoalKind(
+        kind=k.COMFORT_SUM,
+        name="comfort_sum",
+        goal=g.Comfort,
+        oracle=comfort_sum,
+        unit=dof_unit,
+        polished=False,
+        file_type="comfort",
+        optional=("mode", "joint_weights"),
+    ),
+    GoalKind(
+        kind=k.COMFORT_MAX,
+        name="comfort_max",
+        goal=g.Comfort,
+        oracle=comfort_max,
+        unit=dof_unit,
+        polished=False,
+        file_type="comfort",
+        optional=("mode", "joint_weights"),
+    ),
+    GoalKind(
+        kind=k.LIMITS, name="joint_limits", goal=g.LimitsPenalty, oracle=joint_limits, unit=dof_unit, polished=False
+    ),
+    GoalKind(
+        kind=k.OBSTACLE,
+        name="obstacle",
+        goal=g.Obstacle,
+        oracle=obstacle,
+        unit=LENGTH,
+        polished=False,
+        file_type="obstacle",
+        required=("centre", "radius"),
+        optional=("bone_radius",),
+    ),
+    GoalKind(
+        kind=k.SELF_COLLISION,
+        name="self_collision",
+        goal=SelfCollision,
+        oracle=self_collision,
+        unit=LENGTH,
+        polished=False,
+        file_type="self_collision",
+        optional=("margin", "radii", "skip"),
+    ),
+    GoalKind(
+        kind=k.FLOOR,
+        name="floor",
+        goal=g.Floor,
+        oracle=floor,
+        unit=LENGTH,
+        polished=False,
+        file_type="floor",
+        required=("height",),
+    ),
 )
 assert [row.kind for row in KINDS] == list(range(len(KINDS))), "KINDS is indexed by kind code"
 

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.capsules import bone_starts, default_radii, link_distance
 from deik.model.geometry import segments_distance
 from deik.model.kinematics import forward_kinematics
@@ -22,7 +23,7 @@ from deik.objectives.table import TermRow
 
 def _radius(value, what: str) -> float:
     if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0):
-        raise ValueError(f"self collision: {what} must be a finite number >= 0 (length units), got {value!r}")
+        raise InputError(f"self collision: {what} must be a finite number >= 0 (length units), got {value!r}")
     return float(value)
 
 
@@ -56,7 +57,7 @@ class SelfCollision(Goal):
         for name, value in self.radii.items():
             k = skeleton.frame_index(name)
             if k >= skeleton.n_joints:
-                raise ValueError(f"self collision: {name!r} is a site; radii go on joints (the bones leaving them)")
+                raise InputError(f"self collision: {name!r} is a site; radii go on joints (the bones leaving them)")
             radii[k] = _radius(value, f"radius of {name!r}")
         return radii
 
@@ -64,7 +65,7 @@ class SelfCollision(Goal):
         """The tested bone pairs (bone a, bone b, radius a + radius b), bones named by their end
         frames (deik.model.capsules)."""
         if not (isinstance(self.skip, int) and self.skip >= 1):
-            raise ValueError(f"self collision: skip must be an integer >= 1 (links), got {self.skip!r}")
+            raise InputError(f"self collision: skip must be an integer >= 1 (links), got {self.skip!r}")
         start, radius = bone_starts(skeleton), self.joint_radii(skeleton)
         bone_radius = radius[np.maximum(start, 0)]
         a, b = np.triu_indices(skeleton.n_frames, 1)
@@ -77,14 +78,13 @@ class SelfCollision(Goal):
         return tuple(zip(a[apart].tolist(), b[apart].tolist(), reach[apart].tolist()))
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        _radius(self.margin, "margin")
+        """The margin in column 0 and the tested pairs; scale: the reach."""
+        margin = _radius(self.margin, "margin")
         pairs = self.pairs(skeleton)
         if not pairs:
-            raise ValueError(
+            raise InputError(
                 f"self collision: skeleton {skeleton.name!r} has no bone pair to test (every pair is within "
                 f"{self.skip} links or overlaps in the reference pose); lower skip or the radii"
             )
-        return replace(self._row(SELF_COLLISION, (), skeleton.reach, LENGTH_TOLERANCE), pairs=pairs)
-
-    def params(self, skeleton: Skeleton) -> np.ndarray:
-        return pack(np.full((1, 1), _radius(self.margin, "margin")))
+        params = pack(np.full((1, 1), margin))
+        return self._row(SELF_COLLISION, params, LENGTH_TOLERANCE, scale=skeleton.reach, pairs=pairs)

@@ -14,24 +14,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.objectives.kinds import MAX_LEVELS, MAX_TERM_FRAMES, MU, SCALE, TERM_KIND
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TermRow:
-    """One compiled objective term (see the module docstring); params (N_PARAMS,); pairs: the
-    bone pairs a self-collision term tests, (bone a, bone b, radius a + radius b) each."""
+    """One compiled goal (see the module docstring), what Goal.row returns: its kind and label,
+    its per-problem parameters (B, N_PARAMS) (B = 1 without a batch axis; the gain column is
+    set by the Problem), up to MAX_TERM_FRAMES frame indices, weight, mu, distance scale,
+    tolerance (-1: none) and level; a comfort term's per-DOF weights (D,) and reference poses
+    (B, D); a self-collision term's bone pairs, (bone a, bone b, radius a + radius b) each."""
 
     kind: int
     label: str
+    params: np.ndarray
     frames: tuple[int, ...] = ()
-    params: tuple[float, ...] = ()
     weight: float = 1.0
     mu: float = 1.0
     scale: float = 1.0
     tolerance: float = -1.0
     level: int = 0
     dof_weight: np.ndarray | None = None
+    reference: np.ndarray | None = None
     pairs: tuple[tuple[int, int, float], ...] = ()
 
 
@@ -78,14 +83,14 @@ def compile_rows(rows: list[TermRow], params_batch: np.ndarray, n_dofs: int) -> 
     T = len(rows)
     levels = sorted({r.level for r in rows})
     if len(levels) > MAX_LEVELS:
-        raise ValueError(f"at most {MAX_LEVELS} priority levels are supported, got {levels}")
+        raise InputError(f"at most {MAX_LEVELS} priority levels are supported, got {levels}")
     dense = {lv: k for k, lv in enumerate(levels)}
     term_int = np.full((T, 3 + MAX_TERM_FRAMES), -1, np.int32)
     term_float = np.zeros((T, 5))
     dof_weight = np.zeros((T, n_dofs))
     for t, r in enumerate(rows):
         if len(r.frames) > MAX_TERM_FRAMES:
-            raise ValueError(f"{r.label}: at most {MAX_TERM_FRAMES} frames per term")
+            raise InputError(f"{r.label}: at most {MAX_TERM_FRAMES} frames per term")
         term_int[t, :3] = (r.kind, dense[r.level], len(r.frames))
         term_int[t, 3 : 3 + len(r.frames)] = r.frames
         prioritised = len(levels) > 1 and r.tolerance >= 0 and r.weight > 0

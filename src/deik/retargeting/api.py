@@ -5,15 +5,17 @@ from __future__ import annotations
 from numpy.typing import ArrayLike
 
 from deik.cleanup.coherence import hinge_channels
+from deik.errors import InputError
 from deik.io.bvh import read_bvh
 from deik.io.bvh.preview import view_clip
 from deik.io.files import FilePath
 from deik.io.load import load_skeleton
 from deik.io.motion import Clip
+from deik.io.urdf import read_velocity_limits
 from deik.model.skeleton import Skeleton
+from deik.retargeting.continuity import continuous_within_limits
 from deik.retargeting.maps import JointMap, read_map
-from deik.retargeting.measures import within_limits
-from deik.retargeting.outcome import Retarget, frame_range
+from deik.retargeting.outcome import Progress, Retarget, frame_range
 from deik.retargeting.proportions import check_same_rig, retarget_proportions
 from deik.retargeting.rig import retarget_rig
 from deik.retargeting.skeletons import scaled_bones
@@ -33,7 +35,7 @@ def _bvh_clip(result: Retarget, target_clip: Clip | None) -> Clip:
     """The BVH clip of a rig retarget: the target clip's layout for a BVH target, the skeleton's
     own where BVH can carry it (the built-in humanoid), else a view of the robot."""
     motion = result.motion
-    frames = within_limits(motion.skeleton, motion.frames)
+    frames = continuous_within_limits(motion.skeleton, motion.frames)
     if target_clip is not None and target_clip.skeleton.n_dofs == motion.skeleton.n_dofs:
         clip = Clip(target_clip.skeleton, frames, motion.frame_time, target_clip.layout, motion.source)
         return clip.with_continuous_channels()
@@ -51,7 +53,8 @@ def retarget(
     joint_map: JointMap | FilePath | None = None,
     frames: tuple[int, int] | None = None,
     up: ArrayLike | None = None,
-    **settings: object,
+    velocity: dict[str, float] | None = None,
+    progress: Progress | None = None,
 ) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
@@ -59,26 +62,28 @@ def retarget(
     - Other proportions, same rig: `to` a BVH path or Clip with the same joint names and other
       bone lengths, or `scale` {joint: factor} scaling the bones below those joints.
     - Another skeleton: `joint_map` (a JointMap or a TOML/JSON path) and `to` a BVH or URDF
-      path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it.
-    `frames` = (start, stop) cuts the source first (stop exclusive); `settings` go to the clip
-    fix of a same-rig retarget (population, generations, seed, device); a joint-map retarget
-    runs no DE and takes only `progress(met, stage)` from them. ValueError for a mistake in
-    the inputs."""
+      path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it;
+      `velocity` {DOF name: limit, rad/s or length units/s} bounds each DOF's step between
+      frames (default: a URDF's own `<limit velocity>`s, none for another target).
+    `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
+    is called after each stage. ValueError for a mistake in the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     if joint_map is None:
         if (to is None) == (scale is None):
-            raise ValueError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
+            raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
-            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), **settings)
+            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
         target, _ = _target(to, None)
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
-        return retarget_proportions(clip, target, **settings)
+        return retarget_proportions(clip, target, progress)
     if to is None or scale is not None:
-        raise ValueError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
+        raise InputError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
     joint_map = joint_map if isinstance(joint_map, JointMap) else read_map(joint_map)
     target, target_clip = _target(to, joint_map.up or up)
     hinges = None if target_clip is None else hinge_channels(target_clip)
-    result = retarget_rig(clip, target, joint_map, hinges=hinges, **settings)
+    if velocity is None and not isinstance(to, (Skeleton, Clip)) and str(to).lower().endswith(".urdf"):
+        velocity = read_velocity_limits(to)
+    result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, progress=progress)
     return Retarget(
         result.motion,
         _bvh_clip(result, target_clip),
@@ -87,5 +92,4 @@ def retarget(
         result.keypoints,
         result.targets,
         result.report,
-        result.fix,
     )

@@ -52,7 +52,8 @@ class KeypointGoals:
     `searched` DOFs ((D,) or (N, D) bool over the clip's N frames), each change counted by
     `weights` (D,) (dof_weights); with a `floor` (height along up, length units) every joint
     and site of `body` (default all) is also pushed out of the floor, each depth counted
-    FLOOR_WEIGHT times."""
+    FLOOR_WEIGHT times. `size` (length units, default the skeleton's reach) is the body's size
+    the step and outlier thresholds are fractions of."""
 
     skeleton: Skeleton
     names: Sequence[str]
@@ -61,6 +62,12 @@ class KeypointGoals:
     weights: np.ndarray
     floor: float | None = None
     body: Sequence[str] | None = None
+    size: float | None = None
+
+    @property
+    def length(self) -> float:
+        """The body's size: `size`, else the skeleton's reach."""
+        return self.skeleton.reach if self.size is None else self.size
 
     def above(self, floor: float, body: Sequence[str] | None = None) -> KeypointGoals:
         """The same goals with the floor at height `floor` under the frames `body`."""
@@ -117,7 +124,7 @@ def solve_keypoints(goals: KeypointGoals, poses: np.ndarray, frames: np.ndarray 
     up = np.asarray(skeleton.up, float)
     searched = goals.searched_at(frames)
     scale = searched * np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
-    longest = LONGEST_STEP * skeleton.reach
+    longest = LONGEST_STEP * goals.length
     lower, upper = skeleton.lower, skeleton.upper
 
     def measured(q):
@@ -178,8 +185,7 @@ def repair_outliers(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
     for _ in range(OUTLIER_ROUNDS):
         error = worst_errors(goals, poses)
         bad = np.flatnonzero(
-            (error > OUTLIER_RATIO * _local_median(error, OUTLIER_SPAN))
-            & (error > OUTLIER_ERROR * goals.skeleton.reach)
+            (error > OUTLIER_RATIO * _local_median(error, OUTLIER_SPAN)) & (error > OUTLIER_ERROR * goals.length)
         )
         if not bad.size:
             break

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import euler_angles
@@ -26,13 +27,23 @@ def rest_heights(skeleton: Skeleton, names: Sequence[str]) -> np.ndarray:
     return np.array([kin.position(name) @ skeleton.up for name in names])
 
 
+def stature(skeleton: Skeleton) -> float:
+    """The vertical span of `skeleton` at rest (every DOF 0) along up, length units: the size
+    every threshold of a retarget is a fraction of (a rig with position channels on every joint
+    has DOF limits, and so a reach, far wider than its body). The span in any direction for a
+    rig with no height at rest."""
+    p = forward_kinematics(skeleton, np.zeros(skeleton.n_dofs)).p_world_frame
+    height = float(np.ptp(p @ skeleton.up))
+    return height if height > 0 else float(np.linalg.norm(np.ptp(p, axis=0)))
+
+
 def height_ratio(source: Skeleton, target: Skeleton, source_names: Sequence[str], target_names: Sequence[str]) -> float:
     """Target length per source length: the ratio of the vertical spans at rest of the mapped
     frames (`target_names` on `target`, `source_names` on `source`, pairwise). ValueError when
     the source's mapped frames span no height (map a head and a foot)."""
     spans = [np.ptp(rest_heights(sk, names)) for sk, names in ((source, source_names), (target, target_names))]
-    if not spans[0] > 1e-9 * source.reach:
-        raise ValueError("the mapped source points span no height at rest; map a head and a foot, or give scale")
+    if not spans[0] > 1e-9 * stature(source):
+        raise InputError("the mapped source points span no height at rest; map a head and a foot, or give scale")
     return float(spans[1] / spans[0])
 
 
@@ -81,7 +92,7 @@ def limb_scales(
 ) -> tuple[float, np.ndarray]:
     """(root scale, (K,) limb scales) at rest: the root key point's height above the skeleton's
     lowest joint or site, and each point's distance from its parent point (limb_tree), target over
-    source (a point within 1 % of the source's reach of its parent takes `fallback`)."""
+    source (a point within 1 % of the source's stature of its parent takes `fallback`)."""
     rest = [forward_kinematics(sk, np.zeros(sk.n_dofs)).p_world_frame for sk in (source, target)]
     P, Q = (
         X[[sk.frame_index(n) for n in names]]
@@ -89,12 +100,13 @@ def limb_scales(
     )
     # the root's height above the sole (the lowest joint or site), which stands on the floor
     legs = [X[root] @ sk.up - (frames @ sk.up).min() for X, frames, sk in zip((P, Q), rest, (source, target))]
-    if not legs[0] > 1e-2 * source.reach:
-        raise ValueError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
+    size = stature(source)
+    if not legs[0] > 1e-2 * size:
+        raise InputError('scale = "limbs": the pelvis point is not above the other mapped points at rest')
     parents = np.array(limb_tree(source, source_names, root))
     up = np.where(parents >= 0, parents, root)
     far = [np.linalg.norm(X - X[up], axis=1) for X in (P, Q)]
-    scales = np.where(far[0] > 1e-2 * source.reach, far[1] / np.maximum(far[0], 1e-12), fallback)
+    scales = np.where(far[0] > 1e-2 * size, far[1] / np.maximum(far[0], 1e-12), fallback)
     return float(legs[1] / legs[0]), scales
 
 

@@ -31,6 +31,7 @@ import numpy as np
 from deik.errors import FileFormatError
 from deik.io.files import FilePath, read_input_text
 from deik.model.skeleton import Skeleton
+from deik.retargeting.keypoints import stature
 from deik.suggest import did_you_mean
 
 KEYS = ("scale", "up", "rotation", "pelvis", "torso", "points")
@@ -149,9 +150,14 @@ def read_map(path: FilePath) -> JointMap:
     return parse_map(data, source)
 
 
+SIZE_RANGE = 10.0  # the scaled source may be this many times taller or shorter than the target, no more
+
+
 def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: Skeleton) -> None:
     """FileFormatError naming the map's key when a name is not a frame of its skeleton (with
-    close names), or the pelvis target is not the target's root joint."""
+    close names), the pelvis target is not the target's root joint, the `scale` makes the
+    source more than SIZE_RANGE times taller or shorter than the target (statures at rest), or
+    an offset is longer than the target is tall."""
     names = [(f"points.{p.source}", p.source, p.target) for p in joint_map.points]
     for key in ("pelvis", "torso"):
         pair = getattr(joint_map, key)
@@ -169,9 +175,33 @@ def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: S
                     f"{did_you_mean(name, skeleton.frame_names)}",
                     element=key,
                 )
+    _check_sizes(joint_map, stature(source_skeleton), stature(target_skeleton), target_skeleton.name)
     if joint_map.pelvis and joint_map.pelvis[1] != target_skeleton.joint_names[0]:
         raise FileFormatError(
             joint_map.source,
             f"the pelvis target must be the target's root joint {target_skeleton.joint_names[0]!r}",
             element="pelvis",
         )
+
+
+def _check_sizes(joint_map: JointMap, source_size: float, target_size: float, target_name: str) -> None:
+    """FileFormatError when the map's numbers are out of range for the skeletons' sizes
+    (statures, length units): see check_map."""
+    if joint_map.scale is not None and target_size > 0:
+        scaled = joint_map.scale * source_size
+        if not (target_size / SIZE_RANGE <= scaled <= target_size * SIZE_RANGE):
+            raise FileFormatError(
+                joint_map.source,
+                f"scale = {joint_map.scale:g} makes the source {scaled:.3g} tall, and the target "
+                f"{target_name} is {target_size:.3g} (length units, at rest); give a number near "
+                f'{target_size / source_size:.3g} (their heights\' ratio), or "height" or "limbs"',
+                element="scale",
+            )
+    for point in joint_map.points:
+        if np.linalg.norm(point.offset) > target_size:
+            raise FileFormatError(
+                joint_map.source,
+                f"offset {list(point.offset)} is longer than the target {target_name!r} is tall "
+                f"({target_size:.3g} length units); give it in the target's length unit",
+                element=f"points.{point.source}.offset",
+            )

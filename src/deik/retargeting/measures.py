@@ -17,7 +17,12 @@
   targets' (keypoint_velocity_peak_ratio, keypoint_acceleration_peak_ratio);
 - joint angle deviation (same skeleton only): mean angle between each joint's rotation in the
   retarget and in the source with its bones scaled (deg; clips.metrics.joint_angles);
-- time per frame: the retarget's wall time over the frames (ms).
+- time per frame: the retarget's wall time over the frames (ms);
+- per point (`points`): each key point's speed and acceleration peaks over its target's
+  (point_peaks), and each contact site's largest sliding step (mm/frame), so a local pop
+  is not hidden by a clip-wide ratio;
+- velocity violations: each (frame, DOF) whose step to the next frame goes past the DOF's
+  velocity limit times the frame time (velocity_violations; settle.py adds them).
 Lengths come in the target's length unit and are converted with `metres` per unit.
 """
 
@@ -32,12 +37,11 @@ from deik.cleanup import floor
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.metrics import joint_angles, sliding_steps
-from deik.io.euler import tait_bryan_triples
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import BonePairs, body_pairs, penetration_depths
+from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, penetration_depths
 
 LIMIT_SLACK = 1e-9  # radians or length units: rounding is no violation
 
@@ -50,32 +54,32 @@ def limit_violations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     return (shifted < lower) | (shifted > upper)
 
 
-def _turned_in(skeleton, frames: np.ndarray) -> np.ndarray:
-    """`frames` (N, D) with each rotation narrower than a turn moved by whole turns into its
-    limits where that is possible."""
-    rotation = (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower < 2 * math.pi)
-    shifted = skeleton.lower + np.mod(frames - skeleton.lower, 2 * math.pi)
-    return np.where(rotation & (shifted <= skeleton.upper + LIMIT_SLACK), shifted, frames)
+def velocity_violations(motion: Motion, largest: np.ndarray) -> list[dict]:
+    """[{"frame": n, "dof": name, "step": |q[n+1] - q[n]|, "largest": allowed}] for every DOF
+    whose step from frame n to n+1 of `motion` goes past its `largest` (D,) (a velocity limit
+    times the frame time; inf for none) by more than LIMIT_SLACK, in frame order; radians or
+    length units."""
+    frames = np.asarray(motion.frames, float)
+    step = np.abs(np.diff(frames, axis=0))
+    rows, dofs = np.nonzero(step > np.asarray(largest) + LIMIT_SLACK)
+    names = motion.skeleton.dof_names
+    return [
+        {"frame": int(n), "dof": names[d], "step": float(step[n, d]), "largest": float(largest[d])}
+        for n, d in zip(rows, dofs)
+    ]
 
 
-def within_limits(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
-    """`frames` (N, D) with the same rotations written within the limits where that is possible
-    (a robot controller reads the values as they are): each rotation moved by whole turns, and
-    a Tait-Bryan triple (a, b, c) outside them replaced by its twin (a + pi, pi - b, c + pi)
-    when that lies within (keeping Euler channels continuous can pick the twin outside)."""
-    out = _turned_in(skeleton, np.asarray(frames, float))
-    outside = limit_violations(skeleton, out)
-    for triple in tait_bryan_triples(skeleton):
-        rows = outside[:, triple].any(axis=1)
-        if not rows.any():
-            continue
-        twin = out[:, triple][rows] + math.pi
-        twin[:, 1] = 2 * math.pi - twin[:, 1]  # pi - b, from b + pi
-        candidate = out[rows].copy()
-        candidate[:, triple] = twin
-        candidate = _turned_in(skeleton, candidate)
-        inside = ~limit_violations(skeleton, candidate)[:, triple].any(axis=1)
-        out[np.flatnonzero(rows)[inside]] = candidate[inside]
+def point_peaks(names: Sequence[str], targets: np.ndarray, points: np.ndarray, frame_time: float) -> dict:
+    """{name: {"speed_peak_ratio", "acceleration_peak_ratio"}}: each point of `points` (N, K, 3)
+    against its target in `targets` (N, K, 3) (cleanup.dynamics.point_peak_ratios); NaN where
+    the target never moves."""
+    out = {}
+    for k, name in enumerate(names):
+        ratios = point_peak_ratios(targets[:, k : k + 1], points[:, k : k + 1], frame_time)
+        out[name] = {
+            "speed_peak_ratio": ratios["position_velocity"],
+            "acceleration_peak_ratio": ratios["position_acceleration"],
+        }
     return out
 
 
@@ -113,6 +117,7 @@ def retarget_report(
     kin = forward_kinematics(sk, motion.poses())
     per_frame = {}
     peaks = {}
+    per_point = {}
     if len(names):
         index = [sk.frame_index(name) for name in names]
         error = np.linalg.norm(kin.p_world_frame[:, index] - targets, axis=-1) * mm
@@ -121,12 +126,17 @@ def retarget_report(
         points, dt = kin.p_world_frame[:, index], motion.frame_time
         per_frame["jolted_count"] = jolted_points(targets, points, dt, sk.reach).astype(float)
         peaks = point_peak_ratios(targets, points, dt)
+        per_point = point_peaks(names, targets, points, dt)
     if contacts is not None:
         index = [sk.frame_index(name) for name in contacts.sites]
         steps = sliding_steps(kin, index, contacts.mask, sk.up) * mm
+        for s, site in enumerate(contacts.sites):
+            finite = steps[:, s][np.isfinite(steps[:, s])]
+            per_point.setdefault(site, {})["sliding_max_mm_per_frame"] = float(finite.max()) if finite.size else None
         per_frame["contact_sliding_mm_per_frame"] = np.concatenate([[np.nan], _row_stat(steps, np.nanmax)])
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
-        per_frame["penetration_mm"] = floor.penetration(kin, sk, contacts.ground) * mm
+    ground = 0.0 if contacts is None else contacts.ground  # a retarget without contacts: its world's floor
+    per_frame["penetration_mm"] = floor.penetration(kin, sk, ground) * mm
     per_frame["limit_violations_count"] = limit_violations(sk, motion.frames).sum(axis=1).astype(float)
     pairs = body_pairs(sk, sk.frame_names) if pairs is None else pairs
     per_frame["self_penetration_mm"] = penetration_depths(sk, motion.poses(), pairs).max(axis=1, initial=0.0) * mm
@@ -144,7 +154,8 @@ def retarget_report(
         summary["jolted_frames_count"] = int(per_frame["jolted_count"].sum())
         summary["keypoint_velocity_peak_ratio"] = peaks["position_velocity"]
         summary["keypoint_acceleration_peak_ratio"] = peaks["position_acceleration"]
-    return {"summary": summary, "per_frame": {key: _series(values) for key, values in per_frame.items()}}
+    series = {key: _series(values) for key, values in per_frame.items()}
+    return {"summary": summary, "per_frame": series, "points": per_point}
 
 
 def _split(key: str) -> tuple[str, str]:

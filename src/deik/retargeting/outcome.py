@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import operator
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from deik.cleanup.contacts import Contacts
+from deik.errors import InputError
 from deik.io.motion import Clip
 
 
@@ -16,8 +18,8 @@ class Retarget:
     `motion.skeleton.dof_names`), `clip` a BVH clip to look at (the motion itself, or a view of
     the robot: deik.io.bvh.preview), `source` the source frames used, `contacts` on the target's
     sites (or None), `keypoints` (K,) target frames and `targets` (N, K, 3) where they should be
-    (target length units), `report` {"summary", "per_frame"} (retargeting/measures.py), `fix` the
-    clips.solver.ClipFix of the contact pass (or None)."""
+    (target length units), `report` {"summary", "per_frame", "points", "floor", and for a robot
+    "velocity_violations"} (retargeting/measures.py, settle.py)."""
 
     motion: object
     clip: Clip
@@ -26,7 +28,9 @@ class Retarget:
     keypoints: tuple[str, ...]
     targets: object
     report: dict
-    fix: object = None
+
+
+Progress = Callable[[int, str], None]  # progress(frames done, stage) after each stage of a retarget
 
 
 def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
@@ -36,7 +40,7 @@ def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
         return clip
     start, stop = (operator.index(v) for v in frames)
     if not 0 <= start < stop <= clip.n_frames:
-        raise ValueError(
+        raise InputError(
             f"frames {start}:{stop} are empty or outside the clip; give START:STOP with "
             f"0 <= START < STOP <= {clip.n_frames} (STOP exclusive)"
         )

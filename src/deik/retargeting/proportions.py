@@ -1,12 +1,16 @@
 """Retarget a clip onto the same skeleton with other bone lengths (item 1 of issue 18).
 
 1. The joint angles (the style) are copied; the root's path is scaled about the floor point
-   below its first position by the leg ratio r (the root's height above the lowest contact
-   site at rest, target over source): strides lengthen with the legs and the feet land on the
-   floor (copying the angles onto 10 % longer legs alone puts the feet 8 cm under it).
-2. The source's contacts (detected on the source) are planted where this scaled motion puts
-   them, and the other end sites (hands, head) follow their scaled paths, through the clip
-   fix (clips.solver.fix_clip: warm start, DE repairs, limits kept).
+   below its first position by the leg ratio r (the root's height above the lowest joint or
+   site at rest, target over source): strides lengthen with the legs and the feet land on
+   the floor (copying the angles onto 10 % longer legs alone puts the feet 8 cm under it).
+2. Every joint and site of that scaled motion is a key point, and the motion goes through the
+   last steps every retarget takes (settle.py): the source's resting points (feet, hands,
+   knees, the pelvis ...) planted, the whole body kept above the source's floor and out of
+   itself, the steps between frames within 1.5 x the source's largest joint turn, corrections
+   faded in and out (the space-time pass), so the same contacts and floor as onto another
+   skeleton. The rig's hinge channels (knees, elbows) and its position channels below the
+   root keep their values.
 """
 
 from __future__ import annotations
@@ -17,27 +21,26 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cleanup.clip_goals import ClipGoals, Reach
-from deik.cleanup.contacts import detect_contacts
-from deik.cleanup.fix import fix_clip
-from deik.cleanup.floor import clearance
-from deik.cleanup.units import guess_unit, metres_per_unit
+from deik.cleanup.coherence import hinge_channels
+from deik.cleanup.warmstart import dof_weights
+from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.retargeting.keypoints import floor_origin, rest_heights
-from deik.retargeting.measures import retarget_report
-from deik.retargeting.outcome import Retarget
+from deik.retargeting.keypoints import floor_origin, rest_heights, stature
+from deik.retargeting.outcome import Progress, Retarget
+from deik.retargeting.resting import rest_floor
+from deik.retargeting.settle import Settling, settle
 
 
 def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None:
-    """ValueError unless `target` has the source's joints, sites and DOFs by name and order."""
+    """InputError unless `target` has the source's joints, sites and DOFs by name and order."""
     for what in ("joint_names", "site_names", "dof_names"):
         ours, theirs = getattr(source, what), getattr(target, what)
         if ours != theirs:
             missing = sorted(set(ours) ^ set(theirs))[:3] or ["(same names, other order)"]
-            raise ValueError(
+            raise InputError(
                 f"--to {target_name}: its {what.replace('_', ' ')} differ from the source's "
                 f"({', '.join(missing)}); --to takes the same rig with other bone lengths, "
                 "use --map MAP.toml for another skeleton"
@@ -45,11 +48,11 @@ def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None
 
 
 def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str]) -> float:
-    """Target over source height of the root above the lowest of `sites` at rest."""
+    """Target over source height of the root above the lowest of `sites` (joints or sites) at rest."""
     heights = [rest_heights(sk, (sk.joint_names[0], *sites)) for sk in (source, target)]
     legs = [h[0] - h[1:].min() for h in heights]
     if not legs[0] > 0:
-        raise ValueError("the source's root is not above its contact sites at rest: no leg length to scale by")
+        raise InputError("the source's root is not above its contact sites at rest: no leg length to scale by")
     return float(legs[1] / legs[0])
 
 
@@ -61,7 +64,7 @@ def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np
     start = sk.joint_dof_start[0]
     kinds = sk.dof_kind[start : start + 3]
     if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(sk.dof_axis[start : start + 3], np.eye(3)):
-        raise ValueError(f"the root {sk.joint_names[0]!r} needs X, Y and Z position channels first to be scaled")
+        raise InputError(f"the root {sk.joint_names[0]!r} needs X, Y and Z position channels first to be scaled")
     root = forward_kinematics(sk, clip.poses()).p_world_frame[:, 0]
     origin = floor_origin(sk, clip.pose(0), ground)
     wanted = origin + ratio * (root - origin)
@@ -79,28 +82,40 @@ def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:
     return replace(target, lower=lower, upper=upper)
 
 
-def retarget_proportions(
-    clip: Clip, target: Skeleton, follow: Sequence[str] | None = None, **settings: object
-) -> Retarget:
+def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None = None) -> Retarget:
     """Retarget `clip` onto `target`, the same rig with other bone lengths (see the module
-    notes). `follow`: the sites that keep their scaled paths (default every site not in
-    contact); `settings` go to fix_clip (population, generations, seed, device, ...)."""
+    notes); `progress(frames, stage)` is called after the space-time pass."""
     began = time.perf_counter()
     sk = clip.skeleton
-    contacts = detect_contacts(clip)
-    ratio = leg_ratio(sk, target, contacts.sites)
-    frames = scaled_root(clip, target, contacts.ground, ratio)
+    floor = rest_floor(clip, stature(sk))
+    ratio = leg_ratio(sk, target, sk.frame_names)
+    frames = scaled_root(clip, target, floor, ratio)
     target = _room_to_travel(target, frames)
     scaled = Clip(target, frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
-    follow = [s for s in sk.site_names if s not in contacts.sites] if follow is None else list(follow)
+    names = list(target.frame_names)
     kin = forward_kinematics(target, scaled.poses())
-    everywhere = np.ones(clip.n_frames, bool)
-    reach = tuple(Reach(site, everywhere, kin.position(site)) for site in follow)
-    fix = fix_clip(scaled, ClipGoals(contacts, reach), **settings)
-    wall = time.perf_counter() - began
-    clear = clearance(forward_kinematics(sk, clip.poses()), sk, contacts) * ratio
-    targets = np.stack([kin.position(site) for site in follow], axis=1) if follow else np.zeros((clip.n_frames, 0, 3))
-    metres = metres_per_unit(guess_unit(target))
-    report = retarget_report(fix.clip, follow, targets, contacts, clear, metres, wall, scaled=scaled)
+    targets = np.stack([kin.position(name) for name in names], axis=1)
+    searched = ~hinge_channels(clip) & ~((target.dof_kind == TRANSLATE) & (target.dof_joint > 0))
+    settling = Settling(
+        source=clip,
+        floor=floor,
+        target_floor=floor,
+        target=target,
+        poses=scaled.poses(),
+        names=names,
+        targets=targets,
+        reported=targets,
+        points={name: name for name in names},
+        searched=searched,
+        weights=dof_weights(scaled),
+        body=names,
+        velocity={},
+        began=began,
+        scaled=scaled,
+    )
+    motion, contacts, report = settle(settling)
+    if progress is not None:
+        progress(clip.n_frames, "contacts, the floor and self-collision")
     report["summary"]["leg_ratio"] = ratio
-    return Retarget(fix.clip, fix.clip, clip, contacts, tuple(follow), targets, report, fix)
+    out = Clip(target, motion.frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
+    return Retarget(out, out, clip, contacts, tuple(names), targets, report)

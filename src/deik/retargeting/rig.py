@@ -13,12 +13,14 @@
 3. The same IK again with every joint and site of the body kept above the floor, outliers
    repaired, then REBASIN times from the clip's poses smoothed over the frames, so that
    neighbouring frames share a basin (ik.rebasin).
-4. The space-time pass (smooth.py): all frames at once, the source's contacts (detected there,
-   on the mapped target sites) planted and held still, the body above the floor and out of
-   itself (bone capsules), the key points as near as that allows, the motion as smooth as the
-   IK's, within the limits. No DE repair: on targets whose limits cannot follow the source,
-   DE's repairs within tight contact tolerances moved whole bodies tens of centimetres off
-   their key points.
+4. The last steps (settle.py): every mapped source point at rest near the source's floor
+   planted on the target frame it maps to, each DOF's step within its allowance (a robot's
+   velocity limits), the joint values continuous, and the space-time pass (smooth.py): all
+   frames at once, contacts held still, the body above the floor and out of itself (bone
+   capsules), the key points as near as that allows, the motion as smooth as the IK's,
+   within the limits. No DE repair: on targets whose limits cannot follow the source, DE's
+   repairs within tight contact tolerances moved whole bodies tens of centimetres off their
+   key points.
 A target whose root does not move (a URDF robot) gets a floating root first, and a built-in
 character's root limits are freed (skeletons.py).
 """
@@ -29,23 +31,21 @@ import time
 
 import numpy as np
 
-from deik.cleanup.contacts import Contacts, detect_contacts
-from deik.cleanup.floor import clearance
-from deik.cleanup.units import guess_unit, metres_per_unit
 from deik.cleanup.warmstart import dof_weights
+from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.build import with_sites
+from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
-from deik.retargeting.collision import body_pairs
 from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
-from deik.retargeting.measures import retarget_report, within_limits
-from deik.retargeting.outcome import Retarget
-from deik.retargeting.skeletons import with_floating_root, with_free_root, without_sites
-from deik.retargeting.smooth import smooth_motion
+from deik.retargeting.outcome import Progress, Retarget
+from deik.retargeting.resting import rest_floor
+from deik.retargeting.settle import Settling, settle
+from deik.retargeting.skeletons import with_floating_root, with_free_root
 
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
 TORSO_SITES = ("retarget_torso_x", "retarget_torso_y")  # they steer the torso; they are no body part
@@ -101,25 +101,19 @@ def _torso_targets(target: Skeleton, poses: np.ndarray, torso: str, R_torso: np.
     return origin[:, None] + TORSO_ARM * target.reach * np.swapaxes(turned[:, :, :2], 1, 2)
 
 
-def _target_contacts(source_contacts: Contacts, joint_map: JointMap) -> Contacts | None:
-    """The source's contacts on the target sites their sites map to (ground 0), or None."""
-    sites = {p.source: p.site for p in joint_map.points}
-    columns = [s for s, name in enumerate(source_contacts.sites) if name in sites]
-    if not columns:
-        return None
-    mask = source_contacts.mask[:, columns]
-    names = tuple(sites[source_contacts.sites[s]] for s in columns)
-    return Contacts(names, mask, source_contacts.detected, None, None, 0.0)
-
-
 def retarget_rig(
-    source: Clip, target: Skeleton, joint_map: JointMap, hinges: np.ndarray | None = None, **settings: object
+    source: Clip,
+    target: Skeleton,
+    joint_map: JointMap,
+    hinges: np.ndarray | None = None,
+    velocity: dict | None = None,
+    progress: Progress | None = None,
 ) -> Retarget:
     """Retarget the clip `source` onto `target` through `joint_map` (see the module notes).
     `hinges` (D,) bool of the target's DOFs to keep at 0 (a BVH rig's hinge channels, from
-    clips.coherence.hinge_channels of its own clip), default none. `settings` are those of a
-    clip fix (seed, device, population, ...), which this retarget does not run: only
-    `progress(met, stage)` is called, after each IK pass."""
+    clips.coherence.hinge_channels of its own clip), default none; `velocity` {DOF name: limit}
+    (rad/s or length units/s, a URDF's) bounds each DOF's step between frames (settle.py);
+    `progress(frames, stage)` is called after each IK pass and the space-time pass."""
     began = time.perf_counter()
     check_map(joint_map, source.skeleton, target)
     rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
@@ -127,11 +121,11 @@ def retarget_rig(
     sited = with_sites(target, [(p.site, p.target, p.offset) for p in joint_map.points if any(p.offset)])
     names = [p.site for p in joint_map.points]
     scale = joint_map.scale or kp.height_ratio(source.skeleton, sited, source_names, names)
-    source_contacts = detect_contacts(source)
-    origin = kp.floor_origin(source.skeleton, source.pose(0), source_contacts.ground)
+    floor = rest_floor(source, kp.stature(source.skeleton))
+    origin = kp.floor_origin(source.skeleton, source.pose(0), floor)
     if joint_map.limbs:
         if joint_map.pelvis[0] not in source_names:
-            raise ValueError(
+            raise InputError(
                 f'{joint_map.source}: scale = "limbs" needs the pelvis {joint_map.pelvis[0]!r} among the points'
             )
         root = source_names.index(joint_map.pelvis[0])
@@ -140,8 +134,9 @@ def retarget_rig(
     else:
         targets = kp.mapped_points(source, source_names, origin, scale, rotation)
     target = _prepared(target, joint_map, targets)
+    size = kp.stature(sited)
     poses, placed = _start(target, joint_map, source, names, targets, rotation)
-    searched = np.ones(target.n_dofs, bool)  # the root too: a leg its limits stop is met by turning the pelvis
+    searched = ~_held_translations(target)  # the root too: a leg its limits stop is met by turning the pelvis
     if hinges is not None:
         searched[-len(hinges) :] &= ~np.asarray(hinges, bool)
     weights = dof_weights(Trajectory(target, poses, source.frame_time))
@@ -157,9 +152,9 @@ def retarget_rig(
     body = [name for name in target.frame_names if name not in TORSO_SITES]
     # key points first: with the floor from the start, a point that must cross it on its way
     # (a hand swinging down to the floor) refuses every step and stalls
-    goals = KeypointGoals(target, points, wanted, searched, weights)
+    goals = KeypointGoals(target, points, wanted, searched, weights, size=size)
     poses = repair_outliers(goals, solve_keypoints(goals, poses))
-    progress = settings.get("progress") or (lambda met, stage: None)
+    progress = progress or (lambda frames, stage: None)
     progress(len(poses), "key points")
     goals = goals.above(0.0, body)  # the floor at 0
     poses = solve_keypoints(goals, poses)
@@ -168,19 +163,33 @@ def retarget_rig(
             poses = rebasin(goals, poses)
         poses = repair_outliers(goals, poses)
     progress(len(poses), "the floor")
-    contacts = _target_contacts(source_contacts, joint_map)
     # the orientation points steered the torso; the motion's skeleton is the target's own, and
     # its capsules too (a bone to an orientation point would thin the chest's: model.capsules).
     # They are the last frames, so every other frame keeps its index.
-    solved, target = target, without_sites(target, TORSO_SITES)
-    pairs = body_pairs(target, body)
-    poses = smooth_motion(solved, poses, points, wanted, contacts, searched, weights, body, pairs, source.frame_time)
-    progress(len(poses), "contacts, the floor and self-collision, all frames at once")
-    # the same rotations, written within the limits (continuous Euler channels may pick a twin outside)
-    motion = Trajectory(target, within_limits(target, poses), source.frame_time, source.source)
-    wall = time.perf_counter() - began
-    metres = metres_per_unit(guess_unit(target))
-    clear = np.zeros(0) if contacts is None else clearance(forward_kinematics(target, motion.poses()), target, contacts)
-    report = retarget_report(motion, names, targets, contacts, clear, metres, wall, pairs=pairs)
+    settling = Settling(
+        source=source,
+        floor=floor,
+        target_floor=0.0,
+        target=target,
+        poses=poses,
+        names=points,
+        targets=wanted,
+        reported=targets,
+        points=dict(zip(source_names, names)),
+        searched=searched,
+        weights=weights,
+        body=body,
+        velocity=velocity or {},
+        steering=TORSO_SITES,
+        began=began,
+    )
+    motion, contacts, report = settle(settling)
+    progress(len(poses), "contacts, the floor, self-collision and velocity limits, all frames at once")
     report["summary"]["body_scale"] = scale
-    return Retarget(motion, None, source, contacts, tuple(names), targets, report, None)
+    return Retarget(motion, None, source, contacts, tuple(names), targets, report)
+
+
+def _held_translations(skeleton: Skeleton) -> np.ndarray:
+    """(D,) bool: the translations below the root, which keep their values (a rig's position
+    channels carry bone lengths, not motion)."""
+    return (skeleton.dof_kind == TRANSLATE) & (skeleton.dof_joint > 0)

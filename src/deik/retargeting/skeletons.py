@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -29,12 +30,12 @@ def bone_scales(skeleton: Skeleton, factors: dict[str, float]) -> np.ndarray:
     scale = np.ones(skeleton.n_joints)
     for name, factor in factors.items():
         if name not in skeleton.joint_names:
-            raise ValueError(
+            raise InputError(
                 f"--scale: no joint {name!r} in {skeleton.name!r}{did_you_mean(name, skeleton.joint_names)}; "
                 f"the joints are {', '.join(skeleton.joint_names)}"
             )
         if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
-            raise ValueError(f"--scale {name}={factor!r}: a factor must be a finite number > 0, e.g. {name}=1.1")
+            raise InputError(f"--scale {name}={factor!r}: a factor must be a finite number > 0, e.g. {name}=1.1")
         scale[skeleton.joint_names.index(name)] *= float(factor)
     for k in range(1, skeleton.n_joints):
         scale[k] *= scale[skeleton.parents[k]]
@@ -63,7 +64,7 @@ def with_floating_root(skeleton: Skeleton, lower: ArrayLike, upper: ArrayLike) -
     (intrinsic, over a whole turn), in the root joint's frame, named "ROOT.Xposition" and so on
     as BVH names a root's channels. ValueError when the root already moves."""
     if skeleton.joint_dof_start[1] != 0:
-        raise ValueError(f"the root joint {skeleton.joint_names[0]!r} of {skeleton.name!r} already has DOFs")
+        raise InputError(f"the root joint {skeleton.joint_names[0]!r} of {skeleton.name!r} already has DOFs")
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     root = skeleton.joint_labels[0]
     return replace(

@@ -14,7 +14,11 @@ clip finds the displacement from those poses that
 - against the spring energy of the displacement (cleanup/spacetime.py: each DOF's stiffness by
   how much of the body it moves, clips.warmstart.motion_stiffness): a correction that a contact
   needs starts before the contact does and fades after it, so the motion keeps the per-frame
-  IK's velocities and accelerations instead of jumping where a contact starts or ends.
+  IK's velocities and accelerations instead of jumping where a contact starts or ends;
+- keeps every DOF's step between two frames within its largest step (a robot's velocity limit
+  times the frame time; settle.step_limits): a row per DOF and pair of frames whose step goes past STEP_MARGIN of
+  it, counted as the held rows are, so a joint that would swing round in a frame (a shoulder
+  at gimbal lock) takes the turn the key points leave free instead.
 Each iteration solves the block-banded normal equations (clips.spacetime.spacetime_step) with
 the DOFs at a limit that the step pushes outwards held, cuts the step into the limits, and keeps
 it only when the whole clip's cost falls (the damping then falls; else it rises and the step is
@@ -25,6 +29,7 @@ frames and never cut.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,37 +39,61 @@ from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
-from deik.retargeting.collision import BonePairs, collision_rows
+from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
 from deik.retargeting.ik import Targets, full_turns, targets_at
 
-HELD_WEIGHT = 1e7  # contacts, floor and capsules: their squared error in reach units, against the spring
+HELD_WEIGHT = 1e7  # contacts, floor, capsules and steps: their squared error in size units, against the spring
 KEYPOINT_WEIGHT = 1e3  # key points: 1e4 met them 1.2-3.9 mm closer (jump, crawl) but slid the jump's feet 2 mm/frame
 ITERATIONS = 30
 REPLANT = 5  # iterations between plantings
 DAMPING = (1e-6, 1.0, 1e8)  # least, first and most damping (weighted DOF units squared)
-CAPSULE_MARGIN = 1e-4  # of reach: how far apart a collision row pushes two capsules
+CAPSULE_MARGIN = 1e-4  # of the size: how far apart a collision row pushes two capsules
+STEP_MARGIN = 0.95  # a step row asks a DOF's step down to this share of its largest step
+STEP_WEIGHT = (
+    0.1 * HELD_WEIGHT
+)  # per weighted DOF unit squared: a tenth of a radian turns a limb's end by a tenth of its length
 
 
-def smooth_motion(
-    skeleton: Skeleton,
-    first: np.ndarray,
-    names: Sequence[str],
-    targets: Targets,
-    contacts: Contacts | None,
-    searched: np.ndarray,
-    weights: np.ndarray,
-    body: Sequence[str],
-    pairs: BonePairs,
-    frame_time: float,
-    floor: float = 0.0,
-) -> np.ndarray:
-    """(N, D) poses near the per-frame IK's `first` (N, D) that meet the module notes: key
-    points `names` (K,) near `targets` (ik.targets_at), the `contacts` (target sites, or None)
-    planted, every frame of `body` above the `floor` (height along up) and the capsules of
-    `pairs` (collision.body_pairs) apart,
-    moving only the `searched` DOFs (broadcast to (N, D)), each change counted by `weights`
-    (D,) (dof_weights); `frame_time` seconds. Rotations free over a whole turn come out
-    unwrapped (continuous over the frames)."""
+@dataclass(frozen=True)
+class MotionGoals:
+    """What the space-time pass asks of a clip's motion on `skeleton`: key points `names` (K,)
+    near `targets` (ik.targets_at), the `contacts` (target sites, or None) planted, every frame
+    of `body` above the `floor` (height along up) and the capsules of `pairs`
+    (collision.body_pairs) apart, each DOF's step between frames within `largest_step` (D,)
+    (radians or length units; inf for none), moving only the `searched` DOFs ((D,) or (N, D)),
+    each change counted by `weights` (D,) (dof_weights); frames `frame_time` s apart; `size`
+    the body's size (its stature, length units), which the weights of the rows are measured in."""
+
+    skeleton: Skeleton
+    names: Sequence[str]
+    targets: Targets
+    contacts: Contacts | None
+    searched: np.ndarray
+    weights: np.ndarray
+    body: Sequence[str]
+    pairs: BonePairs
+    frame_time: float
+    size: float
+    largest_step: np.ndarray | None = None
+    floor: float = 0.0
+
+
+def step_rows(q: np.ndarray, largest: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row weights (N-1, D), errors (N-1, D) in weighted DOF units) of the step rows at poses
+    q (N, D): where |q[n+1] - q[n]| goes past STEP_MARGIN x `largest` (D,), the change of the
+    step that brings it back there; 0 elsewhere."""
+    delta = np.diff(q, axis=0)
+    allowed = STEP_MARGIN * largest
+    over = np.abs(delta) > allowed
+    errors = np.where(over, np.sign(delta) * np.where(over, allowed, 0.0) - delta, 0.0) * weights
+    return over * STEP_WEIGHT, errors
+
+
+def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
+    """(N, D) poses near the per-frame IK's `first` (N, D) that meet `goals` as the module
+    notes say. Rotations free over a whole turn come out unwrapped (continuous over the
+    frames)."""
+    skeleton, contacts, weights = goals.skeleton, goals.contacts, goals.weights
     N, D = first.shape
     full_turn = full_turns(skeleton)
     base = np.array(first, float)
@@ -72,60 +101,63 @@ def smooth_motion(
     lower = np.where(full_turn, -np.inf, skeleton.lower)
     upper = np.where(full_turn, np.inf, skeleton.upper)
     frames = list(skeleton.frame_names)
-    points = [frames.index(name) for name in names]
-    floor_points = [frames.index(name) for name in body]
+    points = [frames.index(name) for name in goals.names]
+    floor_points = [frames.index(name) for name in goals.body]
     sites = [] if contacts is None else [frames.index(name) for name in contacts.sites]
     mask = np.zeros((N, 0), bool) if contacts is None else contacts.mask
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     stiffness = motion_stiffness(skeleton, base, weights)
-    movable = np.broadcast_to(np.asarray(searched, bool), (N, D))
-    reach2 = skeleton.reach**2
+    movable = np.broadcast_to(np.asarray(goals.searched, bool), (N, D))
+    largest = np.full(D, np.inf) if goals.largest_step is None else np.asarray(goals.largest_step, float)
+    size2 = goals.size**2
 
     def plants_at(q):
         if contacts is None:
             return np.zeros((N, 0, 3))
-        return planted_targets(Trajectory(skeleton, q, frame_time), contacts)
+        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts)
 
     def measured(q, plants):
-        """(cost, errors (N, R), rows (N, R, D) per weighted DOF unit, row weights (N, R))."""
+        """(cost, errors (N, R), rows (N, R, D) per weighted DOF unit, row weights (N, R), step rows)."""
         x, jac = position_jacobian(skeleton, q, frames)
         held_errors = [np.where(mask[..., None], plants - x[:, sites], 0.0).reshape(N, -1)]
         held_rows = [(jac[:, sites] * mask[:, :, None, None]).reshape(N, -1, D)]
         error, rows = floor_rows(
-            x[:, floor_points], jac[:, floor_points], skeleton.up, floor, FLOOR_MARGIN * skeleton.reach
+            x[:, floor_points], jac[:, floor_points], skeleton.up, goals.floor, FLOOR_MARGIN * skeleton.reach
         )
         held_errors.append(error)
         held_rows.append(rows)
-        error, rows = collision_rows(x, jac, pairs, CAPSULE_MARGIN * skeleton.reach)
+        error, rows = collision_rows(x, jac, goals.pairs, CAPSULE_MARGIN * goals.size)
         held_errors.append(error)
         held_rows.append(rows)
         held = np.concatenate(held_errors, axis=1)
-        key = (targets_at(targets, q, np.arange(N)) - x[:, points]).reshape(N, -1)
+        key = (targets_at(goals.targets, q, np.arange(N)) - x[:, points]).reshape(N, -1)
         errors = np.concatenate([held, key], axis=1)
         rows = np.concatenate(held_rows + [jac[:, points].reshape(N, -1, D)], axis=1) * scale
         row_weights = np.concatenate([np.full(held.shape, HELD_WEIGHT), np.full(key.shape, KEYPOINT_WEIGHT)], axis=1)
-        row_weights = row_weights / reach2
-        cost = (row_weights * errors**2).sum() + spring_energy((q - base) * weights, FADE, stiffness)
-        return cost, errors, rows, row_weights
+        row_weights = row_weights / size2
+        steps = step_rows(q, largest, weights)
+        cost = (row_weights * errors**2).sum() + (steps[0] * steps[1] ** 2).sum()
+        cost += spring_energy((q - base) * weights, FADE, stiffness)
+        return cost, errors, rows, row_weights, steps
 
     q = base.copy()
     plants = plants_at(q)
-    cost, errors, rows, row_weights = measured(q, plants)
+    cost, errors, rows, row_weights, steps = measured(q, plants)
     damping = DAMPING[1]
     for k in range(ITERATIONS):
         if k and k % REPLANT == 0 and contacts is not None:
             plants = plants_at(q)
-            cost, errors, rows, row_weights = measured(q, plants)
+            cost, errors, rows, row_weights, steps = measured(q, plants)
         x = (q - base) * weights
-        step = spacetime_step(rows, errors, row_weights, x, movable, FADE, damping, stiffness) * scale
+        step = spacetime_step((rows, errors, row_weights), x, movable, FADE, damping, stiffness, steps) * scale
         held = ((q <= lower) & (step < 0)) | ((q >= upper) & (step > 0))
         if held.any():  # those DOFs stay at their limit; the others make up for them
             free = movable & ~held
-            step = spacetime_step(rows, errors, row_weights, x, free, FADE, damping, stiffness) * scale
+            step = spacetime_step((rows, errors, row_weights), x, free, FADE, damping, stiffness, steps) * scale
         trial = np.clip(q + step, lower, upper)
         measured_trial = measured(trial, plants)
         if measured_trial[0] < cost:
-            q, (cost, errors, rows, row_weights) = trial, measured_trial
+            q, (cost, errors, rows, row_weights, steps) = trial, measured_trial
             damping = max(damping / 3.0, DAMPING[0])
         else:
             damping = min(damping * 8.0, DAMPING[2])

@@ -7,18 +7,22 @@ a new EvolutionState; the one passed in is never changed.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.backends.contract import KernelInputs, Seeds, SolveBuffers, backend_for
 from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
-from deik.device.layout import Buffers, Control, KernelSettings, Memetic, PackedTerms, Status
+from deik.device.layout import Buffers, KernelSettings, PackedTerms, PolishSchedule, SearchRules, Status
+from deik.errors import InputError
 from deik.objectives.kinds import TOLERANCE, WEIGHT
 from deik.solver.memory import check_memory, solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.result import ReportTerms
+from deik.solver.routing import choose_device
 from deik.solver.settings import LIMIT_CODES, STRATEGIES, Settings
 
 STAGNATION = 1e-3  # a best that improves by less than this fraction in `patience` generations stagnates
@@ -30,7 +34,7 @@ class EvolutionState:
     (each individual's F and CR); per problem: best index, active, generations used,
     converged, best total and levels (B, L) seen, generation of last improvement, restarts used, restart due,
     the elite kept through the last restart (-1: none), leaders (B, islands): the best of each
-    island but the elite;
+    island but the elite, halt (1,): the host's stop flag (layout.Status);
     history (B, G, 2) of best and mean total fitness (NaN once a problem of a batch has
     stopped while others run on); `generation` counter."""
 
@@ -50,6 +54,7 @@ class EvolutionState:
     restarting: np.ndarray
     elite: np.ndarray
     leaders: np.ndarray
+    halt: np.ndarray
     history: np.ndarray
     generation: int
 
@@ -67,6 +72,8 @@ class Engine:
 
     def __init__(self, problem: Problem, settings: Settings | None = None):
         settings = Settings() if settings is None else settings
+        if settings.device == "auto":  # the engine runs where this problem's size is fastest
+            settings = dataclasses.replace(settings, device=choose_device(problem, settings))
         self.problem, self.settings = problem, settings
         dtype = np.dtype(settings.dtype)
         self.sizes = _sizes(problem, settings)
@@ -85,7 +92,7 @@ class Engine:
             adaptive=bool(settings.adaptive),
             islands=np.int64(settings.islands),
         )
-        self.memetic = Memetic(
+        self.polish_schedule = PolishSchedule(
             iterations=np.int64(settings.polish),
             every=np.int64(settings.polish_every),
             count=np.int64(min(settings.polish_count, settings.population)),
@@ -94,26 +101,25 @@ class Engine:
         if stop is None:
             weight, tolerance = problem.table.term_float[:, WEIGHT], problem.table.term_float[:, TOLERANCE]
             stop = not bool(((weight > 0) & (tolerance < 0)).any())
-        self.control = Control(
+        self.search_rules = SearchRules(
             patience=np.int64(settings.patience),
             rel_improvement=STAGNATION,
             stop_on_converged=bool(stop),
             max_restarts=np.int64(settings.restarts),
             migration=np.int64(settings.migration),
         )
-        if settings.device == "gpu":
-            try:
-                from deik.backends.cuda import CudaBackend
-            except ImportError as error:
-                raise RuntimeError(
-                    f"device='gpu' needs numba-cuda ({error}): pip install \"deik[gpu]\" "
-                    "(or run on the CPU with device='cpu')"
-                ) from error
-            self.backend = CudaBackend()
-        else:
-            from deik.backends.cpu import CpuBackend
+        self.backend = backend_for(settings.device)
 
-            self.backend = CpuBackend()
+    @property
+    def inputs(self) -> KernelInputs:
+        """What the kernels read (deik.backends.contract), bundled from this engine's parts."""
+        return KernelInputs(
+            skeleton=self.skel,
+            terms=self.terms,
+            evolution=self.kernel_settings,
+            polish=self.polish_schedule,
+            rules=self.search_rules,
+        )
 
     def for_problem(self, problem: Problem) -> Engine:
         """A copy bound to `problem`, which shares this engine's skeleton and terms and differs
@@ -133,21 +139,21 @@ class Engine:
         new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
         return new
 
-    def initial_poses(self, initial: ArrayLike | None) -> tuple[np.ndarray, int]:
-        """(poses (B, n, D) in the engine's dtype, n) from `initial` poses (D,), (n, D) or
-        (B, n, D) (None: n = 0), checked against the skeleton and the population size."""
+    def initial_poses(self, initial: ArrayLike | None) -> Seeds:
+        """Seeds: poses (B, n, D) in the engine's dtype and their count n, from `initial` poses
+        (D,), (n, D) or (B, n, D) (None: n = 0), checked against the skeleton and the population size."""
         B, P, D, _, _, dtype, _ = self.sizes
         if initial is None:
-            return np.zeros((B, 1, D), dtype), 0
+            return Seeds(np.zeros((B, 1, D), dtype), 0)
         init = self.problem.skeleton.check_angles(initial, "initial poses")
         if init.ndim > 3:
-            raise ValueError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
+            raise InputError(f"initial poses must be (D,), (n, D) or (B, n, D), got {init.shape}")
         init = init.reshape((1,) * (3 - init.ndim) + init.shape) if init.ndim < 3 else init
         if init.shape[0] not in (1, B) or init.shape[1] > P:
-            raise ValueError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
+            raise InputError(f"initial poses must be (n, D) or (B, n, D) with n <= population, got {init.shape}")
         if init.shape[0] != B:
             init = np.broadcast_to(init, (B,) + init.shape[1:])
-        return kernel_array(init, dtype), init.shape[1]
+        return Seeds(kernel_array(init, dtype), init.shape[1])
 
     def check_memory(self) -> None:
         """ValueError with the estimate and the fix when a solve's buffers would not fit
@@ -183,69 +189,46 @@ class Engine:
             restarting=np.zeros(B, np.bool_),
             elite=np.full(B, -1, np.int64),
             leaders=np.zeros((B, islands), np.int64),
+            halt=np.zeros(1, np.int64),
         )
 
-    def _fresh(self, initial):
-        """(Buffers, Status, initial poses, their count) for a new population, unfilled."""
+    def _fresh(self, initial, n_generations: int) -> tuple[SolveBuffers, Seeds]:
+        """Unfilled buffers for a new population and history rows for n_generations, and the seeds."""
         self.check_memory()
-        init, n_init = self.initial_poses(initial)
-        return self.new_buffers(), self.new_status(), init, n_init
+        seeds = self.initial_poses(initial)
+        current = self.new_buffers()
+        spare = Buffers(*(np.empty_like(a) for a in current))
+        history = np.empty((n_generations, current.pop.shape[0], 2))
+        return SolveBuffers(current=current, spare=spare, status=self.new_status(), history=history), seeds
 
     def init(self, initial: ArrayLike | None = None) -> EvolutionState:
         """Random first population inside the limits (seeded with `initial` poses), evaluated."""
-        buffers, status, init, n_init = self._fresh(initial)
-        self.backend.initialise(
-            buffers, status, self.skel, self.terms, self.kernel_settings, self.memetic, self.control, init, n_init
-        )
-        return EvolutionState(
-            **buffers._asdict(), **status._asdict(), history=np.zeros((len(status.best), 0, 2)), generation=0
-        )
+        work, seeds = self._fresh(initial, 0)
+        self.backend.initialise(self.inputs, work, seeds)
+        return _advanced(work, np.zeros((len(work.status.best), 0, 2)), 0, 0)
 
     def start(self, n_generations: int, initial: ArrayLike | None = None) -> EvolutionState:
         """init(initial) then run(state, n_generations) as one backend call (on the CPU one
         compiled call: no Python between set-up, generations, polish and stopping)."""
-        cur, status, init, n_init = self._fresh(initial)
-        nxt = Buffers(*(np.empty_like(a) for a in cur))
-        steps = np.empty((n_generations, len(status.best), 2))
-        final, advanced = self.backend.start(
-            cur,
-            nxt,
-            status,
-            self.skel,
-            self.terms,
-            self.kernel_settings,
-            self.memetic,
-            self.control,
-            steps,
-            init,
-            n_init,
-            n_generations,
-        )
-        return _advanced(final, status, np.zeros((len(status.best), 0, 2)), 0, steps, advanced)
+        work, seeds = self._fresh(initial, n_generations)
+        advanced = self.backend.start(self.inputs, work, seeds, n_generations)
+        self.backend.fetch(work)
+        return _advanced(work, np.zeros((len(work.status.best), 0, 2)), 0, advanced)
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
         B = state.pop.shape[0]
-        cur = Buffers(*(a.copy() for a in state.buffers))
-        nxt = Buffers(*(a.copy() for a in state.buffers))  # stopped problems must be in both
-        status = Status(*(a.copy() for a in state.status))
         # generation-major and left unfilled: a launch touches only the rows it runs, however
         # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
-        steps = np.empty((n_generations, B, 2))
-        final, advanced = self.backend.run(
-            cur,
-            nxt,
-            self.skel,
-            self.terms,
-            self.kernel_settings,
-            self.memetic,
-            status,
-            self.control,
-            steps,
-            state.generation,
-            n_generations,
+        work = SolveBuffers(
+            current=Buffers(*(a.copy() for a in state.buffers)),
+            spare=Buffers(*(a.copy() for a in state.buffers)),  # stopped problems must be in both
+            status=Status(*(a.copy() for a in state.status)),
+            history=np.empty((n_generations, B, 2)),
         )
-        return _advanced(final, status, state.history, state.generation, steps, advanced)
+        advanced = self.backend.run(self.inputs, work, state.generation, n_generations)
+        self.backend.fetch(work)
+        return _advanced(work, state.history, state.generation, advanced)
 
     @cached_property
     def report_terms(self) -> ReportTerms:
@@ -287,11 +270,14 @@ def _with_targets(terms: PackedTerms, problem: Problem) -> PackedTerms:
     )
 
 
-def _advanced(final: Buffers, status: Status, history, generation: int, steps, advanced: int) -> EvolutionState:
-    """The state after a launch that ran `advanced` generations from `generation`: its final
-    buffers and status, and the history (B, G, 2) grown by the rows steps (n, B, 2) it wrote
+def _advanced(work: SolveBuffers, history, generation: int, advanced: int) -> EvolutionState:
+    """The state after a launch that ran `advanced` generations from `generation`: its buffers
+    and status, and the history (B, G, 2) grown by the rows work.history (n, B, 2) it wrote
     (NaN where a problem had stopped)."""
+    status = work.status
     ran = generation + np.arange(advanced)
-    new = np.where((ran[:, None] < status.generations[None, :])[..., None], steps[:advanced], np.nan)
+    new = np.where((ran[:, None] < status.generations[None, :])[..., None], work.history[:advanced], np.nan)
     history = np.concatenate([history, new.transpose(1, 0, 2)], axis=1)
-    return EvolutionState(**final._asdict(), **status._asdict(), history=history, generation=generation + advanced)
+    return EvolutionState(
+        **work.current._asdict(), **status._asdict(), history=history, generation=generation + advanced
+    )

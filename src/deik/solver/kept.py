@@ -76,7 +76,7 @@ def kept_engine(problem: Problem, settings: Settings) -> Iterator[tuple[Engine, 
         # held by this call alone: its settings (which differ at most in the seed) set in place
         if settings.seed != engine.settings.seed:
             engine.kernel_settings = engine.kernel_settings._replace(seed=np.uint64(settings.seed))
-        engine.settings = settings
+        engine.settings = settings if settings.device != "auto" else settings.with_device(engine.settings.device)
     else:
         kept = _Kept(problem.skeleton, Engine(problem, settings).for_problem(problem), Workspace())
         engine = kept.engine

@@ -1,7 +1,7 @@
 """How many generations each kernel launch of a solve runs.
 
-A kernel launch cannot be interrupted: Python sees Ctrl-C, the time limit and progress reports
-only between launches. So a solve runs in launches of about LAUNCH_SECONDS each. The first is
+Python sees progress reports only between launches, so a solve runs in launches of about
+LAUNCH_SECONDS each (the time limit and Ctrl-C also reach inside a launch: deik.solver.halting). The first is
 sized from an estimate of its work (individuals x frames per generation over an assumed rate),
 later ones from the measured pace of the one before, growing at most GROWTH-fold per launch so
 that a first launch slowed by compilation does not set the pace. A time limit makes the first
@@ -18,22 +18,42 @@ from deik.solver.settings import Settings
 
 LAUNCH_SECONDS = 0.25
 FRAME_EVALUATIONS_PER_SECOND = {"cpu": 2e7, "gpu": 1e9}  # conservative first guesses, before any measurement
+POLISH_FLOPS_PER_SECOND = {"cpu": 1e9, "gpu": 1e10}  # likewise, for the LM polish's multiply-adds
 GROWTH = 4
 PROGRESS_CHUNK = 100
 TIME_PROBE = 4  # generations of the first launch under a time limit
 
 
+def polish_flops(n_dofs: int, n_terms: int, n_frames: int) -> float:
+    """Multiply-adds of one LM iteration on one individual, about: the Cholesky factorisation
+    (D^3 / 6), the normal equations (three rows per term, D^2 each) and the kinematics."""
+    return n_dofs**3 / 6 + 3 * n_terms * n_dofs**2 + 50 * n_frames
+
+
 class Launches:
     """Plans the launches of one solve: `next(done)` -> generations to run now, `ran(count,
-    seconds)` records a launch. `frame_work`: individuals x kinematic frames of one generation."""
+    seconds)` records a launch, `expected_seconds(count)` says how long one may take.
+    `frame_work`: individuals x kinematic frames of one generation; `polish_work`: multiply-adds
+    of one polish of every problem's first individual (polish_flops x iterations x problems)."""
 
-    def __init__(self, settings: Settings, frame_work: int, progress: bool, start: float):
+    def __init__(self, settings: Settings, frame_work: int, polish_work: float, progress: bool, start: float):
         self.budget = settings.generations
         self.deadline = start + settings.time_limit if settings.time_limit else math.inf
         self.chunk = PROGRESS_CHUNK if progress else self.budget
         rate = FRAME_EVALUATIONS_PER_SECOND[settings.device]
         self.size = max(1, int(LAUNCH_SECONDS * rate / max(frame_work, 1)))
         self.pace = None  # seconds per generation of the last launch
+        self._first_seconds = polish_work / POLISH_FLOPS_PER_SECOND[settings.device]
+        self._generation_seconds = (
+            frame_work / rate + self._first_seconds * settings.polish_count / settings.polish_every
+        )
+
+    def expected_seconds(self, count: int) -> float:
+        """About how long a launch of `count` generations takes: the last launch's pace, or
+        before any, the estimates (a first launch also polishes every problem once)."""
+        if self.pace is not None:
+            return self.pace * count
+        return self._first_seconds + self._generation_seconds * count
 
     def more(self, done: int, any_active: bool) -> bool:
         """Whether to launch again: budget left, a problem still running, time left (the first

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import os
 
+from deik.errors import SolveError
+
 MEMORY_FRACTION = 0.8  # default limit: this share of the machine's physical memory
 
 
@@ -30,11 +32,11 @@ def solve_bytes(
 
 
 def check_memory(needed: int, limit: int | None, what: str) -> None:
-    """ValueError when `needed` bytes exceed `limit` (default MEMORY_FRACTION of physical memory)."""
+    """SolveError when `needed` bytes exceed `limit` (default MEMORY_FRACTION of physical memory)."""
     if limit is None:
         limit = int(MEMORY_FRACTION * physical_memory())
     if limit > 0 and needed > limit:
-        raise ValueError(
+        raise SolveError(
             f"{what} needs about {needed / 2**30:.3g} GiB, more than the {limit / 2**30:.3g} GiB allowed; "
             "use a smaller population, batch or generation budget, or raise the limit "
             "(Settings(memory_limit=BYTES), --memory-limit GIB)"

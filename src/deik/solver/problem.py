@@ -14,18 +14,20 @@ from functools import cached_property
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.skeleton import Skeleton
-from deik.objectives.goals import Comfort, Goal, LimitsPenalty
+from deik.objectives.goals import Goal, LimitsPenalty
 from deik.objectives.kinds import GAIN, N_PARAMS
 from deik.objectives.table import TermRow, TermTable, compile_rows
 
 LIMIT_MODES = ("reflect", "clip", "penalty", "paper")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Compiled:
-    """A problem's term rows (T,), its TermTable (params (B, T, N_PARAMS)), the comfort
-    reference pose of each term per problem (B, T, D) and its batch shape (() or (B,))."""
+    """A problem's term rows (T,) (a stack's are its first part's, with the merged weights),
+    its TermTable (params (B, T, N_PARAMS)), the comfort reference pose of each term per problem
+    (B, T, D) and its batch shape (() or (B,))."""
 
     rows: tuple[TermRow, ...]
     table: TermTable
@@ -41,33 +43,31 @@ class Problem:
     "paper" applies the paper's Algorithm 2 (only the +-2 pi range, limits used for sampling).
     Targets with a leading batch axis pose B problems at once (B = batch_size).
     `parts`: the problems a stacked problem is made of (set by Problem.stack, whose goals are
-    then the first part's); `_compiled`: terms compiled before (with_goal_targets)."""
+    then the first part's)."""
 
     skeleton: Skeleton
     goals: tuple
     limits: str = "reflect"
     parts: tuple = field(default=(), repr=False)
-    _compiled: Compiled | None = field(default=None, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "goals", tuple(self.goals))
         object.__setattr__(self, "parts", tuple(self.parts))
-        if self._compiled is None:  # terms compiled before were checked then (Solver checks new targets)
-            self._check()
-            _ = self.table  # compile now so that bad goals fail here, not inside a solve
+        self._check()
+        _ = self.table  # compile now so that bad goals fail here, not inside a solve
 
     def _check(self) -> None:
         if not isinstance(self.skeleton, Skeleton):
             raise TypeError(f"skeleton must be a deik.Skeleton, got {type(self.skeleton).__name__}")
         if not self.goals:
-            raise ValueError("a problem needs at least one goal, e.g. deik.Position('tip', target)")
+            raise InputError("a problem needs at least one goal, e.g. deik.Position('tip', target)")
         for g in self.goals:
             if not isinstance(g, Goal):
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
-            raise ValueError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
+            raise InputError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
         if self.skeleton.n_dofs == 0:
-            raise ValueError(
+            raise InputError(
                 f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
                 "another); choose a base and tip with moving joints between them"
             )
@@ -77,10 +77,10 @@ class Problem:
             or len(first.goals) != len(self.goals)
             or any(a is not b for a, b in zip(first.goals, self.goals))
         ):
-            raise ValueError("a stacked problem's parts must be Problems and its goals the first part's")
+            raise InputError("a stacked problem's parts must be Problems and its goals the first part's")
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
-            raise ValueError(
+            raise InputError(
                 f"DOF {self.skeleton.dof_names[bad[0]]!r} has infinite limits; DE samples its "
                 "first population inside the limits, so give every DOF finite limits"
             )
@@ -98,28 +98,17 @@ class Problem:
         first = problems[0]
         return cls(first.skeleton, first.goals, first.limits, parts=problems)
 
-    def with_goal_targets(self, goals: tuple, params: np.ndarray) -> Problem:
-        """This problem with `goals` (same kinds, weights and tolerances, new targets) and
-        their parameters `params` (B, T, N_PARAMS): the compiled rows are reused (Solver)."""
-        compiled = self.compiled
-        batched = compiled.batch_shape or any(g.batched() for g in goals)
-        return Problem(
-            self.skeleton,
-            goals,
-            self.limits,
-            _compiled=replace(
-                compiled, table=replace(compiled.table, params=params), batch_shape=(len(params),) if batched else ()
-            ),
-        )
-
     @cached_property
     def compiled(self) -> Compiled:
         """The term rows, table, references and batch shape (see Compiled), compiled once."""
-        if self._compiled is not None:
-            return self._compiled
         if self.parts:
             rows, params, reference = _merge_parts(self.parts)
-            return Compiled(rows, compile_rows(rows, params, self.skeleton.n_dofs), reference, (len(params),))
+            return Compiled(
+                rows=rows,
+                table=compile_rows(rows, params, self.skeleton.n_dofs),
+                reference=reference,
+                batch_shape=(len(params),),
+            )
         return self._compile()
 
     @property
@@ -145,31 +134,32 @@ class Problem:
         return self.table.params.shape[0]
 
     def _compile(self) -> Compiled:
+        """Each goal's row (and the joint-limit term's with limits="penalty"), stacked into the
+        table; a goal without a batch axis broadcasts over the batch."""
         sk = self.skeleton
         terms = list(self.goals)
-        compiled = [g.compile(sk) for g in terms]
-        rows = [row for row, _ in compiled]
+        rows = [g.row(sk) for g in terms]
         if self.limits == "penalty":  # a level above every goal's
             terms.append(LimitsPenalty(level=min(r.level for r in rows) - 1))
-            compiled.append(terms[-1].compile(sk))
-            rows.append(compiled[-1][0])
-        targets = [(params, g.gain()) for g, (_, params) in zip(terms, compiled)]
-        references = [g.reference_pose(sk) if isinstance(g, Comfort) else None for g in terms]
-        sizes = {p.shape[0] for p, _ in targets} | {gain.shape[0] for _, gain in targets}
-        sizes |= {r.shape[0] for r in references if r is not None}
+            rows.append(terms[-1].row(sk))
+        gains = [g.gain() for g in terms]
+        sizes = {r.params.shape[0] for r in rows} | {gain.shape[0] for gain in gains}
+        sizes |= {r.reference.shape[0] for r in rows if r.reference is not None}
         sizes.discard(1)
         if len(sizes) > 1:
-            raise ValueError(f"goal targets have different batch sizes {sorted(sizes)}; use one B or none")
+            raise InputError(f"goal targets have different batch sizes {sorted(sizes)}; use one B or none")
         B = sizes.pop() if sizes else 1
         params = np.zeros((B, len(rows), N_PARAMS))
         reference = np.zeros((B, len(rows), sk.n_dofs))
-        for t, ((goal_params, gain), goal, ref) in enumerate(zip(targets, terms, references)):
-            params[:, t] = goal_params  # a batch of 1 broadcasts
+        for t, (row, gain) in enumerate(zip(rows, gains)):
+            params[:, t] = row.params  # a batch of 1 broadcasts
             params[:, t, GAIN] = gain
-            if isinstance(goal, Comfort):
-                reference[:, t] = sk.reference if ref is None else ref
+            if row.reference is not None:
+                reference[:, t] = row.reference
         batch_shape = (B,) if any(g.batched() for g in terms) else ()
-        return Compiled(tuple(rows), compile_rows(rows, params, sk.n_dofs), reference, batch_shape)
+        return Compiled(
+            rows=tuple(rows), table=compile_rows(rows, params, sk.n_dofs), reference=reference, batch_shape=batch_shape
+        )
 
 
 def _merge_parts(parts) -> tuple[tuple, np.ndarray, np.ndarray]:
@@ -187,7 +177,7 @@ def _merge_parts(parts) -> tuple[tuple, np.ndarray, np.ndarray]:
             _check_stackable(first, p, k)  # names what differs
     weights = np.array([[r.weight for r in p.rows] for p in parts])  # (N, T)
     if ((weights > 0).any(axis=0) & (weights < 0).any(axis=0)).any():
-        raise ValueError("Problem.stack: a goal has positive weights in some problems and negative in others")
+        raise InputError("Problem.stack: a goal has positive weights in some problems and negative in others")
     magnitude = np.abs(weights).max(axis=0)
     sign = np.where((weights < 0).any(axis=0), -1.0, 1.0)
     rows = tuple(replace(r, weight=float(s * m)) for r, s, m in zip(first.rows, sign, magnitude))
@@ -221,11 +211,11 @@ def _check_stackable(first, other, k: int) -> None:
     """Raise unless problem k can share a term table with the first one (_row_keys, and the
     skeleton and limit mode); the error names what differs."""
     if other.skeleton is not first.skeleton:
-        raise ValueError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
+        raise InputError(f"Problem.stack: problem {k} has another skeleton; stacked problems share one Skeleton object")
     if other.limits != first.limits:
-        raise ValueError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
+        raise InputError(f"Problem.stack: problem {k} uses limits={other.limits!r}, problem 0 {first.limits!r}")
     if len(other.rows) != len(first.rows):
-        raise ValueError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
+        raise InputError(f"Problem.stack: problem {k} has {len(other.rows)} terms, problem 0 has {len(first.rows)}")
     for t, (a, b) in enumerate(zip(first.rows, other.rows)):
         same = (a.kind, a.label, a.frames, a.mu, a.scale, a.tolerance, a.level, a.pairs) == (
             b.kind,
@@ -242,7 +232,7 @@ def _check_stackable(first, other, k: int) -> None:
             or (a.dof_weight is None) != (b.dof_weight is None)
             or (a.dof_weight is not None and not np.array_equal(a.dof_weight, b.dof_weight))
         ):
-            raise ValueError(
+            raise InputError(
                 f"Problem.stack: goal {t} ({b.label}) of problem {k} differs from problem 0's "
                 f"({a.label}) in more than its target, weight, reference or active mask"
             )

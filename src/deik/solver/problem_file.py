@@ -46,6 +46,9 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
+from deik.errors import InputError
 from deik.io.files import FilePath, read_input_text
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
@@ -61,14 +64,16 @@ TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KE
 
 @dataclass(frozen=True)
 class ProblemFile:
-    """A loaded problem file: the Problem, its settings (a dict for deik.solve), the skeleton
-    as loaded (deik.io.load.Loaded: its clip for a BVH) and the clip frame the search starts
-    from (None unless the file sets `frame`)."""
+    """A problem as a file or the flags of `deik solve` pose it: the Problem, its settings (a
+    dict for deik.solve), the skeleton as loaded (deik.io.load.Loaded: its clip for a BVH), the
+    clip frame the search starts from (None unless the file sets `frame`) and the pose (D,)
+    the search starts around (that frame's, or None: anywhere within the limits)."""
 
     problem: Problem
     settings: dict
     loaded: Loaded
     frame: int | None = None
+    start: np.ndarray | None = None
 
 
 def load_problem(path: FilePath) -> ProblemFile:
@@ -79,82 +84,82 @@ def load_problem(path: FilePath) -> ProblemFile:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{path}: not valid TOML: {error}") from None
+        raise InputError(f"{path}: not valid TOML: {error}") from None
     except RecursionError:
-        raise ValueError(
+        raise InputError(
             f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
             "three levels (a 3x3 rotation)"
         ) from None
     for key in data:
         if key not in TOP_LEVEL:
-            raise ValueError(
+            raise InputError(
                 f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL, 1)} (keys: {', '.join(TOP_LEVEL)})"
             )
     loaded, frame = _skeleton(data, path)
     skeleton = loaded.skeleton
     limits = data.get("limits", "reflect")
     if limits not in LIMIT_MODES:
-        raise ValueError(f"{path}: field 'limits' must be one of {', '.join(LIMIT_MODES)}, got {limits!r}")
+        raise InputError(f"{path}: field 'limits' must be one of {', '.join(LIMIT_MODES)}, got {limits!r}")
     settings = data.get("settings", {})
     names = list(Settings.__dataclass_fields__)
     if not isinstance(settings, dict):
-        raise ValueError(f"{path}: 'settings' must be a [settings] table")
+        raise InputError(f"{path}: 'settings' must be a [settings] table")
     for key in settings:
         if key not in names:
-            raise ValueError(
+            raise InputError(
                 f"{path}: [settings]: unknown setting {key!r}{did_you_mean(key, names, 1)} "
                 f"(settings: {', '.join(names)})"
             )
     try:
         Settings(**settings)
     except (ValueError, TypeError) as error:
-        raise ValueError(f"{path}: [settings]: {error}") from None
+        raise InputError(f"{path}: [settings]: {error}") from None
     tables = data.get("goal")
     if isinstance(tables, dict):
-        raise ValueError(f"{path}: write each goal as a [[goal]] table (double brackets), not [goal]")
+        raise InputError(f"{path}: write each goal as a [[goal]] table (double brackets), not [goal]")
     if not isinstance(tables, list) or not tables:
-        raise ValueError(
+        raise InputError(
             f"{path}: no goals; add at least one [[goal]] table, e.g. "
             'type = "position", frame = "tip", target = [x, y, z]'
         )
     goals = [goal_from_table(skeleton, table, n, path) for n, table in enumerate(tables, start=1)]
+    pose = None if frame is None else loaded.clip.pose(frame)
     if frame is not None:
-        pose = loaded.clip.pose(frame)
         goals = [
             replace(goal, reference=pose) if isinstance(goal, g.Comfort) and goal.reference is None else goal
             for goal in goals
         ]
     try:
-        return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame)
+        return ProblemFile(Problem(skeleton, goals, limits), dict(settings), loaded, frame, pose)
     except ValueError as error:
-        raise ValueError(f"{path}: {error}") from None
+        raise InputError(f"{path}: {error}") from None
 
 
 def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
     """The file's skeleton (a built-in spec, or a .bvh / .urdf path relative to the file's
     folder, with the keys that apply to it) and the BVH frame to start from, or None."""
     if "skeleton" not in data:
-        raise ValueError(f"{path}: missing field 'skeleton'; set skeleton = {SKELETON_FORMS}")
+        raise InputError(f"{path}: missing field 'skeleton'; set skeleton = {SKELETON_FORMS}")
     spec = data["skeleton"]
     if not isinstance(spec, str):
-        raise ValueError(f"{path}: field 'skeleton' must be a string: {SKELETON_FORMS}")
+        raise InputError(f"{path}: field 'skeleton' must be a string: {SKELETON_FORMS}")
     suffix = Path(spec).suffix.lower()
     allowed = URDF_KEYS if suffix == ".urdf" else (BVH_KEYS if suffix == ".bvh" else ())
     for key in URDF_KEYS + BVH_KEYS:
         if key in data and key not in allowed:
             kind = "a URDF robot" if key in URDF_KEYS else "a BVH clip"
-            raise ValueError(f"{path}: field {key!r} only applies to {kind}, not skeleton = {spec!r}")
+            raise InputError(f"{path}: field {key!r} only applies to {kind}, not skeleton = {spec!r}")
     folder = Path(path).parent
     tip = data.get("tip")
     if tip is not None and not (
         isinstance(tip, str) or (isinstance(tip, list) and tip and all(isinstance(t, str) for t in tip))
     ):
-        raise ValueError(f"{path}: field 'tip' must be a link name or a list of link names, got {tip!r}")
+        raise InputError(f"{path}: field 'tip' must be a link name or a list of link names, got {tip!r}")
     if "base" in data and not isinstance(data["base"], str):
-        raise ValueError(f"{path}: field 'base' must be a link name, got {data['base']!r}")
+        raise InputError(f"{path}: field 'base' must be a link name, got {data['base']!r}")
     segments = data.get("segments")
     if segments is not None and not isinstance(segments, str):
-        raise ValueError(f"{path}: field 'segments' must be the path of a segment table, got {segments!r}")
+        raise InputError(f"{path}: field 'segments' must be the path of a segment table, got {segments!r}")
     try:
         loaded = load_skeleton(
             str(folder / spec) if allowed else spec,
@@ -164,20 +169,20 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
             up=vector_field(data["up"], (3,), path, "up") if "up" in data else None,
         )
     except (ValueError, KeyError, OSError) as error:
-        raise ValueError(f"{path}: field 'skeleton': {error.args[0] if error.args else error}") from None
+        raise InputError(f"{path}: field 'skeleton': {error.args[0] if error.args else error}") from None
     table = data.get("joint_limits")
     if table is not None:
         if not isinstance(table, str):
-            raise ValueError(f"{path}: field 'joint_limits' must be the path of a limits table (JSON), got {table!r}")
+            raise InputError(f"{path}: field 'joint_limits' must be the path of a limits table (JSON), got {table!r}")
         try:
             limits = read_limits(folder / table, loaded.skeleton)
         except (ValueError, KeyError) as error:
-            raise ValueError(f"{path}: field 'joint_limits': {error.args[0]}") from None
+            raise InputError(f"{path}: field 'joint_limits': {error.args[0]}") from None
         loaded = replace(loaded, skeleton=with_limits(loaded.skeleton, limits))
     frame = data.get("frame")
     if frame is not None:
         if not (isinstance(frame, int) and not isinstance(frame, bool) and 0 <= frame < loaded.clip.n_frames):
-            raise ValueError(
+            raise InputError(
                 f"{path}: field 'frame' must be a frame number from 0 to "
                 f"{loaded.clip.n_frames - 1} of {spec}, got {frame!r}"
             )

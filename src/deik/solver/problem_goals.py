@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.rotations import euler_matrix
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
@@ -42,10 +43,10 @@ def vector_field(value: object, shape: tuple[int, ...], where: str, field: str, 
 
     form = form or VECTOR_FORMS.get(shape, f"a list of {shape[0]} numbers")
     if not check(value, shape):
-        raise ValueError(f"{where}: field {field!r} must be {form}, got {value!r}")
+        raise InputError(f"{where}: field {field!r} must be {form}, got {value!r}")
     array = np.asarray(value, dtype=np.float64)
     if not np.isfinite(array).all():
-        raise ValueError(f"{where}: field {field!r} contains NaN or infinity ({value!r}); give finite numbers")
+        raise InputError(f"{where}: field {field!r} contains NaN or infinity ({value!r}); give finite numbers")
     return array
 
 
@@ -54,19 +55,19 @@ def _scalar(value, field: str, where: str):
     if field == "level":
         if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
             return value
-        raise ValueError(f"{where}: field 'level' must be an integer >= 0 (0 = highest priority), got {value!r}")
+        raise InputError(f"{where}: field 'level' must be an integer >= 0 (0 = highest priority), got {value!r}")
     if not (_is_number(value) and math.isfinite(value)):
-        raise ValueError(f"{where}: field {field!r} must be a finite number, got {value!r}")
+        raise InputError(f"{where}: field {field!r} must be a finite number, got {value!r}")
     return float(value)
 
 
 def _frame(skeleton: Skeleton, value, field: str, where: str) -> str:
     if not isinstance(value, str):
-        raise ValueError(f"{where}: field {field!r} must be a joint or site name (a string), got {value!r}")
+        raise InputError(f"{where}: field {field!r} must be a joint or site name (a string), got {value!r}")
     try:
         skeleton.frame_index(value)
     except KeyError as error:
-        raise ValueError(f"{where}: field {field!r}: {error.args[0]}") from None
+        raise InputError(f"{where}: field {field!r}: {error.args[0]}") from None
     return value
 
 
@@ -79,18 +80,18 @@ def _joint_weights(skeleton: Skeleton, value, where: str):
             try:
                 skeleton.joint_dofs(name)
             except KeyError as error:
-                raise ValueError(f"{where}: field {field!r}: {error.args[0]}; weights go on joints") from None
+                raise InputError(f"{where}: field {field!r}: {error.args[0]}; weights go on joints") from None
             if not (_is_number(weight) and math.isfinite(weight) and weight >= 0):
-                raise ValueError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
+                raise InputError(f"{where}: field {field!r}: weight of {name!r} must be a finite number >= 0")
         return {name: float(weight) for name, weight in value.items()}
     if isinstance(value, list):
         weights = vector_field(
             value, (skeleton.n_dofs,), where, field, f"a list of {skeleton.n_dofs} numbers (one per DOF)"
         )
         if (weights < 0).any():
-            raise ValueError(f"{where}: field {field!r} must hold weights >= 0")
+            raise InputError(f"{where}: field {field!r} must hold weights >= 0")
         return weights
-    raise ValueError(
+    raise InputError(
         f'{where}: field {field!r} must be "start", "end", a table {{joint = weight}} or '
         f"{skeleton.n_dofs} numbers (one per DOF), got {value!r}"
     )
@@ -113,20 +114,20 @@ def _orientation_target(table: dict, where: str) -> tuple:
     forms = "; ".join(f"{key} = {text}" for key, (_, _, text) in ORIENTATION_KEYS.items())
     if len(given) != 1:
         which = f"both {given[0]!r} and {given[1]!r}" if given else "none"
-        raise ValueError(f"{where}: give exactly one orientation ({which} given): {forms}")
+        raise InputError(f"{where}: give exactly one orientation ({which} given): {forms}")
     key = given[0]
     if "degrees" in table and key != "euler":
-        raise ValueError(f"{where}: field 'degrees' goes with 'euler'; {key!r} needs no 'degrees'")
+        raise InputError(f"{where}: field 'degrees' goes with 'euler'; {key!r} needs no 'degrees'")
     form, shape, text = ORIENTATION_KEYS[key]
     if key == "rpy_degrees":
         return np.radians(vector_field(table[key], shape, where, key, text)), form
     if key != "euler":
         return vector_field(table[key], shape, where, key, text), form
     if "degrees" not in table:
-        raise ValueError(f"{where}: missing field 'degrees'; euler = \"XYZ\" needs degrees = [a, b, c]")
+        raise InputError(f"{where}: missing field 'degrees'; euler = \"XYZ\" needs degrees = [a, b, c]")
     order = table["euler"]
     if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
-        raise ValueError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
+        raise InputError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
     degrees = vector_field(
         table["degrees"],
         (len(order),),
@@ -141,12 +142,12 @@ def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -
     """Build and check goal `number` (1-based) from its TOML table."""
     where = f"{path}: goal {number}"
     if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a [[goal]] table, got {table!r}")
+        raise InputError(f"{where}: must be a [[goal]] table, got {table!r}")
     kind = table.get("type")
     if kind is None:
-        raise ValueError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
+        raise InputError(f"{where}: missing field 'type'; set type = one of {', '.join(GOAL_TYPES)}")
     if not isinstance(kind, str) or kind not in GOAL_TYPES:
-        raise ValueError(
+        raise InputError(
             f"{where}: unknown type {kind!r}{did_you_mean(kind, GOAL_TYPES, 1)} (types: {', '.join(GOAL_TYPES)})"
         )
     where = f"{where} ({kind})"
@@ -154,12 +155,12 @@ def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -
     allowed = ("type",) + required + optional + COMMON_FIELDS + ((DEGREE_TOLERANCE,) if kind in ANGLE_TYPES else ())
     for field in table:
         if field not in allowed:
-            raise ValueError(
+            raise InputError(
                 f"{where}: unknown field {field!r}{did_you_mean(field, allowed, 1)} (fields: {', '.join(allowed[1:])})"
             )
     for field in required:
         if field not in table:
-            raise ValueError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
+            raise InputError(f"{where}: missing field {field!r} (required: {', '.join(required)})")
     kwargs = {}
     for field, value in table.items():
         if field == "type" or (kind == "orientation" and (field in ORIENTATION_KEYS or field == "degrees")):
@@ -168,23 +169,23 @@ def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -
             kwargs[field] = _frame(skeleton, value, field, where)
         elif field == "frames":
             if not isinstance(value, list) or not value:
-                raise ValueError(f"{where}: field 'frames' must be a non-empty list of joint or site names")
+                raise InputError(f"{where}: field 'frames' must be a non-empty list of joint or site names")
             kwargs[field] = tuple(_frame(skeleton, name, field, where) for name in value)
         elif field in ("target", "point", "centre", "axis"):
             kwargs[field] = vector_field(value, (3,), where, field)
         elif field == "mode":
             if value not in ("sum", "max"):
-                raise ValueError(f'{where}: field \'mode\' must be "sum" or "max", got {value!r}')
+                raise InputError(f'{where}: field \'mode\' must be "sum" or "max", got {value!r}')
             kwargs[field] = value
         elif field == "joint_weights":
             kwargs[field] = _joint_weights(skeleton, value, where)
         elif field == "skip":
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-                raise ValueError(f"{where}: field 'skip' must be an integer >= 1 (links), got {value!r}")
+                raise InputError(f"{where}: field 'skip' must be an integer >= 1 (links), got {value!r}")
             kwargs[field] = value
         elif field == DEGREE_TOLERANCE:
             if "tolerance" in table:
-                raise ValueError(f"{where}: give 'tolerance' (radians) or '{DEGREE_TOLERANCE}', not both")
+                raise InputError(f"{where}: give 'tolerance' (radians) or '{DEGREE_TOLERANCE}', not both")
             kwargs["tolerance"] = math.radians(_scalar(value, field, where))
         elif field == "radii" and isinstance(value, dict):
             kwargs[field] = value  # {joint = radius}: the goal checks the names and numbers
@@ -197,7 +198,6 @@ def goal_from_table(skeleton: Skeleton, table: object, number: int, path: str) -
     goal = cls(**kwargs)
     try:
         goal.row(skeleton)
-        goal.params(skeleton)
     except (ValueError, KeyError) as error:
-        raise ValueError(f"{where}: {error.args[0]}") from None
+        raise InputError(f"{where}: {error.args[0]}") from None
     return goal

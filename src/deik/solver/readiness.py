@@ -1,10 +1,11 @@
-"""Which CPU kernels a command must compile before it can solve, about how long that takes, and
+"""Which kernels a command must compile before it can solve, about how long that takes, and
 the one line it prints first, so that nobody waits in silence.
 
 A CPU solve runs one compiled kernel per dtype (deik.backends.cpu_kernels.launch, with or without the LM
 polish) and, in float32, the float64 evaluation of its report; a clip fix also the float64 point
-Jacobians of its warm start. Each is compiled on first use and cached on disk
-(deik.backends.targets). The estimate is the compile time measured on this machine, which a
+Jacobians of its warm start; a GPU solve the two CUDA kernels of its dtype
+(deik.backends.cuda_kernels) and the same report. Each is compiled on first use and cached on
+disk (deik.backends.targets). The estimate is the compile time measured on this machine, which a
 command records beside the cache after compiling, else the time benchmarks/cold_start.py
 measured on the reference machine below.
 """
@@ -24,6 +25,10 @@ REFERENCE_SECONDS = {
     "DE float64 without polish": 9.4,
     "report float64": 5.5,
     "clip warm start float64": 2.0,
+    # the CUDA kernels compiled to PTX and SASS on the same kind of machine, without a GPU: CPU
+    # seconds (tests/scripts/compile_cuda.py, benchmarks/results/gpu/kernel_resources.json)
+    "CUDA kernels float32": 149.0,
+    "CUDA kernels float64": 147.0,
 }
 REFERENCE_MACHINE = "a 2-core machine"
 RECORD_FILE = "deik-compile-seconds.json"
@@ -33,14 +38,17 @@ def _launch_name(dtype: str, polish: bool) -> str:
     return f"DE {dtype}" + ("" if polish else " without polish")
 
 
-def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
-    """Names of the kernels a CPU solve in `dtype` ("float32", "float64"), with the LM polish or
-    without (which uses the kernel with it when that one is ready), must compile first; `clip`:
-    a clip fix, which also needs the warm start's Jacobians."""
+def pending(dtype: str, polish: bool = True, clip: bool = False, device: str = "cpu") -> list[str]:
+    """Names of the kernels a solve in `dtype` ("float32", "float64") on `device` ("cpu", "gpu"),
+    with the LM polish or without (which on the CPU uses the kernel with it when that one is
+    ready), must compile first; `clip`: a clip fix, which also needs the warm start's Jacobians."""
     from deik.backends import cpu as cpu_backend
 
     names = []
-    if not (cpu_backend.launch_ready(dtype, polish) or (not polish and cpu_backend.launch_ready(dtype, True))):
+    if device == "gpu":
+        if not cuda_ready(dtype):
+            names.append(f"CUDA kernels {dtype}")
+    elif not (cpu_backend.launch_ready(dtype, polish) or (not polish and cpu_backend.launch_ready(dtype, True))):
         names.append(_launch_name(dtype, polish))
     if dtype == "float32" and not cpu_backend.report_ready():
         names.append("report float64")
@@ -49,14 +57,37 @@ def pending(dtype: str, polish: bool = True, clip: bool = False) -> list[str]:
     return names
 
 
-def _record_path() -> str | None:
-    """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
+def cuda_ready(dtype: str) -> bool:
+    """Whether both CUDA kernels for `dtype` are cached on disk for this GPU (numba-cuda's cache
+    index is private API: when it cannot be read, they count as not ready, and the worst outcome
+    is an unneeded note)."""
+    try:
+        from deik.backends import cuda_kernels
+
+        for kernel, buffers in ((cuda_kernels.first_polish, 0), (cuda_kernels.evolve, 3)):
+            index = kernel._cache._cache_file._load_index()
+            if not any(str(key[0][buffers].types[0].dtype) == dtype for key in index):
+                return False
+        return True
+    except Exception:  # noqa: BLE001 - no numba-cuda, no cache, or another numba-cuda's internals
+        return False
+
+
+def cache_folder() -> str | None:
+    """The folder of the CPU kernels' disk cache, where per-machine records are kept (None if
+    there is no cache)."""
     from deik.backends import cpu_kernels as cpu
 
     try:
-        return os.path.join(cpu.launch.entry._cache._cache_path, RECORD_FILE)
+        return cpu.launch.entry._cache._cache_path
     except AttributeError:  # caching off, or another Numba's internals
         return None
+
+
+def _record_path() -> str | None:
+    """The measured compile times' file, beside the kernel cache (None if there is no cache)."""
+    folder = cache_folder()
+    return None if folder is None else os.path.join(folder, RECORD_FILE)
 
 
 def measured_seconds() -> dict:
@@ -82,8 +113,9 @@ def compile_note(names: list[str], certain: bool = True) -> str:
     seconds, here = estimate(names)
     where = "on this machine, as measured here before" if here else f"on {REFERENCE_MACHINE}"
     doing, wait = ("compiling", "about") if certain else ("may compile", "up to about")
+    which = "GPU and CPU" if any(n.startswith("CUDA") for n in names) else "CPU"
     return (
-        f"deik: {doing} the CPU kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {where}; "
+        f"deik: {doing} the {which} kernels first ({', '.join(names)}): {wait} {seconds:.0f} s {where}; "
         "once after an install or upgrade (`deik warmup` does it ahead of time)"
     )
 
@@ -105,11 +137,11 @@ def record_compiles() -> dict:
             compiled["clip warm start float64"] = seconds
     path = _record_path()
     if compiled and path:
-        _write_json(path, {**measured_seconds(), **compiled})
+        write_json(path, {**measured_seconds(), **compiled})
     return compiled
 
 
-def _write_json(path: str, data: dict) -> None:
+def write_json(path: str, data: dict) -> None:
     """Replace the file at `path` with `data` in one step (a reader never sees half of it); a
     folder that refuses it is left as it was."""
     try:

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.orientations import matrix_quaternion
@@ -185,7 +186,7 @@ class Result:
     def angles_by_joint(self) -> dict[str, np.ndarray]:
         """{joint name: its DOF values} for a single (unbatched) problem."""
         if self.angles.ndim != 1:
-            raise ValueError("angles_by_joint is for a single problem; index result.angles[b] instead")
+            raise InputError("angles_by_joint is for a single problem; index result.angles[b] instead")
         return self.skeleton.angles_by_joint(self.angles)
 
     @property

@@ -10,15 +10,20 @@ buffers (solver/workspace.py); the Result copies out what it reports::
     ik = deik.Solver(problem, population=32, dtype="float64")
     result = ik.solve({"position tip": p, "orientation tip": R}, initial=q_now[None], seed=k)
 
-A Solver is not for use from several threads at once (its buffers are shared by its solves).
+A Solver solves one thing at a time: its buffers are shared by its solves, so a solve started
+while another runs in a second thread raises SolveError at once (use one Solver per thread, or
+deik.solve, whose kept engines serve one call at a time).
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.console import Progress
+from deik.errors import InputError, SolveError, UnknownNameError
 from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
@@ -39,6 +44,7 @@ class Solver:
         self.settings = merge_settings("Solver()", settings, overrides)
         # an engine of the Solver's own: each solve rewrites its target parameters and seed
         self._engine = engine = Engine(problem, self.settings).for_problem(problem)
+        self.settings = engine.settings  # with device="auto" resolved for this problem's size
         _ = engine.report_terms  # worked out once
         self._kernel_settings = engine.kernel_settings
         self._params = tuple({id(t.params): t.params for t in (engine.terms, engine.terms64)}.values())
@@ -50,6 +56,7 @@ class Solver:
             goal.quick_target(problem.skeleton) if hasattr(goal, "target") else None for goal in problem.goals
         )
         self._swapped = set()  # goals whose parameters hold another target than the problem's
+        self._busy = threading.Lock()  # held while a solve runs: a second thread is refused
 
     def solve(
         self,
@@ -65,7 +72,20 @@ class Solver:
         "quat-wxyz"; docs/conventions.md), with or without the problem's batch axis, and a batch axis makes the
         Result batched as for deik.solve); other goals keep theirs.
         `initial` and `progress` as in deik.solve; `seed` overrides the settings' seed. Each
-        new target is checked as a new goal would be (shape, NaN, reach, rotation)."""
+        new target is checked as a new goal would be (shape, NaN, reach, rotation). SolveError
+        if this Solver is solving in another thread meanwhile."""
+        if not self._busy.acquire(blocking=False):
+            raise SolveError(
+                "this Solver is already solving in another thread, and its buffers serve one solve at a "
+                "time; give each thread a Solver of its own"
+            )
+        try:
+            return self._solve(targets, initial, seed, progress)
+        finally:
+            self._busy.release()
+
+    def _solve(self, targets, initial, seed, progress) -> Result:
+        """solve() while holding the Solver."""
         batched = self._swap_targets(targets or {})
         engine = self._engine
         if seed is None or seed == self.settings.seed:
@@ -109,7 +129,7 @@ class Solver:
             raise TypeError(f"goal {t} ({self._labels[t]}) has no target to swap; build a new Problem instead")
         values, batched = goal.target_params(self.problem.skeleton, target)
         if values.shape[0] not in (1, B):
-            raise ValueError(
+            raise InputError(
                 f"goal {t} ({self._labels[t]}): {values.shape[0]} targets for a problem batch of "
                 f"{B}; give one target or {B}"
             )
@@ -123,4 +143,4 @@ class Solver:
             if 0 <= key < len(self._labels):
                 return int(key)
             raise IndexError(f"goal index {key} out of range: the problem has {len(self._labels)} goals")
-        raise KeyError(f"no goal {key!r}; the goals are {list(self._labels)}")
+        raise UnknownNameError(f"no goal {key!r}; the goals are {list(self._labels)}")

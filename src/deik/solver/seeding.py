@@ -7,6 +7,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 
@@ -24,12 +25,12 @@ def poses_around(
     if outside.size:
         d = outside[0][-1]
         value = pose[tuple(outside[0])]
-        raise ValueError(
+        raise InputError(
             f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
             f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]"
         )
     if count < 1:
-        raise ValueError(f"count must be at least 1, got {count}")
+        raise InputError(f"count must be at least 1, got {count}")
     rotation = skeleton.dof_kind == ROTATE
     spread = np.broadcast_to(np.asarray(spread, np.float64).reshape(-1, 1), (count - 1, 1))
     sigma = spread * np.where(rotation, 1.0, skeleton.reach)

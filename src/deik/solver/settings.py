@@ -11,10 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.device.layout import BEST_1, CLIP, CURRENT_TO_BEST_1, MAX_POLISH_COUNT, PAPER, PENALTY, RAND_1, REFLECT
+from deik.errors import InputError
 
 STRATEGIES = {"rand/1/bin": RAND_1, "best/1/bin": BEST_1, "current-to-best/1/bin": CURRENT_TO_BEST_1}
 LIMIT_CODES = {"reflect": REFLECT, "clip": CLIP, "penalty": PENALTY, "paper": PAPER}
-DEVICES = ("cpu", "gpu")
+DEVICES = ("cpu", "gpu", "auto")  # auto: by the solve's size (deik.solver.routing)
 
 
 @dataclass(frozen=True)
@@ -30,10 +31,13 @@ class Settings:
     reproducing its figures. `patience`: generations without improvement that count as
     stagnation. `stop_on_converged`: stop a problem once every goal with a tolerance is met;
     None (default) stops then unless a goal without tolerance (comfort) is left to improve,
-    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()` (checked
-    between kernel launches, so it may overrun by about a quarter of the time left or one
-    generation, and always runs at least one generation; the first call in a process also
-    loads or compiles the kernels). `memory_limit`: bytes a solve may allocate (None: 80 % of
+    which runs on until stagnation. `time_limit`: seconds of wall time for `solve()`, checked
+    between kernel launches and, on the CPU, inside them before every LM iteration and
+    generation (deik.solver.halting), so a solve stops within about one of those past it; the
+    first call in a process also loads or compiles the kernels. `device`: "cpu", "gpu" (an
+    NVIDIA GPU), or "auto": the GPU when one is usable and the solve is large enough to be
+    faster there (deik.solver.routing).
+    `memory_limit`: bytes a solve may allocate (None: 80 % of
     the machine's memory); a larger solve is refused before anything is allocated."""
 
     population: int = 256
@@ -80,16 +84,23 @@ class Settings:
         new.__dict__.update(vars(self), seed=seed)
         return new
 
+    def with_device(self, device: str) -> Settings:
+        """These settings on another device ("cpu", "gpu"), unchecked like with_seed."""
+        _choice("device", device, DEVICES)
+        new = object.__new__(type(self))
+        new.__dict__.update(vars(self), device=device)
+        return new
+
     def __post_init__(self):
         _choice("strategy", self.strategy, tuple(STRATEGIES))
         _integer("population", self.population, 4, "DE needs 3 donors")
         _integer("generations", self.generations, 1)
         _number("F", self.F, "the differential weight, in (0, 2]")
         if not 0 < self.F <= 2:
-            raise ValueError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
+            raise InputError(f"F (differential weight) must lie in (0, 2], got {self.F!r}")
         _number("CR", self.CR, "the crossover probability, in [0, 1]")
         if not 0 <= self.CR <= 1:
-            raise ValueError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
+            raise InputError(f"CR (crossover probability) must lie in [0, 1], got {self.CR!r}")
         _boolean("adaptive", self.adaptive)
         _seed(self.seed)
         _integer("patience", self.patience, 1)
@@ -98,13 +109,13 @@ class Settings:
         _integer("polish_every", self.polish_every, 1)
         _integer("polish_count", self.polish_count, 1)
         if self.polish_count > MAX_POLISH_COUNT:
-            raise ValueError(
+            raise InputError(
                 f"polish_count must be at most {MAX_POLISH_COUNT} (one GPU thread polishes each), "
                 f"got {self.polish_count}"
             )
         _integer("islands", self.islands, 1)
         if self.population % self.islands or self.population // self.islands < 4:
-            raise ValueError(
+            raise InputError(
                 f"islands must divide the population into groups of at least 4 individuals, "
                 f"got {self.islands!r} islands for population {self.population}"
             )
@@ -114,7 +125,7 @@ class Settings:
         if self.time_limit is not None:
             _number("time_limit", self.time_limit, "seconds, or None for no limit")
             if not self.time_limit > 0:
-                raise ValueError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
+                raise InputError(f"time_limit must be a positive number of seconds or None, got {self.time_limit!r}")
         _choice("device", self.device, DEVICES)
         _choice("dtype", self.dtype, ("float32", "float64"))
         if self.memory_limit is not None:
@@ -125,14 +136,14 @@ def _integer(name: str, value, minimum: int, note: str = "") -> None:
     """ValueError unless `value` is an integer (not a bool) >= minimum."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
         hint = f" ({note})" if note else ""
-        raise ValueError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
+        raise InputError(f"{name} must be an integer >= {minimum}{hint}, got {value!r}")
 
 
 def _seed(value) -> None:
     """ValueError unless `value` is an integer in [0, 2**64) (the kernels' counter-based seed)."""
     _integer("seed", value, 0)
     if value >= 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {value!r}")
+        raise InputError(f"seed must be an integer in [0, 2**64), got {value!r}")
 
 
 def _number(name: str, value, meaning: str) -> None:
@@ -142,16 +153,16 @@ def _number(name: str, value, meaning: str) -> None:
         or not isinstance(value, (int, float, np.integer, np.floating))
         or not math.isfinite(value)
     ):
-        raise ValueError(f"{name} must be a finite number ({meaning}), got {value!r}")
+        raise InputError(f"{name} must be a finite number ({meaning}), got {value!r}")
 
 
 def _boolean(name: str, value) -> None:
     """ValueError unless `value` is True or False."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
+        raise InputError(f"{name} must be true or false, got {value!r}")
 
 
 def _choice(name: str, value, choices: tuple) -> None:
     """ValueError unless `value` is one of `choices` (strings)."""
     if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+        raise InputError(f"{name} must be one of {list(choices)}, got {value!r}")

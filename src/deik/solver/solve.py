@@ -13,8 +13,9 @@ from numpy.typing import ArrayLike
 
 from deik.console import Progress, generation_reporter
 from deik.solver.engine import Engine, EvolutionState
+from deik.solver.halting import guarded
 from deik.solver.kept import kept_engine
-from deik.solver.launches import Launches
+from deik.solver.launches import Launches, polish_flops
 from deik.solver.problem import Problem
 from deik.solver.result import Result
 from deik.solver.settings import Settings
@@ -55,31 +56,36 @@ def run_engine(
 ) -> Result:
     """Initialise `engine` (bound to `problem`) and run it to its settings' end: generation
     budget, time limit, or every problem stopped; the Result (solve() without the set-up).
-    Generations run in short launches (solver/launches.py), so Ctrl-C stops a solve quickly,
-    all in the buffers of one Workspace (`workspace`: one kept from an earlier solve of the
-    same sizes, as a Solver does; else a new one). batch_shape: the Result's (default the
-    problem's; a Solver's new targets may add a batch axis)."""
+    Generations run in short launches (solver/launches.py), each stopped early by the time
+    limit or Ctrl-C (solver/halting.py), all in the buffers of one Workspace (`workspace`: one
+    kept from an earlier solve of the same sizes, as a Solver does; else a new one).
+    batch_shape: the Result's (default the problem's; a Solver's new targets may add a batch
+    axis)."""
     settings = engine.settings
     start = time.perf_counter()
     skeleton = problem.skeleton
-    frame_work = problem.batch_size * settings.population * (skeleton.n_joints + len(skeleton.site_names))
+    n_frames = skeleton.n_joints + len(skeleton.site_names)
+    frame_work = problem.batch_size * settings.population * n_frames
+    polish = polish_flops(skeleton.n_dofs, problem.table.n_terms, n_frames) * settings.polish * problem.batch_size
     work = Workspace() if workspace is None else workspace
+    work.prepare(engine)
     # no progress asked (a reused Solver's solves): no generator-based context to enter and leave
     reporter = (
         nullcontext() if progress is None else generation_reporter(progress, settings.generations, problem.batch_size)
     )
     with reporter as report:
-        launches = Launches(settings, frame_work, report is not None, start)
+        launches = Launches(settings, frame_work, polish, report is not None, start)
         first = True
         while first or launches.more(work.generation, work.active.any()):
             count = launches.next(work.generation)
             began = time.perf_counter()
             # the first launch sets up the population in the same call
-            if first:
-                work.begin(engine, count, initial)
-                first = False
-            else:
-                work.advance(count)
+            with guarded(work.status.halt, launches.deadline, launches.expected_seconds(count)):
+                if first:
+                    work.begin(engine, count, initial)
+                    first = False
+                else:
+                    work.advance(count)
             launches.ran(count, time.perf_counter() - began)
             if log.isEnabledFor(logging.DEBUG):  # a robot solve is 0.1 ms: no formatting unless asked
                 log.debug(

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.device.layout import Buffers
+from deik.backends.contract import SolveBuffers
+from deik.device.layout import Status
 
 if TYPE_CHECKING:
     from deik.solver.engine import Engine
@@ -26,97 +27,79 @@ if TYPE_CHECKING:
 class Workspace:
     """The buffers of solves of one size: `begin(engine, n, initial)` sets up a population and
     runs its first n generations, `advance(n)` runs more. Between launches `pop`, `raw`,
-    `total` (the current Buffers'), `best`, `generations`, `active` (the Status') and
-    `generation` describe the state; `history` joins the launches' rows, (B, G, 2)."""
+    `total` (the current Buffers', on the GPU only each problem's best individual), `best`,
+    `generations`, `active` (the Status') and `generation` describe the state; `history` joins
+    the launches' rows, (B, G, 2)."""
 
     def __init__(self):
         self._sizes, self.generation = None, 0
 
-    def _allocate(self, engine) -> None:
+    def prepare(self, engine: Engine) -> None:
         """Buffers and Status for engine's problem and settings, unless those of the last
-        solve have the same sizes."""
+        solve have the same sizes (call before begin)."""
         sizes = engine.sizes
         if sizes == self._sizes:
             return
         engine.check_memory()
-        self.cur, self.spare = engine.new_buffers(), engine.new_buffers()
-        self.status = engine.new_status()
         B = sizes[0]
-        self._steps = np.empty((0, B, 2))
+        self.work = SolveBuffers(
+            current=engine.new_buffers(),
+            spare=engine.new_buffers(),
+            status=engine.new_status(),
+            history=np.empty((0, B, 2)),
+        )
+        self._steps = self.work.history
         self._everyone = np.arange(B)
         self._sizes = sizes
 
     def begin(self, engine: Engine, n_generations: int, initial: ArrayLike | None = None) -> None:
         """A first population for engine's problem (seeded with `initial` poses, checked as
         Engine.init checks them), then up to n_generations, in one back-end call."""
-        self._allocate(engine)
-        init, n_init = engine.initial_poses(initial)
+        seeds = engine.initial_poses(initial)
         self.engine, self.generation, self._rows = engine, 0, []
-        steps = self._steps_for(n_generations)
-        final, advanced = engine.backend.start(
-            self.cur,
-            self.spare,
-            self.status,
-            engine.skel,
-            engine.terms,
-            engine.kernel_settings,
-            engine.memetic,
-            engine.control,
-            steps,
-            init,
-            n_init,
-            n_generations,
-        )
-        self._ran(final, steps, advanced, self._everyone)
+        self._history_rows(n_generations)
+        advanced = engine.backend.start(engine.inputs, self.work, seeds, n_generations)
+        self._ran(advanced, self._everyone)
 
     def advance(self, n_generations: int) -> None:
         """Up to n_generations more (each problem stops on convergence or stagnation)."""
-        engine, steps = self.engine, self._steps_for(n_generations)
+        engine = self.engine
         running = np.flatnonzero(self.status.active)  # only these write history rows
-        final, advanced = engine.backend.run(
-            self.cur,
-            self.spare,
-            engine.skel,
-            engine.terms,
-            engine.kernel_settings,
-            engine.memetic,
-            self.status,
-            engine.control,
-            steps,
-            self.generation,
-            n_generations,
-        )
-        self._ran(final, steps, advanced, running)
+        self._history_rows(n_generations)
+        advanced = engine.backend.run(engine.inputs, self.work, self.generation, n_generations)
+        self._ran(advanced, running)
 
-    def _steps_for(self, n_generations: int) -> np.ndarray:
+    def _history_rows(self, n_generations: int) -> None:
         """History rows (n, B, 2) for a launch: a prefix of a buffer kept between launches."""
         if self._steps.shape[0] < n_generations:
             self._steps = np.empty((n_generations,) + self._steps.shape[1:])
-        return self._steps[:n_generations]
+        self.work.history = self._steps[:n_generations]
 
-    def _ran(self, final: Buffers, steps: np.ndarray, advanced: int, running: np.ndarray) -> None:
-        """After a launch: the buffers it ended in become the current ones (the kernels keep
-        every stopped problem in both sets), and the history rows it wrote for the problems
-        `running` at its start are kept (a batch's last launches run few of its problems: the
-        rows of the others are never read). The rows from where each problem stopped are
-        NaN'd once, in `history`: a problem's generations only grow within a solve."""
-        if final is not self.cur:
-            self.cur, self.spare = final, self.cur
+    def _ran(self, advanced: int, running: np.ndarray) -> None:
+        """After a launch: the history rows it wrote for the problems `running` at its start
+        are kept (a batch's last launches run few of its problems: the rows of the others are
+        never read). The rows from where each problem stopped are NaN'd once, in `history`: a
+        problem's generations only grow within a solve."""
         if advanced:
-            self._rows.append((self.generation, running, steps[:advanced, running]))  # indexing copies
+            rows = self.work.history[:advanced, running]  # indexing copies
+            self._rows.append((self.generation, running, rows))
         self.generation += advanced
 
     @property
+    def status(self) -> Status:
+        return self.work.status
+
+    @property
     def pop(self) -> np.ndarray:
-        return self.cur.pop
+        return self.work.current.pop
 
     @property
     def raw(self) -> np.ndarray:
-        return self.cur.raw
+        return self.work.current.raw
 
     @property
     def total(self) -> np.ndarray:
-        return self.cur.total
+        return self.work.current.total
 
     @property
     def best(self) -> np.ndarray:

@@ -13,13 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.atomic import save_atomically
 from deik.io.files import FilePath
 from deik.io.motion import Clip
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
-from deik.viz.marks import frame_parents
 from deik.viz.plot import add_pose_axes, require_matplotlib
 from deik.viz.pose_axes import draw_skeleton, fit_axes
 from deik.viz.report_marks import marks_at
@@ -45,8 +45,7 @@ class PosePanel:
 def most_changed_frame(original: Motion, fixed: Motion) -> int:
     """The frame of two clips (deik.Clip, same skeleton and length) whose joints and sites lie
     farthest apart on average: where the fix did the most."""
-    before = forward_kinematics(original.skeleton, original.poses()).p_world_frame
-    after = forward_kinematics(fixed.skeleton, fixed.poses()).p_world_frame
+    before, after = original.kinematics.p_world_frame, fixed.kinematics.p_world_frame
     return int(np.argmax(np.linalg.norm(after - before, axis=-1).mean(axis=1)))
 
 
@@ -62,11 +61,9 @@ def _draw_pose(container, panel: PosePanel) -> None:
     """The panel's frame: the pose before the fix in grey under the pose after, with its marks."""
     sk = panel.skeleton
     points = forward_kinematics(sk, np.stack([panel.before, panel.after])).p_world_frame
-    parents = frame_parents(sk)
     for k, (ax, basis) in enumerate(add_pose_axes(container, sk, panel.projection, panel.unit)):
-        names = sk.frame_names
-        under = draw_skeleton(ax, basis, points[0], parents, sk.n_joints, names, None, "compare", True, "before")
-        over = draw_skeleton(ax, basis, points[1], parents, sk.n_joints, names, panel.marks, bone_label="after")
+        under = draw_skeleton(ax, basis, sk, points[0], None, "compare", True, "before")
+        over = draw_skeleton(ax, basis, sk, points[1], panel.marks, bone_label="after")
         fit_axes(ax, np.concatenate([under, over]))
         if k == 0:
             ax.legend(loc="upper left", fontsize="x-small", markerscale=0.8)
@@ -86,14 +83,14 @@ def plot_clip_report(
     `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
     drawn above the series, or None."""
     if not series:
-        raise ValueError("there is no error series to plot")
+        raise InputError("there is no error series to plot")
     if not frame_time > 0:
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+        raise InputError(f"frame_time must be a positive number of seconds, got {frame_time}")
     lines = {}
     for name, (before, after) in series.items():
         before, after = np.asarray(before, float), np.asarray(after, float)
         if before.shape != after.shape or before.ndim != 1:
-            raise ValueError(
+            raise InputError(
                 f"series {name!r}: before and after must be (N,) arrays of one "
                 f"length, got {before.shape} and {after.shape}"
             )

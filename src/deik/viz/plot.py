@@ -10,12 +10,14 @@ Files are written atomically: a reader sees the old file or the complete new one
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.atomic import save_atomically
 from deik.io.files import FilePath
 from deik.model.joints import ROTATE
@@ -23,7 +25,7 @@ from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.solver.problem import Problem
 from deik.solver.result import Result
-from deik.viz.marks import colour, frame_parents, goal_targets, length_unit
+from deik.viz.marks import colour, goal_targets, length_unit
 from deik.viz.pose_axes import draw_skeleton, fit_axes
 
 if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
@@ -72,7 +74,7 @@ def axis_name(v: np.ndarray) -> str:
 def views(skeleton: Skeleton, projection: str) -> list[tuple[str, np.ndarray]]:
     """[(title, basis (3, 2) or (3, 3) whose columns are the picture's axes in world coordinates)]."""
     if projection not in PROJECTIONS:
-        raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
+        raise InputError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
     across, depth, up = view_axes(skeleton.up)
     if projection == "3d":
         return [("perspective", np.stack([across, depth, up], axis=1))]  # right-handed
@@ -100,13 +102,23 @@ def add_pose_axes(container: Figure | SubFigure, skeleton: Skeleton, projection:
     return out
 
 
+@dataclass(frozen=True, kw_only=True)
+class PoseMarks:
+    """What a pose picture marks besides the skeleton (whose root, tips and sites it always
+    marks): `targets` a sequence of points (3,), as crosses; `com` and `support` a point (3,)
+    each (the centre of mass, the support point) or None; `obstacles` (centre (3,), radius)
+    spheres."""
+
+    targets: ArrayLike = ()
+    com: ArrayLike | None = None
+    support: ArrayLike | None = None
+    obstacles: Iterable[tuple[ArrayLike, float]] = ()
+
+
 def pose_figure(
     skeleton: Skeleton,
     angles: ArrayLike,
-    targets: ArrayLike = (),
-    com: ArrayLike | None = None,
-    support: ArrayLike | None = None,
-    obstacles: Iterable[tuple[ArrayLike, float]] = (),
+    marks: PoseMarks = PoseMarks(),
     title: str = "",
     projection: str = "2d",
     unit: str | None = None,
@@ -114,19 +126,18 @@ def pose_figure(
     """The matplotlib Figure plot_pose saves (see there); the caller closes it."""
     angles = skeleton.check_angles(angles)
     if angles.ndim != 1:
-        raise ValueError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
+        raise InputError(f"plot_pose draws one pose (D,), got angles of shape {angles.shape}")
     views(skeleton, projection)  # a bad projection fails before matplotlib is loaded
     plt = require_matplotlib()
     points = forward_kinematics(skeleton, angles).p_world_frame
-    marks = {"target": targets, "support": [] if support is None else [support]}
-    marks["centre of mass"] = [] if com is None else [com]
+    shown = {"target": marks.targets, "support": [] if marks.support is None else [marks.support]}
+    shown["centre of mass"] = [] if marks.com is None else [marks.com]
     two = projection == "2d" and not is_planar(skeleton)
     figure = plt.figure(figsize=(11.0, 5.5) if two else (7.0, 6.5) if projection == "3d" else (5.5, 5.5))
     figure.set_layout_engine("constrained")
     for k, (ax, basis) in enumerate(add_pose_axes(figure, skeleton, projection, unit or length_unit(skeleton)[0])):
-        parents = frame_parents(skeleton)
-        drawn = draw_skeleton(ax, basis, points, parents, skeleton.n_joints, skeleton.frame_names, marks)
-        for centre, radius in obstacles:
+        drawn = draw_skeleton(ax, basis, skeleton, points, shown)
+        for centre, radius in marks.obstacles:
             _sphere(ax, basis, np.asarray(centre, float), float(radius), plt)
         fit_axes(ax, drawn)
         if k == 0:
@@ -150,22 +161,17 @@ def plot_pose(
     result_or_skeleton: Result | Skeleton,
     angles: ArrayLike | None,
     path: FilePath,
-    targets: ArrayLike = (),
-    com: ArrayLike | None = None,
-    support: ArrayLike | None = None,
+    marks: PoseMarks = PoseMarks(),
     title: str = "",
-    obstacles: Iterable[tuple[ArrayLike, float]] = (),
     projection: str = "2d",
     unit: str | None = None,
 ) -> None:
     """Draw one pose to PNG `path`.
 
     result_or_skeleton: a deik.Result (angles None takes its .angles) or a Skeleton; angles
-    (D,) radians / length units. Marks: targets, a sequence of points (3,), as crosses; com,
-    support: points (3,) (e.g. the centre of mass and the support point), or None for no mark;
-    obstacles: (centre (3,), radius) spheres. The root, tips and sites are always marked.
-    projection: "2d" (front and side views) or "3d" (one perspective view). unit: the length
-    unit in the axis labels (default: viz.marks.length_unit of the skeleton).
+    (D,) radians / length units; `marks` what else to mark (PoseMarks). projection: "2d" (front
+    and side views) or "3d" (one perspective view). unit: the length unit in the axis labels
+    (default: viz.marks.length_unit of the skeleton).
     """
     skeleton = getattr(result_or_skeleton, "skeleton", result_or_skeleton)
     if not isinstance(skeleton, Skeleton):
@@ -173,8 +179,8 @@ def plot_pose(
     if angles is None:
         angles = getattr(result_or_skeleton, "angles", None)
         if angles is None:
-            raise ValueError("plot_pose needs angles (D,) when given a Skeleton")
-    figure = pose_figure(skeleton, angles, targets, com, support, obstacles, title, projection, unit)
+            raise InputError("plot_pose needs angles (D,) when given a Skeleton")
+    figure = pose_figure(skeleton, angles, marks, title, projection, unit)
     plt = require_matplotlib()
     try:
         save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
@@ -182,18 +188,18 @@ def plot_pose(
         plt.close(figure)
 
 
-def goal_marks(problem: Problem) -> dict:
+def goal_marks(problem: Problem) -> PoseMarks:
     """plot_pose's marks from a Problem's goals (viz.marks.goal_targets): targets of Position /
     Aim / CentreOfMass goals, the support point of a ComOverSupport goal and obstacle spheres."""
-    marks = {"targets": [], "support": None, "obstacles": []}
+    targets, support, obstacles = [], None, []
     for record in goal_targets(problem):
         if record["kind"] == "target":
-            marks["targets"].extend(np.asarray(record["position"], float).reshape(-1, 3))
+            targets.extend(np.asarray(record["position"], float).reshape(-1, 3))
         elif record["kind"] == "support":
-            marks["support"] = np.asarray(record["position"], float).reshape(-1, 3)[0]
+            support = np.asarray(record["position"], float).reshape(-1, 3)[0]
         else:
-            marks["obstacles"].append((record["centre"], record["radius"]))
-    return marks
+            obstacles.append((record["centre"], record["radius"]))
+    return PoseMarks(targets=targets, support=support, obstacles=obstacles)
 
 
 def plot_result(
@@ -202,5 +208,5 @@ def plot_result(
     """plot_pose of an unbatched Result with `problem`'s targets, its support point and the
     pose's centre of mass (when the skeleton has mass)."""
     com = forward_kinematics(result.skeleton, result.angles).p_world_com if result.skeleton.total_mass > 0 else None
-    marks = goal_marks(problem)
-    plot_pose(result, result.angles, path, com=com, title=title, projection=projection, unit=unit, **marks)
+    marks = replace(goal_marks(problem), com=com)
+    plot_pose(result, result.angles, path, marks, title=title, projection=projection, unit=unit)

@@ -8,13 +8,12 @@ coordinates: a point p is drawn at p @ basis.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from deik.viz.marks import bones, colour, roots, spread_out, tips
+from deik.model.skeleton import Skeleton
+from deik.viz.marks import bones, colour, frame_parents, roots, spread_out, tips
 
 if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
     from matplotlib.axes import Axes
@@ -44,23 +43,21 @@ def _mark(ax, flat: np.ndarray, kind: str, label: str | None) -> None:
 def draw_skeleton(
     ax: Axes,
     basis: np.ndarray,
+    skeleton: Skeleton,
     points: np.ndarray,
-    parents: ArrayLike,
-    n_joints: int,
-    names: Sequence[str],
     marks: dict | None = None,
     bone_kind: str = "bone",
     legend: bool = True,
     bone_label: str | None = None,
 ) -> np.ndarray:
-    """Draw one pose: `points` (F, 3) world positions of its joints then sites, `parents` (F,)
-    its tree (viz.marks.frame_parents), `n_joints` how many frames are joints, `names` (F,) the
-    frame names (the tips are labelled with theirs); `marks` {kind: points (N, 3)} for kinds of
+    """Draw one pose of `skeleton`: `points` (F, 3) world positions of its joints then sites
+    (the tips are labelled with their names); `marks` {kind: points (N, 3)} for kinds of
     MARKERS ("target", "support", "centre of mass", "contact"); `bone_kind` the colour of the
     bones ("compare" for an overlay, which then gets no joint, site, root or tip marks);
     `legend` False leaves the entries out of the axes' legend (a second pose on one axes);
     `bone_label` the bones' legend entry (default "bones", or "compared" for an overlay).
     Returns the picture coordinates (N, k) of everything drawn, for fit_axes."""
+    parents, n_joints, names = frame_parents(skeleton), skeleton.n_joints, skeleton.frame_names
     points = np.asarray(points, float)
     flat = points @ basis
 

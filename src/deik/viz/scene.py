@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import InputError
 from deik.io.pose_json import PoseFile
 from deik.model.kinematics import forward_kinematics
 from deik.model.orientations import matrix_quaternion
@@ -107,7 +108,7 @@ def figure_from_pose_file(pose: PoseFile, name: str = "") -> Figure:
     hand-written pose with angles only), saying how to view it with its skeleton instead."""
     if pose.positions is None or pose.parents is None:
         missing = "world frames" if pose.positions is None else 'skeleton tree ("parents")'
-        raise ValueError(
+        raise InputError(
             f"{pose.path}: has no {missing} to draw; write it again with `deik solve --out pose.json`, "
             f"or give its skeleton: `deik view SKELETON --pose {pose.path}`"
         )
@@ -142,7 +143,7 @@ def with_compare(scene: Scene, other: Figure, source: str) -> Scene:
     """`scene` with `other` drawn beside it for comparison (a one-step figure is held still);
     ValueError naming `source` when the step counts differ."""
     if len(other.positions) not in (1, scene.n_steps):
-        raise ValueError(
+        raise InputError(
             f"{source}: has {len(other.positions)} {scene.step}s, the viewed file {scene.n_steps}; "
             "compare a clip with one of the same length (e.g. the input of `deik clip` with its output)"
         )

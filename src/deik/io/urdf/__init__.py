@@ -1,7 +1,8 @@
-"""URDF robots in: `read_urdf(path, base=None, tip=None) -> Skeleton` (robot.py), on our own safe
+"""URDF robots in: `read_urdf(path, base=None, tip=None) -> Skeleton` and its joints'
+velocity limits `read_velocity_limits(path)` (robot.py), on our own safe
 XML reader (safe_xml.py), the link tree (tree.py) and checked `<link>`/`<joint>` elements
 (elements.py)."""
 
-from deik.io.urdf.robot import read_urdf
+from deik.io.urdf.robot import read_urdf, read_velocity_limits
 
-__all__ = ["read_urdf"]
+__all__ = ["read_urdf", "read_velocity_limits"]

@@ -40,7 +40,8 @@ class Mimic:
 @dataclass(frozen=True)
 class UrdfJoint:
     """A `<joint>`: its `<origin>` as translation xyz (3,) and roll-pitch-yaw rpy (3,) of the joint
-    frame in the parent link's frame, axis (3,) as written (not normalised), limits or None where absent."""
+    frame in the parent link's frame, axis (3,) as written (not normalised), limits or None where
+    absent; `velocity` the `<limit velocity>` (rad/s or m/s) or None."""
 
     name: str
     type: str
@@ -53,6 +54,7 @@ class UrdfJoint:
     upper: float | None
     mimic: Mimic | None
     line: int
+    velocity: float | None = None
 
 
 @dataclass(frozen=True)
@@ -82,7 +84,10 @@ def read_joint(element: etree._Element, source: str) -> UrdfJoint:
     axis = e.numbers(e.child(element, "axis"), "xyz", 3, (1.0, 0.0, 0.0))
     limit = e.child(element, "limit")
     lower, upper = (e.numbers(limit, bound, 1, (None,))[0] for bound in ("lower", "upper"))
-    return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline)
+    velocity = e.numbers(limit, "velocity", 1, (None,))[0]
+    if velocity is not None and not velocity > 0:
+        e.fail(f'<limit velocity="{velocity:g}">: a velocity limit must be > 0 (rad/s or m/s)', limit)
+    return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline, velocity)
 
 
 def read_link(element: etree._Element, source: str) -> UrdfLink:

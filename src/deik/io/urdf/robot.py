@@ -61,6 +61,14 @@ def read_urdf(
     return _build(tree, selected, up, root.get("name") or "robot")
 
 
+def read_velocity_limits(path: FilePath) -> dict[str, float]:
+    """{joint name: velocity limit} of every joint of the URDF file `path` whose `<limit>`
+    gives one (rad/s for a rotation, m/s for a translation); FileFormatError as read_urdf."""
+    source = str(path)
+    joints = [read_joint(element, source) for element in read_xml(path).iterchildren("joint")]
+    return {joint.name: joint.velocity for joint in joints if joint.velocity is not None}
+
+
 def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
     """Refuse unsupported joint types, zero axes, bad mimic sources and missing or inverted limits."""
     fail = tree.failure(joint.name)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
-from deik.errors import FileFormatError
+from deik.errors import FileFormatError, UnknownNameError
 from deik.io.urdf.elements import UrdfJoint, UrdfLink
 from deik.suggest import did_you_mean
 
@@ -72,7 +72,7 @@ class LinkTree:
 
     def _link(self, name: str, role: str) -> str:
         if name not in self.links:
-            raise KeyError(f"{role} link {name!r} is not in {self.source}{did_you_mean(name, self.links)}")
+            raise UnknownNameError(f"{role} link {name!r} is not in {self.source}{did_you_mean(name, self.links)}")
         return name
 
     def select(self, base: str | None, tip: str | Sequence[str] | None) -> list[str]:
@@ -86,7 +86,7 @@ class LinkTree:
         for name in [tip] if isinstance(tip, str) else list(tip):
             link = self._link(name, "tip")
             if link not in subtree:
-                raise KeyError(
+                raise UnknownNameError(
                     f"tip link {name!r} is not below base link {base!r}; pick a base on its path from {self.root!r}"
                 )
             while link != base:

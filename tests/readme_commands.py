@@ -1,8 +1,9 @@
 """README.md's code blocks, and how to run their lines as a user would: from a folder laid out
 like a clone beside shared/, with `deik` either from a checkout or from an installed wheel.
+The README's commands write into one folder, OUTPUTS, made by its `mkdir -p` line.
 
-Used by tests/cli/test_readme.py (the clone) and tests/cli/test_wheel.py with
-benchmarks.wheel_install (a fresh wheel install). A bash line that is neither a `deik` command
+Used by tests/cli/test_readme.py (the clone) and tests/cli/test_wheel.py (a fresh wheel
+install, benchmarks.wheel_install's steps). A bash line that is neither a `deik` command
 nor an example script is listed in EXCLUDED with the reason it cannot run in a test and what
 runs it instead; SLOW names the `deik` commands left out and where they are tested.
 """
@@ -17,6 +18,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+OUTPUTS = "out"  # the folder every README command writes into
+MKDIR = f"mkdir -p {OUTPUTS}"
 
 EXCLUDED = {
     "make demo": "creates .venv and installs from the package index, then compiles for minutes; its steps run "
@@ -50,10 +53,10 @@ def bash_lines(text: str | None = None) -> list[str]:
 
 def runnable(line: str, gpu: bool) -> bool:
     """Whether a test runs this README bash line: a `deik` command (not SLOW, not GPU work
-    without a GPU) or an example script."""
+    without a GPU), an example script, or the line making the outputs' folder."""
     if line.startswith("deik "):
         return not line.startswith(tuple(SLOW)) and ("--device gpu" not in line or gpu)
-    return line.startswith("python examples/")
+    return line.startswith("python examples/") or line == MKDIR
 
 
 def clone_beside_shared(folder: Path, shared_data: Path) -> Path:
@@ -67,9 +70,10 @@ def clone_beside_shared(folder: Path, shared_data: Path) -> Path:
 
 def run_line(line: str, clone: Path, deik: list[str], python: str, env: dict) -> subprocess.CompletedProcess:
     """Run README line `line` in `clone` in a process of its own: `deik ...` through the argv
-    prefix `deik` (e.g. an installed console script), `python examples/...` through `python`."""
+    prefix `deik` (e.g. an installed console script), `python examples/...` through `python`,
+    `mkdir -p ...` as it is."""
     words = shlex.split(line)
-    argv = deik + words[1:] if words[0] == "deik" else [python, *words[1:]]
+    argv = deik + words[1:] if words[0] == "deik" else words if words[0] == "mkdir" else [python, *words[1:]]
     return subprocess.run(argv, cwd=clone, capture_output=True, text=True, timeout=900, env=env)
 
 
@@ -78,14 +82,18 @@ def run_line(line: str, clone: Path, deik: list[str], python: str, env: dict) ->
 # JSON per README line: its exit status, the end of its stderr, and for a solve that wrote a pose
 # JSON whether it met every goal. (A process per line costs seconds of imports and kernel loads.)
 DRIVER = r"""
-import contextlib, io, json, runpy, shlex, sys
+import contextlib, io, json, os, runpy, shlex, sys
 from deik.cli.app import main
 for line in json.load(sys.stdin):
     words, err = shlex.split(line), io.StringIO()
     record = {"line": line}
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         try:
-            if words[0] == "deik":
+            if words[:2] == ["mkdir", "-p"]:
+                for folder in words[2:]:
+                    os.makedirs(folder, exist_ok=True)
+                record["status"] = 0
+            elif words[0] == "deik":
                 record["status"] = main(words[1:])
             else:
                 sys.argv = words[1:]

@@ -1,0 +1,418 @@
+"""The independent judge of retargets (benchmarks/retarget_quality.py runs it, tests/retargeting
+calls it): nothing here uses deik's report code, its forward kinematics or its contact detection.
+
+Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, the floating
+root (ROOT.X/Y/Zposition, ROOT.Z/X/Yrotation, intrinsic, in the root link's axes) applied on top;
+BVH files are read and posed by the small parser below (a joint's local transform is its OFFSET
+plus its position channels, then its rotation channels in file order, intrinsic).
+
+Per retarget (judge; lengths in mm of the target, the target's floor at height 0 of its world
+for a robot, the floor deik states for the same rig, whose world is the source's; the judge's
+own estimate of the source's floor decides what rests):
+- contacts: every point of the source (joint or end site) at rest near the floor (rest_mask:
+  slower than REST_SPEED statures/s or REST_RATIO x the mean point, within REST_BAND statures
+  of its own lowest resting height, which lies within REST_NEAR statures of the floor, for
+  REST_TIME s; the stature is the source's standing height, the floor the lower quartile of
+  its slow lowest point) is a contact; its target point (through the joint map) must not
+  slide: `sliding_max_mm_per_frame` over all of them, `sliding_worst_point`;
+- `penetration_max_mm`: the deepest point of the body (every link origin and mapped point of a
+  robot, every joint and site of a BVH) below the floor;
+- `step_excess_max`: the largest DOF step between two frames over its allowance, max(velocity
+  limit x frame time, STEP_ALLOWANCE x the source's largest joint turn per frame) (<= 1 meets
+  it), with `step_excess_count` the (frame, DOF) pairs over it, and `wrap_count` the steps of a
+  rotation longer than pi (a +-180 degree wrap or an Euler twin);
+- `wrist_distance_max_mm`: the largest distance of a hand (the source's wrists) from its
+  scaled source point (the source's directions with the target's limb lengths, the pelvis's
+  path scaled by the pelvis heights' ratio), against WRIST_BOUND statures of the target;
+- `keypoint_error_mean_mm`: the mean distance of every mapped point from its scaled source;
+- `speed_peak_ratio_max`: the largest, over the mapped points, of a point's top speed over its
+  scaled source point's (1: as fast; a flicking forearm shows as several), with the point.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+# the judge's contact: slower than REST_SPEED statures/s or REST_RATIO x the body's mean point,
+# within REST_BAND statures of its own lowest resting height, which lies within REST_NEAR
+# statures of the floor, for REST_TIME seconds
+REST_SPEED, REST_RATIO, REST_BAND, REST_NEAR, REST_TIME = 0.08, 0.5, 0.02, 0.08, 0.1
+STEP_ALLOWANCE = 1.5  # x the source's largest joint turn per frame (or the velocity limit)
+WRIST_BOUND = 0.1  # statures of the target: the bound on a hand's distance from its scaled source point
+SLIDING_BOUND, PENETRATION_BOUND = 1.0, 2.0  # mm per frame, mm
+
+
+# --- BVH: read and pose -----------------------------------------------------------------
+
+
+@dataclass
+class Bvh:
+    """A BVH file: per node (joints, then End Sites in file order) its name, parent index (-1
+    for the root), OFFSET (3,) and channels; `frames` (N, C) in channel order; `frame_time` s."""
+
+    names: list
+    parents: list
+    offsets: np.ndarray
+    channels: list
+    frames: np.ndarray
+    frame_time: float
+
+    def columns(self, node: int) -> list[int]:
+        """The frame columns of node `node`'s channels."""
+        start = sum(len(c) for c in self.channels[:node])
+        return list(range(start, start + len(self.channels[node])))
+
+
+def read_bvh_file(path: Path) -> Bvh:
+    """Parse a BVH file (a site is named after its joint, "JOINT_end")."""
+    text = Path(path).read_text()
+    head, motion = re.split(r"^\s*MOTION\s*$", text, maxsplit=1, flags=re.M)
+    tokens = head.split()
+    names, parents, offsets, channels, stack = [], [], [], [], []
+    k = 0
+    while k < len(tokens):
+        word = tokens[k]
+        if word in ("ROOT", "JOINT"):
+            names.append(tokens[k + 1])
+            k += 2
+        elif word == "End":
+            names.append(names[stack[-1]] + "_end")
+            k += 2
+        elif word == "{":
+            parents.append(stack[-1] if stack else -1)
+            stack.append(len(names) - 1)
+            offsets.append(None)
+            channels.append([])
+            k += 1
+        elif word == "}":
+            stack.pop()
+            k += 1
+        elif word == "OFFSET":
+            offsets[stack[-1]] = [float(v) for v in tokens[k + 1 : k + 4]]
+            k += 4
+        elif word == "CHANNELS":
+            count = int(tokens[k + 1])
+            channels[stack[-1]] = tokens[k + 2 : k + 2 + count]
+            k += 2 + count
+        else:
+            k += 1
+    lines = [line for line in motion.strip().splitlines() if line.strip()]
+    frame_time = float(lines[1].split(":")[1])
+    frames = np.array([[float(v) for v in line.split()] for line in lines[2:]])
+    return Bvh(names, parents, np.array(offsets), channels, frames.reshape(len(lines) - 2, -1), frame_time)
+
+
+def bvh_transforms(bvh: Bvh) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (N, P, 3), local rotations (N, P, 3, 3)) of every node in every frame: a
+    node's local transform is its OFFSET plus its position channels, then its rotation
+    channels in file order, intrinsic."""
+    N, P = len(bvh.frames), len(bvh.names)
+    position, local = np.zeros((N, P, 3)), np.tile(np.eye(3), (N, P, 1, 1))
+    world = np.zeros((N, P, 3, 3))
+    for p in range(P):
+        columns, names = bvh.columns(p), bvh.channels[p]
+        shift = np.tile(bvh.offsets[p], (N, 1))
+        axes = "".join(c[0] for c in names if c.endswith("rotation"))
+        for column, name in zip(columns, names):
+            if name.endswith("position"):
+                shift[:, "XYZ".index(name[0])] += bvh.frames[:, column]
+        if axes:
+            angles = bvh.frames[:, [c for c, n in zip(columns, names) if n.endswith("rotation")]]
+            local[:, p] = Rotation.from_euler(axes.upper(), angles, degrees=True).as_matrix()
+        parent = bvh.parents[p]
+        if parent < 0:
+            position[:, p], world[:, p] = shift, local[:, p]
+        else:
+            position[:, p] = position[:, parent] + np.einsum("nij,nj->ni", world[:, parent], shift)
+            world[:, p] = world[:, parent] @ local[:, p]
+    return position, local
+
+
+def stature(bvh: Bvh) -> float:
+    """The vertical span (Y) of the rest pose (every channel 0): the standing height."""
+    rest = replace(bvh, frames=np.zeros((1, bvh.frames.shape[1])))
+    heights = bvh_transforms(rest)[0][0, :, 1]
+    return float(np.ptp(heights))
+
+
+# --- robots: yourdfpy's transforms under a floating root ------------------------------------
+
+
+@dataclass
+class Robot:
+    """A URDF read by yourdfpy: its `urdf`, each joint's velocity limit `velocity` {name: rad/s
+    or m/s} and whether it is `continuous` {name: bool}."""
+
+    urdf: object
+    velocity: dict
+    continuous: dict
+
+
+def read_robot(path: Path) -> Robot:
+    """The robot at `path` (yourdfpy, no meshes)."""
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
+    velocity = {j.name: (j.limit.velocity if j.limit is not None else None) for j in urdf.robot.joints}
+    continuous = {j.name: j.type == "continuous" for j in urdf.robot.joints}
+    return Robot(urdf, velocity, continuous)
+
+
+def read_trajectory_csv(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(DOF names, times (N,), values (N, D)) of a trajectory CSV (frame,time_s,<DOFs>)."""
+    with open(path, newline="") as handle:
+        rows = list(csv.reader(handle))
+    values = np.array([[float(v) for v in row] for row in rows[1:]])
+    return rows[0][2:], values[:, 1], values[:, 2:]
+
+
+def robot_links(robot: Robot, names: list[str], values: np.ndarray) -> dict[str, np.ndarray]:
+    """{link: (N, 4, 4) world transform} of every link at each row of `values` (N, D) over DOF
+    `names`: the six ROOT.* DOFs place the base link (X, Y, Z translation, then intrinsic
+    rotations about Z, X, Y), the others are the URDF's joints."""
+    urdf = robot.urdf
+    root = [k for k, n in enumerate(names) if n.split(".")[-1] in ROOT_CHANNELS]
+    by_channel = {names[k].split(".")[-1]: k for k in root}
+    joints = [(k, n) for k, n in enumerate(names) if k not in root]
+    out = {link: np.zeros((len(values), 4, 4)) for link in urdf.link_map}
+    for n, row in enumerate(values):
+        base = np.eye(4)
+        if root:
+            base[:3, 3] = [row[by_channel[c]] for c in ROOT_CHANNELS[:3]]
+            angles = [row[by_channel[c]] for c in ROOT_CHANNELS[3:]]
+            base[:3, :3] = Rotation.from_euler("ZXY", angles).as_matrix()
+        urdf.update_cfg({name: row[k] for k, name in joints})
+        for link in urdf.link_map:
+            out[link][n] = base @ urdf.get_transform(link, urdf.base_link)
+    return out
+
+
+ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+
+
+# --- the judge --------------------------------------------------------------------------------
+
+
+def rest_mask(points: np.ndarray, frame_time: float, floor: float, size: float) -> np.ndarray:
+    """(N, P) bool: the frames each point of `points` (N, P, 3), Y up, rests near the floor
+    at height `floor` (module notes; `size` the stature in the points' units)."""
+    height = points[..., 1] - floor
+    slow = _slow(points, frame_time, size)
+    lowest = np.where(slow, height, np.inf).min(axis=0)
+    mask = slow & (height <= lowest + REST_BAND * size) & (lowest <= REST_NEAR * size)
+    for p in range(mask.shape[1]):  # rests shorter than REST_TIME do not count
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], mask[:, p].astype(int), [0]])))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if (b - a) * frame_time < REST_TIME - 1e-9:
+                mask[a:b, p] = False
+    return mask
+
+
+def _slow(points: np.ndarray, frame_time: float, size: float) -> np.ndarray:
+    """(N, P) bool: each point of `points` (N, P, 3) slower than REST_SPEED statures/s or than
+    REST_RATIO x the mean point of all of them."""
+    if len(points) < 2:
+        return np.ones(points.shape[:2], bool)
+    speed = np.linalg.norm(np.gradient(points, frame_time, axis=0), axis=-1)
+    centre = np.linalg.norm(np.gradient(points.mean(axis=1), frame_time, axis=0), axis=-1)
+    return speed <= np.maximum(REST_SPEED * size, REST_RATIO * centre)[:, None]
+
+
+def source_floor(points: np.ndarray, frame_time: float, size: float) -> float:
+    """The height the source rests on: the lower quartile, over the frames its lowest point is
+    slow, of that point's height."""
+    lowest = points[..., 1].argmin(axis=1)
+    slow = _slow(points, frame_time, size)[np.arange(len(points)), lowest]
+    heights = points[np.arange(len(points)), lowest, 1]
+    return float(np.percentile(heights[slow] if slow.any() else heights, 25))
+
+
+def largest_turn(bvh: Bvh) -> float:
+    """The largest angle (radians) any joint of `bvh` turns between two frames."""
+    local = bvh_transforms(bvh)[1]
+    if len(local) < 2:
+        return 0.0
+    relative = np.einsum("npji,npjk->npik", local[:-1], local[1:])
+    cosine = (np.trace(relative, axis1=-2, axis2=-1) - 1) / 2
+    return float(np.arccos(np.clip(cosine, -1, 1)).max())
+
+
+def limb_scaled(source: np.ndarray, parents: list[int], lengths: np.ndarray, root: int, root_path: np.ndarray):
+    """(N, K, 3) the source points (N, K, 3) with each point's distance from its parent point
+    (`parents`, -1 for the root) set to `lengths` (K,), the root point on `root_path` (N, 3)."""
+    out = np.zeros_like(source)
+    order = sorted(range(len(parents)), key=lambda k: _depth(parents, k))
+    for k in order:
+        if parents[k] < 0:
+            out[:, k] = root_path
+            continue
+        along = source[:, k] - source[:, parents[k]]
+        norm = np.maximum(np.linalg.norm(along, axis=-1, keepdims=True), 1e-12)
+        out[:, k] = out[:, parents[k]] + along / norm * lengths[k]
+    return out
+
+
+def _depth(parents: list[int], k: int) -> int:
+    return 0 if parents[k] < 0 else 1 + _depth(parents, parents[k])
+
+
+@dataclass
+class Pairing:
+    """How the source's points become the target's: `source` (K,) source node names, their
+    target positions `target` (N, K, 3) in the target's world, the target's `body` (N, B, 3)
+    (every link origin and mapped point of a robot, every joint and site of a BVH), the
+    target's rest positions `rest` (K, 3) and rest `rest_body` (B, 3), `pelvis` the source name
+    of the target's root point, `floor` the target's floor height, `rotation` (3, 3) source
+    axes to target axes; `same_world` for a target in the source's world (the same rig), else
+    the target's world has its origin on the floor below the source's root in frame 0."""
+
+    source: list
+    target: np.ndarray
+    body: np.ndarray
+    rest: np.ndarray
+    rest_body: np.ndarray
+    pelvis: str
+    floor: float
+    rotation: np.ndarray
+    same_world: bool = False
+
+
+def robot_pairing(robot: Robot, csv_path: Path, joint_map: dict) -> tuple[Pairing, list, np.ndarray, float]:
+    """(Pairing, DOF names, values (N, D), frame time) of a robot's trajectory CSV retargeted
+    through `joint_map` (the parsed TOML)."""
+    names, times, values = read_trajectory_csv(csv_path)
+    links = robot_links(robot, names, values)
+    moving = [n for n in names if n.split(".")[-1] not in ROOT_CHANNELS]
+    rest_links = robot_links(robot, moving, np.zeros((1, len(moving))))
+
+    def place(transforms, target, offset):
+        return np.einsum("nij,j->ni", transforms[target], np.append(offset, 1.0))[:, :3]
+
+    points = [(source, *_map_point(value)) for source, value in joint_map["points"].items()]
+    target = np.stack([place(links, t, o) for _, t, o in points], axis=1)
+    rest = np.stack([place(rest_links, t, o)[0] for _, t, o in points])
+    origins = np.stack([links[link][:, :3, 3] for link in robot.urdf.link_map], axis=1)
+    rest_origins = np.stack([rest_links[link][0, :3, 3] for link in robot.urdf.link_map])
+    rotation = np.array(joint_map.get("rotation", np.eye(3)), float)
+    pairing = Pairing(
+        source=[p[0] for p in points],
+        target=target,
+        body=np.concatenate([origins, target], axis=1),
+        rest=rest,
+        rest_body=np.concatenate([rest_origins, rest]),
+        pelvis=joint_map["pelvis"]["source"],
+        floor=0.0,
+        rotation=rotation,
+    )
+    return pairing, names, values, float(np.median(np.diff(times))) if len(times) > 1 else 1.0
+
+
+def _map_point(value) -> tuple[str, np.ndarray]:
+    if isinstance(value, str):
+        return value, np.zeros(3)
+    return value["target"], np.array(value.get("offset", [0.0, 0.0, 0.0]), float)
+
+
+def rig_pairing(source: Bvh, out: Bvh, floor: float) -> Pairing:
+    """Pairing of a same-rig retarget: every node to itself, the floor the source's."""
+    positions = bvh_transforms(out)[0]
+    rest = bvh_transforms(replace(out, frames=np.zeros((1, out.frames.shape[1]))))[0][0]
+    return Pairing(list(out.names), positions, positions, rest, rest, out.names[0], floor, np.eye(3), True)
+
+
+def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: dict | None = None) -> dict:
+    """The module notes' figures of one retarget: `source` the source clip, `pairing` its
+    target, `wrists` the source names of the hands, `mm` millimetres per target length unit;
+    `steps` {"names", "values" (N, D), "frame_time", "robot"} for a robot's DOF steps (None for
+    a BVH)."""
+    positions = bvh_transforms(source)[0]
+    size = stature(source)
+    floor = source_floor(positions, source.frame_time, size)
+    index = [source.names.index(name) for name in pairing.source]
+    resting = rest_mask(positions, source.frame_time, floor, size)[:, index]
+    # the scaled source: the target's limb lengths on the source's directions
+    parents = _mapped_parents(source, pairing.source)
+    root = pairing.source.index(pairing.pelvis)
+    lengths = np.linalg.norm(pairing.rest - pairing.rest[np.maximum(parents, 0)], axis=-1)
+    rest_source = bvh_transforms(replace(source, frames=np.zeros((1, source.frames.shape[1]))))[0][0]
+    legs = [
+        rest[k] @ [0, 1, 0] - body[:, 1].min()
+        for rest, k, body in ((rest_source[index], root, rest_source), (pairing.rest, root, pairing.rest_body))
+    ]
+    origin = positions[0, 0] * [1, 0, 1] + [0, floor, 0]
+    mapped = (positions[:, index] - origin) @ pairing.rotation.T
+    root_path = mapped[:, root] * legs[1] / legs[0] + (origin if pairing.same_world else 0.0)
+    scaled = limb_scaled(mapped, parents, lengths, root, root_path)
+    target_size = float(np.ptp(pairing.rest_body[:, 1]))
+    error = np.linalg.norm(pairing.target - scaled, axis=-1)
+    hands = [pairing.source.index(w) for w in wrists]
+    moved = np.linalg.norm(np.diff(pairing.target, axis=0), axis=-1)
+    both = resting[1:] & resting[:-1]
+    sliding = np.where(both, moved, 0.0)
+    worst = np.unravel_index(np.argmax(sliding), sliding.shape) if sliding.size else (0, 0)
+    figures = {
+        "frames": int(len(positions)),
+        "floor_source": floor,
+        "resting_points": sorted({pairing.source[k] for k in np.flatnonzero(resting.any(axis=0))}),
+        "sliding_max_mm_per_frame": float(sliding.max(initial=0.0) * mm),
+        "sliding_worst_point": pairing.source[worst[1]] if sliding.size and sliding.max() > 0 else None,
+        "penetration_max_mm": float(max(0.0, (pairing.floor - pairing.body[..., 1]).max()) * mm),
+        "wrist_distance_max_mm": float(error[:, hands].max() * mm),
+        "wrist_bound_mm": WRIST_BOUND * target_size * mm,
+        "keypoint_error_mean_mm": float(error.mean() * mm),
+        **_speed_peaks(pairing.source, scaled, pairing.target),
+    }
+    figures.update(step_figures(source, steps) if steps else {})
+    return figures
+
+
+def _speed_peaks(names: list[str], scaled: np.ndarray, target: np.ndarray) -> dict:
+    """The largest, over the mapped points, of a point's top speed between two frames over its
+    scaled source point's (a flail or a flick shows here), and which point."""
+    if len(target) < 2:
+        return {"speed_peak_ratio_max": None, "speed_peak_point": None}
+    top = [np.linalg.norm(np.diff(p, axis=0), axis=-1).max(axis=0) for p in (scaled, target)]
+    ratio = top[1] / np.maximum(top[0], 1e-9)
+    k = int(np.argmax(ratio))
+    return {"speed_peak_ratio_max": float(ratio[k]), "speed_peak_point": names[k]}
+
+
+def _mapped_parents(source: Bvh, names: list[str]) -> list[int]:
+    """Each mapped point's nearest mapped ancestor in the source (-1 for none)."""
+    out = []
+    for name in names:
+        node = source.parents[source.names.index(name)]
+        while node >= 0 and source.names[node] not in names:
+            node = source.parents[node]
+        out.append(names.index(source.names[node]) if node >= 0 else -1)
+    return out
+
+
+def step_figures(source: Bvh, steps: dict) -> dict:
+    """The DOF steps of a robot's trajectory against their allowance (module notes)."""
+    robot, names, values, dt = steps["robot"], steps["names"], steps["values"], steps["frame_time"]
+    turn = STEP_ALLOWANCE * largest_turn(source) * dt / source.frame_time if len(values) > 1 else 0.0
+    allowance, rotation = np.zeros(len(names)), np.zeros(len(names), bool)
+    for d, name in enumerate(names):
+        channel = name.split(".")[-1]
+        rotation[d] = channel.endswith("rotation") if channel in ROOT_CHANNELS else True
+        limit = robot.velocity.get(name)
+        allowance[d] = max(turn, (limit or 0.0) * dt) if rotation[d] else np.inf
+    delta = np.abs(np.diff(values, axis=0))
+    excess = np.where(rotation, delta / np.maximum(allowance, 1e-12), 0.0)
+    over = excess > 1 + 1e-9
+    worst = np.unravel_index(np.argmax(excess), excess.shape) if excess.size else (0, 0)
+    return {
+        "step_excess_max": float(excess.max(initial=0.0)),
+        "step_excess_count": int(over.sum()),
+        "step_worst": f"{names[worst[1]]} frames {worst[0]}-{worst[0] + 1}" if excess.size else None,
+        "wrap_count": int((rotation & (delta > math.pi)).sum()),
+        "source_largest_turn_deg": math.degrees(largest_turn(source)),
+    }

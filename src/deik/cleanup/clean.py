@@ -1,0 +1,254 @@
+"""deik.clean_clip(): clean a whole clip from one options object (what `deik clip` does).
+
+    cleaned = deik.clean_clip("walk.bvh", deik.CleanOptions(balance=True))
+    deik.write_bvh("walk_fixed.bvh", cleaned.clip)
+    cleaned.report["metrics"]["sliding_max_mm_per_frame"]    # before and after
+    cleaned.unmet_frames, cleaned.skipped_balance_frames          # what it could not do
+
+The options take the flags' forms (cleanup/specs.py), so a folder run gives the same
+CleanOptions to every clip. plan_clean resolves them against one clip (contacts detected,
+floor, reach tracks, length unit) and CleanPlan.run fixes it (cleanup/fix.py) and records the
+outcome (cleanup/document.py); clean_clip does both.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.clip_goals import GRAVITY, ClipGoals, Reach
+from deik.cleanup.contacts import Contacts
+from deik.cleanup.document import clip_document
+from deik.cleanup.dynamics import FAR_DEGREES
+from deik.cleanup.fix import ClipFix, fix_clip
+from deik.cleanup.ground import FloorChoice, body_paths
+from deik.cleanup.specs import all_contacts, floor_choice, reaches
+from deik.cleanup.units import METRES, unit_of_span
+from deik.errors import InputError
+from deik.io.files import FilePath
+from deik.io.motion import Clip
+from deik.io.trajectory import Motion, Trajectory
+
+log = logging.getLogger(__name__)
+SETTINGS = ("population", "generations", "seed", "device")  # the DE settings the options may override
+
+
+def _texts(value, name: str) -> tuple[str, ...]:
+    """A spec or a sequence of specs as a tuple of strings; InputError otherwise."""
+    if isinstance(value, str):
+        return (value,)
+    if not isinstance(value, Sequence) or not all(isinstance(item, str) for item in value):
+        raise InputError(f"{name} takes a spec (text) or a list of specs, got {value!r}")
+    return tuple(value)
+
+
+@dataclass(frozen=True)
+class CleanOptions:
+    """What to fix in a clip and how: the flags of `deik clip`, one field each, in their forms.
+
+    - `plant_feet`: "auto", "none" or "SITE:A-B[,A-B...]" specs (default: auto, the heel and
+      toe of each foot where they rest); `contact`: "auto", "none", "POINT" or
+      "POINT@A-B[,A-B...]" (a joint, an end site or a bone PARENT-CHILD; default: auto, every
+      other point of the body where it rests); `contact_height` (length units) and
+      `contact_speed` (length units/s): detection thresholds (None: the defaults, shares of
+      the body's span).
+    - `floor`: "auto" (detected and kept), "none" or a height (length units along up).
+    - `balance`: keep the zero-moment point over the support; `self_collision`: a margin
+      (length units) the bone capsules keep, None for off; `reach`: "SITE=track.csv",
+      "SITE=track.json" or "SITE=X,Y,Z@A:B" tracks.
+    - `fidelity`, `coherence`: weights in [0, 1] of staying near the capture and moving like
+      the neighbouring frames.
+    - `passes`, `population`, `generations`, `seed`, `device`: the DE repairs (None: the
+      defaults of cleanup/fix.py).
+    - `limits`: a joint-limits table (JSON, `deik limits`) every frame must lie within;
+      `units`: the clip's length unit ("m", "cm", "mm", "in"; None: guessed from its size).
+
+    Mistakes raise deik.InputError naming the flag and the spec.
+    """
+
+    plant_feet: tuple[str, ...] = ()
+    contact: tuple[str, ...] = ()
+    floor: str | float | None = "auto"
+    contact_height: float | None = None
+    contact_speed: float | None = None
+    balance: bool = False
+    self_collision: float | None = None
+    reach: tuple[str, ...] = ()
+    fidelity: float = 1.0
+    coherence: float = 0.5
+    passes: int | None = None
+    population: int | None = None
+    generations: int | None = None
+    seed: int | None = None
+    device: str | None = None
+    limits: str | None = None
+    units: str | None = None
+
+    def __post_init__(self):
+        for name in ("plant_feet", "contact", "reach"):
+            object.__setattr__(self, name, _texts(getattr(self, name), name))
+        if self.limits is not None:
+            object.__setattr__(self, "limits", str(self.limits))
+        if self.units is not None and self.units not in METRES:
+            raise InputError(f"--units {self.units!r}: use one of {', '.join(sorted(METRES))}")
+
+    def settings(self) -> dict:
+        """The DE settings given (population, generations, seed, device), for fix_clip."""
+        return {name: getattr(self, name) for name in SETTINGS if getattr(self, name) is not None}
+
+
+@dataclass(frozen=True)
+class CleanedClip:
+    """The outcome of clean_clip: `clip` the fixed clip (the input's channel layout), `original`
+    the clip it was made from, `report` the record `deik clip --json` writes (metrics before
+    and after, goal errors per frame, contacts, floor, balance, dynamics: cleanup/document.py),
+    `fix` the fix itself (cleanup/fix.ClipFix: errors per goal and frame, stages, settings),
+    the `contacts` planted (None for none), the `floor` height (length units along up), and the length `unit` (with
+    `unit_guessed` when no unit was given). What it could not do: `unmet_frames`,
+    `skipped_balance_frames`, `unreachable` and `far_joints`."""
+
+    clip: Motion
+    original: Motion
+    report: dict
+    fix: ClipFix
+    contacts: Contacts | None
+    floor: float
+    unit: str
+    unit_guessed: bool
+
+    @property
+    def unmet_frames(self) -> list[int]:
+        """Frames that miss a contact, floor, balance, reach or self-collision goal."""
+        return np.flatnonzero(~self.fix.met).tolist()
+
+    @property
+    def skipped_balance_frames(self) -> list[int]:
+        """Frames whose balance was left out (holding it would make the motion jolt); [] without balance."""
+        balance = self.report["balance"]
+        return [] if balance is None else list(balance["skipped_frames"])
+
+    @property
+    def unreachable(self) -> dict[str, dict]:
+        """{reach goal key: {"frames": [...], "distance_mm": [...]}} of the reach tracks out of
+        reach in some frames (the contacts and the floor come first)."""
+        return {key: missed for key, missed in self.report["reach_unreached"].items() if missed["frames"]}
+
+    @property
+    def far_joints(self) -> list[dict]:
+        """[{"frame", "joint", "deviation_deg"}] of the joints turned more than FAR_DEGREES from the capture."""
+        return list(self.report["joints_far_from_capture"]["joint_frames"])
+
+
+@dataclass(frozen=True)
+class CleanPlan:
+    """A clip and its goals, resolved from CleanOptions (plan_clean): `clip` (within the limits
+    table, if given), the `body` it is fixed on (cleanup/body.py: soles, radii, span), `goals`,
+    the `contacts` (None for none), the `floor` (ground.FloorChoice: height, how it was found)
+    with whether it is `floor_kept` as a goal, the `reach` tracks and the length `unit`
+    (`unit_guessed` when no unit was given)."""
+
+    clip: Motion
+    options: CleanOptions
+    body: Body
+    goals: ClipGoals
+    contacts: Contacts | None
+    floor: FloorChoice
+    floor_kept: bool
+    reach: tuple[Reach, ...]
+    unit: str
+    unit_guessed: bool
+
+    def run(self, progress: Callable[[int, str], object] | None = None) -> CleanedClip:
+        """Fix the clip (cleanup/fix.fix_clip) and record the outcome; `progress(met, stage)` as fix_clip's."""
+        settings = self.options.settings()
+        fix = fix_clip(self.clip, self.goals, passes=self.options.passes, progress=progress, body=self.body, **settings)
+        tracks = [(r.site, r.mask, r.targets) for r in self.reach]
+        floor = self.floor.record() | {"kept": self.floor_kept}
+        report = clip_document(fix, self.contacts, tracks, self.unit, METRES[self.unit], FAR_DEGREES, floor)
+        height = self.floor.height
+        return CleanedClip(fix.clip, fix.original, report, fix, self.contacts, height, self.unit, self.unit_guessed)
+
+
+def _within_limits(clip: Motion, path: str) -> Motion:
+    """`clip` on its skeleton narrowed to the limits table at `path`; InputError for a frame outside."""
+    from deik.io.limits import clip_within, read_limits, with_limits
+
+    return clip_within(clip, with_limits(clip.skeleton, read_limits(path, clip.skeleton)), f"--limits {path}")
+
+
+def read_clip(clip: Motion | FilePath) -> Motion:
+    """`clip` as it is (a deik.Clip or a Trajectory), or the BVH file at that path."""
+    if isinstance(clip, (Clip, Trajectory)):
+        return clip
+    from deik.io.bvh import read_bvh
+
+    return read_bvh(clip)
+
+
+def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> CleanPlan:
+    """Resolve `options` (default CleanOptions()) against `clip` (a deik.Clip or a BVH path):
+    the limits, floor, contacts, reach tracks and length unit; says on the "deik" logger which
+    unit, floor and contacts it took. InputError for a spec that does not fit the clip."""
+    options = CleanOptions() if options is None else options
+    if not isinstance(options, CleanOptions):
+        raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
+    clip = read_clip(clip)
+    if options.limits:
+        clip = _within_limits(clip, options.limits)
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    floor, keep_floor = floor_choice(motion, body, options.floor, paths)
+    thresholds = (options.contact_height, options.contact_speed)
+    contacts = all_contacts(motion, body, (options.plant_feet, options.contact), floor.height, thresholds, paths)
+    reach = reaches(clip, options.reach)
+    unit = options.units or unit_of_span(body.span)
+    goals = ClipGoals(
+        contacts,
+        reach,
+        options.balance,
+        options.fidelity,
+        options.coherence,
+        self_collision=options.self_collision,
+        floor=floor.height if keep_floor else None,
+        gravity=GRAVITY / METRES[unit],
+    )
+    if not options.units:
+        log.info(
+            f"reports in {unit}: the body spans {body.span:.4g} length units from end to end, a person's size in "
+            f"{unit}; --units sets them (the fix itself needs no unit)"
+        )
+    if contacts is not None:
+        described = contacts.describe().replace("\n", "\n  ")
+        log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
+    return CleanPlan(
+        clip=clip,
+        options=options,
+        body=body,
+        goals=goals,
+        contacts=contacts,
+        floor=floor,
+        floor_kept=keep_floor,
+        reach=reach,
+        unit=unit,
+        unit_guessed=not options.units,
+    )
+
+
+def clean_clip(
+    clip: Motion | FilePath,
+    options: CleanOptions | None = None,
+    *,
+    progress: Callable[[int, str], object] | None = None,
+) -> CleanedClip:
+    """Clean `clip` (a deik.Clip, or a BVH path; for masses from a segment table read it with
+    deik.read_bvh(path, segments=...)) as `options` (deik.CleanOptions, default: plant the feet
+    detected, keep the floor) ask, all frames at once: a smooth warm start, then DE repairs of
+    the frames still missing a goal. `progress(met, stage)` is told the frames meeting every
+    goal after each stage. Returns a CleanedClip (the fixed clip, its report, what it could
+    not do); InputError (a ValueError) for options that do not fit the clip."""
+    return plan_clean(clip, options).run(progress)

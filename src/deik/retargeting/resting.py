@@ -1,0 +1,78 @@
+"""The source's contacts in a retarget: every mapped point at rest near the floor, and that floor.
+
+Sizes come from the body, never from DOF limits (a rig with position channels on every joint
+has limits far wider than the body): every threshold is a fraction of the stature, the vertical
+span of the skeleton at rest (keypoints.stature).
+
+- floor: the height the clip rests on, the FLOOR_PERCENTILE-th percentile over the frames in
+  which the body's lowest point (any joint or site) is slow of that point's height (a knee
+  joint rests a few centimetres above the floor, a toe tip on it; a one-frame dip through the
+  floor does not count); a clip that never rests takes its lowest heights;
+- a point is slow in frame n when it moves slower than REST_SPEED statures per second, or
+  than REST_RATIO times the body's centre (the mean of its joints and sites): a cartwheel's
+  hands pivot on the palms at 0.3-1 m/s while the body turns over them at 1.5-2.5 m/s, and a
+  crawling pelvis 17 cm over the floor moves with the body;
+- a point rests near the floor in frame n when it is slow, within REST_BAND statures of its
+  own resting height (the RESTING_PERCENTILE-th percentile of its heights over the frames it
+  is slow in: a one-frame dip does not lower it), and that resting height is within REST_NEAR
+  statures of the floor. Hands, knees, elbows, the back, the pelvis and the head rest as the
+  feet do (a cartwheel's wrists 4-6 cm over the floor, the pelvis of a body lying on its back
+  14 cm). A walking foot lifts (the band) and a kicking foot flies (the speed); gaps shorter
+  than MIN_FRAMES frames are filled (cleanup.contacts), and rests shorter than REST_TIME
+  seconds dropped (a sprinting foot rests 0.1 s).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from deik.cleanup.contacts import Contacts, drop_short, fill_gaps, speeds
+from deik.io.trajectory import Motion
+from deik.model.kinematics import forward_kinematics
+
+REST_SPEED = 0.1  # statures per second (0.17 m/s on a person)
+REST_RATIO = 0.6  # of the body centre's speed
+REST_BAND = 0.03  # statures (5 cm) above a point's resting height: a heel raised for push-off lifts
+RESTING_PERCENTILE = 10.0
+REST_NEAR = 0.09  # statures (15 cm): a joint resting this near the floor touches it (the pelvis lying down)
+FLOOR_PERCENTILE = 25.0
+REST_TIME = 0.08  # seconds: a shorter rest is a pause in a moving point (a crawling pelvis), not a contact
+
+
+def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float) -> np.ndarray:
+    """(N, S) bool: the points p (N, S, 3) slower than REST_SPEED x `size` per second or than
+    REST_RATIO x the centre of `everything` (N, F, 3) (module notes)."""
+    centre = speeds(everything.mean(axis=1, keepdims=True), frame_time)
+    return speeds(p, frame_time) <= np.maximum(REST_SPEED * size, REST_RATIO * centre)
+
+
+def rest_floor(clip: Motion, size: float) -> float:
+    """The height (along up, length units) `clip` rests on (module notes); `size` its stature."""
+    p = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
+    heights = p @ clip.skeleton.up
+    low = p[np.arange(len(p)), heights.argmin(axis=1)]
+    slow = _slow(low[:, None], p, clip.frame_time, size)[:, 0]
+    return float(np.percentile(heights.min(axis=1)[slow] if slow.any() else heights.min(axis=1), FLOOR_PERCENTILE))
+
+
+def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: float) -> Contacts:
+    """Contacts of the joints and sites `points` of `clip` with the floor at height `floor`:
+    each point in the frames it rests near the floor (module notes), `size` the stature."""
+    everything = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
+    p = everything[:, [clip.skeleton.frame_index(name) for name in points]]
+    heights = p @ clip.skeleton.up - floor
+    slow = _slow(p, everything, clip.frame_time, size)
+    resting = np.full(len(points), np.inf)
+    for s in np.flatnonzero(slow.any(axis=0)):
+        resting[s] = np.percentile(heights[slow[:, s], s], RESTING_PERCENTILE)
+    near = resting <= REST_NEAR * size
+    mask = drop_short(fill_gaps(slow & near & (heights <= resting + REST_BAND * size)))
+    found = Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
+    shortest = REST_TIME / clip.frame_time
+    for s in range(len(points)):
+        for a, b in found.intervals(s):
+            if b - a < shortest:
+                mask[a:b, s] = False
+    return Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
