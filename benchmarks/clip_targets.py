@@ -111,6 +111,26 @@ def table(rows: list[dict]) -> str:
     return md_table(header, out)
 
 
+def readme_table(rows: list[dict]) -> str:
+    """The README's table of `rows` (clip_targets.json's "cases"): per case its sliding, depth
+    under the floor, worst point's acceleration ratio and frames deik met, each with "missed"
+    where its target is; tests/benchmarks/test_bench_clip.py checks the README holds it."""
+    header = ["case", "sliding mm/frame", "under the floor mm", "peak ratio", "frames met", "misses listed"]
+    out = []
+    for row in rows:
+        v = row["verdicts"]
+        mark = lambda ok: "" if ok else " (missed)"  # noqa: E731
+        out.append([
+            row["case"],
+            f"{row['sliding_mm_per_frame']:.2f}{mark(v['sliding'])}",
+            f"{row['depth_mm']:.1f}{mark(v['depth'])}",
+            f"{row['peak_ratio']:.3f}{mark(v['peaks'])}",
+            f"{row['deik_frames_met']}/{row['frames']}",
+            "yes" if v["listed"] else "no",
+        ])  # fmt: skip
+    return md_table(header, out)
+
+
 def main(argv=None) -> dict:
     """Clean and judge every case; write the JSON and markdown; print the table."""
     p = parser(__doc__)

@@ -57,7 +57,8 @@ def format_bvh(clip: Clip) -> str:
             ]
     lines += ["MOTION", f"Frames: {clip.n_frames}", f"Frame Time: {_exact(clip.frame_time)}"]
     if clip.channel_dofs.size:
-        small = max(0, math.ceil(-math.log10(max(sk.reach, 1e-300))))  # extra decimals for a tiny body
+        size = sk.reach if math.isfinite(sk.reach) else 1.0  # a free prismatic DOF reaches without end
+        small = max(0, math.ceil(-math.log10(max(size, 1e-300))))  # extra decimals for a tiny body
         position = sk.dof_kind[clip.channel_dofs] != ROTATE
         formats = [f"{{:.{6 + small * bool(moves)}f}}" for moves in position]
         lines += [" ".join(form.format(v) for form, v in zip(formats, row)) for row in clip.channel_values()]
