@@ -2,10 +2,13 @@
 `deik: error: FILE...` (exit 2), never a traceback, an internal error, a hang or a crash.
 
 Seeds: a small BVH clip, a small URDF arm and a TOML problem (benchmarks/fuzz_seeds/), plus the
-BVH and URDF files of the shared data when present. Each case mutates one seed (a flipped byte, a deleted,
-doubled or truncated line, a number swapped for NaN, 1e308, 1_000, 0x10 or nothing, CR-only
-line endings, deep nesting) and runs `deik info` (BVH, URDF) or `deik solve --problem` (TOML)
-in this process, with an alarm as the time bound and an address-space limit as the memory bound.
+BVH and URDF files of the shared data when present, and the tables read beside them
+(benchmarks/fuzz_inputs.py: segments, limits, tracks, a map, a library record), read by their
+readers; one case in NAMED_EVERY is a problem file naming its own output. Each case mutates
+one seed (a flipped byte, a deleted, doubled or truncated line, scale extremes, a number
+swapped for NaN, 1e308, 1e300, 1_000, 0x10, 5,000 digits or nothing, CR-only line endings,
+deep nesting) and runs `deik info` (BVH, URDF) or `deik solve --problem` (TOML) in this
+process, with an alarm as the time bound and an address-space limit as the memory bound.
 The same seed gives the same cases.
 
     python -m benchmarks.fuzz_cli --cases 3000     # results/fuzz_cli.{json,md,png}
@@ -14,6 +17,7 @@ The same seed gives the same cases.
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import random
 import re
@@ -26,10 +30,13 @@ from pathlib import Path
 
 from benchmarks import harness
 from benchmarks.data import shared_data
+from benchmarks.fuzz_inputs import HUGE, named_input_case, read_table, scaled, table_seeds
 from deik.cli import main as deik_main
+from deik.io.bvh import parse_bvh
 
 SEEDS = Path(__file__).resolve().parent / "fuzz_seeds"
 CASE_SECONDS = 30  # a case running longer counts as a hang
+NAMED_EVERY = 25  # one case in this many is a problem file that names its own output
 
 
 NASTY = [
@@ -54,22 +61,28 @@ NASTY = [
     "-",
     ".",
 ]
+NASTY += HUGE  # 1e300, numbers of 401 and 5,000 digits, -1e-3 (a negative number, not an option)
 NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
 
 
 def seeds() -> list[tuple[str, str, bytes]]:
-    """(name, kind, content) of every seed file: our own, then the shared BVH and URDFs."""
+    """(name, kind, content) of every seed file: our own, the tables (kind "table"), then the
+    shared BVH and URDFs."""
     shared = shared_data()
     paths = [SEEDS / f"seed.{kind}" for kind in ("bvh", "urdf", "toml")]
     paths += sorted(shared.glob("humanoid/*.bvh"))[:3] + sorted(shared.glob("robots/*.urdf"))
-    return [(path.name, path.suffix[1:], path.read_bytes()) for path in paths]
+    ours = [(path.name, path.suffix[1:], path.read_bytes()) for path in paths]
+    return ours[:3] + table_seeds() + ours[3:]
 
 
 def mutate(data: bytes, rng: random.Random) -> bytes:
     """One to three random mutations of `data`."""
     for _ in range(rng.randint(1, 3)):
         lines = data.split(b"\n")
-        choice = rng.randrange(8)
+        choice = rng.randrange(9)
+        if choice == 8:
+            data = scaled(data, rng)
+            continue
         k = rng.randrange(len(lines))
         if choice == 0 and data:
             i = rng.randrange(len(data))
@@ -113,22 +126,32 @@ def _alarm(signum, frame):
     raise Hang()
 
 
-def run_case(path: Path, kind: str) -> tuple[int, str, float]:
-    """(exit status, stderr, seconds) of the CLI on `path`; status -1 for a hang."""
-    argv = ["solve", "--problem", str(path)] if kind == "toml" else ["info", str(path)]
-    err, out = io.StringIO(), io.StringIO()
+def bounded(call):
+    """(call's value or Hang, seconds) with CASE_SECONDS as the bound."""
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(CASE_SECONDS)
     began = time.perf_counter()
     try:
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-            status = deik_main(argv)
-    except Hang:
-        status = -1
+        value = call()
+    except Hang as hang:
+        value = hang
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
-    return status, err.getvalue(), time.perf_counter() - began
+    return value, time.perf_counter() - began
+
+
+def run_case(path: Path, kind: str) -> tuple[int, str, float]:
+    """(exit status, stderr, seconds) of the CLI on `path`; status -1 for a hang."""
+    argv = ["solve", "--problem", str(path)] if kind == "toml" else ["info", str(path)]
+    err, out = io.StringIO(), io.StringIO()
+
+    def call():
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            return deik_main(argv)
+
+    status, seconds = bounded(call)
+    return (-1 if isinstance(status, Hang) else status), err.getvalue(), seconds
 
 
 def problem_with(status: int, err: str, path: Path) -> str | None:
@@ -150,20 +173,31 @@ def fuzz(cases: int, seed: int, folder: Path) -> dict:
     """Run `cases` mutated cases (round robin over the seeds); returns counts, times and failures."""
     rng = random.Random(seed)
     pool = seeds()
+    clip = (SEEDS / "seed.bvh").read_bytes()
+    skeleton = parse_bvh(clip, "seed.bvh").skeleton
     outcomes = {"ok": 0, "error": 0}
     failures, slowest = [], 0.0
     for n in range(cases):
         name, kind, data = pool[n % len(pool)]
         path = folder / f"case{n}_{name}"
         path.write_bytes(mutate(data, rng))
-        status, err, seconds = run_case(path, kind)
+        if n % NAMED_EVERY == NAMED_EVERY - 1:  # a problem file naming its own output
+            (outcome, why), seconds = bounded(functools.partial(named_input_case, folder, rng, clip))
+            name = "named inputs"
+        elif kind == "table":
+            (outcome, why), seconds = bounded(functools.partial(read_table, path, name, skeleton))
+        else:
+            status, err, seconds = run_case(path, kind)
+            outcome, why = ("ok" if status == 0 else "error"), problem_with(status, err, path)
         slowest = max(slowest, seconds)
-        why = problem_with(status, err, path)
         if why:
             failures.append({"case": n, "seed_file": name, "why": why})
         else:
-            outcomes["ok" if status == 0 else "error"] += 1
-        path.unlink()
+            outcomes[outcome] += 1
+        if path.is_dir():
+            path.rmdir()
+        elif path.exists() or path.is_symlink():
+            path.unlink()
     return {
         "cases": cases,
         "outcomes": outcomes,

@@ -225,7 +225,8 @@ def library_task(payload, progress):
     """A deik.library task for the tests (it runs in the library's worker processes, which import
     this module by name): writes payload["text"] to each of payload["outputs"] atomically and
     returns {"frames": 2}; with payload["mode"] "fail" it fails with a reason, with "hang" it
-    writes its process id to payload["pid_file"] and waits until it is killed."""
+    opens a progress bar, writes its process id to payload["pid_file"] and waits until it is
+    killed."""
     import time
 
     from deik.io.atomic import write_text_atomically
@@ -235,6 +236,9 @@ def library_task(payload, progress):
     if payload.get("mode") == "fail":
         raise JobFailed("this clip is broken on purpose")
     if payload.get("mode") == "hang":
+        from tqdm import tqdm
+
+        tqdm(total=1, disable=True)  # a clip's progress bar, whose lock a killed worker once leaked
         write_text_atomically(payload["pid_file"], str(os.getpid()))
         while True:
             time.sleep(0.05)
@@ -242,3 +246,20 @@ def library_task(payload, progress):
         write_text_atomically(path, payload["text"])
     progress(2, 2)
     return {"frames": 2, "metrics": {"pid": os.getpid()}}
+
+
+def kill_when_ready(process, ready, timeout: float = 600) -> None:
+    """SIGKILL subprocess `process` as soon as the file `ready` (a Path) exists; the process
+    must still be running then (it is killed in any case)."""
+    import signal
+    import time
+
+    try:
+        deadline = time.monotonic() + timeout
+        while not ready.exists():
+            assert process.poll() is None and time.monotonic() < deadline, "the process ended before it was killed"
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        assert process.wait(timeout=60) == -signal.SIGKILL
+    finally:
+        process.kill()

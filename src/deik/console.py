@@ -166,10 +166,19 @@ def _level(args: argparse.Namespace | None) -> int:
     return LEVELS.get(name, logging.INFO)
 
 
+# a word that is a negative number (-1e-3, -.5, -1e300, -inf), never an option: argparse's own
+# pattern knows only -1 and -1.5, so `--reach tip 1.5 -1e-3 0` failed as if -1e-3 were a flag
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
 class Parser(argparse.ArgumentParser):
     """argparse that raises UsageError instead of printing usage and exiting: the message says
     which choice or option was meant when one is close, and points to the `--help` of the
-    (sub)command whose flags were wrong."""
+    (sub)command whose flags were wrong. Every negative number is read as a value."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> NoReturn:
         choice = INVALID_CHOICE.search(message)

@@ -54,3 +54,19 @@ class SolveError(DeikError, RuntimeError):
 
 class DeviceError(DeikError, RuntimeError):
     """The GPU path cannot run: no NVIDIA GPU, numba-cuda missing, or a broken package pairing."""
+
+
+MESSAGE_LIMIT = 500  # characters of a one-line error message
+
+
+def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
+    """The message of `error` on one line, safe for a terminal (control characters such as an
+    escape sequence in a joint name are shown escaped, never run) and at most `limit` characters
+    (a whole echoed input is cut); a KeyError's message is its args[0] (str() would add quotes),
+    an OSError about a file reads "FILE: what happened"."""
+    message = error.args[0] if isinstance(error, KeyError) and error.args else error
+    if isinstance(error, OSError) and error.filename is not None and error.strerror:
+        message = f"{error.filename}: {error.strerror}"
+    line = " ".join(str(message).split())
+    line = "".join(c if c.isprintable() else repr(c)[1:-1] for c in line)
+    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"

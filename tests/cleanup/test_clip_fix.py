@@ -149,11 +149,22 @@ TRACKS = {
             'no_z.json: [0]: missing z: each element needs "frame", "x", "y" and "z"',
         ),
         (["--plant-feet", "auto", "--plant-feet", "LeftAnkle:1-3"], "cannot be combined"),
-        (["--fidelity", "3"], "fidelity weight must lie in [0, 1]"),
+        (["--fidelity", "3"], "argument --fidelity: '3' is out of range: give a finite number from 0 to 1"),
+        (["--floor", "-1e300"], "--floor '-1e300': use a height (a finite number of length units, within +-1e12)"),
+        (["--passes", "1000000000"], "--passes 1000000000: give a whole number from 0 to 1000"),
+        (
+            ["--population", "10000000", "--balance", "--quiet"],
+            "a clip fix of 39 frames x population 10000000 needs about",
+        ),
+        (["--contact-speed", "inf"], "argument --contact-speed: 'inf' is out of range"),
+        (["--memory-limit", "inf"], "argument --memory-limit: 'inf' is out of range"),
         (["--contact", "LeftKnee-Hips@1-3"], "--contact 'LeftKnee-Hips@1-3' (a joint, an end site or a bone"),
         (["--contact", "LeftKnee@3-1"], "frames 3-1 are outside the clip or reversed; valid frames: 0..38"),
         (["--contact", "auto", "--contact", "none"], "--contact none cannot be combined"),
-        (["--floor", "low"], "--floor 'low': use a height (a finite number in length units), auto or none"),
+        (
+            ["--floor", "low"],
+            "--floor 'low': use a height (a finite number of length units, within +-1e12), auto or none",
+        ),
     ],
 )
 def test_clip_cli_mistakes_exit_2_and_write_nothing(tmp_path, capsys, extra, fragment):
@@ -259,3 +270,43 @@ def test_clip_cli_writes_clip_report_and_json(tmp_path, capsys):
     # --quiet: no bar and no notes; warnings (joints far from the capture) still print
     assert all(line.startswith("warning: ") for line in quiet.err.splitlines())
     assert "sliding of the resting points mean" in quiet.out and "coherence: how far" not in quiet.out
+
+
+def _cut(clip, frames: int):
+    return Clip(clip.skeleton, clip.frames[:frames], clip.frame_time, clip.layout, clip.source, clip.mass_source)
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("frames", [1, 2, 3, 4, 5])
+def test_balance_on_a_clip_of_a_few_frames_is_fixed_and_reported_without_nan(tmp_path, capsys, frames):
+    from deik.io.bvh import write_bvh
+
+    path = tmp_path / "short.bvh"
+    write_bvh(path, _cut(read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh")), frames))
+    assert main(["clip", str(path), "--balance", "--out", str(tmp_path / "fixed.bvh"), "--quiet"]) == 0
+    printed = capsys.readouterr()
+    assert "nan" not in printed.out and printed.err == ""  # an acceleration of 2 frames is "-", not nan
+    assert read_bvh(tmp_path / "fixed.bvh").n_frames == frames
+
+
+def test_a_clip_without_channels_is_refused_with_the_reason(tmp_path, capsys):
+    path = tmp_path / "still.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  JOINT LeftFoot\n  {\n    OFFSET 0 -1 0\n    End Site\n"
+        "    {\n      OFFSET 0 -0.1 0\n    }\n  }\n}\nMOTION\nFrames: 3\nFrame Time: 0.0333\n"
+    )
+    assert main(["clip", str(path), "--out", str(tmp_path / "fixed.bvh"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err == "deik: error: the clip has no channels: its hierarchy moves no joint, so there is nothing to fix\n"
+
+
+@pytest.mark.shared_data
+def test_the_time_limit_bounds_the_passes_of_a_fix_that_cannot_succeed():
+    clip = _cut(read_bvh(shared_path("humanoid", "humanoid3d_walk.bvh")), 10)
+    mask, hand = np.ones(clip.n_frames, bool), "RightElbow_end"
+    path = forward_kinematics(clip.skeleton, clip.frames).position(hand)
+    apart = [Reach(hand, mask, path + side * 0.2 * clip.skeleton.up) for side in (1, -1)]  # never both met
+    goals = ClipGoals(None, tuple(apart))
+    fix = fix_clip(clip, goals, passes=1000, generations=10**6, patience=10**6, time_limit=1.0)
+    assert not fix.met.any() and fix.passes < 10  # a pass of a million generations each, cut by the limit
+    assert fix.wall_time < 60

@@ -72,7 +72,7 @@ def test_csv_errors_name_the_file_and_line(tmp_path, text, message):
         ([{"frame": 0, "x": 1, "y": 2}], r"t.json: \[0\]: missing z"),
         ([{"frame": 0, "x": 1, "y": 2, "z": "3"}], r"t.json: \[0\]\.z: must be a finite number"),
         ([{"frame": 0, "x": 1, "y": 2, "z": float("nan")}], r"t.json: \[0\]\.z: must be a finite number, got nan"),
-        ([{"frame": True, "x": 1, "y": 2, "z": 3}], r"\[0\]\.frame: frame must be a whole number"),
+        ([{"frame": True, "x": 1, "y": 2, "z": 3}], r"\[0\]\.frame: must be a whole number"),
         (
             [{"frame": 1, "x": 1, "y": 2, "z": 3}, {"frame": 1, "x": 0, "y": 0, "z": 0}],
             r"\[1\]\.frame: frame 1 is listed twice \(first at \[0\]\.frame\)",

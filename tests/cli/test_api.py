@@ -77,7 +77,7 @@ def test_a_folder_run_calls_the_api_and_writes_what_it_gives(tmp_path, capsys):
     cleaned = deik.clean_clip(clips / "walk.bvh", options)
     deik.write_bvh(tmp_path / "api.bvh", cleaned.clip)
     assert (tmp_path / "api.bvh").read_bytes() == (tmp_path / "fixed" / "walk.bvh").read_bytes()
-    sidecar = json.loads((tmp_path / "fixed" / "walk.deik.json").read_text())
+    sidecar = json.loads((tmp_path / "fixed" / ".walk.bvh.deik.json").read_text())
     assert sidecar["record"]["frames_met"] == 39 - len(cleaned.unmet_frames)
     assert "printed" not in sidecar["record"]  # no command rerun with its output captured
 

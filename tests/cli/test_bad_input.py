@@ -161,8 +161,8 @@ def test_all_or_nothing_leaves_no_file_when_a_later_write_fails(tmp_path):
     first, second = tmp_path / "a.json", tmp_path / "b.png"
     first.write_text("old\n")
 
-    def broken(temporary):
-        open(temporary, "w").write("part")
+    def broken(file):
+        file.write(b"part")
         raise OSError("disk full")
 
     with pytest.raises(OSError, match="disk full"):
@@ -186,7 +186,7 @@ def json_load(path):
 def test_a_temporary_file_stranded_by_a_killed_process_is_removed_by_the_next_write(tmp_path):
     from deik.io import atomic
 
-    stranded = tmp_path / f".pose{atomic.PARTIAL}999999999.json"
+    stranded = tmp_path / f"{atomic.PARTIAL}{atomic.HOST}-999999999-0123abcd.pose.json"
     stranded.write_text("{")
     atomic.write_json_atomically(tmp_path / "pose.json", {"ok": True})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"]
@@ -251,7 +251,7 @@ def test_ctrl_c_stops_a_long_solve_quickly_writes_nothing_and_exits_130(tmp_path
     assert not list(tmp_path.glob("*.json")) and not list(tmp_path.glob(".*"))
 
 
-def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
+def test_a_solve_beyond_memory_is_refused_before_allocating(tmp_path, capsys):
     problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
     refused = r"population 1000000000 needs about [0-9.]+ GiB, more than the .* \(Settings\(memory_limit"
     with pytest.raises(deik.SolveError, match=refused):
@@ -260,10 +260,15 @@ def test_a_solve_beyond_memory_is_refused_before_allocating(capsys):
         deik.solve(problem, population=100_000, memory_limit=2**20)
     status, err = _cli(["solve", "chain:10", "--reach", "tip", 5, 5, 0, "--population", 1_000_000_000], capsys)
     assert status == 2 and "--memory-limit GIB" in err and err.count("\n") == 1
+    clip = tmp_path / "walk.bvh"  # a clip frame seeds a quarter of the population around it: guarded too
+    clip.write_text(TOY_BVH)
+    argv = ["solve", "--skeleton", clip, "--frame", 0, "--reach", "Arm_end", 0, 1.5, 0.5, "--population", 10**9]
+    status, err = _cli(argv + ["--quiet"], capsys)
+    assert status == 2 and "250000000 poses around a pose needs about" in err and err.count("\n") == 1
 
 
 def test_memory_estimate_covers_what_a_solve_allocates():
-    from deik.solver.memory import solve_bytes
+    from deik.solver.footprint import solve_bytes
 
     problem = deik.Problem(deik.chain(10), [deik.Position("tip", [5.0, 5.0, 0.0])])
     engine = deik.Engine(problem, deik.Settings(population=64, generations=50, polish=0))
@@ -346,7 +351,7 @@ def test_a_problem_file_that_is_not_utf8_is_named(tmp_path, capsys):
     path = tmp_path / "latin.toml"
     path.write_bytes('skeleton = "chain:3"\n# r\xe9sum\xe9\n'.encode("latin-1"))
     status, err = _cli(["solve", "--problem", path], capsys)
-    assert status == 2 and "latin.toml: not a text (UTF-8) problem (TOML) file" in err
+    assert status == 2 and "latin.toml:2: not a text (UTF-8) problem (TOML) file" in err
 
 
 def test_an_error_about_a_huge_input_is_cut_to_one_short_line(tmp_path, capsys):
@@ -355,4 +360,4 @@ def test_an_error_about_a_huge_input_is_cut_to_one_short_line(tmp_path, capsys):
     path.write_text(f'skeleton = "chain:3"\n[[goal]]\ntype = "position"\nframe = "tip"\ntarget = [{target}]\n')
     status, err = _cli(["solve", "--problem", path], capsys)
     assert status == 2 and err.count("\n") == 1 and len(err) <= 520
-    assert "huge.toml" in err and "characters)" in err
+    assert "huge.toml" in err and "1.0, 1.0" in err  # the echoed value, cut short

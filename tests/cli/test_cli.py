@@ -323,14 +323,19 @@ def test_skeleton_specs():
         (["solve", "chain:3", "--reach", "tipp", "1", "1", "0"], "did you mean 'tip'"),
         (["solve", "chian:3", "--reach", "tip", "1", "1", "0"], "unknown skeleton 'chian:3'"),
         (["solve", "chain:3", "--reach", "tip", "9", "1", "0"], "unreachable"),
-        (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "not a finite number"),
+        (["solve", "chain:3", "--reach", "tip", "nan", "1", "0"], "--reach: 'nan' is out of range"),
+        (["solve", "chain:3", "--reach", "tip", "1", "9" * 5000, "0"], "--reach: '9999"),
+        (["solve", "chain:3", "--population", "9" * 5000], "argument --population: invalid int value"),
         (["solve", "chain:3", "--reach", "tip", "1", "one", "0"], "'one' is not a number"),
         (["solve", "chain:3", "--reach", "tip", "1", "1"], "expected 4 arguments"),
         (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--population", "2"], "population must be"),
         (["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--strategy", "fast"], "invalid choice"),
         (["solve", "chain:3"], "no goals"),
         (["solve"], "give a SKELETON"),
-        (["solve", "chain:3", "--comfort", "3"], "weight 3.0 must lie in [-1, 1]"),
+        (
+            ["solve", "chain:3", "--comfort", "3"],
+            "argument --comfort: '3' is out of range: give a finite number from -1 to 1",
+        ),
         (["solve", "--problem", "missing.toml"], "missing.toml: no such problem (TOML) file"),
         (["solve", "--problem", "p.toml", "--reach", "tip", "1", "1", "0"], "--problem FILE already names"),
     ],
@@ -378,6 +383,25 @@ def test_run_demo_reports_a_missed_bound(tmp_path, capsys):
     assert "MISSED: a_chain_reach" in capsys.readouterr().out
 
 
+def test_ctrl_c_during_the_demo_writes_nothing_as_it_says(tmp_path, capsys, monkeypatch):
+    from deik.experiments import demo
+
+    scenarios, solved = chain_scenarios(n_links=3, seed=1), []
+
+    def interrupted(problem, **settings):
+        if solved:  # the first scenario is solved and drawn, the second interrupted
+            raise KeyboardInterrupt
+        solved.append(deik.solve(problem, **settings))
+        return solved[-1]
+
+    monkeypatch.setattr(demo, "solve", interrupted)
+    monkeypatch.setattr(demo, "chain_scenarios", lambda: scenarios)
+    monkeypatch.setattr(demo, "humanoid_scenario", lambda: scenarios[0])
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--quiet"]) == 130
+    assert "deik: interrupted; nothing was written" in capsys.readouterr().err
+    assert solved and list((tmp_path / "demo").iterdir()) == []
+
+
 def test_experiments_subcommand_reaches_the_runner(tmp_path, capsys):
     assert main(["experiments", "fig99", "--quick", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
@@ -404,3 +428,11 @@ def test_demo_prints_its_table_without_matplotlib(tmp_path):
     assert "every scenario met its targets" in run.stdout and "no pictures" in run.stdout
     assert "position tip" in run.stdout and not list(tmp_path.glob("*.png"))
     assert (tmp_path / "demo.json").exists()
+
+
+def test_negative_numbers_in_any_notation_are_values_not_options(tmp_path):
+    out = tmp_path / "pose.json"
+    argv = ["solve", "chain3d:3", "--reach", "tip", "1.5", "-1e-3", "-.5", "--generations", "3", "--quiet"]
+    assert main(argv + ["--out", str(out)]) == 0
+    targets = json.loads(out.read_text())["targets"]
+    assert targets[0]["position"] == [1.5, -0.001, -0.5]

@@ -51,7 +51,7 @@ def test_a_folder_of_clips_is_fixed_and_a_rerun_skips_what_is_done(tmp_path, cap
         assert fixed.n_frames == original.n_frames and fixed.layout == original.layout
         report = json.loads((out / f"{stem}.json").read_text())
         assert report["frames_met"] == original.n_frames  # planted feet met in every frame
-        sidecar = json.loads((out / f"{stem}.deik.json").read_text())
+        sidecar = json.loads((out / f".{name}.deik.json").read_text())
         assert sidecar["record"]["frames"] == original.n_frames
         assert sidecar["record"]["metrics"]["sliding_max_mm_per_frame"] == pytest.approx(
             report["metrics"]["sliding_max_mm_per_frame"]["after"]
@@ -77,7 +77,7 @@ def test_a_broken_clip_fails_alone_with_its_reason(tmp_path, capsys):
     (line,) = [line for line in printed.err.splitlines() if "broken.bvh" in line]
     assert line.startswith("deik: broken.bvh: failed: ") and "Traceback" not in printed.err
     assert "2 clips: 1 done, 0 skipped (done before with the same settings and input), 1 failed" in printed.out
-    assert sorted(os.listdir(out)) == ["humanoid3d_run.bvh", "humanoid3d_run.deik.json"]
+    assert sorted(os.listdir(out)) == [".humanoid3d_run.bvh.deik.json", "humanoid3d_run.bvh"]
 
 
 @pytest.mark.shared_data
@@ -114,21 +114,21 @@ def test_a_run_killed_mid_way_resumes_where_it_stopped(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     run = subprocess.Popen(command + ["--quiet"], env=env, start_new_session=True, stdout=subprocess.DEVNULL)
     deadline = time.monotonic() + 300
-    while not list(out.glob("*.deik.json")) and run.poll() is None and time.monotonic() < deadline:
+    while not list(out.glob(".*.deik.json")) and run.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
     os.killpg(run.pid, signal.SIGKILL)  # the run and its worker, mid-way through the library
     run.wait()
-    finished = sorted(p.name for p in out.glob("*.deik.json"))
+    finished = sorted(p.name for p in out.glob(".*.deik.json"))
     assert 1 <= len(finished) < 4, finished
     for path in out.glob("*.bvh"):  # what is there is whole: no output is ever half-written
         assert deik.read_bvh(path).n_frames == 39
     again = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0, again.stderr[-2000:]
     for sidecar in finished:
-        assert f"{sidecar.replace('.deik.json', '.bvh')}  39      skipped (up to date)" in again.stdout
+        assert f"{sidecar[1:].removesuffix('.deik.json')}  39      skipped (up to date)" in again.stdout
     assert f"4 clips: {4 - len(finished)} done, {len(finished)} skipped" in again.stdout
     assert sorted(os.listdir(out)) == sorted(
-        f"humanoid3d_walk_{k}{ext}" for k in range(4) for ext in (".bvh", ".deik.json")
+        name for k in range(4) for name in (f"humanoid3d_walk_{k}.bvh", f".humanoid3d_walk_{k}.bvh.deik.json")
     )
 
 
@@ -156,3 +156,43 @@ def test_the_folder_flags_mistakes_get_one_line(tmp_path, capsys):
         main(["retarget", str(tmp_path), "--map", str(tmp_path / "nomap.toml"), "--to", "humanoid", "--out", "o"]) == 2
     )
     assert "nomap.toml" in capsys.readouterr().err
+
+
+TOY_CLIP = (ROOT / "benchmarks/fuzz_seeds/seed.bvh").read_text().replace("JOINT Leg", "JOINT LeftFoot")  # a foot
+
+
+def test_a_rerun_follows_every_reach_track_ignores_how_it_is_shown_and_keeps_reports_apart(tmp_path, capsys):
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    for name in ("a.bvh", "a.deik.bvh"):  # a.deik.bvh's report a.deik.json once shared a.bvh's record
+        (clips / name).write_text(TOY_CLIP)
+    track = tmp_path / "track"  # a track file whose name ends in neither .csv nor .json
+    track.write_text("frame,x,y,z\n0,0,1.4,0.1\n")
+    out = tmp_path / "out"
+    argv = ["clip", str(clips), "--out", str(out), "--json", str(out), "--reach", f"Spine_end={track}"]
+    argv += ["--workers", "1", "--quiet"]
+    assert main(argv) == 0
+    assert "2 clips: 2 done" in capsys.readouterr().out
+    reports = {name: (out / name).read_text() for name in ("a.json", "a.deik.json")}
+    assert all(json.loads(text)["frames"] == 3 for text in reports.values())
+    for shown in ([], ["--verbose"], ["--progress"]):  # how a run is shown is no setting
+        assert main(argv[:-1] + shown) == 0
+        assert "2 clips: 0 done, 2 skipped" in capsys.readouterr().out
+    assert {name: (out / name).read_text() for name in reports} == reports
+    track.write_text("frame,x,y,z\n1,0,1.4,0.1\n")  # the track changed: both clips are redone
+    assert main(argv) == 0
+    assert "2 clips: 2 done, 0 skipped" in capsys.readouterr().out
+
+
+def test_a_library_output_that_is_an_input_is_refused_before_any_work(tmp_path, capsys):
+    clips, reports = tmp_path / "clips", tmp_path / "reports"
+    clips.mkdir()
+    reports.mkdir()
+    (clips / "a.bvh").write_text(TOY_CLIP)
+    track = reports / "a.json"  # clip a.bvh's --json report would replace its own reach track
+    track.write_text('[{"frame": 0, "x": 0, "y": 1.4, "z": 0.1}]')
+    argv = ["clip", str(clips), "--out", str(tmp_path / "out"), "--json", str(reports)]
+    assert main(argv + ["--reach", f"Spine_end={track}", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("deik: error: --json: ") and "is also an input of the command" in err
+    assert err.count("\n") == 1 and json.loads(track.read_text())[0]["frame"] == 0

@@ -101,7 +101,7 @@ def test_the_gpu_without_a_gpu_is_a_device_error():
         (FileNotFoundError(2, "No such file or directory"), 2, "deik: error: [Errno 2] No such file or directory"),
         (ImportError('needs viser: pip install "deik[view]"'), 2, "deik: error: needs viser"),
         (ValueError("a bug"), 3, "deik: internal error: ValueError: a bug. This is a bug in deik"),
-        (KeyError("k"), 3, "deik: internal error: KeyError: 'k'"),
+        (KeyError("k"), 3, "deik: internal error: KeyError: k"),
     ],
 )
 def test_the_command_line_turns_deik_errors_into_one_line_and_others_into_internal_errors(

@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 import urllib.request
 
 import numpy as np
@@ -152,3 +153,19 @@ def test_a_batch_pose_file_is_one_step_per_problem(tmp_path):
     assert np.allclose(posed.figure.positions, scene.figure.positions) and np.allclose(
         posed.marks[0].points, marks.points
     )
+
+
+@pytest.mark.parametrize(
+    "host, message",
+    [
+        ("999.1.1.1", "--host '999.1.1.1' is not an IPv4 address"),
+        ("no.such.host.invalid", "no such host name"),
+        ("192.0.2.1", "is not an address of this machine"),  # TEST-NET-1: never this machine's
+    ],
+)
+def test_a_host_that_cannot_be_served_on_is_refused_at_once(capsys, host, message):
+    started = time.monotonic()
+    assert main(["view", "chain:3", "--host", host, "--no-browser"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("deik: error: ") and message in err and err.count("\n") == 1
+    assert time.monotonic() - started < 30  # not the minutes of trying port after port

@@ -50,7 +50,7 @@ def test_every_experiment_writes_png_csv_and_section(quick_run):
         assert len(rows(out, name)) > 0
     text = doc.read_text()
     assert "(figures/fig3.png)" in text and "## Claims and measurements side by side" in text
-    assert not list(out.glob(".*.deik-partial-*"))  # atomic writes leave no temporary files
+    assert not list(out.glob(".deik-*"))  # atomic writes leave no temporary file or journal
     if not gpu_status()[0]:
         assert "GPU column pending" in (out / "fig8.md").read_text()
         assert "GPU column pending" in (out / "fig9.md").read_text()
@@ -216,3 +216,45 @@ def test_quantiles_count_never_converged_runs_instead_of_dropping_them():
     s = spread(values)
     assert s["n"] == 4 and s["never"] == 1 and s["q3"] == math.inf and s["min"] == 1.0
     assert spread([math.inf] * 3)["median"] == math.inf
+
+
+def _fake_experiment(name, failure=None):
+    """An experiment that writes NAME.csv and NAME.png, then raises `failure` (if any) before
+    its section is written."""
+    from deik.experiments.shared import Section, write_csv
+    from deik.io.atomic import write_text_atomically
+
+    def run(out_dir, quick, device):
+        write_csv(f"{out_dir}/{name}.csv", [{"seed": 0, "value": 1.0}])
+        write_text_atomically(f"{out_dir}/{name}.png", "not really a picture")
+        if failure is not None:
+            raise failure
+        return Section(
+            name=name,
+            title=f"Fig. {name}: x",
+            claim="claim",
+            headline="headline",
+            measurement="measurement",
+            differences="differences",
+            command="command",
+        )
+
+    return run
+
+
+@pytest.mark.parametrize(
+    "failure, status, message",
+    [
+        (KeyboardInterrupt(), 130, "deik: interrupted; the figures finished are kept whole (fa)"),
+        (OSError(28, "No space left on device"), 2, "deik: error: "),
+    ],
+)
+def test_ctrl_c_or_a_full_disk_keeps_finished_figures_whole_and_writes_no_half_set(
+    tmp_path, capsys, monkeypatch, failure, status, message
+):
+    fakes = {"fa": _fake_experiment("fa"), "fb": _fake_experiment("fb", failure), "fc": _fake_experiment("fc")}
+    monkeypatch.setattr(runner, "EXPERIMENTS", fakes)
+    assert runner.main(["all", "--out", str(tmp_path), "--quiet"]) == status
+    err = capsys.readouterr().err
+    assert err.startswith(message) and err.count("\n") == 1 and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fa.csv", "fa.md", "fa.png"]  # no fb file, no report

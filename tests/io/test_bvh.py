@@ -363,9 +363,11 @@ def test_write_failing_midway_leaves_the_old_file_and_no_temporary(tmp_path, mon
     target = tmp_path / "out.bvh"
     target.write_text("old contents")
 
+    real = os.fdopen
+
     class DiskFull:
-        def __init__(self, path, *args, **kwargs):
-            self.file = open(path, *args, **kwargs)
+        def __init__(self, handle, *args, **kwargs):
+            self.file = real(handle, *args, **kwargs)
 
         def __enter__(self):
             return self
@@ -373,13 +375,14 @@ def test_write_failing_midway_leaves_the_old_file_and_no_temporary(tmp_path, mon
         def __exit__(self, *exc):
             self.file.close()
 
-        def write(self, text):
-            self.file.write(text[: len(text) // 2])
-            raise OSError("no space left on device")
+        def write(self, data):
+            self.file.write(data[: len(data) // 2])
+            raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(atomic, "open", DiskFull, raising=False)
-    with pytest.raises(OSError, match="no space"):
+    monkeypatch.setattr(atomic.os, "fdopen", DiskFull)
+    with pytest.raises(OSError, match=r"cannot write it: No space left on device") as caught:
         write_bvh(target, clip)
+    assert caught.value.filename == str(target)
     assert os.listdir(tmp_path) == ["out.bvh"] and target.read_text() == "old contents"
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import deik
+from deik.errors import FileFormatError
 from deik.experiments.demo import chain_scenarios, run_demo
 from deik.io.limits import read_limits
 from deik.solver.problem_file import load_problem
@@ -56,7 +57,9 @@ def test_a_limits_table_keyed_by_a_urdf_link_names_the_joint_to_use(tmp_path):
     table.write_text('{"elbow": [-30, 45]}')
     assert read_limits(table, arm) == {"elbow": pytest.approx((math.radians(-30), math.radians(45)))}
     table.write_text('{"tool": [-30, 45]}')
-    with pytest.raises(KeyError, match=r"'tool' is a link \(a frame\); its degrees of freedom belong to joint 'elbow'"):
+    with pytest.raises(
+        FileFormatError, match=r"'tool' is a link \(a frame\); its degrees of freedom belong to joint 'elbow'"
+    ):
         read_limits(table, arm)
 
 
@@ -66,7 +69,7 @@ def test_a_limits_table_keyed_by_a_joint_lists_its_dof_names(tmp_path):
     table.write_text('{"left_knee": [-150, 0]}')
     names = ", ".join(human.dof_names[human.joint_dofs("left_knee")])
     with pytest.raises(
-        KeyError, match=f"'left_knee' is a joint; a limits table is keyed by its DOF names \\({names}\\)"
+        FileFormatError, match=f"'left_knee' is a joint; a limits table is keyed by its DOF names \\({names}\\)"
     ):
         read_limits(table, human)
 

@@ -54,7 +54,10 @@ def test_limits_table_uses_degrees_for_rotations_and_lengths_for_translations(tm
     "text, fragment",
     [
         ("[1, 2]", "must be a JSON object"),
-        ('{"LeftKnee.Zrotation": [0]}', "'LeftKnee.Zrotation' must be [lower, upper]"),
+        ('{"LeftKnee.Zrotation": [0]}', "LeftKnee.Zrotation: must be [lower, upper]"),
+        ('{"LeftKnee.Zrotation": [0, 1e999]}', "LeftKnee.Zrotation[1]: must be a finite number"),
+        ('{"LeftKnee.Zrotation": [0, 1%s]}' % ("0" * 400), "LeftKnee.Zrotation[1]: must be a finite number"),
+        ('{"LeftKnee.Zrotation": [0, 1%s]}' % ("0" * 5000), "not a limits (JSON) file: Exceeds the limit"),
         ('{"LeftKnee.Zrotation": [10, -10]}', "lower <= upper"),
         ('{"LeftKnee.Zrotaton": [0, 10]}', "did you mean 'LeftKnee.Zrotation'"),
         ('{"LeftKnee.Zrotation": [0, 10],', "not valid JSON"),

@@ -100,7 +100,14 @@ BAD_TABLES = {
         {"segments": [dict(SEGMENT, mass_kg=-1)]},
         "segments[0].mass_kg",
         None,
-        r"finite number >= 0 kg, got -1",
+        r"must lie between 0 and 1e\+12, got -1",
+    ),
+    "huge_mass": ({"segments": [dict(SEGMENT, mass_kg=10**400)]}, "segments[0].mass_kg", None, r"finite number"),
+    "huge_offset": (
+        {"segments": [dict(SEGMENT, com_offset_m=[0, 1e300, 0])]},
+        "segments[0].com_offset_m[1]",
+        None,
+        r"must lie between -1e\+06 and 1e\+06, got 1e\+300",
     ),
     "nan_mass": (
         '{"segments": [{"bvh_frame": "Hips", "mass_kg": NaN, "com_offset_m": [0, 0, 0]}]}',

@@ -3,6 +3,7 @@ clips, fingerprints that change with every setting, input byte and output, skipp
 done, a failed clip that stops no other, and a worker killed mid-clip that fails only its clip
 while a rerun redoes it and skips the rest. Local worker processes are real (spawned)."""
 
+import json
 import os
 import signal
 import sys
@@ -83,7 +84,7 @@ def test_a_rerun_skips_what_is_done_and_redoes_a_changed_setting_or_a_lost_outpu
     jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh"])
     first = run_library(jobs, library_task, workers=2, quiet=True)
     assert [o.status for o in first.outcomes] == ["done", "done"]
-    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[0])["record"]["frames"] == 2
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[0])[0]["record"]["frames"] == 2
     assert first.frames_done() == 4 and "2 clips: 2 done, 0 skipped" in summary_line(first)
     again = run_library(jobs, library_task, workers=2, quiet=True)
     assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
@@ -143,7 +144,7 @@ def test_a_killed_worker_fails_its_clip_only_and_a_rerun_redoes_it(tmp_path):
     rerun = run_library(_jobs(tmp_path, out, names), library_task, workers=2, quiet=True)
     assert [o.status for o in rerun.outcomes] == ["skipped", "done", "skipped", "skipped"]
     assert sorted(os.listdir(out)) == sorted(
-        ["pid"] + [f"{n[0]}.txt" for n in names] + [f"{n[0]}.deik.json" for n in names]
+        ["pid"] + [f"{n[0]}.txt" for n in names] + [f".{n}.deik.json" for n in names]
     )
 
 
@@ -166,6 +167,23 @@ def test_bad_executor_choices_say_what_to_do(tmp_path, monkeypatch):
         run_library(jobs, library_task, executor="ray")
 
 
+def test_a_ray_that_cannot_start_is_said_so_not_called_a_bug(tmp_path, monkeypatch):
+    ray = pytest.importorskip("ray", reason='Ray is an optional extra (pip install "deik[ray]"): not installed here')
+    from deik.errors import SolveError
+
+    def timed_out(**options):  # what ray.init raises when its processes start too slowly (a memory cap)
+        raise RuntimeError(
+            "The current node timed out during startup. This could happen because some of the Ray "
+            "processes failed to startup.\nsee the logs"
+        )
+
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", timed_out)
+    jobs = _jobs(tmp_path, tmp_path, ["a.bvh"])
+    with pytest.raises(SolveError, match=r"the Ray executor could not start Ray on this machine \(.*timed out"):
+        run_library(jobs, library_task, executor="ray", quiet=True)
+
+
 def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
     pytest.importorskip("ray", reason='Ray is an optional extra (pip install "deik[ray]"): not installed here')
     # Ray's workers import the task by name: the instance started here passes them this path
@@ -177,7 +195,132 @@ def test_ray_runs_the_same_jobs_on_a_local_instance(tmp_path, monkeypatch):
     run = run_library(jobs, library_task, executor="ray", quiet=True, note=lambda line: None)
     assert [o.status for o in run.outcomes] == ["done", "done", "failed"]
     assert run.outcomes[2].reason == "this clip is broken on purpose"
-    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[1]) is not None
+    assert (out / "a.txt").read_text() == "made" and read_sidecar(jobs[1])[0] is not None
     assert "on Ray" in summary_line(run)
     again = run_library(jobs[:2], library_task, executor="ray", quiet=True)
     assert [o.status for o in again.outcomes] == ["skipped", "skipped"]
+
+
+DAMAGED = {
+    "deeply nested": lambda path: path.write_text("[" * 100_000 + "]" * 100_000),
+    "nested past the bound": lambda path: path.write_text("[" * 40 + "]" * 40),
+    "not JSON": lambda path: path.write_text("{"),
+    "a link to /dev/zero": lambda path: path.symlink_to("/dev/zero"),
+    "a FIFO": lambda path: os.mkfifo(path),
+    "a wrong-typed field": lambda path: path.write_text(json.dumps(_sidecar(path, frames="two"))),
+    "a wrong-typed metric": lambda path: path.write_text(json.dumps(_sidecar(path, metrics={"pid": "x"}))),
+    "a 400-digit number": lambda path: path.write_text(json.dumps({**_sidecar(path), "seconds": 10**400})),
+    "a folder": lambda path: path.mkdir(),
+}
+
+
+def _sidecar(path, **record):
+    """The sidecar the rerun's job expects (its fingerprint is read back from the good one) with
+    `record` fields changed."""
+    good = json.loads(path.with_name(path.name + ".good").read_text())
+    good["record"].update(record)
+    return good
+
+
+@pytest.mark.parametrize("damage", DAMAGED)
+def test_a_damaged_sidecar_redoes_its_clip_and_says_so(tmp_path, damage):
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh", "b.bvh"])
+    assert [o.status for o in run_library(jobs, library_task, quiet=True).outcomes] == ["done", "done"]
+    sidecar = out / ".a.bvh.deik.json"
+    good = sidecar.read_text()
+    sidecar.with_name(sidecar.name + ".good").write_text(good)
+    sidecar.unlink()
+    DAMAGED[damage](sidecar)
+    lines = []
+    rerun = run_library(jobs, library_task, quiet=True, note=lines.append)
+    statuses = [o.status for o in rerun.outcomes]
+    if damage == "a folder":  # the clip is redone, but its record cannot replace a folder: said
+        assert statuses == ["failed", "skipped"] and "its record is not" in rerun.outcomes[0].reason
+    else:
+        assert statuses == ["done", "skipped"]
+        assert json.loads(sidecar.read_text())["record"]["frames"] == 2  # a good record again
+    assert lines[0].startswith("deik: a.bvh: its record is damaged (") and lines[0].endswith("; redoing the clip")
+    assert str(sidecar) in lines[0]
+
+
+def test_a_full_disk_while_the_record_is_written_fails_that_clip_with_the_reason(tmp_path, monkeypatch):
+    from deik.library import local
+
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = _jobs(tmp_path, out, ["a.bvh"])
+
+    def full(job, record, seconds):
+        raise OSError(28, "No space left on device", job.sidecar)
+
+    monkeypatch.setattr(local, "write_sidecar", full)
+    status, reason, _ = local.attempt(library_task, jobs[0], lambda done, total: None)
+    assert status == "failed" and "internal error" not in reason
+    assert reason.startswith("its outputs are written but its record is not (") and "No space left on device" in reason
+
+
+CTRL_C_RUN = """
+import sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[2])
+from helpers import library_task
+from deik.library.jobs import Job, fingerprint, sidecar_path
+from deik.library.run import run_library
+
+folder = Path(sys.argv[1])
+jobs = []
+for name in ("a.bvh", "b.bvh"):
+    source = folder / name
+    source.write_text("clip")
+    outputs = (str(folder / "out" / (source.stem + ".txt")),)
+    payload = {"outputs": outputs, "text": "x", "mode": "hang", "pid_file": str(folder / "out" / f"{name}.pid")}
+    key = fingerprint("test", {}, source, {}, outputs)
+    jobs.append(Job(name, str(source), outputs, sidecar_path(folder / "out", name), key, {}, payload))
+try:
+    run_library(jobs, library_task, workers=2, quiet=True)
+except KeyboardInterrupt:
+    print("interrupted", file=sys.stderr)
+    sys.exit(130)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_ctrl_c_ends_busy_workers_at_once_and_leaves_no_warning(tmp_path):
+    import subprocess
+
+    (tmp_path / "out").mkdir()
+    tests = os.path.dirname(os.path.abspath(__file__)).rsplit(os.sep, 1)[0]
+    run = subprocess.Popen(  # -c: the spawned workers do not run the script again as their __main__
+        [sys.executable, "-c", CTRL_C_RUN, str(tmp_path), tests],
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(list((tmp_path / "out").glob("*.pid"))) < 2:  # both workers busy
+            assert run.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        workers = [int(path.read_text()) for path in (tmp_path / "out").glob("*.pid")]
+        for pid in workers:  # a worker ignores SIGINT from its first instruction: the parent stops it
+            os.kill(pid, signal.SIGINT)
+        time.sleep(4.0)  # a worker that took it for Ctrl-C had ended by now
+        assert all(map(_running, workers))
+        os.killpg(run.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
+        status = run.wait(timeout=60)
+    finally:
+        run.kill()
+    err = run.stderr.read()
+    assert status == 130 and err == "interrupted\n", err  # no traceback, no leaked-semaphore warning
+    assert not any(map(_running, workers))
+
+
+def _running(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie, ended but not yet reaped by its parent, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as file:
+            return file.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False

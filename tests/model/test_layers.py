@@ -13,6 +13,7 @@ LAYERS = [
     "errors",
     "suggest",
     "console",
+    "memory",
     "model",
     "io",
     "objectives",

@@ -271,7 +271,13 @@ def balance_track(
         added = np.zeros(N)
         if N >= 3:
             added[1:-1] = np.linalg.norm(np.diff(shift, 2, axis=0), axis=1) / clip.frame_time**2
-        over = np.maximum(added / budget, np.linalg.norm(shift, axis=1) / (LONGEST_SHIFT * sk.reach)) > 1.0
+        with np.errstate(divide="ignore", invalid="ignore"):  # no budget (under 3 frames): any added is over
+            over = (
+                np.maximum(
+                    np.where(added > 0, added / budget, 0.0), np.linalg.norm(shift, axis=1) / (LONGEST_SHIFT * sk.reach)
+                )
+                > 1.0
+            )
         picked = _worst_in_each_stretch(over, balanced, need, int(np.ceil(2 * fade)))
         if not over.any() or not picked:
             break

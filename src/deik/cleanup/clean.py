@@ -34,7 +34,8 @@ from deik.io.motion import Clip
 from deik.io.trajectory import Motion, Trajectory
 
 log = logging.getLogger(__name__)
-SETTINGS = ("population", "generations", "seed", "device")  # the DE settings the options may override
+# the DE settings the options may override
+SETTINGS = ("population", "generations", "seed", "device", "time_limit", "memory_limit")
 
 
 def _texts(value, name: str) -> tuple[str, ...]:
@@ -63,7 +64,8 @@ class CleanOptions:
     - `fidelity`, `coherence`: weights in [0, 1] of staying near the capture and moving like
       the neighbouring frames.
     - `passes`, `population`, `generations`, `seed`, `device`: the DE repairs (None: the
-      defaults of cleanup/fix.py).
+      defaults of cleanup/fix.py); `time_limit` (seconds) stops the DE passes (the warm start
+      always runs), `memory_limit` (GiB) bounds what they may allocate.
     - `limits`: a joint-limits table (JSON, `deik limits`) every frame must lie within;
       `units`: the clip's length unit ("m", "cm", "mm", "in"; None: guessed from its size).
 
@@ -85,6 +87,8 @@ class CleanOptions:
     generations: int | None = None
     seed: int | None = None
     device: str | None = None
+    time_limit: float | None = None
+    memory_limit: float | None = None
     limits: str | None = None
     units: str | None = None
 
@@ -97,8 +101,11 @@ class CleanOptions:
             raise InputError(f"--units {self.units!r}: use one of {', '.join(sorted(METRES))}")
 
     def settings(self) -> dict:
-        """The DE settings given (population, generations, seed, device), for fix_clip."""
-        return {name: getattr(self, name) for name in SETTINGS if getattr(self, name) is not None}
+        """The DE settings given (SETTINGS), for fix_clip: memory_limit in bytes."""
+        given = {name: getattr(self, name) for name in SETTINGS if getattr(self, name) is not None}
+        if "memory_limit" in given:
+            given["memory_limit"] = max(1, int(given["memory_limit"] * 2**30))
+        return given
 
 
 @dataclass(frozen=True)

@@ -58,11 +58,13 @@ from deik.cleanup.warmstart import dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
+from deik.memory import check_memory
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
 from deik.objectives.reference import raw_errors
 from deik.objectives.self_collision import SelfCollision
+from deik.solver.footprint import solve_bytes
 from deik.solver.seeding import poses_around
 from deik.solver.settings import Settings
 from deik.solver.solve import merge_settings, solve
@@ -79,6 +81,7 @@ EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal hold
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
 GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
+MAX_PASSES = 1000  # a pass that repairs nothing leaves the next as hard: more is a typo
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +134,21 @@ def _seeds(skeleton, poses: np.ndarray, searched: np.ndarray, count: int, seed: 
     spreads = np.geomspace(SPREAD[0], SPREAD[1], max(count - 1, 1))[: count - 1]
     seeds = poses_around(skeleton, poses, count, spreads, seed=seed)
     return np.where(searched[:, None, :], seeds, poses[:, None, :])
+
+
+def _check_memory(clip: Motion, settings: Settings, n_terms: int = 1, n_levels: int = 1) -> None:
+    """SolveError (deik.memory) when a DE pass over every frame would not fit the memory limit:
+    its seeds (two float64 copies of N x population x D) and its solve's buffers."""
+    N, P, D = clip.n_frames, settings.population, clip.skeleton.n_dofs
+    itemsize = np.dtype(settings.dtype).itemsize
+    needed = 2 * N * P * D * 8 + solve_bytes(N, P, D, n_terms, n_levels, itemsize, settings.generations)
+    fix = "use a smaller population or generation budget (--population, --generations)"
+    check_memory(needed, settings.memory_limit, f"a clip fix of {N} frames x population {P}", fix)
+
+
+def _time_left(settings: Settings, deadline: float) -> Settings:
+    """`settings` with the time left until `deadline` (perf_counter seconds) as its time limit."""
+    return dataclasses.replace(settings, time_limit=max(deadline - time.perf_counter(), 1e-3))
 
 
 def _inside(skeleton, original: np.ndarray, displacement: np.ndarray) -> np.ndarray:
@@ -257,7 +275,10 @@ def fix_clip(
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
     settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
-    by keyword (population, generations, seed, device, ...).
+    by keyword (population, generations, seed, device, ...). `time_limit` (seconds) bounds the
+    DE passes: none starts after it, and each gets the time left (the warm start always runs);
+    a pass over more memory than `memory_limit` allows is refused (SolveError) before the
+    warm start.
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
     stage)`, if given, is called with the number of frames that meet their goals after the
     warm start and each DE pass, during a pass every 100 generations, and once at the end.
@@ -266,13 +287,17 @@ def fix_clip(
         raise TypeError(f"goals must be a deik.cleanup.clip_goals.ClipGoals, got {type(goals).__name__}")
     if passes is None:  # a collision repair eased into its neighbours can push them into collision
         passes = BALANCE_PASSES if goals.balance or goals.self_collision is not None else PASSES
-    if not (isinstance(passes, int) and passes >= 0):
-        raise InputError(f"passes must be an integer >= 0, got {passes!r}")
+    if isinstance(passes, bool) or not (isinstance(passes, int) and 0 <= passes <= MAX_PASSES):
+        raise InputError(f"passes must be a whole number from 0 to {MAX_PASSES}, got {passes!r}")
     if clip.n_frames == 0:
         raise InputError("the clip has no frames to fix")
+    if clip.skeleton.n_dofs == 0:
+        raise InputError("the clip has no channels: its hierarchy moves no joint, so there is nothing to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
     settings = merge_settings("fix_clip()", settings, overrides, defaults)
+    _check_memory(clip, settings)  # before any work: the smallest a pass can take
     start = time.perf_counter()
+    deadline = None if settings.time_limit is None else start + settings.time_limit
     written, body = clip, body_of(clip) if body is None else body
     clip = on_body(written, body)
     goals = sized_goals(goals, body.span)
@@ -300,15 +325,17 @@ def fix_clip(
         errors, met = _met(problem, current)
         unmet = ~met
         report(int(met.sum()), stages[-1]["stage"])
-        if not unmet.any():
+        if not unmet.any() or (deadline is not None and time.perf_counter() >= deadline):
             break
+        _check_memory(clip, settings, problem.table.n_terms, problem.table.n_levels)
         # a frame in collision may move every DOF but the hinge channels
         searched = searched | (_colliding(problem, errors)[:, None] & ~fixed_dofs[None, :])
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         stage = f"DE pass {k + 1}"
         during = _pass_progress(progress, int((~unmet).sum()), stage) if progress else None
-        result = solve(problem, settings, initial=initial, progress=during)
+        budget = settings if deadline is None else _time_left(settings, deadline)
+        result = solve(problem, budget, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
         displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.part)
         generations = result.generations[unmet]

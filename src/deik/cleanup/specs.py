@@ -55,7 +55,7 @@ def frame_spans(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[i
     out = []
     for span in spans.split(","):
         start, _, stop = span.partition("-")
-        if not (start.strip().isdigit() and stop.strip().isdigit()):
+        if not all(part.strip().isdigit() and len(part.strip()) <= 12 for part in (start, stop)):
             raise InputError(f"{flag} {form!r}: frame range {span!r} must read A-B (inclusive)")
         start, stop = int(start), int(stop)
         if not start <= stop < n_frames:
@@ -130,6 +130,9 @@ def body_contacts(clip: Motion, body: Body, floor: float, forms: Sequence[str], 
     return parts
 
 
+MAX_FLOOR = 1e12  # a floor height beyond this is a typo (its squares overflow float32)
+
+
 def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Paths) -> tuple[FloorChoice, bool]:
     """(the floor, whether it is kept as a goal) of the floor spec: "auto" (detected and kept),
     "none" or None (detected, for the measures, and not kept) or a height (length units)."""
@@ -137,10 +140,12 @@ def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Path
         return detect_floor(clip, body, paths), spec == "auto"
     try:
         height = float(spec)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         height = float("nan")
-    if not np.isfinite(height):
-        raise InputError(f"--floor {spec!r}: use a height (a finite number in length units), auto or none")
+    if not (np.isfinite(height) and abs(height) <= MAX_FLOOR):
+        raise InputError(
+            f"--floor {str(spec)[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
+        )
     return FloorChoice(height, "given"), True
 
 

@@ -13,7 +13,6 @@ file and the line (CSV) or element (JSON).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -22,14 +21,14 @@ import numpy as np
 
 from deik.errors import FileFormatError, InputError
 from deik.io.bvh.hierarchy import number
-from deik.io.files import FilePath, read_input_text
+from deik.io.files import FilePath, integer_value, number_value, parse_csv, parse_json, read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
 SPEC_FORMS = (
     "SITE=track.csv, SITE=track.json, or SITE=X,Y,Z@A:B (a fixed point over frames "
     "A..B inclusive; without @A:B, the whole clip)"
 )
-FRAME_RANGE = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
+FRAME_RANGE = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
 
 
 def _valid_frames(n_frames: int) -> str:
@@ -38,11 +37,11 @@ def _valid_frames(n_frames: int) -> str:
 
 def _csv_rows(source: str, text: str) -> list[tuple[int, list[str]]]:
     """[(line, [frame, x, y, z])] of a CSV track, values still text."""
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1) if line.strip()]
+    lines = parse_csv(text, source)
     if not lines:
         raise FileFormatError(source, "empty track: expected a header frame,x,y,z and rows")
     header_line, header = lines[0]
-    names = [name.strip().lower() for name in header.split(",")]
+    names = [name.lower() for name in header]
     missing = [c for c in COLUMNS if c not in names]
     if missing:
         raise FileFormatError(
@@ -53,8 +52,7 @@ def _csv_rows(source: str, text: str) -> list[tuple[int, list[str]]]:
         )
     where = [names.index(c) for c in COLUMNS]
     rows = []
-    for n, line in lines[1:]:
-        fields = [field.strip() for field in line.split(",")]
+    for n, fields in lines[1:]:
         if len(fields) != len(names):
             raise FileFormatError(source, f"{len(fields)} fields where the header has {len(names)}", line=n)
         rows.append((n, [fields[k] for k in where]))
@@ -65,7 +63,7 @@ def _csv_values(source: str, rows) -> list[tuple[str, int, int, list[float]]]:
     """[(where, line, frame, [x, y, z])] of the CSV rows, checked numbers."""
     values = []
     for n, (frame, *xyz) in rows:
-        if not re.fullmatch(r"[+-]?\d+", frame):
+        if not re.fullmatch(r"[+-]?\d{1,12}", frame):
             raise FileFormatError(source, f"frame {frame!r:.40} is not a whole number", line=n)
         point = [number(source, v, n, f"column {c}") for c, v in zip("xyz", xyz)]
         values.append((f"line {n}", n, int(frame), point))
@@ -75,22 +73,13 @@ def _csv_values(source: str, rows) -> list[tuple[str, int, int, list[float]]]:
 def _json_value(source: str, where: str, value, integer: bool):
     """A JSON frame (integer) or coordinate (finite number) checked, else FileFormatError."""
     if integer:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise FileFormatError(source, f"frame must be a whole number, got {value!r:.40}", element=where)
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise FileFormatError(source, f"must be a finite number, got {value!r:.40}", element=where)
-    return float(value)
+        return integer_value(value, source, where, -(2**62), 2**62)  # the clip's range is checked later
+    return number_value(value, source, where)
 
 
 def _json_values(source: str, text: str) -> list[tuple[str, None, int, list[float]]]:
     """[(element, None, frame, [x, y, z])] of a JSON track (see the module notes)."""
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
-    except RecursionError:
-        raise FileFormatError(source, "JSON nested too deeply") from None
+    data = parse_json(text, source, "track")
     if isinstance(data, dict) and {"frames", "positions"} <= set(data):
         frames, positions = data["frames"], data["positions"]
         if not isinstance(frames, list) or not isinstance(positions, list) or len(frames) != len(positions):
@@ -201,6 +190,15 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
     return mask, targets
 
 
+def track_file(spec: str) -> str | None:
+    """The track file a --reach SITE=TARGET argument names (TARGET ending in .csv or .json, or
+    any path that exists), or None for a fixed point X,Y,Z[@A:B]."""
+    value = spec.partition("=")[2].strip()
+    if os.path.splitext(value)[1].lower() in (".csv", ".json") or os.path.lexists(value):
+        return value
+    return None
+
+
 def parse_reach_spec(spec: str, n_frames: int) -> tuple[str, np.ndarray, np.ndarray]:
     """A --reach argument -> (site name, mask (N,) bool, targets (N, 3) length units, NaN
     where inactive). Forms: SITE=track.csv, SITE=track.json (or any existing file: see
@@ -211,7 +209,7 @@ def parse_reach_spec(spec: str, n_frames: int) -> tuple[str, np.ndarray, np.ndar
     site, value = site.strip(), value.strip()
     if not equals or not site or not value:
         raise InputError(f"reach {spec!r} is not SITE=TARGET; the accepted forms are {SPEC_FORMS}")
-    if os.path.splitext(value)[1].lower() in (".csv", ".json") or os.path.isfile(value):
+    if track_file(spec) is not None:
         mask, targets = read_track(value, n_frames)
     else:
         mask, targets = _fixed_point(spec, value, n_frames)

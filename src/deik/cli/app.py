@@ -33,9 +33,11 @@ from deik.cli import retarget_command as cli_retarget
 from deik.cli import solve_command as cli_solve
 from deik.cli import view_command as cli_view
 from deik.cli import warmup_command as cli_warmup
-from deik.cli.arguments import USER_ERRORS, check_outputs, error_line
+from deik.cli.arguments import USER_ERRORS, check_outputs, number
 from deik.console import Parser, add_output_flags, configure_logging, show_progress
+from deik.errors import error_line
 from deik.experiments import flags as experiment_flags
+from deik.io.files import command_inputs
 
 USAGE_ERROR = 2
 INTERNAL_ERROR = 3
@@ -114,14 +116,14 @@ def build_parser() -> Parser:
     lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
     lim.add_argument(
         "--margin",
-        type=float,
+        type=number(0.0, 180.0),
         default=10.0,
         metavar="DEGREES",
         help="added to each rotation's range on both sides (default 10)",
     )
     lim.add_argument(
         "--margin-length",
-        type=float,
+        type=number(0.0),
         metavar="LENGTH",
         help="also measure the translations that carry the body through the world (the root's), widened by "
         "LENGTH on both sides (default: left out, so a clip fix may lift or shift the body)",
@@ -147,7 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args)
-        return args.run(args)
+        with command_inputs(protect=not getattr(args, "overwrite", False)):  # no output replaces an input
+            return args.run(args)
     except SystemExit as done:  # --help
         return done.code
     except BrokenPipeError:

@@ -6,24 +6,33 @@ import argparse
 import logging
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from deik.errors import DeikError, UsageError
-
-MESSAGE_LIMIT = 500
-
+from deik.io.files import inputs_read
 
 # what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
 # as asked, a GPU that cannot run it), a missing optional package's ImportError, an unreadable
 # file's OSError. Anything else is a bug in deik.
 USER_ERRORS = (DeikError, ImportError, OSError)
+MAX_MAGNITUDE = 1e12  # of a number on the command line: larger is a typo (squares overflow float32)
 
 
-def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
-    """The message of `error` on one line and at most `limit` characters (a whole echoed input is
-    cut)."""
-    line = " ".join(str(error).split())
-    return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"
+def number(low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE, above: bool = False) -> Callable[[str], float]:
+    """An argparse `type` for a flag's number: finite, within [low, high] (above `low` when
+    `above`), else one line naming the flag (argparse adds it) and the range."""
+    shown = f"{'above' if above else 'from'} {low:g}" + (f" to {high:g}" if high < MAX_MAGNITUDE else "")
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text[:40]!r} is not a number") from None
+        if not (math.isfinite(value) and (value > low if above else value >= low) and value <= high):
+            raise argparse.ArgumentTypeError(f"{text[:40]!r} is out of range: give a finite number {shown}")
+        return value
+
+    return parse
 
 
 def numbers(flag: str, words: Iterable[str]) -> list[float]:
@@ -34,8 +43,8 @@ def numbers(flag: str, words: Iterable[str]) -> list[float]:
             value = float(word)
         except ValueError:
             raise UsageError(f"{flag}: {word!r} is not a number") from None
-        if not math.isfinite(value):
-            raise UsageError(f"{flag}: {word!r} is not a finite number")
+        if not (math.isfinite(value) and abs(value) <= MAX_MAGNITUDE):
+            raise UsageError(f"{flag}: {word[:40]!r} is out of range: give a finite number from -1e+12 to 1e+12")
         values.append(value)
     return values
 
@@ -49,7 +58,10 @@ def check_outputs(
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one
-    of `inputs` (the files the command reads) unless `overwrite`."""
+    of `inputs` (the files the command names) or of the files it has read so far (inside
+    deik.io.files.command_inputs: those named inside other inputs too) unless `overwrite`.
+    Call it again once every input is read."""
+    inputs = [*inputs, *inputs_read()]
     given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
     for flag, path in given.items():
         folder = os.path.dirname(path)

@@ -23,12 +23,13 @@ from deik.cli.arguments import (
     announce_compile,
     check_device,
     check_outputs,
+    number,
     record_compiles,
 )
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
-from deik.viz.text import format_table
+from deik.viz.text import figure, format_table
 
 if TYPE_CHECKING:  # deik.cleanup.clean loads when a clip is cleaned
     from deik.cleanup.clean import CleanedClip, CleanOptions
@@ -72,11 +73,11 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--contact-height",
-        type=float,
+        type=number(0.0),
         metavar="LENGTH",
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
-    c.add_argument("--contact-speed", type=float, metavar="SPEED", help="auto contacts: speed (length units/s)")
+    c.add_argument("--contact-speed", type=number(0.0), metavar="SPEED", help="auto contacts: speed (length units/s)")
     c.add_argument(
         "--balance",
         action="store_true",
@@ -85,7 +86,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument(
         "--self-collision",
-        type=float,
+        type=number(0.0),
         metavar="MARGIN",
         help="keep the bone capsules MARGIN apart (length units, e.g. 0): DE repairs the frames that collide",
     )
@@ -97,11 +98,15 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         help="SITE follows TRACK: track.csv, track.json or X,Y,Z@A:B (repeatable)",
     )
     c.add_argument(
-        "--fidelity", type=float, default=1.0, metavar="W", help="DE repairs: weight of staying near the original (0-1)"
+        "--fidelity",
+        type=number(0.0, 1.0),
+        default=1.0,
+        metavar="W",
+        help="DE repairs: weight of staying near the original (0-1)",
     )
     c.add_argument(
         "--coherence",
-        type=float,
+        type=number(0.0, 1.0),
         default=0.5,
         metavar="W",
         help="DE repairs: weight of moving like the neighbours (0-1)",
@@ -111,7 +116,19 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         type=int,
         help="most DE passes over frames the warm start leaves unmet (default 1, 3 with --balance or --self-collision)",
     )
+    c.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop the DE passes after this wall time (the warm start always runs; default: none)",
+    )
     c.add_argument("--population", type=int, help="DE population per frame (default 24, 48 with --balance)")
+    c.add_argument(
+        "--memory-limit",
+        type=number(0.0, above=True),
+        metavar="GIB",
+        help="memory the DE passes may use, GiB (default: 80%% of this machine's)",
+    )
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
@@ -154,7 +171,7 @@ def _print_tables(document: dict, quiet: bool) -> None:
     if not quiet:
         for name, note in document["goal_notes"].items():
             print(f"  {name}: {note}")
-    rows = [[v["label"], v["unit"], f"{v['before']:.4g}", f"{v['after']:.4g}"] for v in document["metrics"].values()]
+    rows = [[v["label"], v["unit"], figure(v["before"]), figure(v["after"])] for v in document["metrics"].values()]
     print(format_table(["metric", "unit", "before", "after"], rows))
 
 
@@ -184,8 +201,12 @@ def _summary_notes(document: dict) -> list[str]:
     lines = []
     for key in (k for k in keys if k in metrics):
         m = metrics[key]
-        lines.append(f"{m['label']}: {m['before']:.3g} before, {m['after']:.3g} after ({m['unit']})")
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.2f}" for k, v in document["dynamics"]["peak_ratios"].items())
+        lines.append(
+            f"{m['label']}: {figure(m['before'], '.3g')} before, {figure(m['after'], '.3g')} after ({m['unit']})"
+        )
+    ratios = ", ".join(
+        f"{k.replace('_', ' ')} x{figure(v, '.2f')}" for k, v in document["dynamics"]["peak_ratios"].items()
+    )
     return lines + [f"peaks against the capture's: {ratios}"]
 
 
@@ -219,10 +240,10 @@ def _outcome_lines(document: dict) -> list[str]:
             )
         lines.append(line)
     dynamics = document["dynamics"]
-    ratios = ", ".join(f"{k.replace('_', ' ')} x{v:.3f}" for k, v in dynamics["peak_ratios"].items())
+    ratios = ", ".join(f"{k.replace('_', ' ')} x{figure(v, '.3f')}" for k, v in dynamics["peak_ratios"].items())
     worst = dynamics["worst_point"]
     if worst is not None:
-        ratios += f"; worst point's acceleration {worst['point']} x{worst['ratio']:.3f}"
+        ratios += f"; worst point's acceleration {worst['point']} x{figure(worst['ratio'], '.3f')}"
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
@@ -251,7 +272,11 @@ def clean_options(args: argparse.Namespace) -> CleanOptions:
 
 def check_first(args: argparse.Namespace) -> None:
     """Mistakes in the flags found before any work, for one clip or a folder."""
+    from deik.cleanup.fix import MAX_PASSES
+
     check_device(args.device)
+    if args.passes is not None and not 0 <= args.passes <= MAX_PASSES:
+        raise UsageError(f"--passes {args.passes}: give a whole number from 0 to {MAX_PASSES}")
     if args.report_3d and not args.report:
         raise UsageError("--report-3d sets how --report draws the clip: add --report report.png")
     if args.report:
@@ -314,17 +339,19 @@ def library_record(cleaned: CleanedClip) -> dict:
 def run_clip(args: argparse.Namespace) -> int:
     """`deik clip` on one clip: check the flags, clean it (deik.clean_clip), print, write
     (atomically; nothing is written on an error)."""
-    check_outputs(
+    outputs = (
         {"--out": args.out, "--report": args.report, "--json": args.json},
         {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
         (args.clip, args.segments, args.limits),
         args.overwrite,
     )
+    check_outputs(*outputs)
     from deik.cleanup.clean import plan_clean
 
     check_first(args)
     clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
     plan = plan_clean(clip, clean_options(args))
+    check_outputs(*outputs)  # the reach tracks it read are inputs too
     compiling = announce_compile(args.device or "cpu", "float32", polish=False, clip=True)
     with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         cleaned = plan.run(progress=frames_reporter(bar, "every goal"))

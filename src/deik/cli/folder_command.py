@@ -8,7 +8,7 @@ a folder through the one-clip command, resumable, on local workers or Ray (deik.
 With a folder, the flags that name one output file name a folder instead, each created when
 its parent exists: each clip NAME.bvh gives OUTDIR/NAME.bvh (a URDF target's trajectory:
 NAME.csv), --json DIR/NAME.json, --report DIR/NAME.png, --view DIR/NAME.bvh, and its record
-OUTDIR/NAME.deik.json (deik.library.jobs), whose presence with the same settings and input
+OUTDIR/.NAME.bvh.deik.json (hidden; deik.library.jobs), whose presence with the same settings and input
 makes a rerun skip the clip. Every other flag applies to every clip.
 """
 
@@ -23,8 +23,11 @@ from typing import TYPE_CHECKING
 
 from deik.cli import clip_command as cli_clip
 from deik.cli import retarget_command as cli_retarget
-from deik.cli.arguments import USER_ERRORS, UsageError, error_line
+from deik.cli.arguments import USER_ERRORS, UsageError
+from deik.errors import InputError, error_line
 from deik.io.bvh import read_bvh
+from deik.io.files import check_not_input, command_inputs
+from deik.viz.text import figure
 
 if TYPE_CHECKING:  # deik.library loads when a folder is run
     from deik.library.jobs import Job
@@ -79,11 +82,12 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
     from deik.library.jobs import JobFailed
 
     try:
-        if payload["command"] == "clip":
-            return _clean_one(payload, progress)
-        result = cli_retarget.retarget_file(payload["source"], payload["options"], progress)
-        cli_retarget.write_outputs(result, payload["outputs"])
-        return cli_retarget.library_record(result)
+        with command_inputs(protect=not payload["overwrite"]):
+            if payload["command"] == "clip":
+                return _clean_one(payload, progress)
+            result = cli_retarget.retarget_file(payload["source"], payload["options"], progress)
+            cli_retarget.write_outputs(result, payload["outputs"])
+            return cli_retarget.library_record(result)
     except USER_ERRORS as error:
         raise JobFailed(error_line(error)) from None
     except Exception as error:  # noqa: BLE001 - a bug: this clip fails, the others go on
@@ -107,27 +111,25 @@ def _options(args) -> tuple[dict, dict, dict]:
     """(the options every clip's job takes, the settings that shape the outputs (JSON-able, for
     the fingerprint), {flag: file} of the files whose bytes shape them). UsageError for a named
     file that is missing."""
+    from deik.cleanup.tracks import track_file
+
     if args.command == "clip":
         options = cli_clip.clean_options(args)
         reading = {"segments": args.segments, "free_translations": args.free_translations}
         common = {"options": options, "report_3d": args.report_3d, **reading}
         settings = {"report_3d": args.report_3d, **reading, **dataclasses.asdict(options)}
         files = {"--segments": args.segments, "--limits": options.limits}
-        tracks = [spec.partition("=")[2] for spec in options.reach]
-        files |= {f"--reach {k}": track for k, track in enumerate(tracks) if _is_track_file(track)}
+        tracks = [track_file(spec) for spec in options.reach]
+        files |= {f"--reach {k}": track for k, track in enumerate(tracks) if track is not None}
     else:
         options = cli_retarget.retarget_options(args)
         common, settings = {"options": options}, dict(options)
         files = {"--map": args.map, "--to": args.to if os.path.splitext(args.to or "")[1] else None}  # humanoid: none
     files = {flag: path for flag, path in files.items() if path is not None}
     for flag, path in files.items():
-        if not os.path.isfile(path):
+        if not os.path.lexists(path):
             raise UsageError(f"{flag.split()[0]} {path!r}: no such file")
     return common, settings, files
-
-
-def _is_track_file(track: str) -> bool:
-    return os.path.splitext(track)[1].lower() in (".csv", ".json")
 
 
 def _outputs(args, stem: str, folders: dict) -> dict:
@@ -176,8 +178,19 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
     for path in clips:
         name = os.path.basename(path)
         outputs = _outputs(args, os.path.splitext(name)[0], folders)
-        key = fingerprint(args.command, settings, path, files, outputs.values())
-        payload = {"command": args.command, "source": path, "outputs": outputs, **common}
+        key = fingerprint(args.command, settings, path, files, outputs.values())  # reads every input
+        for flag, output in outputs.items():
+            try:
+                check_not_input(output)
+            except InputError as error:
+                raise UsageError(f"{OUTPUT_FLAGS[flag]}: {error}") from None
+        payload = {
+            "command": args.command,
+            "source": path,
+            "outputs": outputs,
+            "overwrite": getattr(args, "overwrite", False),
+            **common,
+        }
         jobs.append(
             Job(name, path, tuple(outputs.values()), sidecar_path(folders["out"], name), key, settings, payload)
         )
@@ -188,8 +201,7 @@ def _cell(key: str):
     """A summary column's pick: the record's metric `key` to 4 digits, "-" when absent."""
 
     def pick(record: dict) -> str:
-        value = (record.get("metrics") or {}).get(key)
-        return "-" if value is None else f"{value:.4g}"
+        return figure((record.get("metrics") or {}).get(key))
 
     return pick
 

@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from deik.cli.arguments import UsageError, numbers
+from deik.cli.arguments import UsageError, number, numbers
 from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
 
@@ -53,14 +53,14 @@ def add_goal_arguments(s: argparse.ArgumentParser) -> None:
     )
     s.add_argument(
         "--tolerance",
-        type=float,
+        type=number(0.0),
         metavar="LENGTH",
         help="--reach and --com-over goals are met within this distance (length units; default "
         f"{g.LENGTH_TOLERANCE:g}, 1 mm for metres)",
     )
     s.add_argument(
         "--angle-tolerance",
-        type=float,
+        type=number(0.0, 180.0),
         metavar="DEGREES",
         help=f"--orient goals are met within this angle (default {math.degrees(g.ANGLE_TOLERANCE):g} degrees)",
     )
@@ -80,13 +80,13 @@ def add_goal_arguments(s: argparse.ArgumentParser) -> None:
     )
     s.add_argument(
         "--self-collision",
-        type=float,
+        type=number(0.0),
         metavar="MARGIN",
         help="keep the bone capsules apart by MARGIN (length units, e.g. 0), above every other goal in priority",
     )
     s.add_argument(
         "--comfort",
-        type=float,
+        type=number(-1.0, 1.0),
         metavar="WEIGHT",
         help="stay near the rest pose (BVH: near the frame's pose, default weight 1) with this "
         "weight in [-1, 1], below the other goals in priority; 0 turns it off",

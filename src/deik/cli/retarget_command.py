@@ -20,13 +20,13 @@ from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
 from deik.io.motion import Clip
 from deik.io.trajectory import write_trajectory
-from deik.viz.text import format_table
+from deik.viz.text import figure, format_table
 
 if TYPE_CHECKING:  # deik.retargeting loads when a clip is retargeted
     from deik.retargeting.outcome import Retarget
 
 SHOWN_STEPS = 10  # velocity violations printed; --json lists them all
-FRAMES = re.compile(r"\s*(\d+)\s*:\s*(\d+)\s*")
+FRAMES = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
 SHOWN = (
     ("keypoint_error_mean_mm", "key-point error, mean", "mm"),
     ("keypoint_worst_max_mm", "key-point error, worst", "mm"),
@@ -166,7 +166,7 @@ def run_retarget(args: argparse.Namespace) -> int:
     if isinstance(result.motion, Clip) and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")
     summary = result.report["summary"]
-    rows = [[label, unit, f"{summary[key]:.4g}"] for key, label, unit in SHOWN if key in summary]
+    rows = [[label, unit, figure(summary[key])] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
     print(
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "

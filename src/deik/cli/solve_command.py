@@ -23,6 +23,7 @@ from deik.cli.arguments import (
     announce_compile,
     check_device,
     check_outputs,
+    number,
     numbers,
     record_compiles,
 )
@@ -85,7 +86,12 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--population", type=int, help="DE population per problem (default 256)")
     s.add_argument("--generations", type=int, help="most generations to run (default 2000)")
     s.add_argument("--strategy", choices=list(STRATEGIES), help="DE mutation strategy")
-    s.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop after this wall time (default: none)")
+    s.add_argument(
+        "--time-limit",
+        type=number(0.0, above=True),
+        metavar="SECONDS",
+        help="stop after this wall time (default: none)",
+    )
     s.add_argument(
         "--polish",
         type=int,
@@ -100,7 +106,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--dtype", choices=["float32", "float64"], help="kernel precision (default float32)")
     s.add_argument(
         "--memory-limit",
-        type=float,
+        type=number(0.0, above=True),
         metavar="GIB",
         help="memory a solve may use, GiB (default: 80%% of this machine's)",
     )
@@ -193,9 +199,7 @@ def _settings(args) -> dict:
     """The settings the setting flags give (--seed, --population, ..., --memory-limit in GiB)."""
     settings = {k: getattr(args, k) for k in SETTING_FLAGS if getattr(args, k) is not None}
     if args.memory_limit is not None:
-        if not args.memory_limit > 0:
-            raise UsageError(f"--memory-limit must be a positive number of GiB, got {args.memory_limit:g}")
-        settings["memory_limit"] = int(args.memory_limit * 2**30)
+        settings["memory_limit"] = max(1, int(args.memory_limit * 2**30))
     return settings
 
 
@@ -248,24 +252,22 @@ def run_solve(args: argparse.Namespace) -> int:
         args.limits,
         args.start[0] if args.start and len(args.start) == 1 else None,
     )
-    check_outputs(
-        {"--out": args.out, "--plot": args.plot},
-        {"--out": (".json", ".bvh"), "--plot": (".png",)},
-        inputs,
-        args.overwrite,
-    )
+    outputs = ({"--out": args.out, "--plot": args.plot}, {"--out": (".json", ".bvh"), "--plot": (".png",)})
+    check_outputs(*outputs, inputs, args.overwrite)
     if args.plot_3d and not args.plot:
         raise UsageError("--plot-3d sets how --plot draws the pose: add --plot pose.png")
     if args.plot:
         plot.require_matplotlib()
     posed = pose_problem(args)
+    check_outputs(*outputs, inputs, args.overwrite)  # the files a --problem file names are inputs too
     problem, loaded, frame = posed.problem, posed.loaded, posed.frame
     settings = Settings(**posed.settings)
     check_device(settings.device)
     initial = None
     if posed.start is not None:
+        count = max(1, settings.population // SEED_FRACTION)
         initial = poses_around(
-            problem.skeleton, posed.start, max(1, settings.population // SEED_FRACTION), seed=settings.seed
+            problem.skeleton, posed.start, count, seed=settings.seed, memory_limit=settings.memory_limit
         )
         if args.comfort is None and not args.problem:
             near = "the --start pose" if args.start else f"frame {frame}"

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.console import progress_bar
-from deik.io.atomic import write_json_atomically
+from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.model.builders import chain
 from deik.model.humanoid import humanoid
 from deik.model.kinematics import forward_kinematics
@@ -169,7 +169,8 @@ def demo(out_dir: str, scenarios: list[Scenario] | None = None, progress: bool |
     start = time.perf_counter()
     rows, summary = [], []
     pictures = _has_matplotlib()  # without it: the table and demo.json only
-    with progress_bar(len(scenarios), "deik demo", "scenario", progress) as bar:
+    # every picture and demo.json appear together at the end, or none (Ctrl-C: nothing is written)
+    with all_or_nothing(), progress_bar(len(scenarios), "deik demo", "scenario", progress) as bar:
         for scenario in scenarios:
             bar.set_postfix_str(scenario.key)
             result = solve(scenario.problem, initial=scenario.initial, **scenario.settings)
@@ -188,8 +189,8 @@ def demo(out_dir: str, scenarios: list[Scenario] | None = None, progress: bool |
                     "result": result.to_dict(),
                 }
             )
-    document = {"scenarios": summary, "rows": rows, "total_time_s": time.perf_counter() - start}
-    write_json_atomically(os.path.join(out_dir, "demo.json"), document)
+        document = {"scenarios": summary, "rows": rows, "total_time_s": time.perf_counter() - start}
+        write_json_atomically(os.path.join(out_dir, "demo.json"), document)
     return document
 
 

@@ -21,16 +21,17 @@ import time
 from collections.abc import Callable
 
 from deik.console import Parser, configure_logging, progress_bar, show_progress
-from deik.errors import DeikError, UsageError
+from deik.errors import DeikError, UsageError, error_line
 from deik.experiments import fig2_chain, fig3_population, fig6_comfort, fig7_selection, fig8_timing, fig9_speedup
 from deik.experiments.fig45_humanoid import run_fig4, run_fig5
 from deik.experiments.flags import DEVICES, SUMMARY, add_arguments
 from deik.experiments.shared import Section, markdown_table
 from deik.experiments.timing import GPU_COMMAND, machine_line
-from deik.io.atomic import save_atomically, write_text_atomically
+from deik.io.atomic import all_or_nothing, save_atomically, write_text_atomically
 
 PROG = "deik experiments"
 USAGE_ERROR = 2
+INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 EXPERIMENTS = {
     "fig2": fig2_chain.run,
     "fig3": fig3_population.run,
@@ -127,7 +128,8 @@ def report(sections: list[Section], command: str, total: float, quick: bool, loa
 def _copy(source: str, target: str) -> None:
     if os.path.exists(target) and os.path.samefile(source, target):
         return
-    save_atomically(target, lambda temporary: shutil.copyfile(source, temporary))
+    with open(source, "rb") as original:
+        save_atomically(target, lambda file: shutil.copyfileobj(original, file))
 
 
 def run_experiments(
@@ -143,7 +145,9 @@ def run_experiments(
     missing): each writes NAME.png, NAME.csv and NAME.md there (`report` combines their
     sections). `quick`: few seeds, small sizes; `device` "auto", "cpu" or "gpu" for the GPU
     parts of fig8 and fig9; a bar over the figures with `progress` (deik.console.progress_bar's
-    `show`); `on_section(section)` is called as each one finishes. Returns their Sections."""
+    `show`); `on_section(section)` is called as each one finishes. Each figure's PNG, CSV and
+    section appear together or not at all (deik.io.atomic), so an interrupted run keeps the
+    figures it finished whole. Returns their Sections."""
     names = resolve(names)
     if device not in DEVICES:
         raise UsageError(f"device {device!r}: use one of {', '.join(DEVICES)}")
@@ -153,9 +157,10 @@ def run_experiments(
         for name in names:
             bar.set_postfix_str(name)
             began = time.perf_counter()
-            section = EXPERIMENTS[name](out_dir, quick=quick, device=device)
-            section.seconds = time.perf_counter() - began
-            section.write(out_dir)
+            with all_or_nothing():
+                section = EXPERIMENTS[name](out_dir, quick=quick, device=device)
+                section.seconds = time.perf_counter() - began
+                section.write(out_dir)
             sections.append(section)
             bar.update()
             if on_section is not None:
@@ -166,7 +171,8 @@ def run_experiments(
 
 def run(args: argparse.Namespace) -> int:
     """`deik experiments`: check the flags, run the experiments, say where each one went, and
-    with --doc write the report and its pictures there."""
+    with --doc write the report and its pictures there. Ctrl-C and a full disk end in one line
+    that names the figures kept whole; the report and the document appear together or not at all."""
     names = resolve(args.names)
     _check_paths(args, names)
     from deik.viz.plot import require_matplotlib
@@ -174,32 +180,56 @@ def run(args: argparse.Namespace) -> int:
     require_matplotlib()
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
     start = time.perf_counter()
+    finished: list[Section] = []
 
     def say(section: Section) -> None:
+        finished.append(section)
         name = section.name
         print(f"{name}: {section.seconds:.1f} s -> {os.path.join(args.out, name)}.{{png,csv,md}}", flush=True)
         for note in section.notes:
             print(f"{name}: note: {note}", flush=True)
 
-    sections = run_experiments(
-        names, args.out, quick=args.quick, device=args.device, progress=show_progress(args), on_section=say
-    )
-    total = time.perf_counter() - start
+    try:
+        run_experiments(
+            names, args.out, quick=args.quick, device=args.device, progress=show_progress(args), on_section=say
+        )
+        _write_report(args, finished, time.perf_counter() - start, load)
+    except KeyboardInterrupt:
+        kept = ", ".join(s.name for s in finished) or "none"
+        print(
+            f"deik: interrupted; the figures finished are kept whole ({kept}), nothing else was written",
+            file=sys.stderr,
+        )
+        return INTERRUPTED
+    except OSError as error:  # a full disk, a folder that turned read-only
+        kept = ", ".join(s.name for s in finished) or "none"
+        print(f"deik: error: {error_line(error)}; the figures finished are kept whole ({kept})", file=sys.stderr)
+        return USAGE_ERROR
+    return 0
+
+
+def _write_report(args: argparse.Namespace, sections: list[Section], total: float, load: str) -> None:
+    """With more than one section, DIR/report.md; with --doc, the document and its pictures
+    in figures/ beside it: all or none."""
     quick = " --quick" if args.quick else ""
     command = f"PYTHONPATH=src python -m deik.experiments {' '.join(args.names)}{quick} --out DIR"
     if args.doc:
         command += f" --doc {os.path.relpath(args.doc)}"
+    figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures") if args.doc else None
+    with all_or_nothing():
+        if len(sections) > 1:
+            write_text_atomically(
+                os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load)
+            )
+        if figures:
+            os.makedirs(figures, exist_ok=True)
+            for section in sections:
+                _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
+            write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
     if len(sections) > 1:
-        write_text_atomically(os.path.join(args.out, "report.md"), report(sections, command, total, args.quick, load))
         print(f"report: {os.path.join(args.out, 'report.md')} ({total:.0f} s in all)")
-    if args.doc:
-        figures = os.path.join(os.path.dirname(os.path.abspath(args.doc)), "figures")
-        os.makedirs(figures, exist_ok=True)
-        for section in sections:
-            _copy(os.path.join(args.out, f"{section.name}.png"), os.path.join(figures, f"{section.name}.png"))
-        write_text_atomically(args.doc, report(sections, command, total, args.quick, load, "figures/"))
+    if figures:
         print(f"document: {args.doc}, pictures in {figures}")
-    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

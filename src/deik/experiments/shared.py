@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from deik.io.atomic import save_atomically, write_text_atomically
+from deik.io.atomic import save_atomically, scratch, write_text_atomically
 from deik.solver.problem import Problem
 from deik.solver.result import Result
 from deik.solver.settings import Settings
@@ -113,7 +113,7 @@ def save_figure(figure: Figure, path: str, dpi: int = 110) -> None:
     """Save a matplotlib `figure` as PNG to `path` atomically and close it."""
     plt = require_matplotlib()
     try:
-        save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=dpi))
+        save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=dpi))
     finally:
         plt.close(figure)
 
@@ -123,7 +123,7 @@ def pose_panels(axes: Sequence[Axes], panels: Sequence[tuple[Problem, Result, st
     Result, title), rendered by deik.viz.plot.plot_result into a temporary PNG and shown as an
     image, so experiments draw poses exactly as `deik solve --plot` does."""
     plt = require_matplotlib()
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, scratch():  # read back at once, never an output
         for k, (ax, (problem, result, title)) in enumerate(zip(axes, panels)):
             path = os.path.join(folder, f"pose{k}.png")
             plot_result(problem, result, path, title=title)

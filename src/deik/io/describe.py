@@ -21,6 +21,10 @@ def _joints(sk: Skeleton) -> list[dict]:
     """One entry per joint in tree order: its depth, the URDF joint that moves it (its label),
     its DOF and mimic counts and its sites."""
     depth = np.zeros(sk.n_joints, int)
+    mimic_counts = np.bincount(sk.mimic_joint, minlength=sk.n_joints)
+    sites_on: dict[int, list[str]] = {}  # gathered once: a scan of every site per joint is quadratic
+    for site, joint in zip(sk.site_names, sk.site_joint.tolist()):
+        sites_on.setdefault(joint, []).append(site)
     out = []
     for k, name in enumerate(sk.joint_names):
         if k:
@@ -31,8 +35,8 @@ def _joints(sk: Skeleton) -> list[dict]:
                 "depth": int(depth[k]),
                 "label": sk.joint_labels[k],
                 "dofs": int(sk.joint_dof_start[k + 1] - sk.joint_dof_start[k]),
-                "mimics": int((sk.mimic_joint == k).sum()),
-                "sites": [s for s, j in zip(sk.site_names, sk.site_joint) if j == k],
+                "mimics": int(mimic_counts[k]),
+                "sites": sites_on.get(k, []),
             }
         )
     return out

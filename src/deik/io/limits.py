@@ -13,16 +13,15 @@ what the performer did (`deik limits CLIP.bvh --margin 10 --out limits.json`).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from deik.errors import InputError, UnknownNameError
+from deik.errors import FileFormatError, InputError, UnknownNameError
 from deik.io.atomic import write_json_atomically
-from deik.io.files import FilePath, read_input_text
+from deik.io.files import FilePath, numbers_value, read_json
 from deik.io.motion import Clip, held_translations
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
@@ -60,32 +59,23 @@ def _not_a_dof(skeleton: Skeleton, name: str) -> str:
 
 def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, float]]:
     """The table in JSON file `path` for `skeleton`, rotations converted to radians; every
-    mistake raises a ValueError (or KeyError for an unknown DOF) naming the file."""
+    mistake (an unknown DOF too) raises a FileFormatError naming the file."""
     path = str(path)
-    text = read_input_text(path, "limits (JSON)")
-    try:
-        table = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise InputError(f"{path}: not valid JSON: {error}") from None
-    except RecursionError:
-        raise InputError(f"{path}: JSON nested too deeply; a limits table is one level of [lower, upper]") from None
+    table = read_json(path, "limits (JSON)")
     if not isinstance(table, dict) or not table:
-        raise InputError(f'{path}: must be a JSON object {{"DOF name": [lower, upper], ...}}')
+        raise FileFormatError(path, 'must be a JSON object {"DOF name": [lower, upper], ...}')
     limits = {}
     for name, bounds in table.items():
-        if not (
-            isinstance(bounds, list)
-            and len(bounds) == 2
-            and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)
-        ):
-            raise InputError(f"{path}: {name!r} must be [lower, upper] (two numbers), got {bounds!r}")
+        if not (isinstance(bounds, list) and len(bounds) == 2):
+            raise FileFormatError(path, f"must be [lower, upper] (two numbers), got {bounds!r:.60}", element=name)
+        bounds = numbers_value(bounds, path, name, 2)
         if name in skeleton.dof_names and skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE:
             bounds = np.radians(bounds)
         limits[name] = (float(bounds[0]), float(bounds[1]))
     try:
         with_limits(skeleton, limits)
     except (KeyError, ValueError) as error:
-        raise type(error)(f"{path}: {error.args[0]}") from None
+        raise FileFormatError(path, error.args[0]) from None
     return limits
 
 

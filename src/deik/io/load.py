@@ -88,6 +88,6 @@ def skeleton_from_spec(spec: str) -> Skeleton:
     kind, _, count = str(spec).partition(":")
     if kind == "humanoid" and not count:
         return humanoid()
-    if kind in ("chain", "chain3d") and count.isdigit() and int(count) >= 1:
+    if kind in ("chain", "chain3d") and count.isdigit() and len(count) <= 12 and int(count) >= 1:
         return chain(int(count), dims=2 if kind == "chain" else 3)
     raise InputError(f"unknown skeleton {spec!r}; use {SKELETON_FORMS}")

@@ -88,7 +88,9 @@ class Clip(KinematicsOnce):
 
     def __post_init__(self):
         sk = self.skeleton
-        frames = np.array(self.frames, dtype=np.float64)
+        frames = self.frames
+        if not (isinstance(frames, np.ndarray) and frames.dtype == np.float64 and _sealed(frames)):
+            frames = np.array(frames, dtype=np.float64)  # the caller's array: a copy nobody else can change
         if frames.ndim != 2 or frames.shape[1] != sk.n_dofs:
             raise InputError(f"frames must have shape (N, {sk.n_dofs}), got {frames.shape}")
         if not np.isfinite(frames).all():
@@ -183,7 +185,10 @@ class Clip(KinematicsOnce):
         if values.ndim != 2 or values.shape[1] != len(dofs):
             raise InputError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
         frames = np.empty((values.shape[0], skeleton.n_dofs))
-        frames[:, dofs] = (values - bias) / scale
+        for column, (dof, factor, offset) in enumerate(zip(dofs, scale, bias)):  # by column: no (N, C) temporary
+            np.subtract(values[:, column], offset, out=frames[:, dof])
+            frames[:, dof] /= factor
+        frames.setflags(write=False)  # sealed: the clip takes it as it is, without a copy
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
 
     @classmethod
@@ -208,6 +213,12 @@ def held_translations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     slack = 1e-9 * max(skeleton.reach, 1e-300)
     inside = (skeleton.lower >= frames.min(axis=0) - slack) & (skeleton.upper <= frames.max(axis=0) + slack)
     return (skeleton.dof_kind == TRANSLATE) & inside
+
+
+def _sealed(array: np.ndarray) -> bool:
+    """Whether `array` is read-only and owns its memory (no writable view of it exists), so a
+    Clip may keep it without a copy."""
+    return not array.flags.writeable and array.flags.owndata and array.flags.c_contiguous
 
 
 def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from deik.errors import FileFormatError, InputError
-from deik.io.files import FilePath, read_input_json
+from deik.io.files import FilePath, read_json
 from deik.model.skeleton import Skeleton
 
 WHAT = "pose (JSON)"
@@ -66,7 +66,7 @@ def read_pose_json(path: FilePath) -> PoseFile:
     tree, centre of mass, up and targets where present (older files and hand-written poses
     carry only the angles)."""
     path = str(path)
-    data = read_input_json(path, WHAT)
+    data = read_json(path, WHAT)
     if not isinstance(data, dict) or "angles" not in data:
         raise FileFormatError(path, 'has no "angles": give a pose JSON as `deik solve --out pose.json` writes it')
     try:

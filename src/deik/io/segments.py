@@ -9,7 +9,6 @@ unit.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections import Counter, defaultdict
@@ -18,11 +17,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from deik.errors import FileFormatError, InputError
-from deik.io.files import FilePath, read_input_text
+from deik.io.files import FilePath, number_value, numbers_value, read_json
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
 from deik.model.capsules import carrier_joints
 from deik.model.joints import Segment
-from deik.model.skeleton import Skeleton
+from deik.model.skeleton import MAX_LENGTH, MAX_MASS, Skeleton
 from deik.suggest import did_you_mean
 
 NOMINAL_MASS = 70.0  # kg; only mass fractions matter for the centre of mass
@@ -173,19 +172,7 @@ def _fail(source: str, element: str, problem: str):
 
 
 def _vector(source: str, element: str, value) -> tuple[float, float, float]:
-    if not (isinstance(value, list) and len(value) == 3 and all(_is_number(v) for v in value)):
-        _fail(source, element, f"must be a list of 3 finite numbers [x, y, z], got {value!r:.60}")
-    return tuple(float(v) for v in value)
-
-
-def _is_number(value) -> bool:
-    """A JSON number (not a boolean) that is finite as a float."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:  # an integer beyond the float range
-        return False
+    return numbers_value(value, source, element, 3, -MAX_LENGTH, MAX_LENGTH)
 
 
 def read_segment_table(path: FilePath, joint_names: Sequence[str]) -> tuple[tuple[Segment, ...], str]:
@@ -197,13 +184,7 @@ def read_segment_table(path: FilePath, joint_names: Sequence[str]) -> tuple[tupl
     description). Malformed tables raise FileFormatError naming the file and element.
     """
     source = str(path)
-    text = read_input_text(path, "segment table (JSON)")
-    try:
-        table = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
-    except RecursionError:
-        raise FileFormatError(source, "JSON nested too deeply") from None
+    table = read_json(path, "segment table (JSON)")
     items = table.get("segments") if isinstance(table, dict) else None
     if not isinstance(items, list) or not items:
         _fail(source, "segments", 'the top level must be an object with a non-empty "segments" list')
@@ -223,9 +204,7 @@ def read_segment_table(path: FilePath, joint_names: Sequence[str]) -> tuple[tupl
             _fail(source, f"{where}.{key}", f"unknown joint {joint!r:.60}{hint}")
         if "mass_kg" not in item or "com_offset_m" not in item:
             _fail(source, where, 'needs "mass_kg" and "com_offset_m"')
-        mass = item["mass_kg"]
-        if not _is_number(mass) or mass < 0:
-            _fail(source, f"{where}.mass_kg", f"must be a finite number >= 0 kg, got {mass!r:.60}")
+        mass = number_value(item["mass_kg"], source, f"{where}.mass_kg", 0.0, MAX_MASS)
         offset = _vector(source, f"{where}.com_offset_m", item["com_offset_m"])
         name = item.get("name", item.get("urdf_link", ""))
         segments.append(Segment(joint, float(mass), offset, name if isinstance(name, str) else ""))

@@ -1,25 +1,32 @@
 """One clip of a library as a job: its input, its outputs, the fingerprint of how they are made,
 and the sidecar that records a finished job so that a rerun skips it.
 
-A job is done when its sidecar (`OUTDIR/NAME.deik.json`) holds the job's fingerprint and every
-output it lists exists. The fingerprint is a SHA-256 of the command, its settings, deik's
-version, the bytes of the input clip and of every file the settings name (segment tables,
-limits, maps, targets, tracks) and the output paths: a changed setting, input or output folder
-makes another fingerprint, and the clip is redone. The sidecar is written atomically after
-the outputs (deik.io.atomic), so a job killed before its sidecar is redone, never skipped.
+A job is done when its sidecar (`OUTDIR/.NAME.deik.json`, NAME the clip's file name) holds the
+job's fingerprint and every output it lists exists. The sidecar is hidden: the outputs are named
+after clips, which are never hidden (deik.library.folder), so no output of any flag can share
+its name. The fingerprint is a SHA-256 of the command, its settings (not how the run is shown:
+--verbose, --progress), deik's version, the bytes of the input clip and of every file the
+settings name (segment tables, limits, maps, targets, tracks, whatever their names end in) and
+the output paths: a changed setting, input or output folder makes another fingerprint, and the
+clip is redone. The sidecar is written atomically after the outputs (deik.io.atomic), so a job
+killed before its sidecar is redone, never skipped. A damaged sidecar (not JSON, nested too
+deeply, a wrong-typed field, a folder, a device or a pipe) is read as no record: that clip is
+redone and the run says why.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from deik import __version__
+from deik.errors import FileFormatError
 from deik.io.atomic import write_json_atomically
-from deik.io.files import FilePath
+from deik.io.files import Fields, FilePath, open_input, read_json
 
 SIDECAR = ".deik.json"
 
@@ -66,9 +73,9 @@ Event = tuple[str, Job] | tuple[str, Job, int, int] | tuple[str, Outcome]
 
 
 def file_digest(path: FilePath) -> str:
-    """SHA-256 hex digest of a file's bytes."""
+    """SHA-256 hex digest of a file's bytes (read as an input: a regular file of bounded size)."""
     digest = hashlib.sha256()
-    with open(path, "rb") as file:
+    with open_input(path, "input") as (file, _):
         for block in iter(lambda: file.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
@@ -89,21 +96,39 @@ def fingerprint(command: str, settings: dict, source: str, files: dict, outputs:
 
 
 def sidecar_path(folder: FilePath, name: str) -> str:
-    """OUTDIR/STEM.deik.json for the clip file `name`."""
-    return os.path.join(os.path.abspath(folder), os.path.splitext(name)[0] + SIDECAR)
+    """OUTDIR/.NAME.deik.json for the clip file `name` (hidden: see the module notes)."""
+    return os.path.join(os.path.abspath(folder), f".{name}{SIDECAR}")
 
 
-def read_sidecar(job: Job) -> dict | None:
-    """The sidecar of `job` when it records this very job (same fingerprint, every output
-    present), else None (missing, unreadable, made otherwise, or an output gone)."""
+def read_sidecar(job: Job) -> tuple[dict | None, str]:
+    """(the sidecar of `job` when it records this very job (same fingerprint, every output
+    present), else None; why a sidecar that is there cannot be used, "" when none is there or it
+    records other settings or inputs)."""
+    if not os.path.lexists(job.sidecar):
+        return None, ""
     try:
-        with open(job.sidecar, encoding="utf-8") as file:
-            record = json.load(file)
-    except (OSError, ValueError):
-        return None
-    if not isinstance(record, dict) or record.get("fingerprint") != job.fingerprint:
-        return None
-    return record if all(os.path.isfile(path) for path in job.outputs) else None
+        fields = Fields(read_json(job.sidecar, "library record", record=False), job.sidecar)
+        if fields.text("fingerprint") != job.fingerprint:
+            return None, ""
+        document = {"seconds": fields.number("seconds", 0.0), "record": _record(fields.table("record"))}
+    except FileFormatError as error:
+        return None, f"its record is damaged ({error}); redoing the clip"
+    return (document if all(os.path.isfile(path) for path in job.outputs) else None), ""
+
+
+def _record(fields: Fields) -> dict:
+    """A task's record from a sidecar, checked for the fields the summary reads."""
+    record = dict(fields.data)
+    for key in ("frames", "frames_met"):
+        if key in fields:
+            fields.integer(key)
+    metrics = fields.table("metrics", {})
+    if metrics:
+        for key, value in metrics.data.items():
+            if value is not None:
+                metrics.number(key, -math.inf, math.inf)
+    fields.text("printed", "")
+    return record
 
 
 def write_sidecar(job: Job, record: dict, seconds: float) -> None:
@@ -120,9 +145,10 @@ def write_sidecar(job: Job, record: dict, seconds: float) -> None:
     write_json_atomically(job.sidecar, document, missing_as_null=True)
 
 
-def skipped(job: Job) -> Outcome | None:
-    """A "skipped" Outcome carrying the sidecar's record when `job` is done, else None."""
-    record = read_sidecar(job)
-    if record is None:
-        return None
-    return Outcome(job, "skipped", float(record.get("seconds") or 0.0), record.get("record"))
+def skipped(job: Job) -> tuple[Outcome | None, str]:
+    """(a "skipped" Outcome carrying the sidecar's record when `job` is done, else None; why a
+    damaged sidecar is ignored, or "")."""
+    document, damage = read_sidecar(job)
+    if document is None:
+        return None, damage
+    return Outcome(job, "skipped", document["seconds"], document["record"]), ""

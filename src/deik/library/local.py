@@ -13,15 +13,17 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import threading
 import time
 from collections import deque
 from collections.abc import Iterable, Iterator
 from multiprocessing.connection import wait
 
+from deik.errors import error_line
 from deik.library.jobs import Event, FrameProgress, Job, JobFailed, Outcome, Task, write_sidecar
 
 THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-STOP_WAIT_S = 5.0  # how long workers get to finish cleaning up after Ctrl-C before they are ended
+STOP_WAIT_S = 5.0  # how long workers get to exit after Ctrl-C before they are killed
 
 
 def default_workers(jobs: int, cores: int | None = None) -> int:
@@ -39,7 +41,13 @@ def perform(task: Task, job: Job, progress: FrameProgress) -> tuple[dict, float]
     began = time.perf_counter()
     record = task(job.payload, progress)
     seconds = time.perf_counter() - began
-    write_sidecar(job, record, seconds)
+    try:
+        write_sidecar(job, record, seconds)
+    except OSError as error:  # a full disk, or a folder where the record goes: the user's to fix
+        raise JobFailed(
+            f"its outputs are written but its record is not ({error_line(error)}); fix that and rerun "
+            "(the clip is redone)"
+        ) from None
     return record, seconds
 
 
@@ -58,8 +66,14 @@ def attempt(task: Task, job: Job, progress: FrameProgress) -> tuple:
 
 def _serve(connection, task) -> None:
     """A worker's loop: take a job, send progress and its outcome, until told to stop or the
-    parent has gone."""
-    with contextlib.suppress(KeyboardInterrupt, EOFError, BrokenPipeError):
+    parent has gone. Its progress bars (disabled) lock with a thread lock: tqdm's default
+    process-shared lock is a named semaphore, leaked (and warned about at exit) when a
+    worker is ended mid-clip after Ctrl-C."""
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
+    signal.signal(signal.SIGTERM, _leave)
+    with contextlib.suppress(EOFError, BrokenPipeError):
         while (job := connection.recv()) is not None:
             status, value, seconds = attempt(task, job, lambda done, total: connection.send(("progress", done, total)))
             connection.send((status, value, seconds))
@@ -80,13 +94,35 @@ def _environment(values: dict):
                 os.environ[key] = value
 
 
+def _leave(signum: int, frame: object) -> None:
+    """A worker's SIGTERM: exit through Python's unwinding, so that an all_or_nothing block of the
+    clip it holds removes its temporary files (deik.io.atomic)."""
+    raise SystemExit(128 + signum)
+
+
+@contextlib.contextmanager
+def _without_ctrl_c():
+    """SIGINT ignored inside the block, so that a process started in it ignores Ctrl-C from its
+    first instruction (an ignored signal stays ignored across exec, and Python then installs no
+    KeyboardInterrupt): Ctrl-C is the parent's to handle, which stops its workers; a worker
+    interrupted while importing or compiling printed tracebacks and leaked semaphores."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread sets handlers
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class _Worker:
     """A worker process, the parent's end of its pipe and the job it holds (or None)."""
 
     def __init__(self, context, task, threads: int):
         self.connection, child = context.Pipe()
         self.process = context.Process(target=_serve, args=(child, task), daemon=True, name="deik-library-worker")
-        with _environment({key: str(threads) for key in THREAD_VARIABLES}):
+        with _environment({key: str(threads) for key in THREAD_VARIABLES}), _without_ctrl_c():
             self.process.start()
         child.close()
         self.job = None
@@ -145,14 +181,19 @@ def _drain(worker: _Worker):
 
 
 def _stop(pool: list) -> None:
-    """Tell every worker to stop, give them STOP_WAIT_S to finish cleaning up, then end them."""
+    """Tell every idle worker to stop and end every busy one (the run was interrupted: SIGTERM,
+    on which a worker removes its temporary files and exits), give them STOP_WAIT_S, then kill
+    the rest. A clip cut short is redone by the next run: its record was never written."""
     for worker in pool:
-        with contextlib.suppress(OSError, BrokenPipeError):
-            worker.connection.send(None)
+        if worker.job is None:
+            with contextlib.suppress(OSError, BrokenPipeError):
+                worker.connection.send(None)
+        else:
+            worker.process.terminate()
     deadline = time.monotonic() + STOP_WAIT_S
     for worker in pool:
         worker.process.join(max(0.0, deadline - time.monotonic()))
         if worker.process.is_alive():
-            worker.process.terminate()
+            worker.process.kill()
             worker.process.join(1.0)
         worker.connection.close()

@@ -17,6 +17,7 @@ import logging
 from collections.abc import Iterator, Sequence
 from types import ModuleType
 
+from deik.errors import SolveError
 from deik.library.jobs import Event, Job, Outcome, Task
 from deik.library.local import THREAD_VARIABLES, attempt
 
@@ -31,6 +32,27 @@ def require_ray() -> ModuleType:
     except ImportError:
         raise ImportError(RAY_MISSING) from None
     return ray
+
+
+def _start(ray: ModuleType, address: str | None) -> None:
+    """ray.init on `address` (None or "local": a Ray started here); SolveError with Ray's reason
+    when it cannot (its processes too slow to start under a memory cap, nobody at the address):
+    the machine's or the cluster's state, not a bug of deik."""
+    here = address in (None, "local")
+    try:
+        ray.init(
+            address=None if here else address,
+            include_dashboard=False,
+            log_to_driver=False,
+            logging_level=logging.ERROR,
+        )
+    except Exception as error:  # noqa: BLE001 - Ray raises many kinds; each means Ray did not start
+        reason = " ".join(str(error).split()[:40]) or type(error).__name__
+        where = "start Ray on this machine" if here else f"join the Ray cluster at {address!r}"
+        raise SolveError(
+            f"the Ray executor could not {where} ({reason}); check free memory (Ray needs about 2 GiB) and the "
+            "address, or run with --executor local"
+        ) from None
 
 
 def _run_on_worker(task, job, queue) -> tuple:
@@ -54,12 +76,7 @@ def ray_events(
 
     ours = not ray.is_initialized()
     if ours:
-        ray.init(
-            address=None if address in (None, "local") else address,
-            include_dashboard=False,
-            log_to_driver=False,
-            logging_level=logging.ERROR,
-        )
+        _start(ray, address)
     queue = Queue(actor_options={"num_cpus": 0})
     remote = ray.remote(_run_on_worker).options(
         num_cpus=threads, max_retries=0, runtime_env={"env_vars": {key: str(threads) for key in THREAD_VARIABLES}}

@@ -88,8 +88,11 @@ def run_library(
     _check(executor, workers, address)
     began = time.perf_counter()
     outcomes, pending = {}, []
+    say = note or (lambda line: print(line, file=sys.stderr))
     for job in jobs:
-        done = skipped(job)
+        done, damage = skipped(job)
+        if damage:
+            say(f"deik: {job.name}: {damage}")
         if done is None:
             pending.append(job)
         else:

@@ -6,6 +6,7 @@ hold the two to each other and to scipy's Rotation.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,7 +43,7 @@ def forward_kinematics(skeleton: Skeleton, angles: ArrayLike) -> Kinematics:
     """Angles (*batch, D) in radians / length units -> Kinematics of every joint and site."""
     q = skeleton.check_angles(angles)
     batch = q.shape[:-1]
-    q = q.reshape(-1, skeleton.n_dofs)
+    q = q.reshape(math.prod(batch), skeleton.n_dofs)  # not -1: a skeleton without DOFs has size 0
     N, J = q.shape[0], skeleton.n_joints
     R = np.empty((N, J, 3, 3))
     p = np.empty((N, J, 3))

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from deik.errors import InputError
 from deik.model.rotations import euler_matrix
+from deik.model.values import real_array
 
 FORMS = {"matrix": 2, "quat-wxyz": 1, "quat-xyzw": 1, "rpy": 1, "xyz": 1}  # form -> ndim of one value
 QUATERNION_ORDERS = ("wxyz", "xyzw")
@@ -134,7 +135,7 @@ def rotation_from(form: str, value: ArrayLike, what: str) -> np.ndarray:
     is not a rotation or a quaternion that is not unit length."""
     if form not in FORMS:
         raise InputError(f"{what}: orientation form {form!r} is not one of {', '.join(FORMS)}")
-    a = np.asarray(value, dtype=np.float64)
+    a = real_array(value, what)
     shapes = {"matrix": ((3, 3), (4, 4)), "rpy": ((3,),), "xyz": ((3,),)}.get(form, ((4,),))
     ndim = FORMS[form]
     if a.ndim < ndim or a.shape[a.ndim - ndim :] not in shapes:

@@ -16,10 +16,13 @@ from numpy.typing import ArrayLike
 
 from deik.errors import InputError, UnknownNameError
 from deik.model.joints import TRANSLATE
+from deik.model.values import real_array
 from deik.suggest import did_you_mean
 
 MAX_LIMIT = 1e6  # radians or length units: beyond it float32 poses cannot resolve a millimetre or a degree
+MAX_LENGTH = MAX_LIMIT  # length units: offsets of joints, sites and masses, mimic offsets, for the same reason
 MAX_MASS = 1e12  # kg per segment: keeps every total finite
+MAX_MIMIC_SCALE = 1e6  # a mimic's multiplier: a larger one turns a float32 step of its source into a leap
 
 
 def _improper(R: np.ndarray) -> np.ndarray:
@@ -110,6 +113,12 @@ class Skeleton:
         if J == 0:
             _fail("a skeleton needs at least one joint")
         names = list(self.joint_names) + list(self.site_names)
+        for name in [*names, *self.dof_names, *self.mimic_names, *self.joint_labels]:
+            if not isinstance(name, str) or not name.isprintable():
+                _fail(
+                    f"name {name!r} holds control characters (a terminal would run them when it is printed); "
+                    "rename it with printable characters"
+                )
         dupes = sorted(name for name, count in Counter(names).items() if count > 1)
         if dupes:
             _fail(f"duplicate joint/site names {dupes}; joints and sites share one namespace")
@@ -135,6 +144,12 @@ class Skeleton:
             bad = ~np.isfinite(arr).all(axis=-1) if arr.size else np.zeros(0, bool)
             if bad.any():
                 _fail(f"{label} row {int(np.argmax(bad))} is not finite (NaN or infinite): {arr[bad][0]}")
+            huge = (np.abs(arr) > MAX_LENGTH).any(axis=-1) if arr.size else np.zeros(0, bool)
+            if huge.any():
+                _fail(
+                    f"{label} row {int(np.argmax(huge))} is {arr[huge][0]}, beyond +-{MAX_LENGTH:g} length units, "
+                    "where poses lose all precision; give real lengths"
+                )
         if self.joint_dof_start.shape != (J + 1,) or self.joint_dof_start[-1] != D:
             _fail(f"joint_dof_start must be ({J + 1},) ending at the DOF count {D}")
         if D and (np.abs(np.linalg.norm(self.dof_axis, axis=1) - 1.0) > 1e-6).any():
@@ -187,6 +202,11 @@ class Skeleton:
             values = (*self.mimic_axis[k], self.mimic_scale[k], self.mimic_bias[k])
             if not np.isfinite(values).all() or abs(np.linalg.norm(self.mimic_axis[k]) - 1.0) > 1e-6:
                 _fail(f"mimic DOF {self.mimic_names[k]!r} needs a finite unit axis, multiplier and offset")
+            if abs(self.mimic_scale[k]) > MAX_MIMIC_SCALE or abs(self.mimic_bias[k]) > MAX_LENGTH:
+                _fail(
+                    f"mimic DOF {self.mimic_names[k]!r} has multiplier {self.mimic_scale[k]:g} and offset "
+                    f"{self.mimic_bias[k]:g}; they must lie within +-{MAX_MIMIC_SCALE:g} and +-{MAX_LENGTH:g}"
+                )
 
     @property
     def n_joints(self) -> int:
@@ -297,7 +317,7 @@ class Skeleton:
 
     def check_angles(self, angles: ArrayLike, name: str = "angles") -> np.ndarray:
         """Validate a pose array (*batch, D): finite, last axis D. Returns float64 array."""
-        a = np.asarray(angles, dtype=np.float64)
+        a = real_array(angles, name)
         if a.ndim == 0 or a.shape[-1] != self.n_dofs:
             raise InputError(f"{name} must have shape (..., {self.n_dofs}) for skeleton {self.name!r}, got {a.shape}")
         if not np.isfinite(a).all():

@@ -11,19 +11,25 @@ from numpy.typing import ArrayLike
 from deik.errors import InputError
 from deik.model.orientations import QUICK_MARGIN
 from deik.model.skeleton import Skeleton
+from deik.model.values import real_array
 from deik.objectives.kinds import N_PARAMS
 
+MAX_MAGNITUDE = 1e12  # of a target's numbers: their squares stay finite in the kernels' float32 maths
 REACH_SLACK = 1e-9  # relative: a target this much beyond a chain's length is rounding, not out of reach
 
 
 def vector(value: ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
     """`value` of `shape` or (B, *shape) as a finite float64 array (B, *shape), B = 1 without
     a batch axis; a ValueError naming `what` otherwise."""
-    a = np.asarray(value, dtype=np.float64)
+    a = real_array(value, what)
     if a.shape[-len(shape) :] != shape or a.ndim > len(shape) + 1:
         raise InputError(f"{what} must have shape {shape} or (batch, *{shape}), got {a.shape}")
+    if a.ndim > len(shape) and len(a) == 0:
+        raise InputError(f"{what} is a batch of 0: give at least one target")
     if not np.isfinite(a).all():
-        raise InputError(f"{what} contains NaN or infinite values: {value!r}")
+        raise InputError(f"{what} contains NaN or infinite values: {value!r:.200}")
+    if a.size and np.abs(a).max() > MAX_MAGNITUDE:
+        raise InputError(f"{what} holds {np.abs(a).max():g}, beyond +-{MAX_MAGNITUDE:g}; give real coordinates")
     return a.reshape((-1,) + shape) if a.ndim > len(shape) else a[None]
 
 

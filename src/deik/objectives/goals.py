@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 from deik.errors import InputError
 from deik.model.orientations import FORMS, passes_rotation_check, rotation_from
 from deik.model.skeleton import Skeleton
+from deik.model.values import real_array
 from deik.objectives.goal_values import (
     check_reachable,
     dof_weights,
@@ -158,7 +159,7 @@ class Position(Goal):
         within = reach_test(skeleton, skeleton.frame_index(self.frame))
 
         def quick(target: ArrayLike) -> np.ndarray | None:
-            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            a = real_array(target, "target")  # raises as target_params' conversion would
             if a.shape != (3,):
                 return None
             x, y, z = a.tolist()
@@ -201,7 +202,7 @@ class Orientation(Goal):
             return None
 
         def quick(target: ArrayLike) -> np.ndarray | None:
-            a = np.asarray(target, dtype=np.float64)  # raises as target_params' conversion would
+            a = real_array(target, "target")  # raises as target_params' conversion would
             return a.reshape(9) if a.shape == (3, 3) and passes_rotation_check(a.tolist()) else None
 
         return quick

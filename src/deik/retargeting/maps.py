@@ -21,16 +21,14 @@ docs/retarget.md describes the format and how each entry is used.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from dataclasses import dataclass
 
 import numpy as np
 
 from deik.errors import FileFormatError
-from deik.io.files import FilePath, read_input_text
-from deik.model.skeleton import Skeleton
+from deik.io.files import FilePath, number_value, numbers_value, read_json_or_toml
+from deik.model.skeleton import MAX_LENGTH, Skeleton
 from deik.retargeting.keypoints import stature
 from deik.suggest import did_you_mean
 
@@ -68,12 +66,8 @@ class JointMap:
     source: str = "<joint map>"
 
 
-def _vector(source: str, key: str, value, length: int = 3) -> tuple[float, ...]:
-    ok = isinstance(value, list) and len(value) == length
-    ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    if not ok:
-        raise FileFormatError(source, f"must be a list of {length} finite numbers, got {value!r:.60}", element=key)
-    return tuple(float(v) for v in value)
+def _vector(source: str, key: str, value, length: int = 3, bound: float = MAX_LENGTH) -> tuple[float, ...]:
+    return numbers_value(value, source, key, length, -bound, bound)
 
 
 def _pair(source: str, key: str, value) -> tuple[str, str]:
@@ -109,10 +103,14 @@ def parse_map(data: object, source: str) -> JointMap:
     if not isinstance(points, dict) or not points:
         raise FileFormatError(source, 'needs a [points] table: SOURCE = "TARGET" per key point', element="points")
     scale = data.get("scale", "height")
-    if scale not in ("height", "limbs") and not (
-        isinstance(scale, (int, float)) and not isinstance(scale, bool) and math.isfinite(scale) and scale > 0
-    ):
-        raise FileFormatError(source, f'must be "limbs", "height" or a number > 0, got {scale!r:.40}', element="scale")
+    if scale not in ("height", "limbs"):
+        if isinstance(scale, str) or isinstance(scale, bool) or not isinstance(scale, (int, float)):
+            raise FileFormatError(
+                source, f'must be "limbs", "height" or a number > 0, got {scale!r:.40}', element="scale"
+            )
+        scale = number_value(scale, source, "scale", 0.0, MAX_LENGTH)
+        if scale <= 0:
+            raise FileFormatError(source, f'must be "limbs", "height" or a number > 0, got {scale:g}', element="scale")
     if scale == "limbs" and not ("pelvis" in data and isinstance(data["pelvis"], dict)):
         raise FileFormatError(source, 'scale = "limbs" measures from the pelvis: give pelvis too', element="scale")
     rotation = None
@@ -120,7 +118,7 @@ def parse_map(data: object, source: str) -> JointMap:
         rows = data["rotation"]
         if not (isinstance(rows, list) and len(rows) == 3):
             raise FileFormatError(source, "must be 3 rows of 3 numbers", element="rotation")
-        rotation = np.array([_vector(source, f"rotation[{k}]", row) for k, row in enumerate(rows)])
+        rotation = np.array([_vector(source, f"rotation[{k}]", row, bound=2.0) for k, row in enumerate(rows)])
         if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) and np.linalg.det(rotation) > 0):
             raise FileFormatError(
                 source, "must be a rotation matrix (orthonormal rows, determinant +1)", element="rotation"
@@ -129,7 +127,7 @@ def parse_map(data: object, source: str) -> JointMap:
         points=tuple(_point(source, str(name), value) for name, value in points.items()),
         scale=None if scale in ("height", "limbs") else float(scale),
         limbs=scale == "limbs",
-        up=_vector(source, "up", data["up"]) if "up" in data else None,
+        up=_up(source, data["up"]) if "up" in data else None,
         rotation=rotation,
         pelvis=_pair(source, "pelvis", data["pelvis"]) if "pelvis" in data else None,
         torso=_pair(source, "torso", data["torso"]) if "torso" in data else None,
@@ -137,17 +135,16 @@ def parse_map(data: object, source: str) -> JointMap:
     )
 
 
+def _up(source: str, value) -> tuple[float, float, float]:
+    up = _vector(source, "up", value)
+    if not 1e-6 <= math.hypot(*up) <= MAX_LENGTH:
+        raise FileFormatError(source, f"must be a direction: a non-zero vector, got {list(up)}", element="up")
+    return up
+
+
 def read_map(path: FilePath) -> JointMap:
     """Read the joint map at `path` (TOML, or JSON for `.json`); FileFormatError when malformed."""
-    source = str(path)
-    text = read_input_text(path, "joint map")
-    try:
-        data = json.loads(text) if source.lower().endswith(".json") else tomllib.loads(text)
-    except json.JSONDecodeError as error:
-        raise FileFormatError(source, f"not valid JSON: {error.msg}", line=error.lineno) from None
-    except tomllib.TOMLDecodeError as error:
-        raise FileFormatError(source, f"not valid TOML: {error}") from None
-    return parse_map(data, source)
+    return parse_map(read_json_or_toml(path, "joint map"), str(path))
 
 
 SIZE_RANGE = 10.0  # the scaled source may be this many times taller or shorter than the target, no more

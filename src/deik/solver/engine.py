@@ -18,8 +18,9 @@ from deik.backends.contract import KernelInputs, Seeds, SolveBuffers, backend_fo
 from deik.backends.pack import kernel_array, pack_skeleton, pack_terms
 from deik.device.layout import Buffers, KernelSettings, PackedTerms, PolishSchedule, SearchRules, Status
 from deik.errors import InputError
+from deik.memory import check_memory
 from deik.objectives.kinds import TOLERANCE, WEIGHT
-from deik.solver.memory import check_memory, solve_bytes
+from deik.solver.footprint import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.result import ReportTerms
 from deik.solver.routing import choose_device
@@ -156,8 +157,8 @@ class Engine:
         return Seeds(kernel_array(init, dtype), init.shape[1])
 
     def check_memory(self) -> None:
-        """ValueError with the estimate and the fix when a solve's buffers would not fit
-        (deik.solver.memory)."""
+        """SolveError with the estimate and the fix when a solve's buffers would not fit
+        (deik.memory)."""
         B, P, D, T, L, dtype, _ = self.sizes
         needed = solve_bytes(B, P, D, T, L, dtype.itemsize, self.settings.generations)
         check_memory(needed, self.settings.memory_limit, f"a solve of {B} problem(s) x population {P}")
@@ -210,6 +211,7 @@ class Engine:
     def start(self, n_generations: int, initial: ArrayLike | None = None) -> EvolutionState:
         """init(initial) then run(state, n_generations) as one backend call (on the CPU one
         compiled call: no Python between set-up, generations, polish and stopping)."""
+        _check_generations(n_generations)
         work, seeds = self._fresh(initial, n_generations)
         advanced = self.backend.start(self.inputs, work, seeds, n_generations)
         self.backend.fetch(work)
@@ -217,6 +219,7 @@ class Engine:
 
     def run(self, state: EvolutionState, n_generations: int) -> EvolutionState:
         """Run up to n_generations more (each problem stops on convergence or stagnation)."""
+        _check_generations(n_generations)
         B = state.pop.shape[0]
         # generation-major and left unfilled: a launch touches only the rows it runs, however
         # large the budget (a batch of 10,000 x 2,000 generations would be 320 MB to fill)
@@ -245,6 +248,14 @@ class Engine:
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
+
+
+def _check_generations(n_generations: int) -> None:
+    """ValueError unless `n_generations` is a whole number >= 0 (the generations to run)."""
+    if isinstance(n_generations, (bool, np.bool_)) or not isinstance(n_generations, (int, np.integer)):
+        raise InputError(f"n_generations must be a whole number >= 0, got {n_generations!r}")
+    if n_generations < 0:
+        raise InputError(f"n_generations must be >= 0 (the generations to run), got {n_generations}")
 
 
 def _sizes(problem: Problem, settings: Settings) -> tuple:

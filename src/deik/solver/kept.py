@@ -20,7 +20,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from deik.solver.engine import Engine
-from deik.solver.memory import solve_bytes
+from deik.solver.footprint import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.settings import Settings
 from deik.solver.workspace import Workspace

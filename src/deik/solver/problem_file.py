@@ -42,14 +42,13 @@ joint_limits = "limits.json", a table of narrower limits (deik.io.limits).
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from deik.errors import InputError
-from deik.io.files import FilePath, read_input_text
+from deik.io.files import FilePath, read_toml
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import SKELETON_FORMS, Loaded, load_skeleton
 from deik.objectives import goals as g
@@ -80,16 +79,7 @@ def load_problem(path: FilePath) -> ProblemFile:
     """Read TOML file `path`: its Problem, settings dict (deik.solve(problem, **settings)),
     loaded skeleton and start frame (see ProblemFile)."""
     path = str(path)
-    text = read_input_text(path, "problem (TOML)")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise InputError(f"{path}: not valid TOML: {error}") from None
-    except RecursionError:
-        raise InputError(
-            f"{path}: arrays or tables nested too deeply to read; a problem file needs at most "
-            "three levels (a 3x3 rotation)"
-        ) from None
+    data = read_toml(path, "problem (TOML)")
     for key in data:
         if key not in TOP_LEVEL:
             raise InputError(

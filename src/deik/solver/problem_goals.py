@@ -26,7 +26,11 @@ ANGLE_TYPES = tuple(name for name, row in FILE_TYPES.items() if row.unit == ANGL
 
 
 def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A TOML integer or float (NaN and infinity included: they are refused by name later), but
+    not a bool nor an integer too long for a float (a 401-digit number)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    return isinstance(value, float) or abs(value) < 2**1023
 
 
 VECTOR_FORMS = {(3,): "[x, y, z]", (3, 3): "[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]"}
@@ -43,7 +47,7 @@ def vector_field(value: object, shape: tuple[int, ...], where: str, field: str, 
 
     form = form or VECTOR_FORMS.get(shape, f"a list of {shape[0]} numbers")
     if not check(value, shape):
-        raise InputError(f"{where}: field {field!r} must be {form}, got {value!r}")
+        raise InputError(f"{where}: field {field!r} must be {form} (finite numbers), got {value!r:.200}")
     array = np.asarray(value, dtype=np.float64)
     if not np.isfinite(array).all():
         raise InputError(f"{where}: field {field!r} contains NaN or infinity ({value!r}); give finite numbers")
@@ -57,7 +61,7 @@ def _scalar(value, field: str, where: str):
             return value
         raise InputError(f"{where}: field 'level' must be an integer >= 0 (0 = highest priority), got {value!r}")
     if not (_is_number(value) and math.isfinite(value)):
-        raise InputError(f"{where}: field {field!r} must be a finite number, got {value!r}")
+        raise InputError(f"{where}: field {field!r} must be a finite number, got {value!r:.80}")
     return float(value)
 
 

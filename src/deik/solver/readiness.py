@@ -12,9 +12,11 @@ measured on the reference machine below.
 
 from __future__ import annotations
 
-import json
+import contextlib
 import os
-import tempfile
+
+from deik.io.atomic import write_json_atomically
+from deik.io.files import read_json
 
 # seconds each compile took on the reference machine, a shared 2-core AMD EPYC VM (Numba's compile
 # timers of the first solves of benchmarks/cold_start.py, median of its runs, 2026-11-25)
@@ -92,12 +94,18 @@ def _record_path() -> str | None:
 
 def measured_seconds() -> dict:
     """{kernel name: compile seconds} recorded on this machine (empty if none or unreadable)."""
-    path = _record_path()
+    return read_record(_record_path())
+
+
+def read_record(path: str | None) -> dict:
+    """The JSON object deik recorded at `path` (a compile-time or crossover record), through the one
+    input reader; empty when there is none or it is damaged (deik's own record, never an input)."""
+    if path is None or not os.path.exists(path):
+        return {}
     try:
-        with open(path) as file:
-            data = json.load(file)
+        data = read_json(path, "deik record", record=False)
         return {str(k): float(v) for k, v in data.items()}
-    except (TypeError, OSError, ValueError, AttributeError):
+    except (TypeError, ValueError, AttributeError, OverflowError):
         return {}
 
 
@@ -142,15 +150,7 @@ def record_compiles() -> dict:
 
 
 def write_json(path: str, data: dict) -> None:
-    """Replace the file at `path` with `data` in one step (a reader never sees half of it); a
-    folder that refuses it is left as it was."""
-    try:
-        handle, temporary = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
-    except OSError:
-        return
-    try:
-        with os.fdopen(handle, "w") as file:
-            json.dump(data, file)
-        os.replace(temporary, path)
-    except OSError:
-        os.unlink(temporary)
+    """Replace the file at `path` with `data` in one step (deik.io.atomic: a reader never sees
+    half of it); a folder that refuses it is left as it was."""
+    with contextlib.suppress(OSError):
+        write_json_atomically(path, data)

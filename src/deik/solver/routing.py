@@ -20,7 +20,6 @@ CROSSOVER_FILE beside the kernel cache and take precedence.
 
 from __future__ import annotations
 
-import json
 import os
 from functools import cache
 
@@ -42,14 +41,10 @@ def crossover_path() -> str | None:
 @cache
 def crossover() -> dict:
     """{"polish_problems": n, "evolution_work": w}: this machine's measured values, else the defaults."""
-    path = crossover_path()
-    measured = {}
-    try:
-        with open(path) as file:
-            measured = {k: float(v) for k, v in json.load(file).items() if k in DEFAULT_CROSSOVER}
-    except (TypeError, OSError, ValueError, AttributeError):
-        pass
-    return {**DEFAULT_CROSSOVER, **measured}
+    from deik.solver.readiness import read_record
+
+    measured = read_record(crossover_path())
+    return {**DEFAULT_CROSSOVER, **{k: v for k, v in measured.items() if k in DEFAULT_CROSSOVER}}
 
 
 def store_crossover(values: dict) -> str | None:

@@ -8,18 +8,27 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.errors import InputError
+from deik.memory import check_memory
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
+from deik.model.values import real_array
 
 
 def poses_around(
-    skeleton: Skeleton, pose: ArrayLike, count: int, spread: ArrayLike = 0.05, seed: int = 0
+    skeleton: Skeleton,
+    pose: ArrayLike,
+    count: int,
+    spread: ArrayLike = 0.05,
+    seed: int = 0,
+    memory_limit: int | None = None,
 ) -> np.ndarray:
     """(*batch, count, D) poses: each `pose` (*batch, D) itself, then copies perturbed by
     Gaussian noise of `spread` radians on rotations and `spread` x reach on translations
     (`spread`: a scalar, or one value per perturbed copy (count - 1,) to mix fine and wide
     starts). A DOF whose limits span a full turn wraps around; any other is folded back inside
-    its limits. Every pose must lie within the limits (ValueError naming the first DOF outside)."""
+    its limits. Every pose must lie within the limits (ValueError naming the first DOF outside);
+    more poses than `memory_limit` bytes hold (default: deik.memory's) are refused before they
+    are made (SolveError)."""
     pose = skeleton.check_angles(pose, "seed pose")
     outside = np.argwhere((pose < skeleton.lower) | (pose > skeleton.upper))
     if outside.size:
@@ -29,10 +38,17 @@ def poses_around(
             f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
             f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]"
         )
-    if count < 1:
-        raise InputError(f"count must be at least 1, got {count}")
+    if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise InputError(f"count must be a whole number >= 1, got {count!r}")
     rotation = skeleton.dof_kind == ROTATE
-    spread = np.broadcast_to(np.asarray(spread, np.float64).reshape(-1, 1), (count - 1, 1))
+    # the noise, the poses and three same-sized temporaries of the folding, float64
+    check_memory(5 * 8 * pose[..., 0].size * count * skeleton.n_dofs, memory_limit, f"{count} poses around a pose")
+    spread = real_array(spread, "spread")
+    if spread.ndim > 1 or spread.size not in (1, count - 1) or not (np.isfinite(spread) & (spread >= 0)).all():
+        raise InputError(
+            f"spread must be a finite number >= 0, or {count - 1} of them (one per perturbed copy), got {spread!r:.80}"
+        )
+    spread = np.broadcast_to(spread.reshape(-1, 1), (count - 1, 1))
     sigma = spread * np.where(rotation, 1.0, skeleton.reach)
     shape = pose.shape[:-1] + (count - 1, skeleton.n_dofs)
     noise = np.random.default_rng(seed).normal(size=shape) * sigma

@@ -151,9 +151,17 @@ def _number(name: str, value, meaning: str) -> None:
     if (
         isinstance(value, (bool, np.bool_))
         or not isinstance(value, (int, float, np.integer, np.floating))
-        or not math.isfinite(value)
+        or not _finite(value)
     ):
-        raise InputError(f"{name} must be a finite number ({meaning}), got {value!r}")
+        raise InputError(f"{name} must be a finite number ({meaning}), got {value!r:.60}")
+
+
+def _finite(value) -> bool:
+    """Whether a number is finite (an integer too large for a float, of 400 digits, is not)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _boolean(name: str, value) -> None:

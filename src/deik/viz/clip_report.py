@@ -117,6 +117,6 @@ def plot_clip_report(
     axes[-1, 0].set_xlabel("time (s)")
     figure.suptitle("\n".join([title or "clip errors before and after", *notes]))
     try:
-        save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
+        save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=100))
     finally:
         plt.close(figure)

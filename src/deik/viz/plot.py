@@ -183,7 +183,7 @@ def plot_pose(
     figure = pose_figure(skeleton, angles, marks, title, projection, unit)
     plt = require_matplotlib()
     try:
-        save_atomically(path, lambda temporary: figure.savefig(temporary, format="png", dpi=100))
+        save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=100))
     finally:
         plt.close(figure)
 

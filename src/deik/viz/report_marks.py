@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from deik.errors import FileFormatError
-from deik.io.files import FilePath, read_input_json
+from deik.io.files import FilePath, read_json
 from deik.viz.scene import Marks, Scene
 
 WHAT = "clip report (JSON)"
@@ -21,7 +21,7 @@ FIX = "give the file `deik clip --json` wrote for this clip"
 def read_clip_report(path: FilePath) -> dict:
     """The report at `path`, checked for the keys the view reads."""
     path = str(path)
-    document = read_input_json(path, WHAT)
+    document = read_json(path, WHAT)
     if not isinstance(document, dict) or not isinstance(document.get("frames"), int):
         raise FileFormatError(path, f'is no clip report: it has no "frames" count; {FIX}')
     return document

@@ -17,3 +17,9 @@ def shown(value: float, unit: str) -> str:
     """`value` of a goal error or tolerance in `unit` ("m", "rad", ...) as reports show it:
     angles in degrees (docs/conventions.md), everything else in its own unit, 6 digits."""
     return f"{math.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
+
+
+def figure(value: float | None, form: str = ".4g") -> str:
+    """`value` to `form`, or "-" when it was not measured (None, or NaN: a clip too short for an
+    acceleration, a measure with nothing to measure)."""
+    return "-" if value is None or not math.isfinite(value) else f"{value:{form}}"

@@ -18,6 +18,7 @@ from deik.cleanup.units import METRES
 from deik.errors import InputError
 from deik.io.load import load_skeleton
 from deik.io.pose_json import pose_angles, read_pose_json
+from deik.viz.hosts import check_host
 from deik.viz.marks import length_unit
 from deik.viz.scene import Scene, figure_from_pose_file, figure_from_poses, target_marks, with_compare
 
@@ -153,6 +154,7 @@ def view(
 
     if not 0 <= port <= 65535:
         raise InputError(f"--port {port}: give a port from 1 to 65535 (0: any free port)")
+    check_host(host)
     require_viser()
     scene = view_scene(file, options)
 

@@ -1,4 +1,4 @@
-"""BVH text, part 1: decoding, numbers and the HIERARCHY block parsed into a list of nodes.
+"""BVH text, part 1: numbers and the HIERARCHY block parsed into a list of nodes.
 
 Every malformed input raises FileFormatError naming the file and the line.
 """
@@ -53,20 +53,6 @@ def number(source: str, token: str, line: int, what: str) -> float:
     else:
         problem = f"{what} {_show(token)} is not a number"
     raise FileFormatError(source, problem, line=line)
-
-
-def decode(data: bytes | str, source: str) -> str:
-    """Text of a BVH file; NUL bytes or bytes that are not UTF-8 mean a binary file."""
-    if isinstance(data, bytes):
-        try:
-            data = data.decode("utf-8-sig")
-        except UnicodeDecodeError as error:
-            line = data.count(b"\n", 0, error.start) + 1
-            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)", line=line) from None
-    if "\x00" in data:
-        line = data.count("\n", 0, data.index("\x00")) + 1
-        raise FileFormatError(source, "not a text BVH file (NUL bytes)", line=line)
-    return data.removeprefix("\ufeff")
 
 
 class Hierarchy:
@@ -181,7 +167,7 @@ class Hierarchy:
                 else f"second CHANNELS in {top.describe()}",
                 line,
             )
-        if not rest or not (rest[0].isascii() and rest[0].isdigit()):
+        if not rest or not (rest[0].isascii() and rest[0].isdigit() and len(rest[0]) <= 6):
             self.fail("CHANNELS needs a count then the channel names", line)
         count, names = int(rest[0]), rest[1:]
         if count != len(names):

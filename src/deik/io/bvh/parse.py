@@ -14,92 +14,86 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 from deik.errors import FileFormatError
-from deik.io.bvh.hierarchy import FRAME_TIME, FRAMES, MAX_MAGNITUDE, NUMBER_LINE, Hierarchy, Node, decode, number
-from deik.io.files import FilePath, read_input
+from deik.io.bvh.frames import FrameReader
+from deik.io.bvh.hierarchy import FRAME_TIME, FRAMES, Hierarchy, Node, number
+from deik.io.files import FilePath, open_input
 from deik.io.motion import CHANNELS, Clip, JointChannels
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 
-
-def _frame_values(source: str, rows: list[tuple[int, str]], expected: int) -> np.ndarray:
-    """(N, expected) float64 from frame lines (line number, text), converted by NumPy's C reader
-    in one call; only when that fails (a count, a token or a magnitude is off) are the lines
-    checked one by one, so that the error names the first bad line and number."""
-    if not rows:
-        return np.zeros((0, expected))
-    block = "\n".join(text for _, text in rows)
-    try:
-        values = np.loadtxt(io.StringIO(block), dtype=np.float64, comments=None, ndmin=2)
-    except ValueError:
-        values = None
-    if values is not None and values.shape == (len(rows), expected) and np.all(np.abs(values) <= MAX_MAGNITUDE):
-        return values  # (NaN fails the magnitude test)
-    return np.array([_frame_row(source, text, n, expected) for n, text in rows], np.float64).reshape(-1, expected)
-
-
-def _frame_row(source: str, text: str, line: int, expected: int) -> list[float]:
-    words = text.split()
-    if len(words) != expected:
-        raise FileFormatError(
-            source, f"frame has {len(words)} numbers, expected {expected} (one per channel)", line=line
-        )
-    if NUMBER_LINE.fullmatch(text):
-        try:
-            row = [float(w) for w in words]
-            if all(abs(v) <= MAX_MAGNITUDE for v in row):
-                return row
-        except ValueError:
-            pass
-    return [number(source, w, line, f"channel {k + 1}") for k, w in enumerate(words)]
-
-
 MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
-MAX_EMPTY_FRAMES = 10_000_000  # frames a channel-less clip may declare (no lines back them)
 LOCAL_TOLERANCE = 0.01  # of a bone's OFFSET: position channels this close to it in every frame repeat it
+MAX_HIERARCHY_BYTES = 16 << 20  # the HIERARCHY section: a 100,000-joint skeleton takes about 10 MB
 
 
-def _parse_motion(source: str, lines: list[str], motion: int, n_channels: int):
-    """(values (N, C) in file order and units, frame time in s) from lines after MOTION."""
+def _lines(file: BinaryIO, source: str, first: int = 1):
+    """(line number, text) of each line of `file` from line `first`, decoded (a byte-order mark
+    allowed on line 1); FileFormatError at a NUL byte or bytes that are not UTF-8."""
+    for n, raw in enumerate(iter(file.readline, b""), first):
+        if n == 1:
+            raw = raw.removeprefix(b"\xef\xbb\xbf")
+        if b"\0" in raw:
+            raise FileFormatError(source, "not a text BVH file (NUL bytes)", line=n)
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)", line=n) from None
+        yield n, text.removesuffix("\n").removesuffix("\r")
 
-    def fail(problem, line):
-        raise FileFormatError(source, problem, line=line)
 
-    if len(lines[motion - 1].split()) != 1:
-        fail("MOTION must stand alone on its line", motion)
-    body = [(n, text.strip()) for n, text in enumerate(lines[motion:], motion + 1) if text.strip()]
+def _hierarchy(file: BinaryIO, source: str) -> tuple[list[str], int | None]:
+    """(the lines before MOTION, the line number of MOTION or None when the file has none)."""
+    lines, size = [], 0
+    for n, text in _lines(file, source):
+        if [w.upper() for w in text.split()[:1]] == ["MOTION"]:
+            if len(text.split()) != 1:
+                raise FileFormatError(source, "MOTION must stand alone on its line", line=n)
+            return lines, n
+        size += len(text) + 1
+        if size > MAX_HIERARCHY_BYTES:
+            raise FileFormatError(
+                source, f"the HIERARCHY section is over {MAX_HIERARCHY_BYTES} bytes: not a skeleton", line=n
+            )
+        lines.append(text)
+    return lines, None
+
+
+def _header(source: str, lines, motion: int) -> tuple[int, float, int, int]:
+    """(frame count, frame time in s, the line of 'Frames:', the line of 'Frame Time:') of the
+    two header lines after MOTION."""
+    body = []
+    for n, text in lines:
+        if text.strip():
+            body.append((n, text.strip()))
+            if len(body) == 2:
+                break
     header = [
         FRAMES.fullmatch(body[0][1]) if body else None,
         FRAME_TIME.fullmatch(body[1][1]) if len(body) > 1 else None,
     ]
-    if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit()):
-        fail("expected 'Frames: N' (N a whole number) after MOTION", body[0][0] if body else motion)
+    if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit() and len(header[0][1]) <= 12):
+        raise FileFormatError(
+            source, "expected 'Frames: N' (N a whole number) after MOTION", line=body[0][0] if body else motion
+        )
     if header[1] is None:
-        fail("expected 'Frame Time: seconds' after 'Frames:'", body[min(1, len(body) - 1)][0])
-    count, frames_line, time_line = int(header[0][1]), body[0][0], body[1][0]
+        raise FileFormatError(
+            source, "expected 'Frame Time: seconds' after 'Frames:'", line=body[min(1, len(body) - 1)][0]
+        )
+    time_line = body[1][0]
     frame_time = number(source, header[1][1], time_line, "Frame Time")
     if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
-        fail(
+        raise FileFormatError(
+            source,
             f"Frame Time must lie between {MIN_FRAME_TIME:g} and {MAX_FRAME_TIME:g} seconds, got {header[1][1]}",
-            time_line,
+            line=time_line,
         )
-    rows = body[2:]
-    if n_channels == 0 and rows:
-        fail("frame numbers given but the hierarchy has no channels", rows[0][0])
-    if n_channels == 0:
-        if count > MAX_EMPTY_FRAMES:
-            fail(f"'Frames: {count}' for a hierarchy without channels; give at most {MAX_EMPTY_FRAMES}", frames_line)
-        return np.zeros((count, 0)), frame_time
-    values = _frame_values(source, rows[:count], n_channels)
-    if len(rows) > count:
-        fail(f"more frame lines than 'Frames: {count}' (line {frames_line}) says", rows[count][0])
-    if len(rows) < count:
-        fail(f"'Frames: {count}' but only {len(rows)} frame lines follow (truncated?)", frames_line)
-    return values.reshape(count, n_channels), frame_time
+    return int(header[0][1]), frame_time, body[0][0], time_line
 
 
 def _site_names(nodes: list[Node]) -> dict[int, str]:
@@ -196,17 +190,38 @@ def parse_bvh(
     bones' lengths) unless `free_translations`; docs/formats.md says how they are read. Raises
     FileFormatError naming `source` and the line.
     """
-    lines = [line.removesuffix("\r") for line in decode(text, source).split("\n")]
-    if not any(line.strip() for line in lines):
+    data = text.encode("utf-8") if isinstance(text, str) else text
+    return _read(io.BytesIO(data), len(data), source, (segments, free_translations))
+
+
+def read_bvh(path: FilePath, segments: FilePath | None = None, free_translations: bool = False) -> Clip:
+    """Read the BVH file at `path` into a Clip (see parse_bvh), streaming its frames (never the
+    whole file in memory; deik.io.bvh.frames); `segments` a table path or None;
+    `free_translations` lets solves move the position channels below the first joint that
+    translates (by default they keep the capture's values).
+
+    A path that cannot be read (missing, a folder or device, too large) or a malformed file,
+    or a clip too large for the memory limit, raises FileFormatError naming it (and the line).
+    """
+    with open_input(path, "BVH") as (file, size):
+        return _read(file, size, str(path), (segments, free_translations))
+
+
+def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None, bool]) -> Clip:
+    """The Clip of the BVH in binary `file` of `size` bytes (see parse_bvh); `options`:
+    (segments, free_translations)."""
+    segments, free_translations = options
+    lines, motion = _hierarchy(file, source)
+    last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=None)
+    if last is None and motion is None:
         raise FileFormatError(source, "empty file: a BVH file starts with HIERARCHY", line=1)
-    motion = next((n for n, line in enumerate(lines, 1) if [w.upper() for w in line.split()[:1]] == ["MOTION"]), None)
-    last = max(n for n, line in enumerate(lines, 1) if line.strip())
-    nodes = Hierarchy(source, lines[: motion - 1] if motion else lines, motion or last).parse()
+    nodes = Hierarchy(source, lines, motion or last).parse()
     if motion is None:
         raise FileFormatError(source, "no MOTION section after the hierarchy", line=last)
     joint_nodes = [k for k, node in enumerate(nodes) if not node.is_site]
     columns = [(k, c) for k in joint_nodes for c in nodes[k].channels or ()]
-    values, frame_time = _parse_motion(source, lines, motion, len(columns))
+    count, frame_time, frames_line, time_line = _header(source, _lines(file, source, motion + 1), motion)
+    values = FrameReader(source, file, size, time_line + 1).read(count, len(columns), frames_line)
     site_names = _site_names(nodes)
     local = _local_positions(nodes, columns, values)
 
@@ -230,14 +245,3 @@ def parse_bvh(
         children = tuple(site_names.get(c, nodes[c].name) for c in node.children)
         layout.append(JointChannels(node.name, channels, dofs, children, k in local))
     return Clip.from_channel_values(skeleton, layout, values, frame_time, source, mass_source)
-
-
-def read_bvh(path: FilePath, segments: FilePath | None = None, free_translations: bool = False) -> Clip:
-    """Read the BVH file at `path` into a Clip (see parse_bvh); `segments` a table path or None;
-    `free_translations` lets solves move the position channels below the first joint that
-    translates (by default they keep the capture's values).
-
-    A path that cannot be read (missing, a folder or device, too large) or a malformed file
-    raises FileFormatError naming it (and the line).
-    """
-    return parse_bvh(read_input(path, "BVH"), str(path), segments, free_translations)

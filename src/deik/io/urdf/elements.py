@@ -5,7 +5,9 @@ text are refused, although Python's float() takes some of them, and so is a numb
 for a 64-bit float. A vector holds exactly 3 numbers. Defaults are the URDF spec's: no
 `<origin>` is the identity, no `<axis>` is 1 0 0, a mimic's multiplier is 1 and its offset 0,
 a link without `<inertial>` or `<mass>` has no mass. An element read once (`<origin>`,
-`<limit>`, ...) may appear once. Errors name the file, the line of the element at fault, the
+`<limit>`, ...) may appear once. Lengths, angles of an origin, axes and mimic offsets lie within
++-1e6 (deik.model.skeleton.MAX_LENGTH) and mimic multipliers too: beyond, poses lose all
+precision. Errors name the file, the line of the element at fault, the
 link or joint, and the fix. Units are the file's: metres, kilograms, radians.
 """
 
@@ -19,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from deik.errors import FileFormatError
-from deik.model.skeleton import MAX_MASS
+from deik.model.skeleton import MAX_LENGTH, MAX_MASS, MAX_MIMIC_SCALE
 
 if TYPE_CHECKING:  # lxml is imported by the reader, when a file is read
     from lxml import etree
@@ -83,8 +85,8 @@ def read_joint(element: etree._Element, source: str) -> UrdfJoint:
     xyz, rpy = e.origin(e.child(element, "origin"))
     axis = e.numbers(e.child(element, "axis"), "xyz", 3, (1.0, 0.0, 0.0))
     limit = e.child(element, "limit")
-    lower, upper = (e.numbers(limit, bound, 1, (None,))[0] for bound in ("lower", "upper"))
-    velocity = e.numbers(limit, "velocity", 1, (None,))[0]
+    lower, upper = (e.numbers(limit, bound, 1, (None,), math.inf)[0] for bound in ("lower", "upper"))
+    velocity = e.numbers(limit, "velocity", 1, (None,), math.inf)[0]
     if velocity is not None and not velocity > 0:
         e.fail(f'<limit velocity="{velocity:g}">: a velocity limit must be > 0 (rad/s or m/s)', limit)
     return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline, velocity)
@@ -99,7 +101,7 @@ def read_link(element: etree._Element, source: str) -> UrdfLink:
     mass_element = e.child(inertial, "mass")
     if mass_element is not None and mass_element.get("value") is None:
         e.fail('<mass> needs value="..." in kilograms', mass_element)
-    (mass,) = e.numbers(mass_element, "value", 1, (0.0,))
+    (mass,) = e.numbers(mass_element, "value", 1, (0.0,), bound=math.inf)
     if mass < 0:
         e.fail(f"mass {mass} must be a positive number of kg, or 0 for a massless link", mass_element)
     if mass > MAX_MASS:
@@ -136,8 +138,9 @@ class _Checked:
             self.fail(f"has {len(found)} <{tag}> elements in one <{parent.tag}>; keep one", found[1])
         return found[0] if found else None
 
-    def numbers(self, at, attribute: str, count: int, default: tuple) -> tuple:
-        """The `count` numbers of attribute `attribute` of element `at`; `default` when either is absent."""
+    def numbers(self, at, attribute: str, count: int, default: tuple, bound: float = MAX_LENGTH) -> tuple:
+        """The `count` numbers of attribute `attribute` of element `at`, each within +-`bound`;
+        `default` when either is absent."""
         text = None if at is None else at.get(attribute)
         if text is None:
             return default
@@ -152,7 +155,9 @@ class _Checked:
                 self.fail(f"{shown}: {word!r} is not a plain decimal number; write numbers like 2, -0.5 or 1.5e-3", at)
             value = float(word)
             if not math.isfinite(value):
-                self.fail(f"{shown}: {word} is too large for a 64-bit float", at)
+                self.fail(f"{shown}: {word:.40} is too large for a 64-bit float", at)
+            if abs(value) > bound:
+                self.fail(f"{shown}: {value:g} is beyond +-{bound:g}, where poses lose all precision", at)
             values.append(value)
         return tuple(values)
 
@@ -168,6 +173,6 @@ class _Checked:
             return None
         if not at.get("joint"):
             self.fail('<mimic> needs joint="..." naming the joint it follows', at)
-        (multiplier,) = self.numbers(at, "multiplier", 1, (1.0,))
+        (multiplier,) = self.numbers(at, "multiplier", 1, (1.0,), bound=MAX_MIMIC_SCALE)
         (offset,) = self.numbers(at, "offset", 1, (0.0,))
         return Mimic(at.get("joint"), multiplier, offset)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.errors import FileFormatError
 from deik.io.files import FilePath
 from deik.io.urdf.elements import UrdfJoint, read_joint, read_link
 from deik.io.urdf.safe_xml import read_xml
@@ -58,7 +59,12 @@ def read_urdf(
     selected = tree.select(base, tip)
     for name in selected[1:]:
         _check_joint(tree, tree.joint_of[name])
-    return _build(tree, selected, up, root.get("name") or "robot")
+    try:
+        return _build(tree, selected, up, root.get("name") or "robot")
+    except FileFormatError:
+        raise
+    except ValueError as error:  # a value every element allows but the robot as a whole does not
+        raise FileFormatError(source, f"cannot build the robot: {error}") from None
 
 
 def read_velocity_limits(path: FilePath) -> dict[str, float]:
