@@ -214,6 +214,9 @@ def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, po
     motion the user asks for, and what it adds is kept as the warm start made it."""
     if not goals.reach:
         return calm(clip, displacement, points), None
+    alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
+    if not alone:  # reach tracks only: all of the change is theirs
+        return (displacement, np.zeros(clip.n_frames, bool)), displacement
     held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points)
     calmed, taken = calm(clip, held, points)
     return (calmed + (displacement - held), taken), displacement - held
@@ -242,7 +245,8 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
     `found` (N, D), eased into their neighbours, except where that would make a frame jolt that
     did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose apart
     from its neighbours'. The repairs within an easing of a new jolt are refused and the rest
-    tried again, until none jolts. `refused` counts them (they are listed unmet)."""
+    tried again, until none jolts (all of them when a new jolt lies beyond every repair's easing).
+    `refused` counts them (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
 
@@ -256,7 +260,8 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
         new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
-        kept &= ~widened(new, reach)
+        near = widened(new, reach)
+        kept &= ~near if (kept & near).any() else np.zeros_like(kept)  # a jolt beyond every repair's reach: none
     return displacement, int(repaired.sum())
 
 

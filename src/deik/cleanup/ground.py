@@ -132,9 +132,10 @@ def clearances(body: Body) -> np.ndarray:
 
 
 def _runs_in_seconds(mask: np.ndarray, frame_time: float) -> np.ndarray:
-    """`mask` (N, K) with gaps under GAP seconds filled and runs under SHORTEST dropped."""
+    """`mask` (N, K) with gaps under GAP seconds filled and runs under SHORTEST dropped (a run
+    of the whole clip stays, however short the clip)."""
     gap = max(1, int(round(GAP / frame_time)))
-    shortest = max(2, int(round(SHORTEST / frame_time)))
+    shortest = min(max(2, int(round(SHORTEST / frame_time))), len(mask))
     return drop_short(fill_gaps(mask, gap + 1), shortest)
 
 
