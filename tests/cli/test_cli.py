@@ -205,7 +205,7 @@ def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
     rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
     # a rotation-only chain's joint-limit violation is an angle, not metres; the CLI shows angles in
     # degrees while the JSON keeps the Python API's radians
-    assert rows["position tip"].split()[3:6] == ["m", "0.01", "m"]
+    assert rows["position tip"].split()[3:8] == ["link", "lengths", "0.01", "link", "lengths"]  # a chain's unit
     assert rows["aim tip"].split()[3] == "deg" and rows["joint limits"].split()[3] == "deg"
     data = json.loads(out.read_text())
     goals = data["goals"]

@@ -85,7 +85,7 @@ class Contacts:
         object.__setattr__(self, "mask", mask)
         clearance = np.zeros(len(sites)) if self.clearance is None else np.array(self.clearance, float)
         if clearance.shape != (len(sites),):
-            raise ValueError(f"clearance must have shape ({len(sites)},), got {clearance.shape}")
+            raise InputError(f"clearance must have shape ({len(sites)},), got {clearance.shape}")
         clearance.setflags(write=False)
         object.__setattr__(self, "clearance", clearance)
 

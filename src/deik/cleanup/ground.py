@@ -28,6 +28,7 @@ import numpy as np
 
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
+from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 
@@ -114,7 +115,7 @@ def _median_lowest(values: np.ndarray, slow: np.ndarray) -> float | None:
 def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorChoice:
     """The floor of `clip` (module notes)."""
     if clip.n_frames == 0:
-        raise ValueError("the clip has no frames: there is no floor to detect")
+        raise InputError("the clip has no frames: there is no floor to detect")
     paths = paths or body_paths(clip, body)
     surface = np.where(body.part, paths.heights - body.radius, np.inf)
     level = _median_lowest(surface, paths.slow & body.part)
@@ -158,7 +159,7 @@ def detect_resting(
     drop_idle = not idle if idle is not None else points is None
     points = tuple(body.contact_points() if points is None else points)
     if not points:
-        raise ValueError("detect_resting needs at least one joint or site")
+        raise InputError("detect_resting needs at least one joint or site")
     index = [sk.frame_index(name) for name in points]
     paths = paths or body_paths(clip, body)
     band = BAND * body.span if band is None else band
