@@ -47,11 +47,12 @@ def _site_index(clip, sites) -> list[int]:
     return [clip.skeleton.frame_index(name) for name in sites]
 
 
-def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """(N-1, S) displacement along the ground (perpendicular to `up`) of frames `index` (S,) from
-    frame n to n+1 where `mask` (N, S) holds in both; NaN elsewhere; length units."""
-    along = ground_frame(np.asarray(up, float))[:2].T
-    step = np.linalg.norm(np.diff(kin.p_world_frame[:, index] @ along, axis=0), axis=-1)
+def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
+    """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S) holds
+    in both, along the ground (perpendicular to `up`) or, without `up`, in space; NaN elsewhere;
+    length units."""
+    p = kin.p_world_frame[:, index]
+    step = np.linalg.norm(np.diff(p if up is None else p @ ground_frame(np.asarray(up, float))[:2].T, axis=0), axis=-1)
     return np.where(mask[1:] & mask[:-1], step, np.nan)
 
 

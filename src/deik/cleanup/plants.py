@@ -121,11 +121,11 @@ def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: np.ndar
     return heights + lift
 
 
-def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
+def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
-    Per contact interval, the median world position of the site over the interval in `clip` (the
-    original), at the median of its heights along up there (a one-frame dip does not lower
+    Per contact interval, the median (`along` "median") or mean ("mean") world position of the
+    site over the interval in `clip` (the original), at the median of its heights along up there (a one-frame dip does not lower
     it), each frame's height first raised by how far the site or a site rigidly linked to it
     is below its floor (`contacts.ground` plus its clearance); a height within SNAP_FRACTION x
     reach of the floor is put on it when the site has no clearance. Two sites a fixed distance
@@ -142,7 +142,7 @@ def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
     plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
-            mean = np.median(p[a:b, s], axis=0)
+            mean = np.median(p[a:b, s], axis=0) if along == "median" else p[a:b, s].mean(axis=0)
             height = max(float(np.median(heights[a:b, s])), floor[s])
             if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * clip.skeleton.reach:
                 height = floor[s]

@@ -114,7 +114,8 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     def plants_at(q):
         if contacts is None:
             return np.zeros((N, 0, 3))
-        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts)
+        # the mean along the ground: the IK's path of a planted point, fast ends included, is its own
+        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts, along="mean")
 
     def measured(q, plants):
         """(cost, errors (N, R), rows (N, R, D) per weighted DOF unit, row weights (N, R), step rows)."""
