@@ -125,12 +125,12 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
     Per contact interval, the median (`along` "median") or mean ("mean") world position of the
-    site over the interval in `clip` (the original), at the median of its heights along up
-    there (a one-frame dip does not lower it), each frame's height first raised by how far the
-    site or a site rigidly linked to it is below its floor (`contacts.ground` plus its clearance); a height within SNAP_FRACTION x
-    reach of the floor is put on it when the site has no clearance. Two sites a fixed distance
-    apart (an ankle and its toe) whose intervals overlap get targets that distance apart
-    (_linked_plants), so both can be met at once.
+    site over the interval in `clip` (the original), at the median of its heights along up there
+    (a one-frame dip does not lower it), each frame's height first raised by how far the site or
+    a site rigidly linked to it is below its floor (`contacts.ground` plus its clearance); a
+    height within SNAP_FRACTION x reach of the floor is put on it when the site has no
+    clearance. Two sites a fixed distance apart (an ankle and its toe) whose intervals overlap
+    get targets that distance apart (_linked_plants), so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
