@@ -1,7 +1,10 @@
 """A fresh wheel install, as a user gets one: deik's wheel built from the checkout, installed into a
 new virtual environment, and every package that came with it measured, with its version and its
 size on disk (its installed files, compiled .pyc included; MB of 10^6 bytes), against issue
-19's targets of at most 10 packages and 200 MB.
+19's targets of at most 10 packages and 200 MB; and split into what Numba brings for itself
+(numba and its own dependencies, llvmlite and NumPy: the engine deik compiles its kernels with)
+and deik's additions beyond them (deik itself and its other dependencies), against issue 30's
+target of at most 20 MB for the additions.
 
     python -m benchmarks.wheel_install                   # results/wheel_install.{json,md,png}
     python -m benchmarks.wheel_install --extras view     # what `deik[view]` adds: results/wheel_install_view.*
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -28,20 +32,48 @@ from benchmarks import harness
 
 ROOT = Path(__file__).resolve().parents[1]
 MAX_PACKAGES, MAX_MEGABYTES = 10, 200.0  # issue 19 item 1
+MAX_ADDITIONS_MEGABYTES = 20.0  # issue 30: deik's additions beyond Numba's own dependencies
+ENGINE = "numba"  # what deik compiles its kernels with; its dependency closure is "Numba's stack"
 MB = 1e6
 BUILD_FILES = ("pyproject.toml", "README.md", "LICENSE")  # with src/: all a build of deik reads
 
-# run inside the new environment: each installed distribution's name, version and bytes on disk
+# run inside the new environment: each installed distribution's name, version, bytes on disk and
+# the names it requires (extras' requirements left out)
 SIZES = """
-import json
+import json, re
 from importlib import metadata
 rows = []
 for dist in metadata.distributions():
     files = [f.locate() for f in dist.files or ()]
+    needs = [re.match(r"[A-Za-z0-9._-]+", r)[0] for r in dist.requires or () if "extra ==" not in r]
     rows.append({"name": dist.metadata["Name"], "version": dist.version,
-                 "bytes": sum(p.stat().st_size for p in files if p.is_file())})
+                 "bytes": sum(p.stat().st_size for p in files if p.is_file()), "requires": needs})
 print(json.dumps(rows))
 """
+
+
+def _key(name: str) -> str:
+    """A distribution name as pip compares them (PEP 503): lower case, runs of -_. as one -."""
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def split_engine(packages: list[dict]) -> dict:
+    """Of the installed `packages` (rows with "name", "bytes", "requires"), Numba's stack (numba
+    and every package it requires, directly or not) and deik's additions (the rest), each
+    {"packages": names, "megabytes"}."""
+    by_key = {_key(row["name"]): row for row in packages}
+    stack, todo = set(), [ENGINE]
+    while todo:
+        key = _key(todo.pop())
+        if key in by_key and key not in stack:
+            stack.add(key)
+            todo += by_key[key]["requires"]
+    parts = {"numba_stack": [r for k, r in by_key.items() if k in stack]}
+    parts["deik_additions"] = [r for k, r in by_key.items() if k not in stack]
+    return {
+        part: {"packages": [row["name"] for row in rows], "megabytes": sum(row["bytes"] for row in rows) / MB}
+        for part, rows in parts.items()
+    }
 
 
 def outside_env() -> dict:
@@ -102,13 +134,15 @@ def install(python: str, wheel: Path, extras: str = "") -> dict:
 
 def measure(folder: Path, extras: str = "") -> dict:
     """Build, make a fresh environment in `folder` and install the wheel (then its `extras`):
-    the install's record, the environment's python and the wheel's path and size."""
+    the install's record (the plain install split into Numba's stack and deik's additions,
+    split_engine), the environment's python and the wheel's path and size."""
     wheel = build_wheel(folder / "dist")
     subprocess.run([sys.executable, "-m", "venv", str(folder / "venv")], check=True, env=outside_env())
     python = str(folder / "venv" / "bin" / "python")
     bootstrap = sorted(row["name"] for row in installed(python))
     record = {"python": python, "wheel_path": str(wheel), "wheel": wheel.name, "wheel_bytes": wheel.stat().st_size}
-    record |= {**install(python, wheel), "bootstrap_left_out": bootstrap}
+    plain = install(python, wheel)
+    record |= {**plain, **split_engine(plain["packages"]), "bootstrap_left_out": bootstrap}
     if extras:
         record["extras"] = {"name": extras, **install(python, wheel, extras)}
     return record
@@ -128,6 +162,8 @@ def main(argv=None) -> dict:
     del record["python"], record["wheel_path"]  # in a temporary folder, gone
     run.target("packages a plain install brings", MAX_PACKAGES, record["package_count"], "packages", at_most=True)
     run.target("MB a plain install brings", MAX_MEGABYTES, record["megabytes"], "MB", at_most=True)
+    additions = record["deik_additions"]["megabytes"]
+    run.target("MB deik adds beyond Numba's stack", MAX_ADDITIONS_MEGABYTES, additions, "MB", at_most=True)
     shown = record["extras"]["packages"] if extras else record["packages"]
     fig, axes = harness.figure()
     harness.bars(axes[0, 0], [row["name"] for row in shown], [row["bytes"] / MB for row in shown], horizontal=True)
@@ -139,7 +175,12 @@ def main(argv=None) -> dict:
         [row["name"], row["version"], f"{row['bytes'] / MB:.1f}", f"[{extras}]"]
         for row in record.get("extras", {}).get("packages", [])
     ]
-    figures = {"packages": record["package_count"], "MB": record["megabytes"]}
+    figures = {
+        "packages": record["package_count"],
+        "MB": record["megabytes"],
+        "Numba's stack MB": record["numba_stack"]["megabytes"],
+        "deik's additions MB": additions,
+    }
     if extras:
         figures |= {
             f"[{extras}] adds packages": record["extras"]["package_count"],

@@ -263,3 +263,43 @@ def kill_when_ready(process, ready, timeout: float = 600) -> None:
         assert process.wait(timeout=60) == -signal.SIGKILL
     finally:
         process.kill()
+
+
+MESH_ROBOT = """<robot name="arm">
+  <material name="grey"><color rgba="0.5 0.5 0.5 1"/></material>
+  <link name="base"><visual><geometry><mesh filename="package://arm_description/meshes/base.stl"/></geometry>
+    <material name="grey"/></visual></link>
+  <link name="upper"><visual><origin xyz="0 0 0.2"/><geometry><mesh filename="../meshes/upper.obj"/></geometry>
+    </visual></link>
+  <link name="fore"><visual><origin xyz="0 0 0.15" rpy="0.3 0 0"/><geometry><box size="0.08 0.06 0.3"/></geometry>
+    <material name="red"><color rgba="1 0 0 1"/></material></visual></link>
+  <link name="hand">
+    <visual><geometry><mesh filename="package://arm_description/meshes/hand.dae" scale="2 2 2"/></geometry></visual>
+    <visual><geometry><mesh filename="package://arm_description/meshes/missing.stl"/></geometry></visual>
+  </link>
+  <link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.05"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3"/></joint>
+  <joint name="j2" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="0 0 0.4" rpy="0 0.5 0"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2"/></joint>
+  <joint name="j3" type="revolute"><parent link="fore"/><child link="hand"/><origin xyz="0 0 0.3"/>
+    <axis xyz="1 0 0"/><limit lower="-2" upper="2"/></joint>
+  <joint name="tool_joint" type="fixed"><parent link="hand"/><child link="tool"/><origin xyz="0 0 0.1"/></joint>
+</robot>
+"""
+
+
+def mesh_robot(folder: Path) -> Path:
+    """MESH_ROBOT, a four-link arm with a tool frame, written to folder/arm_description/urdf,
+    its meshes written by trimesh to .../meshes: the base an STL box, the upper arm an OBJ
+    cylinder, the hand a DAE sphere (its second mesh missing); the forearm is a box primitive."""
+    import trimesh
+
+    meshes, urdf = folder / "arm_description" / "meshes", folder / "arm_description" / "urdf"
+    meshes.mkdir(parents=True)
+    urdf.mkdir()
+    trimesh.creation.box(extents=(0.2, 0.2, 0.1)).export(meshes / "base.stl")
+    trimesh.creation.cylinder(radius=0.05, height=0.4).export(meshes / "upper.obj")
+    trimesh.creation.icosphere(radius=0.03).export(meshes / "hand.dae")
+    (urdf / "arm.urdf").write_text(MESH_ROBOT)
+    return urdf / "arm.urdf"

@@ -79,15 +79,16 @@ def run_line(line: str, clone: Path, deik: list[str], python: str, env: dict) ->
 
 # Runs README lines one after another in one process of the Python under test: each `deik` line
 # through deik.cli.main, each example through runpy as `python examples/X.py` would. One line of
-# JSON per README line: its exit status, the end of its stderr, and for a solve that wrote a pose
-# JSON whether it met every goal. (A process per line costs seconds of imports and kernel loads.)
+# JSON per README line: its exit status, the ends of its stderr and stdout, and for a solve that
+# wrote a pose JSON whether it met every goal and the length unit it names. (A process per line
+# costs seconds of imports and kernel loads.)
 DRIVER = r"""
 import contextlib, io, json, os, runpy, shlex, sys
 from deik.cli.app import main
 for line in json.load(sys.stdin):
-    words, err = shlex.split(line), io.StringIO()
+    words, err, out = shlex.split(line), io.StringIO(), io.StringIO()
     record = {"line": line}
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
         try:
             if words[:2] == ["mkdir", "-p"]:
                 for folder in words[2:]:
@@ -104,18 +105,20 @@ for line in json.load(sys.stdin):
                     record["status"] = done.code or 0
         except BaseException as error:
             record["status"] = f"{type(error).__name__}: {error}"
-    out = words[words.index("--out") + 1] if "--out" in words else ""
-    if words[:2] == ["deik", "solve"] and out.endswith(".json") and record["status"] == 0:
-        record["converged"] = json.load(open(out))["converged"]
+    written = words[words.index("--out") + 1] if "--out" in words else ""
+    if words[:2] == ["deik", "solve"] and written.endswith(".json") and record["status"] == 0:
+        pose = json.load(open(written))
+        record["converged"], record["length_unit"] = pose["converged"], pose.get("length_unit")
     record["stderr"] = err.getvalue()[-2000:]
+    record["stdout"] = out.getvalue()[-20000:]
     print(json.dumps(record), flush=True)
 """
 
 
 def run_lines(lines: list[str], clone: Path, python: str, env: dict) -> list[dict]:
     """Run README `lines` in order in `clone`, all in one process of `python` (DRIVER): one
-    record per line that ran ({"line", "status", "stderr"}, "converged" for a solve that wrote
-    a pose JSON); a line missing from the end means the process died there."""
+    record per line that ran ({"line", "status", "stderr", "stdout"}, "converged" and
+    "length_unit" for a solve that wrote a pose JSON); a line missing from the end means the process died there."""
     run = subprocess.run(
         [python, "-c", DRIVER], input=json.dumps(lines), cwd=clone, env=env, capture_output=True, text=True
     )

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 
@@ -193,7 +194,7 @@ def test_cli_solves_a_toml_problem_with_setting_overrides(tmp_path, capsys):
     assert json.loads(out.read_text())["skeleton"] == "chain:3"
 
 
-def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
+def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys, monkeypatch):
     path = write(
         tmp_path,
         'skeleton = "chain:3"\nlimits = "penalty"\n[settings]\npopulation = 24\n'
@@ -201,13 +202,18 @@ def test_cli_prints_each_goals_unit_from_its_kind(tmp_path, capsys):
         '[[goal]]\ntype = "aim"\nframe = "tip"\ntarget = [3, 0, 0]\n',
     )
     out = tmp_path / "pose.json"
-    assert main(["solve", "--problem", str(path), "--generations", "25", "--out", str(out)]) == 0
+    drawn = []
+    monkeypatch.setattr(plot, "plot_result", lambda *args: drawn.append(args[-1]))  # the picture's length unit
+    argv = ["solve", "--problem", str(path), "--generations", "25", "--out", str(out), "--plot", "p.png"]
+    assert main(argv) == 0
     rows = {line.split("  ")[0]: line for line in capsys.readouterr().out.splitlines()}
-    # a rotation-only chain's joint-limit violation is an angle, not metres; the CLI shows angles in
-    # degrees while the JSON keeps the Python API's radians
-    assert rows["position tip"].split()[3:8] == ["link", "lengths", "0.01", "link", "lengths"]  # a chain's unit
+    # a chain's lengths are link lengths in the table, the pose file and the picture alike; a
+    # rotation-only chain's joint-limit violation is an angle; the CLI shows angles in degrees
+    # while the JSON keeps the Python API's radians
+    assert re.fullmatch(r"position tip +\S+ link lengths +0\.01 link lengths +(yes|NO)", rows["position tip"])
     assert rows["aim tip"].split()[3] == "deg" and rows["joint limits"].split()[3] == "deg"
     data = json.loads(out.read_text())
+    assert data["length_unit"] == "link lengths" and drawn == ["link lengths"]
     goals = data["goals"]
     assert [(g["kind"], g["unit"]) for g in goals] == [("position", "m"), ("aim", "rad"), ("joint_limits", "rad")]
     shown = float(rows["aim tip"].split()[2])

@@ -42,7 +42,8 @@ def test_each_orient_form_reaches_scipys_rotation(tmp_path, capsys, form):
     argv += [*map(repr, _numbers(form, rotation).tolist()), *RUN, "--out", str(out)]
     assert main(argv) == 0, capsys.readouterr().err
     printed = capsys.readouterr().out
-    assert "0.1 deg" in printed and "0.001 m" in printed  # default tolerances, reported in degrees
+    # default tolerances, an angle's in degrees, a chain's length in link lengths
+    assert "0.1 deg" in printed and "0.001 link lengths" in printed
     data = json.loads(out.read_text())
     kin = deik.forward_kinematics(sk, data["angles"])
     assert np.linalg.norm(kin.position("tip") - position) <= 1e-3

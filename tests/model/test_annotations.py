@@ -73,3 +73,29 @@ def test_the_exported_api_s_annotations_resolve(name):
         hints = typing.get_type_hints(function)  # raises on a name that does not resolve
         parameters = [p for p in inspect.signature(function).parameters if p not in ("self", "cls")]
         assert set(parameters) <= set(hints), f"{qualified}: {sorted(set(parameters) - set(hints))} unannotated"
+
+
+def _type_checking_imports() -> dict[str, str]:
+    """{name: module} of the `if TYPE_CHECKING:` imports in deik/__init__.py, each checked to
+    import the name as itself (an explicit re-export)."""
+    tree = ast.parse((SOURCE / "__init__.py").read_text())
+    (block,) = [node for node in tree.body if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING"]
+    imported = {}
+    for node in block.body:
+        assert isinstance(node, ast.ImportFrom), ast.unparse(node)
+        for alias in node.names:
+            assert alias.asname == alias.name, f"{ast.unparse(node)}: import it `as {alias.name}`"
+            imported[alias.name] = node.module
+    return imported
+
+
+def test_the_type_checker_sees_every_lazy_name_from_its_module():
+    """A type checker does not run deik's PEP 562 __getattr__: it reads the TYPE_CHECKING imports,
+    which must name every public name from the module the lazy loader imports it from."""
+    assert _type_checking_imports() == deik._EXPORTS
+
+
+def test_settings_keywords_have_the_settings_fields_types():
+    from deik.solver.settings import Settings, SettingsChanges
+
+    assert typing.get_type_hints(SettingsChanges) == typing.get_type_hints(Settings)

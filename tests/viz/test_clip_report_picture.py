@@ -8,7 +8,7 @@ from matplotlib import image
 
 import deik
 from deik.cli.app import main
-from deik.viz.clip_report import POSE_HEIGHT, most_changed_frame, plot_clip_report, pose_panel
+from deik.viz.clip_report import POSE_HEIGHT, clip_report_figure, most_changed_frame, plot_clip_report, pose_panel
 from deik.viz.marks import COLOURS
 from deik.viz.report_marks import marks_at
 
@@ -77,3 +77,63 @@ def test_deik_clip_report_3d_draws_the_fixed_frame(tmp_path, shared_data):
 def test_report_3d_needs_report(tmp_path, capsys):
     assert main(["clip", "in.bvh", "--out", str(tmp_path / "o.bvh"), "--report-3d"]) == 2
     assert "--report-3d sets how --report draws the clip: add --report report.png" in capsys.readouterr().err
+
+
+# the series and notes of `deik clip --report` on a walk with a reach: the longest names it draws
+SERIES_NAMES = (
+    "foot sliding (mm/frame)",
+    "COM outside support (mm)",
+    "ZMP outside support (soles included) (mm)",
+    "penetration below the floor (mm)",
+    "floating in contact (mm)",
+    "joint angle from the capture (deg)",
+    "joint position from the capture (mm)",
+    "position acceleration (m/s^2)",
+    "reach RightElbow_end distance (mm)",
+    "sites in contact (count)",
+)
+NOTES = (
+    "foot sliding max: 13.4 before, 0.00864 after (mm/frame)",
+    "ZMP outside support (soles included) mean: 74.9 before, 113 after (mm)",
+    "peaks against the capture's: dof velocity x1.00, dof acceleration x1.00, position velocity x1.04, "
+    "position acceleration x1.07",
+)
+
+
+def _boxes(figure):
+    """(the titles, axis labels and tip names drawn, each axes' y label), each as (text, window
+    extent in display pixels)."""
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    containers = [figure, *figure.subfigs]
+    texts = [c._suptitle for c in containers if c._suptitle is not None]  # matplotlib keeps no public handle
+    for ax in figure.axes:
+        axis_labels = [ax.xaxis.label, ax.yaxis.label] + ([ax.zaxis.label] if hasattr(ax, "zaxis") else [])
+        # a 3-D axes places its texts only while drawing, so their extents cannot be read back
+        texts += [ax.title, *axis_labels, *([] if hasattr(ax, "zaxis") else ax.texts)]
+    labels = [ax.yaxis.label for ax in figure.axes if ax.get_ylabel()]
+    return [(t.get_text(), t.get_window_extent(renderer)) for t in texts if t.get_text().strip()], [
+        (t.get_text(), t.get_window_extent(renderer)) for t in labels
+    ]
+
+
+@pytest.mark.parametrize("projection", ["2d", "3d"])
+def test_the_title_notes_and_series_names_stay_inside_the_picture_and_apart(projection):
+    original, fixed = _clips()
+    panel = pose_panel(original, fixed, _document(original), projection, "m")
+    series = {name: (np.linspace(0, k + 1, 10), np.zeros(10)) for k, name in enumerate(SERIES_NAMES)}
+    figure = clip_report_figure(series, 1 / 30, "deik clip humanoid3d_walk.bvh", NOTES, pose=panel)
+    try:
+        texts, labels = _boxes(figure)
+        width, height = figure.bbox.width, figure.bbox.height
+        outside = [text for text, box in texts if box.x0 < 0 or box.x1 > width or box.y0 < 0 or box.y1 > height]
+        assert outside == []
+        names = [label for label, _ in labels if label.replace("\n", " ") in SERIES_NAMES]
+        assert len(names) == len(SERIES_NAMES)
+        for k, (first, a) in enumerate(labels):
+            for second, b in labels[k + 1 :]:
+                assert not a.overlaps(b), (first, second)
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(figure)

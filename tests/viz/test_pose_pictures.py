@@ -122,3 +122,27 @@ def test_solve_plot_3d_draws_the_root_and_marks_the_target(tmp_path):
 def test_plot_3d_needs_plot(tmp_path, capsys):
     assert main(["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--plot-3d"]) == 2
     assert "--plot-3d sets how --plot draws the pose: add --plot pose.png" in capsys.readouterr().err
+
+
+def test_left_and_right_limbs_have_colours_of_their_own(tmp_path):
+    """The humanoid's shins and forearms, drawn front on: each bone's middle in its side's colour
+    (left red, right green, viz.marks.COLOURS) and not in the other side's; the spine in the
+    middle's colour."""
+    human = deik.humanoid()
+    points = deik.forward_kinematics(human, human.reference).p_world_frame
+    figure = plot.pose_figure(human, human.reference, projection="2d", unit="m")
+    figure.canvas.draw()
+    front = figure.axes[0]
+    picture = _picture(tmp_path, figure, "human.png")
+    bones = {
+        "left": [("left_knee", "left_ankle"), ("left_elbow", "left_wrist")],
+        "right": [("right_knee", "right_ankle"), ("right_elbow", "right_wrist")],
+        "bone": [("spine", "chest")],
+    }
+    for side, pairs in bones.items():
+        for parent, child in pairs:
+            middle = (points[human.frame_index(parent)] + points[human.frame_index(child)]) / 2
+            pixel = _display(front, middle[[0, 1]])[0]
+            assert _near(picture, pixel, side, radius=3) > 3, (side, parent, child)
+            others = {"left", "right", "bone"} - {side}
+            assert all(_near(picture, pixel, other, radius=3) == 0 for other in others), (side, parent, child)

@@ -1,7 +1,9 @@
 """`deik view` in headless Chromium, as a user sees it: the page loads without console errors, the
-screenshot shows the skeleton in its colours (and the compared clip, the targets and the centre
-of mass), the frame slider scrubs and the play button plays, and Ctrl-C stops the command
-cleanly. Runs on Debian's chromium driven by playwright; skips, saying so, without them."""
+screenshot shows the skeleton in its colours, left and right apart (and the compared clip, the
+targets and the centre of mass), the body's solids fill most of the view on opening (a robot's
+meshes, with tool-frame axes sized to it), the frame slider scrubs and the play button plays,
+and Ctrl-C stops the command cleanly. Runs on Debian's chromium driven by playwright; skips,
+saying so, without them."""
 
 import json
 import os
@@ -19,7 +21,7 @@ import pytest
 import deik
 from deik.cli.app import main
 from deik.viz.marks import COLOURS
-from helpers import ROOT, readme_commands
+from helpers import ROOT, mesh_robot, readme_commands
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(
@@ -93,17 +95,21 @@ def browser():
         launched.close()
 
 
-def _open(browser, url):
-    """(page, console messages) once the page has connected and drawn the bones."""
+def _open(browser, url, body=False):
+    """(page, console messages) once the page has connected and drawn the bones; the body's
+    solids hidden unless `body` (the bones, joints and marks then show in their own colours)."""
     page = browser.new_page(viewport={"width": 1280, "height": 800})
     console = []
     page.on("console", lambda message: console.append((message.type, message.text)))
     page.on("pageerror", lambda error: console.append(("pageerror", str(error))))
     page.goto(url)
     page.get_by_text("Connected").wait_for(timeout=60_000)
-    page.get_by_label("names").uncheck()  # labels would cover the marks
+    # a loaded machine's software WebGL may take a while to answer a click
+    page.get_by_label("names").uncheck(timeout=120_000)  # labels would cover the marks
+    if not body:
+        page.get_by_label("body").uncheck(timeout=120_000)
     for _ in range(100):  # until the scene has arrived over the websocket and been drawn
-        if _count(_shot(page), "bone") > 100:
+        if _bones(_shot(page)).sum() > 100:
             break
         page.wait_for_timeout(200)
     page.wait_for_timeout(300)
@@ -132,6 +138,11 @@ def _count(picture, kind) -> int:
     return int(_mask(picture, kind).sum())
 
 
+def _bones(picture) -> np.ndarray:
+    """Where bones of the left, right or middle are drawn, in their side's colour."""
+    return _mask(picture, "left") | _mask(picture, "right") | _mask(picture, "bone")
+
+
 def _errors(console):
     return [m for m in console if m[0] in ("error", "pageerror")]
 
@@ -152,7 +163,8 @@ def test_a_clip_plays_scrubs_and_shows_its_original_in_grey(tmp_path, browser):
     with Viewer(fixed, "--compare", original) as viewer:
         page, console = _open(browser, viewer.url)
         first = _shot(page)
-        assert _count(first, "bone") > 300 and _count(first, "tip") > 30 and _count(first, "root") > 10
+        assert _bones(first).sum() > 300 and _count(first, "tip") > 30 and _count(first, "root") > 10
+        assert _count(first, "left") > 50 and _count(first, "right") > 50  # each side in its colour
         page.get_by_label("compare: original.bvh").uncheck()
         page.wait_for_timeout(500)
         without = _shot(page)
@@ -162,7 +174,7 @@ def test_a_clip_plays_scrubs_and_shows_its_original_in_grey(tmp_path, browser):
         page.keyboard.press("Enter")
         page.get_by_text("frame 9 of 12, t = 0.300 s").wait_for()
         page.wait_for_timeout(500)
-        before, after = (np.argwhere(_mask(shot, "bone")).mean(axis=0) for shot in (without, _shot(page)))
+        before, after = (np.argwhere(_bones(shot)).mean(axis=0) for shot in (without, _shot(page)))
         assert np.linalg.norm(after - before) > 30  # the bones walked 0.72 m
         page.get_by_role("button", name="Play").click()
         page.get_by_role("button", name="Pause").wait_for()
@@ -185,11 +197,55 @@ def test_a_solved_pose_shows_its_target_and_centre_of_mass(tmp_path, browser):
     with Viewer(pose) as viewer:
         page, console = _open(browser, viewer.url)
         picture = _shot(page)
-        for kind, pixels in (("bone", 300), ("target", 20), ("centre of mass", 20), ("root", 10), ("tip", 30)):
+        assert _bones(picture).sum() > 300
+        for kind, pixels in (("target", 20), ("centre of mass", 20), ("root", 10), ("tip", 30)):
             assert _count(picture, kind) > pixels, kind
         page.get_by_text(re.compile(r"Lengths in m \(the pose file\); grid cells 0\.[125] m\.")).wait_for()
         assert not _errors(console), console
     assert viewer.status == 0
+
+
+def _solids(page, shown) -> np.ndarray:
+    """Where the body's solids are in the screenshot `shown` (taken with them): the pixels that
+    change when the "body" box is unchecked."""
+    page.get_by_label("body").uncheck()
+    page.wait_for_timeout(700)
+    return np.abs(shown - _shot(page)).max(axis=-1) > 40
+
+
+def test_a_walking_character_opens_on_its_body_filling_the_view(tmp_path, browser):
+    """The camera opens on the first frame's body, capsules and all, filling most of the view's
+    height without cutting it off, however far the clip walks."""
+    clip = _walk(tmp_path / "walk.bvh", 0.15, 0.3)  # 1.65 m along x over the clip
+    with Viewer(clip) as viewer:
+        page, console = _open(browser, viewer.url, body=True)
+        page.get_by_text("body: capsules along the bones, sized from the segment masses").wait_for()
+        page.wait_for_timeout(500)
+        shown = _shot(page)
+        body = _solids(page, shown)
+        rows, columns = np.flatnonzero(body.any(axis=1)), np.flatnonzero(body.any(axis=0))
+        height, width = body.shape
+        assert body.mean() > 0.04  # not an empty picture: the solids cover a good share of it
+        assert 0.6 < (rows[-1] - rows[0]) / height < 0.95  # a standing figure most of the view tall
+        assert rows[0] > 0 and rows[-1] < height - 1 and columns[0] > 0 and columns[-1] < width - 1
+        assert not _errors(console), console
+
+
+def test_a_robot_shows_its_meshes_and_its_tool_frame_axes(tmp_path, browser):
+    path = mesh_robot(tmp_path)
+    with Viewer(path) as viewer:
+        page, console = _open(browser, viewer.url, body=True)
+        page.get_by_text(re.compile(r"body: the URDF's visuals \(mesh x3, box x1\); meshes not found")).wait_for()
+        page.wait_for_timeout(500)
+        shown = _shot(page)
+        assert _solids(page, shown).mean() > 0.03  # its meshes and box, drawn
+        assert page.get_by_label("frame axes").is_checked()  # one tool frame: its axes start shown
+        with_axes = _shot(page)
+        page.get_by_label("frame axes").uncheck()
+        page.wait_for_timeout(700)
+        axes = np.abs(with_axes - _shot(page)).max(axis=-1) > 60
+        assert axes.sum() > 200  # the root's and the tool's axes, big enough to see (their size: test_viewer_nodes)
+        assert not _errors(console), console
 
 
 @pytest.mark.slow  # three browser sessions and a clip fix: 35 s with the machine loaded
@@ -216,7 +272,7 @@ def test_the_readme_view_commands_run_as_written(tmp_path, browser, shared_data,
             picture = _shot(page)
             # a met target is drawn where the tip is and may cover its mark: either shows the tip
             tip = _count(picture, "tip") + _count(picture, "target")
-            assert _count(picture, "bone") > 100 and tip > 10, command
+            assert _bones(picture).sum() > 100 and tip > 10, command
             assert int(viewer.url.rsplit(":", 1)[1]) >= 8080  # the default port, or the next free one
             # a robot arm starts with its tool frame's axes shown, a character without its many
             assert page.get_by_label("frame axes").is_checked() == ("panda" in command), command

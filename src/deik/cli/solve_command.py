@@ -282,13 +282,13 @@ def run_solve(args: argparse.Namespace) -> int:
         progress = None if bar.disable else (lambda done, best: show_generation(bar, done, best))
         result = solve(problem, settings, initial=initial, progress=progress)
     record_compiles(compiling)
+    # the table, the pose file and the picture name one length unit
     unit = length_unit(result.skeleton, loaded.kind if loaded is not None else None)[0]
-    own = {"m": unit, "rad+m": f"rad+{unit}"}  # "m" is the skeleton's length unit (docs/conventions.md)
     rows = [
         [
             r.label,
-            shown(float(r.error), own.get(r.unit, r.unit)),
-            shown(r.tolerance, own.get(r.unit, r.unit)) if r.tolerance >= 0 else "-",
+            shown(float(r.error), r.unit, unit),
+            shown(r.tolerance, r.unit, unit) if r.tolerance >= 0 else "-",
             "yes" if r.met else "NO",
         ]
         for r in result.goals

@@ -30,6 +30,7 @@ from deik.objectives.registry import LENGTH
 from deik.solver.problem import Problem
 from deik.solver.result import Result
 from deik.solver.solve import solve
+from deik.viz.marks import length_unit
 from deik.viz.plot import plot_result
 from deik.viz.text import format_table, shown
 
@@ -119,6 +120,7 @@ def scenario_rows(scenario: Scenario, result: Result) -> list[dict]:
                 "goal": label,
                 "error": error,
                 "unit": report.unit,
+                "length_unit": length_unit(result.skeleton)[0],
                 "percent_of_reach": percent,
                 "bound": bound,
                 "met": None if bound is None else bool(report.met),
@@ -139,9 +141,9 @@ def _print_table(rows: list[dict]) -> None:
             [
                 row["scenario"] if first else "",
                 row["goal"],
-                shown(row["error"], row["unit"]),
+                shown(row["error"], row["unit"], row["length_unit"]),
                 "" if row["percent_of_reach"] is None else f"{row['percent_of_reach']:.3f} %",
-                "-" if row["bound"] is None else shown(row["bound"], row["unit"]),
+                "-" if row["bound"] is None else shown(row["bound"], row["unit"], row["length_unit"]),
                 {None: "-", True: "yes", False: "NO"}[row["met"]],
                 row["generations"] if first else "",
                 f"{row['time_s']:.2f} s" if first else "",

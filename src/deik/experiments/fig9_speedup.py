@@ -111,7 +111,7 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
     gpu_ratio = (
         f"serial/parallel-GPU {med[(n, serial)] / med[(n, gpu)]:.0f}x on {gpu_status()[1]}"
         if use_gpu
-        else "serial/parallel-GPU pending (needs the lent GPU machine)"
+        else "serial/parallel-GPU pending (it needs an NVIDIA GPU: H100, H200)"
     )
     headline = (
         f"At population {p} and {n} links: serial/parallel-CPU {med[(n, serial)] / med[(n, par)]:.0f}x "

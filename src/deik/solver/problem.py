@@ -37,7 +37,8 @@ class Compiled:
 
 @dataclass(frozen=True, eq=False)
 class Problem:
-    """An IK problem. `goals`: Goal instances (deik.Position, deik.Comfort, ...). `limits`:
+    """An IK problem. `goals`: Goal instances (deik.Position, deik.Comfort, ...), any sequence,
+    kept as a tuple. `limits`:
     "reflect" (default) or "clip" fold or clamp trial angles into the joint limits; "penalty"
     lets them leave and ranks any violation below every feasible pose (a top-priority term);
     "paper" applies the paper's Algorithm 2 (only the +-2 pi range, limits used for sampling).
@@ -46,7 +47,7 @@ class Problem:
     then the first part's)."""
 
     skeleton: Skeleton
-    goals: tuple
+    goals: Sequence[Goal]
     limits: str = "reflect"
     parts: tuple = field(default=(), repr=False)
 

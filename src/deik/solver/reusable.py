@@ -18,6 +18,7 @@ deik.solve, whose kept engines serve one call at a time).
 from __future__ import annotations
 
 import threading
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,7 +29,7 @@ from deik.objectives.kinds import GAIN
 from deik.solver.engine import Engine
 from deik.solver.problem import Problem
 from deik.solver.result import Result
-from deik.solver.settings import Settings
+from deik.solver.settings import Settings, SettingsChanges
 from deik.solver.solve import merge_settings, run_engine
 from deik.solver.workspace import Workspace
 
@@ -37,7 +38,7 @@ class Solver:
     """Solves `problem` (a deik.Problem) with settings from `settings` and keyword overrides
     (as deik.solve); `solve(targets)` swaps goal targets between calls."""
 
-    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides: object):
+    def __init__(self, problem: Problem, settings: Settings | None = None, **overrides: Unpack[SettingsChanges]):
         if not isinstance(problem, Problem):
             raise TypeError(f"Solver takes a deik.Problem, got {type(problem).__name__}")
         self.problem = problem

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -61,7 +62,7 @@ class Settings:
     memory_limit: int | None = None
 
     @classmethod
-    def paper(cls, **changes: object) -> Settings:
+    def paper(cls, **changes: Unpack[SettingsChanges]) -> Settings:
         """Algorithm 1's settings: rand/1/bin, F 0.5, CR 0.5 (its FW = 2 diverges), fixed F and
         CR, no polish, no restarts."""
         return cls(
@@ -130,6 +131,32 @@ class Settings:
         _choice("dtype", self.dtype, ("float32", "float64"))
         if self.memory_limit is not None:
             _integer("memory_limit", self.memory_limit, 1, "bytes; None: 80 % of physical memory")
+
+
+class SettingsChanges(TypedDict, total=False):
+    """Settings fields given by keyword (`deik.solve(problem, population=64)`, `deik.Solver`,
+    `Settings.paper`): the same names and types as Settings' fields (a test keeps them equal),
+    so that a type checker flags a misspelt or mistyped setting; run time checks them again."""
+
+    population: int
+    generations: int
+    strategy: str
+    F: float
+    CR: float
+    adaptive: bool
+    polish: int
+    polish_every: int
+    polish_count: int
+    restarts: int
+    islands: int
+    migration: int
+    seed: int
+    patience: int
+    stop_on_converged: bool | None
+    time_limit: float | None
+    device: str
+    dtype: str
+    memory_limit: int | None
 
 
 def _integer(name: str, value, minimum: int, note: str = "") -> None:

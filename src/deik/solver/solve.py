@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import fields
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -18,7 +19,7 @@ from deik.solver.kept import kept_engine
 from deik.solver.launches import Launches, polish_flops
 from deik.solver.problem import Problem
 from deik.solver.result import Result
-from deik.solver.settings import Settings
+from deik.solver.settings import Settings, SettingsChanges
 from deik.solver.workspace import Workspace
 
 log = logging.getLogger(__name__)
@@ -31,7 +32,7 @@ def solve(
     *,
     initial: ArrayLike | None = None,
     progress: Progress = None,
-    **overrides: object,
+    **overrides: Unpack[SettingsChanges],
 ) -> Result:
     """Solve `problem`; settings from `settings` and/or keyword overrides (population,
     generations, time_limit, strategy, F, CR, adaptive, polish, restarts, seed, patience,
@@ -120,7 +121,7 @@ def solve_batch(
     *,
     initial: ArrayLike | None = None,
     progress: Progress = None,
-    **overrides: object,
+    **overrides: Unpack[SettingsChanges],
 ) -> Result:
     """Solve several problems on one skeleton in one launch: `problems` differ only in
     targets, weights, reference poses and active masks (see Problem.stack). The Result is
@@ -129,7 +130,10 @@ def solve_batch(
 
 
 def merge_settings(
-    caller: str, settings: Settings | None, overrides: dict[str, object], defaults: dict[str, object] | None = None
+    caller: str,
+    settings: Settings | None,
+    overrides: Mapping[str, object],
+    defaults: Mapping[str, object] | None = None,
 ) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""

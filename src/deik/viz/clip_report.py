@@ -8,8 +8,10 @@ frame numbers above), atomically: a reader sees the old file or the complete new
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,11 +22,20 @@ from deik.io.motion import Clip
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
+from deik.viz.marks import colour
 from deik.viz.plot import add_pose_axes, require_matplotlib
 from deik.viz.pose_axes import draw_skeleton, fit_axes
 from deik.viz.report_marks import marks_at
 
+if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
+    from matplotlib.figure import Figure
+
 POSE_HEIGHT = 4.5  # inches of the picture the pose panel takes
+SERIES_HEIGHT = 2.0  # inches per error series
+WIDTH = 9.0  # inches
+# Characters per line of the title (12 pt: about 7 pt a character, 9 inches less margins) and of
+# a series' name beside its axes (10 pt, along SERIES_HEIGHT less the gaps between series).
+TITLE_CHARACTERS, LABEL_CHARACTERS = 80, 22
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,18 +81,14 @@ def _draw_pose(container, panel: PosePanel) -> None:
     container.suptitle(f"frame {panel.frame}, where the fix moved the body most: before (grey) and after")
 
 
-def plot_clip_report(
+def clip_report_figure(
     series: dict,
-    path: FilePath,
     frame_time: float,
     title: str = "",
     notes: Sequence[str] = (),
     pose: PosePanel | None = None,
-) -> None:
-    """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
-    NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
-    `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
-    drawn above the series, or None."""
+) -> Figure:
+    """The matplotlib Figure plot_clip_report saves (see there); the caller closes it."""
     if not series:
         raise InputError("there is no error series to plot")
     if not frame_time > 0:
@@ -96,8 +103,8 @@ def plot_clip_report(
             )
         lines[name] = before, after
     plt = require_matplotlib()
-    height = 1.2 + 2.0 * len(lines)
-    figure = plt.figure(layout="constrained", figsize=(9.0, height + (POSE_HEIGHT if pose is not None else 0.0)))
+    height = 1.2 + SERIES_HEIGHT * len(lines)
+    figure = plt.figure(layout="constrained", figsize=(WIDTH, height + (POSE_HEIGHT if pose is not None else 0.0)))
     container = figure
     if pose is not None:
         top, container = figure.subfigures(2, 1, height_ratios=[POSE_HEIGHT, height])
@@ -106,16 +113,36 @@ def plot_clip_report(
     for ax, (name, (before, after)) in zip(axes[:, 0], lines.items()):
         time = np.arange(len(before)) * frame_time
         # markers keep frames between NaN gaps (e.g. a sparse reach track) visible
-        ax.plot(time, before, ".-", color="0.55", lw=1.5, ms=3, label="before")
+        ax.plot(time, before, ".-", color=colour("compare"), lw=1.5, ms=3, label="before")
         ax.plot(time, after, ".-", color="tab:blue", lw=1.5, ms=3, label="after")
-        ax.set_ylabel(name, fontsize="small")
+        # a long name in lines of a few words, so that it stays beside its own series
+        ax.set_ylabel(textwrap.fill(name, LABEL_CHARACTERS), fontsize="small")
         ax.grid(alpha=0.3)
     top_series = axes[0, 0]
     top_series.legend(loc="upper right", fontsize="small")
     frames = (lambda t: t / frame_time, lambda n: n * frame_time)
     top_series.secondary_xaxis("top", functions=frames).set_xlabel("frame")
     axes[-1, 0].set_xlabel("time (s)")
-    figure.suptitle("\n".join([title or "clip errors before and after", *notes]))
+    # every line of the title and notes wrapped to the figure's width
+    text = [textwrap.fill(line, TITLE_CHARACTERS) for line in [title or "clip errors before and after", *notes]]
+    figure.suptitle("\n".join(text), fontsize="medium")
+    return figure
+
+
+def plot_clip_report(
+    series: dict,
+    path: FilePath,
+    frame_time: float,
+    title: str = "",
+    notes: Sequence[str] = (),
+    pose: PosePanel | None = None,
+) -> None:
+    """Draw `series` {name: (before (N,), after (N,))} (e.g. from clips.report.per_frame_errors;
+    NaN frames are left blank) to PNG `path`; `frame_time` seconds per frame sets the time axis;
+    `notes`: lines of text under the title (numbers that are not series); `pose`: a PosePanel
+    drawn above the series, or None."""
+    figure = clip_report_figure(series, frame_time, title, notes, pose)
+    plt = require_matplotlib()
     try:
         save_atomically(path, lambda file: figure.savefig(file, format="png", dpi=100))
     finally:

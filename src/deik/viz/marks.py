@@ -8,11 +8,12 @@ Frames are joints then sites, as in Skeleton.frame_names; a frame's parent is it
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from deik.io.segments import bone_side
 from deik.model.skeleton import Skeleton
 from deik.objectives import goals as g
 from deik.solver.problem import Problem
@@ -20,9 +21,13 @@ from deik.solver.problem import Problem
 CHAIN_UNIT = "link lengths"
 
 # One colour per kind of mark (RGB, 0-255), the same in PNGs and in the 3-D view, each distinct
-# enough to be found in a picture by its colour (the picture tests do).
+# enough to be found in a picture by its colour (the picture tests do). Bones are coloured by side
+# as a ship's or an aircraft's lights are: left (port) red (a crimson apart from the targets' red),
+# right (starboard) green, the middle (spine, head, a robot's links) blue.
 COLOURS = {
     "bone": (31, 119, 180),
+    "left": (150, 20, 60),
+    "right": (0, 150, 120),
     "joint": (20, 50, 100),
     "root": (44, 160, 44),
     "tip": (227, 119, 194),
@@ -51,6 +56,17 @@ def bones(parents: ArrayLike) -> np.ndarray:
     parents = np.asarray(parents, np.int64)
     children = np.flatnonzero(parents >= 0)
     return np.stack([parents[children], children], axis=1)
+
+
+def bone_sides(parents: ArrayLike, names: Sequence[str]) -> list[str]:
+    """The colour kind of every bone of bones(parents): "left" or "right" when the name of its
+    child frame, else of its parent, says a side (LeftKnee, left_hand, hip_r: deik.io.segments
+    .bone_side), else "bone". `names` (F,) are the frames' names."""
+    sides = []
+    for parent, child in bones(parents):
+        side = bone_side(names[child]) or bone_side(names[parent])
+        sides.append(side or "bone")
+    return sides
 
 
 def roots(parents: ArrayLike) -> np.ndarray:

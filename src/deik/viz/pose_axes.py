@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from deik.model.skeleton import Skeleton
-from deik.viz.marks import bones, colour, frame_parents, roots, spread_out, tips
+from deik.viz.marks import bone_sides, bones, colour, frame_parents, roots, spread_out, tips
 
 if TYPE_CHECKING:  # matplotlib is imported when a picture is drawn
     from matplotlib.axes import Axes
@@ -52,10 +52,11 @@ def draw_skeleton(
 ) -> np.ndarray:
     """Draw one pose of `skeleton`: `points` (F, 3) world positions of its joints then sites
     (the tips are labelled with their names); `marks` {kind: points (N, 3)} for kinds of
-    MARKERS ("target", "support", "centre of mass", "contact"); `bone_kind` the colour of the
-    bones ("compare" for an overlay, which then gets no joint, site, root or tip marks);
+    MARKERS ("target", "support", "centre of mass", "contact"); `bone_kind` "bone" colours the
+    bones by side (viz.marks.bone_sides), another kind ("compare" for an overlay, which then gets
+    no joint, site, root or tip marks) all in its colour;
     `legend` False leaves the entries out of the axes' legend (a second pose on one axes);
-    `bone_label` the bones' legend entry (default "bones", or "compared" for an overlay).
+    `bone_label` the middle bones' legend entry (default "bones", or "compared" for an overlay).
     Returns the picture coordinates (N, k) of everything drawn, for fit_axes."""
     parents, n_joints, names = frame_parents(skeleton), skeleton.n_joints, skeleton.frame_names
     points = np.asarray(points, float)
@@ -64,13 +65,20 @@ def draw_skeleton(
     def label(text):
         return text if legend else None
 
-    for k, (parent, child) in enumerate(bones(parents)):
+    # by side (viz.marks.bone_sides), each side's first bone carrying its legend entry
+    sides = bone_sides(parents, names) if bone_kind == "bone" else [bone_kind] * len(bones(parents))
+    entries = {
+        "left": "left",
+        "right": "right",
+        bone_kind: bone_label or ("bones" if bone_kind == "bone" else "compared"),
+    }
+    for k, ((parent, child), side) in enumerate(zip(bones(parents), sides)):
         ax.plot(
             *flat[[parent, child]].T,
-            color=colour(bone_kind),
+            color=colour(side),
             lw=2.5,
             solid_capstyle="round",
-            label=label(bone_label or ("bones" if bone_kind == "bone" else "compared")) if k == 0 else None,
+            label=label(entries[side]) if side not in sides[:k] else None,
         )
     drawn = [flat]
     if bone_kind == "bone":
@@ -104,6 +112,11 @@ def fit_axes(ax: Axes, drawn: np.ndarray) -> None:
 
 
 def _name_tips(ax, flat: np.ndarray, ends: np.ndarray, names) -> None:
-    """Label the tips with their names, those spread out enough to read (viz.marks.spread_out)."""
+    """Label the tips with their names, those spread out enough to read (viz.marks.spread_out),
+    each on the side of its tip that faces the middle of the body, so that no name runs off the
+    picture."""
+    middle = (flat[:, 0].min() + flat[:, 0].max()) / 2
     for end in spread_out(flat, ends):
-        ax.text(*flat[end], f"  {names[end]}", fontsize="x-small", color="0.2")
+        right = flat[end, 0] > middle
+        text = f"{names[end]}  " if right else f"  {names[end]}"
+        ax.text(*flat[end], text, fontsize="x-small", color="0.2", ha="right" if right else "left")

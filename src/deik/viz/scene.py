@@ -56,7 +56,8 @@ class Scene:
     how to present them: `step` ("frame", "problem" or "pose") and `step_time` (seconds per
     frame of a clip, else None); `up` (3,); the length `unit` and where it comes from; the
     `floor` height along up (None: under the lowest point); `obstacles` ((centre (T, 3),
-    radius), ...); `notes`, lines of text shown beside the view."""
+    radius), ...); `notes`, lines of text shown beside the view; `shapes`, the figure's solid
+    body (viz.body_shapes.Shape: meshes fixed to its frames)."""
 
     title: str
     figure: Figure
@@ -70,6 +71,7 @@ class Scene:
     floor: float | None = None
     obstacles: tuple = ()
     notes: tuple[str, ...] = ()
+    shapes: tuple = ()
 
     @property
     def n_steps(self) -> int:

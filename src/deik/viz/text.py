@@ -13,10 +13,14 @@ def format_table(header: list[str], rows: list[list]) -> str:
     return "\n".join([lines[0], "  ".join("-" * w for w in widths)] + lines[1:])
 
 
-def shown(value: float, unit: str) -> str:
-    """`value` of a goal error or tolerance in `unit` ("m", "rad", ...) as reports show it:
-    angles in degrees (docs/conventions.md), everything else in its own unit, 6 digits."""
-    return f"{math.degrees(value):.6g} deg" if unit == "rad" else f"{value:.6g} {unit}"
+def shown(value: float, unit: str, length: str = "m") -> str:
+    """`value` of a goal error or tolerance in `unit` ("m", "rad" or "rad+m": GoalReport.unit) as
+    reports show it: angles in degrees (docs/conventions.md), lengths in `length`, the name of
+    the skeleton's length unit (viz.marks.length_unit: "m", "cm", "link lengths", ...), which
+    the "m" of a goal's unit stands for; 6 digits."""
+    if unit == "rad":
+        return f"{math.degrees(value):.6g} deg"
+    return f"{value:.6g} {unit.replace('m', length) if unit in ('m', 'rad+m') else unit}"
 
 
 def figure(value: float | None, form: str = ".4g") -> str:

@@ -18,6 +18,7 @@ from deik.cleanup.units import METRES
 from deik.errors import InputError
 from deik.io.load import load_skeleton
 from deik.io.pose_json import pose_angles, read_pose_json
+from deik.viz.body_shapes import character_body, robot_body
 from deik.viz.hosts import check_host
 from deik.viz.marks import length_unit
 from deik.viz.scene import Scene, figure_from_pose_file, figure_from_poses, target_marks, with_compare
@@ -55,6 +56,7 @@ def _pose_file_scene(path: str, units: str | None) -> Scene:
     figure = figure_from_pose_file(pose)
     marks, obstacles = target_marks(pose.targets, len(pose.angles))
     unit, source = (units, "given") if units else (pose.length_unit, "the pose file")
+    body = character_body(None, figure)
     return Scene(
         os.path.basename(path),
         figure,
@@ -64,6 +66,8 @@ def _pose_file_scene(path: str, units: str | None) -> Scene:
         step="problem" if pose.batched else "pose",
         marks=marks,
         obstacles=obstacles,
+        notes=(body.note,),
+        shapes=body.shapes,
     )
 
 
@@ -76,6 +80,7 @@ def _skeleton_scene(file: str, options: ViewOptions) -> tuple[Scene, object]:
     # the first clause says where the masses behind the centre of mass come from; the rest is detail
     notes = [f"masses: {loaded.mass_source.split(';')[0]}"] if skeleton.total_mass > 0 else []
     title = os.path.basename(file)
+    marks, obstacles, step_time = (), (), None
     if options.pose:
         pose = read_pose_json(options.pose)
         angles = pose_angles(pose, skeleton, "--pose")
@@ -83,15 +88,27 @@ def _skeleton_scene(file: str, options: ViewOptions) -> tuple[Scene, object]:
         figure = figure_from_poses(skeleton, angles)
         title = f"{title} in {os.path.basename(options.pose)}"
         step = "problem" if pose.batched else "pose"
-        scene = Scene(title, figure, skeleton.up, unit, source, step, None, None, marks, None, obstacles, tuple(notes))
-        return scene, loaded
-    if loaded.clip is not None:
+    elif loaded.clip is not None:
         figure = figure_from_poses(skeleton, loaded.clip.poses())
         step, step_time = "frame", loaded.clip.frame_time
     else:
-        figure, step, step_time = figure_from_poses(skeleton, skeleton.reference), "pose", None
+        figure, step = figure_from_poses(skeleton, skeleton.reference), "pose"
         notes.append("the reference pose: --pose pose.json shows a solved one")
-    return Scene(title, figure, skeleton.up, unit, source, step, step_time, notes=tuple(notes)), loaded
+    body = robot_body(file, figure) if loaded.kind == "urdf" else character_body(skeleton, figure)
+    scene = Scene(
+        title,
+        figure,
+        skeleton.up,
+        unit,
+        source,
+        step=step,
+        step_time=step_time,
+        marks=marks,
+        obstacles=obstacles,
+        notes=(*notes, body.note),
+        shapes=body.shapes,
+    )
+    return scene, loaded
 
 
 def _compared(path: str, segments: str | None):

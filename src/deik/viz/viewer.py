@@ -22,8 +22,8 @@ from deik.viz.viewer_nodes import SceneNodes
 VIEW_HINT = 'the 3-D view needs viser: pip install "deik[view]"'
 BATCH_STEP_SECONDS = 0.5  # playing a batch shows each problem this long
 LEGEND = (
-    "**Colours**: bones blue, joints navy, **root** green, **tips** pink (named; frame axes: x red, y green, "
-    "z blue), "
+    "**Colours**: bones and body of the left side crimson, of the right side green, of the middle blue; "
+    "joints navy, **root** green, **tips** pink (named; frame axes: x red, y green, z blue), "
     "sites brown, targets red, centre of mass orange, support cyan, contacts olive, obstacles purple, "
     "the compared figure grey."
 )
@@ -87,6 +87,9 @@ def _panel(server, scene: Scene, nodes: SceneNodes) -> _Player | None:
     for note in scene.notes:
         server.gui.add_markdown(note)
     player = _Player(server, scene, nodes) if scene.n_steps > 1 else None
+    if scene.shapes:
+        body = server.gui.add_checkbox("body", initial_value=True)
+        body.on_update(lambda _: nodes.show_body(body.value))
     names = server.gui.add_checkbox("names", initial_value=True)
     names.on_update(lambda _: nodes.show_names(names.value))
     axes = server.gui.add_checkbox("frame axes", initial_value=nodes.axes_shown)

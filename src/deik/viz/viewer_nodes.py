@@ -1,7 +1,9 @@
-"""The 3-D nodes of a Scene in a viser server: bones as lines, joints, sites, the root and the tips
-as points in their viz.marks colours, the tips' and root's names and frame axes, the centre of
-mass, marks, obstacles, a compared figure in grey, and a floor grid whose cell size the panel
-states. `SceneNodes.show(step)` moves every node to one step of the scene.
+"""The 3-D nodes of a Scene in a viser server: bones as lines coloured by side, the body's solids
+(viz.body_shapes) around them, joints, sites, the root and the tips as points in their viz.marks
+colours, the tips' and root's names and frame axes, the centre of mass, marks, obstacles, a
+compared figure in grey, and a floor grid whose cell size the panel states. The camera opens on
+the body of the first step, which fills FILL of the view's height; marks and axes are sized to
+the body. `SceneNodes.show(step)` moves every node to one step of the scene.
 """
 
 from __future__ import annotations
@@ -11,7 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from deik.viz.marks import COLOURS, bones, roots, spread_out, tips
+from deik.model.orientations import quaternion_matrix
+from deik.viz.body_shapes import body_height
+from deik.viz.marks import COLOURS, bone_sides, bones, roots, spread_out, tips
 from deik.viz.plot import view_axes
 from deik.viz.scene import Figure, Scene
 
@@ -22,6 +26,9 @@ BONE_PIXELS = 5.0  # bone lines keep this width on screen at any zoom
 # Frame axes start shown on a figure with this few tips (a robot arm, whose tool frame's
 # orientation matters); a character's many end sites would hide under theirs.
 AXES_TIPS = 2
+FOV = math.radians(50)  # the camera's vertical field of view
+FILL = 0.85  # of the view's height the body's bounding sphere fills on opening
+BODY_OPACITY = 0.6  # the solids let the bones, joints and marks inside them show through
 
 
 def nice_step(length: float) -> float:
@@ -51,13 +58,15 @@ class SceneNodes:
         self.centre = (low + high) / 2
         self.up = np.asarray(scene.up, float) / np.linalg.norm(scene.up)
         self.cell = nice_step(self.size / 8)
-        self.point = self.size / 80  # joint marker size, length units
+        self.body = body_height(scene.figure)  # marks and axes follow the body, not the path it walks
+        self.point = self.body / 80  # joint marker size, length units
         api = server.scene
         api.set_up_direction(tuple(self.up))
         self._grid(api, low, high)
         # the compared figure first, so that where the two coincide the viewed one is drawn over it
         self.compare = None if scene.compare is None else self._figure_nodes(api, "/compare", scene.compare, "compare")
         self.figure = self._figure_nodes(api, "/figure", scene.figure, "bone")
+        self.solids = self._solids(api, scene)
         self.marks = [
             api.add_point_cloud(
                 f"/marks/{m.kind}_{k}",
@@ -97,15 +106,22 @@ class SceneNodes:
         their names and frame axes, and the centre of mass."""
         step0 = figure.positions[0]
         pairs = bones(figure.parents)
+        sides = np.array(bone_sides(figure.parents, figure.names) if kind == "bone" else [kind] * len(pairs))
+        # one node per colour: a colour per vertex would be drawn lighter (taken as linear, not sRGB)
         nodes = {
-            "pairs": pairs,
-            "bones": api.add_line_segments(
-                f"{root}/bones",
-                step0[pairs],
-                COLOURS[kind],
-                thickness=BONE_PIXELS,
-                thickness_units="screen",
-            ),
+            "bones": [
+                (
+                    pairs[sides == side],
+                    api.add_line_segments(
+                        f"{root}/bones_{side}",
+                        step0[pairs[sides == side]],
+                        COLOURS[side],
+                        thickness=BONE_PIXELS,
+                        thickness_units="screen",
+                    ),
+                )
+                for side in dict.fromkeys(sides)
+            ],
         }
         if kind != "bone":
             return nodes
@@ -137,8 +153,8 @@ class SceneNodes:
             f"{root}/axes",
             batched_wxyzs=figure.quaternions_wxyz[0][named],
             batched_positions=step0[named],
-            axes_length=self.size / 12,
-            axes_radius=self.size / 400,
+            axes_length=self.body / 8,
+            axes_radius=self.body / 200,
             visible=self.axes_shown,
         )
         if figure.com is not None:
@@ -152,12 +168,48 @@ class SceneNodes:
             )
         return nodes
 
+    def _solids(self, api, scene: Scene) -> dict:
+        """{frame index: its node}: a frame node per frame that carries solids, the solids'
+        meshes under it (so that moving the frame moves them)."""
+        nodes = {}
+        figure = scene.figure
+        for k, shape in enumerate(scene.shapes):
+            frame = shape.frame
+            if frame not in nodes:
+                nodes[frame] = api.add_frame(
+                    f"/figure/body/{frame}",  # by index: a link name may hold a "/"
+                    show_axes=False,
+                    wxyz=tuple(figure.quaternions_wxyz[0, frame]),
+                    position=tuple(figure.positions[0, frame]),
+                )
+            api.add_mesh_simple(
+                f"/figure/body/{frame}/{k}",
+                shape.vertices,
+                shape.faces,
+                color=shape.colour,
+                opacity=BODY_OPACITY,
+                cast_shadow=False,  # shadows of many solids slow a browser without a GPU down to a crawl
+                receive_shadow=False,
+            )
+        return nodes
+
     def _camera(self, server) -> None:
-        """Start looking at the figure from the front, a little above, from far enough to see it all."""
+        """Start looking at the first step's body from the front, a little above, from where its
+        bounding sphere (solids included) fills FILL of the view's height."""
         across, depth, up = view_axes(self.up)
         direction = 0.45 * across - 0.85 * depth + 0.3 * up
-        server.initial_camera.look_at = tuple(self.centre)
-        server.initial_camera.position = tuple(self.centre + 2.0 * self.size * direction / np.linalg.norm(direction))
+        figure = self.scene.figure
+        points = [figure.positions[0]]
+        for shape in self.scene.shapes:
+            R = quaternion_matrix(figure.quaternions_wxyz[0, shape.frame], "wxyz")
+            points.append(shape.vertices @ R.T + figure.positions[0, shape.frame])
+        points = np.concatenate(points)
+        low, high = points.min(axis=0), points.max(axis=0)
+        radius = max(float(np.linalg.norm(high - low)) / 2, 1e-6)
+        distance = radius / (FILL * math.tan(FOV / 2))
+        server.initial_camera.fov = FOV
+        server.initial_camera.look_at = tuple((low + high) / 2)
+        server.initial_camera.position = tuple((low + high) / 2 + distance * direction / np.linalg.norm(direction))
 
     def show(self, step: int) -> None:
         """Move every node to `step` of the scene."""
@@ -176,7 +228,11 @@ class SceneNodes:
 
     def _move(self, nodes: dict, figure: Figure, step: int) -> None:
         points = figure.positions[step]
-        nodes["bones"].points = points[nodes["pairs"]]
+        if figure is self.scene.figure:
+            for frame, node in self.solids.items():
+                node.wxyz, node.position = figure.quaternions_wxyz[step, frame], points[frame]
+        for pairs, line in nodes["bones"]:
+            line.points = points[pairs]
         for index, cloud in nodes.get("groups", {}).values():
             cloud.points = points[index]
         for label, k in zip(nodes.get("labels", ()), nodes.get("named", ())):
@@ -187,6 +243,10 @@ class SceneNodes:
         if "com" in nodes:
             nodes["com"].points = figure.com[step : step + 1]
 
+    def show_body(self, visible: bool) -> None:
+        for node in self.solids.values():
+            node.visible = visible
+
     def show_names(self, visible: bool) -> None:
         for label in self.figure.get("labels", ()):
             label.visible = visible
@@ -196,4 +256,5 @@ class SceneNodes:
 
     def show_compare(self, visible: bool) -> None:
         if self.compare is not None:
-            self.compare["bones"].visible = visible
+            for _, line in self.compare["bones"]:
+                line.visible = visible
