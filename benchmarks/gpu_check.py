@@ -17,7 +17,9 @@ machine's kernel cache instead of an empty one (the tests' simulator run).
 Stages: first GPU solve in a fresh process with an empty kernel cache, then in a second process;
 Panda strict 6-D batches (1e-5 m, 1e-4 rad; population 32, mid-limit start; every answer
 re-scored by deik's float64 FK and the joint limits) of 1 to 10,000 targets through a reused
-Solver, GPU and CPU, with launches and bytes per GPU solve; DE-only joint evaluations per second
+Solver, GPU and CPU, with launches and bytes per GPU solve; the first polish by a team of threads
+per problem against a thread per problem on the same batches, taking turns in one Solver (the
+speed-up of deik.backends.cuda_team); DE-only joint evaluations per second
 on 100-link chains (one problem at population 500, and a batch filling the GPU); the kernels'
 registers, local and shared memory and occupancy; the crossovers.
 """
@@ -67,6 +69,7 @@ def main(argv: list[str]) -> int:
     check.stage("environment", check.environment)
     check.stage("first_solve", lambda: check.first_solves(cache))
     check.stage("panda", check.panda)
+    check.stage("polish", check.polish)
     check.stage("evolution", check.evolution)
     check.stage("kernels", check.kernels)
     check.stage("crossover", lambda: check.crossover("--store-crossover" in flags))
@@ -228,6 +231,43 @@ class Check:
                     return {"rows": rows, "cut": "budget"}
         return {"rows": rows, "auto_for_one": _auto_device(panda_problem(1)[1])}
 
+    def polish(self) -> dict:
+        """The first polish on Panda strict batches, a team of threads per problem against a thread
+        per problem (CudaBackend.cooperative_polish), taking turns on one reused Solver: best ms
+        of 3 each, the ratio, the strict share of each one's answers."""
+        if "gpu" not in self.devices:
+            return {"skipped": "no GPU in this run"}
+        import deik
+
+        sizes = (4,) if self.quick else (100, 2000, 10000)
+        rows = {}
+        for n in sizes:
+            skeleton, batch, start = panda_problem(n, seed=5)
+            solver = deik.Solver(batch, population=32, device="gpu", seed=1)
+            backend = solver._engine.backend
+            times, strict = {True: [], False: []}, {}
+            for rep in range(4):  # the first round compiles or loads each kernel and allocates
+                for team in (True, False):
+                    backend.cooperative_polish = team
+                    began = time.perf_counter()
+                    result = solver.solve(initial=start[None])
+                    if rep:
+                        times[team].append(time.perf_counter() - began)
+                    strict[team] = strict_share(skeleton, result.angles, batch)
+            ran = "first_polish_team" if backend.team_pool is not None else "first_polish"
+            team_ms, thread_ms = 1e3 * min(times[True]), 1e3 * min(times[False])
+            rows[f"gpu/{n}"] = {
+                "team_ms": team_ms,
+                "thread_ms": thread_ms,
+                "speedup": thread_ms / team_ms,
+                "team_strict": strict[True],
+                "thread_strict": strict[False],
+                "team_kernel": ran,
+            }
+            if time.perf_counter() - self.began > self.budget:
+                return {"rows": rows, "cut": "budget"}
+        return {"rows": rows}
+
     def evolution(self) -> dict:
         import deik
 
@@ -273,11 +313,11 @@ class Check:
     def kernels(self) -> dict:
         if "gpu" not in self.devices:
             return {"skipped": "no GPU in this run"}
-        from deik.backends import cuda_kernels
+        from deik.backends import cuda_kernels, cuda_team
 
         rows = {}
-        for name in ("first_polish", "evolve"):
-            kernel = getattr(cuda_kernels, name)
+        for name in ("first_polish", "first_polish_team", "evolve"):
+            kernel = getattr(cuda_team if name.endswith("team") else cuda_kernels, name)
             rows[name] = {
                 query: _first_value(kernel, query)
                 for query in ("get_regs_per_thread", "get_local_mem_per_thread", "get_shared_mem_per_block")
@@ -359,6 +399,18 @@ class Check:
                 f"| {key} | {row['best_ms']:.3f} | {row['problems_per_s']:,.0f} | {row['strict']:.1%} | "
                 f"{row.get('launches', '-')} | {moved} |"
             )
+        polish = r.get("polish", {}).get("rows", {})
+        if polish:
+            lines += [
+                "",
+                "| first polish, Panda strict batch | team of threads ms | thread per problem ms | speed-up | strict |",
+                "|---|---|---|---|---|",
+            ]
+            for key, row in polish.items():
+                lines.append(
+                    f"| {key} ({row['team_kernel']}) | {row['team_ms']:.3f} | {row['thread_ms']:.3f} | "
+                    f"{row['speedup']:.2f}x | {row['team_strict']:.1%} / {row['thread_strict']:.1%} |"
+                )
         lines += [
             "",
             f"Kernels: `{json.dumps(r.get('kernels'))}`; crossovers: `{json.dumps(r.get('crossover'), default=str)}`.",

@@ -18,18 +18,23 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
-# what ptxas may use per thread for each kernel (sm_90, float32 and float64): evolve is capped at 128
-# registers (four 128-thread blocks per multiprocessor), first_polish is not (docs/gpu.md); any spill
-# or stack frame (local memory) would be scratch the pools were meant to hold
+# what ptxas may use per thread for each kernel (sm_90, float32 and float64): evolve and
+# first_polish_team are capped at 128 registers (four 128-thread blocks per multiprocessor),
+# first_polish is not (docs/gpu.md); any spill or stack frame (local memory) would be scratch the
+# pools were meant to hold; first_polish_team's shared array (cuda_team.TEAM_SHARED_FLOATS) stays
+# under the 48 KB a block may hold without opting in
 # (benchmarks/results/gpu/kernel_resources.json records the last compile)
-REGISTER_BUDGET = {"evolve": 128, "first_polish": 255}
+KERNELS = ["evolve", "first_polish", "first_polish_team"]
+REGISTER_BUDGET = {"evolve": 128, "first_polish": 255, "first_polish_team": 128}
 LOCAL_BUDGET = {"spill_store_bytes": 0, "spill_load_bytes": 0, "stack_frame_bytes": 0}
+SHARED_BUDGET = {"evolve": 1024, "first_polish": 0, "first_polish_team": 48 * 1024}
 
 
 def _within_budget(name, kernel):
     assert kernel["registers"] is not None and kernel["registers"] <= REGISTER_BUDGET[name], (name, kernel)
     for field, limit in LOCAL_BUDGET.items():
         assert kernel[field] is not None and kernel[field] <= limit, (name, field, kernel[field])
+    assert (kernel["shared_bytes"] or 0) <= SHARED_BUDGET[name], (name, kernel["shared_bytes"])
 
 
 def _run(script, *args, simulator=False, env=None, timeout=600):
@@ -82,6 +87,47 @@ def test_simulated_cuda_start_equals_cpu_bit_for_bit_in_float64():
         assert cpu[key] == sim[key], key
     for key in ("pop", "raw", "history"):
         np.testing.assert_array_equal(np.array(cpu[key]), np.array(sim[key]), err_msg=key)
+
+
+def _team_runs(case, dtype="float64", paths=("team", "thread", "cpu")):
+    """tests/scripts/team_polish_run.py's answers per path: the GPU's team per problem, its thread
+    per problem (both in the simulator) and the CPU."""
+    return {path: json.loads(_run("team_polish_run.py", case, path, dtype, simulator=path != "cpu")) for path in paths}
+
+
+def _meets_strict_targets(run):
+    """Every problem met by the first polish, inside the limits, every goal within its strict
+    tolerance (1e-5 m, 1e-4 rad) by NumPy's forward kinematics of the answer."""
+    n = len(run["pose"])
+    assert run["converged"] == [True] * n and run["generations"] == [0] * n and run["inside_limits"]
+    for label, error in run["errors"].items():
+        assert error <= (1e-5 if label.startswith("position") else 1e-4), (label, error)
+
+
+@pytest.mark.parametrize(("case", "dofs"), [("arm", 7), ("chain", 24)])
+def test_team_polish_meets_strict_targets_in_the_bits_of_the_thread_kernel_and_the_cpu(case, dofs):
+    # a 7-DOF arm's 6-D targets (the dual step) and a 24-DOF chain's (the dual step, and on one
+    # problem 36 rows: the normal equations, three DOFs a lane), random in-limit poses' FK
+    runs = _team_runs(case)
+    assert runs["team"]["ran"] == "first_polish_team" and runs["thread"]["ran"] == "first_polish"
+    assert runs["team"]["dofs"] == dofs and len(runs["team"]["errors"]) >= 2
+    _meets_strict_targets(runs["team"])
+    for other in ("thread", "cpu"):
+        for key in ("pose", "raw"):
+            np.testing.assert_array_equal(np.array(runs["team"][key]), np.array(runs[other][key]), err_msg=other)
+
+
+def test_team_polish_agrees_with_the_thread_kernel_in_float32():
+    runs = _team_runs("arm", "float32", ("team", "thread"))
+    assert runs["team"]["ran"] == "first_polish_team"
+    _meets_strict_targets(runs["team"])
+    np.testing.assert_allclose(np.array(runs["team"]["pose"]), np.array(runs["thread"]["pose"]), atol=1e-3)
+
+
+def test_skeletons_beyond_a_teams_shared_slab_keep_the_thread_per_problem_polish():
+    run = _team_runs("wide", paths=("team",))["team"]
+    assert run["dofs"] == 34 and run["ran"] == "first_polish"
+    _meets_strict_targets(run)
 
 
 def test_simulated_cuda_kernel_agrees_with_cpu_in_float32():
@@ -167,16 +213,16 @@ def test_numpy_without_row_stack_breaks_numba_cuda_and_deiks_guard_fixes_it(tmp_
 
 @pytest.mark.slow
 def test_cuda_kernels_compile_once_for_hopper_within_budget_and_load_from_the_cache(tmp_path):
-    # The real numba-cuda compile (NVVM to PTX, nvJitLink's ptxas to sm_90a SASS) of both
+    # The real numba-cuda compile (NVVM to PTX, nvJitLink's ptxas to sm_90a SASS) of the three
     # kernels, driven by the CUDA back-end's own launches, with numpy.row_stack deleted as NumPy
     # 2.5 did; then a second process, on another robot, population, batch and goal mix, loads
-    # both from the disk cache instead of compiling.
+    # them from the disk cache instead of compiling.
     _nvvm_or_skip()
     cache = {"NUMBA_CACHE_DIR": str(tmp_path)}
     # a first compile takes about 150 CPU seconds on a 2-core machine, far more wall time under load
     first = json.loads(_run("compile_cuda.py", "float32", "humanoid", "--without-row-stack", env=cache, timeout=2400))
     second = json.loads(_run("compile_cuda.py", "float32", "arm", env=cache, timeout=600))
-    assert sorted(first["kernels"]) == sorted(second["kernels"]) == ["evolve", "first_polish"]
+    assert sorted(first["kernels"]) == sorted(second["kernels"]) == KERNELS
     for name, kernel in first["kernels"].items():
         again = second["kernels"][name]
         assert not kernel["from_cache"] and again["from_cache"], name
@@ -191,7 +237,7 @@ def test_recorded_kernel_resources_are_within_budget():
     )
     assert {row["dtype"] for row in record["compiles"]} == {"float32", "float64"}
     for row in record["compiles"]:
-        assert sorted(row["kernels"]) == ["evolve", "first_polish"]
+        assert sorted(row["kernels"]) == KERNELS
         for name, kernel in row["kernels"].items():
             _within_budget(name, kernel)
 

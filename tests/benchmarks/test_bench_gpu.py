@@ -41,7 +41,7 @@ def test_gpu_check_runs_every_stage_in_the_simulator(tmp_path, shared_data):
     assert done.returncode == 0, done.stderr[-3000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gpu_check.json", "gpu_check.md"]
     result = json.loads((tmp_path / "gpu_check.json").read_text())
-    for stage in ("environment", "first_solve", "panda", "evolution", "kernels", "crossover"):
+    for stage in ("environment", "first_solve", "panda", "polish", "evolution", "kernels", "crossover"):
         assert "error" not in result[stage] and "skipped" not in result[stage], (stage, result[stage])
     assert result["environment"]["gpu"] == "CUDA simulator"
     rows = result["panda"]["rows"]
@@ -49,8 +49,11 @@ def test_gpu_check_runs_every_stage_in_the_simulator(tmp_path, shared_data):
     assert all(row["strict"] == 1.0 for row in rows.values())  # every answer re-scored in float64
     assert rows["gpu/1"]["launches"] >= 1 and rows["gpu/1"]["bytes_to_host"] > 0
     assert result["first_solve"]["second_process"]["first_s"] > 0
+    polish = result["polish"]["rows"]["gpu/4"]  # the team polish against the thread per problem, taking turns
+    assert polish["team_kernel"] == "first_polish_team" and polish["team_strict"] == polish["thread_strict"] == 1.0
+    assert polish["team_ms"] > 0 and polish["thread_ms"] > 0
     table = (tmp_path / "gpu_check.md").read_text()
-    assert "CUDA simulator" in table and "Panda 2,000 strict targets" in table
+    assert "CUDA simulator" in table and "Panda 2,000 strict targets" in table and "speed-up" in table
 
 
 @pytest.mark.slow

@@ -7,6 +7,9 @@ and shared memory).
 
 CASE "humanoid" (a reach and comfort, population 64, one problem) or "arm" (a 7-joint arm's 6-D
 targets, population 32, five problems): two different problems, which must share one compile.
+Each case also solves a second problem whose goals all have tolerances (on the humanoid: a
+3-joint chain's tip targets; on the arm: the arm's own with a thread per problem), so that all
+three kernels compile: evolve, first_polish and first_polish_team.
 --without-row-stack deletes numpy.row_stack first, as NumPy 2.5 did (deik's guard must put it
 back before numba-cuda compiles). --record FILE keeps the result in a JSON record, one entry
 per dtype (benchmarks/results/gpu/kernel_resources.json, which a test checks against the budget).
@@ -106,6 +109,15 @@ def problem(case):
     return deik.Problem(arm, goals), 32
 
 
+def second_problem(case):
+    """The case's other problem: one that the team polish takes (every goal with a tolerance)."""
+    if case == "humanoid":
+        chain = deik.chain(3, dims=3)
+        kin = deik.forward_kinematics(chain, np.random.default_rng(1).uniform(-1, 1, (3, chain.n_dofs)))
+        return deik.Problem(chain, [deik.Position("tip", kin.position("tip"), tolerance=1e-4)]), 16
+    return problem(case)
+
+
 def resources(info: str) -> dict:
     """ptxas's lines for the kernel (the entry's, the last function ptxas reports)."""
 
@@ -126,9 +138,13 @@ def resources(info: str) -> dict:
 dtype, case = sys.argv[1], sys.argv[2]
 prob, population = problem(case)
 began = time.perf_counter()
+other, other_population = second_problem(case)
+other_settings = deik.Settings(population=other_population, dtype=dtype, device="gpu", stop_on_converged=True)
+deik.Engine(other, other_settings).start(2)  # first_polish_team
 settings = deik.Settings(population=population, dtype=dtype, device="gpu", stop_on_converged=True)
 engine = deik.Engine(prob, settings)
 engine.init()  # evolve, sampling a first population
+engine.backend.cooperative_polish = False
 engine.start(2)  # first_polish (the fake answers say every problem was met: evolve is not launched again)
 report = {"dtype": dtype, "case": case, "total_seconds": time.perf_counter() - began, "kernels": {}}
 for name, entry in sorted(COMPILED.items()):

@@ -5,8 +5,10 @@ change while only the targets do: the skeleton, the goal table, the population b
 Status, the scratch. A solve copies in the target parameters (and the comfort reference or
 seed poses when given) and copies out one answer row per problem: its Status fields and best
 individual (cuda_kernels.write_answer), plus the history rows of the generations it ran. A
-batch of robot targets that the first polish meets is one launch (`first_polish`); problems
-it leaves unmet take a second (`evolve`). `traffic` counts launches and bytes each way.
+batch of robot targets that the first polish meets is one launch (`first_polish_team`, a team
+of threads per problem, deik.backends.cuda_team, where the skeleton and goals allow; else
+`first_polish`, a thread per problem); problems it leaves unmet take a second (`evolve`).
+`traffic` counts launches and bytes each way.
 
 Every GPU call runs inside deik.backends.gpu.on_gpu, so any failure (compile, launch, out of
 memory) reaches the caller as one DeviceError line.
@@ -21,6 +23,7 @@ import numpy as np
 from deik.backends.contract import KernelInputs, Seeds, SolveBuffers
 from deik.backends.gpu import on_gpu, require_gpu, simulated
 from deik.device.layout import THREADS_PER_BLOCK, Buffers, Status
+from deik.objectives.kinds import TOLERANCE
 
 RESIDENT_THREADS_PER_MULTIPROCESSOR = 2048  # Hopper; the grid never launches more threads than fit at once
 SIMULATED_MULTIPROCESSORS = 2  # the simulator runs threads in Python: keep its grids small
@@ -47,9 +50,13 @@ class CudaBackend:
     def __init__(self):
         self.cuda = require_gpu()
         with on_gpu("loading the CUDA kernels"):
-            from deik.backends import cuda_kernels
+            from deik.backends import cuda_kernels, cuda_team
 
         self.kernels = cuda_kernels
+        self.team = cuda_team
+        # the first polish by a team of threads per problem where it can (cuda_team.fits and every
+        # goal with a tolerance); False: a thread per problem (the benchmark compares the two)
+        self.cooperative_polish = True
         self.traffic = Traffic()
         self._uploaded = {}  # id of a host input array -> (host array, device copy, bytes it held)
         self._sizes = None  # KernelSizes of the device buffers
@@ -131,12 +138,32 @@ class CudaBackend:
             self.evolve_pool = cuda.device_array((rows, self.blocks * self.threads), dtype)
             self.polish_matrices = cuda.device_array((max(matrices, 1), self.blocks * count), dtype)
             self.first_pool = cuda.device_array((rows + matrices, self.polish_threads), dtype)
+            self.team_pool = None  # allocated by the first team polish (_team_geometry)
             self.unmet = cuda.device_array(B, np.int64)
             self.order = self._to_device(np.arange(B, dtype=np.int64))
             self.answers = cuda.device_array((B + 1, kernels.answer_width(sizes)), np.float64)
             self.history = cuda.device_array((0, B, 2), np.float64)
         self.host_answers = np.empty((B + 1, kernels.answer_width(sizes)), np.float64)
         self._sizes, self._polishers, self._bound = sizes, count, None
+
+    def _team_geometry(self, inputs: KernelInputs) -> tuple[int, int] | None:
+        """(blocks, threads per block) of first_polish_team for these inputs, its scratch pool
+        allocated; None where the thread-per-problem first_polish runs instead (a skeleton of more
+        DOFs than a team's shared slab holds, or a goal without tolerance: device_lm.relax)."""
+        team, sizes = self.team, self._sizes
+        D, B = sizes.dofs, sizes.problems
+        if not (self.cooperative_polish and team.fits(D)) or (inputs.terms.term_float[:, TOLERANCE] < 0).any():
+            return None
+        teams = min(team.teams_per_block(D), B)  # a small batch: a small block, no idle teams
+        threads = teams * team.TEAM_LANES
+        rows = self.kernels.thread_rows(sizes)
+        itemsize = self.cur.pop.dtype.itemsize
+        fit = max(1, min(self._resident_threads, SCRATCH_BYTES // (rows * itemsize)) // threads)
+        blocks = max(1, min(-(-B // teams), fit))
+        if self.team_pool is None or self.team_pool.shape[1] != blocks * threads:
+            with on_gpu(f"allocating the team polish's scratch for {B} problem(s)"):
+                self.team_pool = self.cuda.device_array((rows, blocks * threads), self.cur.pop.dtype)
+        return blocks, threads
 
     def _history_for(self, n_generations: int):
         """Device history rows (n, B, 2): a prefix of a buffer kept between launches."""
@@ -171,10 +198,15 @@ class CudaBackend:
         kernels, device = self.kernels, self._inputs(inputs)
         initial = self._seeds(seeds)
         B = self._sizes.problems
+        geometry = self._team_geometry(inputs)
         with on_gpu("running the first polish"):
             self._copy_in(np.zeros(1), self.answers[B, :1])
-            blocks = -(-self.polish_threads // FIRST_POLISH_THREADS)
-            kernels.first_polish[blocks, FIRST_POLISH_THREADS](
+            if geometry is None:
+                kernel, pool = kernels.first_polish, self.first_pool
+                geometry = (-(-self.polish_threads // FIRST_POLISH_THREADS), FIRST_POLISH_THREADS)
+            else:
+                kernel, pool = self.team.first_polish_team, self.team_pool
+            kernel[geometry](
                 self.cur,
                 self.status,
                 *device,  # skeleton, terms, evolution, polish, rules
@@ -182,7 +214,7 @@ class CudaBackend:
                 np.int64(seeds.count),
                 self.unmet,
                 self.answers,
-                self.first_pool,
+                pool,
             )
             self.traffic.launches += 1
             self._to_host(self.answers, self.host_answers)

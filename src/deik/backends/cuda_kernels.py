@@ -7,7 +7,9 @@ dtype or a new deik compiles again; the cache stamp is the CPU kernels', deik.ba
 - `first_polish`: one thread per problem polishes its individual 0 (device_driver.polish_first)
   and, when that meets every tolerance, stops the problem there (its population copies of it),
   as the CPU's lazy first population does. Robot targets nearly all stop here (median 0
-  generations), so this is most of a solve's work, spread one problem per thread over the GPU.
+  generations), so this is most of a solve's work; where a team of threads per problem can
+  take it, deik.backends.cuda_team.first_polish_team does it instead, and this kernel serves
+  skeletons beyond a team's shared slab and goals without tolerance.
 - `evolve`: one block per problem of a list (the unmet ones), threads striding over the
   population: completes or samples a first population, then runs generations with ping-pong
   buffers, polish rounds side by side (one thread per polished individual) and the

@@ -27,8 +27,8 @@ from deik.objectives.kinds import (
     TOLERANCE,
 )
 
-_MAX_DAMPING = 1e8
-_DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
+MAX_DAMPING = 1e8
+DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
 _PULL_STIFFNESS = 1e-6  # comfort's weight against the goals' J^T J (its largest diagonal)
 _MIN_PULL = 1.0 / 64.0  # a comfort pull is shortened 4-fold per rejected step down to this
 STALL_ITERATIONS = 8  # converge gives up when its cost has not halved in this many iterations
@@ -39,7 +39,7 @@ STALL_ITERATIONS = 8  # converge gives up when its cost has not halved in this m
 # 20-joint chain's target from a random pose 99.4 % instead of 94.5 %. With as many rows or
 # more (a least-squares step) 1e-3 did better: three goals on a 4-joint chain took 961 us per
 # problem at 1e-3 and 1412 us at 1.
-_REDUNDANT_DAMPING, _DAMPING = 1.0, 1e-3
+REDUNDANT_DAMPING, DAMPING = 1.0, 1e-3
 
 
 def improves(lv, tot, levels, total):
@@ -142,7 +142,7 @@ def dual_step(lm, D, m, damping, q, limits, halt):
         if (q[d] <= limits[d, LOWER] and gradient[d] > 0.0) or (q[d] >= limits[d, UPPER] and gradient[d] < 0.0):
             inverse[d] = 0.0
         else:
-            inverse[d] = 1.0 / (damping * max(inverse[d], _DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30)
+            inverse[d] = 1.0 / (damping * max(inverse[d], DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30)
     for i in range(m):
         for k in range(i + 1):
             v = 1.0 if i == k else 0.0
@@ -253,7 +253,7 @@ def damped_step(lm, D, damping, q, limits, halt):
     for a in range(D):
         peak = max(peak, A[a * D + a])
     for a in range(D):
-        A[a * D + a] += damping * max(A[a * D + a], _DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30
+        A[a * D + a] += damping * max(A[a * D + a], DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30
         delta[a] = -gradient[a]
         if (q[a] <= limits[a, LOWER] and gradient[a] > 0.0) or (q[a] >= limits[a, UPPER] and gradient[a] < 0.0):
             for c in range(D):
@@ -358,7 +358,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw,
     m = polished_rows(b, terms, top)
     dual = m < D  # fewer residual rows than DOFs: solve m x m (dual_step)
     anchor, since = cost, 0
-    damping = _REDUNDANT_DAMPING if dual else _DAMPING
+    damping = REDUNDANT_DAMPING if dual else DAMPING
     met = within_tolerances(b, pose_raw, terms, T)
     # the normal equations change only when a step is kept; a kept step's frames (computed with
     # the axes, to score it) are then the new pose's, so each iteration runs one FK
@@ -389,7 +389,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw,
                 formed, frames_ready = False, True
                 continue
         damping *= 10.0
-        if damping > _MAX_DAMPING:
+        if damping > MAX_DAMPING:
             break
     if met or improves(pose_levels, pose_total, levels[b, i], total[b, i]):
         keep_trial(state, b, i, x, pose_levels, pose_raw, pose_total, state.rates[b, i])
@@ -444,5 +444,5 @@ def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, fr
             pull *= 0.25  # first a shorter pull towards the reference, then more damping
             continue
         damping *= 10.0
-        if damping > _MAX_DAMPING:
+        if damping > MAX_DAMPING:
             return
