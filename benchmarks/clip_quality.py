@@ -6,9 +6,9 @@ known answer (issue 17 item 7). One table: JSON, markdown and PNG.
 Each clip of the shared data's humanoid/ (--clips: those named; with --quick, the first 40 frames of
 each) with its segment masses:
 
-1. contacts, as `deik clip --contact auto` fixes it (feet as --plant-feet auto finds them, every
-   joint and end site that rests on the floor, the floor detected and kept): the largest slide
-   of a contact point between two contact frames (mm/frame, target <= 0.5), the foot-skating
+1. contacts, as `deik clip` fixes it with no flags (every point of the body that rests, soles
+   included, the floor detected and kept): the largest slide of a contact point between two
+   contact frames (mm/frame, target <= 0.5), the foot-skating
    ratio (target 0), the deepest point below the floor (mm, target <= 1), the largest of the
    four peak ratios against the capture (rotation-channel velocity and acceleration, joint and
    site velocity and acceleration, cleanup/dynamics.py; target <= 1.10), the frames meeting
@@ -38,12 +38,13 @@ import numpy as np
 
 from benchmarks import harness
 from benchmarks.data import need
-from deik.cleanup.body_contacts import detect_body_contacts, detect_floor, merge_contacts
+from deik.cleanup.body import on_body
 from deik.cleanup.clip_goals import ClipGoals
 from deik.cleanup.coherence import hinge_channels
-from deik.cleanup.contacts import Contacts, detect_contacts, foot_sites, site_positions
+from deik.cleanup.contacts import Contacts, site_positions
 from deik.cleanup.dynamics import PEAK_RATIO, peak_ratios
 from deik.cleanup.fix import fix_clip
+from deik.cleanup.ground import resting_body
 from deik.cleanup.summary import clip_report, per_frame_errors
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
@@ -62,25 +63,25 @@ def load(path: Path, frames: int):
 
 
 def animator_contacts(clip):
-    """(contacts, floor) as `deik clip --contact auto` finds them: feet and body, floor detected."""
-    floor = detect_floor(clip)
-    parts = [detect_contacts(clip, foot_sites(clip.skeleton)), detect_body_contacts(clip, floor=floor)]
-    return merge_contacts(parts, floor), floor
+    """(body, contacts, floor height) as `deik clip` finds them with no flags: every point of the
+    body that rests, the floor detected."""
+    body, floor, contacts = resting_body(clip)
+    return body, contacts, floor.height
 
 
 def contacts_row(clip, seed: int) -> dict:
     """Item 1 of the module notes for one clip."""
-    contacts, floor = animator_contacts(clip)
+    body, contacts, floor = animator_contacts(clip)
     began = time.perf_counter()
-    fix = fix_clip(clip, ClipGoals(contacts, floor=floor), seed=seed)
+    fix = fix_clip(clip, ClipGoals(contacts, floor=floor), seed=seed, body=body)
     seconds = time.perf_counter() - began
-    report = clip_report(clip, fix.clip, contacts)
+    report = clip_report(*fix.on_body(), contacts)
     ratios = peak_ratios(clip, fix.clip)
     return {
         "contact_points": [str(site) for site in contacts.sites],
         "floor_m": floor,
-        "sliding_mm_per_frame": report["foot_sliding_max_mm_per_frame"]["after"],
-        "sliding_before_mm_per_frame": report["foot_sliding_max_mm_per_frame"]["before"],
+        "sliding_mm_per_frame": report["sliding_max_mm_per_frame"]["after"],
+        "sliding_before_mm_per_frame": report["sliding_max_mm_per_frame"]["before"],
         "skating_ratio": report["foot_skating_ratio_share"]["after"],
         "penetration_mm": report["penetration_max_mm"]["after"],
         "penetration_before_mm": report["penetration_max_mm"]["before"],
@@ -94,13 +95,13 @@ def contacts_row(clip, seed: int) -> dict:
 
 def balance_row(clip, seed: int) -> dict:
     """Item 2 of the module notes for one clip."""
-    contacts, floor = animator_contacts(clip)
+    body, contacts, floor = animator_contacts(clip)
     began = time.perf_counter()
-    fix = fix_clip(clip, ClipGoals(contacts, balance=True, floor=floor), seed=seed)
+    fix = fix_clip(clip, ClipGoals(contacts, balance=True, floor=floor), seed=seed, body=body)
     seconds = time.perf_counter() - began
-    report = clip_report(clip, fix.clip, contacts)
-    kept = fix.balance.balanced
-    zmp = per_frame_errors(clip, fix.clip, contacts)["zmp_outside_support_mm"]
+    report = clip_report(*fix.on_body(), contacts)
+    kept = fix.balance.balanced & fix.met
+    zmp = per_frame_errors(*fix.on_body(), contacts)["zmp_outside_support_mm"]
     ratios = peak_ratios(clip, fix.clip)
     return {
         "balanced_frames": int(kept.sum()),
@@ -144,11 +145,11 @@ def joint_rms_mm(clip, other) -> float:
 
 def known_answer_row(clip, seed: int) -> dict:
     """Item 3 of the module notes for one clip."""
-    contacts, floor = animator_contacts(clip)
+    body, contacts, floor = animator_contacts(clip)
     noisy, channels = corrupted(clip, seed)
-    held = Contacts(contacts.sites, np.ones_like(contacts.mask), False, None, None, floor)  # every frame
-    goals = ClipGoals(held, floor=floor, plants=site_positions(clip, contacts.sites))
-    fix = fix_clip(noisy, goals, seed=seed)
+    held = Contacts(contacts.sites, np.ones_like(contacts.mask), False, None, None, floor, contacts.clearance)
+    goals = ClipGoals(held, floor=floor, plants=site_positions(on_body(clip, body), contacts.sites))
+    fix = fix_clip(noisy, goals, seed=seed, body=body)
     before, after = joint_rms_mm(clip, noisy), joint_rms_mm(clip, fix.clip)
     return {"channels": channels, "rms_before_mm": before, "rms_after_mm": after, "ratio": after / before}
 

@@ -25,7 +25,7 @@ def main(source: str, target: str) -> None:
     deik.write_bvh(target, cleaned.clip)  # the same channel layout, Euler angles kept continuous
 
     metrics = cleaned.report["metrics"]  # every measure before and after (what `deik clip --json` writes)
-    mean, peak = metrics["foot_sliding_mean_mm_per_frame"], metrics["foot_sliding_max_mm_per_frame"]
+    mean, peak = metrics["sliding_mean_mm_per_frame"], metrics["sliding_max_mm_per_frame"]
     print(f"foot sliding while planted, mean / max: {mean['before']:.2f} / {peak['before']:.2f} mm per frame before,")
     met = cleaned.original.n_frames - len(cleaned.unmet_frames)
     print(f"{mean['after']:.2f} / {peak['after']:.2f} mm per frame after; {met}/{cleaned.original.n_frames} frames")

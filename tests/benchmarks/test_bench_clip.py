@@ -36,11 +36,12 @@ def test_benchmark_smoke_run_writes_json_markdown_and_png(shared_data, tmp_path,
     assert result == json.loads(json.dumps(record)) and result["frames"] == 60 and result["best_seconds"] > 0
     assert result["frames_per_second"] == 60 / result["best_seconds"] == result["figures"]["frames per second"]
     assert result["settings"]["population"] > 0 and result["settings"]["device"] == "cpu"
-    assert result["stages"][0]["stage"] == "warm start" and result["passes"] == len(result["stages"]) - 1
-    # frame 20 of the looped walk is met on about half the seeds, with this kernel and the one
-    # before it (seeds 0-3: 59/60/59/59 frames now, 60/59/59/60 before): every other frame is
-    assert result["frames_met"] >= 59
-    sliding = result["metrics"]["foot_sliding_mean_mm_per_frame"]
+    stages = [stage["stage"] for stage in result["stages"]]
+    assert stages[0] == "warm start" and stages[-1] == "calm" and result["passes"] == len(stages) - 2
+    # every resting point planted: the frames whose change would make a point jolt are taken
+    # back and listed unmet (44 of 60 with seed 0)
+    assert result["frames_met"] >= 40
+    sliding = result["metrics"]["sliding_mean_mm_per_frame"]
     assert sliding["before"] > 1.0 and sliding["after"] < 1.0
     (target,) = result["targets"]
     assert result["environment"]["numba_threads"] >= 1 and target["goal"] == pytest.approx(0.6)  # 10 s per 1000
@@ -60,7 +61,10 @@ def test_clip_quality_smoke_run_writes_one_table(shared_data, tmp_path):
     (row,) = saved["clips"]
     assert row["clip"] == "humanoid3d_walk" and row["frames"] == 39 and saved["command"] == result["command"]
     assert set(row["verdicts"]) == {"sliding", "skating", "penetration", "peaks", "balance_peaks", "known_answer"}
-    assert row["contacts"]["frames_met"] == 39 and row["contacts"]["sliding_mm_per_frame"] < 0.5
+    # every resting point planted; frames whose fix would make a point jolt are taken back and
+    # listed unmet (7 of the walk's 39), where the capture's sliding partly stays
+    contacts = row["contacts"]
+    assert contacts["frames_met"] >= 30 and contacts["sliding_mm_per_frame"] < contacts["sliding_before_mm_per_frame"]
     known = row["known_answer"]
     assert known["rms_after_mm"] < known["rms_before_mm"] and known["channels"] > 0
     assert "| humanoid3d_walk | 39 |" in (tmp_path / "clip_quality.md").read_text()

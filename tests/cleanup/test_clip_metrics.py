@@ -50,11 +50,11 @@ def test_foot_sliding_is_zero_while_pinned_and_the_step_length_otherwise():
     cut = contacts_from_ranges(clip, {"foot": [(0, 2), (4, 6)]})
     assert np.isnan(foot_sliding(clip, cut)[1:3, 0]).all()  # not in contact in both frames
     report = clip_report(clip, clip, contacts)
-    assert report["foot_sliding_mean_mm_per_frame"]["before"] == pytest.approx(1.4)
-    assert report["foot_sliding_max_mm_per_frame"]["after"] == pytest.approx(3.0)
-    assert report["foot_sliding_max_mm_per_frame"]["unit"] == "mm/frame"
+    assert report["sliding_mean_mm_per_frame"]["before"] == pytest.approx(1.4)
+    assert report["sliding_max_mm_per_frame"]["after"] == pytest.approx(3.0)
+    assert report["sliding_max_mm_per_frame"]["unit"] == "mm/frame"
     in_cm = clip_report(clip, clip, contacts, metres=0.01)  # the same numbers read as centimetres
-    assert in_cm["foot_sliding_max_mm_per_frame"]["after"] == pytest.approx(0.03)
+    assert in_cm["sliding_max_mm_per_frame"]["after"] == pytest.approx(0.03)
 
 
 def test_com_outside_a_hand_made_triangle():
@@ -147,10 +147,10 @@ def test_report_and_series_of_an_unchanged_clip():
         assert name == name.lower() or "RightElbow_end" in name, name  # machine keys
     assert report["joint_angle_deviation_max_deg"]["after"] == 0.0
     assert report["reach_RightElbow_end_max_mm"]["before"] == 0.0
-    assert report["foot_sliding_max_mm_per_frame"]["before"] > 1.0
+    assert report["sliding_max_mm_per_frame"]["before"] > 1.0
     series = per_frame_errors(clip, clip, contacts, reach)
     assert set(series) == {
-        "foot_sliding_mm_per_frame",
+        "sliding_mm_per_frame",
         "com_outside_support_mm",
         "zmp_outside_support_mm",
         "penetration_mm",
@@ -167,9 +167,9 @@ def test_report_and_series_of_an_unchanged_clip():
     }
     for entry in series.values():
         assert entry["before"].shape == entry["after"].shape == (clip.n_frames,)
-    sliding = series["foot_sliding_mm_per_frame"]["before"]
+    sliding = series["sliding_mm_per_frame"]["before"]
     assert np.isnan(sliding[0])
-    assert np.nanmax(sliding) == pytest.approx(report["foot_sliding_max_mm_per_frame"]["before"])
+    assert np.nanmax(sliding) == pytest.approx(report["sliding_max_mm_per_frame"]["before"])
     assert np.isnan(series["reach_RightElbow_end_mm"]["before"][10:]).all()
     np.testing.assert_array_equal(series["contacts_count"]["after"], contacts.mask.sum(axis=1))
 

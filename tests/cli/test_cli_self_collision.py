@@ -3,6 +3,7 @@ where the plain reach goes through, and `deik clip` repairs the frames of a clip
 passes through the chest; penetration measured by the NumPy oracle on what was written."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -49,8 +50,14 @@ def test_clip_flag_repairs_the_frames_in_collision(tmp_path, capsys):
     assert main([*argv, "--population", "48", "--generations", "200", "--seed", "0"]) == 0
     before, after = deik.read_bvh(source), deik.read_bvh(fixed)
     assert (penetration(before.skeleton, before.poses()) > 0.3).sum() == 2  # the hand in the chest
-    assert (penetration(after.skeleton, after.poses()) <= LENGTH_TOLERANCE).all()
-    assert "6/6 frames meet" in capsys.readouterr().out
+    inside = penetration(after.skeleton, after.poses()) > LENGTH_TOLERANCE
+    # a blend at constant speed has no acceleration to spare: a repair that would make the hand
+    # accelerate past 1.1 times its capture peak is taken back and its frame listed unmet
+    printed = capsys.readouterr().out
+    met = int(re.search(r"(\d+)/6 frames meet", printed)[1])
+    assert met <= 6 - inside.sum() and (inside.sum() == 0 or "partly taken back" in printed)
+    deeper = penetration(after.skeleton, after.poses()) - penetration(before.skeleton, before.poses())
+    assert (deeper <= LENGTH_TOLERANCE).all()  # what is taken back stays as the capture had it
 
 
 SELF_COLLISION_TOML = """

@@ -208,12 +208,56 @@ def test_units_limits_and_reference():
     rotation = sk.dof_kind == ROTATE
     assert (sk.lower[rotation] == -math.pi).all() and (sk.upper[rotation] == math.pi).all()
     assert clip.frames[0, sk.dof_names.index("base.Yrotation")] == pytest.approx(math.radians(10))
-    # translations: the clip's range widened by the reach on both sides
-    k = sk.dof_names.index("arm.Xposition")
+    # the root's translation: the clip's range widened by the reach on both sides; the arm's,
+    # below a joint that translates, held at the capture's range so its bone keeps its length
+    k, root = sk.dof_names.index("arm.Xposition"), sk.dof_names.index("base.Xposition")
     assert sk.dof_kind[k] == TRANSLATE
-    reach = sk.upper[k] - 2.0
-    assert reach > 3 and sk.lower[k] == pytest.approx(0.25 - reach)
+    assert (sk.lower[k], sk.upper[k]) == (0.25, 2.0)
+    reach = sk.upper[root] - clip.frames[:, root].max()
+    assert reach > 3 and sk.lower[root] == pytest.approx(clip.frames[:, root].min() - reach)
+    freed = parse_bvh(TOY, "toy.bvh", free_translations=True).skeleton
+    assert freed.upper[k] == pytest.approx(2.0 + reach) and freed.lower[k] == pytest.approx(0.25 - reach)
     assert (sk.reference == 0).all() and not clip.frames.flags.writeable
+
+
+LOCAL = """HIERARCHY
+ROOT hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation
+  JOINT knee
+  {
+    OFFSET 0 -40 0
+    CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation
+    End Site
+    {
+      OFFSET 0 -40 0
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0333333
+1 90 2 0 0 0 0 -40 0 30 0 0
+3 91 2 0 0 0 0 -40.2 0 -10 0 0
+"""
+
+
+def test_channels_that_repeat_their_offsets_are_local_positions():
+    """A rig that writes six channels on every joint, its position channels repeating the OFFSET
+    (within 1 %), places the joint at the channels, not at OFFSET + channels: the knee hangs 40
+    units below the hips, not 80; the channel below the root is held at its captured values; the
+    file comes back as it was read."""
+    clip = parse_bvh(LOCAL, "local.bvh")
+    kin = forward_kinematics(clip.skeleton, clip.frames)
+    np.testing.assert_allclose(kin.position("knee") - kin.position("hips"), [[0, -40, 0], [0, -40.2, 0]], atol=1e-9)
+    assert clip.layout[1].local_position and not clip.layout[0].local_position
+    sk = clip.skeleton
+    y = sk.dof_names.index("knee.Yposition")
+    assert (sk.lower[y], sk.upper[y]) == pytest.approx((-0.2, 0.0))  # the DOF is the channel less the OFFSET
+    assert "3.000000 91.000000 2.000000" in format_bvh(clip) and "0.000000 -40.200000 0.000000" in format_bvh(clip)
+    again = parse_bvh(format_bvh(clip), "again.bvh")
+    np.testing.assert_allclose(again.frames, clip.frames, atol=1e-12)
 
 
 def test_clip_checks_what_it_is_given():

@@ -193,6 +193,26 @@ def test_floor_depth_by_hand(pose, height, expected):
     assert k[0] == pytest.approx(expected, abs=1e-12)
 
 
+@pytest.mark.parametrize(
+    "pose, clearance, expected",
+    [
+        ((0, 0, 0), (0.1, 0.1, 0.1, 0.1), 4 * 0.1),  # lying on the floor: each point's surface 0.1 under it
+        ((0, 0, 0), (np.nan, 0.2, np.nan, 0.05), 0.25),  # only the listed points count
+        ((-math.pi / 2, 0, 0), (0.0, 0.3, 0.3, 0.3), 0.5 + 1.5 + 2.5 + 3 * 0.3),  # hanging below -0.5
+        ((math.pi / 2, 0, 0), (0.0, 0.3, 0.3, 0.3), 0.5),  # standing up: only the root is below
+    ],
+)
+def test_floor_clearance_keeps_each_listed_point_that_far_above(pose, clearance, expected):
+    sk = deik.chain(3)
+    height = 0.5 if pose[0] > 0 else (-0.5 if pose[0] < 0 else 0.0)
+    problem = deik.Problem(sk, [deik.Floor(height, clearance=np.array(clearance))])
+    k, r = raw_of(problem, np.array(pose, float), "floor")
+    assert r[0] == pytest.approx(expected, abs=1e-12)
+    assert k[0] == pytest.approx(expected, abs=1e-12)
+    with pytest.raises(ValueError, match="floor clearance must be"):
+        deik.Problem(sk, [deik.Floor(0.0, clearance=np.ones(3))])
+
+
 def test_a_floor_height_must_be_finite():
     with pytest.raises(ValueError, match="floor height must be a finite number"):
         deik.Problem(deik.chain(3), [deik.Floor(float("nan"))])

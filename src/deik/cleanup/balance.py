@@ -17,7 +17,9 @@ set); accelerations are taken of the path lightly smoothed (_acceleration). A sh
 more than a budget (BUDGET x the capture's largest point acceleration) somewhere would add a
 jolt the capture does not have, and one longer than LONGEST_SHIFT x reach would change the
 performance: the frame with the largest crossing near the worst excess is then skipped, and so
-on until the rest hold. Skipped frames keep the capture's balance and are reported.
+on until the rest hold. Skipped frames keep the capture's balance and are reported; where the
+track's equations cannot be solved (a clip whose accelerations dwarf gravity, at microseconds
+per frame), every frame is skipped.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import numpy as np
 
 from deik.cleanup.banded import band_apply, band_compose, band_transpose, solve_spd_band
 from deik.cleanup.contacts import Contacts
+from deik.cleanup.dynamics import widened
 from deik.cleanup.spacetime import spring_bands
 from deik.io.trajectory import Motion
 from deik.model.geometry import convex_hull, ground_frame, polygon_distance
@@ -110,13 +113,14 @@ def zmp_outside_support(
 def _acceleration(N: int, frame_time: float) -> np.ndarray:
     """(N, 2W + 1) banded by rows (cleanup/banded.py), N >= 3: the acceleration of a path (length
     units / s^2) at each frame: its second difference (the end frames taking their neighbours')
-    after a Gaussian smoothing over SMOOTHING seconds (standard deviation; 4 of them each side).
+    after a Gaussian smoothing over SMOOTHING seconds (standard deviation; 4 of them each side, at
+    most the clip's length: at a microsecond per frame the whole clip is one smoothing window).
     A captured COM trembles by a millimetre, which second differences at 60 Hz make metres per
     s^2. Past its ends the path is carried on straight (point reflection), so smoothing bends
     nothing there. One linear operator serves the capture's ZMP and the shift's, so the track's
     ZMP is what it plans."""
     sigma = SMOOTHING / frame_time
-    half = int(np.ceil(4 * sigma))
+    half = min(int(np.ceil(4 * sigma)), N - 1)
     offsets = np.arange(-half, half + 1)
     kernel = np.exp(-0.5 * (offsets / max(sigma, 1e-9)) ** 2)
     kernel /= kernel.sum()
@@ -212,7 +216,7 @@ def _worst_in_each_stretch(over: np.ndarray, candidates: np.ndarray, need: np.nd
     """One frame per stretch of `over` (N,) frames (stretches closer than 2 `reach` frames are one):
     the `candidates` (N,) frame within `reach` frames of it with the largest `need` (N,)."""
     N = len(over)
-    near = np.convolve(over, np.ones(2 * reach + 1), mode="same") > 0  # each stretch widened by reach
+    near = widened(over, reach)  # each stretch widened by reach
     edges = np.flatnonzero(np.diff(np.concatenate([[0], near.astype(np.int8), [0]])))
     picked = []
     for start, stop in zip(edges[::2], edges[1::2]):
@@ -255,11 +259,15 @@ def balance_track(
         normals.append(A), offsets.append(b), frame.append(np.full(len(b), n))
         need[n] = max((A @ zmp[n] - b).max(), 0.0)
     planes = (np.concatenate(normals), np.concatenate(offsets), np.concatenate(frame))
-    fade = max(FADE_SECONDS / clip.frame_time, 1.0)
+    fade = min(max(FADE_SECONDS / clip.frame_time, 1.0), max(N, 1))  # longer than the clip is the clip
     skipped = np.zeros(N, bool) if skip is None else np.array(skip, bool) & supported
     while True:
         balanced = supported & ~skipped
-        shift = _solve_shift(zmp, lever, planes, balanced, clip.frame_time, fade, sk.reach)
+        try:
+            shift = _solve_shift(zmp, lever, planes, balanced, clip.frame_time, fade, sk.reach)
+        except np.linalg.LinAlgError:  # accelerations far from g (microsecond frames): no track holds
+            skipped, balanced, shift = supported.copy(), np.zeros(N, bool), np.zeros((N, 2))
+            break
         added = np.zeros(N)
         if N >= 3:
             added[1:-1] = np.linalg.norm(np.diff(shift, 2, axis=0), axis=1) / clip.frame_time**2

@@ -2,7 +2,7 @@
 
     cleaned = deik.clean_clip("walk.bvh", deik.CleanOptions(balance=True))
     deik.write_bvh("walk_fixed.bvh", cleaned.clip)
-    cleaned.report["metrics"]["foot_sliding_max_mm_per_frame"]    # before and after
+    cleaned.report["metrics"]["sliding_max_mm_per_frame"]    # before and after
     cleaned.unmet_frames, cleaned.skipped_balance_frames          # what it could not do
 
 The options take the flags' forms (cleanup/specs.py), so a folder run gives the same
@@ -19,13 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.clip_goals import GRAVITY, ClipGoals, Reach
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
-from deik.cleanup.specs import all_contacts, floor_height, reaches
-from deik.cleanup.units import METRES, guess_unit, span
+from deik.cleanup.ground import FloorChoice, body_paths
+from deik.cleanup.specs import all_contacts, floor_choice, reaches
+from deik.cleanup.units import METRES, unit_of_span
 from deik.errors import InputError
 from deik.io.files import FilePath
 from deik.io.motion import Clip
@@ -49,10 +51,12 @@ def _texts(value, name: str) -> tuple[str, ...]:
 class CleanOptions:
     """What to fix in a clip and how: the flags of `deik clip`, one field each, in their forms.
 
-    - `plant_feet`: "auto", "none" or "SITE:A-B[,A-B...]" specs (default: auto, unless
-      `contact` is given); `contact`: "auto", "none", "POINT" or "POINT@A-B[,A-B...]" (a joint,
-      an end site or a bone PARENT-CHILD); `contact_height` (length units) and `contact_speed`
-      (length units/s): detection thresholds (None: the defaults).
+    - `plant_feet`: "auto", "none" or "SITE:A-B[,A-B...]" specs (default: auto, the heel and
+      toe of each foot where they rest); `contact`: "auto", "none", "POINT" or
+      "POINT@A-B[,A-B...]" (a joint, an end site or a bone PARENT-CHILD; default: auto, every
+      other point of the body where it rests); `contact_height` (length units) and
+      `contact_speed` (length units/s): detection thresholds (None: the defaults, shares of
+      the body's span).
     - `floor`: "auto" (detected and kept), "none" or a height (length units along up).
     - `balance`: keep the zero-moment point over the support; `self_collision`: a margin
       (length units) the bone capsules keep, None for off; `reach`: "SITE=track.csv",
@@ -110,7 +114,7 @@ class CleanedClip:
     the clip it was made from, `report` the record `deik clip --json` writes (metrics before
     and after, goal errors per frame, contacts, floor, balance, dynamics: cleanup/document.py),
     `fix` the fix itself (cleanup/fix.ClipFix: errors per goal and frame, stages, settings),
-    the `contacts` planted (None for none), the `floor` height, and the length `unit` (with
+    the `contacts` planted (None for none), the `floor` height (length units along up), and the length `unit` (with
     `unit_guessed` when no unit was given). What it could not do: `unmet_frames`,
     `skipped_balance_frames`, `unreachable` and `far_joints`."""
 
@@ -149,16 +153,17 @@ class CleanedClip:
 @dataclass(frozen=True)
 class CleanPlan:
     """A clip and its goals, resolved from CleanOptions (plan_clean): `clip` (within the limits
-    table, if given), `goals`, the `contacts` (None for none), the `floor` height with whether
-    it was `floor_detected` and is `floor_kept` as a goal, the `reach` tracks and the length
-    `unit` (`unit_guessed` when no unit was given)."""
+    table, if given), the `body` it is fixed on (cleanup/body.py: soles, radii, span), `goals`,
+    the `contacts` (None for none), the `floor` (ground.FloorChoice: height, how it was found)
+    with whether it is `floor_kept` as a goal, the `reach` tracks and the length `unit`
+    (`unit_guessed` when no unit was given)."""
 
     clip: Motion
     options: CleanOptions
+    body: Body
     goals: ClipGoals
     contacts: Contacts | None
-    floor: float
-    floor_detected: bool
+    floor: FloorChoice
     floor_kept: bool
     reach: tuple[Reach, ...]
     unit: str
@@ -166,11 +171,13 @@ class CleanPlan:
 
     def run(self, progress: Callable[[int, str], object] | None = None) -> CleanedClip:
         """Fix the clip (cleanup/fix.fix_clip) and record the outcome; `progress(met, stage)` as fix_clip's."""
-        fix = fix_clip(self.clip, self.goals, passes=self.options.passes, progress=progress, **self.options.settings())
+        settings = self.options.settings()
+        fix = fix_clip(self.clip, self.goals, passes=self.options.passes, progress=progress, body=self.body, **settings)
         tracks = [(r.site, r.mask, r.targets) for r in self.reach]
-        floor = {"height": self.floor, "detected": self.floor_detected, "kept": self.floor_kept}
+        floor = self.floor.record() | {"kept": self.floor_kept}
         report = clip_document(fix, self.contacts, tracks, self.unit, METRES[self.unit], FAR_DEGREES, floor)
-        return CleanedClip(fix.clip, fix.original, report, fix, self.contacts, self.floor, self.unit, self.unit_guessed)
+        height = self.floor.height
+        return CleanedClip(fix.clip, fix.original, report, fix, self.contacts, height, self.unit, self.unit_guessed)
 
 
 def _within_limits(clip: Motion, path: str) -> Motion:
@@ -199,11 +206,14 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     clip = read_clip(clip)
     if options.limits:
         clip = _within_limits(clip, options.limits)
-    floor, keep_floor = floor_height(clip, options.floor)
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    floor, keep_floor = floor_choice(motion, body, options.floor, paths)
     thresholds = (options.contact_height, options.contact_speed)
-    contacts = all_contacts(clip, options.plant_feet, options.contact, floor, thresholds)
+    contacts = all_contacts(motion, body, (options.plant_feet, options.contact), floor.height, thresholds, paths)
     reach = reaches(clip, options.reach)
-    unit = options.units or guess_unit(clip.skeleton)
+    unit = options.units or unit_of_span(body.span)
     goals = ClipGoals(
         contacts,
         reach,
@@ -211,20 +221,29 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
         options.fidelity,
         options.coherence,
         self_collision=options.self_collision,
-        floor=floor if keep_floor else None,
+        floor=floor.height if keep_floor else None,
         gravity=GRAVITY / METRES[unit],
     )
-    detected = options.floor is None or options.floor in ("auto", "none")
     if not options.units:
-        log.info(f"lengths in {unit} (guessed: the skeleton spans {span(clip.skeleton):.3g}); --units sets them")
-    log.info(
-        f"floor at {floor:.4g} {unit} along up ({'detected' if detected else 'given'}"
-        f"{'' if keep_floor else ', not kept: --floor none'})",
-    )
+        log.info(
+            f"reports in {unit}: the body spans {body.span:.4g} length units from end to end, a person's size in "
+            f"{unit}; --units sets them (the fix itself needs no unit)"
+        )
     if contacts is not None:
         described = contacts.describe().replace("\n", "\n  ")
         log.info("contacts" + (" (detected)" if contacts.detected else "") + ":\n  " + described)
-    return CleanPlan(clip, options, goals, contacts, floor, detected, keep_floor, reach, unit, not options.units)
+    return CleanPlan(
+        clip=clip,
+        options=options,
+        body=body,
+        goals=goals,
+        contacts=contacts,
+        floor=floor,
+        floor_kept=keep_floor,
+        reach=reach,
+        unit=unit,
+        unit_guessed=not options.units,
+    )
 
 
 def clean_clip(

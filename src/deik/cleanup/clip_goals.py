@@ -17,7 +17,7 @@ leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -32,10 +32,13 @@ from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
 from deik.solver.problem import Problem
 
-CONTACT_TOLERANCE = 0.0004  # of the length unit (0.4 mm in metres): sliding stays under 1 mm/frame
-REACH_TOLERANCE = 0.005
-BALANCE_TOLERANCE = 0.01
-FLOOR_TOLERANCE = 0.0005  # summed depth below the floor, length units (0.5 mm in metres)
+# tolerances as shares of the body's span (cleanup/body.py; 2.13 m on the shared humanoid), so
+# they follow the body's size in any unit: 0.43 mm for a contact (sliding stays under 1 mm per
+# frame), 5.3 mm for a reach, 1.1 cm for balance, 0.43 mm summed depth below the floor
+CONTACT_TOLERANCE = 2e-4
+REACH_TOLERANCE = 2.5e-3
+BALANCE_TOLERANCE = 5e-3
+FLOOR_TOLERANCE = 2e-4
 FLOOR_LEVEL, CONTACT_LEVEL, REACH_LEVEL, FIDELITY_LEVEL = 0, 1, 2, 3
 BLEND = 8  # frames over which a reach eases in and out
 GRAVITY = 9.81  # metres per s^2
@@ -44,12 +47,13 @@ GRAVITY = 9.81  # metres per s^2
 @dataclass(frozen=True)
 class Reach:
     """A site following `targets` (N, 3) in the frames where `mask` (N,) is True, eased in and
-    out over `blend` frames on each side of every run of frames (from the original motion)."""
+    out over `blend` frames on each side of every run of frames (from the original motion);
+    `tolerance` in length units (None: REACH_TOLERANCE x the body's span)."""
 
     site: str
     mask: np.ndarray
     targets: np.ndarray
-    tolerance: float = REACH_TOLERANCE
+    tolerance: float | None = None
     blend: int = BLEND
 
 
@@ -96,21 +100,25 @@ class ClipGoals:
     keep the bone capsules this margin apart (None: off); `fidelity` and `coherence`: weights
     in [0, 1] of staying near the original pose and moving like the neighbouring frames;
     `floor`: the height along up (length units) every joint and site stays at or above (None:
-    no floor); `plants`: where each contact site is held (N, S, 3) length units, NaN outside
-    its contacts (None: plants.planted_targets of the clip); tolerances in length units."""
+    no floor) and `floor_clearance` (F,) how far above it each joint and site stays (a limb's
+    radius; NaN: not held; None: 0, the joints and sites themselves); `plants`: where each
+    contact site is held (N, S, 3) length units, NaN outside its contacts (None:
+    plants.planted_targets of the clip); tolerances in length units (None: their share of the
+    body's span, sized_goals)."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
     balance: bool = False
     fidelity: float = 1.0
     coherence: float = 0.5
-    contact_tolerance: float = CONTACT_TOLERANCE
-    balance_tolerance: float = BALANCE_TOLERANCE
+    contact_tolerance: float | None = None
+    balance_tolerance: float | None = None
     self_collision: float | None = None
     floor: float | None = None
-    floor_tolerance: float = FLOOR_TOLERANCE
+    floor_tolerance: float | None = None
     gravity: float = GRAVITY
     plants: np.ndarray | None = None
+    floor_clearance: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "reach", tuple(self.reach))
@@ -137,6 +145,17 @@ class ClipGoals:
             raise InputError(
                 "nothing to fix: plant contacts, give a floor, add a reach track, ask for balance or self-collision"
             )
+
+
+def sized_goals(goals: ClipGoals, span: float) -> ClipGoals:
+    """`goals` with every tolerance left None set to its share of the body's `span` (length
+    units): CONTACT_TOLERANCE, BALANCE_TOLERANCE, FLOOR_TOLERANCE and each reach's
+    REACH_TOLERANCE."""
+    shares = {"contact_tolerance": CONTACT_TOLERANCE, "balance_tolerance": BALANCE_TOLERANCE}
+    shares["floor_tolerance"] = FLOOR_TOLERANCE
+    sized = {key: share * span for key, share in shares.items() if getattr(goals, key) is None}
+    reach = tuple(r if r.tolerance is not None else replace(r, tolerance=REACH_TOLERANCE * span) for r in goals.reach)
+    return replace(goals, reach=reach, **sized)
 
 
 def reach_names(sites: Iterable[str]) -> list[str]:
@@ -200,7 +219,8 @@ def _held_goals(clip, goals: ClipGoals, balance: BalanceTrack | None) -> list:
                 tolerance = goals.contact_tolerance
                 out.append(g.Position(site, track, active=mask, tolerance=tolerance, level=CONTACT_LEVEL))
     if goals.floor is not None:
-        out.append(g.Floor(goals.floor, tolerance=goals.floor_tolerance, level=FLOOR_LEVEL))
+        clearance = goals.floor_clearance
+        out.append(g.Floor(goals.floor, clearance=clearance, tolerance=goals.floor_tolerance, level=FLOOR_LEVEL))
     if balance is not None:
         tolerance = goals.balance_tolerance
         out.append(g.ComOverSupport(balance.track, active=balance.steered, tolerance=tolerance, level=CONTACT_LEVEL))

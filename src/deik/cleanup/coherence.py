@@ -22,6 +22,7 @@ import numpy as np
 
 from deik.cleanup.banded import solve_spd_band
 from deik.cleanup.spacetime import spring_bands
+from deik.io.motion import held_translations
 from deik.io.trajectory import Motion
 from deik.model.joints import TRANSLATE
 from deik.model.skeleton import Skeleton
@@ -66,11 +67,13 @@ def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(True if goal.active is None else goal.active, bool), (n_frames,))
 
 
-def near_floor(clip: Motion, height: float) -> np.ndarray:
+def near_floor(clip: Motion, height: float, clearance: np.ndarray | None = None) -> np.ndarray:
     """(N, F) bool: the joints and sites within NEAR_FLOOR x reach of the floor at `height`
-    (or below it) in the frame or a neighbouring one: those a search may have to lift."""
+    plus their `clearance` (F,) (default 0; NaN: never) in the frame or a neighbouring one:
+    those a search may have to lift."""
     sk = clip.skeleton
-    near = clip.kinematics.p_world_frame @ sk.up <= height + NEAR_FLOOR * sk.reach
+    level = height + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+    near = clip.kinematics.p_world_frame @ sk.up <= level + NEAR_FLOOR * sk.reach
     out = near.copy()
     out[1:] |= near[:-1]
     out[:-1] |= near[1:]
@@ -81,20 +84,21 @@ def searched_dofs(clip: Motion, goals: Iterable[Goal]) -> np.ndarray:
     """(N, D) bool: the DOFs each frame's search may move for the `goals` (deik goal objects)
     that hold sites (all but Comfort): a Position goal moves its frame's chain, a Floor the
     chains of the points near it (near_floor), any other goal (the centre of mass over the
-    support) every DOF, in the frames where it is active; hinge_channels never move."""
+    support) every DOF, in the frames where it is active; hinge_channels and the translations
+    the clip holds (deik.io.motion.held_translations) never move."""
     sk = clip.skeleton
     out = np.zeros((clip.n_frames, sk.n_dofs), bool)
     for goal in goals:
         if isinstance(goal, Comfort):
             continue
         if isinstance(goal, Floor):
-            near = near_floor(clip, goal.height)
+            near = near_floor(clip, goal.height, goal.clearance)
             chains = np.array([moving_dofs(sk, name) for name in sk.frame_names])
             out |= (near[:, :, None] & chains[None]).any(axis=1)
             continue
         chain = moving_dofs(sk, goal.frame) if isinstance(goal, Position) else True
         out |= active_frames(goal, clip.n_frames)[:, None] & chain
-    return out & ~hinge_channels(clip)[None, :]
+    return out & ~(hinge_channels(clip) | held_translations(clip.skeleton, clip.frames))[None, :]
 
 
 def _solve_bands(a0, a1, a2, rhs):

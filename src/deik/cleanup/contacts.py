@@ -59,9 +59,11 @@ def _runs(column: np.ndarray) -> list[tuple[int, int]]:
 class Contacts:
     """Which of `sites` touch the ground in each frame: `mask` (N, S) bool, read-only.
 
-    `detected`: True when found by detect_contacts, whose thresholds `height` (length units
-    above `ground`) and `speed` (length units per second) it keeps; both None for contacts the
-    user gave. `ground`: height of the floor along skeleton.up, length units.
+    `detected`: True when found by a detector, whose thresholds `height` (length units above
+    `ground`, or above the site's clearance) and `speed` (length units per second) it keeps;
+    both None for contacts the user gave. `ground`: height of the floor along skeleton.up,
+    length units. `clearance` (S,): how far above the floor each site sits when it touches (a
+    limb's radius; cleanup/ground.py), None for 0 (a sole, a toe tip).
     """
 
     sites: tuple[str, ...]
@@ -70,6 +72,7 @@ class Contacts:
     height: float | None
     speed: float | None
     ground: float
+    clearance: np.ndarray | None = None
 
     def __post_init__(self):
         sites, mask = tuple(self.sites), np.array(self.mask, dtype=bool)
@@ -80,6 +83,11 @@ class Contacts:
         mask.setflags(write=False)
         object.__setattr__(self, "sites", sites)
         object.__setattr__(self, "mask", mask)
+        clearance = np.zeros(len(sites)) if self.clearance is None else np.array(self.clearance, float)
+        if clearance.shape != (len(sites),):
+            raise InputError(f"clearance must have shape ({len(sites)},), got {clearance.shape}")
+        clearance.setflags(write=False)
+        object.__setattr__(self, "clearance", clearance)
 
     def intervals(self, site: int | str) -> list[tuple[int, int]]:
         """Contact intervals (start, stop) of a site, by index or name; stop exclusive."""
@@ -152,25 +160,25 @@ def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     return np.linalg.norm(np.gradient(p, frame_time, axis=0), axis=-1)
 
 
-def fill_gaps(mask: np.ndarray) -> np.ndarray:
-    """(N, S) contact `mask` with its gaps shorter than MIN_FRAMES frames between two contact
+def fill_gaps(mask: np.ndarray, frames: int = MIN_FRAMES) -> np.ndarray:
+    """(N, S) contact `mask` with its gaps shorter than `frames` frames between two contact
     runs filled: a point that is slow and low on both sides of one frame never left the floor,
     and two plants either side would make it jump."""
     mask = np.array(mask, bool)
     for s in range(mask.shape[1]):
         runs = _runs(mask[:, s])
         for (_, stop), (start, _) in zip(runs, runs[1:]):
-            if start - stop < MIN_FRAMES:
+            if start - stop < frames:
                 mask[stop:start, s] = True
     return mask
 
 
-def drop_short(mask: np.ndarray) -> np.ndarray:
-    """(N, S) contact `mask` without its runs shorter than MIN_FRAMES frames."""
+def drop_short(mask: np.ndarray, frames: int = MIN_FRAMES) -> np.ndarray:
+    """(N, S) contact `mask` without its runs shorter than `frames` frames."""
     mask = np.array(mask, bool)
     for s in range(mask.shape[1]):
         for a, b in _runs(mask[:, s]):
-            if b - a < MIN_FRAMES:
+            if b - a < frames:
                 mask[a:b, s] = False
     return mask
 

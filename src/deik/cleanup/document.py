@@ -16,10 +16,11 @@ import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
 from deik.cleanup.contacts import Contacts
-from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, peak_ratios
+from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, peak_ratios, point_acceleration_ratios
+from deik.cleanup.ground import body_paths, clearances, detect_resting
 from deik.cleanup.metrics import large_deviations
 from deik.cleanup.plants import planted_targets
-from deik.cleanup.summary import ReachTrack, clip_report, per_frame_errors, row_max
+from deik.cleanup.summary import Grounding, ReachTrack, clip_report, per_frame_errors, row_max
 from deik.io.trajectory import Motion
 
 if TYPE_CHECKING:  # clips.solver loads the solver; the report needs only the type
@@ -129,16 +130,36 @@ def balance_record(track: BalanceTrack | None, metres: float) -> dict | None:
     }
 
 
-def dynamics_record(original: Motion, fixed: Motion) -> dict:
+def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None = None) -> dict:
     """How the fix's velocity and acceleration peaks compare with the capture's (cleanup/dynamics.py):
-    the ratio of each peak, the limit, and the frames that jolt or turn a joint far."""
+    the ratio of each peak, each joint and site's (of `points` (F,) bool) acceleration peak over
+    its own in the capture and the worst of them, the limit, whether every one is kept, and the
+    frames that jolt or turn a joint far."""
     ratios = peak_ratios(original, fixed)
+    names = [name for name, kept in zip(original.skeleton.frame_names, points if points is not None else ()) if kept]
+    per_point = point_acceleration_ratios(original, fixed, points)
+    names = names or list(original.skeleton.frame_names)
+    finite = np.where(np.isfinite(per_point), per_point, -np.inf)
+    worst = int(np.argmax(finite)) if len(finite) and np.isfinite(finite).any() else None
+    kept = all(not r > PEAK_RATIO for r in ratios.values()) and not (per_point > PEAK_RATIO).any()
     return {
         "peak_ratio_limit": PEAK_RATIO,
         "peak_ratios": ratios,
-        "peaks_kept": bool(all(not r > PEAK_RATIO for r in ratios.values())),
-        "jolted_frames": np.flatnonzero(jolted_frames(original, fixed)).tolist(),
+        "point_acceleration_ratios": {name: float(r) for name, r in zip(names, per_point)},
+        "worst_point": None if worst is None else {"point": names[worst], "ratio": float(per_point[worst])},
+        "peaks_kept": bool(kept),
+        "jolted_frames": np.flatnonzero(jolted_frames(original, fixed, points=points)).tolist(),
     }
+
+
+def grounding(fix: ClipFix, height: float) -> Grounding:
+    """The floor the report measures against: at `height`, each point's clearance as the fix kept
+    it (its radius), and every point of the body that rests in the capture (cleanup/ground.py),
+    planted or not."""
+    body = fix.body
+    original = fix.on_body()[0]
+    paths = body_paths(original, body)
+    return Grounding(height, clearances(body), detect_resting(original, body, height, paths=paths))
 
 
 def _far(original, fixed, degrees: float) -> dict:
@@ -159,11 +180,14 @@ def clip_document(
     """The JSON record of `fix` (a ClipFix) with `contacts` (or None) and `reach` tracks (site,
     mask, targets): length `unit` and its `metres`; the summary metrics and per-frame series
     (cleanup/summary.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
-    (unreached) and its targets, the contacts, the `floor` ({"height" length units, "detected",
-    "kept"} or None), the joints turned more than `far_degrees` from the capture frame by frame, the
-    balance track (balance_record), the peaks against the capture's (dynamics_record), and
-    where the time went."""
-    original, fixed = fix.original, fix.clip
+    (unreached) and its targets, the contacts, the `floor` ({"height" length units, "how" it was
+    found, "kept", ...} or None; the floor measures use it, cleanup/summary.Grounding), the joints
+    turned more than `far_degrees` from the capture frame by frame, the balance track
+    (balance_record), the peaks against the capture's (dynamics_record), the frames whose change
+    was taken back so that nothing jolts, and where the time went."""
+    original, fixed = fix.on_body()
+    ground = None if floor is None else grounding(fix, floor["height"])
+    own = np.arange(original.skeleton.n_frames) < fix.original.skeleton.n_frames
     goals = goal_table(fix, metres)
 
     def listed(entry):
@@ -175,19 +199,23 @@ def clip_document(
         "frame_time_s": original.frame_time,
         "length_unit": unit,
         "metres_per_length_unit": metres,
-        "metrics": clip_report(original, fixed, contacts, reach, metres),
-        "per_frame": {k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres).items()},
+        "metrics": clip_report(original, fixed, contacts, reach, metres, ground),
+        "per_frame": {
+            k: listed(v) for k, v in per_frame_errors(original, fixed, contacts, reach, metres, ground).items()
+        },
         "goals": [listed(row) for row in goals],
         "reach_unreached": unreached(goals),
         "reach_targets": reach_record(reach or ()),
         "floor": floor,
+        "resting_points": None if ground is None else list(ground.resting.sites),
         "goal_notes": GOAL_NOTES,
         "frames_met": int(fix.met.sum()),
         "met_per_frame": fix.met.tolist(),
         "contacts": None if contacts is None else contacts_record(original, contacts),
         "joints_far_from_capture": _far(original, fixed, far_degrees),
         "balance": balance_record(fix.balance, metres),
-        "dynamics": dynamics_record(original, fixed),
+        "dynamics": dynamics_record(original, fixed, fix.body.part & own),
+        "calmed_frames": np.flatnonzero(fix.calmed).tolist(),
         "wall_time_s": fix.wall_time,
         "stages": list(fix.stages),
     }

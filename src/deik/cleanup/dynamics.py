@@ -2,11 +2,15 @@
 
 A fix keeps the dynamics when none of its peaks rises more than PEAK_RATIO above the capture's:
 the largest rotation-channel velocity and acceleration (deg/s, deg/s^2 of the continuous Euler
-channels, clips/metrics.spikes) and the largest velocity and acceleration of any joint or end
-site (length units per s and s^2). A frame jolts when one of its values passes that bound (and
-the capture's peak plus SLACK, so that a clip standing still may still be moved a little), or
-when a joint there turns more than FAR_DEGREES from the capture. fix_clip skips balance where
-it makes frames jolt, and refuses a DE repair that makes a frame jolt without meeting its goals.
+channels, cleanup/metrics.spikes), the largest velocity of any joint or end site (length units
+per s), and the acceleration of each joint and end site (length units per s^2) against that
+point's own peak in the capture, so a local pop (a hand that jerks) counts however fast the
+rest of the body moves. A frame jolts when one of its
+values passes that bound (and the capture's peak plus SLACK, a share of the body's size, so that
+a point the capture holds still may still be moved a little), or when a joint there turns more
+than FAR_DEGREES from the capture. fix_clip skips balance where it makes frames jolt, refuses a
+DE repair that makes a frame jolt without meeting its goals, and takes back any change that
+still makes a point jolt (cleanup/calm.py).
 A motion on another skeleton (a retarget) is compared through points both have, the key points:
 their velocity and acceleration peaks against the source's (point_peak_ratios, jolted_points).
 """
@@ -22,18 +26,30 @@ PEAK_RATIO = 1.1
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture changes the performance
 MEASURES = ("dof_velocity", "dof_acceleration", "position_velocity", "position_acceleration")
 POINT_MEASURES = MEASURES[2:]
-# per measure: deg/s, deg/s^2, and reach per s and per s^2 (0.05 m/s and 0.5 m/s^2 on a person)
-SLACK = {"dof_velocity": 10.0, "dof_acceleration": 200.0, "position_velocity": 0.05, "position_acceleration": 0.5}
+# per measure: deg/s, deg/s^2, and reach per s and per s^2 (5 mm/s and 2 cm/s^2 on a person)
+SLACK = {"dof_velocity": 10.0, "dof_acceleration": 200.0, "position_velocity": 0.005, "position_acceleration": 0.02}
 
 
-def _peaks(clip) -> dict:
-    """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`."""
+def widened(frames: np.ndarray, reach: int) -> np.ndarray:
+    """(N,) bool: the frames within `reach` frames of a True one of `frames` (N,)."""
+    frames = np.asarray(frames, bool)
+    out = frames.copy()
+    for k in range(1, min(reach, len(frames)) + 1):
+        out[k:] |= frames[:-k]
+        out[:-k] |= frames[k:]
+    return out
+
+
+def _peaks(clip, points: np.ndarray | None = None) -> dict:
+    """{measure: (values (M, K) >= 0, row 0's frame)} of MEASURES for `clip`, the position
+    measures of the joints and sites `points` (F,) bool (default all)."""
     moves = spikes(clip, clip.kinematics)
+    chosen = slice(None) if points is None else np.asarray(points, bool)
     return {
         "dof_velocity": (np.abs(moves["dof_velocity"]), 0),
         "dof_acceleration": (np.abs(moves["dof_acceleration"]), 1),
-        "position_velocity": (moves["position_velocity"], 0),
-        "position_acceleration": (moves["position_acceleration"], 1),
+        "position_velocity": (moves["position_velocity"][:, chosen], 0),
+        "position_acceleration": (moves["position_acceleration"][:, chosen], 1),
     }
 
 
@@ -52,15 +68,17 @@ def _ratios(before: dict, after: dict) -> dict:
     return out
 
 
-def _jolts(before: dict, after: dict, n_frames: int, reach: float, ratio: float) -> np.ndarray:
+def _jolts(before: dict, after: dict, n_frames: int, reach: float, ratio: float, per_point: bool) -> np.ndarray:
     """(N,) bool: frames with a value of `after` above both `ratio` x `before`'s largest of that
-    measure and that largest + SLACK (a velocity between two frames marks both)."""
+    measure (of that point, for the acceleration of points when `per_point`) and that largest + SLACK
+    (a velocity between two frames marks both)."""
     out = np.zeros(n_frames, bool)
     for key in before:
         values, first = after[key]
-        top = before[key][0].max(initial=0.0)
+        own = per_point and key == "position_acceleration"
+        top = before[key][0].max(axis=0, initial=0.0) if own else before[key][0].max(initial=0.0)
         slack = SLACK[key] * (reach if key.startswith("position") else 1.0)
-        over = (values > max(ratio * top, top + slack)).any(axis=1) if values.size else np.zeros(0, bool)
+        over = (values > np.maximum(ratio * top, top + slack)).any(axis=1) if values.size else np.zeros(0, bool)
         out[first : first + len(over)] |= over
         if key.endswith("velocity"):  # between frames n and n+1
             out[first + 1 : first + 1 + len(over)] |= over
@@ -73,13 +91,30 @@ def peak_ratios(original: Motion, fixed: Motion) -> dict:
     return _ratios(_peaks(original), _peaks(fixed))
 
 
+def point_acceleration_ratios(original: Motion, fixed: Motion, points: np.ndarray | None = None) -> np.ndarray:
+    """(K,) each joint and site's (of `points` (F,) bool, default all) largest acceleration in
+    `fixed` over its largest in `original` (NaN where that is 0 or the clip has under 3 frames)."""
+    before, after = (_peaks(clip, points)["position_acceleration"][0] for clip in (original, fixed))
+    if not len(before):
+        return np.full(before.shape[1], np.nan)
+    top = before.max(axis=0)
+    return np.divide(after.max(axis=0), top, out=np.full(len(top), np.nan), where=top > 0)
+
+
 def jolted_frames(
-    original: Motion, fixed: Motion, ratio: float = PEAK_RATIO, degrees: float = FAR_DEGREES
+    original: Motion,
+    fixed: Motion,
+    ratio: float = PEAK_RATIO,
+    degrees: float = FAR_DEGREES,
+    points: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,) bool: frames of `fixed` with a velocity or acceleration above both `ratio` x the
-    capture `original`'s largest of that measure and that largest + SLACK (a velocity between
-    two frames marks both), or a joint more than `degrees` from the capture."""
-    jolts = _jolts(_peaks(original), _peaks(fixed), original.n_frames, original.skeleton.reach, ratio)
+    """(N,) bool: frames of `fixed` with a rotation channel's velocity or acceleration above both
+    `ratio` x the capture `original`'s largest and that largest + SLACK, a joint or site (of
+    `points` (F,) bool, default all) moving faster than that bound on the capture's fastest or
+    accelerating beyond it on its own peak in the capture (a velocity between two frames marks
+    both), or a joint more than `degrees` from the capture."""
+    before, after = _peaks(original, points), _peaks(fixed, points)
+    jolts = _jolts(before, after, original.n_frames, original.skeleton.reach, ratio, per_point=True)
     return jolts | (joint_angles(original, fixed) > degrees).any(axis=1)
 
 
@@ -97,4 +132,4 @@ def jolted_points(
     than both `ratio` x the largest of `source` (N, K, 3) and that largest + SLACK (x `reach`,
     the length unit's body size)."""
     before, after = _point_peaks(source, frame_time), _point_peaks(points, frame_time)
-    return _jolts(before, after, len(points), reach, ratio)
+    return _jolts(before, after, len(points), reach, ratio, per_point=False)

@@ -14,6 +14,12 @@
    every such goal is within tolerance (stop_on_converged), the fidelity and coherence
    terms (the last level) choosing among the poses that are.
 
+The fix works on the body (cleanup/body.py): the clip's skeleton with the soles of its feet,
+every tolerance a share of its span, the floor kept under the surface of each joint and site (its
+clearance, cleanup/ground.py), the position channels the clip holds (deik.io.motion.
+held_translations) never moved. Last, calm.py takes the change back wherever it makes a joint or site accelerate beyond
+its own peak in the capture (no new pops); those frames are reported.
+
 Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
 per pass population x (generations + 1) pose evaluations per repaired frame, about
 population evaluations per frame that is left alone. Planted feet and reach tracks rarely
@@ -32,12 +38,26 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
-from deik.cleanup.clip_goals import FIDELITY_LEVEL, ClipGoals, clip_balance, clip_problem, fixed_goals, goal_names
+from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.calm import calm
+from deik.cleanup.clip_goals import (
+    FIDELITY_LEVEL,
+    ClipGoals,
+    clip_balance,
+    clip_problem,
+    contact_plants,
+    fixed_goals,
+    goal_names,
+    sized_goals,
+)
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
-from deik.cleanup.dynamics import jolted_frames
+from deik.cleanup.contacts import site_positions
+from deik.cleanup.dynamics import jolted_frames, widened
+from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
 from deik.errors import InputError
-from deik.io.trajectory import Motion
+from deik.io.motion import held_translations
+from deik.io.trajectory import Motion, Trajectory
 from deik.memory import check_memory
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
@@ -57,7 +77,7 @@ CLIP_SETTINGS = {"population": 24, "generations": 60, "patience": 20, **LOCAL}
 PASSES = 1
 BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCAL}
 BALANCE_PASSES = 3
-EASE = 8.0  # frames over which a displacement decays where no goal holds it
+EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal holds it
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
 GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
@@ -76,7 +96,9 @@ class ClipFix:
     generations, mean and max, pose evaluations: population x (generations + 1) summed over
     them, and the failed repairs refused because they would make a frame jolt); `balance` the
     centre-of-mass track with --balance (its balanced and skipped frames, cleanup/balance.py),
-    else None."""
+    else None; `body` the body it was fixed on (cleanup/body.py), `calmed` (N,) the frames whose
+    change was taken back so that nothing jolts (cleanup/calm.py), and `goals` the goals as
+    fixed (every tolerance sized, the floor's clearance set)."""
 
     clip: object
     original: object
@@ -90,6 +112,13 @@ class ClipFix:
     settings: Settings
     stages: tuple[dict, ...]
     balance: BalanceTrack | None = None
+    body: Body | None = None
+    calmed: np.ndarray | None = None
+    goals: ClipGoals | None = None
+
+    def on_body(self) -> tuple[Trajectory, Trajectory]:
+        """(original, fixed) on the body's skeleton, soles included: what the reports measure."""
+        return on_body(self.original, self.body), on_body(self.clip, self.body)
 
 
 def _errors(problem, poses) -> np.ndarray:
@@ -150,7 +179,7 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray):
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, points: np.ndarray):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
     `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
     start without it), and where the balanced warm start makes a frame jolt or turns a joint far
@@ -160,7 +189,8 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
 
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
-        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=EASE)), fixed
+        fade = _ease_frames(clip)
+        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=fade)), fixed
 
     if not goals.balance:
         return *warm(goals, None), None
@@ -169,32 +199,70 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     balance = clip_balance(clip, goals, frames=unbalanced)
     for round_ in range(GUARD_ROUNDS):
         displacement, fixed = warm(goals, balance)
-        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
-        # "full", then centred: "same" returns the longer of the two, the kernel, for clips under 5 frames
-        near = np.convolve(jolted, np.ones(2 * GUARD_REACH + 1))[GUARD_REACH : GUARD_REACH + len(jolted)]
-        jolting = (near > 0) & balance.balanced
+        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+        jolting = widened(jolted, GUARD_REACH) & balance.balanced
         if round_ == GUARD_ROUNDS - 1 or not jolting.any():
             break
         balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
     return displacement, fixed, balance
 
 
-def _without_jolts(clip, displacement, found, repaired, met, searched) -> tuple[np.ndarray, int]:
+def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, points):
+    """((displacement (N, D), taken back (N,) bool), what the reach tracks add (N, D) or None):
+    the warm start's `displacement` calmed (cleanup/calm.py; DE repairs what is taken back).
+    With reach tracks, only what the contacts, floor and balance change is calmed: a reach is a
+    motion the user asks for, and what it adds is kept as the warm start made it."""
+    if not goals.reach:
+        return calm(clip, displacement, points), None
+    alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
+    if not alone:  # reach tracks only: all of the change is theirs
+        return (displacement, np.zeros(clip.n_frames, bool)), displacement
+    held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points)
+    calmed, taken = calm(clip, held, points)
+    return (calmed + (displacement - held), taken), displacement - held
+
+
+def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
+    """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
+    its floor): the warm start holds contacts still along the ground only, and DE, whose contact
+    goals are points, must not pull them back to the plants' heights."""
+    contacts, up = goals.contacts, clip.skeleton.up
+    plants = contact_plants(clip, goals)
+    heights = site_positions(clip.with_frames(poses), contacts.sites) @ up
+    if goals.floor is not None:
+        heights = np.maximum(heights, goals.floor + contacts.clearance)
+    moved = plants + (heights - plants @ up)[..., None] * up
+    return dataclasses.replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
+
+
+def _ease_frames(clip) -> float:
+    """EASE_SECONDS in frames of `clip` (at least 2, at most its length: longer is the same)."""
+    return min(max(EASE_SECONDS / clip.frame_time, 2.0), max(clip.n_frames, 2))
+
+
+def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
-    `found` (N, D), eased into their neighbours, except those that still miss their goals
-    (`met` (N,) False) where the repair would make a frame jolt that did not (cleanup/dynamics.py):
-    a DE search starts each frame afresh and may land a pose apart from its neighbours'.
-    `refused` counts them."""
+    `found` (N, D), eased into their neighbours, except where that would make a frame jolt that
+    did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose apart
+    from its neighbours'. The repairs within an easing of a new jolt are refused and the rest
+    tried again, until none jolts (all of them when a new jolt lies beyond every repair's easing).
+    `refused` counts them (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
+    reach = int(np.ceil(_ease_frames(clip)))
 
     def taken(frames):
-        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, EASE))
+        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, _ease_frames(clip)))
 
-    candidate = taken(repaired)
-    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement))
-    new = jolted_frames(clip, clip.with_frames(clip.frames + candidate)) & ~before
-    refused = repaired & ~met & (np.convolve(new, np.ones(3), mode="same") > 0)
-    return (taken(repaired & ~refused) if refused.any() else candidate), int(refused.sum())
+    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+    kept = repaired.copy()
+    while kept.any():
+        candidate = taken(kept)
+        new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
+        if not new.any():
+            return candidate, int((repaired & ~kept).sum())
+        near = widened(new, reach)
+        kept &= ~near if (kept & near).any() else np.zeros_like(kept)  # a jolt beyond every repair's reach: none
+    return displacement, int(repaired.sum())
 
 
 def fix_clip(
@@ -204,9 +272,11 @@ def fix_clip(
     settings: Settings | None = None,
     *,
     progress: Callable[[int, str], object] | None = None,
+    body: Body | None = None,
     **overrides: object,
 ) -> ClipFix:
-    """Fix every frame of `clip` (a deik.Clip) for `goals`: the warm start, then up to
+    """Fix every frame of `clip` (a deik.Clip) for `goals` on its `body` (default body_of(clip);
+    contacts may name its sole sites): the warm start, then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
     settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
@@ -216,7 +286,8 @@ def fix_clip(
     warm start.
     `wall_time` counts all but measuring the result; `passes` those that ran. `progress(met,
     stage)`, if given, is called with the number of frames that meet their goals after the
-    warm start and each DE pass, during a pass every 100 generations, and once at the end."""
+    warm start and each DE pass, during a pass every 100 generations, and once at the end.
+    Last, the change is taken back wherever it makes a joint or site jolt (cleanup/calm.py)."""
     if not isinstance(goals, ClipGoals):
         raise TypeError(f"goals must be a deik.cleanup.clip_goals.ClipGoals, got {type(goals).__name__}")
     if passes is None:  # a collision repair eased into its neighbours can push them into collision
@@ -232,14 +303,24 @@ def fix_clip(
     _check_memory(clip, settings)  # before any work: the smallest a pass can take
     start = time.perf_counter()
     deadline = None if settings.time_limit is None else start + settings.time_limit
+    written, body = clip, body_of(clip) if body is None else body
+    clip = on_body(written, body)
+    goals = sized_goals(goals, body.span)
+    if goals.floor is not None and goals.floor_clearance is None:
+        goals = dataclasses.replace(goals, floor_clearance=clearances(body))
     sk = clip.skeleton
     rotation = sk.dof_kind == ROTATE
     original = clip.poses()
     weights = dof_weights(clip)
-    movable = np.broadcast_to(~hinge_channels(clip), original.shape)
-    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable)
+    fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
+    movable = np.broadcast_to(~fixed_dofs, original.shape)
+    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
+    (displacement, first_calmed), reached = _calm_by_priority(clip, goals, displacement, weights, movable, body.part)
+    if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
+        goals = _plants_at_heights(clip, goals, original + displacement)
+        fixed_part = fixed_goals(clip, goals, weights, balance)
     searched = searched_dofs(clip, fixed_part)
-    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start}]
+    stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(first_calmed.sum())}]
     report = progress or (lambda met, stage: None)
     for k in range(passes):
         began = time.perf_counter()
@@ -253,7 +334,7 @@ def fix_clip(
             break
         _check_memory(clip, settings, problem.table.n_terms, problem.table.n_levels)
         # a frame in collision may move every DOF but the hinge channels
-        searched = searched | (_colliding(problem, errors)[:, None] & ~hinge_channels(clip)[None, :])
+        searched = searched | (_colliding(problem, errors)[:, None] & ~fixed_dofs[None, :])
         # a frame that meets its goals keeps one pose in every member: DE cannot move it
         initial = _seeds(sk, current, searched & unmet[:, None], settings.population, settings.seed + 7919 * k)
         stage = f"DE pass {k + 1}"
@@ -261,8 +342,7 @@ def fix_clip(
         budget = settings if deadline is None else _time_left(settings, deadline)
         result = solve(problem, budget, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
-        repaired = _met(problem, np.clip(wrap_rotations(original + found, rotation), sk.lower, sk.upper))[1]
-        displacement, refused = _without_jolts(clip, displacement, found, unmet, repaired, searched)
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.part)
         generations = result.generations[unmet]
         stages.append(
             {
@@ -275,6 +355,14 @@ def fix_clip(
                 "refused": refused,
             }
         )
+    began = time.perf_counter()
+    if reached is None:
+        displacement, calmed = calm(clip, displacement, body.part)
+    else:  # what the reach tracks add is the user's motion: calm the rest on top of it
+        rest, calmed = calm(clip, displacement - reached, body.part, base=reached)
+        displacement = reached + rest
+    calmed |= first_calmed
+    stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})
     wall = time.perf_counter() - start
     logging.getLogger(__name__).debug(
         "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
@@ -283,16 +371,19 @@ def fix_clip(
     after, met = _met(problem, wrap_rotations(original + displacement, rotation))
     report(int(met.sum()), "done")
     return ClipFix(
-        clip.with_frames(clip.frames + displacement).with_continuous_channels(),
-        clip,
-        tuple(goal_names(goals)),
-        problem.table.term_float[: len(problem.goals), 3].copy(),
-        _errors(problem, original),
-        after,
-        met,
-        len(stages) - 1,
-        wall,
-        settings,
-        tuple(stages),
-        balance,
+        clip=written.with_frames(written.frames + displacement).with_continuous_channels(),
+        original=written,
+        labels=tuple(goal_names(goals)),
+        tolerances=problem.table.term_float[: len(problem.goals), 3].copy(),
+        before=_errors(problem, original),
+        after=after,
+        met=met,
+        passes=len(stages) - 2,
+        wall_time=wall,
+        settings=settings,
+        stages=tuple(stages),
+        balance=balance,
+        body=body,
+        calmed=calmed,
+        goals=goals,
     )

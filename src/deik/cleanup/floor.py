@@ -9,8 +9,8 @@ mean the same for an ankle joint and a toe tip.
 - skating (the foot-skating ratio motion-synthesis papers report): the share of contact
   steps (a site in contact in frames n and n+1) in which a site in contact in both slides
   horizontally more than SKATE_SLIDE (2.5 cm) while lower than SKATE_HEIGHT (5 cm) in both;
-- penetration: per frame, the depth of the deepest body point (every joint and end site)
-  below the floor, 0 when none is below;
+- penetration: per frame, the depth of the deepest body point (every joint and end site, or
+  the body's surface around each: its clearance below it) below the floor, 0 when none is below;
 - floating: per contact site and frame in contact, its height above floor + clearance (0 when
   lower; penetration covers that).
 """
@@ -48,10 +48,13 @@ def floating(kin: Kinematics, skeleton: Skeleton, contacts: Contacts, clear: np.
     return np.where(contacts.mask, np.maximum(heights, 0.0), np.nan)
 
 
-def penetration(kin: Kinematics, skeleton: Skeleton, ground: float) -> np.ndarray:
+def penetration(kin: Kinematics, skeleton: Skeleton, ground: float, clearance: np.ndarray | None = None) -> np.ndarray:
     """(N,) depth below the floor at height `ground` of the deepest joint or end site in each
-    frame (0 when none is below), length units."""
+    frame (0 when none is below), length units; with `clearance` (F,) (NaN: not counted), of the
+    body's surface that far below each."""
     heights = kin.p_world_frame @ skeleton.up
+    if clearance is not None:
+        heights = heights - np.nan_to_num(clearance, nan=-np.inf)
     return np.maximum(ground - heights.min(axis=1), 0.0)
 
 

@@ -3,8 +3,9 @@
 Lengths come out in the clip's length units (cleanup/summary.py converts them to mm), angles in
 degrees. Per-frame values are NaN where a metric does not apply to a frame.
 
-- foot sliding: how far a site moves between two consecutive frames that are both in its
-  contact (mm per frame); a planted foot should not move.
+- sliding: how far a site moves along the ground between two consecutive frames that are both
+  in its contact (mm per frame); a planted foot should not move. Rising or settling, along up,
+  is not sliding (a heel lifting as the foot rolls onto its toes).
 - COM outside support: how far the centre of mass, projected on the ground, lies outside the
   convex support polygon of the sites in contact (mm; 0 inside, NaN with no contact).
 - joint deviation: per joint with rotation DOFs, the angle of R_original^T R_fixed of its
@@ -46,17 +47,20 @@ def _site_index(clip, sites) -> list[int]:
     return [clip.skeleton.frame_index(name) for name in sites]
 
 
-def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray) -> np.ndarray:
-    """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S)
-    holds in both; NaN elsewhere; length units."""
-    step = np.linalg.norm(np.diff(kin.p_world_frame[:, index], axis=0), axis=-1)
+def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
+    """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S) holds
+    in both, along the ground (perpendicular to `up`) or, without `up`, in space; NaN elsewhere;
+    length units."""
+    p = kin.p_world_frame[:, index]
+    step = np.linalg.norm(np.diff(p if up is None else p @ ground_frame(np.asarray(up, float))[:2].T, axis=0), axis=-1)
     return np.where(mask[1:] & mask[:-1], step, np.nan)
 
 
 def foot_sliding(clip: Motion, contacts: Contacts) -> np.ndarray:
-    """(N-1, S) displacement of each contact site from frame n to n+1 in length units per
-    frame (x 1000 for mm in metres), where the site is in contact in both frames; NaN elsewhere."""
-    return sliding_steps(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask)
+    """(N-1, S) displacement along the ground of each contact site from frame n to n+1 in length
+    units per frame (x 1000 for mm in metres), where the site is in contact in both frames; NaN
+    elsewhere."""
+    return sliding_steps(_kinematics(clip), _site_index(clip, contacts.sites), contacts.mask, clip.skeleton.up)
 
 
 def outside_support(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: np.ndarray) -> np.ndarray:

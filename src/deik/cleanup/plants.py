@@ -1,10 +1,16 @@
 """Where each contact plants: one target per contact interval of each site (planted_targets).
 
-A plant is the site's mean position over its interval in the capture at the median of its
-heights there (a one-frame dip does not lower it), raised where the site or a site rigidly
-linked to it sank through the floor (a leg made longer), and put on the floor when within
-SNAP_FRACTION x reach of it. Plants of two rigidly linked sites (an ankle and its toe) are
-placed relative to each other (_linked_plants), so both can be met at once.
+A plant is the site's median position along the ground over its interval in the capture (the
+frames it rests in outweigh a fast first or last one) at the median of its heights there (a
+one-frame dip does not lower it), raised where the site or a site rigidly linked to it sank
+through the floor (a leg made longer); "the floor" of a site is the floor's height plus the
+site's clearance (how far above it a knee joint sits when the knee touches, Contacts.clearance).
+A plant within SNAP_FRACTION x reach above the floor is put on it when the site has no
+clearance (a sole, a toe tip); one with a clearance stays where the capture rests it, since a
+clearance is an estimate and lowering a hand onto a guessed radius could push the real hand
+into the floor. Plants of two rigidly linked
+sites (an ankle and its toe) are placed relative to each other (_linked_plants), so both can be
+met at once.
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ from deik.errors import InputError
 from deik.io.trajectory import Motion
 
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
-SNAP_FRACTION = 0.01  # of reach: a plant this close to the floor is put on it
+SNAP_FRACTION = 0.01  # of reach: a plant without clearance this close to the floor is put on it
 HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
 
 
@@ -102,10 +108,10 @@ def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
     return out
 
 
-def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) -> np.ndarray:
-    """(N, S) heights of the contact sites, each frame's raised by the depth below `floor` of
-    the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then: a
-    foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
+def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: np.ndarray) -> np.ndarray:
+    """(N, S) heights of the contact sites, each frame's raised by the depth below its `floor`
+    (S,) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
+    a foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
     its toe is above the sole."""
     depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
     lift = depth.copy()
@@ -115,30 +121,31 @@ def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: float) 
     return heights + lift
 
 
-def planted_targets(clip: Motion, contacts: Contacts) -> np.ndarray:
+def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
-    Per contact interval, the mean world position of the site over the interval in `clip` (the
-    original), at the median of its heights along up there (a one-frame dip does not lower
-    it), each frame's height first raised by how far the site or a site rigidly linked to it
-    is below the floor (`contacts.ground`); a height within SNAP_FRACTION x reach of the floor
-    is put on it. Two sites a fixed distance apart (an ankle and its toe) whose intervals
-    overlap get targets that distance apart (_linked_plants), so both can be met at once.
+    Per contact interval, the median (`along` "median") or mean ("mean") world position of the
+    site over the interval in `clip` (the original), at the median of its heights along up there
+    (a one-frame dip does not lower it), each frame's height first raised by how far the site or
+    a site rigidly linked to it is below its floor (`contacts.ground` plus its clearance); a
+    height within SNAP_FRACTION x reach of the floor is put on it when the site has no
+    clearance. Two sites a fixed distance apart (an ankle and its toe) whose intervals overlap
+    get targets that distance apart (_linked_plants), so both can be met at once.
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
     pairs = _rigid_pairs(p, clip.skeleton.reach)
-    floor = contacts.ground
+    floor = contacts.ground + contacts.clearance
     heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):
-            mean = p[a:b, s].mean(axis=0)
-            height = float(np.median(heights[a:b, s]))
-            if abs(height - floor) <= SNAP_FRACTION * clip.skeleton.reach:
-                height = floor
+            mean = np.median(p[a:b, s], axis=0) if along == "median" else p[a:b, s].mean(axis=0)
+            height = max(float(np.median(heights[a:b, s])), floor[s])
+            if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * clip.skeleton.reach:
+                height = floor[s]
             plants[s, a, b] = mean + (height - mean @ up) * up
     plants = _linked_plants(plants, pairs, p, up)
     targets = np.full(p.shape, np.nan)

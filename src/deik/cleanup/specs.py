@@ -7,6 +7,9 @@ raises InputError naming the flag, the spec and what to give instead.
 
     plant_feet   auto | none | SITE:A-B[,A-B...]            (repeatable; A-B inclusive)
     contact      auto | none | POINT | POINT@A-B[,A-B...]   (POINT a joint, an end site or a bone PARENT-CHILD)
+
+Each of plant_feet and contact is auto when not given (every point of the body that rests
+is planted by default); a spec given replaces that default for its points only.
     floor        auto | none | HEIGHT                       (length units along up)
     reach        SITE=track.csv | SITE=track.json | SITE=X,Y,Z@A:B
 """
@@ -18,9 +21,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from deik.cleanup.body_contacts import bone_contacts, bone_ends, detect_body_contacts, detect_floor, merge_contacts
+from deik.cleanup.body import Body
+from deik.cleanup.body_contacts import bone_contacts, bone_ends, merge_contacts
 from deik.cleanup.clip_goals import Reach
-from deik.cleanup.contacts import Contacts, contacts_from_ranges, detect_contacts, foot_sites
+from deik.cleanup.contacts import Contacts
+from deik.cleanup.ground import FloorChoice, Paths, body_paths, detect_floor, detect_resting, given_contacts
 from deik.cleanup.tracks import parse_reach_spec
 from deik.errors import InputError
 from deik.io.trajectory import Motion
@@ -62,26 +67,28 @@ def frame_spans(form: str, spans: str, n_frames: int, flag: str) -> list[tuple[i
     return out
 
 
-def planted_feet(
-    clip: Motion, forms: Sequence[str], height: float | None, speed: float | None, default: bool
-) -> Contacts | None:
-    """The plant_feet contacts of `forms` (None for none); auto when `forms` is empty and
-    `default` (no contact spec was given either); detection thresholds `height` and `speed`."""
-    forms = list(forms) or (["auto"] if default else [])
-    if not forms or forms == ["none"]:
+def planted_feet(clip: Motion, body: Body, floor: float, forms: Sequence[str], detect: dict) -> Contacts | None:
+    """The plant_feet contacts of `forms` on `body` (None for none; auto when `forms` is
+    empty): each foot's heel and toe where they rest on the floor at `floor`. `detect`: the
+    keywords of ground.detect_resting (band, speed, paths)."""
+    forms = list(forms) or ["auto"]
+    if forms == ["none"]:
         return None
     if "auto" in forms:
         if len(forms) > 1:
             raise InputError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
-        return detect_contacts(clip, foot_sites(clip.skeleton), height=height, speed=speed)
-    ranges = {}
+        points = tuple(name for foot in body.feet for name in (foot.heel, foot.toe))
+        return detect_resting(clip, body, floor, points, idle=False, **detect) if points else None
+    masks = {}
     for form in forms:
         site, _, spans = form.partition(":")
         if not site or not spans:
             raise InputError(f"--plant-feet {form!r}: use {PLANT_FORMS}")
         check_site(clip, site, f"--plant-feet {form!r}")
-        ranges.setdefault(site, []).extend(frame_spans(form, spans, clip.n_frames, "--plant-feet"))
-    return contacts_from_ranges(clip, ranges)
+        mask = masks.setdefault(site, np.zeros(clip.n_frames, bool))
+        for start, stop in frame_spans(form, spans, clip.n_frames, "--plant-feet"):
+            mask[start:stop] = True
+    return given_contacts(clip, body, floor, masks)
 
 
 def _point(clip: Motion, point: str, form: str) -> tuple[str, ...]:
@@ -94,42 +101,43 @@ def _point(clip: Motion, point: str, form: str) -> tuple[str, ...]:
     return ends
 
 
-def body_contacts(
-    clip: Motion, forms: Sequence[str], floor: float, height: float | None, speed: float | None
-) -> list[Contacts]:
-    """The contact specs `forms` of points anywhere on the body, one Contacts per form, on the
-    floor at `floor`; detection thresholds `height` (above each point's resting height) and `speed`."""
-    if list(forms) == ["none"]:
+def body_contacts(clip: Motion, body: Body, floor: float, forms: Sequence[str], detect: dict) -> list[Contacts]:
+    """The contact specs `forms` of points anywhere on `body`, one Contacts per form, on the
+    floor at `floor` (auto when `forms` is empty: every point of the body that rests, the feet's
+    heels and toes aside, which plant_feet gives). `detect`: as planted_feet's."""
+    forms = list(forms) or ["auto"]
+    if forms == ["none"]:
         return []
-    detect = dict(floor=floor, band=height, speed=speed)
+    feet = {name for foot in body.feet for name in (foot.heel, foot.toe)}
     parts = []
     for form in forms:
         if form in ("auto", "none"):
             if form == "none":
                 raise InputError(f"--contact none cannot be combined with other --contact values; use {CONTACT_FORMS}")
-            parts.append(detect_body_contacts(clip, **detect))
+            points = tuple(name for name in body.contact_points() if name not in feet)
+            parts.append(detect_resting(clip, body, floor, points, idle=False, **detect))
             continue
         point, at, spans = form.partition("@")
         ends = _point(clip, point.strip(), form)
         if not at:
-            parts.append(detect_body_contacts(clip, ends, **detect))
+            parts.append(detect_resting(clip, body, floor, ends, **detect))
             continue
         frames = np.zeros(clip.n_frames, bool)
         for start, stop in frame_spans(form, spans, clip.n_frames, "--contact"):
             frames[start:stop] = True
         masks = bone_contacts(clip, *ends, frames) if len(ends) == 2 else {ends[0]: frames}
-        parts.append(Contacts(tuple(masks), np.stack(list(masks.values()), axis=1), False, None, None, floor))
+        parts.append(given_contacts(clip, body, floor, masks))
     return parts
 
 
 MAX_FLOOR = 1e12  # a floor height beyond this is a typo (its squares overflow float32)
 
 
-def floor_height(clip: Motion, spec: str | float | None) -> tuple[float, bool]:
-    """(floor height, whether it is kept as a goal) of the floor spec: "auto" (detected and
-    kept), "none" or None (detected, for the measures, and not kept) or a height."""
+def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Paths) -> tuple[FloorChoice, bool]:
+    """(the floor, whether it is kept as a goal) of the floor spec: "auto" (detected and kept),
+    "none" or None (detected, for the measures, and not kept) or a height (length units)."""
     if spec is None or spec in ("auto", "none"):
-        return detect_floor(clip), spec == "auto"
+        return detect_floor(clip, body, paths), spec == "auto"
     try:
         height = float(spec)
     except (TypeError, ValueError, OverflowError):
@@ -138,7 +146,7 @@ def floor_height(clip: Motion, spec: str | float | None) -> tuple[float, bool]:
         raise InputError(
             f"--floor {str(spec)[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
         )
-    return height, True
+    return FloorChoice(height, "given"), True
 
 
 def reaches(clip: Motion, specs: Sequence[str]) -> tuple[Reach, ...]:
@@ -153,13 +161,17 @@ def reaches(clip: Motion, specs: Sequence[str]) -> tuple[Reach, ...]:
 
 def all_contacts(
     clip: Motion,
-    plant_feet: Sequence[str],
-    contact: Sequence[str],
+    body: Body,
+    specs: tuple[Sequence[str], Sequence[str]],
     floor: float,
     thresholds: tuple[float | None, float | None],
+    paths: Paths | None = None,
 ) -> Contacts | None:
-    """Every contact the plant_feet and contact specs ask for, merged on the floor at `floor`;
-    None for none. `thresholds`: (height, speed) of detected contacts, None for the defaults."""
-    feet = planted_feet(clip, plant_feet, *thresholds, default=not contact)
-    parts = [part for part in [feet, *body_contacts(clip, contact, floor, *thresholds)] if part is not None]
+    """Every contact the (plant_feet, contact) `specs` ask for on `body` (cleanup/body.py; `clip`
+    on it, body.on_body), merged on the floor at `floor`; None for none. `thresholds`: (height,
+    speed) of detected contacts, None for the defaults; `paths` the clip's on the body
+    (ground.body_paths, computed when None)."""
+    detect = dict(band=thresholds[0], speed=thresholds[1], paths=paths or body_paths(clip, body))
+    parts = [planted_feet(clip, body, floor, specs[0], detect), *body_contacts(clip, body, floor, specs[1], detect)]
+    parts = [part for part in parts if part is not None and part.sites]
     return merge_contacts(parts, floor) if parts else None

@@ -5,14 +5,17 @@ sites) and every entry carries its `label` for people and its `unit`. Lengths ar
 from the clip's length unit with `metres` (metres per length unit, cleanup/units.py). The
 metrics are defined in cleanup/metrics.py (sliding, COM outside support, deviations, jerk,
 velocity spikes), cleanup/balance.py (ZMP outside support, with gravity 9.81 m/s^2) and
-cleanup/floor.py (skating, penetration, floating); floor and support metrics and sliding need
-contacts.
+cleanup/floor.py (skating, penetration, floating); docs/clips.md defines each. Support and
+floating metrics need contacts (the ones planted); with a Grounding, sliding and skating count
+every point that rests in the capture, planted or not, and penetration the body's surface
+below the floor stated; without one, the planted contacts and the joints and sites themselves.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -48,7 +51,7 @@ def _padded(values: np.ndarray, front: int, n: int) -> np.ndarray:
 SERIES = {
     f"{stem}_{suffix}": (stem, suffix, label, unit)
     for stem, suffix, label, unit in (
-        ("foot_sliding", "mm_per_frame", "foot sliding", "mm/frame"),
+        ("sliding", "mm_per_frame", "sliding of the resting points", "mm/frame"),
         ("com_outside_support", "mm", "COM outside support", "mm"),
         ("zmp_outside_support", "mm", "ZMP outside support (soles included)", "mm"),
         ("penetration", "mm", "penetration below the floor", "mm"),
@@ -64,6 +67,17 @@ SERIES = {
 }
 
 
+@dataclass(frozen=True, eq=False)
+class Grounding:
+    """The floor the measures use: its `height` (length units along up), each joint and site's
+    `clearance` (F,) (how far the body's surface lies below it; NaN: not counted) and the points
+    `resting` in the capture (Contacts: sliding and skating are measured over them)."""
+
+    height: float
+    clearance: np.ndarray
+    resting: Contacts
+
+
 def _reach_keys(reach) -> dict:
     """SERIES-like entries of the distance to each reach track (site, mask, targets)."""
     out = {}
@@ -73,20 +87,27 @@ def _reach_keys(reach) -> dict:
     return out
 
 
-def _measure(clip, contacts, reach, clear, metres: float) -> dict:
+def _measure(clip, contacts, reach, clear, metres: float, grounding: Grounding | None) -> dict:
     """{key: (values (M, K) in the key's unit, the frame of row 0)} of one clip: every joint,
     site or DOF of each SERIES entry (deviations aside) and each reach track."""
     sk, mm = clip.skeleton, 1000.0 * metres
     kin = clip.kinematics
     moves = spikes(clip, kin)
     out = {}
+    resting = contacts if grounding is None else grounding.resting
+    if resting is not None:
+        index = [sk.frame_index(name) for name in resting.sites]
+        out["sliding_mm_per_frame"] = mm * sliding_steps(kin, index, resting.mask, sk.up), 1
+    if grounding is not None:
+        depth = floor.penetration(kin, sk, grounding.height, grounding.clearance)
+        out["penetration_mm"] = mm * depth[:, None], 0
     if contacts is not None:
         index = [sk.frame_index(name) for name in contacts.sites]
-        out["foot_sliding_mm_per_frame"] = mm * sliding_steps(kin, index, contacts.mask), 1
         out["com_outside_support_mm"] = mm * outside_support(kin, index, contacts.mask, sk.up)[:, None], 0
         zmp = zmp_outside_support(kin, sk, contacts, clip.frame_time, GRAVITY / metres)
         out["zmp_outside_support_mm"] = mm * zmp[:, None], 0
-        out["penetration_mm"] = mm * floor.penetration(kin, sk, contacts.ground)[:, None], 0
+        if grounding is None:
+            out["penetration_mm"] = mm * floor.penetration(kin, sk, contacts.ground)[:, None], 0
         out["floating_mm"] = mm * floor.floating(kin, sk, contacts, clear), 0
     out["jerk_m_per_s3"] = metres * jerk(kin, sk.n_joints, clip.frame_time), 2
     out["joint_velocity_deg_per_s"] = np.abs(moves["dof_velocity"]), 1
@@ -99,12 +120,12 @@ def _measure(clip, contacts, reach, clear, metres: float) -> dict:
     return out
 
 
-def _both(original, fixed, contacts, reach, metres: float) -> tuple[dict, dict]:
+def _both(original, fixed, contacts, reach, metres: float, grounding: Grounding | None) -> tuple[dict, dict]:
     """_measure of `original` and `fixed`, with the deviations from the capture (0 before)."""
     clear = None
     if contacts is not None:
         clear = floor.clearance(original.kinematics, original.skeleton, contacts)
-    before, after = (_measure(clip, contacts, reach, clear, metres) for clip in (original, fixed))
+    before, after = (_measure(clip, contacts, reach, clear, metres, grounding) for clip in (original, fixed))
     angles = joint_angles(original, fixed)
     positions = 1000.0 * metres * position_deviation(original, fixed)
     for key, values in (("joint_angle_deviation_deg", angles), ("joint_position_deviation_mm", positions)):
@@ -112,9 +133,15 @@ def _both(original, fixed, contacts, reach, metres: float) -> tuple[dict, dict]:
     return before, after
 
 
-def _keys(contacts, reach) -> dict:
-    floor_keys = ("foot_sliding", "com_outside_support", "zmp_outside_support", "penetration", "floating")
-    keys = {k: v for k, v in SERIES.items() if contacts is not None or v[0] not in floor_keys}
+def _keys(contacts, reach, grounding: Grounding | None) -> dict:
+    planted = ("com_outside_support", "zmp_outside_support", "floating")
+    grounded = ("sliding", "penetration")
+    keys = {
+        k: v
+        for k, v in SERIES.items()
+        if (v[0] not in planted or contacts is not None)
+        and (v[0] not in grounded or contacts is not None or grounding is not None)
+    }
     return keys | _reach_keys(reach)
 
 
@@ -128,17 +155,19 @@ def per_frame_errors(
     contacts: Contacts | None = None,
     reach: Sequence[ReachTrack] | None = None,
     metres: float = 1.0,
+    grounding: Grounding | None = None,
 ) -> dict:
     """{key: {"label", "unit", "before" (N,), "after" (N,)}}: per frame, the largest value
-    over the joints, sites or DOFs of each SERIES entry (the floor ones with `contacts`) and
-    the distance to each reach track (site, mask (N,), targets (N, 3)), in the key's unit, and
-    with `contacts` the number of sites in contact ("contacts_count", the same before and
-    after); NaN where a series does not apply to a frame. `metres`: metres per length unit."""
+    over the joints, sites or DOFs of each SERIES entry (the floor ones with `contacts` or a
+    `grounding`, module notes) and the distance to each reach track (site, mask (N,), targets
+    (N, 3)), in the key's unit, and with `contacts` the number of sites in contact
+    ("contacts_count", the same before and after); NaN where a series does not apply to a
+    frame. `metres`: metres per length unit."""
     reach = list(reach or ())
     N = original.n_frames
-    runs = _both(original, fixed, contacts, reach, metres)
+    runs = _both(original, fixed, contacts, reach, metres, grounding)
     out = {}
-    for key, (_, _, label, unit) in _keys(contacts, reach).items():
+    for key, (_, _, label, unit) in _keys(contacts, reach, grounding).items():
         sides = [_padded(row_max(run[key][0]), run[key][1], N) for run in runs]
         out[key] = {"label": label, "unit": unit, "before": sides[0], "after": sides[1]}
     if contacts is not None:
@@ -153,15 +182,17 @@ def clip_report(
     contacts: Contacts | None = None,
     reach: Sequence[ReachTrack] | None = None,
     metres: float = 1.0,
+    grounding: Grounding | None = None,
 ) -> dict:
     """{key: {"label", "unit", "before", "after"}}, one number per clip for `original` and
     `fixed`: "STEM_mean_SUFFIX" and "STEM_max_SUFFIX" over every joint, site or DOF and frame
-    of each per_frame_errors series, and with `contacts` the foot-skating ratio (share of the
-    contact steps, cleanup/floor.py) and the mean number of sites in contact per frame."""
+    of each per_frame_errors series, the foot-skating ratio (share of the contact steps,
+    cleanup/floor.py; over the resting points of a `grounding`, else over `contacts`) and with
+    `contacts` the mean number of sites in contact per frame."""
     reach = list(reach or ())
-    runs = _both(original, fixed, contacts, reach, metres)
+    runs = _both(original, fixed, contacts, reach, metres, grounding)
     report = {}
-    for key, (stem, suffix, label, unit) in _keys(contacts, reach).items():
+    for key, (stem, suffix, label, unit) in _keys(contacts, reach, grounding).items():
         stats = [_stats(run[key][0]) for run in runs]
         for k, word in enumerate(("mean", "max")):
             report[f"{stem}_{word}_{suffix}"] = {
@@ -170,17 +201,19 @@ def clip_report(
                 "before": stats[0][k],
                 "after": stats[1][k],
             }
-    if contacts is not None:
+    resting = contacts if grounding is None else grounding.resting
+    if resting is not None:
         sk = original.skeleton
         kins = [clip.kinematics for clip in (original, fixed)]
-        clear = floor.clearance(kins[0], sk, contacts)
-        ratios = [floor.skating_ratio(*floor.skating(kin, sk, contacts, clear, metres)) for kin in kins]
+        clear = floor.clearance(kins[0], sk, resting)
+        ratios = [floor.skating_ratio(*floor.skating(kin, sk, resting, clear, metres)) for kin in kins]
         report["foot_skating_ratio_share"] = {
             "label": "foot-skating ratio",
             "unit": "share",
             "before": ratios[0],
             "after": ratios[1],
         }
+    if contacts is not None:
         count = float(contacts.mask.sum(axis=1).mean()) if len(contacts.mask) else math.nan
         report["contacts_per_frame_mean_count"] = {
             "label": "sites in contact per frame, mean",

@@ -1,9 +1,11 @@
-"""The length unit of a clip: BVH files do not say it, so it is given or guessed from the size.
+"""The length unit a clip's reports are written in: BVH files do not say it, so it is given or
+taken from the body's size. Nothing but reports needs it: every size a fix uses is a share of
+the body's own (cleanup/body.py).
 
-A person's span (the longest path of bone offsets from the root to a joint or end site, root
-translations left out) is about 1 m: a skeleton spanning under 10 units is taken to be in
-metres, under 1000 in centimetres, else in millimetres (inches, 40 units for a person, read
-as centimetres: give them).
+A person spans about 2 m from one end of the body to another (cleanup/body.py, `span`; about
+1 m from the root to the farthest joint or end site, skeleton `span` below): a body spanning
+under 20 units is read as metres, under 2000 as centimetres, else as millimetres (inches, 80
+units for a person, read as centimetres: give them).
 """
 
 from __future__ import annotations
@@ -25,10 +27,15 @@ def span(skeleton: Skeleton) -> float:
     return float(max(depth.max(initial=0.0), sites.max(initial=0.0)))
 
 
+def unit_of_span(size: float) -> str:
+    """The unit "m", "cm" or "mm" of a body spanning `size` units from end to end (module notes)."""
+    return "m" if size < 20 else "cm" if size < 2000 else "mm"
+
+
 def guess_unit(skeleton: Skeleton) -> str:
-    """The unit "m", "cm" or "mm" of `skeleton` by its span (see the module notes)."""
-    size = span(skeleton)
-    return "m" if size < 10 else "cm" if size < 1000 else "mm"
+    """The unit "m", "cm" or "mm" of `skeleton` by its span from the root (twice that from end
+    to end; module notes)."""
+    return unit_of_span(2.0 * span(skeleton))
 
 
 def metres_per_unit(unit: str) -> float:

@@ -3,7 +3,7 @@ what it leaves unmet.
 
 Each frame's contacts, floor and balance goals (cleanup/clip_goals.py's levels 0 and 1) and, below
 them, its reach tracks (level 2) are met by a displacement of the whole clip from the capture,
-found in a few space-time Gauss-Newton steps (cleanup/spacetime.py): every frame's goal rows, on
+found in space-time Gauss-Newton steps (cleanup/spacetime.py): every frame's goal rows, on
 the positions' Jacobian (the kernels' analytic one: each DOF turns about or slides along its
 world axis), weighted against the spring energy of the displacement, each DOF counted by how
 much of the body it moves (motion_stiffness). A correction therefore starts before a contact
@@ -11,9 +11,11 @@ does and bends the legs rather than the hips; where no goal holds a DOF it fades
 capture; a DOF no goal needs (an idle arm) is not touched. Balance goals add two rows, the
 centre of mass's horizontal Jacobian, steering it along a track over the support
 (balance.py). Reach rows weigh REACH_WEIGHT / HELD_WEIGHT as much as the others, so an
-unreachable reach pulls a planted contact only a little, and the last steps, frame by frame,
-meet the contacts, floor and balance rows alone to microns. Goals that cannot all be met are left to DE,
-with its priorities and tolerances.
+unreachable reach pulls a planted contact only a little. Steps repeat until the goal rows are
+met to SETTLED x reach or, after FIRST_STEPS, their root-mean-square error stops falling (at
+most STEPS): every step moves the whole clip at once, so none lands a frame apart from its
+neighbours. Goals that cannot all be met are left to
+DE, with its priorities and tolerances.
 """
 
 from __future__ import annotations
@@ -33,18 +35,21 @@ from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 from deik.solver.jacobians import point_jacobians
 
 DAMPING = 1e-3  # of reach per weighted DOF unit: keeps a step finite at a straight knee
-STEPS = 4  # space-time steps over the whole clip
-SETTLE = 2  # last steps, frame by frame, meeting the contacts, floor and balance rows to microns
+STEPS = 12  # most space-time steps over the whole clip, per phase
+SETTLED = 2e-5  # of reach: goal rows met this closely need no more steps
+FIRST_STEPS = 4  # steps taken before one that does not lower the rows' root-mean-square error ends them
 FADE = 8.0  # frames over which a correction fades where no goal holds it (cleanup/spacetime.py)
 # weights of a goal row's squared error, in reach units, against the spring energy (radians^2):
-# contacts, floor and balance above reach tracks (what an unreachable reach drags a contact by,
-# the settling steps take back), reach tracks far above the energy
+# contacts, floor and balance some 70 times above reach tracks (a reach step is cut to
+# LONGEST_STEP: at a tenth, an unreachable reach dragged a rolling foot 10 mm; at 1.5e4, 0.4 mm
+# while a reachable reach still ends within 1 mm), reach tracks far above the energy
 HELD_WEIGHT = 1e6
-REACH_WEIGHT = 1e5
+REACH_WEIGHT = 1.5e4
 ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
-FLOOR_MARGIN = 1e-4  # length units a point pushed out of the floor ends above it
+FLOOR_MARGIN = 1e-4  # of reach: how far above the floor (and its clearance) a point pushed out of it ends
+FLOOR_HOLD = 30.0  # margins: a point this close to the floor is held where it is
 
 
 def position_jacobian(
@@ -93,40 +98,48 @@ def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return index, targets.reshape(len(goals), N, 3).transpose(1, 0, 2), active
 
 
-def _position_rows(x, jac, rows, longest: float):
-    """(errors (N, 3H), Jacobian rows (N, 3H, D)) of the Position rows (index, targets, active)."""
+def _position_rows(x, jac, rows, longest: float, axes: np.ndarray | None = None):
+    """(errors (N, kH), Jacobian rows (N, kH, D)) of the Position rows (index, targets, active),
+    along the k = 3 world axes or, given `axes` (k, 3), along those (a contact: the ground's)."""
     index, targets, active = rows
     N, D = jac.shape[0], jac.shape[-1]
     error = at_most(np.where(active[..., None], targets - x[:, index], 0.0), longest)
-    return error.reshape(N, -1), (jac[:, index] * active[:, :, None, None]).reshape(N, -1, D)
+    part = jac[:, index] * active[:, :, None, None]
+    if axes is not None:
+        error, part = error @ axes.T, np.einsum("ij,nhjd->nhid", axes, part)
+    return error.reshape(N, -1), part.reshape(N, -1, D)
 
 
-def floor_rows(x: np.ndarray, jac: np.ndarray, up: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
-    """(errors (N, F), Jacobian rows (N, F, D)): each joint or site lower than floor + 2
-    FLOOR_MARGIN is lifted to floor + FLOOR_MARGIN (the band between holds it there)."""
+def floor_rows(
+    x: np.ndarray,
+    jac: np.ndarray,
+    up: np.ndarray,
+    floor: float,
+    margin: float,
+    clearance: np.ndarray | None = None,
+    hold: float = 2.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, F), Jacobian rows (N, F, D)): each joint or site at positions x (N, F, 3) lower
+    than floor + its `clearance` (F,) (default 0; NaN: ignored) + `margin` is lifted to floor +
+    clearance + margin, and one less than `hold` margins above that is held where it is (a
+    step's spring, pulling a lifted point back towards the capture, would drop it through the
+    floor again)."""
     height = x @ up
-    low = height < floor + 2 * FLOOR_MARGIN
-    return np.where(low, floor + FLOOR_MARGIN - height, 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
-
-
-def _solve(B: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
-    """(N, D) the least-squares step meeting rows B (N, R, D) for `error` (N, R), damped by
-    `damping` (length units per weighted DOF unit)."""
-    N, R, D = B.shape
-    if R == 0:
-        return np.zeros((N, D))
-    inverse = np.linalg.solve(B @ B.transpose(0, 2, 1) + damping**2 * np.eye(R), np.eye(R))
-    return (B.transpose(0, 2, 1) @ inverse @ error[..., None])[..., 0]
+    level = floor + margin + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+    low = height < level + (hold - 1.0) * margin
+    return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
 
 def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
-    """(errors (N, H), rows (N, H, D)) of the contacts, floor and balance (ComOverSupport goals:
-    two rows, the COM's ground position onto its point) rows at the positions `x` and
-    Jacobian `jac`."""
-    error, rows = _position_rows(x, jac, held_rows, longest)
+    """(errors (N, H), rows (N, H, D)) of the contacts (along the ground: a contact holds a point
+    still there, while the floor rows keep it out of the floor and the spring near its height in
+    the capture), floor and balance (ComOverSupport goals: two rows, the COM's ground position
+    onto its point) rows at the positions `x` and Jacobian `jac`."""
+    error, rows = _position_rows(x, jac, held_rows, longest, ground)
     errors, parts = [error], [rows]
     for floor in floors:
-        error, rows = floor_rows(x[:, : skeleton.n_frames], jac[:, : skeleton.n_frames], skeleton.up, floor.height)
+        F, margin = skeleton.n_frames, FLOOR_MARGIN * skeleton.reach
+        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, floor.height, margin, floor.clearance, FLOOR_HOLD)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:
@@ -145,7 +158,6 @@ def warm_start(
     movable: np.ndarray,
     weights: np.ndarray,
     steps: int = STEPS,
-    settle: int = SETTLE,
     fade: float = FADE,
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
@@ -153,14 +165,13 @@ def warm_start(
     keeps every joint and site above a Floor, steers the centre of mass onto the points of its
     ComOverSupport goals (a balance track, cleanup/balance.py) and, below those, meets the
     Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
-    (dof_weights). `steps` space-time steps over the whole clip (cleanup/spacetime.py): every frame's rows weighted
-    (HELD_WEIGHT, REACH_WEIGHT) against the spring energy of the displacement with fade
-    `fade` frames, so corrections start, stop and hand over between DOFs smoothly; with reach
-    tracks, `steps` more that add them, moving only the frames of their (eased) windows, so a
-    reach changes nothing outside them; then `settle` damped Gauss-Newton steps per frame
-    meet the contacts, floor and balance rows to microns. A step moves a site or the COM at
-    most LONGEST_STEP x reach, so an unreachable target is approached, not chased. Limits are
-    not applied here (fix_clip does)."""
+    (dof_weights). At most `steps` space-time steps over the whole clip (cleanup/spacetime.py,
+    module notes): every frame's rows weighted (HELD_WEIGHT, REACH_WEIGHT) against the spring
+    energy of the displacement with fade `fade` frames, so corrections start, stop and hand
+    over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
+    frames of their (eased) windows, so a reach changes nothing outside them. A step moves a
+    site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
+    chased. Limits are not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -190,7 +201,8 @@ def warm_start(
         window = np.any([active_frames(goal, N) for goal in reach], axis=0)
         phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
-        for _ in range(steps):
+        before = np.inf
+        for k in range(steps):
             x, jac, error, rows = rows_at(d, free)
             row_weights = np.full(error.shape, HELD_WEIGHT)
             if with_reach:
@@ -198,14 +210,15 @@ def warm_start(
                 error = np.concatenate([error, reach_error], axis=1)
                 rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
+            now = np.sqrt(np.mean(error**2)) if error.size else 0.0
+            if np.abs(error).max(initial=0.0) <= SETTLED * skeleton.reach or (k >= FIRST_STEPS and now >= before):
+                break
+            before = now
             damping = HELD_WEIGHT * DAMPING**2
             step = spacetime_step(
                 (rows, error, row_weights / skeleton.reach**2), d * weights, free, fade, damping, stiffness
             )
             d += step * scale * free
-    for _ in range(settle):
-        _, _, error, rows = rows_at(d, movable)
-        d += _solve(rows, error, DAMPING * skeleton.reach) * scale * movable
     return d
 
 

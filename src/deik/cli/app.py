@@ -62,10 +62,13 @@ def run_limits(args: argparse.Namespace) -> int:
     clip = read_bvh(args.clip)
     limits = range_of_motion(clip, args.margin, args.margin_length)
     write_limits(args.out, clip.skeleton, limits)
-    print(
-        f"{len(limits)} DOFs of {clip.n_frames} frames, margin {args.margin:g} degrees / "
-        f"{args.margin_length:g}: wrote {args.out}"
+    left = clip.skeleton.n_dofs - len(limits)
+    lengths = (
+        f"{args.margin_length:g} length units"
+        if args.margin_length is not None
+        else f"the {left} translations that carry the body left free (--margin-length measures them)"
     )
+    print(f"{len(limits)} DOFs of {clip.n_frames} frames, margin {args.margin:g} degrees, {lengths}: wrote {args.out}")
     return 0
 
 
@@ -121,9 +124,9 @@ def build_parser() -> Parser:
     lim.add_argument(
         "--margin-length",
         type=number(0.0),
-        default=0.0,
         metavar="LENGTH",
-        help="added to each translation's range on both sides (default 0)",
+        help="also measure the translations that carry the body through the world (the root's), widened by "
+        "LENGTH on both sides (default: left out, so a clip fix may lift or shift the body)",
     )
     add_output_flags(lim, progress=False)
     lim.set_defaults(run=run_limits)

@@ -116,3 +116,14 @@ def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = 
     if names:
         logging.getLogger(__name__).info(compile_note(names, certain=not clip))
     return names
+
+
+def add_free_translations(parser: argparse.ArgumentParser) -> None:
+    """--free-translations on `parser` (solve, clip, retarget): position channels below a BVH's
+    first translating joint keep the capture's values unless it is given (deik.io.bvh.read_bvh)."""
+    parser.add_argument(
+        "--free-translations",
+        action="store_true",
+        help="BVH: let deik move position channels below the first joint that translates (by default they "
+        "keep the capture's values, so bones keep their lengths)",
+    )

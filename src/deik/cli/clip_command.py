@@ -17,7 +17,13 @@ import numpy as np
 
 from deik.cleanup.specs import CONTACT_FORMS, PLANT_FORMS
 from deik.cleanup.units import METRES
-from deik.cli.arguments import UsageError, check_device, check_outputs, number
+from deik.cli.arguments import (
+    UsageError,
+    add_free_translations,
+    check_device,
+    check_outputs,
+    number,
+)
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
@@ -36,6 +42,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         "--out", required=True, metavar="OUT.bvh", help="the fixed clip (same channel layout); a folder for a folder"
     )
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
+    add_free_translations(c)
     c.add_argument(
         "--limits",
         metavar="FILE.json",
@@ -134,7 +141,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     c.add_argument(
         "--units",
         choices=sorted(METRES),
-        help="the clip's length unit (default: guessed from the skeleton's size, and said)",
+        help="the clip's length unit in the reports (default: read from the body's size, and said; the fix needs none)",
     )
     add_output_flags(c)
 
@@ -180,7 +187,7 @@ def _summary_notes(document: dict) -> list[str]:
     """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
     metrics = document["metrics"]
     keys = (
-        "foot_sliding_max_mm_per_frame",
+        "sliding_max_mm_per_frame",
         "foot_skating_ratio_share",
         "penetration_max_mm",
         "floating_max_mm",
@@ -202,8 +209,23 @@ def _summary_notes(document: dict) -> list[str]:
 
 
 def _outcome_lines(document: dict) -> list[str]:
-    """Lines after the tables: balance kept and skipped, peaks against the capture's."""
+    """Lines after the tables: the floor, the frames missing a goal and those whose change was
+    taken back, balance kept and skipped, peaks against the capture's (the worst point's)."""
     lines = []
+    floor, unit = document["floor"], document["length_unit"]
+    if floor is not None:
+        from deik.cleanup.ground import FloorChoice
+
+        choice = FloorChoice(floor["height"], floor["how"], floor["resting_contacts_height"])
+        lines.append(choice.describe(unit) + ("" if floor["kept"] else "; not kept (--floor none)"))
+    unmet = [n for n, met in enumerate(document["met_per_frame"]) if not met]
+    if unmet:
+        lines.append(f"frames missing a contact/floor/balance/reach goal: {_spans(unmet)}")
+    if document["calmed_frames"]:
+        lines.append(
+            f"frames whose fix was partly taken back so that no point accelerates past x"
+            f"{document['dynamics']['peak_ratio_limit']:g} its capture peak: {_spans(document['calmed_frames'])}"
+        )
     balance = document["balance"]
     if balance is not None:
         kept, skipped = balance["balanced_frames"], balance["skipped_frames"]
@@ -217,6 +239,9 @@ def _outcome_lines(document: dict) -> list[str]:
         lines.append(line)
     dynamics = document["dynamics"]
     ratios = ", ".join(f"{k.replace('_', ' ')} x{figure(v, '.3f')}" for k, v in dynamics["peak_ratios"].items())
+    worst = dynamics["worst_point"]
+    if worst is not None:
+        ratios += f"; worst point's acceleration {worst['point']} x{figure(worst['ratio'], '.3f')}"
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
@@ -322,7 +347,8 @@ def run_clip(args: argparse.Namespace) -> int:
     from deik.cleanup.clean import plan_clean
 
     check_first(args)
-    plan = plan_clean(read_bvh(args.clip, segments=args.segments), clean_options(args))
+    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
+    plan = plan_clean(clip, clean_options(args))
     check_outputs(*outputs)  # the reach tracks it read are inputs too
     with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         cleaned = plan.run(progress=frames_reporter(bar, "every goal"))

@@ -101,7 +101,7 @@ def _clean_one(payload: dict, progress: Callable[[int, int], None]) -> dict:
     """deik.clean_clip of one clip of a folder, its outputs written; its library record."""
     from deik.cleanup.clean import clean_clip
 
-    clip = read_bvh(payload["source"], segments=payload["segments"])
+    clip = read_bvh(payload["source"], segments=payload["segments"], free_translations=payload["free_translations"])
     cleaned = clean_clip(clip, payload["options"], progress=lambda met, stage: progress(met, clip.n_frames))
     cli_clip.write_outputs(cleaned, payload["outputs"], payload["report_3d"])
     return cli_clip.library_record(cleaned)
@@ -115,8 +115,9 @@ def _options(args) -> tuple[dict, dict, dict]:
 
     if args.command == "clip":
         options = cli_clip.clean_options(args)
-        common = {"options": options, "segments": args.segments, "report_3d": args.report_3d}
-        settings = {"segments": args.segments, "report_3d": args.report_3d, **dataclasses.asdict(options)}
+        reading = {"segments": args.segments, "free_translations": args.free_translations}
+        common = {"options": options, "report_3d": args.report_3d, **reading}
+        settings = {"report_3d": args.report_3d, **reading, **dataclasses.asdict(options)}
         files = {"--segments": args.segments, "--limits": options.limits}
         tracks = [track_file(spec) for spec in options.reach]
         files |= {f"--reach {k}": track for k, track in enumerate(tracks) if track is not None}
@@ -208,7 +209,7 @@ def _cell(key: str):
 COLUMNS = {
     "clip": [
         ("frames met", lambda record: f"{record.get('frames_met', '-')}/{record.get('frames', '-')}"),
-        ("sliding max mm/frame", _cell("foot_sliding_max_mm_per_frame")),
+        ("sliding max mm/frame", _cell("sliding_max_mm_per_frame")),
         ("penetration max mm", _cell("penetration_max_mm")),
         ("angle from capture mean deg", _cell("joint_angle_deviation_mean_deg")),
     ],

@@ -8,6 +8,8 @@ import math
 
 from deik.cli.arguments import numbers
 from deik.io.describe import describe_skeleton
+from deik.io.load import load_skeleton
+from deik.viz.marks import length_unit
 from deik.viz.text import format_table
 
 
@@ -35,13 +37,15 @@ def _joint_line(joint: dict) -> str:
     return f"{'  ' * joint['depth']}{joint['name']}  ({'; '.join(notes)})"
 
 
-def format_info(info: dict, source: str) -> str:
-    """The text `deik info` prints of describe_skeleton's record `info` of `source`."""
+def format_info(info: dict, source: str, unit: tuple[str, str] = ("length units", "the skeleton's own")) -> str:
+    """The text `deik info` prints of describe_skeleton's record `info` of `source`, lengths in
+    `unit` (name, where it comes from: deik.viz.marks.length_unit)."""
     mimics = f" (+{len(info['mimics'])} mimic)" if info["mimics"] else ""
     lines = [
         f"{source}: {info['kind']} skeleton {info['name']!r}",
         f"{info['joint_count']} joints, {info['dof_count']} DOFs{mimics}, {info['site_count']} sites, "
-        f"reach {_number(info['reach'])}, up {tuple(info['up'])}",
+        f"reach {_number(info['reach'])} {unit[0]}, up {tuple(info['up'])}",
+        f"lengths in {unit[0]}: {unit[1]}",
         f"mass: {_number(info['mass_kg'])} kg, {info['mass_source']}",
     ]
     if info["clip"] is not None:
@@ -72,6 +76,6 @@ def _cell(value) -> str:
 def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
     up = numbers("--up", args.up) if args.up else None
-    info = describe_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
-    print(format_info(info, args.skeleton))
+    loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    print(format_info(describe_skeleton(loaded), args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
     return 0

@@ -14,7 +14,7 @@ import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from deik.cli.arguments import UsageError, check_outputs
+from deik.cli.arguments import UsageError, add_free_translations, check_outputs
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
@@ -61,6 +61,7 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
+    add_free_translations(r)
     add_output_flags(r)
 
 
@@ -156,7 +157,7 @@ def run_retarget(args: argparse.Namespace) -> int:
     from deik.retargeting.outcome import frame_range
 
     options = retarget_options(args)
-    clip = frame_range(read_bvh(args.clip), options["frames"])
+    clip = frame_range(read_bvh(args.clip, free_translations=args.free_translations), options["frames"])
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
         result = retarget(clip, **{**options, "frames": None}, progress=frames_reporter(bar, "their contacts"))

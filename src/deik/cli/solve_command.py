@@ -19,6 +19,7 @@ import numpy as np
 
 from deik.cli.arguments import (
     UsageError,
+    add_free_translations,
     check_device,
     check_outputs,
     number,
@@ -63,6 +64,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--problem", metavar="FILE.toml", help="read skeleton, goals and settings from a TOML file")
     s.add_argument("--frame", type=int, metavar="N", help="BVH: pose frame N (0-based) of the clip")
     s.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated from bone lengths)")
+    add_free_translations(s)
     s.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world (default: the root link)")
     s.add_argument(
         "--tip",
@@ -149,7 +151,8 @@ def _start_pose(values: list[str], skeleton) -> np.ndarray:
 
 
 def _file_flags_used(args) -> bool:
-    return any(v not in (None, []) for v in (args.frame, args.segments, args.base, args.tip, args.up, args.limits))
+    flags = (args.frame, args.segments, args.base, args.tip, args.up, args.limits)
+    return any(v not in (None, []) for v in flags) or args.free_translations
 
 
 def pose_problem(args: argparse.Namespace) -> ProblemFile:
@@ -170,7 +173,9 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
     up = numbers("--up", args.up) if args.up else None
-    loaded = load_skeleton(spec, base=args.base, tip=args.tip, segments=args.segments, up=up)
+    loaded = load_skeleton(
+        spec, base=args.base, tip=args.tip, segments=args.segments, up=up, free_translations=args.free_translations
+    )
     if args.limits:
         loaded = replace(loaded, skeleton=with_limits(loaded.skeleton, read_limits(args.limits, loaded.skeleton)))
     frame_pose = None

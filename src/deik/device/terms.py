@@ -34,6 +34,8 @@ from deik.objectives.kinds import (
     MU,
     OBSTACLE,
     ORIENTATION,
+    PAIR_A,
+    PAIR_TERM,
     POSITION,
     PRIORITY_TOLERANCE,
     SCALE,
@@ -160,17 +162,29 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     if OBSTACLE_ON and kind == OBSTACLE:
         return obstacle_error(g, skel, p)
     if FLOOR_ON and kind == FLOOR:
-        return floor_error(g[0], skel, p)
+        return floor_error(t, g[0], terms, skel, p)
     if SELF_COLLISION_ON and kind == SELF_COLLISION:
         return self_collision_error(t, g[0], terms, skel, p)
     return 0.0  # a kind this kernel is not compiled for (never reached: see compiled_kinds)
 
 
-def floor_error(height, skel, p):
-    """Summed depth (metres) of every joint and site below the floor at `height` along up: a
-    bone, the segment from its joint to its child, reaches lowest at one of its ends."""
+def floor_error(t, height, terms, skel, p):
+    """Summed depth (metres) below the floor at `height` along up of every joint and site (a bone,
+    the segment from its joint to its child, reaches lowest at one of its ends), or, when term
+    t lists points in the pair table (frame, frame, clearance), of each listed point's surface,
+    `clearance` below it (a capsule's radius): the point must stay that high above the floor."""
     up = skel.ground[UP]
+    pair_int, pair_radius = terms.pair_int, terms.pair_radius
     total = 0.0
+    listed = False
+    for k in range(pair_int.shape[0]):
+        if pair_int[k, PAIR_TERM] != t:
+            continue
+        listed = True
+        f = pair_int[k, PAIR_A]
+        total += max(height + pair_radius[k] - (p[3 * f] * up[0] + p[3 * f + 1] * up[1] + p[3 * f + 2] * up[2]), 0.0)
+    if listed:
+        return total
     for f in range(skel.joint_int.shape[0] + skel.site_joint.shape[0]):
         total += max(height - (p[3 * f] * up[0] + p[3 * f + 1] * up[1] + p[3 * f + 2] * up[2]), 0.0)
     return total

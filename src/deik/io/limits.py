@@ -22,7 +22,7 @@ import numpy as np
 from deik.errors import FileFormatError, InputError, UnknownNameError
 from deik.io.atomic import write_json_atomically
 from deik.io.files import FilePath, numbers_value, read_json
-from deik.io.motion import Clip
+from deik.io.motion import Clip, held_translations
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -79,22 +79,29 @@ def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, fl
     return limits
 
 
-def range_of_motion(clip: Clip, margin_degrees: float, margin_length: float = 0.0) -> dict[str, tuple[float, float]]:
+def range_of_motion(
+    clip: Clip, margin_degrees: float, margin_length: float | None = None
+) -> dict[str, tuple[float, float]]:
     """{dof name: (lower, upper)} of `clip` (a deik.Clip): each DOF's smallest and largest
     value over the frames (rotations wrapped into [-pi, pi)), widened by the margins and kept
-    within the skeleton's own limits."""
-    if not (
-        math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(margin_length) and margin_length >= 0
-    ):
+    within the skeleton's own limits. Translations that carry the body through the world (free
+    in the skeleton, unlike those the clip holds, deik.io.motion.held_translations) are a path,
+    not a range of motion: they are left out unless `margin_length` (length units) is given,
+    as pinning them to the capture's exact range would leave a fix no room to lift or shift
+    the body."""
+    given = 0.0 if margin_length is None else margin_length
+    if not (math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(given) and given >= 0):
         raise InputError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
     if clip.n_frames == 0:
         raise InputError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
     poses = clip.poses()
-    margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), margin_length)
+    margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), given)
     lower = np.maximum(poses.min(axis=0) - margin, sk.lower)
     upper = np.minimum(poses.max(axis=0) + margin, sk.upper)
-    return {name: (float(lower[d]), float(upper[d])) for d, name in enumerate(sk.dof_names)}
+    path = (sk.dof_kind != ROTATE) & ~held_translations(sk, clip.frames)
+    measured = ~path if margin_length is None else np.ones(sk.n_dofs, bool)
+    return {name: (float(lower[d]), float(upper[d])) for d, name in enumerate(sk.dof_names) if measured[d]}
 
 
 def clip_within(clip: Clip, skeleton: Skeleton, source: str) -> Clip:

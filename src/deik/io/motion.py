@@ -38,12 +38,16 @@ CHANNELS = {
 @dataclass(frozen=True)
 class JointChannels:
     """One BVH joint: `channels` in file order, `dofs` the skeleton DOF index of each channel,
-    `children` the names of its child joints and End Sites (skeleton sites) in file order."""
+    `children` the names of its child joints and End Sites (skeleton sites) in file order;
+    `local_position`: its position channels hold its whole local position (the file repeats
+    its OFFSET in them) rather than a displacement from the OFFSET, so each such channel is its
+    DOF's value plus the OFFSET's component."""
 
     name: str
     channels: tuple[str, ...]
     dofs: tuple[int, ...]
     children: tuple[str, ...]
+    local_position: bool = False
 
 
 class KinematicsOnce:
@@ -66,9 +70,10 @@ class Clip(KinematicsOnce):
     length units in skeleton DOF order; `frame_time` seconds; `layout` the BVH joints in file
     order; `source` where it came from; `mass_source` where its masses came from.
 
-    Derived: `channel_dofs` (C,) the skeleton DOF in each file column (C = D) and
-    `channel_scale` (C,) with file value = DOF value * scale (degrees per radian for rotations,
-    -1 where a DOF turns about a negative axis).
+    Derived: `channel_dofs` (C,) the skeleton DOF in each file column (C = D), `channel_scale`
+    and `channel_bias` (C,) with file value = DOF value * scale + bias (degrees per radian for
+    rotations, -1 where a DOF turns about a negative axis; the bias is the OFFSET's component
+    for a joint whose position channels hold its local position, JointChannels, else 0).
     """
 
     skeleton: Skeleton
@@ -79,6 +84,7 @@ class Clip(KinematicsOnce):
     mass_source: str = ""
     channel_dofs: np.ndarray = field(init=False)
     channel_scale: np.ndarray = field(init=False)
+    channel_bias: np.ndarray = field(init=False)
 
     def __post_init__(self):
         sk = self.skeleton
@@ -94,15 +100,16 @@ class Clip(KinematicsOnce):
         if not (math.isfinite(frame_time) and frame_time > 0):
             raise InputError(f"frame_time must be a positive number of seconds, got {frame_time}")
         layout = tuple(self.layout)
-        dofs, scale = _channel_map(sk, layout)
-        dofs.setflags(write=False)
-        scale.setflags(write=False)
+        dofs, scale, bias = _channel_map(sk, layout)
+        for array in (dofs, scale, bias):
+            array.setflags(write=False)
         for key, value in (
             ("frames", frames),
             ("frame_time", frame_time),
             ("layout", layout),
             ("channel_dofs", dofs),
             ("channel_scale", scale),
+            ("channel_bias", bias),
         ):
             object.__setattr__(self, key, value)
 
@@ -159,7 +166,8 @@ class Clip(KinematicsOnce):
     def channel_values(self) -> np.ndarray:
         """Frames in file layout (N, C): degrees for rotation channels, length units for
         position channels, columns in file order."""
-        return self.frames[:, self.channel_dofs] * self.channel_scale
+        values = self.frames[:, self.channel_dofs] * self.channel_scale
+        return values + self.channel_bias if self.channel_bias.any() else values  # keeps -0.0 as the file had it
 
     @classmethod
     def from_channel_values(
@@ -172,13 +180,14 @@ class Clip(KinematicsOnce):
         mass_source: str = "",
     ) -> Clip:
         """A clip from file-layout values (N, C) (degrees, length units; see channel_values)."""
-        dofs, scale = _channel_map(skeleton, tuple(layout))
+        dofs, scale, bias = _channel_map(skeleton, tuple(layout))
         values = np.asarray(values, dtype=np.float64)
         if values.ndim != 2 or values.shape[1] != len(dofs):
             raise InputError(f"values must have shape (N, {len(dofs)}), got {values.shape}")
         frames = np.empty((values.shape[0], skeleton.n_dofs))
-        for column, (dof, factor) in enumerate(zip(dofs, scale)):  # column by column: no (N, C) temporary
-            np.divide(values[:, column], factor, out=frames[:, dof])
+        for column, (dof, factor, offset) in enumerate(zip(dofs, scale, bias)):  # by column: no (N, C) temporary
+            np.subtract(values[:, column], offset, out=frames[:, dof])
+            frames[:, dof] /= factor
         frames.setflags(write=False)  # sealed: the clip takes it as it is, without a copy
         return cls(skeleton, frames, frame_time, tuple(layout), source, mass_source)
 
@@ -195,6 +204,17 @@ class Clip(KinematicsOnce):
         return cls(skeleton, poses, frame_time, layout, source or f"<poses of {skeleton.name}>", mass_source)
 
 
+def held_translations(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """(D,) bool: translations whose limits leave them no room beyond their range over `frames`
+    (N, D): the clip holds them at its values (a BVH's position channels below its first joint
+    that translates, deik.io.bvh), so solves and fixes keep bones at their lengths."""
+    if not len(frames):
+        return np.zeros(skeleton.n_dofs, bool)
+    slack = 1e-9 * max(skeleton.reach, 1e-300)
+    inside = (skeleton.lower >= frames.min(axis=0) - slack) & (skeleton.upper <= frames.max(axis=0) + slack)
+    return (skeleton.dof_kind == TRANSLATE) & inside
+
+
 def _sealed(array: np.ndarray) -> bool:
     """Whether `array` is read-only and owns its memory (no writable view of it exists), so a
     Clip may keep it without a copy."""
@@ -202,7 +222,8 @@ def _sealed(array: np.ndarray) -> bool:
 
 
 def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
-    """Check `layout` against the skeleton; return channel_dofs (C,) int and channel_scale (C,)."""
+    """Check `layout` against the skeleton; return channel_dofs (C,) int, channel_scale (C,) and
+    channel_bias (C,)."""
     joint = {name: k for k, name in enumerate(sk.joint_names)}
     site = {name: s for s, name in enumerate(sk.site_names)}
     entries = {e.name: e for e in layout}
@@ -221,7 +242,7 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
         stack.extend(reversed([c for c in entries[name].children if c in joint]))
     if order != [e.name for e in layout] or sorted(sites) != sorted(sk.site_names):
         raise InputError("the layout must be the depth-first walk of the skeleton with every site once")
-    dofs, scale = [], []
+    dofs, scale, bias = [], [], []
     for entry in layout:
         k = joint[entry.name]
         own = range(sk.joint_dof_start[k], sk.joint_dof_start[k + 1])
@@ -234,13 +255,14 @@ def _channel_map(sk: Skeleton, layout: tuple[JointChannels, ...]):
                 raise InputError(f"channel {channel} of joint {entry.name!r} does not match DOF {sk.dof_names[d]!r}")
             dofs.append(d)
             scale.append(math.copysign(DEGREES_PER_RADIAN if kind == ROTATE else 1.0, sign))
+            bias.append(float(sk.offsets[k][axis]) if entry.local_position and kind != ROTATE else 0.0)
         kinds = sk.dof_kind[own]
         rotations = [d for c, d in zip(entry.channels, entry.dofs) if CHANNELS[c][0] == ROTATE]
         if (np.diff(kinds) > 0).any() or rotations != sorted(rotations):
             raise InputError(
                 f"joint {entry.name!r}: DOFs must be its translations, then its rotations in channel order"
             )
-    return np.array(dofs, dtype=np.intp), np.array(scale, dtype=np.float64)
+    return np.array(dofs, dtype=np.intp), np.array(scale, dtype=np.float64), np.array(bias, dtype=np.float64)
 
 
 def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:

@@ -19,6 +19,7 @@ import numpy as np
 from deik.errors import FileFormatError, InputError
 from deik.io.files import FilePath, number_value, numbers_value, read_json
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
+from deik.model.capsules import carrier_joints
 from deik.model.joints import Segment
 from deik.model.skeleton import MAX_LENGTH, MAX_MASS, Skeleton
 from deik.suggest import did_you_mean
@@ -107,7 +108,8 @@ def _bone_ends(sk: Skeleton) -> np.ndarray:
 def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> tuple[tuple[Segment, ...], str]:
     """Estimate segment masses (kg) and COM offsets (length units) from bone lengths.
 
-    Each joint's bone runs from its origin to the mean of its children's origins. Classified
+    Each joint's bone runs from its origin to the mean of its children's origins; joints that
+    carry the body without being part of it (deik.model.capsules.carrier_joints) get none. Classified
     bones share de Leva's fraction for their class (per side for limbs) by length, with the
     COM at de Leva's position along the bone; unclassified bones share the rest by length, COM
     at mid-bone. Returns (tuple of Segment with positive masses summing to total_mass,
@@ -116,7 +118,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass}")
     ends = _bone_ends(skeleton)
-    lengths = np.linalg.norm(ends, axis=1)
+    lengths = np.where(carrier_joints(skeleton), 0.0, np.linalg.norm(ends, axis=1))  # a carrier is no body part
     names = skeleton.joint_names
     classes = [bone_class(n) if lengths[k] > 0 else None for k, n in enumerate(names)]
     groups = defaultdict(list)  # (class, side) -> joints

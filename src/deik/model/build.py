@@ -1,4 +1,5 @@
-"""`build_skeleton`: Joint, Site and Segment specs in any order -> a validated, frozen Skeleton.
+"""`build_skeleton`: Joint, Site and Segment specs in any order -> a validated, frozen Skeleton;
+`with_sites`: a skeleton with more sites.
 
 Joints are sorted topologically (parents first), cycles and unknown parents are refused, and
 mimic DOFs are resolved to the free DOFs they follow.
@@ -6,7 +7,8 @@ mimic DOFs are resolved to the free DOFs they follow.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -127,4 +129,33 @@ def _mimic_arrays(joints, mimics, dof_names) -> dict:
         mimic_source=np.array(sources, np.int32),
         mimic_scale=np.array([d.mimic[1] for _, d in mimics], np.float64),
         mimic_bias=np.array([d.mimic[2] for _, d in mimics], np.float64),
+    )
+
+
+def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
+    """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
+    site on a site lands on that site's joint. InputError when a name is taken."""
+    if not sites:
+        return skeleton
+    names, joints, offsets, rotations = [], [], [], []
+    for name, frame, offset in sites:
+        if name in skeleton.frame_names or name in names:
+            raise InputError(f"site name {name!r} is already used in {skeleton.name!r}")
+        f = skeleton.frame_index(frame)
+        offset = np.asarray(offset, float)
+        if f < skeleton.n_joints:
+            joint, R, base = f, np.eye(3), np.zeros(3)
+        else:
+            s = f - skeleton.n_joints
+            joint, R, base = int(skeleton.site_joint[s]), skeleton.site_rotation[s], skeleton.site_offset[s]
+        names.append(name)
+        joints.append(joint)
+        offsets.append(base + R @ offset)
+        rotations.append(R)
+    return replace(
+        skeleton,
+        site_names=skeleton.site_names + tuple(names),
+        site_joint=np.concatenate([skeleton.site_joint, joints]).astype(np.int32),
+        site_offset=np.concatenate([skeleton.site_offset, offsets]),
+        site_rotation=np.concatenate([skeleton.site_rotation, rotations]),
     )

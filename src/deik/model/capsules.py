@@ -27,11 +27,26 @@ def bone_starts(skeleton: Skeleton) -> np.ndarray:
     return np.concatenate([[-1], skeleton.parents[1:], skeleton.site_joint]).astype(np.int64)
 
 
-def bone_lengths(skeleton: Skeleton) -> np.ndarray:
-    """(F,) each bone's rest length (0 for the root)."""
+def bone_lengths(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
+    """(F,) each bone's length in `pose` (D,) (default the reference pose; 0 for the root)."""
     start = bone_starts(skeleton)
-    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
+    p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
     return np.where(start >= 0, np.linalg.norm(p - p[np.maximum(start, 0)], axis=-1), 0.0)
+
+
+def carrier_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: the joints above the body, which carry it but are no part of it (a `Reference`
+    or `root` joint on the ground above a character's hips): the chain from the root down to
+    the first joint with two or more children, when the root has no site and that joint exists.
+    A body branches at its pelvis; a chain (a robot arm) has no carrier."""
+    children = np.bincount(skeleton.parents[1:], minlength=skeleton.n_joints)
+    sites = np.bincount(skeleton.site_joint, minlength=skeleton.n_joints)
+    out = np.zeros(skeleton.n_joints, bool)
+    k = 0
+    while children[k] == 1 and sites[k] == 0:
+        out[k] = True
+        k = int(np.flatnonzero(skeleton.parents == k)[0])
+    return out if children[k] >= 2 else np.zeros(skeleton.n_joints, bool)
 
 
 def link_distance(skeleton: Skeleton) -> np.ndarray:
@@ -58,20 +73,22 @@ def link_distance(skeleton: Skeleton) -> np.ndarray:
     return distance
 
 
-def default_radii(skeleton: Skeleton) -> np.ndarray:
-    """(J,) capsule radius of the bones leaving each joint (length units). With masses: the
-    joint's share of the body volume (BODY_VOLUME times the height cubed, the height being the
-    rest pose's extent along `up`) as a cylinder along its longest bone, so a thigh is about
-    8 cm and an upper arm 4 cm on a 1.75 m humanoid and a massless joint (a neck, a clavicle)
-    gets 0. Without masses: MASSLESS_RADIUS times that bone's length."""
+def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
+    """(J,) capsule radius of the bones leaving each joint (length units), measured in `pose`
+    (D,) (default the reference pose). With masses: the joint's share of the body volume
+    (BODY_VOLUME times the height cubed, the height being the pose's extent along `up`, carrier
+    joints aside) as a cylinder along its longest bone, so a thigh is about 8 cm and an upper arm
+    4 cm on a 1.75 m humanoid and a massless joint (a neck, a clavicle) gets 0. Without masses:
+    MASSLESS_RADIUS times that bone's length."""
     J = skeleton.n_joints
-    start, length = bone_starts(skeleton), bone_lengths(skeleton)
+    start, length = bone_starts(skeleton), bone_lengths(skeleton, pose)
     longest = np.zeros(J)
     np.maximum.at(longest, start[1:], length[1:])
     if skeleton.total_mass <= 0:
         return MASSLESS_RADIUS * longest
-    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
-    height = np.ptp(p @ skeleton.up) or skeleton.reach
+    p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
+    body = ~np.concatenate([carrier_joints(skeleton), np.zeros(len(skeleton.site_names), bool)])
+    height = np.ptp(p[body] @ skeleton.up) or skeleton.reach
     fraction = np.bincount(skeleton.mass_joint, skeleton.mass_value, J) / skeleton.total_mass
     volume = fraction * BODY_VOLUME * height**3
     return np.sqrt(np.divide(volume, np.pi * longest, out=np.zeros(J), where=longest > 0))

@@ -327,18 +327,36 @@ class Obstacle(Goal):
 class Floor(Goal):
     """A floor at `height` (length units along skeleton.up) that every joint and site stays at
     or above (so every bone does: a segment reaches lowest at one of its ends); error = summed
-    depth below it (length units). Default tolerance: LENGTH_TOLERANCE."""
+    depth below it (length units). `clearance` (F,) per joint then site (length units, NaN
+    for a point the floor ignores), if given, keeps each point that far above the floor: the
+    body's surface around it (a limb's radius) stays on or above it. Default tolerance:
+    LENGTH_TOLERANCE."""
 
     LABEL = "floor"
     BATCH_FIELDS = (("height", 0),)
     height: object
+    clearance: object = None
 
     def row(self, skeleton: Skeleton) -> TermRow:
-        """The height in column 0 (one per problem with a batch axis); scale: the reach."""
+        """The height in column 0 (one per problem with a batch axis); scale: the reach; with
+        `clearance`, one pair (f, f, clearance) per point the floor keeps above it."""
         height = np.asarray(self.height, float)
         if height.ndim > 1 or not np.isfinite(height).all():
             raise InputError(f"floor height must be a finite number (or one per problem), got {self.height!r}")
-        return self._row(FLOOR, pack(height.reshape(-1, 1)), LENGTH_TOLERANCE, scale=skeleton.reach)
+        return self._row(
+            FLOOR, pack(height.reshape(-1, 1)), LENGTH_TOLERANCE, scale=skeleton.reach, pairs=self._pairs(skeleton)
+        )
+
+    def _pairs(self, skeleton: Skeleton) -> tuple:
+        if self.clearance is None:
+            return ()
+        clearance = np.asarray(self.clearance, float)
+        if clearance.shape != (skeleton.n_frames,) or np.isinf(clearance).any() or (clearance < 0).any():
+            raise InputError(
+                f"floor clearance must be (F,) = ({skeleton.n_frames},) finite lengths >= 0 or NaN, one per joint "
+                f"then site, got shape {clearance.shape}"
+            )
+        return tuple((int(f), int(f), float(clearance[f])) for f in np.flatnonzero(np.isfinite(clearance)))
 
 
 @dataclass(frozen=True)

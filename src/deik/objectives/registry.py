@@ -56,7 +56,8 @@ class Posed:
 class Term:
     """One term row as each pose sees it: frames (k,) frame indices, params (N, N_PARAMS) the
     targets of each pose's problem, dof_weight (D,), reference (N, D) comfort reference poses,
-    pairs (K, 2) the bone pairs of a self-collision term and pair_radius (K,) their radii's sum."""
+    pairs (K, 2) the bone pairs of a self-collision term (a floor term: its points, (f, f)) and
+    pair_radius (K,) their radii's sum (a floor point's clearance)."""
 
     frames: np.ndarray
     params: np.ndarray
@@ -145,8 +146,12 @@ def self_collision(x: Posed, term: Term) -> np.ndarray:
 
 
 def floor(x: Posed, term: Term) -> np.ndarray:
-    """Summed depth of every joint and site below the floor at height params[0] along up."""
-    return np.maximum(term.params[:, None, 0] - x.p @ x.ground[2], 0).sum(axis=1)
+    """Summed depth of every joint and site below the floor at height params[0] along up, or of
+    the points the term lists (pairs (frame, frame), each its clearance above the floor)."""
+    heights = x.p @ x.ground[2]
+    if len(term.pairs):
+        return np.maximum(term.params[:, None, 0] + term.pair_radius - heights[:, term.pairs[:, 0]], 0).sum(axis=1)
+    return np.maximum(term.params[:, None, 0] - heights, 0).sum(axis=1)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -129,7 +129,7 @@ def retarget_report(
         per_point = point_peaks(names, targets, points, dt)
     if contacts is not None:
         index = [sk.frame_index(name) for name in contacts.sites]
-        steps = sliding_steps(kin, index, contacts.mask) * mm
+        steps = sliding_steps(kin, index, contacts.mask) * mm  # in space, as a robot's planted foot is judged
         for s, site in enumerate(contacts.sites):
             finite = steps[:, s][np.isfinite(steps[:, s])]
             per_point.setdefault(site, {})["sliding_max_mm_per_frame"] = float(finite.max()) if finite.size else None

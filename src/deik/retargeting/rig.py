@@ -35,6 +35,7 @@ from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
+from deik.model.build import with_sites
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -44,7 +45,7 @@ from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.outcome import Progress, Retarget
 from deik.retargeting.resting import rest_floor
 from deik.retargeting.settle import Settling, settle
-from deik.retargeting.skeletons import with_floating_root, with_free_root, with_sites
+from deik.retargeting.skeletons import with_floating_root, with_free_root
 
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
 TORSO_SITES = ("retarget_torso_x", "retarget_torso_y")  # they steer the torso; they are no body part

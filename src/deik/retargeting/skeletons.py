@@ -100,35 +100,6 @@ def with_free_root(skeleton: Skeleton, points: np.ndarray) -> Skeleton:
     return replace(skeleton, lower=lower, upper=upper)
 
 
-def with_sites(skeleton: Skeleton, sites: Sequence[tuple[str, str, ArrayLike]]) -> Skeleton:
-    """`skeleton` with new sites: `sites` [(name, frame, offset (3,) in the frame's axes)]; a
-    site on a site lands on that site's joint. ValueError when a name is taken."""
-    if not sites:
-        return skeleton
-    names, joints, offsets, rotations = [], [], [], []
-    for name, frame, offset in sites:
-        if name in skeleton.frame_names or name in names:
-            raise InputError(f"site name {name!r} is already used in {skeleton.name!r}")
-        f = skeleton.frame_index(frame)
-        offset = np.asarray(offset, float)
-        if f < skeleton.n_joints:
-            joint, R, base = f, np.eye(3), np.zeros(3)
-        else:
-            s = f - skeleton.n_joints
-            joint, R, base = int(skeleton.site_joint[s]), skeleton.site_rotation[s], skeleton.site_offset[s]
-        names.append(name)
-        joints.append(joint)
-        offsets.append(base + R @ offset)
-        rotations.append(R)
-    return replace(
-        skeleton,
-        site_names=skeleton.site_names + tuple(names),
-        site_joint=np.concatenate([skeleton.site_joint, joints]).astype(np.int32),
-        site_offset=np.concatenate([skeleton.site_offset, offsets]),
-        site_rotation=np.concatenate([skeleton.site_rotation, rotations]),
-    )
-
-
 def without_sites(skeleton: Skeleton, names: Sequence[str]) -> Skeleton:
     """`skeleton` without the sites `names` (every other frame keeps its place in the joint
     order; the poses are the same)."""

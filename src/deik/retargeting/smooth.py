@@ -36,7 +36,7 @@ import numpy as np
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
-from deik.cleanup.warmstart import FADE, floor_rows, motion_stiffness, position_jacobian
+from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
@@ -114,14 +114,17 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     def plants_at(q):
         if contacts is None:
             return np.zeros((N, 0, 3))
-        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts)
+        # the mean along the ground: the IK's path of a planted point, fast ends included, is its own
+        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts, along="mean")
 
     def measured(q, plants):
         """(cost, errors (N, R), rows (N, R, D) per weighted DOF unit, row weights (N, R), step rows)."""
         x, jac = position_jacobian(skeleton, q, frames)
         held_errors = [np.where(mask[..., None], plants - x[:, sites], 0.0).reshape(N, -1)]
         held_rows = [(jac[:, sites] * mask[:, :, None, None]).reshape(N, -1, D)]
-        error, rows = floor_rows(x[:, floor_points], jac[:, floor_points], skeleton.up, goals.floor)
+        error, rows = floor_rows(
+            x[:, floor_points], jac[:, floor_points], skeleton.up, goals.floor, FLOOR_MARGIN * skeleton.reach
+        )
         held_errors.append(error)
         held_rows.append(rows)
         error, rows = collision_rows(x, jac, goals.pairs, CAPSULE_MARGIN * goals.size)

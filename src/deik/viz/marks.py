@@ -115,8 +115,9 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
     """(unit, where it comes from) for axis labels. `given` (e.g. --units) wins; `kind` is how the
     skeleton was loaded (deik.io.load.Loaded.kind: "urdf", "bvh", "builtin"; None for one built
     in Python). URDF lengths and the built-in humanoid are metres; the paper's chains count link
-    lengths; a BVH file does not say, so its unit is guessed from the skeleton's size
-    (deik.cleanup.units.guess_unit); any other skeleton's unit is its own ("length units")."""
+    lengths; a BVH file does not say, so its unit is read from the body's size (a person some
+    1.7 units tall is in metres, 170 in centimetres: deik.cleanup.units.guess_unit) and said
+    so; any other skeleton's unit is its own ("length units")."""
     if given:
         return given, "given"
     if kind == "urdf":
@@ -124,7 +125,7 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
     if kind == "bvh":
         from deik.cleanup.units import guess_unit
 
-        return guess_unit(skeleton), "guessed from the skeleton's size"
+        return guess_unit(skeleton), "read from the body's size (a BVH file does not state its unit)"
     if kind in ("builtin", None) and skeleton.name == "humanoid":
         return "m", "built-in"
     if kind in ("builtin", None) and skeleton.name.startswith("chain"):

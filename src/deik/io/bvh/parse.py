@@ -3,8 +3,11 @@
 HIERARCHY holds one ROOT with nested JOINT and End Site blocks (OFFSET x y z; CHANNELS n
 names); MOTION holds "Frames: N", "Frame Time: t" and N lines of numbers. Position channels may
 sit on any joint, anywhere among its rotations: they become the joint's first DOFs (BVH moves
-them along the parent's axes), its rotations follow in file order. Lengths keep the file's
-unit; degrees become radians. Every malformed input raises FileFormatError naming file and line.
+them along the parent's axes), its rotations follow in file order. Below the root they are
+displacements from the joint's OFFSET, or its whole local position where every frame repeats
+the OFFSET (_local_positions); below the first joint that translates they are held at the
+capture's values unless freed (_translation_limits). Lengths keep the file's unit; degrees
+become radians. Every malformed input raises FileFormatError naming file and line.
 """
 
 from __future__ import annotations
@@ -12,6 +15,8 @@ from __future__ import annotations
 import io
 from pathlib import Path
 from typing import BinaryIO
+
+import numpy as np
 
 from deik.errors import FileFormatError
 from deik.io.bvh.frames import FrameReader
@@ -23,6 +28,7 @@ from deik.model.build import build_skeleton
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 
 MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
+LOCAL_TOLERANCE = 0.01  # of a bone's OFFSET: position channels this close to it in every frame repeat it
 MAX_HIERARCHY_BYTES = 16 << 20  # the HIERARCHY section: a 100,000-joint skeleton takes about 10 MB
 
 
@@ -122,30 +128,89 @@ def _skeleton(source, nodes, site_names, limits, segments=()):
         raise FileFormatError(source, f"invalid skeleton: {error}") from None
 
 
-def parse_bvh(text: str | bytes, source: str = "<string>", segments: FilePath | None = None) -> Clip:
+def _local_positions(nodes: list[Node], columns: list[tuple[int, str]], values: np.ndarray) -> set[int]:
+    """The joints (node indices, the root aside) whose position channels hold their whole local
+    position rather than a displacement from their OFFSET: every such joint when the file writes
+    them so, which it shows by repeating the OFFSET (within LOCAL_TOLERANCE of its length, every
+    frame, on every axis the OFFSET uses) in the channels of at least half the joints that have
+    both (MotionBuilder and other exporters write such files; reading them as displacements would
+    double every bone); else none."""
+    moving, repeating = [], 0
+    for k, node in enumerate(nodes):
+        if node.parent < 0 or node.is_site or not any(c.endswith("position") for c in node.channels or ()):
+            continue
+        moving.append(k)
+        offset = np.asarray(node.offset, float)
+        axes = {CHANNELS[c][1]: columns.index((k, c)) for c in node.channels if c.endswith("position")}
+        size = float(np.linalg.norm(offset))
+        if size == 0 or any(offset[a] != 0 and a not in axes for a in range(3)) or not len(values):
+            continue
+        gap = np.stack([values[:, column] - offset[axis] for axis, column in axes.items()], axis=1)
+        repeating += bool(np.linalg.norm(gap, axis=1).max() <= LOCAL_TOLERANCE * size)
+    return set(moving) if repeating and 2 * repeating >= len(moving) else set()
+
+
+def _translation_limits(nodes, columns, values, local: set[int], free: bool, size_of) -> dict:
+    """Limits of every position channel's DOF {(node, channel): (lower, upper)}, DOF values being
+    the channel values less the OFFSET's component for `local` joints: the capture's exact range
+    for the joints below the first that translates on each path from the root (held, so bones
+    keep their lengths), that range widened by the body's size (`size_of(spans)`) for the first
+    ones (they carry the body through the world) and for all of them when `free`."""
+    spans = {}
+    for j, (k, channel) in enumerate(columns):
+        if channel.endswith("position"):
+            bias = nodes[k].offset[CHANNELS[channel][1]] if k in local else 0.0
+            column = values[:, j] - bias
+            spans[(k, channel)] = (column.min(), column.max()) if len(column) else (0.0, 0.0)
+    size = size_of(spans)
+
+    def carried(k: int) -> bool:  # a joint whose ancestors have no position channel
+        parent = nodes[k].parent
+        while parent >= 0:
+            if any(c.endswith("position") for c in nodes[parent].channels or ()):
+                return False
+            parent = nodes[parent].parent
+        return True
+
+    return {
+        (k, channel): (lo - size, hi + size) if free or carried(k) else (lo, hi)
+        for (k, channel), (lo, hi) in spans.items()
+    }
+
+
+def parse_bvh(
+    text: str | bytes, source: str = "<string>", segments: FilePath | None = None, free_translations: bool = False
+) -> Clip:
     """Parse BVH `text` (str or bytes) named `source` into a Clip.
 
     `segments`: a segment table path (JSON, see read_segment_table) or None to estimate masses
     from bone lengths; clip.mass_source says which. Frames (N, D) are radians / file length
-    units in skeleton DOF order. Raises FileFormatError naming `source` and the line.
+    units in skeleton DOF order. Position channels below the first joint that translates are held
+    at the capture's values (their limits are its exact range, so solves and clip fixes keep the
+    bones' lengths) unless `free_translations`; docs/formats.md says how they are read. Raises
+    FileFormatError naming `source` and the line.
     """
     data = text.encode("utf-8") if isinstance(text, str) else text
-    return _read(io.BytesIO(data), len(data), source, segments)
+    return _read(io.BytesIO(data), len(data), source, (segments, free_translations))
 
 
-def read_bvh(path: FilePath, segments: FilePath | None = None) -> Clip:
+def read_bvh(path: FilePath, segments: FilePath | None = None, free_translations: bool = False) -> Clip:
     """Read the BVH file at `path` into a Clip (see parse_bvh), streaming its frames (never the
-    whole file in memory; deik.io.bvh.frames); `segments` a table path or None.
+    whole file in memory; deik.io.bvh.frames); `segments` a table path or None;
+    `free_translations` lets solves move the position channels below the first joint that
+    translates (by default they keep the capture's values).
 
     A path that cannot be read (missing, a folder or device, too large) or a malformed file,
     or a clip too large for the memory limit, raises FileFormatError naming it (and the line).
     """
     with open_input(path, "BVH") as (file, size):
-        return _read(file, size, str(path), segments)
+        return _read(file, size, str(path), (segments, free_translations))
 
 
-def _read(file: BinaryIO, size: int, source: str, segments: FilePath | None) -> Clip:
-    """The Clip of the BVH in binary `file` of `size` bytes (see parse_bvh)."""
+def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None, bool]) -> Clip:
+    """The Clip of the BVH in binary `file` of `size` bytes (see parse_bvh); `options`:
+    (segments, free_translations)."""
+    segments, free_translations = options
     lines, motion = _hierarchy(file, source)
     last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=None)
     if last is None and motion is None:
@@ -157,17 +222,18 @@ def _read(file: BinaryIO, size: int, source: str, segments: FilePath | None) -> 
     columns = [(k, c) for k in joint_nodes for c in nodes[k].channels or ()]
     count, frame_time, frames_line, time_line = _header(source, _lines(file, source, motion + 1), motion)
     values = FrameReader(source, file, size, time_line + 1).read(count, len(columns), frames_line)
-    span = {
-        key: (values[:, j].min(), values[:, j].max()) if len(values) else (0.0, 0.0) for j, key in enumerate(columns)
-    }
     site_names = _site_names(nodes)
-    bare = _skeleton(source, nodes, site_names, span)
+    local = _local_positions(nodes, columns, values)
+
+    def size_of(spans):  # the longest root-to-frame path, slides at the capture's extremes
+        return _skeleton(source, nodes, site_names, spans).reach
+
+    limits = _translation_limits(nodes, columns, values, local, free_translations, size_of)
+    bare = _skeleton(source, nodes, site_names, limits)
     if segments is None:
         masses, mass_source = estimate_segments(bare)
     else:
         masses, mass_source = read_segment_table(segments, bare.joint_names)
-    reach = bare.reach
-    limits = {key: (lo - reach, hi + reach) for key, (lo, hi) in span.items()}
     skeleton = _skeleton(source, nodes, site_names, limits, masses)
     first_dof = dict(zip(skeleton.joint_names, skeleton.joint_dof_start.tolist()))
     layout = []
@@ -177,5 +243,5 @@ def _read(file: BinaryIO, size: int, source: str, segments: FilePath | None) -> 
         order = sorted(range(len(channels)), key=lambda i: CHANNELS[channels[i]][0] == ROTATE)
         dofs = tuple(first_dof[node.name] + order.index(i) for i in range(len(channels)))
         children = tuple(site_names.get(c, nodes[c].name) for c in node.children)
-        layout.append(JointChannels(node.name, channels, dofs, children))
+        layout.append(JointChannels(node.name, channels, dofs, children, k in local))
     return Clip.from_channel_values(skeleton, layout, values, frame_time, source, mass_source)

@@ -1,15 +1,19 @@
 """Write a Clip as a BVH file: the clip's hierarchy, OFFSETs and channel layout, degrees in the
 file, written atomically (a failed write leaves no file and no temporary file).
 
-Frame values are written with 6 decimals (0.5e-6 degrees or length units at most off);
-offsets and the frame time are written exactly.
+Frame values are written with 6 decimals (0.5e-6 degrees or length units at most off), position
+channels of a skeleton under a length unit long with more (a body scaled to millimetres of a
+metre keeps its precision); offsets and the frame time are written exactly.
 """
 
 from __future__ import annotations
 
+import math
+
 from deik.io.atomic import write_text_atomically
 from deik.io.files import FilePath
 from deik.io.motion import Clip
+from deik.model.joints import ROTATE
 
 
 def _exact(value: float) -> str:
@@ -53,7 +57,11 @@ def format_bvh(clip: Clip) -> str:
             ]
     lines += ["MOTION", f"Frames: {clip.n_frames}", f"Frame Time: {_exact(clip.frame_time)}"]
     if clip.channel_dofs.size:
-        lines += [" ".join(f"{v:.6f}" for v in row) for row in clip.channel_values()]
+        size = sk.reach if math.isfinite(sk.reach) else 1.0  # a free prismatic DOF reaches without end
+        small = max(0, math.ceil(-math.log10(max(size, 1e-300))))  # extra decimals for a tiny body
+        position = sk.dof_kind[clip.channel_dofs] != ROTATE
+        formats = [f"{{:.{6 + small * bool(moves)}f}}" for moves in position]
+        lines += [" ".join(form.format(v) for form, v in zip(formats, row)) for row in clip.channel_values()]
     return "\n".join(lines) + "\n"
 
 

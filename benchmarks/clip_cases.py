@@ -1,0 +1,217 @@
+"""Hard cases for deik clip, made from the shared humanoid clips without deik (benchmarks/clip_rigs.py).
+
+Each case is a BVH file and what the judge (benchmarks/clip_judge.py) needs to measure it: which
+of its joints is which canonical joint of the source rig (the DeepMimic humanoid: Hips, RightHip,
+RightKnee, ... and their End Sites), its length units per metre and how much each bone was
+scaled. The floor stays at height 0 (up +Y) in every case: the source clips stand on it.
+
+Transforms (each keeps the motion physically the same unless it says otherwise):
+- studio: another rig family: centimetres, a root joint `Reference` above the hips that carries
+  the walk over the ground, six channels (positions then ZYX rotations) on every joint, position
+  channels holding each joint's local position (they repeat its OFFSET), Unreal-style joint
+  names, 30 frames per second (60 fps sources keep every other frame).
+- anon: joints named J00, J01, ... (nothing to learn from a name), YXZ rotation channels, 120
+  frames per second (rotations interpolated by slerp, positions linearly).
+- backwards: the frames in reverse order.
+- fast: every other frame at the same frame time (twice the speed).
+- limbs: the left leg's bones 8 % longer and the right leg's 4 % shorter, the arms 10 % longer,
+  the root raised by the mean change of the legs: one foot sinks through the floor, the other
+  floats, the feet slide.
+- noisy: capture noise (0.2 degrees on every rotation channel, 1 mm on the root) and the whole
+  body 12 mm lower, so the feet rest under the floor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from benchmarks.clip_rigs import Rig, joint_values, parse_rig
+
+CANON = (
+    "Hips", "RightHip", "RightKnee", "RightAnkle", "LeftHip", "LeftKnee", "LeftAnkle", "Chest", "Neck",
+    "RightShoulder", "RightElbow", "LeftShoulder", "LeftElbow",
+)  # fmt: skip
+STUDIO_NAMES = dict(
+    zip(
+        CANON,
+        ("pelvis", "thigh_r", "calf_r", "foot_r", "thigh_l", "calf_l", "foot_l", "spine_03", "neck_01",
+         "upperarm_r", "lowerarm_r", "upperarm_l", "lowerarm_l"),
+    )
+)  # fmt: skip
+LEFT_LEG, RIGHT_LEG = ("LeftHip", "LeftKnee", "LeftAnkle"), ("RightHip", "RightKnee", "RightAnkle")
+ARMS = ("RightShoulder", "RightElbow", "LeftShoulder", "LeftElbow")
+EXTRAS = {  # the second transform of each shared clip, so that every one is tried on two clips
+    "walk": "noisy", "run": "fast", "jump": "backwards", "crawl": "limbs", "getup_facedown": "anon",
+    "kick": "noisy", "punch": "limbs", "dance_a": "backwards",
+}  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One file to clean: `rig`, `names` {canonical joint: its name in the rig}, `unit` (length
+    units per metre), `bone_scale` {canonical joint: scale of its bones (the bones it carries and
+    its End Sites')}, and what was done to it."""
+
+    name: str
+    rig: Rig
+    names: dict
+    unit: float
+    bone_scale: dict
+    description: str
+
+
+def source_case(path: Path) -> Case:
+    """The shared clip at `path` as it is."""
+    rig = parse_rig(path.read_text())
+    names = {name: name for name in CANON}
+    return Case(path.stem.replace("humanoid3d_", ""), rig, names, 1.0, dict.fromkeys(CANON, 1.0), "as shared")
+
+
+def encode(rig: Rig, rotations: np.ndarray, translations: np.ndarray, frame_time: float) -> Rig:
+    """`rig` with frames that give local `rotations` (N, J, 3, 3) and `translations` (N, J, 3)
+    (its position_mode, channels and OFFSETs), each channel's Euler angles continuous."""
+    columns = []
+    for j, chans in enumerate(rig.channels):
+        order = "".join(c[0] for c in chans if c.endswith("rotation"))
+        angles = Rotation.from_matrix(rotations[:, j]).as_euler(order.upper(), degrees=True) if order else None
+        if angles is not None:
+            angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
+        base = np.zeros(3) if (rig.position_mode == "local") else rig.offsets[j]
+        position = translations[:, j] - base
+        r = 0
+        for c in chans:
+            if c.endswith("rotation"):
+                columns.append(angles[:, r])
+                r += 1
+            else:
+                columns.append(position[:, "XYZ".index(c[0])])
+    frames = np.stack(columns, axis=1) if columns else np.zeros((len(rotations), 0))
+    return dataclasses.replace(rig, frames=frames, frame_time=frame_time)
+
+
+def resample(rotations: np.ndarray, translations: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations (N, J, 3, 3) and translations (N, J, 3) at `factor` times the frame rate:
+    slerp and linear interpolation (factor < 1 keeps every 1/factor-th frame)."""
+    N, J = translations.shape[:2]
+    if factor < 1:
+        step = int(round(1 / factor))
+        return rotations[::step], translations[::step]
+    times = np.arange(N)
+    new = np.linspace(0, N - 1, int((N - 1) * factor) + 1)
+    out_r = np.stack([Slerp(times, Rotation.from_matrix(rotations[:, j]))(new).as_matrix() for j in range(J)], axis=1)
+    out_t = np.stack([[np.interp(new, times, translations[:, j, k]) for k in range(3)] for j in range(J)], axis=0)
+    return out_r, out_t.transpose(2, 0, 1)
+
+
+def studio(case: Case) -> Case:
+    """The studio transform (module notes)."""
+    rig, metres = case.rig, 100.0
+    rotations, translations = joint_values(rig)
+    if rig.frame_time < 0.025:
+        rotations, translations = resample(rotations, translations, 0.5)
+    N, J = translations.shape[:2]
+    hips = translations[:, 0] * metres
+    ground = hips * np.array([1.0, 0.0, 1.0])
+    offsets = np.concatenate([[np.zeros(3)], [np.median(hips - ground, axis=0)], rig.offsets[1:] * metres])
+    channels = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
+    names = ("Reference",) + tuple(STUDIO_NAMES[case.names[name]] if name in case.names else name for name in rig.names)
+    new = Rig(
+        names,
+        (-1,) + tuple(p + 1 for p in rig.parents),
+        offsets,
+        (channels,) * (J + 1),
+        tuple((f"{STUDIO_NAMES[rig.names[j]]}_end", j + 1, offset * metres) for _, j, offset in rig.sites),
+        np.zeros((0, 6 * (J + 1))),
+        0.0,
+        "local",
+    )
+    all_r = np.concatenate([np.broadcast_to(np.eye(3), (N, 1, 3, 3)), rotations], axis=1)
+    all_t = np.concatenate([ground[:, None], (hips - ground)[:, None], translations[:, 1:] * metres], axis=1)
+    frame_time = rig.frame_time * (2 if case.rig.frame_time < 0.025 else 1)
+    names_map = {canon: STUDIO_NAMES[canon] for canon in CANON}
+    return Case(case.name + "_studio", encode(new, all_r, all_t, frame_time), names_map, metres, case.bone_scale,
+                "studio rig: cm, a Reference root above the hips, 6 local channels per joint, ZYX, 30 fps")  # fmt: skip
+
+
+def anon(case: Case) -> Case:
+    """The anon transform (module notes)."""
+    rig = case.rig
+    rotations, translations = joint_values(rig)
+    factor = round(rig.frame_time / (1 / 120))
+    rotations, translations = resample(rotations, translations, factor)
+    names = tuple(f"J{j:02d}" for j in range(len(rig.names)))
+    channels = tuple(tuple(c for c in chans if c.endswith("position")) + ("Yrotation", "Xrotation", "Zrotation")
+                     for chans in rig.channels)  # fmt: skip
+    sites = tuple((f"{names[j]}_end", j, offset) for _, j, offset in rig.sites)
+    new = dataclasses.replace(rig, names=names, channels=channels, sites=sites)
+    names_map = {canon: names[rig.names.index(case.names[canon])] for canon in CANON}
+    return Case(case.name + "_anon", encode(new, rotations, translations, rig.frame_time / factor), names_map,
+                case.unit, case.bone_scale, "joints J00.., YXZ channels, 120 fps")  # fmt: skip
+
+
+def backwards(case: Case) -> Case:
+    rig = dataclasses.replace(case.rig, frames=case.rig.frames[::-1].copy())
+    return dataclasses.replace(case, name=case.name + "_backwards", rig=rig, description="played backwards")
+
+
+def fast(case: Case) -> Case:
+    rig = dataclasses.replace(case.rig, frames=case.rig.frames[::2].copy())
+    return dataclasses.replace(case, name=case.name + "_fast", rig=rig, description="twice the speed")
+
+
+def limbs(case: Case) -> Case:
+    """The limbs transform (module notes)."""
+    rig = case.rig
+    scale = dict(case.bone_scale)
+    for names, factor in ((LEFT_LEG, 1.08), (RIGHT_LEG, 0.96), (ARMS, 1.10)):
+        for name in names:
+            scale[name] = factor
+    canon = {case.names[name]: name for name in CANON}
+    offsets = rig.offsets.copy()
+    for j, parent in enumerate(rig.parents):
+        if parent >= 0:
+            offsets[j] = offsets[j] * scale.get(canon.get(rig.names[parent]), 1.0)
+    sites = tuple((name, j, offset * scale.get(canon.get(rig.names[j]), 1.0)) for name, j, offset in rig.sites)
+    legs = np.mean([np.linalg.norm(rig.offsets[rig.names.index(case.names[n])]) * (scale[p] - 1.0)
+                    for p, n in (("LeftHip", "LeftKnee"), ("LeftKnee", "LeftAnkle"), ("RightHip", "RightKnee"),
+                                 ("RightKnee", "RightAnkle"))]) * 2  # fmt: skip
+    new = dataclasses.replace(rig, offsets=offsets, sites=sites)
+    rotations, translations = joint_values(rig)
+    translations = np.where(np.arange(len(rig.names))[None, :, None] == 0, translations, offsets[None])
+    translations[:, 0, 1] += legs
+    return Case(case.name + "_limbs", encode(new, rotations, translations, rig.frame_time), case.names, case.unit,
+                scale, "left leg +8 %, right leg -4 %, arms +10 %")  # fmt: skip
+
+
+def noisy(case: Case, seed: int = 0) -> Case:
+    """The noisy transform (module notes)."""
+    rig = case.rig
+    rng = np.random.default_rng(seed)
+    frames = rig.frames.copy()
+    for k, (j, channel) in enumerate(rig.columns):
+        if channel.endswith("rotation"):
+            frames[:, k] += rng.normal(0.0, 0.2, len(frames))
+        elif j == 0:
+            frames[:, k] += rng.normal(0.0, 0.001 * case.unit, len(frames))
+            if channel == "Yposition":
+                frames[:, k] -= 0.012 * case.unit
+    rig = dataclasses.replace(rig, frames=frames)
+    return dataclasses.replace(case, name=case.name + "_noisy", rig=rig, description="noise, 12 mm under the floor")
+
+
+TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy}
+
+
+def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
+    """Every shared clip in `folder` (or those `names`), its studio rig and its EXTRAS transform."""
+    out = []
+    for path in sorted(folder.glob("humanoid3d_*.bvh")):
+        base = source_case(path)
+        if names and base.name not in names:
+            continue
+        out += [base, studio(base), TRANSFORMS[EXTRAS.get(base.name, "noisy")](base)]
+    return out

@@ -1,0 +1,238 @@
+"""The body a clip cleanup keeps on the floor: its size, the soles of its feet, and how far its
+surface lies from each joint and site. Nothing here reads a joint's name or a length unit.
+
+Size (`span`): the longest path along the bones between two ends of the body, each bone as long
+as its median over the capture (2.14 m on the shared humanoid, 1.6 m tall). Every size,
+threshold and tolerance of deik.cleanup is a share of it, never a DOF limit or a unit. Joints
+above the body that only carry it (deik.model.capsules.carrier_joints: a `Reference` joint on the
+ground) are not part of it.
+
+Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
+a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
+the tallest frame (a rig that rests folded), then that frame. Feet: in that pose, the ends of
+the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
+joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
+chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose.
+On it lie the foot's sole sites, fixed in the ankle's frame (the toe's in the frame carrying the
+toe tip): its heel, HEEL_BACK of the ankle-to-toe length behind the ankle, its toe under the toe
+tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either side.
+
+Radius (how far the body's surface lies from a point): the capsule radius (default_radii, in the
+standing pose) of the thinnest bone with one that the point ends or starts (a shoulder is as
+thick as its upper arm, not as the chest it hangs from); for a point of a foot its height
+above the sole; 0 for the sole sites.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.io.trajectory import Motion, Trajectory
+from deik.model.build import with_sites
+from deik.model.capsules import bone_starts, carrier_joints, default_radii
+from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
+from deik.model.skeleton import Skeleton
+
+STANDING = 0.5
+FOOT_END = 0.12
+FOOT_CHAIN = 0.07
+HEEL_BACK = 0.33
+SOLE_WIDTH = 0.25
+SOLE_SITES = ("heel", "heel_left", "heel_right", "toe", "toe_left", "toe_right")
+
+
+@dataclass(frozen=True)
+class Foot:
+    """One foot: `ankle` (the top joint of its chain), `chain` (its joints and tip, frame names,
+    top first), and the names of its sole sites in SOLE_SITES order."""
+
+    ankle: str
+    chain: tuple[str, ...]
+    soles: tuple[str, ...]
+
+    @property
+    def heel(self) -> str:
+        return self.soles[0]
+
+    @property
+    def toe(self) -> str:
+        return self.soles[3]
+
+
+@dataclass(frozen=True, eq=False)
+class Body:
+    """The body of a clip (module notes): `skeleton` the clip's with the sole sites added (the
+    same DOFs), `span` (length units), `radius` (F,) per joint then site of `skeleton`, `part`
+    (F,) bool whether each is part of the body (carriers are not), `feet`."""
+
+    skeleton: Skeleton
+    span: float
+    radius: np.ndarray
+    part: np.ndarray
+    feet: tuple[Foot, ...]
+
+    @property
+    def sole_names(self) -> tuple[str, ...]:
+        return tuple(name for foot in self.feet for name in foot.soles)
+
+    def contact_points(self) -> tuple[str, ...]:
+        """Every point that may rest on the floor: the heel and toe of each foot, and every other
+        joint and site of the body but the feet's chains and flanking sole sites."""
+        feet = {name for foot in self.feet for name in foot.chain + foot.soles}
+        own = [name for f, name in enumerate(self.skeleton.frame_names) if self.part[f] and name not in feet]
+        return tuple([name for foot in self.feet for name in (foot.heel, foot.toe)] + own)
+
+
+def on_body(motion: Motion, body: Body) -> Trajectory:
+    """`motion`'s frames on body.skeleton (its sole sites included), same frame time and source."""
+    return Trajectory(body.skeleton, motion.frames, motion.frame_time, motion.source)
+
+
+def median_pose(clip: Motion) -> np.ndarray:
+    """(D,) rotations 0, translations at their median over the clip: the rig's own rest pose."""
+    sk = clip.skeleton
+    middle = np.median(clip.frames, axis=0) if clip.n_frames else sk.reference
+    return np.where(sk.dof_kind == ROTATE, 0.0, middle)
+
+
+def _tree_span(skeleton: Skeleton, length: np.ndarray, part: np.ndarray) -> float:
+    """The longest path between two frames through bones of `length` (F,) (bone f ends at f)
+    among the `part` (F,) frames."""
+    start = bone_starts(skeleton)
+    down = np.zeros(skeleton.n_frames)  # longest path from each frame down to an end below it
+    best = 0.0
+    for f in range(skeleton.n_frames - 1, 0, -1):  # children after parents: reversed is bottom-up
+        s = start[f]
+        if not (part[f] and part[s]):
+            continue
+        through = down[f] + length[f]
+        best = max(best, down[s] + through)
+        down[s] = max(down[s], through)
+    return best
+
+
+def _standing_pose(clip: Motion, part: np.ndarray) -> np.ndarray:
+    """(D,) the standing pose of the module notes."""
+    sk = clip.skeleton
+    rest = median_pose(clip)
+    if not clip.n_frames:
+        return rest
+    heights = forward_kinematics(sk, np.vstack([rest, clip.frames])).p_world_frame[:, part] @ sk.up
+    extent = np.ptp(heights, axis=1)
+    return rest if extent[0] >= STANDING * extent.max() else clip.frames[int(np.argmax(extent[1:]))]
+
+
+def _ends(skeleton: Skeleton, part: np.ndarray) -> np.ndarray:
+    """(F,) bool: body frames no bone leaves."""
+    start = bone_starts(skeleton)
+    leaves = np.ones(skeleton.n_frames, bool)
+    leaves[start[start >= 0]] = False
+    return leaves & part
+
+
+def _along_ground(p: np.ndarray, a: int, b: int, up: np.ndarray) -> float:
+    """The distance along the ground between frames a and b at positions p (F, 3)."""
+    delta = p[b] - p[a]
+    return float(np.linalg.norm(delta - (delta @ up) * up))
+
+
+def _foot_chains(skeleton: Skeleton, p: np.ndarray, part: np.ndarray, span: float) -> list[tuple[int, ...]]:
+    """Per foot, its chain (frame indices, top first, the tip last) in the standing positions p (F, 3)."""
+    start = bone_starts(skeleton)
+    height = p @ skeleton.up
+    lowest = height[part].min()
+    chains = {}
+    for tip in np.flatnonzero(_ends(skeleton, part) & (height <= lowest + FOOT_END * span)):
+        chain, f = [int(tip)], int(start[tip])
+        while f >= 0 and part[f] and height[f] <= height[tip] + FOOT_CHAIN * span and f < skeleton.n_joints:
+            chain.insert(0, f)
+            f = int(start[f])
+        if len(chain) < 2:
+            continue
+        ankle = chain[0]  # one foot per ankle: the tip farthest from it along the ground
+        if ankle not in chains or _along_ground(p, ankle, tip, skeleton.up) > _along_ground(
+            p, ankle, chains[ankle][-1], skeleton.up
+        ):
+            chains[ankle] = tuple(chain)
+    return list(chains.values())
+
+
+def _free_name(taken: set[str], name: str) -> str:
+    k = 2
+    out = name
+    while out in taken:
+        out, k = f"{name}{k}", k + 1
+    taken.add(out)
+    return out
+
+
+def _soles(skeleton: Skeleton, chain, kin, height) -> tuple[list, float]:
+    """(sites [(name, frame name, offset in its frame)], sole height) of the foot `chain` in
+    the standing kinematics `kin` (one pose)."""
+    up = skeleton.up
+    p = kin.p_world_frame[0]
+    ankle, tip = chain[0], chain[-1]
+    sole = height[list(chain)].min()
+    on_sole = lambda x: x + (sole - x @ up) * up  # noqa: E731
+    heel_base, toe = on_sole(p[ankle]), on_sole(p[tip])
+    forward = toe - heel_base
+    heel = heel_base - HEEL_BACK * forward
+    length = np.linalg.norm(toe - heel)
+    side = np.cross(up, forward / max(np.linalg.norm(forward), 1e-300)) * SOLE_WIDTH * length
+    carrier = chain[-2] if chain[-1] >= skeleton.n_joints else chain[-1]  # the joint that carries the tip
+    names = skeleton.frame_names
+    taken = set(names)
+    sites = []
+    for name, point, frame in (
+        ("heel", heel, ankle),
+        ("heel_left", heel + side, ankle),
+        ("heel_right", heel - side, ankle),
+        ("toe", toe, carrier),
+        ("toe_left", toe + side, carrier),
+        ("toe_right", toe - side, carrier),
+    ):
+        R, origin = kin.R_world_frame[0, frame], p[frame]
+        sites.append((_free_name(taken, f"{names[ankle]}_{name}"), names[frame], R.T @ (point - origin)))
+    return sites, sole
+
+
+def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """(F,) per joint and site the radius of the thinnest bone with a radius that ends or starts
+    there (a bone's radius is its start joint's, `joint_radius` (J,)); 0 where none has one."""
+    F = skeleton.n_frames
+    ending = np.where(start >= 0, joint_radius[np.maximum(start, 0)], 0.0)  # the bone that ends at f
+    thinnest = np.where(ending > 0, ending, np.inf)
+    leaving = np.concatenate([joint_radius, np.zeros(F - skeleton.n_joints)])  # bones that start at f
+    thinnest = np.where(leaving > 0, np.minimum(thinnest, leaving), thinnest)
+    return np.where(np.isfinite(thinnest), thinnest, 0.0)
+
+
+def body_of(clip: Motion) -> Body:
+    """The Body of `clip` (module notes)."""
+    sk = clip.skeleton
+    carriers = carrier_joints(sk)
+    part = np.concatenate([~carriers, ~carriers[sk.site_joint]])
+    start = bone_starts(sk)
+    poses = clip.frames if clip.n_frames else sk.reference[None]
+    p = forward_kinematics(sk, poses).p_world_frame
+    length = np.where(start >= 0, np.median(np.linalg.norm(p - p[:, np.maximum(start, 0)], axis=-1), axis=0), 0.0)
+    span = _tree_span(sk, length, part) or sk.reach
+    standing = _standing_pose(clip, part)
+    kin = forward_kinematics(sk, standing[None])
+    height = kin.p_world_frame[0] @ sk.up
+    feet, sites, foot_radius = [], [], {}
+    for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
+        soles, sole = _soles(sk, chain, kin, height)
+        sites += soles
+        feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
+        foot_radius.update({f: height[f] - sole for f in chain})
+    body = with_sites(sk, sites)
+    joint_radius = np.where(carriers, 0.0, default_radii(sk, standing))
+    own = _thinnest(sk, joint_radius, start)
+    for f, value in foot_radius.items():
+        own[f] = value
+    radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])
+    return Body(body, float(span), radius, np.concatenate([part, np.ones(len(sites), bool)]), tuple(feet))

@@ -1,0 +1,65 @@
+"""Taking back a change that makes the motion jolt (no new pops, point by point).
+
+A fix's displacement from the capture is checked the way cleanup/dynamics.py measures jolts: a
+joint or site accelerating beyond PEAK_RATIO x its own peak in the capture, a point moving or
+a rotation channel turning faster than the capture's fastest. Where frames jolt, the fix takes
+part of its change back there: those frames and their neighbours keep a share CUT less of it,
+the frames around them a share that grows back smoothly (smoothstep) over EASE_SECONDS, so
+taking back adds no jolt of its own; rounds repeat until nothing jolts, and after ROUNDS the
+whole change is taken back (the capture is the better clip). The frames that keep less than all
+of the change are reported (fix_clip: `calmed`; those that then miss a goal are listed unmet).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, widened
+from deik.io.trajectory import Motion
+
+EASE_SECONDS = 0.15
+ROUNDS = 10
+CUT = 0.5
+
+
+def _cut(taken: np.ndarray, length: float) -> np.ndarray:
+    """(N,) how much of a cut each frame takes: 1 on `taken` (N,) frames, falling as a smoothstep
+    to 0 over `length` frames from them."""
+    frames = np.arange(len(taken))
+    nearest = np.abs(frames[:, None] - np.flatnonzero(taken)[None, :]).min(axis=1)
+    x = np.clip(nearest / (length + 1.0), 0.0, 1.0)
+    return 1.0 - x * x * (3.0 - 2.0 * x)
+
+
+def calm(
+    motion: Motion,
+    displacement: np.ndarray,
+    points: np.ndarray | None = None,
+    ratio: float = PEAK_RATIO,
+    base: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(displacement (N, D), taken back (N,) bool): `displacement` (N, D) of `motion`'s frames,
+    a change made on top of `base` (N, D) (default none: the capture), with the change taken
+    back, as the module notes say, where it makes a joint or site of `points` (F,) bool
+    (default all) jolt against the capture in a frame the base alone does not."""
+    N = len(displacement)
+    start = motion.frames if base is None else motion.frames + base
+
+    def jolting(share):
+        moved = motion.with_frames(start + share[:, None] * displacement)
+        return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points) & ~already
+
+    already = np.zeros(N, bool)
+    if base is not None:
+        already = jolting(np.zeros(N))
+
+    share = np.ones(N)
+    length = min(max(EASE_SECONDS / motion.frame_time, 2.0), max(N, 2))
+    for _ in range(ROUNDS):
+        jolts = jolting(share)
+        if not jolts.any():
+            return share[:, None] * displacement, share < 1.0
+        share = share * (1.0 - CUT * _cut(widened(jolts, 1), length))
+    if jolting(share).any():
+        return np.zeros_like(displacement), np.ones(N, bool)
+    return share[:, None] * displacement, share < 1.0

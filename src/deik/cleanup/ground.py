@@ -1,0 +1,196 @@
+"""Where a clip's body rests: the floor it stands on, how high above it each point sits when it
+touches, and which points rest in which frames. Sizes are shares of the body's span
+(cleanup/body.py), speeds spans per second, durations seconds: no unit, frame rate or name counts.
+
+- Slow: a point whose speed (of its path smoothed by a Gaussian of SMOOTH seconds) is at most
+  SPEED x span per second.
+- Floor (detect_floor): the level the body rests on: the median, over the frames in which a
+  point of the body is slow, of the lowest slow point's surface (its height less its radius:
+  a sole's, a kneeling knee's, a lying back's); without any slow point, the 5th percentile of
+  each frame's lowest surface. When that level lies within GROUND_PLANE x span of height 0, the
+  floor is the file's ground plane, height 0: captures are made on it, and their resting
+  contacts sit on it, a little above or below (a long leg's foot sinks, a radius is an
+  estimate). FloorChoice says which and how.
+- Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
+- Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
+  above floor + clearance) is at most BAND x span; gaps shorter than GAP seconds are filled and
+  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A plant holds a point
+  still along the ground only (cleanup/plants.py), so a heel that begins to lift as the foot
+  rolls onto its toes may still rest: it rises about the toe without sliding. A point still sliding fast as it
+  lands does not rest until it slows: planting it sooner would stop it in a frame, a jolt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
+from deik.errors import InputError
+from deik.io.trajectory import Motion
+from deik.model.kinematics import forward_kinematics
+
+SPEED = 0.1
+SMOOTH = 0.02
+GROUND_PLANE = 0.04
+BAND = 0.02
+GAP = 0.05
+SHORTEST = 0.05
+
+
+@dataclass(frozen=True)
+class FloorChoice:
+    """The floor a fix keeps: `height` along up (length units), `how` it was found ("given",
+    "ground plane", "resting contacts", "lowest points"), and `resting` the level the resting
+    contacts sit at (None when given or nothing rests)."""
+
+    height: float
+    how: str
+    resting: float | None = None
+
+    def describe(self, unit: str) -> str:
+        """One line for people: the height, how it was found and where the contacts rest."""
+        rest = "" if self.resting is None else f"; resting contacts sit at {self.resting:.4g} {unit}"
+        words = {
+            "given": "given",
+            "ground plane": "the file's ground plane, where the resting contacts sit",
+            "resting contacts": "where the resting contacts sit",
+            "lowest points": "nothing rests: the lowest points",
+        }
+        return f"floor at {self.height:.4g} {unit} ({words[self.how]}{rest})"
+
+    def record(self) -> dict:
+        """The floor as JSON: height (length units), how it was found, the resting level."""
+        return {"height": self.height, "how": self.how, "resting_contacts_height": self.resting}
+
+
+def _smooth(p: np.ndarray, frame_time: float) -> np.ndarray:
+    """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held)."""
+    sigma = SMOOTH / frame_time
+    if sigma < 0.3 or len(p) < 3:
+        return p
+    half = min(int(np.ceil(3 * sigma)), len(p) - 1)
+    offsets = np.arange(-half, half + 1)
+    kernel = np.exp(-0.5 * (offsets / sigma) ** 2)
+    kernel /= kernel.sum()
+    index = np.clip(np.arange(len(p))[:, None] + offsets[None, :], 0, len(p) - 1)
+    return np.tensordot(kernel, p[index.T], axes=(0, 0))
+
+
+def point_speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
+    """(N, K) speed of points p (N, K, 3) along their smoothed paths, length units per second
+    (central differences, one-sided at the ends; 0 for a single frame)."""
+    if len(p) < 2:
+        return np.zeros(p.shape[:2])
+    return np.linalg.norm(np.gradient(_smooth(p, frame_time), frame_time, axis=0), axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class Paths:
+    """The body's points over a clip: `heights` (N, F) along up and `slow` (N, F) bool, for every
+    joint and site of body.skeleton; `positions` (N, F, 3)."""
+
+    positions: np.ndarray
+    heights: np.ndarray
+    slow: np.ndarray
+
+
+def body_paths(clip: Motion, body: Body) -> Paths:
+    """The Paths of `clip`'s frames on `body`."""
+    sk = body.skeleton
+    p = forward_kinematics(sk, clip.frames).p_world_frame
+    slow = point_speeds(p, clip.frame_time) <= SPEED * body.span
+    return Paths(p, p @ sk.up, slow)
+
+
+def _median_lowest(values: np.ndarray, slow: np.ndarray) -> float | None:
+    """The median over the frames with a slow point of the lowest slow value; None without."""
+    lowest = np.where(slow, values, np.inf).min(axis=1, initial=np.inf)
+    finite = lowest[np.isfinite(lowest)]
+    return float(np.median(finite)) if finite.size else None
+
+
+def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorChoice:
+    """The floor of `clip` (module notes)."""
+    if clip.n_frames == 0:
+        raise InputError("the clip has no frames: there is no floor to detect")
+    paths = paths or body_paths(clip, body)
+    surface = np.where(body.part, paths.heights - body.radius, np.inf)
+    level = _median_lowest(surface, paths.slow & body.part)
+    if level is None:
+        return FloorChoice(float(np.percentile(surface.min(axis=1), 5.0)), "lowest points")
+    if abs(level) <= GROUND_PLANE * body.span:
+        return FloorChoice(0.0, "ground plane", level)
+    return FloorChoice(level, "resting contacts", level)
+
+
+def clearances(body: Body) -> np.ndarray:
+    """(F,) each point's clearance above the floor (module notes); NaN for what is no part of
+    the body (a carrier joint)."""
+    return np.where(body.part, body.radius, np.nan)
+
+
+def _runs_in_seconds(mask: np.ndarray, frame_time: float) -> np.ndarray:
+    """`mask` (N, K) with gaps under GAP seconds filled and runs under SHORTEST dropped (a run
+    of the whole clip stays, however short the clip)."""
+    gap = max(1, int(round(GAP / frame_time)))
+    shortest = min(max(2, int(round(SHORTEST / frame_time))), len(mask))
+    return drop_short(fill_gaps(mask, gap + 1), shortest)
+
+
+def detect_resting(
+    clip: Motion,
+    body: Body,
+    floor: float,
+    points: tuple[str, ...] | None = None,
+    paths: Paths | None = None,
+    band: float | None = None,
+    speed: float | None = None,
+    idle: bool | None = None,
+) -> Contacts:
+    """Contacts of `points` (default body.contact_points(); joints and sites of body.skeleton)
+    with the floor at `floor`, found as the module notes say; `band` (length units above the
+    point's clearance) and `speed` (length units per second) override BAND x span and SPEED x
+    span. Points never at rest are kept when `idle` (default: when `points` are given). The
+    Contacts carry each point's clearance. KeyError with suggestions for unknown names."""
+    sk = body.skeleton
+    drop_idle = not idle if idle is not None else points is None
+    points = tuple(body.contact_points() if points is None else points)
+    if not points:
+        raise InputError("detect_resting needs at least one joint or site")
+    index = [sk.frame_index(name) for name in points]
+    paths = paths or body_paths(clip, body)
+    band = BAND * body.span if band is None else band
+    limit = SPEED * body.span if speed is None else speed
+    slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
+    clear = body.radius[index]
+    low = paths.heights[:, index] - floor - clear <= band
+    rest = _runs_in_seconds(slow & low, clip.frame_time)
+    keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
+    kept = tuple(str(name) for name in np.array(points)[keep])
+    return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
+
+
+def given_contacts(clip: Motion, body: Body, floor: float, masks: dict[str, np.ndarray]) -> Contacts:
+    """Contacts the user gave, {joint or site of body.skeleton: frames in contact (N,) bool}, on
+    the floor at `floor`, each with its clearance (module notes). KeyError for unknown names."""
+    sites = tuple(masks)
+    index = [body.skeleton.frame_index(name) for name in sites]
+    clear = body.radius[index]
+    columns = [np.asarray(masks[name], bool) for name in sites]
+    mask = np.stack(columns, axis=1) if sites else np.zeros((clip.n_frames, 0), bool)
+    return Contacts(sites, mask, False, None, None, floor, clear)
+
+
+def resting_body(clip: Motion) -> tuple[Body, FloorChoice, Contacts | None]:
+    """(the body, its floor, every point of it that rests: the contacts `deik clip IN --out OUT`
+    plants with no other flags) of `clip` (cleanup/body.py; module notes). Contacts name the
+    body's joints and sites, sole sites included: fix with fix_clip(clip, goals, body=body)."""
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    floor = detect_floor(motion, body, paths)
+    contacts = detect_resting(motion, body, floor.height, paths=paths)
+    return body, floor, contacts if contacts.sites else None

@@ -1,0 +1,91 @@
+"""The body a clean-up works on (cleanup/body.py), checked against independent computations on the
+procedural walk (benchmarks/clip_walk.py) and its other rig families: the span as the longest
+path between two ends of the rig, the feet found without a name to go by, the soles flat on the
+rest pose's lowest point, the carrier joint above a studio rig's hips, the radii."""
+
+import numpy as np
+import pytest
+
+from benchmarks.clip_cases import anon, studio
+from benchmarks.clip_rigs import format_rig
+from benchmarks.clip_walk import procedural_walk
+from deik.cleanup.body import body_of, median_pose
+from deik.io.bvh import parse_bvh
+from deik.model.kinematics import forward_kinematics
+
+
+def read(case):
+    return parse_bvh(format_rig(case.rig), f"{case.name}.bvh")
+
+
+def longest_path(case) -> float:
+    """The longest path along the bones between two ends, from the rig's own OFFSETs (none of its
+    joints translates below the root), by brute force over every pair of points."""
+    rig = case.rig
+    parents = list(rig.parents) + [j for _, j, _ in rig.sites]
+    lengths = [np.linalg.norm(o) if p >= 0 else 0.0 for o, p in zip(rig.offsets, rig.parents)]
+    lengths += [np.linalg.norm(o) for _, _, o in rig.sites]
+
+    def to_root(k):
+        path = [k]
+        while parents[path[-1]] >= 0:
+            path.append(parents[path[-1]])
+        return path
+
+    best = 0.0
+    for a in range(len(parents)):
+        for b in range(a + 1, len(parents)):
+            pa, pb = to_root(a), to_root(b)
+            common = set(pa) & set(pb)
+            best = max(best, sum(lengths[k] for k in pa + pb if k not in common))
+    return best
+
+
+@pytest.mark.parametrize("family", ["source", "anon"])
+def test_the_span_is_the_longest_path_between_two_ends_and_the_feet_are_found_by_shape(family):
+    walk = procedural_walk()
+    case = walk if family == "source" else anon(walk)
+    body = body_of(read(case))
+    assert body.span == pytest.approx(longest_path(case), rel=1e-6)
+    ankles = {case.names["RightAnkle"], case.names["LeftAnkle"]}
+    assert {foot.ankle for foot in body.feet} == ankles  # J03 and J06 for the anonymous rig
+    assert all(foot.chain == (foot.ankle, f"{foot.ankle}_end") for foot in body.feet)
+
+
+def test_the_soles_lie_flat_under_the_foot_heel_behind_the_ankle():
+    clip = read(procedural_walk())
+    body = body_of(clip)
+    kin = forward_kinematics(body.skeleton, median_pose(clip)[None])
+    up = body.skeleton.up
+    for foot in body.feet:
+        tip = kin.position(foot.chain[-1])[0]
+        heights = [kin.position(site)[0] @ up for site in foot.soles]
+        np.testing.assert_allclose(heights, tip @ up, atol=1e-9)  # the rest pose's lowest point: the toe tip
+        heel, toe, ankle = (kin.position(name)[0] for name in (foot.heel, foot.toe, foot.ankle))
+        forward = (tip - ankle) - ((tip - ankle) @ up) * up
+        assert (heel - ankle) @ forward < 0 < (toe - ankle) @ forward  # heel behind, toe ahead
+        width = np.linalg.norm(kin.position(foot.soles[1])[0] - kin.position(foot.soles[2])[0])
+        assert 0.3 < width / np.linalg.norm(toe - heel) < 0.7  # a foot a third to a half as wide as long
+    assert (body.radius[[body.skeleton.frame_index(name) for name in body.sole_names]] == 0).all()
+
+
+def test_a_root_above_the_hips_carries_the_body_and_is_no_part_of_it():
+    clip = read(studio(procedural_walk()))
+    body = body_of(clip)
+    k = body.skeleton.frame_index("Reference")
+    assert not body.part[k] and body.radius[k] == 0.0
+    assert body.part[body.skeleton.frame_index("pelvis")]
+    masses = np.bincount(clip.skeleton.mass_joint, clip.skeleton.mass_value, clip.skeleton.n_joints)
+    assert masses[k] == 0.0  # no estimated mass on the carrier
+    assert 150 < body.span < 300  # centimetres: a span of about 2 m
+    assert {foot.ankle for foot in body.feet} == {"foot_r", "foot_l"}
+
+
+def test_a_point_is_as_thick_as_the_thinnest_bone_it_holds():
+    body = body_of(read(procedural_walk()))
+    radius = dict(zip(body.skeleton.frame_names, body.radius))
+    # the chest is thicker than the upper arm; the shoulder joint between them is the arm's
+    assert radius["Chest"] > radius["RightShoulder"]
+    assert radius["RightShoulder"] == pytest.approx(radius["RightElbow"], rel=0.5)
+    assert 0.02 < radius["RightKnee"] < 0.08 and 0.02 < radius["RightElbow_end"] < 0.06
+    assert radius["RightAnkle"] == pytest.approx(0.05, abs=1e-6)  # the ankle joint 5 cm above the sole

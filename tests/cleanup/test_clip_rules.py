@@ -1,0 +1,109 @@
+"""Issue 27's rules for `deik clip IN --out OUT` with no other flags, on generated cases nobody tuned
+for (the procedural walk of benchmarks/clip_walk.py on other rig families, played backwards or
+faster, with capture noise under the floor), judged by benchmarks/clip_judge.py, which shares no
+code with deik (its own BVH reader and kinematics, the DeepMimic collision shapes, its own contact
+detector, the floor at 0): sliding of every resting point at most 1 mm per frame, nothing of the
+body more than 2 mm under the floor, no point accelerating beyond 1.1 times its own peak, the body
+travelling as far and the feet landing where they did; position channels held; the same answer in
+any unit; a change that would jolt taken back and reported."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks.clip_cases import TRANSFORMS
+from benchmarks.clip_judge import judge
+from benchmarks.clip_rigs import format_rig, parse_rig
+from benchmarks.clip_walk import procedural_walk
+from deik.cleanup.calm import calm
+from deik.cleanup.dynamics import PEAK_RATIO, point_acceleration_ratios
+from deik.cli.app import main
+from deik.io.bvh import parse_bvh, read_bvh
+
+
+def cleaned(case, tmp_path):
+    """(deik's JSON report, the cleaned rig) of `deik clip IN --out OUT --json J` on `case`."""
+    source, out, report = tmp_path / "in.bvh", tmp_path / "out.bvh", tmp_path / "out.json"
+    source.write_text(format_rig(case.rig))
+    assert main(["clip", str(source), "--out", str(out), "--json", str(report), "--quiet"]) == 0
+    return json.loads(report.read_text()), parse_rig(out.read_text(), case.rig.position_mode)
+
+
+@pytest.mark.parametrize("transform", ["none", "studio", "anon", "backwards", "fast", "noisy"])
+def test_the_default_command_meets_every_target_on_a_generated_walk(transform, tmp_path):
+    walk = procedural_walk()
+    case = walk if transform == "none" else TRANSFORMS[transform](walk)
+    report, result = cleaned(case, tmp_path)
+    measured = judge(case, case.rig, result, ~np.array(report["met_per_frame"]))
+    assert measured["sliding_mm_per_frame"] <= 1.0
+    assert measured["depth_mm"] <= 2.0
+    assert measured["peak_ratio"] <= PEAK_RATIO
+    assert abs(measured["travel_m"] - measured["travel_capture_m"]) <= max(0.05 * measured["travel_capture_m"], 0.02)
+    assert measured["misses_listed"]
+    assert report["floor"]["how"] == "ground plane" and report["floor"]["height"] == 0.0
+    if transform == "noisy":  # the capture slid and sank: the cleaned clip does not, and steps as the walk did
+        assert measured["sliding_capture_mm_per_frame"] > 5 and measured["depth_capture_mm"] > 5
+        measured = judge(walk, walk.rig, result)  # noise breaks the capture's own rests into pieces
+    assert measured["steps_matched"] == measured["steps"] > 0
+
+
+def test_position_channels_below_the_first_translating_joint_keep_the_capture_s_values(tmp_path):
+    case = TRANSFORMS["studio"](procedural_walk())  # six channels on every joint, a Reference root
+    _, result = cleaned(case, tmp_path)
+    held = [k for k, (j, c) in enumerate(case.rig.columns) if j > 0 and c.endswith("position")]
+    np.testing.assert_allclose(result.frames[:, held], case.rig.frames[:, held], atol=1e-6)
+    moved = [k for k, (j, c) in enumerate(case.rig.columns) if j == 0 and c.endswith("position")]
+    assert np.abs(result.frames[:, moved] - case.rig.frames[:, moved]).max() > 0  # the root carries the fix
+
+
+@pytest.mark.parametrize("scale", [1e-3, 100.0])
+def test_a_clip_in_any_unit_is_fixed_to_the_same_angles(scale, tmp_path):
+    """Every size and tolerance follows the body: the walk in millimetres of a metre or in
+    centimetres comes back with the rotation channels it has in metres."""
+    walk = procedural_walk()
+    rig = walk.rig
+    frames = rig.frames.copy()
+    frames[:, [k for k, (_, c) in enumerate(rig.columns) if c.endswith("position")]] *= scale
+    sites = tuple((name, j, offset * scale) for name, j, offset in rig.sites)
+    rig = dataclasses.replace(rig, offsets=rig.offsets * scale, sites=sites, frames=frames)
+    scaled = dataclasses.replace(walk, rig=rig)
+    results = []
+    for k, case in enumerate((walk, scaled)):
+        folder = tmp_path / str(k)
+        folder.mkdir()
+        results.append(cleaned(case, folder)[1].frames)
+    rotation = [k for k, (_, c) in enumerate(walk.rig.columns) if c.endswith("rotation")]
+    np.testing.assert_allclose(results[1][:, rotation], results[0][:, rotation], atol=1e-4)  # degrees
+
+
+def test_a_change_that_would_jolt_is_taken_back_and_reported():
+    clip = parse_bvh(format_rig(procedural_walk().rig), "walk.bvh")
+    displacement = np.zeros_like(clip.frames)
+    displacement[30, clip.skeleton.dof_names.index("RightShoulder.Zrotation")] = 0.5  # a one-frame arm pop
+    displacement[:, 1] = 0.002  # and a steady 2 mm lift, which jolts nothing
+    calmed, taken = calm(clip, displacement)
+    assert taken[30] and taken.sum() < clip.n_frames // 2 and not taken[:10].any()
+    fixed = clip.with_frames(clip.frames + calmed)
+    assert np.nanmax(point_acceleration_ratios(clip, fixed)) <= PEAK_RATIO
+    np.testing.assert_allclose(calmed[:10, 1], 0.002)  # the lift is kept where nothing jolts
+
+
+def test_deik_limits_then_clip_does_not_pin_the_body_to_its_path(tmp_path):
+    """Issue 30 item 1: a table from `deik limits --margin 10` leaves the root's translation out,
+    so `deik clip --limits` may lift and shift the body as without the table."""
+    source = tmp_path / "walk.bvh"
+    source.write_text(format_rig(TRANSFORMS["noisy"](procedural_walk()).rig))  # sunk: needs lifting
+    assert main(["limits", str(source), "--margin", "10", "--out", str(tmp_path / "limits.json")]) == 0
+    table = json.loads((tmp_path / "limits.json").read_text())
+    assert "Hips.Xposition" not in table and "Hips.Zrotation" in table
+    reports = []
+    for name, extra in (("free", []), ("limited", ["--limits", str(tmp_path / "limits.json")])):
+        argv = ["clip", str(source), "--out", str(tmp_path / f"{name}.bvh"), "--json", str(tmp_path / f"{name}.json")]
+        assert main(argv + extra + ["--quiet"]) == 0
+        reports.append(json.loads((tmp_path / f"{name}.json").read_text()))
+    assert reports[1]["frames_met"] >= reports[0]["frames_met"] - 2
+    for key in ("sliding_max_mm_per_frame", "penetration_max_mm"):
+        assert reports[1]["metrics"][key]["after"] <= reports[0]["metrics"][key]["after"] + 0.5, key
+    assert read_bvh(tmp_path / "limited.bvh").n_frames == len(TRANSFORMS["noisy"](procedural_walk()).rig.frames)
