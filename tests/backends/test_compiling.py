@@ -33,8 +33,11 @@ def test_every_way_of_solving_runs_one_kernel_per_dtype():
     engine.step(engine.init())
     deik.solve(deik.Problem(human, [deik.Position(human.site_names[0], [0.1, 0.2, 0.3])]), **run)
     launches = [entry for (_, name), entry in entries._ENTRIES.items() if name.startswith("launch")]
-    kinds = [cpu_backend.launch_kind(signature) for entry in launches for signature in entry.overloads]
-    assert kinds.count(("float64", True)) == 1, kinds
+    # one float64 polish kernel in each build that ran (a warm cache may hold a smaller build
+    # for the position-only problems beside the full one), and at least one build ran
+    per_build = [[cpu_backend.launch_kind(signature) for signature in entry.overloads] for entry in launches]
+    assert all(kinds.count(("float64", True)) <= 1 for kinds in per_build), per_build
+    assert any(("float64", True) in kinds for kinds in per_build), per_build
 
 
 def _run(code: str, cache: str, **env: str) -> subprocess.CompletedProcess:
