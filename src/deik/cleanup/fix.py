@@ -209,42 +209,32 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     return displacement, fixed, balance
 
 
-def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, points):
-    """((displacement (N, D), taken back (N,) bool), what the reach tracks add (N, D) or None):
-    the warm start's `displacement` calmed (cleanup/calm.py; DE repairs what is taken back).
-    With reach tracks, only what the contacts, floor and balance change is calmed: a reach is a
-    motion the user asks for, and what it adds is kept as the warm start made it."""
-    if not goals.reach:
-        return calm(clip, displacement, points), None
-    alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
-    if not alone:  # reach tracks only: all of the change is theirs
-        return (displacement, np.zeros(clip.n_frames, bool)), displacement
-    held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points, False)
-    calmed, taken = calm(clip, held, points)
-    return (calmed + (displacement - held), taken), displacement - held
-
-
 def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body):
     """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
-    what the reach tracks add or None): the warm start calmed (_calm_by_priority). With a floor
-    and no reach track, it is tried with the floor lifted along smooth envelopes and without,
-    and the one that leaves more frames meeting their contacts, floor and balance is kept (fewer
-    frames taken back on a tie): an envelope lets a landing foot slow down before the floor, but
-    on a body lying on the floor for long it can ask more than the joints give without a jolt.
-    With reach tracks the floor is the plain one: a body held on lifted heights while a reach
-    pulls it let an unreachable reach drag a planted foot by 10 mm."""
-    if goals.reach or goals.floor is None:
-        displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, False)
-        calmed, reached = _calm_by_priority(clip, goals, displacement, weights, movable, body.points)
-        return *calmed, fixed, balance, reached
-    outcomes = {}
-    for lift in (True, False):
-        displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, lift)
+    what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
+    repairs what is taken back). With a floor it is tried with the floor lifted along smooth
+    envelopes and without, and the one that leaves more frames meeting their contacts, floor and
+    balance is kept (fewer frames taken back on a tie): an envelope lets a landing foot slow
+    down before the floor, but on a body lying on the floor for long it can ask more than the
+    joints give without a jolt. Reach tracks are the user's motion: what they add on the plain
+    floor is added, not calmed, on top of the fix without them, so outside a reach's window the
+    clip is the same as without it (and an unreachable reach drags no planted foot)."""
+    alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
+    plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
+    for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
+        displacement, fixed, balance = _warm_start(clip, plain, weights, movable, body.points, lift)
         displacement, calmed = calm(clip, displacement, body.points)
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
-        met = _met(clip_problem(clip, goals, displacement, weights, fixed), poses)[1]
+        met = _met(clip_problem(clip, plain, displacement, weights, fixed), poses)[1]
         outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None))
-    return outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1]  # the lifted one on a tie
+    if not goals.reach:
+        return outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1]  # the lifted one on a tie
+    displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, False)
+    if not alone:  # reach tracks only: all of the change is theirs
+        return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
+    added = displacement - _warm_start(clip, plain, weights, movable, body.points, False)[0]
+    held, calmed = outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1][:2]
+    return held + added, calmed, fixed, balance, added
 
 
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
