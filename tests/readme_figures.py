@@ -163,14 +163,14 @@ FIGURES = (
     ),
     Figure(
         r"The acceleration target holds on all (\d+) cases and the body travels as far as in the capture on (\d+); "
-        r"sliding holds on (\d+) and depth on only (\d+)",
+        r"sliding holds on (\d+) and depth on (\d+)",
         TARGETS,
         lambda r: [_met(r, "peaks"), _met(r, "travel"), _met(r, "sliding"), _met(r, "depth")],
     ),
     Figure(
-        r"the run's feet, (\d+) mm under the floor in the frames deik lists, go (\d+) mm under in the capture",
+        r"the run's feet, (\d+) mm under the floor in the capture, are (\d+) mm under after",
         TARGETS,
-        lambda r: [_case(r, "run")["depth_mm"], _case(r, "run")["depth_capture_mm"]],
+        lambda r: [_case(r, "run")["depth_capture_mm"], _case(r, "run")["depth_mm"]],
     ),
     Figure(
         r"and on (\d+) cases \(the crawl, the get-up, the punch on other rigs\) frames that miss are not all listed",

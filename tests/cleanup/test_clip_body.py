@@ -89,3 +89,14 @@ def test_a_point_is_as_thick_as_the_thinnest_bone_it_holds():
     assert radius["RightShoulder"] == pytest.approx(radius["RightElbow"], rel=0.5)
     assert 0.02 < radius["RightKnee"] < 0.08 and 0.02 < radius["RightElbow_end"] < 0.06
     assert radius["RightAnkle"] == pytest.approx(0.05, abs=1e-6)  # the ankle joint 5 cm above the sole
+
+
+def test_the_points_a_pop_is_measured_on_are_the_clips_own_joints_and_sites_of_the_body():
+    case = studio(procedural_walk())
+    clip = read(case)
+    body = body_of(clip)
+    names = body.skeleton.frame_names
+    own = set(clip.skeleton.frame_names)
+    chosen = {name for name, on in zip(names, body.points) if on}
+    assert chosen == {name for name, on in zip(names, body.part) if on and name in own}
+    assert not chosen & set(body.sole_names) and "Reference" not in chosen

@@ -8,7 +8,7 @@ from deik.cleanup.clip_goals import REACH_LEVEL, ClipGoals, eased_track, fixed_g
 from deik.cleanup.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.cleanup.contacts import detect_contacts
 from deik.cleanup.spacetime import spacetime_step, spring_bands, spring_energy, spring_product
-from deik.cleanup.warmstart import dof_weights, position_jacobian, warm_start
+from deik.cleanup.warmstart import LIFT_SHARE, dof_weights, floor_lifts, position_jacobian, warm_start
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
@@ -175,3 +175,50 @@ def test_eased_track_blends_from_the_path_to_each_run(gap):
         np.testing.assert_array_less(np.diff(between[:blend]), 0.0)  # easing out of the run
     else:
         assert widened.all() and (between > 0.5).all() and (between <= 1.0).all()
+
+
+def landing(n: int = 60, depth: float = 0.06, speed: float = 1.2, dt: float = 1 / 60) -> np.ndarray:
+    """(n,) heights of a point falling at `speed` onto the floor (height 0), sinking `depth`
+    below it, resting there and rising again: a sunk landing as captured."""
+    t = np.arange(n) * dt
+    fall = 0.3 - speed * t
+    rest = np.full(n, -depth)
+    rise = -depth + speed * (t - t[-1] + 0.3 / speed) * (t > t[-1] - 0.3 / speed)
+    return np.maximum(np.maximum(fall, rest), rise)
+
+
+@pytest.mark.parametrize("depth", [0.01, 0.06])
+def test_a_floor_lift_covers_the_depth_and_bends_no_more_than_its_share_of_the_peak(depth):
+    heights = np.stack([landing(depth=depth), np.full(60, 0.5)], axis=1)  # a sinking point and one above
+    level = np.array([0.0, 0.0])
+    peaks = np.abs(np.diff(heights, 2, axis=0)).max(axis=0) + 1e-12
+    lifted = floor_lifts(heights, level, peaks)
+    assert (lifted[:, 0] >= level[0] - 1e-12).all()  # never under the floor
+    assert np.array_equal(lifted[:, 1], np.zeros(60))  # a point that never sinks keeps its level
+    lift = lifted[:, 0] - heights[:, 0]
+    assert (lift >= -1e-12).all()  # a lift, never a push down
+    bend = np.abs(np.diff(lift, 2)).max()
+    assert bend <= LIFT_SHARE * peaks[0] + 1e-12, (bend, peaks[0])
+    # it begins before the point reaches the floor: the landing slows down before it
+    touch = int(np.argmax(heights[:, 0] <= 0))
+    assert lift[touch - 2] > 0
+    # and the plain clamp (the lift only where it sinks) bends by the whole landing speed
+    clamp = np.maximum(level[0] - heights[:, 0], 0.0)
+    assert np.abs(np.diff(clamp, 2)).max() > 10 * bend
+
+
+def test_the_running_maximum_and_hann_envelope_is_above_any_profile():
+    rng = np.random.default_rng(3)
+    heights = rng.normal(0.0, 0.02, (80, 5)).cumsum(axis=0)
+    peaks = np.abs(np.diff(heights, 2, axis=0)).max(axis=0)
+    lifted = floor_lifts(heights, np.zeros(5), peaks)
+    assert (lifted >= -1e-12).all() and (lifted >= heights - 1e-12).all()
+    sinks = heights < 0
+    assert (lifted[sinks] - heights[sinks] >= -heights[sinks] - 1e-12).all()
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 40])
+def test_a_floor_lift_on_a_short_clip_stays_as_long_as_the_clip(n):
+    heights = -np.linspace(0.0, 0.05, n)[:, None]  # sinking from the first frame on
+    lifted = floor_lifts(heights, np.zeros(1), np.full(1, 1e-9))
+    assert lifted.shape == (n, 1) and (lifted >= -1e-12).all()

@@ -78,6 +78,13 @@ class Body:
     def sole_names(self) -> tuple[str, ...]:
         return tuple(name for foot in self.feet for name in foot.soles)
 
+    @property
+    def points(self) -> np.ndarray:
+        """(F,) bool: the clip's own joints and sites that are part of the body, the points
+        whose accelerations the no-new-pops rule compares (the sole sites ride on the feet)."""
+        soles = set(self.sole_names)
+        return self.part & np.array([name not in soles for name in self.skeleton.frame_names], bool)
+
     def contact_points(self) -> tuple[str, ...]:
         """Every point that may rest on the floor: the heel and toe of each foot, and every other
         joint and site of the body but the feet's chains and flanking sole sites."""

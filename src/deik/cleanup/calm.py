@@ -3,9 +3,10 @@
 A fix's displacement from the capture is checked the way cleanup/dynamics.py measures jolts: a
 joint or site accelerating beyond PEAK_RATIO x its own peak in the capture, a point moving or
 a rotation channel turning faster than the capture's fastest. Where frames jolt, the fix takes
-part of its change back there: those frames and their neighbours keep a share CUT less of it,
-the frames around them a share that grows back smoothly (smoothstep) over EASE_SECONDS, so
-taking back adds no jolt of its own; rounds repeat until nothing jolts, and after ROUNDS the
+part of its change back there: those frames and their neighbours keep a share CUT less of it
+(small steps: a lift taken back puts a point back under the floor), the frames around them a
+share that grows back smoothly (smoothstep) over EASE_SECONDS, so taking back adds no jolt of
+its own; rounds repeat until nothing jolts, and after ROUNDS the
 whole change is taken back (the capture is the better clip). The frames that keep less than all
 of the change are reported (fix_clip: `calmed`; those that then miss a goal are listed unmet).
 """
@@ -18,8 +19,8 @@ from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, widened
 from deik.io.trajectory import Motion
 
 EASE_SECONDS = 0.15
-ROUNDS = 10
-CUT = 0.5
+ROUNDS = 25
+CUT = 0.2
 
 
 def _cut(taken: np.ndarray, length: float) -> np.ndarray:

@@ -187,7 +187,6 @@ def clip_document(
     was taken back so that nothing jolts, and where the time went."""
     original, fixed = fix.on_body()
     ground = None if floor is None else grounding(fix, floor["height"])
-    own = np.arange(original.skeleton.n_frames) < fix.original.skeleton.n_frames
     goals = goal_table(fix, metres)
 
     def listed(entry):
@@ -214,7 +213,7 @@ def clip_document(
         "contacts": None if contacts is None else contacts_record(original, contacts),
         "joints_far_from_capture": _far(original, fixed, far_degrees),
         "balance": balance_record(fix.balance, metres),
-        "dynamics": dynamics_record(original, fixed, fix.body.part & own),
+        "dynamics": dynamics_record(original, fixed, fix.body.points),
         "calmed_frames": np.flatnonzero(fix.calmed).tolist(),
         "wall_time_s": fix.wall_time,
         "stages": list(fix.stages),

@@ -179,18 +179,20 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, points: np.ndarray):
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, points: np.ndarray, lift: bool):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
-    `goals`. With balance, the track is planned on the motion with its contacts met (a first warm
-    start without it), and where the balanced warm start makes a frame jolt or turns a joint far
-    from the capture (cleanup/dynamics.py), balance cannot hold there: those frames and their
-    neighbours are skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
+    `goals`, with or without floor `lift`s (warmstart.warm_start). With balance, the track is
+    planned on the motion with its contacts met (a first warm start without it), and where the
+    balanced warm start makes a frame jolt or turns a joint far from the capture
+    (cleanup/dynamics.py), balance cannot hold there: those frames and their neighbours are
+    skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
     sk, original = clip.skeleton, clip.poses()
 
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = _ease_frames(clip)
-        return _inside(sk, original, warm_start(sk, original, fixed, movable, weights, fade=fade)), fixed
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift)
+        return _inside(sk, original, d), fixed
 
     if not goals.balance:
         return *warm(goals, None), None
@@ -207,19 +209,32 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     return displacement, fixed, balance
 
 
-def _calm_by_priority(clip, goals: ClipGoals, displacement, weights, movable, points):
-    """((displacement (N, D), taken back (N,) bool), what the reach tracks add (N, D) or None):
-    the warm start's `displacement` calmed (cleanup/calm.py; DE repairs what is taken back).
-    With reach tracks, only what the contacts, floor and balance change is calmed: a reach is a
-    motion the user asks for, and what it adds is kept as the warm start made it."""
-    if not goals.reach:
-        return calm(clip, displacement, points), None
+def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body):
+    """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
+    what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
+    repairs what is taken back). With a floor it is tried with the floor lifted along smooth
+    envelopes and without, and the one that leaves more frames meeting their contacts, floor and
+    balance is kept (fewer frames taken back on a tie): an envelope lets a landing foot slow
+    down before the floor, but on a body lying on the floor for long it can ask more than the
+    joints give without a jolt. Reach tracks are the user's motion: what they add on the plain
+    floor is added, not calmed, on top of the fix without them, so outside a reach's window the
+    clip is the same as without it (and an unreachable reach drags no planted foot)."""
     alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
+    plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
+    for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
+        displacement, fixed, balance = _warm_start(clip, plain, weights, movable, body.points, lift)
+        displacement, calmed = calm(clip, displacement, body.points)
+        poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
+        met = _met(clip_problem(clip, plain, displacement, weights, fixed), poses)[1]
+        outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None))
+    if not goals.reach:
+        return outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1]  # the lifted one on a tie
+    displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, False)
     if not alone:  # reach tracks only: all of the change is theirs
-        return (displacement, np.zeros(clip.n_frames, bool)), displacement
-    held, _, _ = _warm_start(clip, dataclasses.replace(goals, reach=()), weights, movable, points)
-    calmed, taken = calm(clip, held, points)
-    return (calmed + (displacement - held), taken), displacement - held
+        return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
+    added = displacement - _warm_start(clip, plain, weights, movable, body.points, False)[0]
+    held, calmed = outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1][:2]
+    return held + added, calmed, fixed, balance, added
 
 
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
@@ -314,8 +329,7 @@ def fix_clip(
     weights = dof_weights(clip)
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs, original.shape)
-    displacement, fixed_part, balance = _warm_start(clip, goals, weights, movable, body.part)
-    (displacement, first_calmed), reached = _calm_by_priority(clip, goals, displacement, weights, movable, body.part)
+    displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(clip, goals, weights, movable, body)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         goals = _plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)
@@ -342,7 +356,7 @@ def fix_clip(
         budget = settings if deadline is None else _time_left(settings, deadline)
         result = solve(problem, budget, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
-        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.part)
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.points)
         generations = result.generations[unmet]
         stages.append(
             {
@@ -357,9 +371,9 @@ def fix_clip(
         )
     began = time.perf_counter()
     if reached is None:
-        displacement, calmed = calm(clip, displacement, body.part)
+        displacement, calmed = calm(clip, displacement, body.points)
     else:  # what the reach tracks add is the user's motion: calm the rest on top of it
-        rest, calmed = calm(clip, displacement - reached, body.part, base=reached)
+        rest, calmed = calm(clip, displacement - reached, body.points, base=reached)
         displacement = reached + rest
     calmed |= first_calmed
     stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})

@@ -50,6 +50,8 @@ BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the bod
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
 FLOOR_MARGIN = 1e-4  # of reach: how far above the floor (and its clearance) a point pushed out of it ends
 FLOOR_HOLD = 30.0  # margins: a point this close to the floor is held where it is
+LIFT_SHARE = 0.05  # of a point's acceleration peak in the capture: the most a floor lift adds (floor_lifts)
+LIFT_WIDTHS = (1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 90, 128)  # half widths tried, frames
 
 
 def position_jacobian(
@@ -110,22 +112,58 @@ def _position_rows(x, jac, rows, longest: float, axes: np.ndarray | None = None)
     return error.reshape(N, -1), part.reshape(N, -1, D)
 
 
+def floor_levels(floor: float, margin: float, clearance: np.ndarray | None) -> np.ndarray | float:
+    """(F,) (or a number) the height each joint or site must keep: floor + its `clearance` (F,)
+    (default 0; NaN: none, -inf) + `margin`."""
+    return floor + margin + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
+
+
+def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np.ndarray:
+    """(N, F) heights to lift each point to: its capture `heights` (N, F) raised by a smooth
+    envelope over how far it sinks below its `level` (F,), so that a point that sinks is lifted
+    from before it touches to after it leaves, without a kink. The envelope of a point's depth
+    d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w,
+    which is >= d everywhere; w grows until the envelope's second difference is at most
+    LIFT_SHARE x the point's largest in the capture, `peaks` (F,) (length units per frame^2):
+    the lift adds at most that share to the point's acceleration."""
+    N, F = heights.shape
+    depth = np.maximum(np.broadcast_to(level, (N, F)) - heights, 0.0)
+    out = np.broadcast_to(level, (N, F)).astype(float).copy()
+    widths = [w for w in LIFT_WIDTHS if 2 * w + 1 <= N] or [0]  # a window no longer than the clip
+    for f in np.flatnonzero(depth.max(axis=0) > 0):
+        for w in widths:
+            envelope = _hann(_running_max(depth[:, f], w), w)
+            if N < 3 or np.abs(np.diff(envelope, 2)).max() <= LIFT_SHARE * peaks[f]:
+                break
+        out[:, f] = np.maximum(out[:, f], heights[:, f] + envelope)
+    return out
+
+
+def _running_max(values: np.ndarray, w: int) -> np.ndarray:
+    """(N,) the largest of `values` (N,) within w frames of each."""
+    padded = np.concatenate([np.zeros(w), values, np.zeros(w)])
+    return np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1)
+
+
+def _hann(values: np.ndarray, w: int) -> np.ndarray:
+    """(N,) `values` (N,) averaged by a Hann window of half width w frames (zero beyond the clip's ends)."""
+    window = 1.0 + np.cos(np.pi * np.arange(-w, w + 1) / (w + 1))
+    return np.convolve(values, window / window.sum(), mode="same")
+
+
 def floor_rows(
     x: np.ndarray,
     jac: np.ndarray,
     up: np.ndarray,
-    floor: float,
+    level: np.ndarray | float,
     margin: float,
-    clearance: np.ndarray | None = None,
     hold: float = 2.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, F), Jacobian rows (N, F, D)): each joint or site at positions x (N, F, 3) lower
-    than floor + its `clearance` (F,) (default 0; NaN: ignored) + `margin` is lifted to floor +
-    clearance + margin, and one less than `hold` margins above that is held where it is (a
-    step's spring, pulling a lifted point back towards the capture, would drop it through the
-    floor again)."""
+    than its `level` ((N, F), (F,) or a number: floor_levels, floor_lifts) is lifted to it, and
+    one less than `hold` `margin`s above that is held where it is (a step's spring, pulling a
+    lifted point back towards the capture, would drop it through the floor again)."""
     height = x @ up
-    level = floor + margin + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
     low = height < level + (hold - 1.0) * margin
     return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
@@ -137,9 +175,9 @@ def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     onto its point) rows at the positions `x` and Jacobian `jac`."""
     error, rows = _position_rows(x, jac, held_rows, longest, ground)
     errors, parts = [error], [rows]
-    for floor in floors:
+    for level in floors:
         F, margin = skeleton.n_frames, FLOOR_MARGIN * skeleton.reach
-        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, floor.height, margin, floor.clearance, FLOOR_HOLD)
+        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, level, margin, FLOOR_HOLD)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:
@@ -159,6 +197,7 @@ def warm_start(
     weights: np.ndarray,
     steps: int = STEPS,
     fade: float = FADE,
+    lift: bool = True,
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
     DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
@@ -171,7 +210,9 @@ def warm_start(
     over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
     frames of their (eased) windows, so a reach changes nothing outside them. A step moves a
     site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
-    chased. Limits are not applied here (fix_clip does)."""
+    chased. With `lift`, a point that sinks through the floor in the capture is lifted along
+    a smooth envelope of its depth (floor_lifts), from before it touches to after it leaves;
+    without, only in the frames it sinks. Limits are not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -188,6 +229,14 @@ def warm_start(
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     longest = LONGEST_STEP * skeleton.reach
     stiffness = motion_stiffness(skeleton, original, weights)
+    margin = FLOOR_MARGIN * skeleton.reach
+    if floors and not lift:
+        floors = [floor_levels(g.height, margin, g.clearance) for g in floors]
+    elif floors:
+        x0 = position_jacobian(skeleton, original, skeleton.frame_names)[0]
+        heights = x0 @ skeleton.up
+        peaks = np.linalg.norm(np.diff(x0, 2, axis=0), axis=-1).max(axis=0) if N >= 3 else np.zeros(x0.shape[1])
+        floors = [floor_lifts(heights, floor_levels(g.height, margin, g.clearance), peaks) for g in floors]
 
     def rows_at(d, free):
         x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))

@@ -36,7 +36,7 @@ import numpy as np
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
-from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_rows, motion_stiffness, position_jacobian
+from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
@@ -122,8 +122,9 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
         x, jac = position_jacobian(skeleton, q, frames)
         held_errors = [np.where(mask[..., None], plants - x[:, sites], 0.0).reshape(N, -1)]
         held_rows = [(jac[:, sites] * mask[:, :, None, None]).reshape(N, -1, D)]
+        margin = FLOOR_MARGIN * skeleton.reach
         error, rows = floor_rows(
-            x[:, floor_points], jac[:, floor_points], skeleton.up, goals.floor, FLOOR_MARGIN * skeleton.reach
+            x[:, floor_points], jac[:, floor_points], skeleton.up, floor_levels(goals.floor, margin, None), margin
         )
         held_errors.append(error)
         held_rows.append(rows)
