@@ -227,7 +227,7 @@ def test_the_report_gives_each_frame_s_deepest_capsule_overlap_in_mm():
     names = ["left_wrist", "head"]
     kin = deik.forward_kinematics(h, poses)
     targets = np.stack([kin.position(name) for name in names], axis=1)
-    report = retarget_report(Trajectory(h, poses, DT), names, targets, None, np.zeros(0), 1.0, 0.1)
+    report = retarget_report(Trajectory(h, poses, DT), names, targets, None, 1.0, 0.1)
     # independently: SelfCollision's pairs and radii, distances between points sampled on the bones
     goal, start = deik.SelfCollision(), bone_starts(h)
     radii = goal.joint_radii(h)

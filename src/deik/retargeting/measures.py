@@ -101,7 +101,6 @@ def retarget_report(
     names: Sequence[str],
     targets: np.ndarray,
     contacts: Contacts | None,
-    clearance: np.ndarray,
     metres: float,
     wall_time: float,
     scaled: Motion | None = None,
@@ -109,7 +108,8 @@ def retarget_report(
 ) -> dict:
     """{"summary": {key: number}, "per_frame": {key: [N values, null where none]}} of the target
     `motion` (a Clip or Trajectory): key points `names` (K,) against `targets` (N, K, 3);
-    `contacts` of target sites (or None) with their `clearance` (S,); `scaled` the source on the
+    `contacts` of target sites (or None), each planted at its clearance (cleanup.floor.clearance);
+    `scaled` the source on the
     target skeleton (joint angle deviation) or None; `pairs` the bone capsules tested for
     self-penetration (default every SelfCollision pair of the skeleton). See the module notes."""
     sk, mm = motion.skeleton, 1000.0 * metres
@@ -134,6 +134,7 @@ def retarget_report(
             finite = steps[:, s][np.isfinite(steps[:, s])]
             per_point.setdefault(site, {})["sliding_max_mm_per_frame"] = float(finite.max()) if finite.size else None
         per_frame["contact_sliding_mm_per_frame"] = np.concatenate([[np.nan], _row_stat(steps, np.nanmax)])
+        clearance = floor.clearance(kin, sk, contacts)
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
     ground = 0.0 if contacts is None else contacts.ground  # a retarget without contacts: its world's floor
     per_frame["penetration_mm"] = floor.penetration(kin, sk, ground) * mm

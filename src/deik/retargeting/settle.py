@@ -24,13 +24,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from deik.cleanup.contacts import Contacts
-from deik.cleanup.floor import clearance
 from deik.cleanup.metrics import joint_angles
 from deik.cleanup.units import guess_unit, metres_per_unit
 from deik.io.motion import Clip
 from deik.io.trajectory import Trajectory
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import body_pairs
 from deik.retargeting.continuity import continuous_within_limits
@@ -149,12 +147,10 @@ def settle(settling: Settling) -> tuple[Trajectory, Contacts | None, dict]:
     motion = Trajectory(target, continuous_within_limits(target, poses), source.frame_time, source.source)
     wall = time.perf_counter() - settling.began
     metres = metres_per_unit(guess_unit(target))
-    kin = forward_kinematics(target, motion.poses())
-    clear = np.zeros(0) if contacts is None else clearance(kin, target, contacts)
     K = settling.reported.shape[1]
     reported = list(settling.names)[:K]
     report = retarget_report(
-        motion, reported, settling.reported, contacts, clear, metres, wall, scaled=settling.scaled, pairs=pairs
+        motion, reported, settling.reported, contacts, metres, wall, scaled=settling.scaled, pairs=pairs
     )
     limited = velocity_steps(target, velocity, source.frame_time)
     report["velocity_violations"] = velocity_violations(motion, limited)

@@ -14,6 +14,7 @@ from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import GAIN, TERM_LEVEL, TOLERANCE, WEIGHT
 from deik.objectives.registry import kind_of
 from deik.objectives.table import TermTable
+from deik.solver.settings import Settings
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,31 +80,34 @@ class ReportTerms:
         )
 
     def result(
-        self,
-        skeleton: Skeleton,
-        angles: np.ndarray,
-        raw: np.ndarray,
-        generations: np.ndarray,
-        history: np.ndarray,
-        shape: tuple[int, ...],
-        wall_time: float,
-        device: str,
-        settings: object,
+        self, skeleton: Skeleton, best: BestPoses, shape: tuple[int, ...], wall_time: float, settings: Settings
     ) -> Result:
-        """The Result of best poses `angles` (B, D) with raw errors `raw` (B, T) float64,
-        generations (B,) and history (B, G, 2), fields shaped `shape` + their own axes. Takes
-        the arrays over (the caller hands fresh ones)."""
-        raw.setflags(write=False)  # the goals' errors are views of it, and fitness is worked out from it later
+        """The Result of the `best` poses of a solve on `skeleton` with `settings` (its device),
+        fields shaped `shape` + their own axes, `wall_time` seconds. Takes best's arrays over
+        (the caller hands fresh ones)."""
+        best.raw.setflags(write=False)  # the goals' errors are views of it, and fitness is worked out from it later
         return Result(
             skeleton=skeleton,
-            angles=angles.reshape(shape + angles.shape[1:]),
-            generations=generations.reshape(shape),
-            history=history.reshape(shape + history.shape[1:]),
+            angles=best.angles.reshape(shape + best.angles.shape[1:]),
+            generations=best.generations.reshape(shape),
+            history=best.history.reshape(shape + best.history.shape[1:]),
             wall_time=wall_time,
-            device=device,
+            device=settings.device,
             settings=settings,
-            evaluation=Evaluation(self, raw, shape),
+            evaluation=Evaluation(self, best.raw, shape),
         )
+
+
+@dataclass(frozen=True)
+class BestPoses:
+    """The best pose of each of B problems after a solve: `angles` (B, D) radians or length
+    units, their raw errors `raw` (B, T) float64, `generations` (B,) run and `history`
+    (B, G, 2) the best fitness and mean per generation."""
+
+    angles: np.ndarray
+    raw: np.ndarray
+    generations: np.ndarray
+    history: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)

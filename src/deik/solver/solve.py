@@ -19,7 +19,7 @@ from deik.solver.kept import kept_engine
 from deik.solver.launches import Launches, polish_flops
 from deik.solver.problem import Problem
 from deik.solver.readiness import prepare
-from deik.solver.result import Result
+from deik.solver.result import BestPoses, Result
 from deik.solver.settings import Settings, SettingsChanges
 from deik.solver.workspace import Workspace
 
@@ -179,14 +179,6 @@ def make_result(
     best_index = (np.arange(len(state.best)), state.best)
     best = state.pop[best_index].astype(np.float64, copy=False)  # indexing copies already
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
-    return engine.report_terms.result(
-        problem.skeleton,
-        best,
-        raw,
-        state.generations.copy(),
-        state.history if isinstance(state, Workspace) else state.history.copy(),  # a Workspace's is new
-        shape,
-        wall_time,
-        engine.settings.device,
-        engine.settings,
-    )
+    history = state.history if isinstance(state, Workspace) else state.history.copy()  # a Workspace's is new
+    best_poses = BestPoses(angles=best, raw=raw, generations=state.generations.copy(), history=history)
+    return engine.report_terms.result(problem.skeleton, best_poses, shape, wall_time, engine.settings)
