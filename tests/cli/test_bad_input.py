@@ -323,8 +323,8 @@ def test_a_bug_is_reported_as_an_internal_error_not_a_usage_error(monkeypatch, c
 
     real = cli_main.build_parser
 
-    def parser_with_broken_info():
-        parser = real()
+    def parser_with_broken_info(command=None):
+        parser = real(command)
         parser.parse_args(["info", "chain:2"])  # the info subcommand exists
         parser._subparsers._group_actions[0].choices["info"].set_defaults(run=broken)
         return parser

@@ -26,13 +26,6 @@ import os
 import sys
 
 from deik import __version__
-from deik.cli import clip_command as cli_clip
-from deik.cli import folder_command as cli_library
-from deik.cli import info_command as cli_info
-from deik.cli import retarget_command as cli_retarget
-from deik.cli import solve_command as cli_solve
-from deik.cli import view_command as cli_view
-from deik.cli import warmup_command as cli_warmup
 from deik.cli.arguments import USER_ERRORS, check_outputs, number
 from deik.console import Parser, add_output_flags, configure_logging, show_compile_bars, show_progress
 from deik.errors import error_line
@@ -79,75 +72,126 @@ def run_experiments(args: argparse.Namespace) -> int:
     return run(args)
 
 
-def _command(commands, name: str, summary: str) -> Parser:
-    """The subcommand `name`: `summary` in `deik --help`'s list and, as a sentence, atop its own --help."""
-    return commands.add_parser(name, help=summary, description=f"{summary[0].upper()}{summary[1:]}.")
+def _solve(parser: Parser) -> None:
+    from deik.cli import solve_command
+
+    solve_command.add_arguments(parser)
+    parser.set_defaults(run=solve_command.run_solve)
 
 
-def build_parser() -> Parser:
-    """The parser of the whole command line: every subcommand and its flags."""
-    parser = Parser(prog="deik", description="Inverse kinematics by parallel Differential Evolution.")
-    parser.add_argument("--version", action="version", version=f"deik {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    s = _command(commands, "solve", "pose one problem and report per-goal errors")
-    cli_solve.add_arguments(s)
-    s.set_defaults(run=cli_solve.run_solve)
-    i = _command(commands, "info", "print a skeleton's joint tree, DOFs, limits, masses and sites")
-    i.add_argument("skeleton", help="a .bvh or .urdf file, or chain:N, chain3d:N, humanoid")
-    i.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated)")
-    i.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
-    i.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
-    i.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
-    add_output_flags(i, progress=False)
-    i.set_defaults(run=cli_info.run_info)
-    c = _command(commands, "clip", "fix a whole BVH clip: plant feet, balance, reach tracks, stay close")
-    cli_clip.add_arguments(c)
-    cli_library.add_arguments(c)
-    c.set_defaults(run=cli_library.run)
-    r = _command(commands, "retarget", "move a BVH clip onto other bone lengths or another skeleton")
-    cli_retarget.add_arguments(r)
-    cli_library.add_arguments(r)
-    r.set_defaults(run=cli_library.run)
-    e = _command(commands, "experiments", experiment_flags.SUMMARY)
-    experiment_flags.add_arguments(e)
-    e.set_defaults(run=run_experiments)
-    lim = _command(commands, "limits", "measure joint limits from a BVH clip's range of motion")
-    lim.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
-    lim.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
-    lim.add_argument(
+def _info(parser: Parser) -> None:
+    from deik.cli import info_command
+
+    parser.add_argument("skeleton", help="a .bvh or .urdf file, or chain:N, chain3d:N, humanoid")
+    parser.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated)")
+    parser.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
+    parser.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
+    parser.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_output_flags(parser, progress=False)
+    parser.set_defaults(run=info_command.run_info)
+
+
+def _clip(parser: Parser) -> None:
+    from deik.cli import clip_command, folder_command
+
+    clip_command.add_arguments(parser)
+    folder_command.add_arguments(parser)
+    parser.set_defaults(run=folder_command.run)
+
+
+def _retarget(parser: Parser) -> None:
+    from deik.cli import folder_command, retarget_command
+
+    retarget_command.add_arguments(parser)
+    folder_command.add_arguments(parser)
+    parser.set_defaults(run=folder_command.run)
+
+
+def _experiments(parser: Parser) -> None:
+    experiment_flags.add_arguments(parser)
+    parser.set_defaults(run=run_experiments)
+
+
+def _limits(parser: Parser) -> None:
+    parser.add_argument("clip", metavar="IN.bvh", help="the clip whose range of motion sets the limits")
+    parser.add_argument("--out", required=True, metavar="limits.json", help="the table to write")
+    parser.add_argument(
         "--margin",
         type=number(0.0, 180.0),
         default=10.0,
         metavar="DEGREES",
         help="added to each rotation's range on both sides (default 10)",
     )
-    lim.add_argument(
+    parser.add_argument(
         "--margin-length",
         type=number(0.0),
         metavar="LENGTH",
         help="also measure the translations that carry the body through the world (the root's), widened by "
         "LENGTH on both sides (default: left out, so a clip fix may lift or shift the body)",
     )
-    add_output_flags(lim, progress=False)
-    lim.set_defaults(run=run_limits)
-    v = _command(commands, "view", "a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])")
-    cli_view.add_arguments(v)
-    v.set_defaults(run=cli_view.run_view)
-    w = _command(commands, "warmup", "compile the kernels ahead of time (minutes, once after an install)")
-    cli_warmup.add_arguments(w)
-    w.set_defaults(run=cli_warmup.run_warmup)
-    d = _command(commands, "demo", "run the paper's scenarios, print a table and write pictures")
-    d.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
-    add_output_flags(d)
-    d.set_defaults(run=run_demo)
+    add_output_flags(parser, progress=False)
+    parser.set_defaults(run=run_limits)
+
+
+def _view(parser: Parser) -> None:
+    from deik.cli import view_command
+
+    view_command.add_arguments(parser)
+    parser.set_defaults(run=view_command.run_view)
+
+
+def _warmup(parser: Parser) -> None:
+    from deik.cli import warmup_command
+
+    warmup_command.add_arguments(parser)
+    parser.set_defaults(run=warmup_command.run_warmup)
+
+
+def _demo(parser: Parser) -> None:
+    parser.add_argument("--out", default="demo_output", metavar="DIR", help="folder for PNGs and demo.json")
+    add_output_flags(parser)
+    parser.set_defaults(run=run_demo)
+
+
+# (name, summary, what adds its flags): a command's module is imported only when it is the one
+# run (or every one, for `deik --help`), so `deik solve` does not load the clip pipeline
+COMMANDS = (
+    ("solve", "pose one problem and report per-goal errors", _solve),
+    ("info", "print a skeleton's joint tree, DOFs, limits, masses and sites", _info),
+    ("clip", "fix a whole BVH clip: plant feet, balance, reach tracks, stay close", _clip),
+    ("retarget", "move a BVH clip onto other bone lengths or another skeleton", _retarget),
+    ("experiments", experiment_flags.SUMMARY, _experiments),
+    ("limits", "measure joint limits from a BVH clip's range of motion", _limits),
+    ("view", "a 3-D view in the browser of a pose, a clip or a robot (needs deik[view])", _view),
+    ("warmup", "compile the kernels ahead of time (minutes, once after an install)", _warmup),
+    ("demo", "run the paper's scenarios, print a table and write pictures", _demo),
+)
+
+
+def build_parser(command: str | None = None) -> Parser:
+    """The parser of the whole command line, with the flags of subcommand `command` (default:
+    of every subcommand; the others are listed with their summaries only)."""
+    parser = Parser(prog="deik", description="Inverse kinematics by parallel Differential Evolution.")
+    parser.add_argument("--version", action="version", version=f"deik {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for name, summary, add_flags in COMMANDS:
+        sub = commands.add_parser(name, help=summary, description=f"{summary[0].upper()}{summary[1:]}.")
+        if command in (None, name):
+            add_flags(sub)
     return parser
+
+
+def _named_command(argv: list[str]) -> str | None:
+    """The subcommand `argv` runs (its first word that is no flag), or None when that is no command."""
+    word = next((arg for arg in argv if not arg.startswith("-")), None)
+    return word if word in {name for name, _, _ in COMMANDS} else None
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line `argv` (default sys.argv[1:]); returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser(_named_command(argv)).parse_args(argv)
         configure_logging(args)
         show_compile_bars(show_progress(args))
         with command_inputs(protect=not getattr(args, "overwrite", False)):  # no output replaces an input
