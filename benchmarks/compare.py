@@ -52,7 +52,7 @@ def run_once(tree: Path, benchmark: str, args: list[str], out: Path) -> dict:
     done = subprocess.run(command, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{benchmark} against {tree} failed (exit {done.returncode}): {done.stderr.strip()[-1500:]}")
-    (record,) = [json.loads(path.read_text()) for path in out.glob("*.json")]  # cold_start --profile: compile_profile
+    (record,) = [json.loads(path.read_text()) for path in out.glob("*.json")]
     return record
 
 
