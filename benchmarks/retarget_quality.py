@@ -42,34 +42,13 @@ from benchmarks.retarget_judge import (
     robot_pairing,
     source_floor,
     stature,
+    write_bvh_file,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
 HUMAN_URDF = shared_data("robots", "human.urdf")
 URDF_MAP = ROOT / "examples" / "maps" / "shared_bvh_to_human_urdf.toml"
 RESULTS = Path(__file__).resolve().parent / "results"
-
-
-def write_bvh_file(path: Path, bvh: Bvh) -> None:
-    """Write `bvh` as a BVH file."""
-    lines = ["HIERARCHY"]
-    children = {p: [c for c, parent in enumerate(bvh.parents) if parent == p] for p in range(len(bvh.names))}
-
-    def node(p: int, depth: int) -> None:
-        pad = "\t" * depth
-        site = not bvh.channels[p] and not children[p]
-        kind = "End Site" if site else ("ROOT " if depth == 0 else "JOINT ") + bvh.names[p]
-        lines.extend([pad + kind, pad + "{", pad + "\tOFFSET " + " ".join(f"{v:.6f}" for v in bvh.offsets[p])])
-        if not site:
-            lines.append(pad + f"\tCHANNELS {len(bvh.channels[p])} " + " ".join(bvh.channels[p]))
-        for c in children[p]:
-            node(c, depth + 1)
-        lines.append(pad + "}")
-
-    node(0, 0)
-    lines += ["MOTION", f"Frames: {len(bvh.frames)}", f"Frame Time: {bvh.frame_time:.6f}"]
-    lines += [" ".join(f"{v:.6f}" for v in row) for row in bvh.frames]
-    Path(path).write_text("\n".join(lines) + "\n")
 
 
 # --- hard cases -------------------------------------------------------------------------------
