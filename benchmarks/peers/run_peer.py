@@ -41,7 +41,7 @@ if __package__ in (None, ""):  # run by file path: make the `benchmarks` package
 
 from benchmarks.peers.chain_fk import load_chain
 from benchmarks.peers.chain_urdf import cut_urdf
-from benchmarks.peers.common import BUDGET_S, RESTART_SEED, rotation_angle, solve_with_restarts
+from benchmarks.peers.common import BUDGET_S, RESTART_SEED, load_targets, rotation_angle, solve_with_restarts
 from benchmarks.peers.de import DE_PEERS
 from benchmarks.peers.ik import PEERS
 
@@ -112,8 +112,7 @@ def serve(name: str, targets_file: str) -> int:
         channel.write(json.dumps(message) + "\n")
         channel.flush()
 
-    with np.load(targets_file) as data:
-        targets = {k: (data[k].item() if data[k].ndim == 0 else data[k]) for k in data.files}
+    targets = load_targets(targets_file)
     with tempfile.TemporaryDirectory() as workdir:
         try:
             runner = Runner(name, targets, Path(workdir))
