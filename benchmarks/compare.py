@@ -12,6 +12,14 @@ timings. The benchmark's `figures` (label -> number) of every round are set side
 median and range per side and the ratio of the medians, after / before. Writes
 BENCHMARK_BEFORE_AFTER.json (every round's record) and .md into --out (default
 benchmarks/results/compare), named by the commits measured.
+
+--after-env KEY=VALUE ... runs the after side with those environment variables: the same commit
+twice compares two settings of one deik. `NUMBA_CPU_NAME=znver3 NUMBA_CPU_FEATURES=no-avx512`
+compiles the after side's kernels for a CPU without AVX-512 (`no-avx512`: this CPU's LLVM
+features with every AVX-512 one off), each side on its own kernel cache:
+
+    python -m benchmarks.compare robots HEAD HEAD --after-env NUMBA_CPU_NAME=znver3 \
+        NUMBA_CPU_FEATURES=no-avx512 -- --targets 300 --chunks 5 --cases panda --peers rtb
 A benchmark runs against an older deik only where that deik has what it uses (the public API
 always; `deik.cleanup` since e1c08f6).
 """
@@ -21,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shlex
 import statistics
 import subprocess
@@ -45,14 +54,33 @@ def worktree(revision: str, folder: Path) -> Path:
     return folder
 
 
-def run_once(tree: Path, benchmark: str, args: list[str], out: Path) -> dict:
-    """The record of one run of benchmarks.BENCHMARK with ARGS against the deik of `tree`."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tree / "src"), str(ROOT)))}
+def features_without_avx512() -> str:
+    """This CPU's LLVM feature string ("+sse4.2,+avx2,...") with every AVX-512 feature off."""
+    import llvmlite.binding as llvm
+
+    llvm.initialize_native_target()
+    features = llvm.get_host_cpu_features()
+    return ",".join(("-" if name.startswith("avx512") else "+" if on else "-") + name for name, on in features.items())
+
+
+def environment(pairs: list[str], cache: Path) -> dict[str, str]:
+    """The KEY=VALUE `pairs` of --after-env (NUMBA_CPU_FEATURES=no-avx512 expanded), with a
+    kernel cache of their own when any is given."""
+    env = dict(pair.partition("=")[::2] for pair in pairs)
+    if env.get("NUMBA_CPU_FEATURES") == "no-avx512":
+        env["NUMBA_CPU_FEATURES"] = features_without_avx512()
+    return env | {"NUMBA_CACHE_DIR": str(cache)} if env else {}
+
+
+def run_once(tree: Path, benchmark: str, args: list[str], out: Path, extra: dict) -> dict:
+    """The record of one run of benchmarks.BENCHMARK with ARGS against the deik of `tree`, with
+    the environment variables `extra`."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tree / "src"), str(ROOT))), **extra}
     command = [sys.executable, "-m", f"benchmarks.{benchmark}", *args, "--out", str(out)]
     done = subprocess.run(command, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{benchmark} against {tree} failed (exit {done.returncode}): {done.stderr.strip()[-1500:]}")
-    (record,) = [json.loads(path.read_text()) for path in out.glob("*.json")]  # cold_start --profile: compile_profile
+    (record,) = [json.loads(path.read_text()) for path in out.glob("*.json")]
     return record
 
 
@@ -78,7 +106,9 @@ def markdown(result: dict) -> str:
 
     trees = result["trees"]
     lines = [
-        f"# {result['benchmark']}: {trees['before']} (before) against {trees['after']} (after)",
+        f"# {result['benchmark']}: {trees['before']} (before) against {trees['after']} (after"
+        + "".join(f", {key}={value}" for key, value in result["after_env"].items())
+        + ")",
         "",
         f"`{result['command']}`; {result['rounds']} rounds, the two taking turns, the order swapped every round; "
         f"{result['cpu_model']}; load average {result['load_average_before'][0]:.2f} before, "
@@ -102,7 +132,10 @@ def main(argv=None) -> dict:
     p.add_argument("after", nargs="?", help="the later revision (default: this working tree as it is)")
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--out", type=Path, default=RESULTS / "compare", help="results folder")
+    p.add_argument("--after-env", nargs="+", default=[], metavar="KEY=VALUE", help="the after side's environment")
     a = p.parse_args(own)
+    if any("=" not in pair for pair in a.after_env):
+        p.error("--after-env takes KEY=VALUE pairs")
     if not (ROOT / "benchmarks" / f"{a.benchmark}.py").is_file():
         p.error(f"no benchmark benchmarks/{a.benchmark}.py")
     began, load_before = time.perf_counter(), list(os.getloadavg())
@@ -111,10 +144,12 @@ def main(argv=None) -> dict:
         trees = {"before": worktree(a.before, scratch / "before")}
         trees["after"] = worktree(a.after, scratch / "after") if a.after else ROOT
         runs: dict[str, list[dict]] = {"before": [], "after": []}
+        envs = {"before": {}, "after": environment(a.after_env, scratch / "after-cache")}
         try:
             for r in range(a.rounds):
                 for side in ("before", "after") if r % 2 == 0 else ("after", "before"):
-                    runs[side].append(run_once(trees[side], a.benchmark, passed, scratch / "out" / side / str(r)))
+                    out = scratch / "out" / side / str(r)
+                    runs[side].append(run_once(trees[side], a.benchmark, passed, out, envs[side]))
                     print(f"round {r + 1}/{a.rounds}: {side} done", file=sys.stderr, flush=True)
         finally:
             for tree in trees.values():
@@ -127,6 +162,7 @@ def main(argv=None) -> dict:
         "command": "python -m benchmarks.compare " + shlex.join(argv),
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "rounds": a.rounds,
+        "after_env": dict(pair.partition("=")[::2] for pair in a.after_env),
         "trees": {side: records[0]["commit"] for side, records in runs.items()},
         "cpu_model": cpu_info()[0],
         "load_average_before": load_before,
@@ -136,7 +172,8 @@ def main(argv=None) -> dict:
         "runs": runs,
     }
     text = markdown(result)
-    name = "_".join((runs["before"][0]["benchmark"], *result["trees"].values()))
+    values = [re.sub(r"\W", "", value) for value in result["after_env"].values()]
+    name = "_".join((runs["before"][0]["benchmark"], *result["trees"].values(), *values))
     a.out.mkdir(parents=True, exist_ok=True)
     write_json_atomically(a.out / f"{name}.json", result, missing_as_null=True)
     write_text_atomically(a.out / f"{name}.md", text)

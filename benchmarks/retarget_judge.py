@@ -3,8 +3,9 @@ calls it): nothing here uses deik's report code, its forward kinematics or its c
 
 Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, the floating
 root (ROOT.X/Y/Zposition, ROOT.Z/X/Yrotation, intrinsic, in the root link's axes) applied on top;
-BVH files are read and posed by the small parser below (a joint's local transform is its OFFSET
-plus its position channels, then its rotation channels in file order, intrinsic).
+BVH files are read, written and posed by benchmarks/clip_rigs.py, the clip judge's own (a
+joint's local transform is its OFFSET plus its position channels, then its rotation channels
+in file order, intrinsic).
 
 Per retarget (judge; lengths in mm of the target, the target's floor at height 0 of its world
 for a robot, the floor deik states for the same rig, whose world is the source's; the judge's
@@ -33,12 +34,13 @@ from __future__ import annotations
 
 import csv
 import math
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from benchmarks.clip_rigs import Rig, format_rig, joint_values, parse_rig, pose_points
 
 # the judge's contact: slower than REST_SPEED statures/s or REST_RATIO x the body's mean point,
 # within REST_BAND statures of its own lowest resting height, which lies within REST_NEAR
@@ -71,68 +73,46 @@ class Bvh:
 
 
 def read_bvh_file(path: Path) -> Bvh:
-    """Parse a BVH file (a site is named after its joint, "JOINT_end")."""
-    text = Path(path).read_text()
-    head, motion = re.split(r"^\s*MOTION\s*$", text, maxsplit=1, flags=re.M)
-    tokens = head.split()
-    names, parents, offsets, channels, stack = [], [], [], [], []
-    k = 0
-    while k < len(tokens):
-        word = tokens[k]
-        if word in ("ROOT", "JOINT"):
-            names.append(tokens[k + 1])
-            k += 2
-        elif word == "End":
-            names.append(names[stack[-1]] + "_end")
-            k += 2
-        elif word == "{":
-            parents.append(stack[-1] if stack else -1)
-            stack.append(len(names) - 1)
-            offsets.append(None)
-            channels.append([])
-            k += 1
-        elif word == "}":
-            stack.pop()
-            k += 1
-        elif word == "OFFSET":
-            offsets[stack[-1]] = [float(v) for v in tokens[k + 1 : k + 4]]
-            k += 4
-        elif word == "CHANNELS":
-            count = int(tokens[k + 1])
-            channels[stack[-1]] = tokens[k + 2 : k + 2 + count]
-            k += 2 + count
-        else:
-            k += 1
-    lines = [line for line in motion.strip().splitlines() if line.strip()]
-    frame_time = float(lines[1].split(":")[1])
-    frames = np.array([[float(v) for v in line.split()] for line in lines[2:]])
-    return Bvh(names, parents, np.array(offsets), channels, frames.reshape(len(lines) - 2, -1), frame_time)
+    """Parse a BVH file (benchmarks/clip_rigs.py): its joints, then its End Sites ("JOINT_end")."""
+    rig = parse_rig(Path(path).read_text())
+    names = [*rig.names, *(name for name, _, _ in rig.sites)]
+    parents = [*rig.parents, *(joint for _, joint, _ in rig.sites)]
+    offsets = np.concatenate([rig.offsets, np.reshape([offset for _, _, offset in rig.sites], (-1, 3))])
+    channels = [list(c) for c in rig.channels] + [[] for _ in rig.sites]
+    return Bvh(names, parents, offsets, channels, rig.frames, rig.frame_time)
+
+
+def as_rig(bvh: Bvh) -> Rig:
+    """`bvh` as a clip_rigs.Rig: its nodes with channels or children are joints (first), the
+    others End Sites."""
+    joints = [p for p in range(len(bvh.names)) if bvh.channels[p] or p in bvh.parents]
+    if joints != list(range(len(joints))):
+        raise ValueError("a Bvh lists its joints before its End Sites")
+    sites = [p for p in range(len(bvh.names)) if p >= len(joints)]
+    return Rig(
+        tuple(bvh.names[: len(joints)]),
+        tuple(bvh.parents[: len(joints)]),
+        bvh.offsets[: len(joints)],
+        tuple(tuple(c) for c in bvh.channels[: len(joints)]),
+        tuple((bvh.names[p], bvh.parents[p], bvh.offsets[p]) for p in sites),
+        bvh.frames,
+        bvh.frame_time,
+    )
+
+
+def write_bvh_file(path: Path, bvh: Bvh) -> None:
+    """Write `bvh` as a BVH file."""
+    Path(path).write_text(format_rig(as_rig(bvh)))
 
 
 def bvh_transforms(bvh: Bvh) -> tuple[np.ndarray, np.ndarray]:
     """(positions (N, P, 3), local rotations (N, P, 3, 3)) of every node in every frame: a
     node's local transform is its OFFSET plus its position channels, then its rotation
-    channels in file order, intrinsic."""
-    N, P = len(bvh.frames), len(bvh.names)
-    position, local = np.zeros((N, P, 3)), np.tile(np.eye(3), (N, P, 1, 1))
-    world = np.zeros((N, P, 3, 3))
-    for p in range(P):
-        columns, names = bvh.columns(p), bvh.channels[p]
-        shift = np.tile(bvh.offsets[p], (N, 1))
-        axes = "".join(c[0] for c in names if c.endswith("rotation"))
-        for column, name in zip(columns, names):
-            if name.endswith("position"):
-                shift[:, "XYZ".index(name[0])] += bvh.frames[:, column]
-        if axes:
-            angles = bvh.frames[:, [c for c, n in zip(columns, names) if n.endswith("rotation")]]
-            local[:, p] = Rotation.from_euler(axes.upper(), angles, degrees=True).as_matrix()
-        parent = bvh.parents[p]
-        if parent < 0:
-            position[:, p], world[:, p] = shift, local[:, p]
-        else:
-            position[:, p] = position[:, parent] + np.einsum("nij,nj->ni", world[:, parent], shift)
-            world[:, p] = world[:, parent] @ local[:, p]
-    return position, local
+    channels in file order, intrinsic (clip_rigs, position channels as displacements)."""
+    rig = as_rig(bvh)
+    local = joint_values(rig)[0]
+    sites = np.broadcast_to(np.eye(3), (len(local), len(rig.sites), 3, 3))
+    return pose_points(rig), np.concatenate([local, sites], axis=1)
 
 
 def stature(bvh: Bvh) -> float:

@@ -2,7 +2,7 @@
 clip and hard cases made from them, onto human.urdf (and robots made from it) and onto the same
 rig with other proportions.
 
-    PYTHONPATH=src python -m benchmarks.retarget_quality [--quick] [--clips DIR] [--out DIR] [--only TEXT]
+    python -m benchmarks.retarget_quality [--quick] [--clips DIR] [--out DIR] [--only TEXT]
 
 Each case is retargeted through the command line (`deik retarget`) and judged from the files it
 wrote (the trajectory CSV, the BVH). Hard cases (source_case, robot_case): a clip played
@@ -10,14 +10,13 @@ backwards, sped up 2x, with its legs 15 % longer (its feet sink), with noise on 
 and as another rig family (centimetres, a Reference root on the floor above the hips, position
 channels on every joint, other joint names, 30 fps); robots made from human.urdf (another joint
 order, continuous shoulders and elbows, velocity limits halved). Writes retarget_quality.json
-and retarget_quality.md under --out, each run's judge figures beside deik's own summary.
+and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
+deik's own summary; --quick runs the walk alone.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import re
 import tempfile
 import time
@@ -28,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.data import need, shared_data
+from benchmarks.harness import md_table, parser, start
 from benchmarks.retarget_judge import (
     PENETRATION_BOUND,
     SLIDING_BOUND,
@@ -42,34 +42,12 @@ from benchmarks.retarget_judge import (
     robot_pairing,
     source_floor,
     stature,
+    write_bvh_file,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
 HUMAN_URDF = shared_data("robots", "human.urdf")
 URDF_MAP = ROOT / "examples" / "maps" / "shared_bvh_to_human_urdf.toml"
-RESULTS = Path(__file__).resolve().parent / "results"
-
-
-def write_bvh_file(path: Path, bvh: Bvh) -> None:
-    """Write `bvh` as a BVH file."""
-    lines = ["HIERARCHY"]
-    children = {p: [c for c, parent in enumerate(bvh.parents) if parent == p] for p in range(len(bvh.names))}
-
-    def node(p: int, depth: int) -> None:
-        pad = "\t" * depth
-        site = not bvh.channels[p] and not children[p]
-        kind = "End Site" if site else ("ROOT " if depth == 0 else "JOINT ") + bvh.names[p]
-        lines.extend([pad + kind, pad + "{", pad + "\tOFFSET " + " ".join(f"{v:.6f}" for v in bvh.offsets[p])])
-        if not site:
-            lines.append(pad + f"\tCHANNELS {len(bvh.channels[p])} " + " ".join(bvh.channels[p]))
-        for c in children[p]:
-            node(c, depth + 1)
-        lines.append(pad + "}")
-
-    node(0, 0)
-    lines += ["MOTION", f"Frames: {len(bvh.frames)}", f"Frame Time: {bvh.frame_time:.6f}"]
-    lines += [" ".join(f"{v:.6f}" for v in row) for row in bvh.frames]
-    Path(path).write_text("\n".join(lines) + "\n")
 
 
 # --- hard cases -------------------------------------------------------------------------------
@@ -274,7 +252,7 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     return [r for r in runs if r["clip"] == "walk"] if quick else runs
 
 
-def run(spec: dict, clips: dict, folder: Path) -> dict:
+def retarget_case(spec: dict, clips: dict, folder: Path) -> dict:
     """Make the case of `spec` in `folder`, retarget it and judge it."""
     original = clips[spec["clip"]]
     source_path, map_path, robot_path, wrists = original, URDF_MAP, HUMAN_URDF, WRISTS
@@ -304,42 +282,30 @@ SHOWN = (
 )
 
 
-def markdown(rows: list[dict], facts: dict) -> str:
-    """The short Markdown table of the runs."""
+def table(rows: list[dict]) -> str:
+    """The short Markdown table of the runs, with the bounds."""
     header = ["clip", "case", "target", "frames"] + [label for _, label in SHOWN] + ["resting points"]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    cells = []
     for row in rows:
-        cells = [row["clip"], row["case"], row["target"], str(row.get("frames", ""))]
-        for key, _ in SHOWN:
-            value = row.get(key)
-            cells.append("-" if value is None else f"{value:.3g}" if isinstance(value, float) else str(value))
-        cells.append(", ".join(row.get("resting_points", [])) or "-")
-        lines.append("| " + " | ".join(cells) + " |")
-    notes = [
-        "",
-        f"Bounds: sliding <= {SLIDING_BOUND} mm/frame over every point resting in the source, nothing more than "
+        values = [row.get(key) for key, _ in SHOWN]
+        shown = ["-" if v is None else f"{v:.3g}" if isinstance(v, float) else str(v) for v in values]
+        cells.append([row["clip"], row["case"], row["target"], row.get("frames", ""), *shown])
+        cells[-1].append(", ".join(row.get("resting_points", [])) or "-")
+    return md_table(header, cells) + (
+        f"\nBounds: sliding <= {SLIDING_BOUND} mm/frame over every point resting in the source, nothing more than "
         f"{PENETRATION_BOUND} mm under the floor, every DOF step within max(velocity limit x frame time, "
         f"{STEP_ALLOWANCE} x the source's largest joint turn per frame) (step / allowance <= 1), no wraps, "
-        f"a hand within {WRIST_BOUND} statures of the target of its scaled source point.",
-        f"Measured by benchmarks/retarget_quality.py (yourdfpy and its own BVH reader), commit {facts['commit']}, "
-        f"{facts['cpu']}, load average {facts['load']}.",
-    ]
-    return "\n".join(lines + notes) + "\n"
+        f"a hand within {WRIST_BOUND} statures of the target of its scaled source point.\n"
+    )
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> dict:
     """Run the plan, write retarget_quality.json and .md under --out, print the table."""
-    import subprocess
-
-    from deik.experiments.timing import cpu_model
-    from deik.io.atomic import write_json_atomically, write_text_atomically
-
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--quick", action="store_true", help="the walk alone")
+    p = parser(__doc__)
     p.add_argument("--clips", type=Path, help="folder of clips (default the shared ones)")
-    p.add_argument("--out", type=Path, default=RESULTS)
     p.add_argument("--only", help="run only the plan entries whose clip, case or target contains this text")
-    args = p.parse_args(argv)
+    run = start("retarget_quality", p, argv)
+    args = run.args
     args.clips = args.clips or need("humanoid")
     need("robots", "human.urdf")
     clips = {c.stem.removeprefix("humanoid3d_"): c for c in sorted(args.clips.glob("*.bvh"))}
@@ -352,19 +318,14 @@ def main(argv: list[str] | None = None) -> int:
             folder = Path(tmp) / f"{spec['clip']}_{len(rows)}"
             folder.mkdir()
             try:
-                row = {**spec, **run(spec, clips, folder)}
+                row = {**spec, **retarget_case(spec, clips, folder)}
             except Exception as error:  # a failed run is a row of the table, not the end of the benchmark
                 row = {**spec, "failed": f"{type(error).__name__}: {error}"}
             rows.append(row)
             print(json.dumps({k: v for k, v in row.items() if k not in ("deik", "resting_points")}), flush=True)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout
-    facts = {"commit": commit.strip(), "cpu": cpu_model(), "load": [round(v, 1) for v in os.getloadavg()]}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomically(args.out / "retarget_quality.json", {"machine": facts, "runs": rows}, missing_as_null=True)
-    write_text_atomically(args.out / "retarget_quality.md", markdown(rows, facts))
-    print(markdown(rows, facts))
-    return 0
+    figures = {f"{r['clip']} {r['case']} {r['target']} {key}": r.get(key) for r in rows for key, _ in SHOWN}
+    return run.finish({"runs": rows}, table(rows), figures=figures)
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

@@ -17,6 +17,7 @@ import numpy as np
 
 import deik
 from benchmarks.data import need
+from benchmarks.peers.chain_fk import rotation_angle
 from benchmarks.peers.common import LIMIT_SLACK
 from deik.model.joints import ROTATE
 
@@ -70,22 +71,9 @@ def make_targets(name: str, n: int, seed: int = 0, robots: Path | None = None) -
 
 
 def save_targets(targets: dict, path: Path) -> None:
-    """Write a make_targets dict to an .npz file (strings as 0-d arrays)."""
+    """Write a make_targets dict to an .npz file (strings as 0-d arrays; peers.common.load_targets
+    reads it)."""
     np.savez(path, **{k: np.asarray(v) for k, v in targets.items()})
-
-
-def load_targets(path: Path) -> dict:
-    """Read save_targets' file back: arrays, and plain str/int for the scalar fields."""
-    with np.load(path) as data:
-        return {k: (data[k].item() if data[k].ndim == 0 else data[k]) for k in data.files}
-
-
-def rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
-    """Angle (*batch,) rad of R_a^T R_b for rotations (*batch, 3, 3); accurate near 0 and pi."""
-    M = np.swapaxes(R_a, -1, -2) @ R_b
-    vee = np.stack([M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]], -1)
-    trace = M[..., 0, 0] + M[..., 1, 1] + M[..., 2, 2]
-    return np.arctan2(np.linalg.norm(vee, axis=-1) / 2, (trace - 1) / 2)
 
 
 def pose_errors(skeleton: deik.Skeleton, tip: str, Q, positions, rotations):

@@ -194,9 +194,9 @@ def main(argv=None) -> dict:
     p.add_argument("--deik", nargs="*", default=[], metavar="KEY=VALUE", help="deik settings replacing DEIK's")
     run = harness.start("robots", p, argv)
     args = run.args
-    peers = PEERS if args.peers == "all" else () if args.peers == "none" else tuple(args.peers.split(","))
+    peers = tuple(PEERS) if args.peers == "all" else () if args.peers == "none" else tuple(args.peers.split(","))
     if set(peers) - set(PEERS):
-        p.error(f"unknown peers {sorted(set(peers) - set(PEERS))}; choose from {PEERS}")
+        p.error(f"unknown peers {sorted(set(peers) - set(PEERS))}; choose from {tuple(PEERS)}")
     cases = {}
     with tempfile.TemporaryDirectory() as work:
         for case in args.cases:

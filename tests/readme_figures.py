@@ -44,7 +44,7 @@ class Figure:
     """A measured number of the README: `pattern`, a regex over the README (whitespace collapsed
     to single spaces) matching once, whose groups are the stated numbers; `source`, the README
     command that measures them (the start of its line) or a results file under
-    benchmarks/results ("clip_quality.json"); `measure(record)`, the measured values, one per
+    benchmarks/results ("clip_targets.json"); `measure(record)`, the measured values, one per
     group, from the command's record ({"stdout": str, "json": what it wrote with --json}) or
     the results file's JSON; `tolerance`, one for every group or one per group; `document`, the
     file under the checkout that states it (the README unless said)."""

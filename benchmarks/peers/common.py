@@ -86,6 +86,12 @@ def solve_with_restarts(attempt, fk, target, start, limits, seed, budget=BUDGET_
         q0 = rng.uniform(*limits)
 
 
+def load_targets(path) -> dict:
+    """Read robot_targets.save_targets' .npz file: arrays, and plain str/int for the scalar fields."""
+    with np.load(path) as data:
+        return {k: (data[k].item() if data[k].ndim == 0 else data[k]) for k in data.files}
+
+
 def index_map(names: list[str], dof_names: list[str]) -> np.ndarray:
     """Position in `names` (a library's joint order) of each of deik's `dof_names`."""
     missing = sorted(set(dof_names) - set(names))

@@ -3,7 +3,8 @@
     .venv-peers/bin/python -m benchmarks.peers.run_peer NAME targets.npz            # an IK peer, serving chunks
     .venv-peers/bin/python -m benchmarks.peers.run_peer NAME problem.npz out.json   # a DE peer, every trial
 
-(`python benchmarks/peers/run_peer.py ...` works too.) NAME is an adapter `benchmarks/peers/NAME_peer.py`.
+(`python benchmarks/peers/run_peer.py ...` works too.) NAME is a key of benchmarks.peers.ik.PEERS
+or benchmarks.peers.de.DE_PEERS.
 
 An IK peer (benchmarks.peer_process drives it) loads the targets file (benchmarks.robot_targets
 .save_targets), sets up, checks its frames (its FK at three q_true against the targets, m and
@@ -24,7 +25,6 @@ Failures are a JSON {"error": ...} (as the line, or in out.json) and exit status
 
 from __future__ import annotations
 
-import importlib
 import importlib.metadata
 import json
 import os
@@ -41,18 +41,14 @@ if __package__ in (None, ""):  # run by file path: make the `benchmarks` package
 
 from benchmarks.peers.chain_fk import load_chain
 from benchmarks.peers.chain_urdf import cut_urdf
-from benchmarks.peers.common import BUDGET_S, RESTART_SEED, rotation_angle, solve_with_restarts
+from benchmarks.peers.common import BUDGET_S, RESTART_SEED, load_targets, rotation_angle, solve_with_restarts
+from benchmarks.peers.de import DE_PEERS
+from benchmarks.peers.ik import PEERS
 
-PEERS = ("ikpy", "pk", "placo", "pink", "mink", "pybullet", "rtb", "tracik")
-DE_PEERS = ("scipy_de", "evosax")
 
-
-def adapter(name: str, known: tuple[str, ...]):
-    """The adapter module of peer `name` and its version record."""
-    if name not in known:
-        raise ValueError(f"unknown peer {name!r}; choose from {known}")
-    module = importlib.import_module(f"benchmarks.peers.{name}_peer")
-    return module, {"name": name, "package": module.PACKAGE, "version": importlib.metadata.version(module.PACKAGE)}
+def version(name: str, package: str) -> dict:
+    """The record of peer `name`: its distribution and version."""
+    return {"name": name, "package": package, "version": importlib.metadata.version(package)}
 
 
 class Runner:
@@ -64,10 +60,13 @@ class Runner:
         dof_names = [str(n) for n in targets["dof_names"]]
         if joints != dof_names:
             raise ValueError(f"the cut URDF moves {joints}, deik's DOFs are {dof_names}")
-        module, self.info = adapter(name, PEERS)
-        self.targets, self.restarts = targets, getattr(module, "RESTARTS", True)
+        if name not in PEERS:
+            raise ValueError(f"unknown peer {name!r}; choose from {tuple(PEERS)}")
+        adapter = PEERS[name]
+        self.info = version(name, adapter.PACKAGE)
+        self.targets, self.restarts = targets, getattr(adapter, "RESTARTS", True)
         began = time.perf_counter()
-        self.peer = module.Peer(urdf, targets["base"], targets["tip"], dof_names)
+        self.peer = adapter(urdf, targets["base"], targets["tip"], dof_names)
         restarts = f"uniform in limits, default_rng([{RESTART_SEED}, target index]), {BUDGET_S} s per target"
         gaps = []
         for k in range(min(3, len(targets["q_true"]))):
@@ -113,8 +112,7 @@ def serve(name: str, targets_file: str) -> int:
         channel.write(json.dumps(message) + "\n")
         channel.flush()
 
-    with np.load(targets_file) as data:
-        targets = {k: (data[k].item() if data[k].ndim == 0 else data[k]) for k in data.files}
+    targets = load_targets(targets_file)
     with tempfile.TemporaryDirectory() as workdir:
         try:
             runner = Runner(name, targets, Path(workdir))
@@ -134,12 +132,14 @@ def serve(name: str, targets_file: str) -> int:
 
 def de_trials(name: str, problem_file: str) -> dict:
     """The DE peer's record of every trial of the problem file."""
-    module, info = adapter(name, DE_PEERS)
+    if name not in DE_PEERS:
+        raise ValueError(f"unknown peer {name!r}; choose from {tuple(DE_PEERS)}")
+    package, settings, make_solver = DE_PEERS[name]
     chain = load_chain(problem_file)
-    solve = module.make_solver(chain, bool(chain["pose"]), chain["tolerances"].tolist(), int(chain["max_generations"]))
+    solve = make_solver(chain, bool(chain["pose"]), chain["tolerances"].tolist(), int(chain["max_generations"]))
     targets = list(zip(chain["positions"], chain["rotations"], chain["seeds"].tolist()))
     solve(targets[0][0], targets[0][1], targets[0][2] + 10_000)  # warm-up, not timed
-    return {**info, "settings": module.SETTINGS, "trials": [solve(p, R, seed) for p, R, seed in targets]}
+    return {**version(name, package), "settings": settings, "trials": [solve(p, R, seed) for p, R, seed in targets]}
 
 
 def main(argv: list[str] | None = None) -> int:

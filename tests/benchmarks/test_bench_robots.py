@@ -10,11 +10,11 @@ from scipy.spatial.transform import Rotation
 import deik
 from benchmarks.peers.chain_fk import load_chain, tip_errors, tip_pose
 from benchmarks.peers.chain_urdf import cut_urdf
+from benchmarks.peers.common import load_targets
 from benchmarks.robot_targets import (
     CASES,
     export_chain,
     load_case,
-    load_targets,
     make_targets,
     pose_errors,
     save_targets,

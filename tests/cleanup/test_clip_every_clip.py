@@ -2,7 +2,7 @@
 body kept out of the floor and no point made to jolt, or the frame listed; what no goal touches
 keeps the capture and the Euler channels stay continuous; a reach changes nothing outside its
 eased window; the standard metrics reach the summary, the JSON and the report picture.
-benchmarks/clip_quality.py and benchmarks/clip_targets.py write such measures for every clip."""
+benchmarks/clip_targets.py measures every clip with an independent judge."""
 
 import dataclasses
 import json
