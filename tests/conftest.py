@@ -6,6 +6,10 @@
 - gpu: a real CUDA GPU; skipped, with the reason, on a machine without one. Tests that run the
   CUDA kernels in Numba's simulator are not gpu tests.
 - slow: over about 20 s on a two-core machine; `pytest -m "not slow"` leaves them out.
+
+The suite runs the modules that hold slow tests first, and `make test` spreads the tests over the
+cores (pytest-xdist, --dist loadgroup) with the tests of a module that share a module-scoped
+fixture kept on one worker.
 """
 
 from pathlib import Path
@@ -34,7 +38,39 @@ def pytest_sessionstart(session):
     warmup(["float32", "float64"], progress=False)
 
 
+def _module(item) -> str:
+    return item.nodeid.split("::", 1)[0]
+
+
+def _shares_a_module_fixture(item) -> bool:
+    info = getattr(item, "_fixtureinfo", None)
+    return info is not None and any(defs[-1].scope == "module" for defs in info.name2fixturedefs.values() if defs)
+
+
+def _slow_first(items) -> None:
+    """Put the modules that hold a slow test first, and inside them the slow tests first unless
+    the module's tests share a module fixture (those stay in order, so a run builds it once):
+    `make test`'s workers (pytest-xdist) take the tests in this order, and the longest ones
+    started early leave the short ones to fill both workers at the end."""
+    slow_modules = {_module(item) for item in items if item.get_closest_marker("slow") is not None}
+    kept_together = {_module(item) for item in items if _shares_a_module_fixture(item)}
+
+    def order(item):
+        in_place = _module(item) in kept_together or item.get_closest_marker("slow") is not None
+        return _module(item) not in slow_modules, not in_place
+
+    items.sort(key=order)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
+    """Mark the shared_data tests and skip them without the data, skip the gpu tests without a
+    GPU, run the slow tests first, and keep the tests that share a module fixture on one worker
+    (one xdist_group per module) so that the fixture is built once."""
+    for item in items:
+        if _shares_a_module_fixture(item):
+            item.add_marker(pytest.mark.xdist_group(_module(item)))
+    _slow_first(items)
     for item in items:
         if "shared_data" in getattr(item, "fixturenames", ()) and item.get_closest_marker("shared_data") is None:
             item.add_marker(pytest.mark.shared_data)
