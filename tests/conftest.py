@@ -7,11 +7,11 @@
   CUDA kernels in Numba's simulator are not gpu tests.
 - slow: over about 20 s on a two-core machine; `pytest -m "not slow"` leaves them out.
 
-The suite runs the modules that hold slow tests first, and `make test` spreads the tests over the
-cores (pytest-xdist, --dist loadgroup) with the tests of a module that share a module-scoped
-fixture kept on one worker.
+The suite runs the modules that hold slow tests first; `make test` spreads the modules over the
+cores (pytest-xdist, --dist loadfile: a module's tests share one worker and its module fixtures).
 """
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -28,6 +28,15 @@ def _gpu_available() -> bool:
         return False
 
 
+def pytest_configure(config):
+    """A suite started as a background job of a shell without job control (`make test &` in a
+    script) inherits SIGINT ignored, and so would every process its tests start: the tests that
+    stop `deik view` or a solve with Ctrl-C would wait on them. Python's own Ctrl-C handling is
+    put back (the tests' subprocesses then start with the default)."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def pytest_sessionstart(session):
     """Load the CPU kernels' build for every goal kind (compiling it once per checkout, side by
     side): it serves every problem (deik.backends.builds), so the suite compiles it alone instead
@@ -38,38 +47,17 @@ def pytest_sessionstart(session):
     warmup(["float32", "float64"], progress=False)
 
 
-def _module(item) -> str:
-    return item.nodeid.split("::", 1)[0]
-
-
-def _shares_a_module_fixture(item) -> bool:
-    info = getattr(item, "_fixtureinfo", None)
-    return info is not None and any(defs[-1].scope == "module" for defs in info.name2fixturedefs.values() if defs)
-
-
 def _slow_first(items) -> None:
-    """Put the modules that hold a slow test first, and inside them the slow tests first unless
-    the module's tests share a module fixture (those stay in order, so a run builds it once):
-    `make test`'s workers (pytest-xdist) take the tests in this order, and the longest ones
-    started early leave the short ones to fill both workers at the end."""
-    slow_modules = {_module(item) for item in items if item.get_closest_marker("slow") is not None}
-    kept_together = {_module(item) for item in items if _shares_a_module_fixture(item)}
-
-    def order(item):
-        in_place = _module(item) in kept_together or item.get_closest_marker("slow") is not None
-        return _module(item) not in slow_modules, not in_place
-
-    items.sort(key=order)
+    """Put the modules that hold a slow test first, each module's tests together and in order:
+    `make test`'s workers (pytest-xdist, --dist loadfile) take the modules in this order, and the
+    longest started early leave the short ones to fill both workers at the end."""
+    slow_modules = {item.path for item in items if item.get_closest_marker("slow") is not None}
+    items.sort(key=lambda item: item.path not in slow_modules)
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
-    """Mark the shared_data tests and skip them without the data, skip the gpu tests without a
-    GPU, run the slow tests first, and keep the tests that share a module fixture on one worker
-    (one xdist_group per module) so that the fixture is built once."""
-    for item in items:
-        if _shares_a_module_fixture(item):
-            item.add_marker(pytest.mark.xdist_group(_module(item)))
+    """Run the modules with slow tests first, mark the shared_data tests and skip them without
+    the data, skip the gpu tests without a GPU."""
     _slow_first(items)
     for item in items:
         if "shared_data" in getattr(item, "fixturenames", ()) and item.get_closest_marker("shared_data") is None:

@@ -54,7 +54,7 @@ def test_make_test_installs_the_test_extras_and_runs_ruff_then_the_suite(tmp_pat
     assert '.venv/bin/python -m pip install --quiet -e ".[test,viz]"' in lines
     assert lines[-3:-1] == [".venv/bin/ruff check .", ".venv/bin/ruff format --check ."]
     # the whole suite (no path, no -m selection), on every core
-    suite = ".venv/bin/python -m pytest -q -n logical --maxprocesses 4 --dist loadgroup --no-loadscope-reorder"
+    suite = ".venv/bin/python -m pytest -q -n logical --maxprocesses 4 --dist loadfile --no-loadscope-reorder"
     assert lines[-1] == suite
 
 
