@@ -25,10 +25,13 @@ demo: $(DEMO_STAMP)
 	$(BIN)/deik warmup
 	$(BIN)/deik demo --out demo_output
 
+# the suite on every core, four workers at most, a test module to a worker (pytest-xdist; tests/conftest.py
+# puts the modules with slow tests first); TEST_WORKERS=0: one process
+TEST_WORKERS ?= logical
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --maxprocesses 4 --dist loadfile --no-loadscope-reorder
 
 figures: $(STAMP)
 	$(BIN)/deik experiments all --out figures --doc docs/paper-reproduction.md

@@ -8,9 +8,10 @@ OUT (default benchmarks/results/gpu) receives gpu_check.json, rewritten after ev
 that a run cut short keeps what finished, and gpu_check.md, the targets table. Robots: the Panda
 from ../shared/data/robots/panda.urdf when present, else benchmarks/gpu_robots/panda.urdf, a
 git-ignored copy to place there (and carry with the tree) before running on a machine without
-../shared. --quick: small sizes, for Numba's CUDA simulator (NUMBA_ENABLE_CUDASIM=1) or a check
-of the script; --cpu-only: the CPU columns alone (no GPU needed); --budget: seconds after which
-the remaining stages are skipped (default 420); --store-crossover: keep the measured CPU/GPU
+../shared. --quick: small sizes (Panda batches of 1 and 2, one timed solve each), for Numba's
+CUDA simulator (NUMBA_ENABLE_CUDASIM=1) or a check of the script; --cpu-only: the CPU columns
+alone (no GPU needed); --budget: seconds after which the remaining stages are skipped (default
+420); --store-crossover: keep the measured CPU/GPU
 crossovers for device="auto" on this machine (deik.solver.routing); --keep-cache: use this
 machine's kernel cache instead of an empty one (the tests' simulator run).
 
@@ -191,7 +192,8 @@ class Check:
     def panda(self) -> dict:
         import deik
 
-        sizes = (1, 4) if self.quick else (1, 100, 2000, 10000)
+        sizes = (1, 2) if self.quick else (1, 100, 2000, 10000)
+        repeats = 1 if self.quick else 3
         skeleton, problem, start = panda_problem(2 * max(sizes))
         positions, rotations = problem.goals[0].target, problem.goals[1].target
         rows = {}
@@ -210,11 +212,11 @@ class Check:
                 traffic = getattr(solver._engine.backend, "traffic", None)
                 before = dict(vars(traffic)) if traffic else {}
                 times, result = [], None
-                for rep in range(3):
+                for rep in range(repeats):
                     began = time.perf_counter()
                     result = solver.solve(sets[rep % 2], initial=start[None])
                     times.append(time.perf_counter() - began)
-                # the last solve's targets were sets[0]: the first n
+                # the last solve's targets were sets[0] (repeats is odd): the first n
                 scored = deik.Problem(
                     skeleton, [deik.Position(PANDA[2], positions[:n]), deik.Orientation(PANDA[2], rotations[:n])]
                 )
@@ -225,7 +227,7 @@ class Check:
                     "generations_median": float(np.median(result.generations)),
                 }
                 if traffic:
-                    row.update({k: (v - before[k]) / 3 for k, v in vars(traffic).items()})
+                    row.update({k: (v - before[k]) / repeats for k, v in vars(traffic).items()})
                 rows[f"{device}/{n}"] = row
                 if time.perf_counter() - self.began > self.budget:
                     return {"rows": rows, "cut": "budget"}
@@ -234,19 +236,19 @@ class Check:
     def polish(self) -> dict:
         """The first polish on Panda strict batches, a team of threads per problem against a thread
         per problem (CudaBackend.cooperative_polish), taking turns on one reused Solver: best ms
-        of 3 each, the ratio, the strict share of each one's answers."""
+        of 3 each (1 at --quick sizes), the ratio, the strict share of each one's answers."""
         if "gpu" not in self.devices:
             return {"skipped": "no GPU in this run"}
         import deik
 
-        sizes = (4,) if self.quick else (100, 2000, 10000)
+        sizes, rounds = ((2,), 2) if self.quick else ((100, 2000, 10000), 4)
         rows = {}
         for n in sizes:
             skeleton, batch, start = panda_problem(n, seed=5)
             solver = deik.Solver(batch, population=32, device="gpu", seed=1)
             backend = solver._engine.backend
             times, strict = {True: [], False: []}, {}
-            for rep in range(4):  # the first round compiles or loads each kernel and allocates
+            for rep in range(rounds):  # the first round compiles or loads each kernel and allocates
                 for team in (True, False):
                     backend.cooperative_polish = team
                     began = time.perf_counter()

@@ -303,3 +303,14 @@ def mesh_robot(folder: Path) -> Path:
     trimesh.creation.icosphere(radius=0.03).export(meshes / "hand.dae")
     (urdf / "arm.urdf").write_text(MESH_ROBOT)
     return urdf / "arm.urdf"
+
+
+# --- subprocesses in the CUDA simulator ------------------------------------------------------
+
+
+def simulator_env(**extra: str) -> dict[str, str]:
+    """The environment of a subprocess that runs deik's CUDA kernels in Numba's simulator: this
+    checkout's src and root on PYTHONPATH, NUMBA_ENABLE_CUDASIM=1, and tests/simulator, whose
+    sitecustomize shortens the GIL switch interval the simulator's threads wait on."""
+    path = os.pathsep.join(str(p) for p in (ROOT / "src", ROOT, ROOT / "tests" / "simulator"))
+    return {**os.environ, "PYTHONPATH": path, "NUMBA_ENABLE_CUDASIM": "1", **extra}

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import deik
+from helpers import simulator_env
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SRC = Path(__file__).resolve().parents[2] / "src"
@@ -38,10 +39,11 @@ def _within_budget(name, kernel):
 
 
 def _run(script, *args, simulator=False, env=None, timeout=600):
-    env = {**os.environ, "PYTHONPATH": str(SRC), **(env or {})}
-    env.pop("NUMBA_ENABLE_CUDASIM", None)
     if simulator:
-        env["NUMBA_ENABLE_CUDASIM"] = "1"
+        env = simulator_env(**(env or {}))
+    else:
+        env = {**os.environ, "PYTHONPATH": str(SRC), **(env or {})}
+        env.pop("NUMBA_ENABLE_CUDASIM", None)
     out = subprocess.run(
         [sys.executable, "-W", "ignore", str(SCRIPTS / script), *args],
         env=env,

@@ -11,7 +11,7 @@ import pytest
 
 import deik
 import deik.errors
-from deik.cli import app
+from deik.cli import app, info_command
 from deik.cli.app import main
 
 SOURCE = Path(deik.__file__).parent
@@ -111,7 +111,7 @@ def test_the_command_line_turns_deik_errors_into_one_line_and_others_into_intern
         raise error
 
     monkeypatch.setattr(app, "run_limits", fail)
-    monkeypatch.setattr(app.cli_info, "run_info", fail)
+    monkeypatch.setattr(info_command, "run_info", fail)
     assert main(["info", "chain:3"]) == status
     err = capsys.readouterr().err
     assert err.startswith(line) and err.count("\n") == 1, err

@@ -54,6 +54,7 @@ def _table_units(printed: str) -> list[str]:
     return units
 
 
+@pytest.mark.slow  # every README command in turn: about 40 s on 2 cores
 @pytest.mark.shared_data
 def test_every_readme_line_runs_as_written(tmp_path, shared_data):
     clone = clone_beside_shared(tmp_path, shared_data)

@@ -52,7 +52,10 @@ def test_make_demo_installs_only_the_viz_extra_then_warms_up_and_runs_the_demo(t
 def test_make_test_installs_the_test_extras_and_runs_ruff_then_the_suite(tmp_path):
     lines = make_dry_run("test", tmp_path)
     assert '.venv/bin/python -m pip install --quiet -e ".[test,viz]"' in lines
-    assert lines[-3:] == [".venv/bin/ruff check .", ".venv/bin/ruff format --check .", ".venv/bin/python -m pytest -q"]
+    assert lines[-3:-1] == [".venv/bin/ruff check .", ".venv/bin/ruff format --check ."]
+    # the whole suite (no path, no -m selection), on every core
+    suite = ".venv/bin/python -m pytest -q -n logical --maxprocesses 4 --dist loadfile --no-loadscope-reorder"
+    assert lines[-1] == suite
 
 
 def test_the_humanoid_has_the_size_the_readme_gives():

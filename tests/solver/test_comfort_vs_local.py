@@ -3,11 +3,13 @@ local least-squares solver started at the reference (issue 17 item 6), with the 
 and the polish's null-space pull towards the reference leaves the goals' errors where they were."""
 
 import numpy as np
+import pytest
 
 import deik
 from benchmarks.comfort_vs_local import TOLERANCE, compare, deik_problem, make_targets
 
 
+@pytest.mark.slow  # scipy's least squares with finite differences: about 50 s on 2 cores
 def test_deik_deviates_no_more_than_a_local_solver_from_the_reference():
     rows = compare(8, seed=3, settings={"dtype": "float64"})
     assert all(rows["deik"]["met"]) and all(rows["local"]["met"])
