@@ -14,6 +14,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -116,6 +117,17 @@ def _open(browser, url, body=False):
     return page, console
 
 
+def _shot_until(page, holds, seconds: float = 10.0) -> np.ndarray:
+    """The first 3-D view (_shot) for which `holds(shot)` is true, taken every 0.2 s for at most
+    `seconds` (the last one then): a loaded machine may draw a change late."""
+    deadline = time.monotonic() + seconds
+    while True:
+        shot = _shot(page)
+        if holds(shot) or time.monotonic() > deadline:
+            return shot
+        page.wait_for_timeout(200)
+
+
 def _shot(page) -> np.ndarray:
     """The 3-D view as (H, W, 3) 0-255 pixels: the side panel and notices painted white, and the
     orientation gizmo's corner cut out."""
@@ -166,16 +178,15 @@ def test_a_clip_plays_scrubs_and_shows_its_original_in_grey(tmp_path, browser):
         assert _bones(first).sum() > 300 and _count(first, "tip") > 30 and _count(first, "root") > 10
         assert _count(first, "left") > 50 and _count(first, "right") > 50  # each side in its colour
         page.get_by_label("compare: original.bvh").uncheck()
-        page.wait_for_timeout(500)
-        without = _shot(page)
+        without = _shot_until(page, lambda shot: (np.abs(first - shot).max(axis=-1) > 60).sum() > 100)
         grey = np.abs(first - without).max(axis=-1) > 60
         assert grey.sum() > 100 and _mask(first, "compare")[grey].mean() > 0.5  # the compared figure, in grey
         page.get_by_role("textbox").last.fill("9")  # the slider's number box
         page.keyboard.press("Enter")
         page.get_by_text("frame 9 of 12, t = 0.300 s").wait_for()
-        page.wait_for_timeout(500)
-        before, after = (np.argwhere(_bones(shot)).mean(axis=0) for shot in (without, _shot(page)))
-        assert np.linalg.norm(after - before) > 30  # the bones walked 0.72 m
+        before = np.argwhere(_bones(without)).mean(axis=0)
+        walked = _shot_until(page, lambda shot: np.linalg.norm(np.argwhere(_bones(shot)).mean(axis=0) - before) > 30)
+        assert np.linalg.norm(np.argwhere(_bones(walked)).mean(axis=0) - before) > 30  # the bones walked 0.72 m
         page.get_by_role("button", name="Play").click()
         page.get_by_role("button", name="Pause").wait_for()
         page.wait_for_function("() => !document.body.innerText.includes('frame 9 of 12')", timeout=10_000)
