@@ -152,7 +152,8 @@ def _shown(value) -> str:
 def _measured_by(result: dict, part: str) -> list[str]:
     """The lines saying how `part` was measured: its command and machine."""
     run = result["runs"][part]
-    return [f"`{run['command']}` at {run['commit']}, {run['cpu_model']}", ""]
+    cpu = run["cpu_model"] if "cpu_model" in run else run["machine"]["cpu_model"]  # records before 4dfb2c5
+    return [f"`{run['command']}` at {run['commit']}, {cpu}", ""]
 
 
 def markdown(result: dict) -> str:
