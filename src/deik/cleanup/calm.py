@@ -6,9 +6,9 @@ a rotation channel turning faster than the capture's fastest. Where frames jolt,
 part of its change back there: those frames and their neighbours keep a share CUT less of it
 (small steps: a lift taken back puts a point back under the floor), the frames around them a
 share that grows back smoothly (smoothstep) over EASE_SECONDS, so taking back adds no jolt of
-its own; rounds repeat until nothing jolts, and after ROUNDS the
-whole change is taken back (the capture is the better clip). The frames that keep less than all
-of the change are reported (fix_clip: `calmed`; those that then miss a goal are listed unmet).
+its own; rounds repeat until nothing jolts, and after ROUNDS the whole change is taken back
+(the capture is the better clip). The frames that keep less than all of the change are reported
+(fix_clip: `calmed`; those that then miss a goal are listed unmet).
 """
 
 from __future__ import annotations

@@ -222,18 +222,19 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
     plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
     for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
-        displacement, fixed, balance = _warm_start(clip, plain, weights, movable, body.points, lift)
-        displacement, calmed = calm(clip, displacement, body.points)
+        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body.points, lift)
+        displacement, calmed = calm(clip, warm, body.points)
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
         met = _met(clip_problem(clip, plain, displacement, weights, fixed), poses)[1]
-        outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None))
+        outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None), warm)
+    best = max(outcomes.values(), key=lambda outcome: outcome[0]) if outcomes else None  # the lifted on a tie
     if not goals.reach:
-        return outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1]  # the lifted one on a tie
+        return best[1]
     displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, False)
     if not alone:  # reach tracks only: all of the change is theirs
         return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
-    added = displacement - _warm_start(clip, plain, weights, movable, body.points, False)[0]
-    held, calmed = outcomes[max(outcomes, key=lambda key: outcomes[key][0])][1][:2]
+    added = displacement - outcomes[False][2]  # on the plain floor, as the reach's warm start
+    held, calmed = best[1][:2]
     return held + added, calmed, fixed, balance, added
 
 

@@ -27,9 +27,11 @@ import numpy as np
 from deik.cleanup.balance import horizontal_axes
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
+from deik.cleanup.metrics import point_motion
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
+from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import ComOverSupport, Floor, Goal, Position
 from deik.solver.jacobians import point_jacobians
@@ -233,9 +235,10 @@ def warm_start(
     if floors and not lift:
         floors = [floor_levels(g.height, margin, g.clearance) for g in floors]
     elif floors:
-        x0 = position_jacobian(skeleton, original, skeleton.frame_names)[0]
+        x0 = forward_kinematics(skeleton, original).p_world_frame
+        # acceleration peaks per frame^2 (a frame time of 1): the lifts need no clock
+        peaks = point_motion(x0, 1.0)[1].max(axis=0, initial=0.0)
         heights = x0 @ skeleton.up
-        peaks = np.linalg.norm(np.diff(x0, 2, axis=0), axis=-1).max(axis=0) if N >= 3 else np.zeros(x0.shape[1])
         floors = [floor_lifts(heights, floor_levels(g.height, margin, g.clearance), peaks) for g in floors]
 
     def rows_at(d, free):
