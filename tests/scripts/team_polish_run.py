@@ -10,8 +10,10 @@ m x m dual step); the GPU is told it holds 128 threads at once, so one block of 
 the problems in two groups, the second with 14 teams idle. "chain": a 24-DOF chain (12 ball
 joints), five problems: tip targets at 1e-5 m, on problem 0 an orientation of link 5 too, on
 problem 1 the positions of links 1-11 too (36 rows for 24 DOFs: the normal equations, three
-DOFs per lane). "wide": a 34-DOF chain's tip targets, more DOFs than a team's shared slab holds
-(the thread-per-problem kernel runs). Every target is the forward kinematics of a random
+DOFs per lane), the centre of mass on problems 1 and 2 and its ground projection on problems 1
+and 3 (every Jacobian function's columns split across the lanes, in the dual step and the
+normal equations). "wide": a 34-DOF chain's tip targets, more DOFs than a team's shared slab
+holds (the thread-per-problem kernel runs). Every target is the forward kinematics of a random
 in-limit pose; the start is that pose moved by up to 0.3 rad a DOF. PATH: "team" (the GPU's
 team per problem where it can), "thread" (a thread per problem) or "cpu". Used by
 tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
@@ -56,6 +58,16 @@ def arm():
     return deik.build_skeleton(joints, sites=sites, up=(0.0, 0.0, 1.0), name="arm7")
 
 
+def _kind_and_target(goal, kin):
+    """(kind, frame, targets as lists) of one of the cases' goals, for the independent check."""
+    if isinstance(goal, deik.Orientation):
+        return "orientation", goal.frame, kin.rotation(goal.frame).tolist()
+    if isinstance(goal, (deik.CentreOfMass, deik.ComOverSupport)):
+        kind = "position com" if isinstance(goal, deik.CentreOfMass) else "position com ground"
+        return kind, None, kin.p_world_com.tolist()
+    return "position", goal.frame, kin.position(goal.frame).tolist()
+
+
 def problem(case):
     """(skeleton, Problem, start poses, goals: [(kind, frame, targets, active)] as lists)."""
     if case == "arm":
@@ -72,16 +84,11 @@ def problem(case):
         goals.append(deik.Orientation("link5", kin.rotation("link5"), tolerance=STRICT[1], active=first))
         for k in range(1, 12):
             goals.append(deik.Position(f"link{k}", kin.position(f"link{k}"), tolerance=STRICT[0], active=second))
+        goals.append(deik.CentreOfMass(kin.p_world_com, tolerance=STRICT[0], active=np.isin(np.arange(n), (1, 2))))
+        goals.append(deik.ComOverSupport(kin.p_world_com, tolerance=STRICT[0], active=np.isin(np.arange(n), (1, 3))))
     start = poses + np.random.default_rng(12).uniform(-0.3, 0.3, poses.shape)  # near each target's pose
-    listed = [
-        (
-            "orientation" if isinstance(goal, deik.Orientation) else "position",
-            goal.frame,
-            (kin.rotation(goal.frame) if isinstance(goal, deik.Orientation) else kin.position(goal.frame)).tolist(),
-            (np.ones(n, bool) if goal.active is None else goal.active).tolist(),
-        )
-        for goal in goals
-    ]
+    listed = [(*_kind_and_target(goal, kin), (np.ones(n, bool) if goal.active is None else goal.active).tolist())
+              for goal in goals]  # fmt: skip
     return skeleton, deik.Problem(skeleton, goals), np.clip(start, skeleton.lower, skeleton.upper), listed
 
 
@@ -102,12 +109,15 @@ poses = state.pop[np.arange(len(best)), best]
 kin = deik.forward_kinematics(skeleton, poses)  # NumPy's forward kinematics, not the kernels'
 errors = {}  # per goal, the largest error over the problems it is active in
 for kind, frame, targets, active in goals:
-    if kind == "position":
-        error = np.linalg.norm(kin.position(frame) - np.array(targets), axis=-1)
+    if kind.startswith("position"):
+        offset = (kin.p_world_com if frame is None else kin.position(frame)) - np.array(targets)
+        if kind.endswith("ground"):  # the horizontal distance
+            offset -= np.outer(offset @ skeleton.up, skeleton.up)
+        error = np.linalg.norm(offset, axis=-1)
     else:
         relative = np.einsum("bij,bkj->bik", kin.rotation(frame), np.array(targets))
         error = np.arccos(np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
-    errors[f"{kind} {frame}"] = float(error[np.array(active)].max())
+    errors[f"{kind} {frame or ''}"] = float(error[np.array(active)].max())
 print(
     json.dumps(
         {

@@ -427,12 +427,11 @@ def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
                 jac[e] = 0.0
             if f < 0:
                 x[n, g, 0], x[n, g, 1], x[n, g, 2] = device_maths.centre_of_mass(skel, R, p)
-                device_polish.com_rows(skel, R, p, axes, 1.0, jac, D)
+                device_polish.com_rows(skel, R, p, axes, 1.0, jac, D, 0, 0)
             else:
                 x[n, g, 0], x[n, g, 1], x[n, g, 2] = p[3 * f], p[3 * f + 1], p[3 * f + 2]
-                device_polish.point_rows(
-                    p[3 * f], p[3 * f + 1], p[3 * f + 2], device_polish.frame_joint(f, skel), skel, axes, 1.0, jac, D
-                )
+                j = device_polish.frame_joint(f, skel)
+                device_polish.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], j, skel, axes, 1.0, jac, D, 0, 0)
             for row in range(3):
                 for d in range(D):
                     jacobian[n, g, row, d] = jac[row * D + d]
@@ -451,7 +450,7 @@ def residual_rows(poses, problem_index, term, skel, terms):
         device_maths.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
         cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
         residual[n, 0], residual[n, 1], residual[n, 2] = device_polish.term_rows(
-            term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D
+            term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D, 0, 0
         )
         for row in range(3):
             for d in range(D):

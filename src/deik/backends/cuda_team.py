@@ -2,27 +2,23 @@
 
 `first_polish_team` does what cuda_kernels.first_polish does, with TEAM_LANES threads per
 problem and many problems per block. What is sequential along the chain, the forward
-kinematics, the scoring, each goal's three Jacobian rows (device_polish.term_rows walks the
-joints from the goal's frame to the root), and the LM's decisions, every lane runs alike on its
-own scratch, so no lane waits for another and every lane knows the pose, the cost and the
-damping. What grows with the square or the cube of the DOFs is split by DOF, lane l taking the
-DOFs d with d % TEAM_LANES == l:
+kinematics, the scoring and the LM's decisions, every lane runs alike on its own scratch, so no
+lane waits for another and every lane knows the pose, the cost and the damping. The rest is
+split by DOF, lane l taking the DOFs d with d % TEAM_LANES == l:
 
+- the columns of each term's three Jacobian rows (device_polish.term_rows walks the joints from
+  the goal's frame to the root and forms only the lane's columns), into the team's shared rows,
 - the rows of the normal matrix J^T J and of the gradient J^T r, or with fewer residual rows
   than DOFs, the columns of J, the elements of the m x m matrix I + J Lambda^-1 J^T and the
   step's entries,
 - the entries below each pivot of the Cholesky factorisation, and the substitutions.
 
 The polish's matrices (the damped and undamped D x D, the gradient, the step and three work
-vectors) live in shared memory: one array of TEAM_SHARED_FLOATS per block, carved into a slab per
-team for the skeleton's D (team_floats), so a 7-DOF arm fits 16 problems in a block of 128
-threads and a 32-DOF skeleton one. Skeletons of more DOFs (fits() is False) keep the
-thread-per-problem kernel, and so do goal tables with a goal without tolerance (comfort:
-device_lm.relax).
-
-The Jacobian's columns are not split: told which columns to write, device_polish's Jacobian
-functions made the CPU's Panda solve 6 % slower (one source for both), and a lane's Jacobian
-rows cost about its forward kinematics, which it runs anyway.
+vectors that hold a term's Jacobian rows while the system is formed) live in shared memory: one
+array of TEAM_SHARED_FLOATS per block, carved into a slab per team for the skeleton's D
+(team_floats), so a 7-DOF arm fits 16 problems in a block of 128 threads and a 32-DOF skeleton
+one. Skeletons of more DOFs (fits() is False) keep the thread-per-problem kernel, and so do goal
+tables with a goal without tolerance (comfort: device_lm.relax).
 
 Every element is summed in the order device_lm sums it for a thread alone, so in float64 a team
 gives the same bits as a thread alone, and as the CPU (the CUDA simulator checks it). The lanes
@@ -65,7 +61,8 @@ TEAM_MAX_DOFS = 32  # the most DOFs a team polishes; beyond, the thread-per-prob
 
 def team_floats(D: int) -> int:
     """Shared floats of one team's slab: A and the normal matrix (D*D each), the gradient, three
-    work vectors (the damping's inverse and diagonal, the Cholesky pivots) and the step (D, 3D, D)."""
+    work vectors (a term's Jacobian rows; then the damping's inverse and diagonal, the Cholesky
+    pivots) and the step (D, 3D, D)."""
     return 2 * D * D + 5 * D
 
 
@@ -94,8 +91,9 @@ def first_owned(start, lane):
 
 @cuda.jit(device=True)
 def team_lm(slab, lm, D):
-    """The LmScratch of a team: A, the normal matrix, the gradient, the work vectors (in `jac`)
-    and the step in the team's shared slab; the polished pose, its levels and raw errors the lane's own."""
+    """The LmScratch of a team: A, the normal matrix, the gradient, the work vectors (in `jac`:
+    a term's Jacobian rows while the system is formed) and the step in the team's shared slab;
+    the polished pose, its levels and raw errors the lane's own."""
     A, o = take(slab, 0, D * D)
     normal, o = take(slab, o, D * D)
     gradient, o = take(slab, o, D)
@@ -105,66 +103,57 @@ def team_lm(slab, lm, D):
 
 
 @cuda.jit(device=True)
-def team_normal_equations(b, top, skel, terms, scratch, axes, lm, rows, D, lane, work):
-    """device_lm.normal_equations by a team (the pose's frames ready in the lane's scratch): every
-    lane forms each term's three Jacobian rows in its own `rows` (3*D,), then adds them into its
-    rows of J^T J and J^T r. 1 barrier; `work` False: the barrier only."""
+def team_system(b, top, m, skel, terms, scratch, axes, lm, D, lane, work):
+    """The LM's system at the pose whose frames every lane holds, by a team. Each term's three
+    Jacobian rows are formed in the team's shared lm.jac (3*D,), every lane its own columns
+    (device_polish.term_rows with the lane's mask). With m < D rows (device_lm.jacobian_rows):
+    a lane copies its columns into J (m, D) in lm.normal, r (m,) goes to lm.A[m*m:m*m+m], then
+    J^T r by lane. Else (device_lm.normal_equations): a lane adds its rows of J^T J and J^T r,
+    reading every column of the term. Two barriers a polished kind of term and one more, alike
+    in every team (the goal table is the block's); `work` False: the barriers only."""
     R, p, term_int = scratch.R, scratch.p, terms.term_int
-    A, gradient = lm.normal, lm.gradient
+    rows, normal, gradient, r = lm.jac, lm.normal, lm.gradient, lm.A[m * m : m * m + m]
+    dual = m < D
+    cx, cy, cz = 0.0, 0.0, 0.0
     if work:
-        cx, cy, cz = 0.0, 0.0, 0.0
         if device_terms.uses_centre_of_mass(term_int):
             cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
-        for a in range(lane, D, TEAM_LANES):
-            for c in range(D):
-                A[a * D + c] = 0.0
-            gradient[a] = 0.0
-        for t in range(term_int.shape[0]):
-            if term_int[t, TERM_LEVEL] > top:
-                continue
-            r0, r1, r2 = device_polish.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, rows, D)
-            for row in range(3):
-                r = r0 if row == 0 else (r1 if row == 1 else r2)
+        if not dual:
+            for a in range(lane, D, TEAM_LANES):
+                for c in range(D):
+                    normal[a * D + c] = 0.0
+                gradient[a] = 0.0
+    row = 0
+    for t in range(term_int.shape[0]):
+        if not device_polish.is_polished(term_int[t, TERM_KIND]):
+            continue  # alike in every team: no rows, no barrier
+        formed = work and term_int[t, TERM_LEVEL] <= top and (not dual or device_terms.weight_of(terms, b, t) > 0.0)
+        r0, r1, r2 = 0.0, 0.0, 0.0
+        if formed:
+            r0, r1, r2 = device_polish.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, rows, D, lane, LANE_MASK)
+        if formed and dual:  # J's columns are the lane's own: no other lane's needed
+            for k in range(3):
+                for d in range(lane, D, TEAM_LANES):
+                    normal[(row + k) * D + d] = rows[k * D + d]
+            if lane == 0:
+                r[row], r[row + 1], r[row + 2] = r0, r1, r2
+            row += 3
+        cuda.syncthreads()  # every column of the term's rows formed
+        if formed and not dual:
+            for k in range(3):
+                rk = r0 if k == 0 else (r1 if k == 1 else r2)
                 for a in range(lane, D, TEAM_LANES):
-                    ja = rows[row * D + a]
+                    ja = rows[k * D + a]
                     if ja != 0.0:
-                        gradient[a] += ja * r
+                        gradient[a] += ja * rk
                         for c in range(D):
-                            A[a * D + c] += ja * rows[row * D + c]
-    cuda.syncthreads()
-
-
-@cuda.jit(device=True)
-def team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, rows, D, lane, work):
-    """device_lm.jacobian_rows by a team (frames ready): every lane forms each term's rows in its
-    own `rows` (3*D,) and copies its columns of them into J (m, D) in lm.normal; r (m,) in
-    lm.A[m*m:m*m+m]; then J^T r by lane. 2 barriers; `work` False: the barriers only."""
-    R, p, term_int = scratch.R, scratch.p, terms.term_int
-    J, r, gradient = lm.normal, lm.A[m * m : m * m + m], lm.gradient
-    if work:
-        cx, cy, cz = 0.0, 0.0, 0.0
-        if device_terms.uses_centre_of_mass(term_int):
-            cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
-        row = 0
-        for t in range(term_int.shape[0]):
-            if (
-                term_int[t, TERM_LEVEL] <= top
-                and device_terms.weight_of(terms, b, t) > 0.0
-                and device_polish.is_polished(term_int[t, TERM_KIND])
-            ):
-                r0, r1, r2 = device_polish.term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, rows, D)
-                for k in range(3):
-                    for d in range(lane, D, TEAM_LANES):
-                        J[(row + k) * D + d] = rows[k * D + d]
-                if lane == 0:
-                    r[row], r[row + 1], r[row + 2] = r0, r1, r2
-                row += 3
-    cuda.syncthreads()
-    if work:
+                            normal[a * D + c] += ja * rows[k * D + c]
+        cuda.syncthreads()  # every lane has read the rows the next term overwrites
+    if work and dual:  # r (lane 0's) was written before the loop's last barrier
         for d in range(lane, D, TEAM_LANES):
             g = 0.0
             for k in range(m):
-                g += J[k * D + d] * r[k]
+                g += normal[k * D + d] * r[k]
             gradient[d] = g
     cuda.syncthreads()
 
@@ -329,7 +318,7 @@ def team_step(lm, D, m, damping, x, limits, halt, lane, work):
 
 
 @cuda.jit(device=True)
-def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, rows, q, lv, rw, halt, lane, live):
+def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, halt, lane, live):
     """device_lm.converge of individual 0 of problem b by a team (its frames ready in every
     lane's scratch), step for step; `live` False: a team without a problem, at the barriers."""
     pop, levels, total, raw = state.pop, state.levels, state.total, state.raw
@@ -357,8 +346,7 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, rows, q,
             break  # every team of the block has finished
         working = not done
         form = working and not formed
-        team_jacobian_rows(b, top, m, skel, terms, scratch, axes, lm, rows, D, lane, form and dual)
-        team_normal_equations(b, top, skel, terms, scratch, axes, lm, rows, D, lane, form and not dual)
+        team_system(b, top, m, skel, terms, scratch, axes, lm, D, lane, form)
         if working:
             since += 1
             formed = True
@@ -414,9 +402,7 @@ def first_polish_team(cur, status, skel, terms, settings, schedule, rules, initi
             cur.total[b, 0] = device_terms.score(
                 cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0]
             )
-        team_converge(
-            b, cur, schedule.iterations, skel, terms, scratch, axes, lm, own.jac, q, lv, rw, status.halt, lane, live
-        )
+        team_converge(b, cur, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, status.halt, lane, live)
         met = live and device_evolution.within_tolerances(b, cur.raw[b, 0], terms, T)
         if met:
             for i in range(1 + lane, P, TEAM_LANES):

@@ -209,6 +209,7 @@ def cpu_build(switches: frozenset[str] = ALL_KINDS) -> types.ModuleType:
 
     overrides = {name: name in switches for name in SWITCHES}
     overrides["CENTRE_OF_MASS_ON"] = bool(switches & CENTRE_OF_MASS_SWITCHES)
+    overrides["COLUMNS_SPLIT"] = False  # one CPU thread forms every Jacobian column (device/polish.py)
     suffix = build_suffix(switches)
     sources = DEVICE_SOURCES + (cpu_kernels,)
     return compile_namespace(sources, f"deik.backends._cpu{suffix}", _cpu_wrap(suffix), overrides)

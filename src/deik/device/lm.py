@@ -73,7 +73,7 @@ def normal_equations(q, b, top, skel, terms, scratch, axes, lm, D, frames_ready)
     for t in range(term_int.shape[0]):
         if term_int[t, TERM_LEVEL] > top:
             continue
-        r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D)
+        r0, r1, r2 = term_rows(t, b, skel, terms, R, p, cx, cy, cz, axes, jac, D, 0, 0)
         cost += r0 * r0 + r1 * r1 + r2 * r2
         for row in range(3):
             r = r0 if row == 0 else (r1 if row == 1 else r2)
@@ -112,7 +112,7 @@ def jacobian_rows(q, b, top, m, skel, terms, scratch, axes, lm, D, frames_ready)
     for t in range(term_int.shape[0]):
         if term_int[t, TERM_LEVEL] <= top and weight_of(terms, b, t) > 0.0 and is_polished(term_int[t, TERM_KIND]):
             r[row], r[row + 1], r[row + 2] = term_rows(
-                t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D
+                t, b, skel, terms, R, p, cx, cy, cz, axes, J[row * D : (row + 3) * D], D, 0, 0
             )
             cost += r[row] * r[row] + r[row + 1] * r[row + 1] + r[row + 2] * r[row + 2]
             row += 3
