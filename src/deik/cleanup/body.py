@@ -20,7 +20,12 @@ tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either sid
 Radius (how far the body's surface lies from a point): the capsule radius (default_radii, in the
 standing pose) of the thinnest bone with one that the point ends or starts (a shoulder is as
 thick as its upper arm, not as the chest it hangs from); for a point of a foot its height
-above the sole; 0 for the sole sites.
+above the sole; 0 for the sole sites. An end of the body other than a foot (a hand, the head)
+is at least PALM x the length of the bone that ends there: a bone's radius is its segment's
+volume as a cylinder along it, thinner than the palm a hand lands on. An adult hand is about
+4.8 % of stature broad across the knuckles (8-9 cm at 1.75 m) and the forearm 14.6 % of it long
+(Drillis & Contini), so half the palm is 0.165 of the forearm: 4.3 cm on the shared humanoid,
+whose forearm's cylinder is 2.9 cm; a head keeps its own radius, which is larger.
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ FOOT_END = 0.12
 FOOT_CHAIN = 0.07
 HEEL_BACK = 0.33
 SOLE_WIDTH = 0.25
+PALM = 0.165  # half a hand's breadth, of the forearm's length
 SOLE_SITES = ("heel", "heel_left", "heel_right", "toe", "toe_left", "toe_right")
 
 
@@ -239,6 +245,7 @@ def body_of(clip: Motion) -> Body:
     body = with_sites(sk, sites)
     joint_radius = np.where(carriers, 0.0, default_radii(sk, standing))
     own = _thinnest(sk, joint_radius, start)
+    own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
     for f, value in foot_radius.items():
         own[f] = value
     radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])
