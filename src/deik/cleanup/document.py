@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
+from deik.cleanup.bone_points import bone_points
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, peak_ratios, point_acceleration_ratios
 from deik.cleanup.ground import body_paths, clearances, detect_resting
@@ -156,11 +157,12 @@ def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None =
 def grounding(fix: ClipFix, height: float) -> Grounding:
     """The floor the report measures against: at `height`, each point's clearance as the fix kept
     it (its radius), and every point of the body that rests in the capture (cleanup/ground.py),
-    planted or not."""
+    planted or not, the points along its bones included (cleanup/bone_points.py)."""
     body = fix.body
     original = fix.on_body()[0]
     paths = body_paths(original, body)
-    return Grounding(height, clearances(body), detect_resting(original, body, height, paths=paths))
+    resting = detect_resting(original, body, height, paths=paths)
+    return Grounding(height, clearances(body), resting, bone_points(original, body, height))
 
 
 def _far(original, fixed, degrees: float) -> dict:
@@ -193,7 +195,7 @@ def clip_document(
     goals = goal_table(fix, metres)
     met, sunk, sliding = fix.met, [], []
     if ground is not None:
-        verdict = frame_verdict(fix.met, original, fixed, fix.body, ground)
+        verdict = frame_verdict(fix.met, fixed, ground, fix.body.span)
         met, sunk, sliding = verdict.met, np.flatnonzero(verdict.sunk), np.flatnonzero(verdict.sliding)
 
     def listed(entry):

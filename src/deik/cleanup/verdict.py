@@ -10,9 +10,9 @@ radius from each joint and site), neither promise fails in it:
 - sliding: a point resting in the capture in this frame and a neighbouring one moves along the
   ground between them by more than SLIDING_TOLERANCE x span. Both frames of such a step are
   unmet: a plant met in one frame and missed in the next has slid into the frame that meets it.
-  The points are the resting joints and sites and the middle of every bone of the body (a shin
-  lying on the floor as the knee pivots slides under its middle, not at the knee), each
-  resting by the rule of cleanup/ground.py with the thinner radius of its bone's two ends.
+  The points are those the report's sliding counts: the resting joints and sites and the
+  resting points along the bones (cleanup/bone_points.py: a shin lying on the floor as its
+  knee pivots slides along its length, not at the knee).
 
 SLIDING_TOLERANCE is twice the contact tolerance: two positions each within the contact
 tolerance of one plant lie at most that far apart, so a frame whose planted points meet their
@@ -25,18 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.cleanup import ground
-from deik.cleanup.body import Body
 from deik.cleanup.clip_goals import CONTACT_TOLERANCE, FLOOR_TOLERANCE
 from deik.cleanup.floor import penetration
-from deik.cleanup.metrics import sliding_steps
-from deik.cleanup.summary import Grounding
+from deik.cleanup.summary import Grounding, resting_steps
 from deik.io.trajectory import Motion
-from deik.model.capsules import bone_starts
-from deik.model.geometry import ground_frame
 
 SLIDING_TOLERANCE = 2.0 * CONTACT_TOLERANCE
-ALONG = (0.25, 0.5, 0.75)  # the points measured along each bone, as shares of it from its start
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,51 +45,12 @@ class Verdict:
 
 def sliding_frames(fixed: Motion, grounding: Grounding, tolerance: float) -> np.ndarray:
     """(N,) bool: the frames at either end of a step along the ground longer than `tolerance`
-    (length units) of a point resting in the capture in both (grounding.resting)."""
-    resting, sk = grounding.resting, fixed.skeleton
+    (length units) of a point resting in the capture in both (grounding.resting and .along)."""
     out = np.zeros(fixed.n_frames, bool)
-    if not resting.sites or fixed.n_frames < 2:
+    if fixed.n_frames < 2:
         return out
-    index = [sk.frame_index(name) for name in resting.sites]
-    steps = sliding_steps(fixed.kinematics, index, resting.mask, sk.up)
+    steps = resting_steps(fixed.kinematics, fixed.skeleton, grounding.resting, grounding.along)
     long = (np.nan_to_num(steps, nan=0.0) > tolerance).any(axis=1)
-    out[1:] |= long
-    out[:-1] |= long
-    return out
-
-
-def _bones(body: Body) -> tuple[np.ndarray, np.ndarray]:
-    """(start (B,), end (B,)) frames of the body's bones: both ends part of it, not both in a
-    foot (its soles are its surface) nor ending at a sole site."""
-    start = bone_starts(body.skeleton)
-    names = body.skeleton.frame_names
-    feet = {name for foot in body.feet for name in foot.chain + foot.soles}
-    soles = set(body.sole_names)
-    ends = [f for f in range(len(start)) if start[f] >= 0 and body.part[f] and body.part[start[f]]]
-    ends = [f for f in ends if names[f] not in soles and not (names[f] in feet and names[start[f]] in feet)]
-    ends = np.array(ends, np.int64)
-    return start[ends], ends
-
-
-def bone_sliding_frames(original: Motion, fixed: Motion, body: Body, floor: float, tolerance: float) -> np.ndarray:
-    """(N,) bool: the frames at either end of a step along the ground longer than `tolerance`
-    (length units) of a bone's middle in `fixed` where it rests in `original` in both (module
-    notes; both clips on body.skeleton, the floor at height `floor`)."""
-    start, end = _bones(body)
-    out = np.zeros(fixed.n_frames, bool)
-    if not len(end) or fixed.n_frames < 2:
-        return out
-    up = body.skeleton.up
-    middle = [
-        np.concatenate([(1 - t) * p[:, start] + t * p[:, end] for t in ALONG], axis=1)
-        for p in (clip.kinematics.p_world_frame for clip in (original, fixed))
-    ]
-    radius = np.tile(np.minimum(body.radius[start], body.radius[end]), len(ALONG))
-    low = middle[0] @ up - floor - radius <= ground.BAND * body.span
-    slow = ground.point_speeds(middle[0], original.frame_time) <= ground.SPEED * body.span
-    rest = ground.rest_runs(low & slow, original.frame_time)
-    steps = np.linalg.norm(np.diff(middle[1] @ ground_frame(up)[:2].T, axis=0), axis=-1)
-    long = (rest[1:] & rest[:-1] & (steps > tolerance)).any(axis=1)
     out[1:] |= long
     out[:-1] |= long
     return out
@@ -107,12 +62,9 @@ def sunk_frames(fixed: Motion, grounding: Grounding, tolerance: float) -> np.nda
     return penetration(fixed.kinematics, fixed.skeleton, grounding.height, grounding.clearance) > tolerance
 
 
-def frame_verdict(goals_met: np.ndarray, original: Motion, fixed: Motion, body: Body, grounding: Grounding) -> Verdict:
-    """The Verdict of `fixed` made from `original` (both on body.skeleton) whose goals are met in
-    `goals_met` (N,), measured against `grounding`, tolerances as shares of body.span (module
-    notes)."""
-    sunk = sunk_frames(fixed, grounding, FLOOR_TOLERANCE * body.span)
-    tolerance = SLIDING_TOLERANCE * body.span
-    sliding = sliding_frames(fixed, grounding, tolerance)
-    sliding |= bone_sliding_frames(original, fixed, body, grounding.height, tolerance)
+def frame_verdict(goals_met: np.ndarray, fixed: Motion, grounding: Grounding, span: float) -> Verdict:
+    """The Verdict of `fixed` (on the body's skeleton) whose goals are met in `goals_met` (N,),
+    measured against `grounding`, tolerances as shares of the body's `span` (module notes)."""
+    sunk = sunk_frames(fixed, grounding, FLOOR_TOLERANCE * span)
+    sliding = sliding_frames(fixed, grounding, SLIDING_TOLERANCE * span)
     return Verdict(np.asarray(goals_met, bool) & ~sunk & ~sliding, sunk, sliding)
