@@ -173,7 +173,8 @@ FIGURES = (
         lambda r: [_case(r, "run")["depth_capture_mm"], _case(r, "run")["depth_mm"]],
     ),
     Figure(
-        r"on (\d+) cases \(the crawl, the get-up, the\s+punch with rescaled limbs\) frames that miss are not all listed",
+        r"on (\d+) cases \(the crawl, the get-up, the\s+punch with rescaled limbs\) frames that miss are not all "
+        r"listed",
         TARGETS,
         lambda r: [len(r["cases"]) - _met(r, "listed")],
     ),
