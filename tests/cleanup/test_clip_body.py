@@ -9,7 +9,7 @@ import pytest
 from benchmarks.clip_cases import anon, studio
 from benchmarks.clip_rigs import format_rig
 from benchmarks.clip_walk import procedural_walk
-from deik.cleanup.body import body_of, median_pose
+from deik.cleanup.body import PALM, TAPER, TOP, body_of, median_pose
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
 
@@ -89,6 +89,27 @@ def test_a_point_is_as_thick_as_the_thinnest_bone_it_holds():
     assert radius["RightShoulder"] == pytest.approx(radius["RightElbow"], rel=0.5)
     assert 0.02 < radius["RightKnee"] < 0.08 and 0.02 < radius["RightElbow_end"] < 0.06
     assert radius["RightAnkle"] == pytest.approx(0.05, abs=1e-6)  # the ankle joint 5 cm above the sole
+
+
+def test_a_limb_is_thickest_at_its_top_and_a_hand_as_broad_as_a_palm():
+    """The knee and elbow, tops of the shin and forearm, are TOP times their bone's cylinder,
+    a frustum tapering to TAPER of its top with the cylinder's volume; a hand is half a palm
+    broad from its forearm's length; the chest, which starts three bones, keeps its own."""
+    clip = read(procedural_walk())
+    body = body_of(clip)
+    names = body.skeleton.frame_names
+    radius = dict(zip(names, body.radius))
+    bone = dict(zip(names, body.bone_radius))  # the cylinder of the bone ending at each frame
+    top, far = TOP, TOP * TAPER  # the frustum's ends over the cylinder's radius: same volume
+    assert (top**2 + top * far + far**2) / 3.0 == pytest.approx(1.0)
+    assert radius["RightKnee"] == pytest.approx(TOP * bone["RightAnkle"], rel=1e-9)
+    assert radius["RightElbow"] == pytest.approx(TOP * bone["RightElbow_end"], rel=1e-9)
+    forearm = np.linalg.norm(
+        clip.kinematics.position("RightElbow_end") - clip.kinematics.position("RightElbow"), axis=1
+    )
+    assert radius["RightElbow_end"] == pytest.approx(max(PALM * np.median(forearm), bone["RightElbow_end"]), rel=1e-9)
+    assert radius["RightElbow_end"] > bone["RightElbow_end"]
+    assert radius["Chest"] == pytest.approx(min(bone["Chest"], bone["Neck"]), rel=1e-9)
 
 
 def test_the_points_a_pop_is_measured_on_are_the_clips_own_joints_and_sites_of_the_body():

@@ -20,7 +20,18 @@ tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either sid
 Radius (how far the body's surface lies from a point): the capsule radius (default_radii, in the
 standing pose) of the thinnest bone with one that the point ends or starts (a shoulder is as
 thick as its upper arm, not as the chest it hangs from); for a point of a foot its height
-above the sole; 0 for the sole sites.
+above the sole; 0 for the sole sites. A bone's radius is its segment's volume as a cylinder
+along it, thinner than a limb where it is thickest and than a palm, so two points are sized up:
+- the top of a limb segment (a joint that starts one bone: a shoulder, elbow, hip, knee, neck)
+  is at least TOP x that bone's radius: a limb tapers, and a frustum whose far end is TAPER
+  (0.6: ankle over calf, wrist over forearm girth) of its near end holds the cylinder's volume
+  with its near end 1.24 times as thick (a knee 4.7 cm against the shin's 3.8 cm on the shared
+  humanoid, an elbow 3.6 against 2.9);
+- an end of the body other than a foot (a hand, the head) is at least PALM x the length of the
+  bone that ends there: an adult hand is about 4.8 % of stature broad across the knuckles (8-9
+  cm at 1.75 m) and the forearm 14.6 % of it long (Drillis & Contini), so half the palm is
+  0.165 of the forearm (4.3 cm on the shared humanoid); a head keeps its own, larger radius.
+`bone_radius` keeps each bone's own cylinder radius: the surface along it (cleanup/bone_points.py).
 """
 
 from __future__ import annotations
@@ -41,6 +52,9 @@ FOOT_END = 0.12
 FOOT_CHAIN = 0.07
 HEEL_BACK = 0.33
 SOLE_WIDTH = 0.25
+TAPER = 0.6  # a limb segment's far end over its near end
+TOP = (3.0 / (1.0 + TAPER + TAPER**2)) ** 0.5  # its near end over its volume's cylinder: 1.24
+PALM = 0.165  # half a hand's breadth, of the forearm's length
 SOLE_SITES = ("heel", "heel_left", "heel_right", "toe", "toe_left", "toe_right")
 
 
@@ -66,13 +80,16 @@ class Foot:
 class Body:
     """The body of a clip (module notes): `skeleton` the clip's with the sole sites added (the
     same DOFs), `span` (length units), `radius` (F,) per joint then site of `skeleton`, `part`
-    (F,) bool whether each is part of the body (carriers are not), `feet`."""
+    (F,) bool whether each is part of the body (carriers are not), `feet`, and `bone_radius` (F,)
+    the capsule radius of the bone that ends at each joint or site (its start joint's,
+    default_radii; 0 for the root and where a carrier starts it)."""
 
     skeleton: Skeleton
     span: float
     radius: np.ndarray
     part: np.ndarray
     feet: tuple[Foot, ...]
+    bone_radius: np.ndarray
 
     @property
     def sole_names(self) -> tuple[str, ...]:
@@ -239,7 +256,14 @@ def body_of(clip: Motion) -> Body:
     body = with_sites(sk, sites)
     joint_radius = np.where(carriers, 0.0, default_radii(sk, standing))
     own = _thinnest(sk, joint_radius, start)
+    own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
+    frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])
+    limb_top = (np.bincount(start[start >= 0], minlength=sk.n_frames) == 1) & (frame_radius > 0)
+    own = np.where(limb_top, np.maximum(own, TOP * frame_radius), own)
     for f, value in foot_radius.items():
         own[f] = value
     radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])
-    return Body(body, float(span), radius, np.concatenate([part, np.ones(len(sites), bool)]), tuple(feet))
+    body_start = bone_starts(body)
+    bone_radius = np.where(body_start >= 0, joint_radius[np.maximum(body_start, 0)], 0.0)
+    part = np.concatenate([part, np.ones(len(sites), bool)])
+    return Body(body, float(span), radius, part, tuple(feet), bone_radius)

@@ -17,8 +17,6 @@ import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.clip_goals import GRAVITY, ClipGoals, Reach
 from deik.cleanup.contacts import Contacts
@@ -129,8 +127,9 @@ class CleanedClip:
 
     @property
     def unmet_frames(self) -> list[int]:
-        """Frames that miss a contact, floor, balance, reach or self-collision goal."""
-        return np.flatnonzero(~self.fix.met).tolist()
+        """Frames that miss a contact, floor, balance, reach or self-collision goal, sink under
+        the floor stated or let a resting point slide (cleanup/verdict.py)."""
+        return [n for n, met in enumerate(self.report["met_per_frame"]) if not met]
 
     @property
     def skipped_balance_frames(self) -> list[int]:

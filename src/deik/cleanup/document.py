@@ -15,12 +15,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
+from deik.cleanup.bone_points import bone_points
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, peak_ratios, point_acceleration_ratios
 from deik.cleanup.ground import body_paths, clearances, detect_resting
 from deik.cleanup.metrics import large_deviations
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.summary import Grounding, ReachTrack, clip_report, per_frame_errors, row_max
+from deik.cleanup.verdict import frame_verdict
 from deik.io.trajectory import Motion
 
 if TYPE_CHECKING:  # clips.solver loads the solver; the report needs only the type
@@ -155,11 +157,12 @@ def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None =
 def grounding(fix: ClipFix, height: float) -> Grounding:
     """The floor the report measures against: at `height`, each point's clearance as the fix kept
     it (its radius), and every point of the body that rests in the capture (cleanup/ground.py),
-    planted or not."""
+    planted or not, the points along its bones included (cleanup/bone_points.py)."""
     body = fix.body
     original = fix.on_body()[0]
     paths = body_paths(original, body)
-    return Grounding(height, clearances(body), detect_resting(original, body, height, paths=paths))
+    resting = detect_resting(original, body, height, paths=paths)
+    return Grounding(height, clearances(body), resting, bone_points(original, body, height))
 
 
 def _far(original, fixed, degrees: float) -> dict:
@@ -182,12 +185,18 @@ def clip_document(
     (cleanup/summary.py), the goal table per frame with GOAL_NOTES, the frames each reach missed
     (unreached) and its targets, the contacts, the `floor` ({"height" length units, "how" it was
     found, "kept", ...} or None; the floor measures use it, cleanup/summary.Grounding), the joints
-    turned more than `far_degrees` from the capture frame by frame, the balance track
+    turned more than `far_degrees` from the capture frame by frame, whether each frame is met
+    (its goals met and, with a `floor`, nothing sunk under it nor sliding: cleanup/verdict.py,
+    with the frames that sink or slide), the balance track
     (balance_record), the peaks against the capture's (dynamics_record), the frames whose change
     was taken back so that nothing jolts, and where the time went."""
     original, fixed = fix.on_body()
     ground = None if floor is None else grounding(fix, floor["height"])
     goals = goal_table(fix, metres)
+    met, sunk, sliding = fix.met, [], []
+    if ground is not None:
+        verdict = frame_verdict(fix.met, fixed, ground, fix.body.span)
+        met, sunk, sliding = verdict.met, np.flatnonzero(verdict.sunk), np.flatnonzero(verdict.sliding)
 
     def listed(entry):
         return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in entry.items()}
@@ -208,8 +217,10 @@ def clip_document(
         "floor": floor,
         "resting_points": None if ground is None else list(ground.resting.sites),
         "goal_notes": GOAL_NOTES,
-        "frames_met": int(fix.met.sum()),
-        "met_per_frame": fix.met.tolist(),
+        "frames_met": int(met.sum()),
+        "met_per_frame": met.tolist(),
+        "sunk_frames": [int(n) for n in sunk],
+        "sliding_frames": [int(n) for n in sliding],
         "contacts": None if contacts is None else contacts_record(original, contacts),
         "joints_far_from_capture": _far(original, fixed, far_degrees),
         "balance": balance_record(fix.balance, metres),

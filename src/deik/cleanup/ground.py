@@ -132,7 +132,7 @@ def clearances(body: Body) -> np.ndarray:
     return np.where(body.part, body.radius, np.nan)
 
 
-def _runs_in_seconds(mask: np.ndarray, frame_time: float) -> np.ndarray:
+def rest_runs(mask: np.ndarray, frame_time: float) -> np.ndarray:
     """`mask` (N, K) with gaps under GAP seconds filled and runs under SHORTEST dropped (a run
     of the whole clip stays, however short the clip)."""
     gap = max(1, int(round(GAP / frame_time)))
@@ -167,7 +167,7 @@ def detect_resting(
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
     clear = body.radius[index]
     low = paths.heights[:, index] - floor - clear <= band
-    rest = _runs_in_seconds(slow & low, clip.frame_time)
+    rest = rest_runs(slow & low, clip.frame_time)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])

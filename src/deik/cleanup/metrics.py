@@ -51,7 +51,11 @@ def sliding_steps(kin: Kinematics, index: Sequence[int], mask: np.ndarray, up: n
     """(N-1, S) displacement of frames `index` (S,) from frame n to n+1 where `mask` (N, S) holds
     in both, along the ground (perpendicular to `up`) or, without `up`, in space; NaN elsewhere;
     length units."""
-    p = kin.p_world_frame[:, index]
+    return point_steps(kin.p_world_frame[:, index], mask, up)
+
+
+def point_steps(p: np.ndarray, mask: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
+    """sliding_steps of points at p (N, S, 3)."""
     step = np.linalg.norm(np.diff(p if up is None else p @ ground_frame(np.asarray(up, float))[:2].T, axis=0), axis=-1)
     return np.where(mask[1:] & mask[:-1], step, np.nan)
 

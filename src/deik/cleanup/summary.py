@@ -6,9 +6,10 @@ from the clip's length unit with `metres` (metres per length unit, cleanup/units
 metrics are defined in cleanup/metrics.py (sliding, COM outside support, deviations, jerk,
 velocity spikes), cleanup/balance.py (ZMP outside support, with gravity 9.81 m/s^2) and
 cleanup/floor.py (skating, penetration, floating); docs/clips.md defines each. Support and
-floating metrics need contacts (the ones planted); with a Grounding, sliding and skating count
-every point that rests in the capture, planted or not, and penetration the body's surface
-below the floor stated; without one, the planted contacts and the joints and sites themselves.
+floating metrics need contacts (the ones planted); with a Grounding, sliding counts every point
+that rests in the capture, planted or not, the points along the bones included, skating the
+resting joints and sites, and penetration the body's surface below the floor stated; without
+one, the planted contacts and the joints and sites themselves.
 """
 
 from __future__ import annotations
@@ -21,10 +22,21 @@ import numpy as np
 
 from deik.cleanup import floor
 from deik.cleanup.balance import zmp_outside_support
+from deik.cleanup.bone_points import BonePoints
 from deik.cleanup.clip_goals import GRAVITY, reach_names
 from deik.cleanup.contacts import Contacts
-from deik.cleanup.metrics import jerk, joint_angles, outside_support, position_deviation, sliding_steps, spikes
+from deik.cleanup.metrics import (
+    jerk,
+    joint_angles,
+    outside_support,
+    point_steps,
+    position_deviation,
+    sliding_steps,
+    spikes,
+)
 from deik.io.trajectory import Motion
+from deik.model.kinematics import Kinematics
+from deik.model.skeleton import Skeleton
 
 
 def _stats(values: np.ndarray) -> tuple[float, float]:
@@ -70,12 +82,26 @@ SERIES = {
 @dataclass(frozen=True, eq=False)
 class Grounding:
     """The floor the measures use: its `height` (length units along up), each joint and site's
-    `clearance` (F,) (how far the body's surface lies below it; NaN: not counted) and the points
-    `resting` in the capture (Contacts: sliding and skating are measured over them)."""
+    `clearance` (F,) (how far the body's surface lies below it; NaN: not counted), the points
+    `resting` in the capture (Contacts: sliding and skating are measured over them) and the
+    points `along` the bones and when they rest (cleanup/bone_points.py: sliding counts them
+    too; None: none)."""
 
     height: float
     clearance: np.ndarray
     resting: Contacts
+    along: BonePoints | None = None
+
+
+def resting_steps(kin: Kinematics, skeleton: Skeleton, resting: Contacts, along: BonePoints | None) -> np.ndarray:
+    """(N-1, K) how far each point resting in frames n and n+1 of the capture moves along the
+    ground between them in the clip of kinematics `kin` (NaN where it does not rest in both):
+    the `resting` joints and sites, then the points `along` the bones; length units."""
+    index = [skeleton.frame_index(name) for name in resting.sites]
+    steps = sliding_steps(kin, index, resting.mask, skeleton.up)
+    if along is None:
+        return steps
+    return np.concatenate([steps, point_steps(along.positions(kin.p_world_frame), along.rest, skeleton.up)], axis=1)
 
 
 def _reach_keys(reach) -> dict:
@@ -94,10 +120,10 @@ def _measure(clip, contacts, reach, clear, metres: float, grounding: Grounding |
     kin = clip.kinematics
     moves = spikes(clip, kin)
     out = {}
-    resting = contacts if grounding is None else grounding.resting
-    if resting is not None:
-        index = [sk.frame_index(name) for name in resting.sites]
-        out["sliding_mm_per_frame"] = mm * sliding_steps(kin, index, resting.mask, sk.up), 1
+    if grounding is not None:
+        out["sliding_mm_per_frame"] = mm * resting_steps(kin, sk, grounding.resting, grounding.along), 1
+    elif contacts is not None:
+        out["sliding_mm_per_frame"] = mm * resting_steps(kin, sk, contacts, None), 1
     if grounding is not None:
         depth = floor.penetration(kin, sk, grounding.height, grounding.clearance)
         out["penetration_mm"] = mm * depth[:, None], 0

@@ -220,7 +220,12 @@ def _outcome_lines(document: dict) -> list[str]:
         lines.append(choice.describe(unit) + ("" if floor["kept"] else "; not kept (--floor none)"))
     unmet = [n for n, met in enumerate(document["met_per_frame"]) if not met]
     if unmet:
-        lines.append(f"frames missing a contact/floor/balance/reach goal: {_spans(unmet)}")
+        lines.append(
+            f"frames not met (a goal missed, the body under the floor, a resting point sliding): {_spans(unmet)}"
+        )
+    for key, words in (("sunk_frames", "the body under the floor"), ("sliding_frames", "a resting point sliding")):
+        if document.get(key):
+            lines.append(f"  of these, {words}: {_spans(document[key])}")
     if document["calmed_frames"]:
         lines.append(
             f"frames whose fix was partly taken back so that no point accelerates past x"
@@ -297,7 +302,8 @@ def print_outcome(cleaned: CleanedClip, quiet: bool) -> None:
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"
     print(
         f"{n_frames} frames, warm start + {passes}, {fix.wall_time:.2f} s on {fix.settings.device}, "
-        f"{int(fix.met.sum())}/{n_frames} frames meet every contact/floor/balance/reach/self-collision goal"
+        f"{document['frames_met']}/{n_frames} frames meet every contact/floor/balance/reach/self-collision goal "
+        "with nothing under the floor and no resting point sliding"
     )
     for line in _outcome_lines(document):
         print(line)

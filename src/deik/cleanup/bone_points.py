@@ -1,0 +1,75 @@
+"""Points along the body's bones: where a limb lying on the floor touches it between its joints.
+
+A shin lying on the floor while its knee pivots slides along its length, not at the knee; the
+joints and sites of the body (cleanup/body.py) do not see it. Along every bone of the body but
+the feet's (their soles are their surface), points lie at most the resting band (ground.BAND x
+span, 4.3 cm on the shared humanoid) apart, each with its bone's capsule radius
+(Body.bone_radius). A point rests in a frame by the rule of cleanup/ground.py (slow, its surface
+within the band of the floor, in runs of seconds) when it also touches: its surface at most TIE
+x span above its bone's lowest end's, as both ends of a bone lying level touch together (a
+thigh that rises from a kneeling knee does not lie on the floor, only its knee does).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from deik.cleanup import ground
+from deik.cleanup.body import Body
+from deik.io.trajectory import Motion
+from deik.model.capsules import bone_starts
+
+TIE = 0.005  # of the span: 1.07 cm on the shared humanoid
+
+
+@dataclass(frozen=True, eq=False)
+class BonePoints:
+    """Points along bones: each `share` (P,) of the way from frame `start` (P,) to frame `end`
+    (P,) of the body's skeleton, and in which frames of the capture each rests, `rest` (N, P)."""
+
+    start: np.ndarray
+    end: np.ndarray
+    share: np.ndarray
+    rest: np.ndarray
+
+    def positions(self, p: np.ndarray) -> np.ndarray:
+        """(N, P, 3) the points given the frames' positions p (N, F, 3)."""
+        t = self.share[:, None]
+        return (1.0 - t) * p[:, self.start] + t * p[:, self.end]
+
+
+def _bones(body: Body) -> tuple[np.ndarray, np.ndarray]:
+    """(start (B,), end (B,)) frames of the body's bones: both ends part of it, not both in a
+    foot nor ending at a sole site."""
+    start = bone_starts(body.skeleton)
+    names = body.skeleton.frame_names
+    feet = {name for foot in body.feet for name in foot.chain + foot.soles}
+    soles = set(body.sole_names)
+    ends = [f for f in range(len(start)) if start[f] >= 0 and body.part[f] and body.part[start[f]]]
+    ends = [f for f in ends if names[f] not in soles and not (names[f] in feet and names[start[f]] in feet)]
+    ends = np.array(ends, np.int64)
+    return start[ends], ends
+
+
+def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
+    """The BonePoints of `capture` (on body.skeleton) over the floor at height `floor` (module
+    notes)."""
+    start, end = _bones(body)
+    p = capture.kinematics.p_world_frame
+    length = np.median(np.linalg.norm(p[:, end] - p[:, start], axis=-1), axis=0) if len(end) else np.zeros(0)
+    band, up = ground.BAND * body.span, body.skeleton.up
+    count = np.maximum(np.ceil(length / band).astype(np.int64), 2)
+    bone = np.repeat(np.arange(len(end)), count - 1)
+    share = np.concatenate([np.arange(1, n) / n for n in count]) if len(end) else np.zeros(0)
+    points = BonePoints(start[bone], end[bone], share, np.zeros((capture.n_frames, len(bone)), bool))
+    if not len(bone):
+        return points
+    radius = body.bone_radius[end][bone]
+    surface = points.positions(p) @ up - floor - radius
+    lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
+    low = (surface <= band) & (surface <= lowest + TIE * body.span)
+    slow = ground.point_speeds(points.positions(p), capture.frame_time) <= ground.SPEED * body.span
+    rest = ground.rest_runs(low & slow, capture.frame_time)
+    return BonePoints(points.start, points.end, share, rest)

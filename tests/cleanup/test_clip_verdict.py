@@ -1,0 +1,135 @@
+"""Which frames a report calls met (cleanup/verdict.py), on the procedural walk (benchmarks/clip_walk.py:
+each foot flat and still on the floor at 0 through its stance) changed in known frames: the body
+shifted along the ground from one frame on (every resting point slides in that step), the body
+lowered in one frame (its soles under the floor); and the same rig lying on its back, a shin
+swung along the floor about its knee in one frame. The verdict must list exactly those frames,
+and none of the capture's own."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from benchmarks.clip_rigs import format_rig
+from benchmarks.clip_walk import procedural_walk
+from deik.cleanup.body import body_of, on_body
+from deik.cleanup.bone_points import bone_points
+from deik.cleanup.clip_goals import FLOOR_TOLERANCE
+from deik.cleanup.ground import clearances, detect_resting
+from deik.cleanup.metrics import point_steps
+from deik.cleanup.summary import Grounding
+from deik.cleanup.verdict import SLIDING_TOLERANCE, frame_verdict
+from deik.io.bvh import parse_bvh
+from deik.model.joints import TRANSLATE
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """(the walk on its body, the body, the grounding at the floor 0)."""
+    case = procedural_walk()
+    clip = parse_bvh(format_rig(case.rig), "walk.bvh")
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    return motion, body, grounding(motion, body)
+
+
+def grounding(motion, body) -> Grounding:
+    """The floor at 0 as a report measures it: the resting joints and sites, the points along
+    the bones."""
+    resting = detect_resting(motion, body, 0.0)
+    return Grounding(0.0, clearances(body), resting, bone_points(motion, body, 0.0))
+
+
+def root_channel(motion, axis: int) -> int:
+    """The root's translation DOF along world axis `axis` (0 X, 1 Y)."""
+    sk = motion.skeleton
+    dofs = [d for d in range(sk.n_dofs) if sk.dof_kind[d] == TRANSLATE and sk.dof_joint[d] == 0]
+    return dofs[axis]
+
+
+def verdict(walk, frames):
+    motion, body, ground = walk
+    return frame_verdict(np.ones(motion.n_frames, bool), motion.with_frames(frames), ground, body.span)
+
+
+def test_the_capture_itself_is_clean(walk):
+    motion, _, ground = walk
+    assert ground.resting.sites and ground.resting.mask.any()
+    outcome = verdict(walk, motion.frames)
+    assert outcome.met.all() and not outcome.sliding.any() and not outcome.sunk.any()
+
+
+def test_a_step_along_the_ground_lists_exactly_its_two_frames(walk):
+    motion, body, ground = walk
+    resting = ground.resting.mask.any(axis=1)
+    k = int(np.flatnonzero(resting[1:] & resting[:-1])[len(resting) // 3]) + 1  # rests in k-1 and k
+    frames = motion.frames.copy()
+    frames[k:, root_channel(motion, 0)] += 3 * SLIDING_TOLERANCE * body.span
+    outcome = verdict(walk, frames)
+    assert np.flatnonzero(~outcome.met).tolist() == [k - 1, k] == np.flatnonzero(outcome.sliding).tolist()
+    assert not outcome.sunk.any()
+    small = motion.frames.copy()
+    small[k:, root_channel(motion, 0)] += 0.5 * SLIDING_TOLERANCE * body.span  # within tolerance
+    assert verdict(walk, small).met.all()
+
+
+def test_a_body_lowered_in_one_frame_lists_that_frame(walk):
+    motion, body, _ = walk
+    m = motion.n_frames // 2
+    frames = motion.frames.copy()
+    frames[m, root_channel(motion, 1)] -= 3 * FLOOR_TOLERANCE * body.span
+    outcome = verdict(walk, frames)
+    assert np.flatnonzero(~outcome.met).tolist() == [m] == np.flatnonzero(outcome.sunk).tolist()
+    assert not outcome.sliding.any()
+
+
+def test_the_goals_missed_stay_listed(walk):
+    motion, body, ground = walk
+    goals = np.ones(motion.n_frames, bool)
+    goals[[2, 5]] = False
+    outcome = frame_verdict(goals, motion, ground, body.span)
+    assert np.flatnonzero(~outcome.met).tolist() == [2, 5]
+
+
+def lying(frames: int = 30):
+    """(the walk's rig lying still on its back, its shins' surface 5 mm above the floor (the
+    trunk, thicker, a little under it), on its body; the body): every rotation 0 but the
+    root's, turned 90 degrees about its side axis."""
+    rig = procedural_walk().rig
+    columns = rig.columns
+    values = np.zeros((frames, len(columns)))
+    values[:, columns.index((0, "Zrotation"))] = 90.0
+    clip = parse_bvh(format_rig(dataclasses.replace(rig, frames=values)), "lying.bvh")
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    ankle = body.skeleton.frame_index("RightAnkle")
+    shin = motion.kinematics.p_world_frame[0, ankle] @ motion.skeleton.up - body.bone_radius[ankle]
+    values[:, columns.index((0, "Yposition"))] = 0.005 - shin
+    return on_body(parse_bvh(format_rig(dataclasses.replace(rig, frames=values)), "lying.bvh"), body), body
+
+
+def test_a_shin_swinging_along_the_floor_about_its_knee_is_sliding():
+    """A body lying still on its back that swings a shin along the floor about the knee in one
+    frame: the knee stays, the points along the shin slide. The two steps into and out of the
+    swung frame are listed, by the points along the bones alone too; the still capture slides nowhere."""
+    motion, body = lying()
+    ground = grounding(motion, body)
+    shin = body.skeleton.frame_index("RightKnee")
+    ones = np.ones(motion.n_frames, bool)
+    assert not frame_verdict(ones, motion, ground, body.span).sliding.any()
+    m = motion.n_frames // 2
+    sk = motion.skeleton
+    swing = [d for d in range(sk.n_dofs) if sk.dof_joint[d] == shin and sk.dof_names[d].endswith("Xrotation")]
+    frames = motion.frames.copy()
+    frames[m, swing] += np.radians(3.0)  # the knee's X axis is the body's forward axis: up, lying
+    swung = motion.with_frames(frames)
+    knee = [motion.kinematics.position("RightKnee")[m], swung.kinematics.position("RightKnee")[m]]
+    assert np.allclose(*knee)
+    outcome = frame_verdict(ones, swung, ground, body.span)
+    assert np.flatnonzero(outcome.sliding).tolist() == [m - 1, m, m + 1]
+    along = ground.along  # the shin's own points, the foot's aside, slide in the two steps
+    steps = point_steps(along.positions(swung.kinematics.p_world_frame), along.rest, sk.up)
+    on_shin = along.end == sk.frame_index("RightAnkle")
+    assert on_shin.any() and along.rest[:, on_shin].all()
+    long = np.nan_to_num(steps[:, on_shin]).max(axis=1) > SLIDING_TOLERANCE * body.span
+    assert np.flatnonzero(long).tolist() == [m - 1, m]
