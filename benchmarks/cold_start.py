@@ -1,7 +1,7 @@
 """What a user waits for: the first solve after an install, `deik warmup` and every later call,
 each in a fresh process.
 
-    python -m benchmarks.cold_start [--repeats 2] [--cases "import deik" ...] [--out DIR]
+    python -m benchmarks.cold_start [--repeats 2] [--cases "import deik" ...] [--python PATH] [--out DIR]
 
 Every case runs `python` in a fresh process against the deik this benchmark imports (its folder
 first on PYTHONPATH, bytecode compiled first as in an installed package) and is timed from
@@ -13,6 +13,9 @@ shared machine inflate less than the wall. Cases (median of --repeats):
   median of those, and deik's own record of each kernel's compile seconds is kept;
 - warmup: `deik warmup --quiet` on an empty cache; warm solve: the same solve on a filled cache;
 - `import deik`, `deik --version`, and `python -c pass`, the interpreter's own start, for scale.
+--python runs every case with another interpreter, e.g. a virtual environment holding only what
+`pip install deik` brings (the development one also holds the test and GPU extras, whose
+numba-cuda hooks every Python start and whose PyYAML and SciPy Numba imports when present).
 Writes cold_start.{json,md,png}. Before and after: `python -m benchmarks.compare cold_start COMMIT
 -- --repeats 2` (about 40 minutes on 2 shared cores, mostly compiling).
 """
@@ -50,13 +53,16 @@ CALLS = {
 }
 
 
+INTERPRETER = [sys.executable]  # the `python` every case runs (--python)
+
+
 def python(args: list[str], cache: Path) -> dict:
     """Wall and CPU seconds of `python ARGS` in a fresh process with NUMBA_CACHE_DIR=cache; the
     CPU seconds include its compile workers'."""
     env = {key: value for key, value in os.environ.items() if key != "PYTHONDONTWRITEBYTECODE"}
     env.update(PYTHONPATH=str(SOURCE), NUMBA_CACHE_DIR=str(cache))
     before, began = os.times(), time.perf_counter()
-    done = subprocess.run([sys.executable, *args], cwd=ROOT, env=env, capture_output=True, text=True)
+    done = subprocess.run([*INTERPRETER, *args], cwd=ROOT, env=env, capture_output=True, text=True)
     wall, after = time.perf_counter() - began, os.times()
     if done.returncode != 0:
         raise RuntimeError(f"python {' '.join(args)} failed: {done.stderr[-2000:]}")
@@ -94,9 +100,11 @@ def main(argv=None) -> dict:
     p = harness.parser(__doc__)
     p.add_argument("--repeats", type=int, default=2, help="fresh processes per case, median kept")
     p.add_argument("--cases", nargs="+", metavar="CASE", help="only these cases (default: all)")
+    p.add_argument("--python", type=Path, help="the interpreter the cases run in (default: this one)")
     run = harness.start("cold_start", p, argv)
     args = run.args
-    subprocess.run([sys.executable, "-m", "compileall", "-q", str(SOURCE / "deik")], check=True)
+    INTERPRETER[:] = [str(args.python or sys.executable)]
+    subprocess.run([*INTERPRETER, "-m", "compileall", "-q", str(SOURCE / "deik")], check=True)
     with tempfile.TemporaryDirectory(prefix="deik-warm-") as warm_cache:
         python(SOLVE, Path(warm_cache))  # a filled cache for the warm calls
         jobs = {case: (lambda flags=flags: first_solve(flags)) for case, flags in FIRST_SOLVES.items()}
@@ -121,7 +129,11 @@ def main(argv=None) -> dict:
         f"{case}, CPU s": c["cpu"] for case, c in cases.items()
     }
     body = harness.md_table(["case", "wall s", "CPU s", "compile s (wall)"], cells)
-    return run.finish({"solve": " ".join(SOLVE[2:]), "cases": cases}, body, fig, figures)
+    packages = subprocess.run(
+        [*INTERPRETER, "-m", "pip", "list", "--format=freeze"], capture_output=True, text=True
+    ).stdout.split()
+    record = {"solve": " ".join(SOLVE[2:]), "python": INTERPRETER[0], "packages": packages, "cases": cases}
+    return run.finish(record, body, fig, figures)
 
 
 if __name__ == "__main__":

@@ -129,3 +129,18 @@ def test_cut_urdf_keeps_deiks_dofs(case, robots, tmp_path):
         deik.forward_kinematics(skeleton, Q).position(spec.tip),
         atol=1e-12,
     )
+
+
+def test_generated_robots_keep_the_kinematics_they_are_made_from(shared_data):
+    # the UR5-type arm at zero: the tool lies at the published link lengths' sums (a2 + a3 along
+    # x, d4 + d6 across, d1 - d5 up); the continuous Panda moves like the Panda wherever both can
+    ur5 = load_case("ur5_wide")[0]
+    assert ur5.n_dofs == 6 and np.allclose(ur5.lower, -2 * np.pi) and np.allclose(ur5.upper, 2 * np.pi)
+    tool = deik.forward_kinematics(ur5, np.zeros(6)).position("tool0")
+    np.testing.assert_allclose(tool, [0.425 + 0.39225, 0.10915 + 0.0823, 0.089159 - 0.09465], atol=1e-9)
+    panda, free = load_case("panda")[0], load_case("panda_continuous")[0]
+    assert free.dof_names == panda.dof_names and np.allclose(free.upper, np.pi) and np.allclose(free.lower, -np.pi)
+    q = np.random.default_rng(2).uniform(panda.lower, panda.upper, (20, panda.n_dofs))
+    a, b = deik.forward_kinematics(panda, q), deik.forward_kinematics(free, q)
+    np.testing.assert_allclose(a.position("panda_hand_tcp"), b.position("panda_hand_tcp"), atol=1e-12)
+    np.testing.assert_allclose(a.rotation("panda_hand_tcp"), b.rotation("panda_hand_tcp"), atol=1e-12)
