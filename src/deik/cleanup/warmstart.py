@@ -75,9 +75,9 @@ def dof_weights(clip: Motion) -> np.ndarray:
     the root counts like the root turn that moves the body as much. With 1 per length unit too
     (metres as radians), lifting the whole body would be the cheap way to move a hand."""
     sk = clip.skeleton
-    p = clip.kinematics.p_world_frame
     root = body_root(sk)
-    r = np.sqrt(((p - p[:, root : root + 1]) ** 2).sum(axis=-1).mean())
+    p = clip.kinematics.p_world_frame[:, root:]  # the carriers above the body come first
+    r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
 
