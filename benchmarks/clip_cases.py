@@ -107,8 +107,9 @@ def resample(rotations: np.ndarray, translations: np.ndarray, factor: float) -> 
     return out_r, out_t.transpose(2, 0, 1)
 
 
-def studio(case: Case) -> Case:
-    """The studio transform (module notes)."""
+def studio(case: Case, order: tuple[str, ...] = ("Zrotation", "Yrotation", "Xrotation")) -> Case:
+    """The studio transform (module notes); `order` the order of every joint's rotation
+    channels (ZYX; the source's order leaves the rig family as the only change)."""
     rig, metres = case.rig, 100.0
     rotations, translations = joint_values(rig)
     if rig.frame_time < 0.025:
@@ -117,7 +118,7 @@ def studio(case: Case) -> Case:
     hips = translations[:, 0] * metres
     ground = hips * np.array([1.0, 0.0, 1.0])
     offsets = np.concatenate([[np.zeros(3)], [np.median(hips - ground, axis=0)], rig.offsets[1:] * metres])
-    channels = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
+    channels = ("Xposition", "Yposition", "Zposition") + tuple(order)
     names = ("Reference",) + tuple(STUDIO_NAMES[case.names[name]] if name in case.names else name for name in rig.names)
     new = Rig(
         names,

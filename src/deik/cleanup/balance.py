@@ -33,6 +33,7 @@ from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import widened
 from deik.cleanup.spacetime import spring_bands
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 from deik.model.geometry import convex_hull, ground_frame, polygon_distance
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -106,7 +107,9 @@ def zmp_outside_support(
     for k, pattern in enumerate(patterns):
         rows = (inverse == k) & ~falling
         if pattern.any() and rows.any():
-            out[rows] = np.maximum(polygon_distance(zmp[rows], feet[rows][:, pattern]) - SOLE * skeleton.reach, 0.0)
+            out[rows] = np.maximum(
+                polygon_distance(zmp[rows], feet[rows][:, pattern]) - SOLE * body_reach(skeleton), 0.0
+            )
     return out
 
 
@@ -255,7 +258,7 @@ def balance_track(
     normals, offsets, frame = [np.zeros((0, 2))], [np.zeros(0)], [np.zeros(0, int)]
     need = np.zeros(N)  # how far the capture's ZMP crosses the support
     for n in np.flatnonzero(supported):
-        A, b = support_halfplanes(plants[n, contacts.mask[n]] @ axes.T, SOLE * sk.reach)
+        A, b = support_halfplanes(plants[n, contacts.mask[n]] @ axes.T, SOLE * body_reach(sk))
         normals.append(A), offsets.append(b), frame.append(np.full(len(b), n))
         need[n] = max((A @ zmp[n] - b).max(), 0.0)
     planes = (np.concatenate(normals), np.concatenate(offsets), np.concatenate(frame))
@@ -264,7 +267,7 @@ def balance_track(
     while True:
         balanced = supported & ~skipped
         try:
-            shift = _solve_shift(zmp, lever, planes, balanced, clip.frame_time, fade, sk.reach)
+            shift = _solve_shift(zmp, lever, planes, balanced, clip.frame_time, fade, body_reach(sk))
         except np.linalg.LinAlgError:  # accelerations far from g (microsecond frames): no track holds
             skipped, balanced, shift = supported.copy(), np.zeros(N, bool), np.zeros((N, 2))
             break
@@ -274,7 +277,8 @@ def balance_track(
         with np.errstate(divide="ignore", invalid="ignore"):  # no budget (under 3 frames): any added is over
             over = (
                 np.maximum(
-                    np.where(added > 0, added / budget, 0.0), np.linalg.norm(shift, axis=1) / (LONGEST_SHIFT * sk.reach)
+                    np.where(added > 0, added / budget, 0.0),
+                    np.linalg.norm(shift, axis=1) / (LONGEST_SHIFT * body_reach(sk)),
                 )
                 > 1.0
             )

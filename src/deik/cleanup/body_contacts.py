@@ -13,6 +13,7 @@ import numpy as np
 
 from deik.cleanup.contacts import Contacts, site_positions
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 from deik.model.skeleton import Skeleton
 
 BONE_TIE = 0.01  # of reach: both ends of a bone this level with each other touch together
@@ -38,7 +39,7 @@ def bone_contacts(clip: Motion, parent: str, child: str, frames: np.ndarray) -> 
     `parent` to `child` is its lowest point (within BONE_TIE x reach of the lower end)."""
     heights = site_positions(clip, (parent, child)) @ clip.skeleton.up
     lowest = heights.min(axis=1, keepdims=True)
-    low = heights <= lowest + BONE_TIE * clip.skeleton.reach
+    low = heights <= lowest + BONE_TIE * body_reach(clip.skeleton)
     return {parent: frames & low[:, 0], child: frames & low[:, 1]}
 
 

@@ -24,7 +24,8 @@ from deik.cleanup.banded import solve_spd_band
 from deik.cleanup.spacetime import spring_bands
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion
-from deik.model.joints import TRANSLATE
+from deik.model.capsules import body_reach
+from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, Floor, Goal, Position
 
@@ -50,16 +51,18 @@ def moving_dofs(skeleton: Skeleton, name: str) -> np.ndarray:
 
 
 def hinge_channels(clip: Motion) -> np.ndarray:
-    """(D,) bool: DOFs that stay exactly 0 in every frame while another DOF of their joint
-    moves (the X and Y channels of a knee that bends about Z): the performance uses the joint
-    as a hinge, so the fix keeps it one."""
+    """(D,) bool: rotation DOFs that stay exactly 0 in every frame while another DOF of their
+    joint moves (the X and Y channels of a knee that bends about Z): the performance uses the
+    joint as a hinge, so the fix keeps it one. A translation that stays 0 is no hinge: a root
+    on the ground (a `Reference` joint at height 0, a walk along one axis) must still lift or
+    shift the body it carries."""
     sk = clip.skeleton
     frames = clip.frames
     zero = (frames == 0.0).all(axis=0)
     moving = np.ptp(frames, axis=0) > 0 if len(frames) else np.zeros(sk.n_dofs, bool)
     joint_moves = np.zeros(sk.n_joints, bool)
     np.logical_or.at(joint_moves, sk.dof_joint, moving)
-    return zero & joint_moves[sk.dof_joint]
+    return zero & joint_moves[sk.dof_joint] & (sk.dof_kind == ROTATE)
 
 
 def active_frames(goal: Goal, n_frames: int) -> np.ndarray:
@@ -73,7 +76,7 @@ def near_floor(clip: Motion, height: float, clearance: np.ndarray | None = None)
     those a search may have to lift."""
     sk = clip.skeleton
     level = height + (0.0 if clearance is None else np.nan_to_num(clearance, nan=-np.inf))
-    near = clip.kinematics.p_world_frame @ sk.up <= level + NEAR_FLOOR * sk.reach
+    near = clip.kinematics.p_world_frame @ sk.up <= level + NEAR_FLOOR * body_reach(sk)
     out = near.copy()
     out[1:] |= near[:-1]
     out[:-1] |= near[1:]

@@ -4,8 +4,8 @@ Contacts are detected from the sites' heights along `skeleton.up` and their spee
 the user as frame ranges. Frames are 0-based; a contact interval (start, stop) excludes stop.
 
 Detection defaults, chosen on the shared humanoid clips (Y up, metres, reach 1.08 m):
-- height: HEIGHT_FRACTION = 6 % of `skeleton.reach` above the ground (6.5 cm): the ankle joint of
-  a flat foot, about 5 cm above the sole, counts; a heel raised for push-off does not.
+- height: HEIGHT_FRACTION = 6 % of the body's reach (body_reach) above the ground (6.5 cm): the ankle
+  joint of a flat foot, about 5 cm above the sole, counts; a heel raised for push-off does not.
 - speed: SPEED_FRACTION = 0.5 reach per second (0.54 m/s): planted feet move under 0.1 m/s
   in the walk and jump and swinging ones 1-9 m/s; the threshold keeps the slow roll of the toe
   at heel-off and touch-down.
@@ -27,6 +27,7 @@ import numpy as np
 
 from deik.errors import InputError, UnknownNameError
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 from deik.model.skeleton import Skeleton
 
 FOOT_WORDS = ("foot", "toe", "heel", "ankle")
@@ -143,8 +144,8 @@ def detect_contacts(
         raise InputError("detect_contacts needs at least one site")
     if clip.n_frames == 0:
         raise InputError("the clip has no frames: there are no contacts to detect")
-    height = threshold(height, HEIGHT_FRACTION * sk.reach, "height")
-    speed = threshold(speed, SPEED_FRACTION * sk.reach, "speed")
+    height = threshold(height, HEIGHT_FRACTION * body_reach(sk), "height")
+    speed = threshold(speed, SPEED_FRACTION * body_reach(sk), "speed")
     p = site_positions(clip, sites)
     heights = p @ sk.up
     slow = speeds(p, clip.frame_time) <= speed

@@ -21,6 +21,7 @@ import numpy as np
 
 from deik.cleanup.metrics import joint_angles, point_motion, spikes
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 
 PEAK_RATIO = 1.1
 FAR_DEGREES = 30.0  # a joint turned further than this from the capture changes the performance
@@ -114,7 +115,7 @@ def jolted_frames(
     accelerating beyond it on its own peak in the capture (a velocity between two frames marks
     both), or a joint more than `degrees` from the capture."""
     before, after = _peaks(original, points), _peaks(fixed, points)
-    jolts = _jolts(before, after, original.n_frames, original.skeleton.reach, ratio, per_point=True)
+    jolts = _jolts(before, after, original.n_frames, body_reach(original.skeleton), ratio, per_point=True)
     return jolts | (joint_angles(original, fixed) > degrees).any(axis=1)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from deik.cleanup.contacts import Contacts, site_positions
 from deik.errors import InputError
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 
 RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
 SNAP_FRACTION = 0.01  # of reach: a plant without clearance this close to the floor is put on it
@@ -136,7 +137,7 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
-    pairs = _rigid_pairs(p, clip.skeleton.reach)
+    pairs = _rigid_pairs(p, body_reach(clip.skeleton))
     floor = contacts.ground + contacts.clearance
     heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)
@@ -144,7 +145,7 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
         for a, b in contacts.intervals(s):
             mean = np.median(p[a:b, s], axis=0) if along == "median" else p[a:b, s].mean(axis=0)
             height = max(float(np.median(heights[a:b, s])), floor[s])
-            if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * clip.skeleton.reach:
+            if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * body_reach(clip.skeleton):
                 height = floor[s]
             plants[s, a, b] = mean + (height - mean @ up) * up
     plants = _linked_plants(plants, pairs, p, up)

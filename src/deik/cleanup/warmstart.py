@@ -30,6 +30,7 @@ from deik.cleanup.coherence import active_frames
 from deik.cleanup.metrics import point_motion
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach, body_root, carrier_joints
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -69,12 +70,13 @@ def position_jacobian(
 
 def dof_weights(clip: Motion) -> np.ndarray:
     """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
-    translation 1 / r, r the root-mean-square distance of the joints and sites from the root
-    over the clip: moving the root counts like the root turn that moves the body as much. With
-    1 per length unit too (metres as radians), lifting the whole body would be the cheap way to
-    move a hand."""
+    translation 1 / r, r the root-mean-square distance of the joints and sites from the body's
+    root (the hips, below any carrier: deik.model.capsules.body_root) over the clip: moving
+    the root counts like the root turn that moves the body as much. With 1 per length unit too
+    (metres as radians), lifting the whole body would be the cheap way to move a hand."""
     sk = clip.skeleton
-    p = clip.kinematics.p_world_frame
+    root = body_root(sk)
+    p = clip.kinematics.p_world_frame[:, root:]  # the carriers above the body come first
     r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
@@ -82,16 +84,19 @@ def dof_weights(clip: Motion) -> np.ndarray:
 def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """(D,) how stiff each DOF's spring is (cleanup/spacetime.py): 1 + BODY_STIFFNESS x the sum
     over every joint and site of its squared speed per unit of the weighted DOF (dof_weights),
-    in reach units, averaged over `poses` (N, D), and ROOT_STIFFNESS times that for the root's
-    DOFs. A correction that must bend somewhere (a heel stopping where a contact starts) then
-    bends the leg, not the hips that carry the arms, no channel takes it all (both the points'
-    and the channels' accelerations stay low), and the body keeps its path through the world
-    unless the legs cannot reach."""
-    _, jac = position_jacobian(skeleton, poses, skeleton.frame_names)
+    in reach units (body_reach), averaged over `poses` (N, D), and ROOT_STIFFNESS times that for
+    the DOFs that carry the whole body: the body's root (body_root) and the carriers above it.
+    A correction that must bend somewhere (a heel stopping where a contact starts) then bends
+    the leg, not the hips that carry the arms, no channel takes it all (both the points' and the
+    channels' accelerations stay low), and the body keeps its path through the world unless the
+    legs cannot reach. The carriers' own frames are no part of the body and do not count."""
+    carriers = carrier_joints(skeleton)
+    body_frames = [name for f, name in enumerate(skeleton.frame_names) if f >= skeleton.n_joints or not carriers[f]]
+    _, jac = position_jacobian(skeleton, poses, body_frames)
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
-    body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / skeleton.reach**2
-    root = skeleton.dof_joint == 0
-    return (1.0 + BODY_STIFFNESS * body) * np.where(root, ROOT_STIFFNESS, 1.0)
+    body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / body_reach(skeleton) ** 2
+    carrying = carriers[skeleton.dof_joint] | (skeleton.dof_joint == body_root(skeleton))
+    return (1.0 + BODY_STIFFNESS * body) * np.where(carrying, ROOT_STIFFNESS, 1.0)
 
 
 def _rows(goals, N: int, names: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -178,7 +183,7 @@ def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     error, rows = _position_rows(x, jac, held_rows, longest, ground)
     errors, parts = [error], [rows]
     for level in floors:
-        F, margin = skeleton.n_frames, FLOOR_MARGIN * skeleton.reach
+        F, margin = skeleton.n_frames, FLOOR_MARGIN * body_reach(skeleton)
         error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, level, margin, FLOOR_HOLD)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
@@ -229,9 +234,10 @@ def warm_start(
     ground = horizontal_axes(skeleton)
     movable = np.broadcast_to(np.asarray(movable, bool), (N, D))
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
-    longest = LONGEST_STEP * skeleton.reach
+    size = body_reach(skeleton)
+    longest = LONGEST_STEP * size
     stiffness = motion_stiffness(skeleton, original, weights)
-    margin = FLOOR_MARGIN * skeleton.reach
+    margin = FLOOR_MARGIN * size
     if floors and not lift:
         floors = [floor_levels(g.height, margin, g.clearance) for g in floors]
     elif floors:
@@ -263,13 +269,11 @@ def warm_start(
                 rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
             now = np.sqrt(np.mean(error**2)) if error.size else 0.0
-            if np.abs(error).max(initial=0.0) <= SETTLED * skeleton.reach or (k >= FIRST_STEPS and now >= before):
+            if np.abs(error).max(initial=0.0) <= SETTLED * size or (k >= FIRST_STEPS and now >= before):
                 break
             before = now
             damping = HELD_WEIGHT * DAMPING**2
-            step = spacetime_step(
-                (rows, error, row_weights / skeleton.reach**2), d * weights, free, fade, damping, stiffness
-            )
+            step = spacetime_step((rows, error, row_weights / size**2), d * weights, free, fade, damping, stiffness)
             d += step * scale * free
     return d
 

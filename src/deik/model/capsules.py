@@ -49,6 +49,26 @@ def carrier_joints(skeleton: Skeleton) -> np.ndarray:
     return out if children[k] >= 2 else np.zeros(skeleton.n_joints, bool)
 
 
+def body_root(skeleton: Skeleton) -> int:
+    """The joint the body hangs from: the first below the carriers (carrier_joints), the root
+    when there are none (the hips of a rig rooted at its hips)."""
+    carriers = carrier_joints(skeleton)
+    return int(np.argmin(carriers)) if carriers.any() else 0
+
+
+def body_reach(skeleton: Skeleton) -> float:
+    """Longest path length from body_root to a joint or site (Skeleton.reach measured from the
+    body, not from the carriers above it): the same body gets the same reach whether its rig
+    is rooted at the hips or at a `Reference` joint on the ground below them."""
+    root = body_root(skeleton)
+    if root == 0:
+        return skeleton.reach
+    carriers = np.concatenate([carrier_joints(skeleton), np.zeros(skeleton.n_frames - skeleton.n_joints, bool)])
+    depth = np.array([skeleton.path_length(f) for f in range(skeleton.n_frames)])
+    longest = float(depth[~carriers].max() - depth[root])
+    return longest if longest > 0 else 1.0
+
+
 def link_distance(skeleton: Skeleton) -> np.ndarray:
     """(F, F) how many links apart bones are: 0 for a bone and itself, 1 for bones that share a
     frame (parent and child, siblings), 2 for bones joined through one other bone, ...; F for

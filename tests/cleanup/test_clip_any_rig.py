@@ -1,0 +1,59 @@
+"""One motion on two rig families cleans to one motion (issue 27, "any rig"): the procedural walk
+(benchmarks/clip_walk.py) sunk under the floor, and the same walk on the studio rig (centimetres,
+a `Reference` joint on the ground above the hips that carries the walk, six channels on every
+joint, other joint names; its rotation channels in the source's order, so that only the rig
+family differs), each cleaned by `deik.clean_clip` with the default options. Measured by the
+benchmarks' own forward kinematics (benchmarks/clip_rigs.py), in metres: the cleaned joints lie
+where they lie on the other rig, and the sunk body is lifted out of the floor on both."""
+
+import dataclasses
+
+import numpy as np
+
+import deik
+from benchmarks.clip_cases import studio
+from benchmarks.clip_rigs import format_rig, parse_rig, world_frames
+from benchmarks.clip_walk import ROTATIONS, procedural_walk
+from deik.io.bvh import parse_bvh
+from deik.model.capsules import body_reach
+
+SUNK = 0.015  # metres: the walk's body this far lower, so its feet rest under the floor
+
+
+def sunk_walk():
+    walk = procedural_walk()
+    frames = walk.rig.frames.copy()
+    frames[:, walk.rig.columns.index((0, "Yposition"))] -= SUNK
+    return dataclasses.replace(walk, rig=dataclasses.replace(walk.rig, frames=frames))
+
+
+def cleaned_joints(case, tmp_path) -> tuple[np.ndarray, np.ndarray]:
+    """(capture, cleaned) world positions (N, 13, 3) in metres of the walk's joints, found by
+    name in `case`'s rig (the studio rig's Reference is not one of them)."""
+    path = tmp_path / f"{case.name}.bvh"
+    path.write_text(format_rig(case.rig))
+    result = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
+    out = tmp_path / f"{case.name}_out.bvh"
+    deik.write_bvh(out, result.clip)
+    columns = [case.rig.names.index(case.names[name]) for name in case.names]
+    rigs = (case.rig, parse_rig(out.read_text(), case.rig.position_mode))
+    return tuple(world_frames(rig)[1][:, columns] / case.unit for rig in rigs)
+
+
+def test_a_walk_on_another_rig_family_cleans_to_the_same_world_positions(tmp_path):
+    walk = sunk_walk()
+    other = studio(walk, order=ROTATIONS)
+    before, after = cleaned_joints(walk, tmp_path)
+    other_before, other_after = cleaned_joints(other, tmp_path)
+    np.testing.assert_allclose(other_before, before, atol=1e-6)  # one motion, two rigs
+    assert np.linalg.norm(after - before, axis=-1).max() > SUNK / 2  # the fix lifted the body
+    gap = np.linalg.norm(other_after - after, axis=-1)
+    assert gap.max() <= 1e-4, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
+
+
+def test_the_body_s_reach_is_measured_from_the_hips_not_from_a_reference_joint_below_them():
+    walk = procedural_walk()
+    source, other = (parse_bvh(format_rig(case.rig)).skeleton for case in (walk, studio(walk)))
+    assert source.reach == body_reach(source)
+    assert other.reach > 1.5 * body_reach(other)  # the Reference's chain up to the hips counts there
+    np.testing.assert_allclose(body_reach(other) / 100.0, body_reach(source), rtol=1e-9)
