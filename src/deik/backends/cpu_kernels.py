@@ -71,17 +71,9 @@ def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
 def _polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
-    matrices, vectors = np.empty((2, D * D), t), np.empty((3, D), t)
-    lm = LmScratch(
-        matrices[0],
-        matrices[1],
-        vectors[0],
-        np.empty(3 * D, t),
-        vectors[1],
-        vectors[2],
-        np.empty(n_levels, t),
-        np.empty(n_terms, t),
-    )
+    matrices, vectors, jac = np.empty((2, D * D), t), np.empty((3, D), t), np.empty(3 * D, t)
+    pose_levels, pose_raw = np.empty(n_levels, t), np.empty(n_terms, t)
+    lm = LmScratch(matrices[0], matrices[1], vectors[0], jac, vectors[1], vectors[2], pose_levels, pose_raw)
     return np.empty(6 * skel.motion_int.shape[0], t), lm
 
 

@@ -19,14 +19,7 @@ from deik.device.layout import LOWER, UPPER
 from deik.device.maths import centre_of_mass, forward_kinematics
 from deik.device.polish import is_polished, term_rows
 from deik.device.terms import score, uses_centre_of_mass, weight_of
-from deik.objectives.kinds import (
-    COMFORT_MAX,
-    COMFORT_SUM,
-    SCALE,
-    TERM_KIND,
-    TERM_LEVEL,
-    TOLERANCE,
-)
+from deik.objectives.kinds import COMFORT_MAX, COMFORT_SUM, SCALE, TERM_KIND, TERM_LEVEL, TOLERANCE
 
 MAX_DAMPING = 1e8
 DAMPING_FLOOR = 1e-2  # damping of a DOF is at least this fraction of the stiffest DOF's
