@@ -67,9 +67,10 @@ def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     if not len(bone):
         return points
     radius = body.bone_radius[end][bone]
-    surface = points.positions(p) @ up - floor - radius
+    x = points.positions(p)
+    surface = x @ up - floor - radius
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
     low = (surface <= band) & (surface <= lowest + TIE * body.span)
-    slow = ground.point_speeds(points.positions(p), capture.frame_time) <= ground.SPEED * body.span
+    slow = ground.point_speeds(x, capture.frame_time) <= ground.SPEED * body.span
     rest = ground.rest_runs(low & slow, capture.frame_time)
     return BonePoints(points.start, points.end, share, rest)

@@ -9,6 +9,8 @@ from (every bone leaving a joint shares that joint's radius). Lengths are the sk
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from deik.model.kinematics import forward_kinematics
@@ -56,17 +58,23 @@ def body_root(skeleton: Skeleton) -> int:
     return int(np.argmin(carriers)) if carriers.any() else 0
 
 
+_BODY_REACH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # skeleton -> body_reach
+
+
 def body_reach(skeleton: Skeleton) -> float:
     """Longest path length from body_root to a joint or site (Skeleton.reach measured from the
     body, not from the carriers above it): the same body gets the same reach whether its rig
-    is rooted at the hips or at a `Reference` joint on the ground below them."""
-    root = body_root(skeleton)
-    if root == 0:
-        return skeleton.reach
-    carriers = np.concatenate([carrier_joints(skeleton), np.zeros(skeleton.n_frames - skeleton.n_joints, bool)])
-    depth = np.array([skeleton.path_length(f) for f in range(skeleton.n_frames)])
-    longest = float(depth[~carriers].max() - depth[root])
-    return longest if longest > 0 else 1.0
+    is rooted at the hips or at a `Reference` joint on the ground below them. Worked out once
+    per skeleton (the clip fix asks in every step and frame)."""
+    if skeleton not in _BODY_REACH:
+        root = body_root(skeleton)
+        longest = skeleton.reach
+        if root != 0:
+            carriers = np.concatenate([carrier_joints(skeleton), np.zeros(skeleton.n_frames - skeleton.n_joints, bool)])
+            depth = np.array([skeleton.path_length(f) for f in range(skeleton.n_frames)])
+            longest = float(depth[~carriers].max() - depth[root])
+        _BODY_REACH[skeleton] = longest if longest > 0 else 1.0
+    return _BODY_REACH[skeleton]
 
 
 def link_distance(skeleton: Skeleton) -> np.ndarray:
