@@ -156,7 +156,9 @@ def jacobians_job(skel) -> tuple[str, frozenset[str], tuple] | None:
     )
 
 
-_ENTRY_POINTS = {}  # (dtype, polish wanted, switches) or (dtype, build) -> the compiled kernel they run
+# the compiled kernel each runs: (dtype, polish wanted, switches) -> (launch, with the polish);
+# (dtype, build) -> evaluate_poses; "point_jacobians" -> point_jacobians
+_ENTRY_POINTS = {}
 
 
 def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds, generations: tuple[int, int]) -> int:
@@ -167,12 +169,13 @@ def _launch(fresh: bool, inputs: KernelInputs, work: SolveBuffers, seeds: Seeds,
     and PolishSchedule or None: the same NamedTuples of C-contiguous, writable arrays
     (kernel_array) and the same scalar types. The first launch of each kind in a process loads
     (or compiles) the kernel and keeps its compiled function, which later launches call."""
-    args = launch_args(fresh, inputs, work, seeds, generations)
     key = (work.current.pop.dtype, bool(inputs.polish.iterations > 0), builds.switches_of(inputs.terms.term_int))
-    entry = _ENTRY_POINTS.get(key)
+    entry, with_polish = _ENTRY_POINTS.get(key, (None, None))
+    args = launch_args(fresh, inputs, work, seeds, generations, with_polish)
     if entry is None:
-        build, _ = launch_build(key[0].name, key[1], key[2])
-        entry = _ENTRY_POINTS[key] = cpu_entry("launch", build).entry_point(args)
+        build, with_polish = launch_build(key[0].name, key[1], key[2])
+        entry = cpu_entry("launch", build).entry_point(args)
+        _ENTRY_POINTS[key] = (entry, with_polish)
     swaps = entry(*args)
     if swaps % 2:
         work.current, work.spare = work.spare, work.current

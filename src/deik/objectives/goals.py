@@ -49,6 +49,7 @@ LENGTH_TOLERANCE = 1e-3  # length units: 1 mm for metres (URDF, deik.humanoid, m
 ANGLE_TOLERANCE = math.radians(0.1)  # radians
 NO_PARAMS = np.zeros((1, N_PARAMS))  # the parameters of a goal without targets (read-only)
 NO_PARAMS.setflags(write=False)
+_PLAIN = frozenset({type(None), bool, int, float, str})  # field types Goal.structure compares by value
 
 
 @dataclass(frozen=True)
@@ -120,6 +121,20 @@ class Goal:
             level=self.level,
             **fields,
         )
+
+    def structure(self) -> tuple | None:
+        """Everything `row` reads but the target, hashable: the goal's kind and each other
+        field's name, type and value; None when a field holds anything but None, a bool, an
+        int, a float or a string (an array, a mask, a tuple), whose equality a key cannot
+        tell cheaply. Two goals of one structure compile to rows that differ only in their
+        targets (deik.solver.structures)."""
+        items = [type(self)]
+        for name, value in vars(self).items():
+            if name != "target":
+                if type(value) not in _PLAIN:
+                    return None
+                items.append((name, type(value), value))
+        return tuple(items)
 
     def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,

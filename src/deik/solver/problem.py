@@ -19,13 +19,16 @@ from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Goal, LimitsPenalty
 from deik.objectives.kinds import GAIN, N_PARAMS
 from deik.objectives.table import TermRow, TermTable, compile_rows
+from deik.solver import structures
 
 LIMIT_MODES = ("reflect", "clip", "penalty", "paper")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Compiled:
-    """A problem's term rows (T,) (a stack's are its first part's, with the merged weights),
+    """A problem's term rows (T,) (a stack's are its first part's, with the merged weights; a
+    problem whose structure was compiled before shares that problem's rows, so a row's params
+    are the targets of the problem that compiled it and only the table's are this problem's),
     its TermTable (params (B, T, N_PARAMS)), the comfort reference pose of each term per problem
     (B, T, D) and its batch shape (() or (B,))."""
 
@@ -67,11 +70,6 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise InputError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
-        if self.skeleton.n_dofs == 0:
-            raise InputError(
-                f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
-                "another); choose a base and tip with moving joints between them"
-            )
         first = self.parts[0] if self.parts else self
         if (
             not all(isinstance(p, Problem) for p in self.parts)
@@ -79,6 +77,15 @@ class Problem:
             or any(a is not b for a, b in zip(first.goals, self.goals))
         ):
             raise InputError("a stacked problem's parts must be Problems and its goals the first part's")
+
+    def _check_skeleton(self) -> None:
+        """Raise unless the skeleton has free DOFs, each within finite limits (a structure
+        compiled before passed this: see deik.solver.structures)."""
+        if self.skeleton.n_dofs == 0:
+            raise InputError(
+                f"skeleton {self.skeleton.name!r} has no free DOF to solve for (every joint is fixed or mimics "
+                "another); choose a base and tip with moving joints between them"
+            )
         bad = np.flatnonzero(~np.isfinite(self.skeleton.lower) | ~np.isfinite(self.skeleton.upper))
         if bad.size:
             raise InputError(
@@ -136,7 +143,18 @@ class Problem:
 
     def _compile(self) -> Compiled:
         """Each goal's row (and the joint-limit term's with limits="penalty"), stacked into the
-        table; a goal without a batch axis broadcasts over the batch."""
+        table; a goal without a batch axis broadcasts over the batch. A problem of a structure
+        compiled before takes that one's rows with its own targets (deik.solver.structures)."""
+        known = structures.recall(self.skeleton, self.goals, self.limits)
+        if known is not None:
+            return known
+        compiled = self._compile_rows()
+        structures.keep(self.skeleton, self.goals, self.limits, compiled)
+        return compiled
+
+    def _compile_rows(self) -> Compiled:
+        """_compile from every goal's row."""
+        self._check_skeleton()
         sk = self.skeleton
         terms = list(self.goals)
         rows = [g.row(sk) for g in terms]

@@ -25,6 +25,8 @@ from deik.solver.workspace import Workspace
 
 log = logging.getLogger(__name__)
 _SETTING_NAMES = frozenset(f.name for f in fields(Settings))
+_MERGED: dict = {}  # merge_settings' checked Settings by (settings, overrides but the seed)
+MAX_MERGED = 64
 
 
 def solve(
@@ -161,7 +163,22 @@ def merge_settings(
     unknown = sorted(set(overrides) - _SETTING_NAMES)
     if unknown:
         raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(_SETTING_NAMES)}")
-    return Settings(**{**(defaults or {}), **(vars(settings) if settings else {}), **overrides})
+    if defaults:
+        return Settings(**{**defaults, **(vars(settings) if settings else {}), **overrides})
+    # a loop of solves passes the same settings with a new seed each call: the rest is checked once
+    key = (settings, *((name, type(v), v) for name, v in overrides.items() if name != "seed"))
+    try:
+        merged = _MERGED.get(key)
+    except TypeError:  # an unhashable value: checked below as it is
+        key = merged = None
+    if merged is None:
+        unseeded = {name: v for name, v in overrides.items() if name != "seed"}
+        merged = Settings(**{**(vars(settings) if settings else {}), **unseeded})
+        if key is not None:
+            if len(_MERGED) >= MAX_MERGED:
+                _MERGED.clear()
+            _MERGED[key] = merged
+    return merged.with_seed(overrides["seed"]) if "seed" in overrides else merged
 
 
 def make_result(

@@ -1,0 +1,81 @@
+"""Compiled goal structures, kept for problems that differ from an earlier one only in targets.
+
+A robot posed in a loop builds `deik.Problem(skeleton, [Position(tip, p), Orientation(tip, R)])`
+again and again: the same skeleton, goal kinds, frames, weights and tolerances, new targets.
+Compiling such a problem (every goal's row checked and packed, the term table stacked) took
+about 45 us of a 200 us solve. The first problem of each structure compiles as usual and is
+kept; a later problem of the same structure checks each new target with its goal's quick check
+(Goal.quick_target, what deik.Solver swaps targets with) and takes the kept term rows and
+table with its own targets written into a copy of the parameters. A target the quick check
+declines (a batch axis, another form, a value to report) compiles the whole problem afresh, so
+every error reads as before. At most MAX_STRUCTURES structures are kept, the oldest dropped.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from deik.model.skeleton import Skeleton
+from deik.objectives.goals import Goal
+
+if TYPE_CHECKING:  # problem.py imports this module
+    from deik.solver.problem import Compiled
+
+MAX_STRUCTURES = 32
+
+
+@dataclass(frozen=True)
+class _Known:
+    skeleton: Skeleton  # held, so that the key's id() cannot be reused by another skeleton
+    compiled: Compiled  # of the first problem of this structure
+    quick: tuple  # per goal with a target: (term index, its quick check)
+
+
+_known: dict = {}
+_lock = threading.Lock()
+
+
+def _key(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str) -> tuple | None:
+    """The structure of a problem (what its compile reads but the targets), hashable, or None
+    when a goal's structure is not plain (Goal.structure)."""
+    parts = tuple(g.structure() for g in goals)
+    return None if None in parts else (id(skeleton), limits, parts)
+
+
+def recall(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str) -> Compiled | None:
+    """The Compiled (deik.solver.problem) of a problem with these goals, from the kept one of
+    its structure with these goals' targets written in; None when none is kept or a target
+    needs the full compile."""
+    key = _key(skeleton, goals, limits)
+    known = None if key is None else _known.get(key)
+    if known is None or known.skeleton is not skeleton:
+        return None
+    table = known.compiled.table
+    params = table.params.copy()  # (1, T, N_PARAMS): the gains and fixed columns stay
+    for t, quick in known.quick:
+        values = quick(goals[t].target)
+        if values is None:
+            return None
+        params[0, t, : values.shape[0]] = values
+    return replace(known.compiled, table=replace(table, params=params))
+
+
+def keep(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str, compiled: Compiled) -> None:
+    """Keep `compiled` for later problems of its structure: only a single (unbatched) problem
+    whose every goal with a target has a quick check."""
+    key = _key(skeleton, goals, limits)
+    if key is None or compiled.batch_shape != () or key in _known:
+        return
+    quick = []
+    for t, goal in enumerate(goals):
+        if hasattr(goal, "target"):
+            check = goal.quick_target(skeleton)
+            if check is None:
+                return
+            quick.append((t, check))
+    with _lock:
+        _known[key] = _Known(skeleton, compiled, tuple(quick))
+        while len(_known) > MAX_STRUCTURES:
+            del _known[next(iter(_known))]
