@@ -102,9 +102,12 @@ def launch(
     """The DE kernel every launch runs, so a solve compiles one kernel per dtype: with `fresh`,
     the first population (_first_population) first; then run_generations from generation
     `gen`; returns its buffer swaps. schedule None compiles the kernel without the LM polish."""
+    lazy = False
     if fresh:
-        _first_population(cur, status, skel, terms, settings, schedule, rules, initial, n_initial, threads)
-    swaps = run_generations(cur, nxt, skel, terms, settings, schedule, status, rules, history, gen, n_gens, threads)
+        lazy = _first_population(cur, status, skel, terms, settings, schedule, rules, initial, n_initial, threads)
+    swaps = run_generations(
+        cur, nxt, skel, terms, settings, schedule, status, rules, history, gen, n_gens, threads, lazy
+    )
     if fresh:
         _stopped_first(cur, nxt, status, swaps)
     return swaps
@@ -135,7 +138,8 @@ def _first_population(cur, status, skel, terms, settings, schedule, rules, initi
     0 is polished first (device_driver.polish_first); a problem it meets stops there (its
     other individuals are copies of it; launch copies it into nxt where needed, _stopped_first),
     and the rest of the population is sampled and evaluated, in SIMD lanes, only for the
-    problems it leaves unmet (most robot targets never need it). Otherwise as initialise."""
+    problems it leaves unmet (most robot targets never need it). Otherwise as initialise.
+    Returns whether it was lazy."""
     B, P = cur.pop.shape[0], cur.pop.shape[1]
     if schedule is not None and schedule.iterations > 0 and rules.stop_on_converged:
         met = np.empty(B, np.bool_)
@@ -146,8 +150,9 @@ def _first_population(cur, status, skel, terms, settings, schedule, rules, initi
         _complete(_chunks(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
         for k in range(n_unmet):
             _settle_first(unmet[k], cur, status, terms, rules)
-    else:
-        initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
+        return True
+    initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
+    return False
 
 
 @linked()
@@ -284,18 +289,18 @@ def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, g
 
 
 @linked(parallel=True)
-def _polish(chunks, n, state, skel, terms, status, schedule, order):
+def _polish(chunks, n, state, skel, terms, status, schedule, order, first_round):
     """A polish round over the n active problems in `chunks` work units (parallel on its own as
-    _breed)."""
+    _breed); first_round: the round after a lazy first population (polished_just_now)."""
     if chunks == 1:
-        _polish_chunk(0, 1, n, state, skel, terms, status, schedule, order)
+        _polish_chunk(0, 1, n, state, skel, terms, status, schedule, order, first_round)
     else:
         for c in prange(chunks):
-            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, schedule, order)
+            _polish_chunk(np.int64(c), chunks, n, state, skel, terms, status, schedule, order, first_round)
 
 
 @linked()
-def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order):
+def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order, first_round):
     """Chunk c of `chunks` of a polish round: LM on up to `count` individuals of each problem,
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
     undoes those after the first that does: the same result)."""
@@ -306,6 +311,8 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order):
         b = order[job]
         for k in range(schedule.count):
             i = device_evolution.polish_target(status.leaders[b], k, schedule.count, P)
+            if device_evolution.polished_just_now(i, first_round):
+                continue
             if device_driver.polish_individual(
                 b, i, state, skel, terms, schedule, scratch, axes, lm, q, lv, rw, status.halt
             ):
@@ -313,12 +320,15 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order):
 
 
 @linked()
-def run_generations(cur, nxt, skel, terms, settings, schedule, status, rules, history, gen_start, n_gens, threads):
+def run_generations(
+    cur, nxt, skel, terms, settings, schedule, status, rules, history, gen_start, n_gens, threads, lazy_first
+):
     """Run up to n_gens generations; returns how many buffer swaps happened (the final state
     lies in `cur` when even, in `nxt` when odd). cur and nxt (layout.Buffers) must both hold
     every inactive problem: only active problems are worked on, and a problem that stops is
     copied into both. threads: the pool's size (small loops run on the caller's). schedule: the
-    polish (layout.PolishSchedule), or None: compiled without it."""
+    polish (layout.PolishSchedule), or None: compiled without it. lazy_first: the population was
+    just begun lazily (_first_population), so the first round passes over individual 0."""
     P = cur.pop.shape[1]
     active = status.active
     fresh = np.zeros(active.shape[0], np.bool_)  # whose last generation restarted (random poses)
@@ -333,7 +343,7 @@ def run_generations(cur, nxt, skel, terms, settings, schedule, status, rules, hi
             due, n_due = _polish_due(order, n_active, fresh, gen % schedule.every == 0)
             if n_due:
                 chunks = _chunks(n_due, 3 * schedule.iterations * schedule.count, skel, threads)
-                _polish(chunks, n_due, cur, skel, terms, status, schedule, due)
+                _polish(chunks, n_due, cur, skel, terms, status, schedule, due, lazy_first and g == 0)
                 for k in range(n_due):
                     b = due[k]
                     device_evolution.settle_after_polish(b, gen, cur, terms, status, rules, True)

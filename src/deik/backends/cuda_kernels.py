@@ -226,13 +226,18 @@ def evolve(
                 # side by side, then every polish after the first that met all tolerances undone
                 # (nxt is scratch until the breeding writes it): the CPU's in-order round
                 target = device_evolution.polish_target(status.leaders[b], tid, schedule.count, P)
+                polishes = tid < schedule.count and not device_evolution.polished_just_now(
+                    target, mode == COMPLETE_FIRST and g == 0
+                )
                 if tid < schedule.count:
+                    met[tid] = 0
+                if polishes:
                     device_evolution.copy_individual(a, z, b, target, target)
                     met[tid] = device_driver.polish_individual(
                         b, target, a, skel, terms, schedule, scratch, axes, lm, trial, lv, rw, status.halt
                     )
                 cuda.syncthreads()
-                if tid < schedule.count:
+                if polishes:
                     for k in range(tid):
                         if met[k]:
                             device_evolution.copy_individual(z, a, b, target, target)

@@ -402,7 +402,8 @@ def first_polish_team(cur, status, skel, terms, settings, schedule, rules, initi
             cur.total[b, 0] = device_terms.score(
                 cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0]
             )
-        team_converge(b, cur, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, status.halt, lane, live)
+        iterations = device_evolution.first_polish_iterations(schedule)
+        team_converge(b, cur, iterations, skel, terms, scratch, axes, lm, q, lv, rw, status.halt, lane, live)
         met = live and device_evolution.within_tolerances(b, cur.raw[b, 0], terms, T)
         if met:
             for i in range(1 + lane, P, TEAM_LANES):

@@ -9,7 +9,14 @@ skel, terms, settings and status are the NamedTuples of deik.device.layout; scra
 Scratch, trial (D,), trial_rates (2,), lv (L,) and rw (T,) per-thread scratch.
 """
 
-from deik.device.evolution import copy_individual, keep_trial, make_trial, not_worse, within_tolerances
+from deik.device.evolution import (
+    copy_individual,
+    first_polish_iterations,
+    keep_trial,
+    make_trial,
+    not_worse,
+    within_tolerances,
+)
 from deik.device.layout import INIT_GENERATION, LOWER, RATE_CR, RATE_F, UPPER
 from deik.device.lm import open_ended, polish
 from deik.device.maths import forward_kinematics, stream, unit
@@ -43,7 +50,7 @@ def polish_first(b, state, skel, terms, settings, schedule, initial, n_initial, 
     seed_individual(b, 0, state, skel, settings, initial, n_initial)
     forward_kinematics(state.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
     state.total[b, 0] = score(state.pop[b, 0], b, skel, terms, scratch, state.levels[b, 0], state.raw[b, 0])
-    polish(b, 0, state, schedule.iterations, skel, terms, scratch, axes, lm, q, lv, rw, True, halt)
+    polish(b, 0, state, first_polish_iterations(schedule), skel, terms, scratch, axes, lm, q, lv, rw, True, halt)
     return within_tolerances(b, state.raw[b, 0], terms, state.raw.shape[2])
 
 
