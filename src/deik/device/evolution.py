@@ -171,9 +171,7 @@ def polished_just_now(i, first_round):
     population (first_round), individual 0 has just had its polish (first_polish_iterations),
     which stopped short of the tolerances: almost always a stall (a 6-D arm target met by it
     1 % more often with twice the iterations), so polishing it again was the costliest way to
-    fail. Passing over it took the 95th percentile of single Panda solves from 0.21 to 0.19 ms
-    of CPU time and of a UR5-type arm's from 0.21 to 0.15 (1,500 targets each,
-    benchmarks.robots' targets and settings)."""
+    fail (docs/decisions.md, "No second polish of a stalled start")."""
     return first_round and i == 0
 
 
