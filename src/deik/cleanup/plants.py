@@ -109,7 +109,9 @@ def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
     return out
 
 
-def lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: np.ndarray) -> np.ndarray:
+def lifted_heights(
+    heights: np.ndarray, mask: np.ndarray, pairs: list[tuple[int, int, float]], floor: np.ndarray
+) -> np.ndarray:
     """(N, S) heights of the contact sites, each frame's raised by the depth below its `floor`
     ((S,) or (N, S)) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
     a foot sunk through the floor (legs made longer) plants its ankle as high above the floor as

@@ -188,7 +188,9 @@ def floor_rows(
     return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
 
 
-def roll_targets(x0: np.ndarray, up: np.ndarray, held_rows, soles: np.ndarray, floors: list, reach: float):
+def roll_targets(
+    x0: np.ndarray, up: np.ndarray, held_rows: tuple, soles: np.ndarray, floors: list, reach: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(index (R,) into x0's points, heights (N, R), resting (N, R) bool) of the feet's roll
     (module notes): the held rows (_rows) of the `soles` (H,) bool among them, each resting sole
     at its height in the capture positions x0 (N, F, 3), each frame's raised by the depth below
@@ -237,7 +239,6 @@ def warm_start(
     goals: Sequence[Goal],
     movable: np.ndarray,
     weights: np.ndarray,
-    steps: int = STEPS,
     fade: float = FADE,
     lift: bool = True,
     soles: Sequence[str] = (),
@@ -247,7 +248,7 @@ def warm_start(
     keeps every joint and site above a Floor, steers the centre of mass onto the points of its
     ComOverSupport goals (a balance track, cleanup/balance.py) and, below those, meets the
     Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
-    (dof_weights). At most `steps` space-time steps over the whole clip (cleanup/spacetime.py,
+    (dof_weights). At most STEPS space-time steps over the whole clip (cleanup/spacetime.py,
     module notes): every frame's rows weighted (HELD_WEIGHT, REACH_WEIGHT) against the spring
     energy of the displacement with fade `fade` frames, so corrections start, stop and hand
     over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
@@ -306,7 +307,7 @@ def warm_start(
         phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
         before = np.inf
-        for k in range(steps):
+        for k in range(STEPS):
             x, jac, error, rows, counted = rows_at(d, free, not with_reach)
             row_weights = np.where(counted, HELD_WEIGHT, ROLL_WEIGHT) * np.ones(error.shape)
             if with_reach:
