@@ -142,10 +142,11 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     """(N, F) heights to lift each point to: its capture `heights` (N, F) raised by a smooth
     envelope over how far it sinks below its `level` (F,), so that a point that sinks is lifted
     from before it touches to after it leaves, without a kink. The envelope of a point's depth
-    d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w,
-    which is >= d everywhere; w grows until the envelope's second difference is at most
-    LIFT_SHARE x the point's largest in the capture, `peaks` (F,) (length units per frame^2):
-    the lift adds at most that share to the point's acceleration."""
+    d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w
+    (d's end values held beyond the clip's ends), which is >= d everywhere; w grows until the
+    envelope's second difference is at most LIFT_SHARE x the point's largest in the capture,
+    `peaks` (F,) (length units per frame^2): the lift adds at most that share to the point's
+    acceleration."""
     N, F = heights.shape
     depth = np.maximum(np.broadcast_to(level, (N, F)) - heights, 0.0)
     out = np.broadcast_to(level, (N, F)).astype(float).copy()
@@ -160,15 +161,19 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
 
 
 def _running_max(values: np.ndarray, w: int) -> np.ndarray:
-    """(N,) the largest of `values` (N,) within w frames of each."""
-    padded = np.concatenate([np.zeros(w), values, np.zeros(w)])
+    """(N,) the largest of `values` (N,) within w frames of each (the end values held beyond the
+    clip's ends: _hann)."""
+    padded = np.pad(values, w, mode="edge")
     return np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1)
 
 
 def _hann(values: np.ndarray, w: int) -> np.ndarray:
-    """(N,) `values` (N,) averaged by a Hann window of half width w frames (zero beyond the clip's ends)."""
+    """(N,) `values` (N,) averaged by a Hann window of half width w frames, the end values held
+    beyond the clip's ends: what a point did before the clip began is unknown, and taking it as
+    resting on the floor made a point that sinks in the first frame rise steeply there, so its
+    envelope widened to the whole clip (a jump's heel lifted through the flight)."""
     window = 1.0 + np.cos(np.pi * np.arange(-w, w + 1) / (w + 1))
-    return np.convolve(values, window / window.sum(), mode="same")
+    return np.convolve(np.pad(values, w, mode="edge"), window / window.sum(), mode="valid")
 
 
 def floor_rows(
