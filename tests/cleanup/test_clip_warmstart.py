@@ -222,3 +222,17 @@ def test_a_floor_lift_on_a_short_clip_stays_as_long_as_the_clip(n):
     heights = -np.linspace(0.0, 0.05, n)[:, None]  # sinking from the first frame on
     lifted = floor_lifts(heights, np.zeros(1), np.full(1, 1e-9))
     assert lifted.shape == (n, 1) and (lifted >= -1e-12).all()
+
+
+def test_a_point_still_sinking_at_the_clip_s_end_is_lifted_smoothly_to_the_last_frame():
+    """A knee still 3 cm under the floor in the last frames (a crawl cut mid-motion): the envelope
+    holds the depth beyond the clip's end instead of falling to nothing there, so the lift covers
+    the last frames without a kink (one that would make the point jolt, and the fix give the lift
+    back, leaving the knee under the floor)."""
+    n = np.arange(100)
+    heights = (0.05 * np.cos(2 * np.pi * n / 40) + 0.02 - 0.05 * np.clip((n - 80) / 19, 0, 1))[:, None]
+    peaks = np.abs(np.diff(heights, 2, axis=0)).max(axis=0)
+    lifted = floor_lifts(heights, np.zeros(1), peaks)
+    assert heights[-1, 0] < -0.025 and (lifted >= -1e-12).all()
+    lift = lifted[:, 0] - heights[:, 0]
+    assert np.abs(np.diff(lift, 2)).max() <= LIFT_SHARE * peaks[0] + 1e-12  # no kink, the last frames included

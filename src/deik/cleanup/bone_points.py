@@ -72,5 +72,6 @@ def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
     low = (surface <= band) & (surface <= lowest + TIE * body.span)
     slow = ground.point_speeds(x, capture.frame_time) <= ground.SPEED * body.span
-    rest = ground.rest_runs(low & slow, capture.frame_time)
+    step = ground.SPEED * body.span * capture.frame_time
+    rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time), step)
     return BonePoints(points.start, points.end, share, rest)

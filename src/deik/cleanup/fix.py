@@ -179,19 +179,21 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, points: np.ndarray, lift: bool):
+def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
-    `goals`, with or without floor `lift`s (warmstart.warm_start). With balance, the track is
+    `goals` on `body`, with or without floor `lift`s and the feet's `roll` (warmstart.warm_start:
+    the heel and toe of each of body.feet keep their heights in the capture). With balance, the track is
     planned on the motion with its contacts met (a first warm start without it), and where the
     balanced warm start makes a frame jolt or turns a joint far from the capture
     (cleanup/dynamics.py), balance cannot hold there: those frames and their neighbours are
     skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
-    sk, original = clip.skeleton, clip.poses()
+    sk, original, points = clip.skeleton, clip.poses(), body.points
+    soles = [name for foot in body.feet for name in (foot.heel, foot.toe)] if roll else []
 
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = _ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift)
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles)
         return _inside(sk, original, d), fixed
 
     if not goals.balance:
@@ -213,29 +215,45 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
     what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
     repairs what is taken back). With a floor it is tried with the floor lifted along smooth
-    envelopes and without, and the one that leaves more frames meeting their contacts, floor and
-    balance is kept (fewer frames taken back on a tie): an envelope lets a landing foot slow
-    down before the floor, but on a body lying on the floor for long it can ask more than the
-    joints give without a jolt. Reach tracks are the user's motion: what they add on the plain
-    floor is added, not calmed, on top of the fix without them, so outside a reach's window the
-    clip is the same as without it (and an unreachable reach drags no planted foot)."""
+    envelopes and the feet rolling as captured, and on the plain floor without, and the one
+    that leaves more frames meeting their contacts (along the ground, as the warm start holds
+    them: _judged), floor and balance is kept (fewer frames taken back on a tie): an envelope
+    lets a landing foot slow down before the floor, but on a body lying on the floor for long
+    it can ask more than the joints give without a jolt. Reach tracks are the user's motion:
+    what they add on the plain floor (the feet rolling if they do in the fix) is added, not
+    calmed, on top of the fix without them, so outside a reach's window the clip is the same as
+    without it (and an unreachable reach drags no planted foot: on the lifted floor it dragged
+    a toe 10 mm)."""
     alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
     plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
     for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
-        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body.points, lift)
+        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift)
         displacement, calmed = calm(clip, warm, body.points)
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
-        met = _met(clip_problem(clip, plain, displacement, weights, fixed), poses)[1]
+        met = _met(_judged(clip, plain, displacement, weights, fixed, balance), poses)[1]
         outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None), warm)
-    best = max(outcomes.values(), key=lambda outcome: outcome[0]) if outcomes else None  # the lifted on a tie
+    lifted = max(outcomes, key=lambda lift: outcomes[lift][0]) if outcomes else False  # the lifted on a tie
+    best = outcomes.get(lifted)
     if not goals.reach:
         return best[1]
-    displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body.points, False)
+    displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body, False, lifted)
     if not alone:  # reach tracks only: all of the change is theirs
         return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
-    added = displacement - outcomes[False][2]  # on the plain floor, as the reach's warm start
+    # what the reach adds on the plain floor, with the feet rolling as in the fix it is added to
+    base = outcomes[False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
+    added = displacement - base
     held, calmed = best[1][:2]
     return held + added, calmed, fixed, balance, added
+
+
+def _judged(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed, balance):
+    """The clip problem that judges a warm start's `displacement` (N, D) of `goals` (their
+    `fixed` goals, with `balance`'s track): its contacts at the heights the displacement gives
+    them (_plants_at_heights), since a warm start holds them still along the ground only."""
+    if goals.contacts is None:
+        return clip_problem(clip, goals, displacement, weights, fixed)
+    judged = _plants_at_heights(clip, goals, clip.poses() + displacement)
+    return clip_problem(clip, judged, displacement, weights, fixed_goals(clip, judged, weights, balance))
 
 
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:

@@ -14,10 +14,17 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
   above floor + clearance) is at most BAND x span; gaps shorter than GAP seconds are filled and
-  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A plant holds a point
-  still along the ground only (cleanup/plants.py), so a heel that begins to lift as the foot
-  rolls onto its toes may still rest: it rises about the toe without sliding. A point still sliding fast as it
-  lands does not rest until it slows: planting it sooner would stop it in a frame, a jolt.
+  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A run's last frames
+  (at most GAP seconds of them) are dropped while the point already moves faster than SPEED
+  into them from the frame before: a lift-off. A speed is a central difference, which averages
+  a lift-off's first fast step with the slow one before it, and a plant held in that frame
+  stops the toe there and lets it jump when it is let go (10 mm in a frame on the shared walk),
+  a jolt the fix then takes back, floor lift and all. A landing keeps its first frame: the
+  point arrives there and stays. A plant holds a point still along the ground only
+  (cleanup/plants.py), so a heel that begins to lift as the foot rolls onto its toes may
+  still rest: it rises about the toe without sliding, as high as in the capture (the foot's
+  roll, cleanup/warmstart.py). A point still sliding fast as it lands does not rest until it
+  slows: planting it sooner would stop it in a frame, a jolt.
 """
 
 from __future__ import annotations
@@ -66,7 +73,7 @@ class FloorChoice:
         return {"height": self.height, "how": self.how, "resting_contacts_height": self.resting}
 
 
-def _smooth(p: np.ndarray, frame_time: float) -> np.ndarray:
+def smoothed(p: np.ndarray, frame_time: float) -> np.ndarray:
     """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held)."""
     sigma = SMOOTH / frame_time
     if sigma < 0.3 or len(p) < 3:
@@ -84,7 +91,7 @@ def point_speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     (central differences, one-sided at the ends; 0 for a single frame)."""
     if len(p) < 2:
         return np.zeros(p.shape[:2])
-    return np.linalg.norm(np.gradient(_smooth(p, frame_time), frame_time, axis=0), axis=-1)
+    return np.linalg.norm(np.gradient(smoothed(p, frame_time), frame_time, axis=0), axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,12 +139,34 @@ def clearances(body: Body) -> np.ndarray:
     return np.where(body.part, body.radius, np.nan)
 
 
-def rest_runs(mask: np.ndarray, frame_time: float) -> np.ndarray:
-    """`mask` (N, K) with gaps under GAP seconds filled and runs under SHORTEST dropped (a run
-    of the whole clip stays, however short the clip)."""
+def rest_runs(
+    mask: np.ndarray, frame_time: float, positions: np.ndarray | None = None, step: float = np.inf
+) -> np.ndarray:
+    """`mask` (N, K) with gaps under GAP seconds filled, each run's last frames dropped (at most
+    GAP seconds of them) while the point, at `positions` (N, K, 3) (smoothed; None: none
+    dropped), moves more than `step` (length units) from the frame before (module notes: a
+    lift-off), and runs under SHORTEST dropped (a run of the whole clip stays, however short
+    the clip)."""
     gap = max(1, int(round(GAP / frame_time)))
     shortest = min(max(2, int(round(SHORTEST / frame_time))), len(mask))
-    return drop_short(fill_gaps(mask, gap + 1), shortest)
+    mask = fill_gaps(mask, gap + 1)
+    if positions is not None:
+        mask = _lifting_off(mask, np.linalg.norm(np.diff(positions, axis=0), axis=-1) > step, gap)
+    return drop_short(mask, shortest)
+
+
+def _lifting_off(mask: np.ndarray, moves: np.ndarray, most: int) -> np.ndarray:
+    """`mask` (N, K) with each run's last frames dropped, at most `most` of them, while the point
+    `moves` (N-1, K) bool (row n: from frame n to n+1) into that frame from the one before."""
+    mask = np.array(mask, bool)
+    for k in range(mask.shape[1]):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], mask[:, k].astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2]):
+            end = stop
+            while end - start > 1 and stop - end < most and moves[end - 2, k]:
+                end -= 1
+            mask[end:stop, k] = False
+    return mask
 
 
 def detect_resting(
@@ -167,7 +196,8 @@ def detect_resting(
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
     clear = body.radius[index]
     low = paths.heights[:, index] - floor - clear <= band
-    rest = rest_runs(slow & low, clip.frame_time)
+    smooth = smoothed(paths.positions[:, index], clip.frame_time)
+    rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])

@@ -27,7 +27,7 @@ SNAP_FRACTION = 0.01  # of reach: a plant without clearance this close to the fl
 HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
 
 
-def _rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
+def rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
     """(s, t, distance) of the sites whose distance stays the same in every frame of
     positions `p` (N, S, 3): an ankle and its toe, moved by no DOF between them."""
     pairs = []
@@ -109,9 +109,11 @@ def _linked_plants(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
     return out
 
 
-def _lifted_heights(heights: np.ndarray, mask: np.ndarray, pairs, floor: np.ndarray) -> np.ndarray:
+def lifted_heights(
+    heights: np.ndarray, mask: np.ndarray, pairs: list[tuple[int, int, float]], floor: np.ndarray
+) -> np.ndarray:
     """(N, S) heights of the contact sites, each frame's raised by the depth below its `floor`
-    (S,) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
+    ((S,) or (N, S)) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
     a foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
     its toe is above the sole."""
     depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
@@ -137,9 +139,9 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
-    pairs = _rigid_pairs(p, body_reach(clip.skeleton))
+    pairs = rigid_pairs(p, body_reach(clip.skeleton))
     floor = contacts.ground + contacts.clearance
-    heights = _lifted_heights(p @ up, contacts.mask, pairs, floor)
+    heights = lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)
     for s in range(len(contacts.sites)):
         for a, b in contacts.intervals(s):

@@ -16,6 +16,17 @@ met to SETTLED x reach or, after FIRST_STEPS, their root-mean-square error stops
 most STEPS): every step moves the whole clip at once, so none lands a frame apart from its
 neighbours. Goals that cannot all be met are left to
 DE, with its priorities and tolerances.
+
+The feet's roll: a contact holds its point still along the ground only, so nothing else fixes
+the height of a foot's heel or toe while it rests, and the spring lets it drift (on the shared
+walk a toe planted while its heel rises about it climbed from 5 to 24 mm above the floor where
+the capture keeps it at 10 mm, and so left the floor three frames early). The heel and toe of
+each foot (the `soles` named) also keep their height in the capture while they rest, raised
+out of the floor as far as the deepest of them and the soles rigidly linked to them
+(plants.lifted_heights, over the floor's levels or lifts): the foot rolls about its toe as
+captured. These rows weigh ROLL_WEIGHT, so a foot that cannot keep both its plant and its
+height keeps its plant, and the steps stop on the other rows alone; the reach phase leaves
+them out (pulled against by an unreachable reach, they let it drag a planted toe 1.5 mm).
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ from deik.cleanup.balance import horizontal_axes
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
 from deik.cleanup.metrics import point_motion
+from deik.cleanup.plants import lifted_heights, rigid_pairs
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach, body_root, carrier_joints
@@ -48,6 +60,7 @@ FADE = 8.0  # frames over which a correction fades where no goal holds it (clean
 # while a reachable reach still ends within 1 mm), reach tracks far above the energy
 HELD_WEIGHT = 1e6
 REACH_WEIGHT = 1.5e4
+ROLL_WEIGHT = 1.5e4  # a resting sole's height in the capture (module notes): as far below the contacts as a reach
 ROOT_STIFFNESS = 10.0  # and the root's DOFs, which carry the whole body along its path, this much more
 BODY_STIFFNESS = 30.0  # how much more a DOF's spring counts per unit of the body it moves (motion_stiffness)
 LONGEST_STEP = 0.1  # of reach: how far one step moves a goal's site towards its target
@@ -129,10 +142,11 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     """(N, F) heights to lift each point to: its capture `heights` (N, F) raised by a smooth
     envelope over how far it sinks below its `level` (F,), so that a point that sinks is lifted
     from before it touches to after it leaves, without a kink. The envelope of a point's depth
-    d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w,
-    which is >= d everywhere; w grows until the envelope's second difference is at most
-    LIFT_SHARE x the point's largest in the capture, `peaks` (F,) (length units per frame^2):
-    the lift adds at most that share to the point's acceleration."""
+    d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w
+    (d's end values held beyond the clip's ends), which is >= d everywhere; w grows until the
+    envelope's second difference is at most LIFT_SHARE x the point's largest in the capture,
+    `peaks` (F,) (length units per frame^2): the lift adds at most that share to the point's
+    acceleration."""
     N, F = heights.shape
     depth = np.maximum(np.broadcast_to(level, (N, F)) - heights, 0.0)
     out = np.broadcast_to(level, (N, F)).astype(float).copy()
@@ -147,15 +161,19 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
 
 
 def _running_max(values: np.ndarray, w: int) -> np.ndarray:
-    """(N,) the largest of `values` (N,) within w frames of each."""
-    padded = np.concatenate([np.zeros(w), values, np.zeros(w)])
+    """(N,) the largest of `values` (N,) within w frames of each (the end values held beyond the
+    clip's ends: _hann)."""
+    padded = np.pad(values, w, mode="edge")
     return np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1)
 
 
 def _hann(values: np.ndarray, w: int) -> np.ndarray:
-    """(N,) `values` (N,) averaged by a Hann window of half width w frames (zero beyond the clip's ends)."""
+    """(N,) `values` (N,) averaged by a Hann window of half width w frames, the end values held
+    beyond the clip's ends: what a point did before the clip began is unknown, and taking it as
+    resting on the floor made a point that sinks in the first frame rise steeply there, so its
+    envelope widened to the whole clip (a jump's heel lifted through the flight)."""
     window = 1.0 + np.cos(np.pi * np.arange(-w, w + 1) / (w + 1))
-    return np.convolve(values, window / window.sum(), mode="same")
+    return np.convolve(np.pad(values, w, mode="edge"), window / window.sum(), mode="valid")
 
 
 def floor_rows(
@@ -173,6 +191,30 @@ def floor_rows(
     height = x @ up
     low = height < level + (hold - 1.0) * margin
     return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
+
+
+def roll_targets(
+    x0: np.ndarray, up: np.ndarray, held_rows: tuple, soles: np.ndarray, floors: list, reach: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(index (R,) into x0's points, heights (N, R), resting (N, R) bool) of the feet's roll
+    (module notes): the held rows (_rows) of the `soles` (H,) bool among them, each resting sole
+    at its height in the capture positions x0 (N, F, 3), each frame's raised by the depth below
+    its floor level ((N, F) or (F,) each of `floors`) of the deepest of it and the soles rigidly
+    linked to it resting then (plants.lifted_heights; `reach` the body's)."""
+    index = held_rows[0][soles]
+    resting = held_rows[2][:, soles]
+    N, F = x0.shape[:2]
+    level = np.max([np.broadcast_to(level, (N, F))[:, index] for level in floors], axis=0)
+    heights = lifted_heights(x0[:, index] @ up, resting, rigid_pairs(x0[:, index], reach), level)
+    return index, heights, resting
+
+
+def _roll_rows(x, jac, up, roll) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, R), rows (N, R, D)) of the roll rows `roll` (roll_targets) at positions x and
+    Jacobian jac."""
+    index, targets, active = roll
+    error = np.where(active, targets - x[:, index] @ up, 0.0)
+    return error, np.einsum("k,nhkd->nhd", up, jac[:, index]) * active[..., None]
 
 
 def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
@@ -202,16 +244,16 @@ def warm_start(
     goals: Sequence[Goal],
     movable: np.ndarray,
     weights: np.ndarray,
-    steps: int = STEPS,
     fade: float = FADE,
     lift: bool = True,
+    soles: Sequence[str] = (),
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
     DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
     keeps every joint and site above a Floor, steers the centre of mass onto the points of its
     ComOverSupport goals (a balance track, cleanup/balance.py) and, below those, meets the
     Position goals on REACH_LEVEL (reach tracks), each change counted by `weights` (D,)
-    (dof_weights). At most `steps` space-time steps over the whole clip (cleanup/spacetime.py,
+    (dof_weights). At most STEPS space-time steps over the whole clip (cleanup/spacetime.py,
     module notes): every frame's rows weighted (HELD_WEIGHT, REACH_WEIGHT) against the spring
     energy of the displacement with fade `fade` frames, so corrections start, stop and hand
     over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
@@ -219,7 +261,9 @@ def warm_start(
     site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
     chased. With `lift`, a point that sinks through the floor in the capture is lifted along
     a smooth envelope of its depth (floor_lifts), from before it touches to after it leaves;
-    without, only in the frames it sinks. Limits are not applied here (fix_clip does)."""
+    without, only in the frames it sinks. With a Floor, the joints or sites `soles` (each foot's
+    heel and toe) keep their height in the capture while in contact (module notes: the feet's
+    roll). Limits are not applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -238,19 +282,27 @@ def warm_start(
     longest = LONGEST_STEP * size
     stiffness = motion_stiffness(skeleton, original, weights)
     margin = FLOOR_MARGIN * size
+    x0 = forward_kinematics(skeleton, original).p_world_frame if floors else None
     if floors and not lift:
         floors = [floor_levels(g.height, margin, g.clearance) for g in floors]
     elif floors:
-        x0 = forward_kinematics(skeleton, original).p_world_frame
         # acceleration peaks per frame^2 (a frame time of 1): the lifts need no clock
         peaks = point_motion(x0, 1.0)[1].max(axis=0, initial=0.0)
         heights = x0 @ skeleton.up
         floors = [floor_lifts(heights, floor_levels(g.height, margin, g.clearance), peaks) for g in floors]
+    rolling = np.isin([names[i] for i in held_rows[0]], list(soles))
+    roll = roll_targets(x0, skeleton.up, held_rows, rolling, floors, size) if floors and rolling.any() else None
 
-    def rows_at(d, free):
+    def rows_at(d, free, rolling=True):
         x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))
         error, rows = _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest)
-        return x, jac, error, rows * (scale * free)[:, None, :]
+        counted = np.ones(error.shape[1], bool)
+        if roll is not None and rolling:
+            roll_error, roll_part = _roll_rows(x, jac, skeleton.up, roll)
+            error = np.concatenate([error, at_most(roll_error[..., None], longest)[..., 0]], axis=1)
+            rows = np.concatenate([rows, roll_part], axis=1)
+            counted = np.concatenate([counted, np.zeros(roll_error.shape[1], bool)])
+        return x, jac, error, rows * (scale * free)[:, None, :], counted
 
     # first the contacts, floor and balance; then the reach tracks, moving only the frames of
     # their eased windows: outside them the fix is the same as without the reach
@@ -260,16 +312,19 @@ def warm_start(
         phases.append((True, movable & window[:, None]))
     for with_reach, free in phases:
         before = np.inf
-        for k in range(steps):
-            x, jac, error, rows = rows_at(d, free)
-            row_weights = np.full(error.shape, HELD_WEIGHT)
+        for k in range(STEPS):
+            x, jac, error, rows, counted = rows_at(d, free, not with_reach)
+            row_weights = np.where(counted, HELD_WEIGHT, ROLL_WEIGHT) * np.ones(error.shape)
             if with_reach:
                 reach_error, reach_part = _position_rows(x, jac, reach_rows, longest)
                 error = np.concatenate([error, reach_error], axis=1)
                 rows = np.concatenate([rows, reach_part * (scale * free)[:, None, :]], axis=1)
                 row_weights = np.concatenate([row_weights, np.full(reach_error.shape, REACH_WEIGHT)], axis=1)
-            now = np.sqrt(np.mean(error**2)) if error.size else 0.0
-            if np.abs(error).max(initial=0.0) <= SETTLED * size or (k >= FIRST_STEPS and now >= before):
+                counted = np.concatenate([counted, np.ones(reach_error.shape[1], bool)])
+            # the roll rows may stay unmet (a soft preference): the steps end on the others
+            judged = error[:, counted]
+            now = np.sqrt(np.mean(judged**2)) if judged.size else 0.0
+            if np.abs(judged).max(initial=0.0) <= SETTLED * size or (k >= FIRST_STEPS and now >= before):
                 break
             before = now
             damping = HELD_WEIGHT * DAMPING**2
