@@ -276,22 +276,29 @@ def _ease_frames(clip) -> float:
 
 def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
-    `found` (N, D), eased into their neighbours, except where that would make a frame jolt that
-    did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose apart
-    from its neighbours'. The repairs within an easing of a new jolt are refused and the rest
-    tried again, until none jolts (all of them when a new jolt lies beyond every repair's easing).
-    `refused` counts them (they are listed unmet)."""
+    `found` (N, D) on their `searched` (N, D) DOFs; only that change is eased into the DOFs and
+    frames no search moved (coherence.ease), so outside a repair's easing `displacement` stays
+    as it was. A repair is refused where it would make a frame jolt (cleanup/dynamics.py): a
+    frame that did not against the capture, a frame that did already against `displacement`'s
+    motion (no faster, no joint turned more than FAR_DEGREES further); a DE search starts each
+    frame afresh and may land a pose apart from its neighbours'. The repairs within an easing of
+    a new jolt are refused and the rest tried again, until none jolts (all of them when a new
+    jolt lies beyond every repair's easing). `refused` counts them (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
 
     def taken(frames):
-        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, _ease_frames(clip)))
+        change = np.where(frames[:, None] & searched, found - displacement, 0.0)
+        return _inside(sk, original, displacement + ease(change, searched, _ease_frames(clip)))
 
-    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+    current = clip.with_frames(clip.frames + displacement)
+    before = jolted_frames(clip, current, points=points)
     kept = repaired.copy()
     while kept.any():
         candidate = taken(kept)
-        new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
+        moved = clip.with_frames(clip.frames + candidate)
+        # a frame that jolted already may not jolt more: it is judged against the motion repaired
+        new = np.where(before, jolted_frames(current, moved, points=points), jolted_frames(clip, moved, points=points))
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
         near = widened(new, reach)
