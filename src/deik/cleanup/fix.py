@@ -52,7 +52,7 @@ from deik.cleanup.clip_goals import (
 )
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.contacts import site_positions
-from deik.cleanup.dynamics import jolted_frames, widened
+from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
 from deik.errors import InputError
@@ -278,10 +278,9 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
     `found` (N, D) on their `searched` (N, D) DOFs; only that change is eased into the DOFs and
     frames no search moved (coherence.ease), so outside a repair's easing `displacement` stays
-    as it was. A repair is refused where it would make a frame jolt (cleanup/dynamics.py): a
-    frame that did not against the capture, a frame that did already against `displacement`'s
-    motion (no faster, no joint turned more than FAR_DEGREES further); a DE search starts each
-    frame afresh and may land a pose apart from its neighbours'. The repairs within an easing of
+    as it was. A repair is refused where it would make a frame jolt (dynamics.newly_jolted: in a
+    frame that jolted already, turn a joint more than FAR_DEGREES from the pose it repairs); a
+    DE search starts each frame afresh and may land a pose apart from its neighbours'. The repairs within an easing of
     a new jolt are refused and the rest tried again, until none jolts (all of them when a new
     jolt lies beyond every repair's easing). `refused` counts them (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
@@ -292,13 +291,10 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
         return _inside(sk, original, displacement + ease(change, searched, _ease_frames(clip)))
 
     current = clip.with_frames(clip.frames + displacement)
-    before = jolted_frames(clip, current, points=points)
     kept = repaired.copy()
     while kept.any():
         candidate = taken(kept)
-        moved = clip.with_frames(clip.frames + candidate)
-        # a frame that jolted already may not jolt more: it is judged against the motion repaired
-        new = np.where(before, jolted_frames(current, moved, points=points), jolted_frames(clip, moved, points=points))
+        new = newly_jolted(clip, current, clip.with_frames(clip.frames + candidate), points)
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
         near = widened(new, reach)
