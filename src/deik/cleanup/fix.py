@@ -280,9 +280,10 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
     frames no search moved (coherence.ease), so outside a repair's easing `displacement` stays
     as it was. A repair is refused where it would make a frame jolt (dynamics.newly_jolted: in a
     frame that jolted already, turn a joint more than FAR_DEGREES from the pose it repairs); a
-    DE search starts each frame afresh and may land a pose apart from its neighbours'. The repairs within an easing of
-    a new jolt are refused and the rest tried again, until none jolts (all of them when a new
-    jolt lies beyond every repair's easing). `refused` counts them (they are listed unmet)."""
+    DE search starts each frame afresh and may land a pose apart from its neighbours'. The
+    repairs within an easing of a new jolt are refused and the rest tried again, until none
+    jolts (all of them when a new jolt lies beyond every repair's easing). `refused` counts them
+    (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
 
