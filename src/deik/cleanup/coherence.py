@@ -2,7 +2,7 @@
 
 A frame's DE repair only moves the DOFs that can reach one of its goals (the chain from the root
 to each site in contact or reaching, every DOF for balance, the chains of the points near the
-floor); the others take the displacement eased in from the neighbouring frames, so nothing pops
+floor); the others take the change a repair made eased in from the neighbouring frames, so nothing pops
 where a repair starts or stops and no search noise reaches joints no goal needs (an idle arm).
 (The warm start, cleanup/warmstart.py, needs no such mask: a DOF no goal row moves stays put.)
 

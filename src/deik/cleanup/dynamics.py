@@ -119,6 +119,18 @@ def jolted_frames(
     return jolts | (joint_angles(original, fixed) > degrees).any(axis=1)
 
 
+def newly_jolted(original: Motion, current: Motion, moved: Motion, points: np.ndarray | None = None) -> np.ndarray:
+    """(N,) bool: frames that a change from `current` to `moved` (both fixes of the capture
+    `original`) makes jolt: a frame that does not jolt in `current` (jolted_frames, `points`
+    (F,) bool) and does in `moved`; a frame that already does, where `moved` turns a joint more
+    than FAR_DEGREES from `current` (its jolts against the capture are there already, but a
+    change that large is a new pose, not a repair)."""
+    before = jolted_frames(original, current, points=points)
+    after = jolted_frames(original, moved, points=points)
+    turned = (joint_angles(current, moved) > FAR_DEGREES).any(axis=1)
+    return np.where(before, turned, after)
+
+
 def point_peak_ratios(source: np.ndarray, points: np.ndarray, frame_time: float) -> dict:
     """{measure: largest value of `points` / largest of `source`} for POINT_MEASURES: the
     speeds and accelerations of points (N, K, 3) against those of the points they follow,

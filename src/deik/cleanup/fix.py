@@ -52,7 +52,7 @@ from deik.cleanup.clip_goals import (
 )
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.contacts import site_positions
-from deik.cleanup.dynamics import jolted_frames, widened
+from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import dof_weights, warm_start
 from deik.errors import InputError
@@ -276,22 +276,26 @@ def _ease_frames(clip) -> float:
 
 def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
-    `found` (N, D), eased into their neighbours, except where that would make a frame jolt that
-    did not (cleanup/dynamics.py): a DE search starts each frame afresh and may land a pose apart
-    from its neighbours'. The repairs within an easing of a new jolt are refused and the rest
-    tried again, until none jolts (all of them when a new jolt lies beyond every repair's easing).
-    `refused` counts them (they are listed unmet)."""
+    `found` (N, D) on their `searched` (N, D) DOFs; only that change is eased into the DOFs and
+    frames no search moved (coherence.ease), so outside a repair's easing `displacement` stays
+    as it was. A repair is refused where it would make a frame jolt (dynamics.newly_jolted: in a
+    frame that jolted already, turn a joint more than FAR_DEGREES from the pose it repairs); a
+    DE search starts each frame afresh and may land a pose apart from its neighbours'. The
+    repairs within an easing of a new jolt are refused and the rest tried again, until none
+    jolts (all of them when a new jolt lies beyond every repair's easing). `refused` counts them
+    (they are listed unmet)."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
 
     def taken(frames):
-        return _inside(sk, original, ease(np.where(frames[:, None], found, displacement), searched, _ease_frames(clip)))
+        change = np.where(frames[:, None] & searched, found - displacement, 0.0)
+        return _inside(sk, original, displacement + ease(change, searched, _ease_frames(clip)))
 
-    before = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+    current = clip.with_frames(clip.frames + displacement)
     kept = repaired.copy()
     while kept.any():
         candidate = taken(kept)
-        new = jolted_frames(clip, clip.with_frames(clip.frames + candidate), points=points) & ~before
+        new = newly_jolted(clip, current, clip.with_frames(clip.frames + candidate), points)
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
         near = widened(new, reach)
