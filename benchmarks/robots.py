@@ -222,6 +222,7 @@ def main(argv=None) -> dict:
                     ax.plot([r["median_ms"], r["p95_ms"]], [100 * r["success_strict"]] * 2, "-", alpha=0.5)
                     ax.plot(r["median_ms"], 100 * r["success_strict"], "o", label=label)
                     figures[f"{case} {label} median ms"] = r["median_ms"]
+                    figures[f"{case} {label} p95 ms"] = r["p95_ms"]
                     figures[f"{case} {label} strict success"] = r["success_strict"]
         title = f"{case} ({data['dofs']} DOF, {data['base']} -> {data['tip']})"
         header = ["solver", "version", "strict", "loose", "≤5 ms", "median ms", "p95 ms", "note"]

@@ -170,8 +170,8 @@ def polished_just_now(i, first_round):
     """Whether a polish round passes over individual i: in the round that follows a lazy first
     population (first_round), individual 0 has just had its polish (first_polish_iterations),
     which stopped short of the tolerances: almost always a stall (a 6-D arm target met by it
-    1 % more often with twice the iterations), so polishing it again was the costliest way to
-    fail (docs/decisions.md, "No second polish of a stalled start")."""
+    1 % more often with twice the iterations), so a second polish from there rarely meets them
+    (docs/decisions.md, "No second polish of a stalled start")."""
     return first_round and i == 0
 
 
