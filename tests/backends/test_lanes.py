@@ -48,7 +48,7 @@ def _one_pose_scores(poses, problem_index, skel, terms, n_levels):
     problem_index[n]."""
     N, D, T = poses.shape[0], poses.shape[1], terms.term_int.shape[0]
     levels, total, raw = np.empty((N, n_levels), poses.dtype), np.empty(N, poses.dtype), np.empty((N, T), poses.dtype)
-    scratch, _, _, _ = cpu._scratch(skel, poses, T, n_levels, D)
+    scratch, _, _, _ = cpu.thread_scratch(skel, poses, T, n_levels, D)
     for n in range(N):
         total[n] = dev.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
     return levels, total, raw
@@ -100,7 +100,7 @@ def _copy(buffers):
 @njit
 def _breed_in_blocks(sizes, cur, nxt, skel, terms, settings, status, order, gen):
     """One generation through device_lanes.breed_lanes in blocks of the given sizes, one scratch."""
-    lanes = cpu._lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
+    lanes = cpu.lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
     first = 0
     for size in sizes:
         dev.breed_lanes(first, size, order, gen, cur, nxt, skel, terms, settings, status, lanes)

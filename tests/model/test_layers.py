@@ -1,7 +1,7 @@
 """The package layers of docs/architecture.md: every deik module imports only from its own
 package and the layers below it, so the data flows one way and no import cycle can form;
 nothing above the solver reaches into the device maths or the back-ends; no two source files
-share a name."""
+share a name; no module is over 450 lines."""
 
 import ast
 from collections import Counter
@@ -82,3 +82,9 @@ def test_nothing_above_the_solver_reaches_into_the_kernels():
 def test_no_source_file_name_is_used_twice():
     names = Counter(p.name for p in SOURCE.rglob("*.py") if p.name not in ("__init__.py", "__main__.py"))
     assert sorted(name for name, count in names.items() if count > 1) == []
+
+
+def test_no_module_is_longer_than_a_reader_can_hold():
+    """One module, one job: none over 450 lines (a longer one splits along its jobs)."""
+    long = {str(p.relative_to(SOURCE)): n for p in SOURCE.rglob("*.py") if (n := len(p.read_text().splitlines())) > 450}
+    assert long == {}

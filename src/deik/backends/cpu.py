@@ -29,7 +29,7 @@ def launch_kind(signature) -> tuple[str, bool]:
 
 
 def evaluate_dtype(signature) -> str:
-    """The dtype of a cpu_kernels.evaluate_poses or point_jacobians signature (of its poses)."""
+    """The dtype of a cpu_kernels.evaluate_poses or cpu_pose_kernels.point_jacobians signature (of its poses)."""
     return str(signature[0].dtype)
 
 
@@ -110,7 +110,7 @@ def is_report(signature) -> bool:
 
 
 def jacobians_ready() -> bool:
-    """Whether the clip warm start's float64 point Jacobians (cpu_kernels.point_jacobians) are ready."""
+    """Whether the clip warm start's float64 point Jacobians (cpu_pose_kernels.point_jacobians) are ready."""
     return "float64" in map(evaluate_dtype, cpu_entry("point_jacobians").ready_signatures())
 
 
@@ -233,7 +233,7 @@ def evaluate_poses(poses, problem_index, skel, terms, n_levels: int):
 
 
 def _jacobian_args(poses, frames, skel) -> tuple[tuple, tuple[np.ndarray, np.ndarray]]:
-    """(the arguments of cpu_kernels.point_jacobians, the arrays x and jacobian they fill)."""
+    """(the arguments of cpu_pose_kernels.point_jacobians, the arrays x and jacobian they fill)."""
     dtype = skel.joint_frame.dtype
     poses = kernel_array(poses, dtype)
     N, D = poses.shape
@@ -243,7 +243,7 @@ def _jacobian_args(poses, frames, skel) -> tuple[tuple, tuple[np.ndarray, np.nda
 
 def point_jacobians(poses, frames, skel):
     """(x (N, G, 3), jacobian (N, G, 3, D)) of frames (G,) (-1: the centre of mass) at poses
-    (N, D), in the dtype of the packed skeleton (cpu_kernels.point_jacobians)."""
+    (N, D), in the dtype of the packed skeleton (cpu_pose_kernels.point_jacobians)."""
     args, results = _jacobian_args(poses, frames, skel)
     entry = _ENTRY_POINTS.get("point_jacobians")
     if entry is None or skel.joint_frame.dtype != np.float64:

@@ -25,7 +25,6 @@ from deik.device import driver as device_driver
 from deik.device import evolution as device_evolution
 from deik.device import lanes as device_lanes
 from deik.device import maths as device_maths
-from deik.device import polish as device_polish
 from deik.device import terms as device_terms
 from deik.device.layout import LANES, WORK_SIZE, LaneScratch, LmScratch, Scratch
 
@@ -34,7 +33,7 @@ SERIAL_WORK = 4096  # individuals x frames per loop below which one thread is fa
 
 
 @linked()
-def _scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
+def thread_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(Scratch, trial (D,), lv (L,), rw (T,)) of one thread, in dtype_probe's dtype."""
     frames, t = device_maths.frame_count(skel), dtype_probe.dtype
     scratch = Scratch(np.empty(frames * 9, t), np.empty(frames * 3, t), np.empty(WORK_SIZE, t))
@@ -50,7 +49,7 @@ def _lane_span(c, chunks, n):
 
 
 @linked()
-def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
+def lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """A LaneScratch of one thread, in dtype_probe's dtype; poses start at zero, so lanes a short
     last block leaves unused compute on finite numbers."""
     frames, t = device_maths.frame_count(skel), dtype_probe.dtype
@@ -68,7 +67,7 @@ def _lane_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
 
 
 @linked()
-def _polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
+def polish_scratch(skel, dtype_probe, n_terms, n_levels, n_dofs):
     """(axes (N*6,), LmScratch) for device_lm.polish."""
     D, t = n_dofs, dtype_probe.dtype
     matrices, vectors, jac = np.empty((2, D * D), t), np.empty((3, D), t), np.empty(3 * D, t)
@@ -143,15 +142,15 @@ def _first_population(cur, status, skel, terms, settings, schedule, rules, initi
     B, P = cur.pop.shape[0], cur.pop.shape[1]
     if schedule is not None and schedule.iterations > 0 and rules.stop_on_converged:
         met = np.empty(B, np.bool_)
-        chunks = _chunks(B, 3 * schedule.iterations, skel, threads)
+        chunks = chunk_count(B, 3 * schedule.iterations, skel, threads)
         _polish_first(chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met)
         unmet, n_unmet = _active_problems(~met)
         n = n_unmet * (P - 1)
-        _complete(_chunks(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
+        _complete(chunk_count(n, 1, skel, threads), n, unmet, cur, skel, terms, settings, initial, n_initial)
         for k in range(n_unmet):
             _settle_first(unmet[k], cur, status, terms, rules)
         return True
-    initialise(cur, status, skel, terms, settings, initial, n_initial, _chunks(B * P, 1, skel, threads))
+    initialise(cur, status, skel, terms, settings, initial, n_initial, chunk_count(B * P, 1, skel, threads))
     return False
 
 
@@ -181,8 +180,8 @@ def _polish_first(chunks, cur, status, skel, terms, settings, schedule, rules, i
 def _polish_first_chunk(c, chunks, cur, status, skel, terms, settings, schedule, rules, initial, n_initial, met):
     """Chunk c of `chunks` of _polish_first's problems."""
     B, P, D = cur.pop.shape[0], cur.pop.shape[1], cur.pop.shape[2]
-    scratch, q, lv, rw = _scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
-    axes, lm = _polish_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
+    scratch, q, lv, rw = thread_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
+    axes, lm = polish_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], D)
     for b in range(c * B // chunks, (c + 1) * B // chunks):
         met[b] = device_driver.polish_first(
             b, cur, skel, terms, settings, schedule, initial, n_initial, scratch, axes, lm, q, lv, rw, status.halt
@@ -207,7 +206,7 @@ def _complete(chunks, n, unmet, state, skel, terms, settings, initial, n_initial
 @linked()
 def _complete_chunk(c, chunks, n, unmet, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `chunks` of _complete's individuals."""
-    lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], state.pop.shape[2])
+    lanes = lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], state.pop.shape[2])
     start, end = _lane_span(c, chunks, n)
     for first in range(start, end, LANES):
         device_lanes.initialise_lanes(
@@ -219,7 +218,7 @@ def _complete_chunk(c, chunks, n, unmet, state, skel, terms, settings, initial, 
 def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_initial):
     """Chunk c of `n_chunks` of initialise's individuals, LANES at a time."""
     B, P, D = state.pop.shape
-    lanes = _lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    lanes = lane_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     start, end = _lane_span(c, n_chunks, B * P)
     every = np.arange(B)
     for first in range(start, end, LANES):
@@ -229,7 +228,7 @@ def _initialise_chunk(c, n_chunks, state, skel, terms, settings, initial, n_init
 
 
 @linked()
-def _chunks(n_jobs, work_per_job, skel, threads):
+def chunk_count(n_jobs, work_per_job, skel, threads):
     """Work units for a loop of n_jobs: 1 (run in the calling thread, no parallel region) when
     the work is small, since waking the pool costs more than it saves and on a loaded machine
     a descheduled thread stalls the loop; else a few per thread."""
@@ -280,7 +279,7 @@ def _breed(chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
 @linked()
 def _breed_chunk(c, chunks, n, cur, nxt, skel, terms, settings, status, order, gen):
     """Chunk c of `chunks` of _breed's individuals, LANES at a time (device_lanes.breed_lanes)."""
-    lanes = _lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
+    lanes = lane_scratch(skel, cur.pop, cur.raw.shape[2], cur.levels.shape[2], cur.pop.shape[2])
     start, end = _lane_span(c, chunks, n)
     for first in range(start, end, LANES):
         device_lanes.breed_lanes(
@@ -305,8 +304,8 @@ def _polish_chunk(c, chunks, n, state, skel, terms, status, schedule, order, fir
     in order, until one meets every tolerance (the GPU kernel polishes them side by side and
     undoes those after the first that does: the same result)."""
     P, D = state.pop.shape[1], state.pop.shape[2]
-    scratch, q, lv, rw = _scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
-    axes, lm = _polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    scratch, q, lv, rw = thread_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
+    axes, lm = polish_scratch(skel, state.pop, state.raw.shape[2], state.levels.shape[2], D)
     for job in range(c * n // chunks, (c + 1) * n // chunks):
         b = order[job]
         for k in range(schedule.count):
@@ -342,7 +341,7 @@ def run_generations(
             # polish before breeding, so a problem the polish solves stops without a generation
             due, n_due = _polish_due(order, n_active, fresh, gen % schedule.every == 0)
             if n_due:
-                chunks = _chunks(n_due, 3 * schedule.iterations * schedule.count, skel, threads)
+                chunks = chunk_count(n_due, 3 * schedule.iterations * schedule.count, skel, threads)
                 _polish(chunks, n_due, cur, skel, terms, status, schedule, due, lazy_first and g == 0)
                 for k in range(n_due):
                     b = due[k]
@@ -356,7 +355,7 @@ def run_generations(
         for k in range(n_active):
             fresh[order[k]] = status.restarting[order[k]]
         n = n_active * P
-        _breed(_chunks(n, 1, skel, threads), n, cur, nxt, skel, terms, settings, status, order, gen)
+        _breed(chunk_count(n, 1, skel, threads), n, cur, nxt, skel, terms, settings, status, order, gen)
         cur, nxt = nxt, cur
         swaps += 1
         for k in range(n_active):
@@ -372,9 +371,9 @@ def run_generations(
 def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chunks, threads):
     """Evaluate poses (N, D), pose n against problem problem_index[n]; fills levels (N, L),
     total (N,), raw (N, T). n_chunks as for initialise, or 0: as many as pay off on `threads`
-    threads (_chunks)."""
+    threads (chunk_count)."""
     N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
+    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else chunk_count(N, 1, skel, threads)))
     if n_chunks == 1:
         _evaluate_chunk(0, 1, poses, problem_index, skel, terms, levels, total, raw)
     else:
@@ -386,75 +385,6 @@ def evaluate_poses(poses, problem_index, skel, terms, levels, total, raw, n_chun
 def _evaluate_chunk(c, n_chunks, poses, problem_index, skel, terms, levels, total, raw):
     """Chunk c of `n_chunks` of evaluate_poses' poses."""
     N, D = poses.shape
-    scratch, _, _, _ = _scratch(skel, poses, raw.shape[1], levels.shape[1], D)
+    scratch, _, _, _ = thread_scratch(skel, poses, raw.shape[1], levels.shape[1], D)
     for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
         total[n] = device_terms.evaluate(poses[n], problem_index[n], skel, terms, scratch, levels[n], raw[n])
-
-
-@linked(parallel=True)
-def forward_kinematics_batch(poses, skel, R, p):
-    """World frames of poses (N, D) -> R (N, F*9), p (N, F*3) with the kernel's own FK."""
-    for n in prange(poses.shape[0]):
-        work = np.empty(WORK_SIZE, poses.dtype)
-        device_maths.forward_kinematics(poses[n], skel, R[n], p[n], work, work, False)
-
-
-@linked(parallel=True)
-def point_jacobians(poses, frames, skel, x, jacobian, n_chunks, threads):
-    """World positions x (N, G, 3) of frames (G,) (joint indices, then sites after the joints;
-    -1 for the centre of mass) at poses (N, D), and their analytic Jacobian (N, G, 3, D), with
-    the kernels' FK and the polish's rows (device_polish.point_rows, com_rows). n_chunks and
-    threads as for evaluate_poses."""
-    N = poses.shape[0]
-    n_chunks = max(1, min(N, n_chunks if n_chunks > 0 else _chunks(N, 1, skel, threads)))
-    if n_chunks == 1:
-        _point_jacobian_chunk(0, 1, poses, frames, skel, x, jacobian)
-    else:
-        for c in prange(n_chunks):
-            _point_jacobian_chunk(np.int64(c), n_chunks, poses, frames, skel, x, jacobian)
-
-
-@linked()
-def _point_jacobian_chunk(c, n_chunks, poses, frames, skel, x, jacobian):
-    """Chunk c of `n_chunks` of point_jacobians' poses (one scratch allocation per chunk)."""
-    N, D = poses.shape
-    scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
-    R, p = scratch.R, scratch.p
-    axes, jac = np.empty(6 * skel.motion_int.shape[0], poses.dtype), np.empty(3 * D, poses.dtype)
-    for n in range(c * N // n_chunks, (c + 1) * N // n_chunks):
-        device_maths.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
-        for g in range(frames.shape[0]):
-            f = frames[g]
-            for e in range(3 * D):
-                jac[e] = 0.0
-            if f < 0:
-                x[n, g, 0], x[n, g, 1], x[n, g, 2] = device_maths.centre_of_mass(skel, R, p)
-                device_polish.com_rows(skel, R, p, axes, 1.0, jac, D, 0, 0)
-            else:
-                x[n, g, 0], x[n, g, 1], x[n, g, 2] = p[3 * f], p[3 * f + 1], p[3 * f + 2]
-                j = device_polish.frame_joint(f, skel)
-                device_polish.point_rows(p[3 * f], p[3 * f + 1], p[3 * f + 2], j, skel, axes, 1.0, jac, D, 0, 0)
-            for row in range(3):
-                for d in range(D):
-                    jacobian[n, g, row, d] = jac[row * D + d]
-
-
-@linked()
-def residual_rows(poses, problem_index, term, skel, terms):
-    """The LM polish's scaled residual (N, 3) of one term and its analytic Jacobian (N, 3, D)
-    at poses (N, D) (zeros for terms the polish leaves to DE)."""
-    N, D = poses.shape
-    residual, jacobian = np.zeros((N, 3), poses.dtype), np.zeros((N, 3, D), poses.dtype)
-    scratch, _, _, _ = _scratch(skel, poses, 1, 1, D)
-    axes, lm = _polish_scratch(skel, poses, terms.term_int.shape[0], 1, D)
-    R, p, jac = scratch.R, scratch.p, lm.jac
-    for n in range(N):
-        device_maths.forward_kinematics(poses[n], skel, R, p, scratch.work, axes, True)
-        cx, cy, cz = device_maths.centre_of_mass(skel, R, p)
-        residual[n, 0], residual[n, 1], residual[n, 2] = device_polish.term_rows(
-            term, problem_index[n], skel, terms, R, p, cx, cy, cz, axes, jac, D, 0, 0
-        )
-        for row in range(3):
-            for d in range(D):
-                jacobian[n, row, d] = jac[row * D + d]
-    return residual, jacobian

@@ -202,30 +202,32 @@ def _cpu_wrap(suffix: str):
 
 @cache
 def cpu_build(switches: frozenset[str] = ALL_KINDS) -> types.ModuleType:
-    """The device maths and the CPU kernels (deik.backends.cpu_kernels) compiled for the term
-    kinds of `switches` (names of deik.device.compiled_kinds.SWITCHES; the others off), as one
+    """The device maths and the CPU kernels (deik.backends.cpu_kernels, cpu_pose_kernels) compiled
+    for the term kinds of `switches` (names of deik.device.compiled_kinds.SWITCHES; the others off), as one
     namespace of link-only functions. Nothing compiles until a kernel's entry point needs it."""
-    from deik.backends import cpu_kernels
+    from deik.backends import cpu_kernels, cpu_pose_kernels
 
     overrides = {name: name in switches for name in SWITCHES}
     overrides["CENTRE_OF_MASS_ON"] = bool(switches & CENTRE_OF_MASS_SWITCHES)
     overrides["COLUMNS_SPLIT"] = False  # one CPU thread forms every Jacobian column (device/polish.py)
     suffix = build_suffix(switches)
-    sources = DEVICE_SOURCES + (cpu_kernels,)
+    sources = DEVICE_SOURCES + (cpu_kernels, cpu_pose_kernels)
     return compile_namespace(sources, f"deik.backends._cpu{suffix}", _cpu_wrap(suffix), overrides)
 
 
 def cpu_entry(name: str, switches: frozenset[str] = ALL_KINDS) -> Entry:
-    """The entry point of kernel `name` (a function of deik.backends.cpu_kernels) in the build
-    for `switches`: loading it from the cache builds nothing else (deik.backends.entries)."""
-    from deik.backends import cpu_kernels
+    """The entry point of kernel `name` (a function of deik.backends.cpu_kernels or
+    cpu_pose_kernels) in the build for `switches`: loading it from the cache builds nothing else
+    (deik.backends.entries)."""
+    from deik.backends import cpu_kernels, cpu_pose_kernels
 
     suffix = build_suffix(switches)
     # the build's module, empty until the build is made: what a cached kernel's environment
     # (its globals, for Numba) is loaded from
     module = f"deik.backends._cpu{suffix}"
     sys.modules.setdefault(module, types.ModuleType(module))
-    return Entry.of(getattr(cpu_kernels, name), name + suffix, lambda: getattr(cpu_build(switches), name))
+    source = cpu_kernels if hasattr(cpu_kernels, name) else cpu_pose_kernels
+    return Entry.of(getattr(source, name), name + suffix, lambda: getattr(cpu_build(switches), name))
 
 
 def __getattr__(attribute: str):
