@@ -25,7 +25,14 @@ from deik.cleanup.body import Body
 from deik.cleanup.body_contacts import bone_contacts, bone_ends, merge_contacts
 from deik.cleanup.clip_goals import Reach
 from deik.cleanup.contacts import Contacts
-from deik.cleanup.ground import FloorChoice, Paths, body_paths, detect_floor, detect_resting, given_contacts
+from deik.cleanup.ground import (
+    FloorChoice,
+    Paths,
+    body_paths,
+    detect_floor,
+    detect_resting,
+    given_contacts,
+)
 from deik.cleanup.tracks import parse_reach_spec
 from deik.errors import InputError
 from deik.io.trajectory import Motion

@@ -26,7 +26,7 @@ import os
 import sys
 
 from deik import __version__
-from deik.cli.arguments import USER_ERRORS, check_outputs, number
+from deik.cli.arguments import USER_ERRORS, add_up, check_outputs, number
 from deik.console import Parser, add_output_flags, configure_logging, show_compile_bars, show_progress
 from deik.errors import error_line
 from deik.experiments import flags as experiment_flags
@@ -86,7 +86,7 @@ def _info(parser: Parser) -> None:
     parser.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated)")
     parser.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     parser.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
-    parser.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_up(parser)
     add_output_flags(parser, progress=False)
     parser.set_defaults(run=info_command.run_info)
 

@@ -118,6 +118,27 @@ def announce_compile(device: str, dtype: str, polish: bool = True, clip: bool = 
     return names
 
 
+def add_up(parser: argparse.ArgumentParser) -> None:
+    """--up X Y Z on `parser`: the world's up direction of the skeleton file (up_of reads it)."""
+    parser.add_argument(
+        "--up",
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="the world's up direction (default: 0 1 0 for BVH, the BVH convention; 0 0 1 for URDF)",
+    )
+
+
+def up_of(args: argparse.Namespace) -> tuple[float, float, float] | None:
+    """The unit up direction --up gives (any length), or None; UsageError for a zero or bad vector."""
+    if not getattr(args, "up", None):
+        return None
+    x, y, z = numbers("--up", args.up)
+    length = math.sqrt(x * x + y * y + z * z)
+    if length < 1e-9:
+        raise UsageError("--up: give a direction, e.g. --up 0 0 1 for a file made with Z up")
+    return (x / length, y / length, z / length)
+
+
 def add_free_translations(parser: argparse.ArgumentParser) -> None:
     """--free-translations on `parser` (solve, clip, retarget): position channels below a BVH's
     first translating joint keep the capture's values unless it is given (deik.io.bvh.read_bvh)."""

@@ -20,9 +20,11 @@ from deik.cleanup.units import METRES
 from deik.cli.arguments import (
     UsageError,
     add_free_translations,
+    add_up,
     check_device,
     check_outputs,
     number,
+    up_of,
 )
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
@@ -43,6 +45,7 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     )
     c.add_argument("--segments", metavar="FILE.json", help="segment masses (default: estimated from bone lengths)")
     add_free_translations(c)
+    add_up(c)
     c.add_argument(
         "--limits",
         metavar="FILE.json",
@@ -353,7 +356,7 @@ def run_clip(args: argparse.Namespace) -> int:
     from deik.cleanup.clean import plan_clean
 
     check_first(args)
-    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations)
+    clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations, up=up_of(args))
     plan = plan_clean(clip, clean_options(args))
     check_outputs(*outputs)  # the reach tracks it read are inputs too
     with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:

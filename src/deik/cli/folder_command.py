@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 from deik.cli import clip_command as cli_clip
 from deik.cli import retarget_command as cli_retarget
-from deik.cli.arguments import USER_ERRORS, UsageError
+from deik.cli.arguments import USER_ERRORS, UsageError, up_of
 from deik.errors import InputError, error_line
 from deik.io.bvh import read_bvh
 from deik.io.files import check_not_input, command_inputs
@@ -101,7 +101,8 @@ def _clean_one(payload: dict, progress: Callable[[int, int], None]) -> dict:
     """deik.clean_clip of one clip of a folder, its outputs written; its library record."""
     from deik.cleanup.clean import clean_clip
 
-    clip = read_bvh(payload["source"], segments=payload["segments"], free_translations=payload["free_translations"])
+    reading = {key: payload[key] for key in ("segments", "free_translations", "up")}
+    clip = read_bvh(payload["source"], **reading)
     cleaned = clean_clip(clip, payload["options"], progress=lambda met, stage: progress(met, clip.n_frames))
     cli_clip.write_outputs(cleaned, payload["outputs"], payload["report_3d"])
     return cli_clip.library_record(cleaned)
@@ -115,7 +116,7 @@ def _options(args) -> tuple[dict, dict, dict]:
 
     if args.command == "clip":
         options = cli_clip.clean_options(args)
-        reading = {"segments": args.segments, "free_translations": args.free_translations}
+        reading = {"segments": args.segments, "free_translations": args.free_translations, "up": up_of(args)}
         common = {"options": options, "report_3d": args.report_3d, **reading}
         settings = {"report_3d": args.report_3d, **reading, **dataclasses.asdict(options)}
         files = {"--segments": args.segments, "--limits": options.limits}

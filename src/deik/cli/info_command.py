@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from deik.cli.arguments import numbers
+from deik.cli.arguments import up_of
 from deik.io.describe import describe_skeleton
 from deik.io.load import load_skeleton
 from deik.viz.marks import length_unit
@@ -75,7 +75,7 @@ def _cell(value) -> str:
 
 def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
-    up = numbers("--up", args.up) if args.up else None
+    up = up_of(args)
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
     print(format_info(describe_skeleton(loaded), args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
     return 0

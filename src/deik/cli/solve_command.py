@@ -20,10 +20,12 @@ import numpy as np
 from deik.cli.arguments import (
     UsageError,
     add_free_translations,
+    add_up,
     check_device,
     check_outputs,
     number,
     numbers,
+    up_of,
 )
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import Parser, add_output_flags, progress_bar, show_generation, show_progress
@@ -73,7 +75,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
         metavar="LINK",
         help="URDF: keep only the chain from --base to LINK (repeatable; default: every link)",
     )
-    s.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_up(s)
     s.add_argument(
         "--limits",
         metavar="FILE.json",
@@ -172,7 +174,7 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
         return replace(file, settings=file.settings | _settings(args))
     if not spec:
         raise UsageError("give a SKELETON (chain:N, chain3d:N, humanoid, a .bvh or .urdf file) or --problem FILE.toml")
-    up = numbers("--up", args.up) if args.up else None
+    up = up_of(args)
     loaded = load_skeleton(
         spec, base=args.base, tip=args.tip, segments=args.segments, up=up, free_translations=args.free_translations
     )

@@ -13,7 +13,7 @@ import sys
 import webbrowser
 
 from deik.cleanup.units import METRES
-from deik.cli.arguments import numbers
+from deik.cli.arguments import add_up, up_of
 from deik.viz.scene import Scene
 from deik.viz.view import DEFAULT_PORT, ViewOptions, can_open_browser, view, view_scene
 
@@ -35,7 +35,7 @@ def add_arguments(v: argparse.ArgumentParser) -> None:
     v.add_argument("--segments", metavar="FILE.json", help="BVH: segment masses (default: estimated from bone lengths)")
     v.add_argument("--base", metavar="LINK", help="URDF: the link fixed in the world")
     v.add_argument("--tip", action="append", default=[], metavar="LINK", help="URDF: keep the chain to LINK")
-    v.add_argument("--up", nargs=3, metavar=("X", "Y", "Z"), help="URDF: world up direction (default 0 0 1)")
+    add_up(v)
     v.add_argument("--units", choices=sorted(METRES), help="the length unit the view states (default: the file's)")
     v.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     v.add_argument(
@@ -49,7 +49,7 @@ def add_arguments(v: argparse.ArgumentParser) -> None:
 
 def view_options(args: argparse.Namespace) -> ViewOptions:
     """The ViewOptions of `deik view`'s flags."""
-    up = tuple(numbers("--up", args.up)) if args.up else None
+    up = up_of(args)
     names = ("pose", "compare", "report", "segments", "base", "tip", "units")
     return ViewOptions(up=up, **{name: getattr(args, name) for name in names})
 

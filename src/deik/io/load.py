@@ -38,15 +38,17 @@ def load_skeleton(
     free_translations: bool = False,
 ) -> Loaded:
     """Load `spec`: a path ending in .bvh or .urdf, or "chain:N", "chain3d:N", "humanoid".
-    `base`/`tip` (link names) and `up` (3,) apply to URDF only; `segments` (a segment table
+    `base`/`tip` (link names) apply to URDF only, `up` (3,) to URDF and BVH; `segments` (a segment table
     path) and `free_translations` (let solves move the position channels below the first joint
     that translates, deik.io.bvh.read_bvh) to BVH only; giving one for another kind is a
     ValueError."""
     suffix = Path(str(spec)).suffix.lower()
-    urdf_only = {"--base": base, "--tip": tip, "--up": up}
+    urdf_only = {"--base": base, "--tip": tip}
     misplaced = [flag for flag, value in urdf_only.items() if value is not None and len(value) > 0]
     if suffix != ".urdf" and misplaced:
         raise InputError(f"{', '.join(misplaced)} only apply to a URDF robot, not {spec!r}")
+    if suffix not in (".urdf", ".bvh") and up is not None:
+        raise InputError(f"--up only applies to a URDF robot or a BVH character, not {spec!r}")
     if suffix != ".bvh" and segments is not None:
         raise InputError(f"--segments only applies to a BVH character, not {spec!r}")
     if suffix != ".bvh" and free_translations:
@@ -54,7 +56,7 @@ def load_skeleton(
     if suffix == ".bvh":
         from deik.io.bvh import read_bvh
 
-        clip = read_bvh(spec, segments=segments, free_translations=free_translations)
+        clip = read_bvh(spec, segments=segments, free_translations=free_translations, up=up)
         return _loaded(Loaded(clip.skeleton, "bvh", clip, clip.mass_source))
     if suffix == ".urdf":
         from deik.io.urdf import read_urdf

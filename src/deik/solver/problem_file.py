@@ -57,8 +57,8 @@ from deik.solver.problem_goals import goal_from_table, vector_field
 from deik.solver.settings import Settings
 from deik.suggest import did_you_mean
 
-URDF_KEYS, BVH_KEYS = ("base", "tip", "up"), ("segments", "frame")
-TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KEYS + BVH_KEYS
+URDF_KEYS, BVH_KEYS, FILE_KEYS = ("base", "tip"), ("segments", "frame"), ("up",)
+TOP_LEVEL = ("skeleton", "limits", "joint_limits", "settings", "goal") + URDF_KEYS + BVH_KEYS + FILE_KEYS
 
 
 @dataclass(frozen=True)
@@ -135,9 +135,12 @@ def _skeleton(data: dict, path: str) -> tuple[Loaded, int | None]:
         raise InputError(f"{path}: field 'skeleton' must be a string: {SKELETON_FORMS}")
     suffix = Path(spec).suffix.lower()
     allowed = URDF_KEYS if suffix == ".urdf" else (BVH_KEYS if suffix == ".bvh" else ())
-    for key in URDF_KEYS + BVH_KEYS:
+    allowed += FILE_KEYS if suffix in (".urdf", ".bvh") else ()
+    for key in URDF_KEYS + BVH_KEYS + FILE_KEYS:
         if key in data and key not in allowed:
-            kind = "a URDF robot" if key in URDF_KEYS else "a BVH clip"
+            kind = {**dict.fromkeys(URDF_KEYS, "a URDF robot"), **dict.fromkeys(BVH_KEYS, "a BVH clip")}.get(
+                key, "a URDF robot or a BVH clip"
+            )
             raise InputError(f"{path}: field {key!r} only applies to {kind}, not skeleton = {spec!r}")
     folder = Path(path).parent
     tip = data.get("tip")

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from deik.errors import FileFormatError
 from deik.io.bvh.frames import FrameReader
@@ -29,6 +30,7 @@ from deik.model.joints import ROTATE, Joint, Site, euler, translation
 
 MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
 LOCAL_TOLERANCE = 0.01  # of a bone's OFFSET: position channels this close to it in every frame repeat it
+BVH_UP = (0.0, 1.0, 0.0)  # the BVH convention: Y up
 MAX_HIERARCHY_BYTES = 16 << 20  # the HIERARCHY section: a 100,000-joint skeleton takes about 10 MB
 
 
@@ -109,8 +111,9 @@ def _site_names(nodes: list[Node]) -> dict[int, str]:
     return names
 
 
-def _skeleton(source, nodes, site_names, limits, segments=()):
-    """Build the Skeleton; translation DOFs get `limits[(node, channel)]`, rotations [-pi, pi]."""
+def _skeleton(source, nodes, site_names, limits, segments=(), up=BVH_UP):
+    """Build the Skeleton; translation DOFs get `limits[(node, channel)]`, rotations [-pi, pi];
+    `up` (3,) the world's up direction."""
     joints, sites = [], []
     for k, node in enumerate(nodes):
         parent = nodes[node.parent].name if node.parent >= 0 else None
@@ -123,7 +126,7 @@ def _skeleton(source, nodes, site_names, limits, segments=()):
         dofs += euler(rotations) if rotations else ()
         joints.append(Joint(node.name, parent, node.offset, dofs))
     try:  # a safety net: the checks above leave build_skeleton nothing to reject
-        return build_skeleton(joints, sites, segments, up=(0.0, 1.0, 0.0), name=Path(source).stem or "bvh")
+        return build_skeleton(joints, sites, segments, up=up, name=Path(source).stem or "bvh")
     except ValueError as error:
         raise FileFormatError(source, f"invalid skeleton: {error}") from None
 
@@ -179,7 +182,11 @@ def _translation_limits(nodes, columns, values, local: set[int], free: bool, siz
 
 
 def parse_bvh(
-    text: str | bytes, source: str = "<string>", segments: FilePath | None = None, free_translations: bool = False
+    text: str | bytes,
+    source: str = "<string>",
+    segments: FilePath | None = None,
+    free_translations: bool = False,
+    up: ArrayLike | None = None,
 ) -> Clip:
     """Parse BVH `text` (str or bytes) named `source` into a Clip.
 
@@ -187,30 +194,35 @@ def parse_bvh(
     from bone lengths; clip.mass_source says which. Frames (N, D) are radians / file length
     units in skeleton DOF order. Position channels below the first joint that translates are held
     at the capture's values (their limits are its exact range, so solves and clip fixes keep the
-    bones' lengths) unless `free_translations`; docs/formats.md says how they are read. Raises
+    bones' lengths) unless `free_translations`; docs/formats.md says how they are read. `up`
+    (3,): the world's up direction, default +Y (the BVH convention). Raises
     FileFormatError naming `source` and the line.
     """
     data = text.encode("utf-8") if isinstance(text, str) else text
-    return _read(io.BytesIO(data), len(data), source, (segments, free_translations))
+    return _read(io.BytesIO(data), len(data), source, (segments, free_translations, up))
 
 
-def read_bvh(path: FilePath, segments: FilePath | None = None, free_translations: bool = False) -> Clip:
+def read_bvh(
+    path: FilePath, segments: FilePath | None = None, free_translations: bool = False, up: ArrayLike | None = None
+) -> Clip:
     """Read the BVH file at `path` into a Clip (see parse_bvh), streaming its frames (never the
     whole file in memory; deik.io.bvh.frames); `segments` a table path or None;
     `free_translations` lets solves move the position channels below the first joint that
-    translates (by default they keep the capture's values).
+    translates (by default they keep the capture's values); `up` (3,) the world's up direction
+    (default +Y, the BVH convention; 0 0 1 for a file made with Z up).
 
     A path that cannot be read (missing, a folder or device, too large) or a malformed file,
     or a clip too large for the memory limit, raises FileFormatError naming it (and the line).
     """
     with open_input(path, "BVH") as (file, size):
-        return _read(file, size, str(path), (segments, free_translations))
+        return _read(file, size, str(path), (segments, free_translations, up))
 
 
-def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None, bool]) -> Clip:
+def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None, bool, ArrayLike | None]) -> Clip:
     """The Clip of the BVH in binary `file` of `size` bytes (see parse_bvh); `options`:
-    (segments, free_translations)."""
-    segments, free_translations = options
+    (segments, free_translations, up)."""
+    segments, free_translations, up = options
+    up = BVH_UP if up is None else up
     lines, motion = _hierarchy(file, source)
     last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=None)
     if last is None and motion is None:
@@ -234,7 +246,7 @@ def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None
         masses, mass_source = estimate_segments(bare)
     else:
         masses, mass_source = read_segment_table(segments, bare.joint_names)
-    skeleton = _skeleton(source, nodes, site_names, limits, masses)
+    skeleton = _skeleton(source, nodes, site_names, limits, masses, up)
     first_dof = dict(zip(skeleton.joint_names, skeleton.joint_dof_start.tolist()))
     layout = []
     for k in joint_nodes:

@@ -1,0 +1,138 @@
+"""A clip made with another up direction (issue 27, "any rig"): the procedural walk
+(benchmarks/clip_walk.py) sunk under the floor, turned whole so that Z is up the way a Z-up
+exporter writes it (every OFFSET, End Site and root position turned, every rotation channel
+conjugated: a turn about Y becomes one about Z, one about Z one about -Y, exactly), and the same
+walk with only its root turned each frame (its rest pose still along Y); and every shared clip
+of a standing body turned whole. By default `deik clip` refuses a turned clip with one line
+naming the file and the up it rests along; with `--up 0 0 1` it is cleaned as the Y-up walk is,
+judged by the benchmarks' own kinematics and body model (benchmarks/clip_judge.py) on the walk
+turned back. (A narrow body read along its side can look as if it rests there: the procedural
+walk with only its root turned is not refused, so only its cleaning with --up is asserted.)"""
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import deik
+from benchmarks.clip_judge import judge
+from benchmarks.clip_rigs import format_rig, parse_rig, pose_points
+from deik.cli import main
+from tests.cleanup.test_clip_any_rig import sunk_walk
+
+TO_Z = {"X": ("X", 1.0), "Y": ("Z", 1.0), "Z": ("Y", -1.0)}  # a turn of 90 degrees about X: Y -> Z, Z -> -Y
+TO_Y = {"X": ("X", 1.0), "Z": ("Y", 1.0), "Y": ("Z", -1.0)}  # and back
+
+
+def turned(rig, axes: dict):
+    """`rig` turned whole by the axis map `axes` (TO_Z or TO_Y): offsets, sites, position and
+    rotation channels relabelled and signed, so every world point turns with it."""
+
+    def point(v):
+        out = np.zeros(3)
+        for k, axis in enumerate("XYZ"):
+            to, sign = axes[axis]
+            out["XYZ".index(to)] = sign * v[k]
+        return out
+
+    channels, signs = [], []
+    for chans in rig.channels:
+        channels.append(tuple(axes[c[0]][0] + c[1:] for c in chans))
+        signs += [axes[c[0]][1] for c in chans]
+    return dataclasses.replace(
+        rig,
+        offsets=np.array([point(v) for v in rig.offsets]),
+        channels=tuple(channels),
+        sites=tuple((name, j, point(v)) for name, j, v in rig.sites),
+        frames=rig.frames * np.array(signs),
+    )
+
+
+def root_turned(rig, degrees: float = 90.0):
+    """`rig` with only its root turned `degrees` about X each frame (rest pose still along Y)."""
+    columns = rig.columns
+    position = [columns.index((0, f"{a}position")) for a in "XYZ"]
+    rotation = [columns.index((0, c)) for c in rig.channels[0] if c.endswith("rotation")]
+    order = "".join(rig.channels[0][k - position[0]][0] for k in rotation)
+    frames = rig.frames.copy()
+    turn = Rotation.from_euler("x", degrees, degrees=True)
+    frames[:, position] = turn.apply(frames[:, position])
+    with warnings.catch_warnings():  # a quarter turn about X is the gimbal lock of a ZXY order: still exact
+        warnings.simplefilter("ignore", UserWarning)
+        turned_root = turn * Rotation.from_euler(order, frames[:, rotation], degrees=True)
+        frames[:, rotation] = turned_root.as_euler(order, degrees=True)
+    return dataclasses.replace(rig, frames=frames)
+
+
+@pytest.fixture(scope="module")
+def walks(tmp_path_factory):
+    """{name: path} of the sunk walk as captured (Y up), turned whole and with its root turned."""
+    folder = tmp_path_factory.mktemp("up")
+    walk = sunk_walk()
+    paths = {}
+    for name, rig in (("y_up", walk.rig), ("z_up", turned(walk.rig, TO_Z)), ("root_turned", root_turned(walk.rig))):
+        paths[name] = folder / f"{name}.bvh"
+        paths[name].write_text(format_rig(rig))
+    return walk, paths
+
+
+def _refused_with_z_up(path, tmp_path, capsys) -> None:
+    out = tmp_path / "out.bvh"
+    assert main(["clip", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith(f"deik: error: {path}: "), err
+    assert "it rests along 0 0 1: give --up 0 0 1" in err and "--floor none" in err, err
+    assert not out.exists()
+
+
+def test_a_clip_made_with_z_up_is_refused_with_the_up_it_rests_along(walks, tmp_path, capsys):
+    _refused_with_z_up(walks[1]["z_up"], tmp_path, capsys)
+
+
+@pytest.mark.parametrize("name", ["dance_a", "jump", "kick", "punch", "run", "walk"])
+def test_every_shared_standing_clip_made_with_z_up_is_refused_and_as_it_is_is_not(name, shared_data, tmp_path, capsys):
+    source = shared_data / "humanoid" / f"humanoid3d_{name}.bvh"
+    path = tmp_path / f"{name}_z_up.bvh"
+    path.write_text(format_rig(turned(parse_rig(source.read_text()), TO_Z)))
+    _refused_with_z_up(path, tmp_path, capsys)
+    assert deik.clean_clip(deik.read_bvh(source)).report["frames_met"] > 0  # as captured: cleaned
+
+
+@pytest.mark.parametrize("name", ["z_up", "root_turned"])
+def test_with_up_given_the_clip_is_cleaned_as_the_y_up_one(walks, name, tmp_path, capsys):
+    walk, paths = walks
+    results = {}
+    for which, flags in (("y_up", []), (name, ["--up", "0", "0", "2"])):  # any length: a direction
+        out = tmp_path / f"{which}_out.bvh"
+        assert main(["clip", str(paths[which]), "--out", str(out), *flags]) == 0, capsys.readouterr().err
+        results[which] = _back(parse_rig(out.read_text()), which)
+    capture = parse_rig(paths["y_up"].read_text())
+    back = _back(parse_rig(paths[name].read_text()), name)
+    np.testing.assert_allclose(  # turned and back: the capture's points
+        pose_points(back), pose_points(capture), atol=1e-9
+    )
+    plain, up = judge(walk, capture, results["y_up"]), judge(walk, capture, results[name])
+    assert plain["depth_capture_mm"] > 10  # the walk was sunk, and both cleanings lifted it
+    for figures in (plain, up):
+        assert figures["depth_mm"] <= 2.0 and figures["sliding_mm_per_frame"] <= 1.0, figures
+        assert figures["peak_ratio"] <= 1.1 and figures["steps_matched"] == figures["steps"], figures
+    assert abs(up["travel_m"] - plain["travel_m"]) < 0.01
+
+
+def _back(rig, name: str):
+    """`rig` turned back to Y up from variant `name`."""
+    return {"y_up": rig, "z_up": turned(rig, TO_Y), "root_turned": root_turned(rig, -90.0)}[name]
+
+
+def test_up_is_a_direction_of_a_skeleton_file(walks, capsys):
+    _, paths = walks
+    clip = deik.read_bvh(paths["z_up"], up=(0, 0, 1))
+    np.testing.assert_array_equal(clip.skeleton.up, [0.0, 0.0, 1.0])
+    assert main(["clip", str(paths["z_up"]), "--out", "x.bvh", "--up", "0", "0", "0"]) == 2
+    assert "deik: error: --up: give a direction" in capsys.readouterr().err
+    assert main(["info", "chain:3", "--up", "0", "0", "1"]) == 2
+    assert "--up only applies to a URDF robot or a BVH character" in capsys.readouterr().err
+    assert main(["info", str(paths["z_up"]), "--up", "0", "0", "1"]) == 0
+    assert "up (0.0, 0.0, 1.0)" in capsys.readouterr().out
