@@ -136,3 +136,17 @@ def test_up_is_a_direction_of_a_skeleton_file(walks, capsys):
     assert "--up only applies to a URDF robot or a BVH character" in capsys.readouterr().err
     assert main(["info", str(paths["z_up"]), "--up", "0", "0", "1"]) == 0
     assert "up (0.0, 0.0, 1.0)" in capsys.readouterr().out
+
+
+def test_a_walk_played_in_place_is_refused_and_cleaned_without_a_floor(tmp_path, capsys):
+    """The walk with its root held at the origin (a treadmill: the feet slide back under a fixed
+    pelvis, never resting) has no floor to rest on: refused by default, cleaned with --floor none."""
+    rig = sunk_walk().rig
+    frames = rig.frames.copy()
+    frames[:, [rig.columns.index((0, f"{a}position")) for a in "XYZ"]] = 0.0
+    path = tmp_path / "in_place.bvh"
+    path.write_text(format_rig(dataclasses.replace(rig, frames=frames)))
+    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "its feet never rest (a clip played in place" in err
+    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh"), "--floor", "none"]) == 0

@@ -189,8 +189,8 @@ def check_rests_on_floor(clip: Motion, body: Body, paths: Paths, floor: FloorCho
     up = f"along up {_words(sk.up)}"
     why = (
         f"in {share:.0%} of the frames the body lies more than {SUNK * body.span:.3g} length units under the floor "
-        f"its resting points sit on ({floor.height:.4g} {up}), so that is not its up direction or its ground is not "
-        "level"
+        f"its resting points sit on ({floor.height:.4g} {up}): that is not its up direction, its ground is not "
+        "level, or its feet never rest (a clip played in place, its root fixed)"
         if share > SUNK_SHARE
         else f"its centre lies {off:.2g} of its span along the ground from what rests on the floor {up}, as no body "
         "standing under gravity does, so that is not its up direction"
