@@ -9,6 +9,7 @@ where they lie on the other rig, and the sunk body is lifted out of the floor on
 import dataclasses
 
 import numpy as np
+import pytest
 
 import deik
 from benchmarks.clip_cases import studio
@@ -57,3 +58,21 @@ def test_the_body_s_reach_is_measured_from_the_hips_not_from_a_reference_joint_b
     assert source.reach == body_reach(source)
     assert other.reach > 1.5 * body_reach(other)  # the Reference's chain up to the hips counts there
     np.testing.assert_allclose(body_reach(other) / 100.0, body_reach(source), rtol=1e-9)
+
+
+@pytest.mark.parametrize("offset", [5.0, 1000.0])
+def test_a_clip_captured_far_from_the_origin_is_cleaned_as_at_the_origin(offset, tmp_path):
+    """The sunk walk moved `offset` metres along the ground (a capture volume off the origin):
+    cleaned to the same angles, its path moved by the same offset. (Its contacts' placeholders
+    between plants lay at the origin and were checked for reach: a walk 5 m away was refused.)"""
+    walk = sunk_walk()
+    moved = walk.rig.frames.copy()
+    for axis, sign in (("X", 1.0), ("Z", -1.0)):
+        moved[:, walk.rig.columns.index((0, f"{axis}position"))] += sign * offset
+    cleaned = {}
+    for name, frames in (("here", walk.rig.frames), ("away", moved)):
+        path = tmp_path / f"{name}.bvh"
+        path.write_text(format_rig(dataclasses.replace(walk.rig, frames=frames)))
+        cleaned[name] = deik.clean_clip(deik.read_bvh(path)).clip.channel_values()
+    shift = moved - walk.rig.frames
+    np.testing.assert_allclose(cleaned["away"] - shift, cleaned["here"], atol=1e-6 * max(1.0, offset))

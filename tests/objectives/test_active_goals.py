@@ -60,3 +60,23 @@ def test_inactive_goal_does_not_block_convergence():
 def test_bad_active(active, message):
     with pytest.raises(ValueError, match=message):
         _ = _problem(active).table  # the goals are checked when the term table is built
+
+
+def test_a_target_where_the_goal_is_off_need_not_be_reachable():
+    """A clip's contact holds its plant in some frames and a placeholder elsewhere: only the
+    frames it applies in are checked for reach (a walk captured 5 m from the origin could not be
+    cleaned while the placeholder, at the origin, was)."""
+    sk = deik.chain(6, dims=3)
+    q = np.random.default_rng(2).uniform(sk.lower, sk.upper, (3, sk.n_dofs))
+    targets = deik.forward_kinematics(sk, q).position("tip")
+    far = targets.copy()
+    far[1] = [100.0 * sk.reach, 0.0, 0.0]  # beyond reach, in the problem where the goal is off
+    active = np.array([True, False, True])
+    result = deik.solve(deik.Problem(sk, [deik.Position("tip", far, active=active)]), seed=3)
+    for b in (0, 2):
+        tip = deik.forward_kinematics(sk, result.angles[b]).position("tip")
+        assert np.linalg.norm(tip - targets[b]) <= 1e-3 * sk.reach
+    with pytest.raises(deik.InputError, match="unreachable"):  # where it applies, it is checked
+        deik.Problem(sk, [deik.Position("tip", far, active=np.array([True, True, False]))])
+    with pytest.raises(deik.InputError, match="unreachable"):
+        deik.Problem(sk, [deik.Position("tip", far)])

@@ -48,6 +48,8 @@ def pack(*parts: np.ndarray) -> np.ndarray:
 
 def check_reachable(skeleton: Skeleton, target: np.ndarray, frame: int | None, label: str) -> None:
     """Raise when a target (B, 3) lies farther from every possible root position than the reach."""
+    if not len(target):
+        return
     length = skeleton.path_length(frame) if frame is not None else skeleton.reach
     bound = (length * (1 + REACH_SLACK)) ** 2
     if len(target) == 1:  # one target: plain Python passes it in 1 us (numpy's checks take 7)

@@ -90,6 +90,15 @@ class Goal:
             raise InputError(f"active must be a non-empty 1-D bool array (one per problem), got {self.active!r}")
         return active.astype(np.float64)
 
+    def _applying(self, values: np.ndarray) -> np.ndarray:
+        """The rows of `values` (B, ...) of the problems this goal applies in: those its `active`
+        mask keeps (a target where the goal is off, a clip's frames between contacts, need not be
+        reachable), else all of them."""
+        if self.active is None or len(values) == 1:
+            return values
+        gain = self.gain()
+        return values[gain > 0] if len(gain) == len(values) else values
+
     def _check_settings(self, label: str) -> None:
         if not (-1.0 <= self.weight <= 1.0):
             raise InputError(f"{label}: weight {self.weight!r} must lie in [-1, 1] (Eq. 2)")
@@ -166,7 +175,7 @@ class Position(Goal):
         """The frame, the target in columns 0-2, checked within reach; scale: the reach."""
         frame = skeleton.frame_index(self.frame)
         target = vector(self.target, (3,), f"{self.frame} target")
-        check_reachable(skeleton, target, frame, self.label)
+        check_reachable(skeleton, self._applying(target), frame, self.label)
         return self._row(POSITION, pack(target), LENGTH_TOLERANCE, frames=(frame,), scale=skeleton.reach)
 
     def quick_target(self, skeleton: Skeleton) -> Callable[[ArrayLike], np.ndarray | None]:
@@ -256,7 +265,7 @@ class CentreOfMass(Goal):
         """The target in columns 0-2, checked within reach of the root's range; scale: the reach."""
         need_mass(skeleton, "centre_of_mass")
         target = vector(self.target, (3,), "centre-of-mass target")
-        check_reachable(skeleton, target, None, self.label)
+        check_reachable(skeleton, self._applying(target), None, self.label)
         return self._row(COM, pack(target), LENGTH_TOLERANCE, scale=skeleton.reach)
 
 
