@@ -42,6 +42,7 @@ from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.calm import calm
 from deik.cleanup.clip_goals import (
     FIDELITY_LEVEL,
+    FLOOR_LEVEL,
     ClipGoals,
     clip_balance,
     clip_problem,
@@ -168,6 +169,14 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return errors, np.all(np.isnan(errors[:, held]) | within, axis=1)
 
 
+def _met_on_floor(problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) frames whose floor goals (FLOOR_LEVEL: the body above the floor, self-collision)
+    are all within tolerance, of `errors` (N, T) as _errors."""
+    floor = np.array([goal.level == FLOOR_LEVEL for goal in problem.goals])
+    within = errors[:, floor] <= problem.table.term_float[floor, 3]
+    return np.all(np.isnan(errors[:, floor]) | within, axis=1)
+
+
 def _pass_progress(progress, met: int, stage: str):
     """solve()'s progress callback during a DE pass: progress(met, "STAGE, generation G")."""
     return lambda generation, best: progress(met, f"{stage}, generation {generation}")
@@ -179,7 +188,9 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool):
+def _warm_start(
+    clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool, whole=False
+):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
     `goals` on `body`, with or without floor `lift`s and the feet's `roll` (warmstart.warm_start:
     the heel and toe of each of body.feet keep their heights in the capture). With balance, the track is
@@ -193,7 +204,7 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = _ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles)
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles, whole=whole)
         return _inside(sk, original, d), fixed
 
     if not goals.balance:
@@ -226,21 +237,24 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     a toe 10 mm)."""
     alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
     plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
-    for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
-        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift)
+    tried = ((True, False), (True, True), (False, False)) if goals.floor is not None else ((False, False),)
+    for lift, whole in tried if alone else ():
+        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift, whole)
         displacement, calmed = calm(clip, warm, body.points)
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
-        met = _met(_judged(clip, plain, displacement, weights, fixed, balance), poses)[1]
-        outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None), warm)
-    lifted = max(outcomes, key=lambda lift: outcomes[lift][0]) if outcomes else False  # the lifted on a tie
-    best = outcomes.get(lifted)
+        problem = _judged(clip, plain, displacement, weights, fixed, balance)
+        errors, met = _met(problem, poses)
+        score = (int(_met_on_floor(problem, errors).sum()), int(met.sum()), -int(calmed.sum()))
+        outcomes[lift, whole] = (score, (displacement, calmed, fixed, balance, None), warm)
+    chosen = max(outcomes, key=lambda tried: outcomes[tried][0]) if outcomes else (False, False)  # the first on a tie
+    best, lifted = outcomes.get(chosen), chosen[0]
     if not goals.reach:
         return best[1]
     displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body, False, lifted)
     if not alone:  # reach tracks only: all of the change is theirs
         return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
     # what the reach adds on the plain floor, with the feet rolling as in the fix it is added to
-    base = outcomes[False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
+    base = outcomes[False, False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
     added = displacement - base
     held, calmed = best[1][:2]
     return held + added, calmed, fixed, balance, added
