@@ -164,17 +164,15 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, T) as _errors, met (N,): every contact, floor, balance and reach goal of the
     frame (the levels above fidelity) within tolerance)."""
     errors = _errors(problem, poses)
-    held = np.array([goal.level < FIDELITY_LEVEL for goal in problem.goals])
-    within = errors[:, held] <= problem.table.term_float[held, 3]
-    return errors, np.all(np.isnan(errors[:, held]) | within, axis=1)
+    return errors, _within(problem, errors, lambda level: level < FIDELITY_LEVEL)
 
 
-def _met_on_floor(problem, errors: np.ndarray) -> np.ndarray:
-    """(N,) frames whose floor goals (FLOOR_LEVEL: the body above the floor, self-collision)
-    are all within tolerance, of `errors` (N, T) as _errors."""
-    floor = np.array([goal.level == FLOOR_LEVEL for goal in problem.goals])
-    within = errors[:, floor] <= problem.table.term_float[floor, 3]
-    return np.all(np.isnan(errors[:, floor]) | within, axis=1)
+def _within(problem, errors: np.ndarray, levels: Callable[[int], bool]) -> np.ndarray:
+    """(N,) frames whose goals on the priority `levels` chosen (levels(level) -> bool) all lie
+    within tolerance, of `errors` (N, T) as _errors."""
+    chosen = np.array([levels(goal.level) for goal in problem.goals], bool)
+    within = errors[:, chosen] <= problem.table.term_float[chosen, 3]
+    return np.all(np.isnan(errors[:, chosen]) | within, axis=1)
 
 
 def _pass_progress(progress, met: int, stage: str):
@@ -192,8 +190,9 @@ def _warm_start(
     clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool, whole=False
 ):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
-    `goals` on `body`, with or without floor `lift`s and the feet's `roll` (warmstart.warm_start:
-    the heel and toe of each of body.feet keep their heights in the capture). With balance, the track is
+    `goals` on `body`, with or without floor `lift`s (each bone lifted `whole` or not) and the
+    feet's `roll` (warmstart.warm_start: the heel and toe of each of body.feet keep their
+    heights in the capture). With balance, the track is
     planned on the motion with its contacts met (a first warm start without it), and where the
     balanced warm start makes a frame jolt or turns a joint far from the capture
     (cleanup/dynamics.py), balance cannot hold there: those frames and their neighbours are
@@ -226,11 +225,14 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
     what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
     repairs what is taken back). With a floor it is tried with the floor lifted along smooth
-    envelopes and the feet rolling as captured, and on the plain floor without, and the one
-    that leaves more frames meeting their contacts (along the ground, as the warm start holds
-    them: _judged), floor and balance is kept (fewer frames taken back on a tie): an envelope
-    lets a landing foot slow down before the floor, but on a body lying on the floor for long
-    it can ask more than the joints give without a jolt. Reach tracks are the user's motion:
+    envelopes and the feet rolling as captured, so lifted with each bone lifted whole
+    (warmstart.whole_lifts), and on the plain floor without either, and the one that leaves
+    the most frames meeting their floor goals (FLOOR_LEVEL, the highest priority), then the
+    most meeting their contacts (along the ground, as the warm start holds them: _judged),
+    floor and balance, then the fewest taken back, is kept (the first tried on a tie): an
+    envelope lets a landing foot slow down before the floor, and a bone lifted whole lands
+    without tipping, but on a body lying on the floor for long either can ask more than the
+    joints give without a jolt. Reach tracks are the user's motion:
     what they add on the plain floor (the feet rolling if they do in the fix) is added, not
     calmed, on top of the fix without them, so outside a reach's window the clip is the same as
     without it (and an unreachable reach drags no planted foot: on the lifted floor it dragged
@@ -244,7 +246,8 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
         problem = _judged(clip, plain, displacement, weights, fixed, balance)
         errors, met = _met(problem, poses)
-        score = (int(_met_on_floor(problem, errors).sum()), int(met.sum()), -int(calmed.sum()))
+        on_floor = _within(problem, errors, lambda level: level == FLOOR_LEVEL)
+        score = (int(on_floor.sum()), int(met.sum()), -int(calmed.sum()))
         outcomes[lift, whole] = (score, (displacement, calmed, fixed, balance, None), warm)
     chosen = max(outcomes, key=lambda tried: outcomes[tried][0]) if outcomes else (False, False)  # the first on a tie
     best, lifted = outcomes.get(chosen), chosen[0]
