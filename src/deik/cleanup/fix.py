@@ -249,6 +249,8 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
         on_floor = _within(problem, errors, lambda level: level == FLOOR_LEVEL)
         score = (int(on_floor.sum()), int(met.sum()), -int(calmed.sum()))
         outcomes[lift, whole] = (score, (displacement, calmed, fixed, balance, None), warm)
+        if score == (clip.n_frames, clip.n_frames, 0):  # none can do better, and the first wins a tie
+            break
     chosen = max(outcomes, key=lambda tried: outcomes[tried][0]) if outcomes else (False, False)  # the first on a tie
     best, lifted = outcomes.get(chosen), chosen[0]
     if not goals.reach:
