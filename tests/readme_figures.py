@@ -173,6 +173,11 @@ FIGURES = (
         lambda r: [_case(r, "run")["depth_capture_mm"], _case(r, "run")["depth_mm"]],
     ),
     Figure(
+        r"the jump's heel,\s+(\d+) mm under the floor as it lands, is (\d+) mm under after",
+        TARGETS,
+        lambda r: [_case(r, "jump")["depth_capture_mm"], _case(r, "jump")["depth_mm"]],
+    ),
+    Figure(
         r"on (\d+) cases \(the crawl, the get-up, the\s+punch with rescaled limbs\) frames that miss are not all "
         r"listed",
         TARGETS,

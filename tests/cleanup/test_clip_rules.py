@@ -13,14 +13,15 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks.clip_cases import TRANSFORMS
-from benchmarks.clip_judge import judge
+from benchmarks.clip_cases import TRANSFORMS, source_case
+from benchmarks.clip_judge import contact_points, judge, resting
 from benchmarks.clip_rigs import format_rig, parse_rig
 from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.calm import calm
 from deik.cleanup.dynamics import PEAK_RATIO, point_acceleration_ratios
 from deik.cli.app import main
 from deik.io.bvh import parse_bvh, read_bvh
+from helpers import shared_path
 
 
 def cleaned(case, tmp_path):
@@ -107,3 +108,28 @@ def test_deik_limits_then_clip_does_not_pin_the_body_to_its_path(tmp_path):
     for key in ("sliding_max_mm_per_frame", "penetration_max_mm"):
         assert reports[1]["metrics"][key]["after"] <= reports[0]["metrics"][key]["after"] + 0.5, key
     assert read_bvh(tmp_path / "limited.bvh").n_frames == len(TRANSFORMS["noisy"](procedural_walk()).rig.frames)
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("name, transform", [("jump", "none"), ("jump", "backwards"), ("dance_a", "none")])
+def test_a_landing_that_sinks_is_taken_out_of_the_floor_and_the_flight_keeps_the_capture(name, transform, tmp_path):
+    """The shared jump lands with a heel 13 mm under the floor and the dance with a foot 26 mm
+    under it: cleaned by default, nothing of the body is more than 2 mm under the floor (the
+    landing foot is carried up whole, not tipped toe down onto the floor, which jolted and was
+    taken back), no point accelerates past 1.1x its own peak, and the frames 0.2 s or more from
+    any rest of the capture's feet (the jump's flight) keep every rotation within 2 degrees."""
+    case = source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
+    case = case if transform == "none" else TRANSFORMS[transform](case)
+    report, result = cleaned(case, tmp_path)
+    measured = judge(case, case.rig, result, ~np.array(report["met_per_frame"]))
+    assert measured["depth_capture_mm"] > 10 and measured["depth_mm"] <= 2.0
+    assert measured["peak_ratio"] <= PEAK_RATIO and measured["misses_listed"]
+    if name == "jump":
+        assert measured["steps_matched"] == measured["steps"] > 0  # the feet land when the capture's do
+        names, points, clear = contact_points(case, case.rig)
+        feet = [k for k, point in enumerate(names) if point.endswith(("heel", "toe"))]
+        rests = np.flatnonzero(resting(points[:, feet], clear[feet], case.rig.frame_time).any(axis=1))
+        far = np.abs(np.arange(len(points))[:, None] - rests[None, :]).min(axis=1) >= round(0.2 / case.rig.frame_time)
+        rotation = [k for k, (_, c) in enumerate(case.rig.columns) if c.endswith("rotation")]
+        assert far.sum() >= 5  # the flight is long enough to have such frames
+        assert np.abs(result.frames[far][:, rotation] - case.rig.frames[far][:, rotation]).max() <= 2.0

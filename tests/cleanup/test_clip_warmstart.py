@@ -8,7 +8,15 @@ from deik.cleanup.clip_goals import REACH_LEVEL, ClipGoals, eased_track, fixed_g
 from deik.cleanup.coherence import ease, hinge_channels, moving_dofs, searched_dofs
 from deik.cleanup.contacts import detect_contacts
 from deik.cleanup.spacetime import spacetime_step, spring_bands, spring_energy, spring_product
-from deik.cleanup.warmstart import LIFT_SHARE, dof_weights, floor_lifts, position_jacobian, warm_start
+from deik.cleanup.warmstart import (
+    LIFT_SHARE,
+    dof_weights,
+    floor_lifts,
+    position_jacobian,
+    rigid_bodies,
+    warm_start,
+    whole_lifts,
+)
 from deik.io.bvh import read_bvh
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
@@ -236,3 +244,35 @@ def test_a_point_still_sinking_at_the_clip_s_end_is_lifted_smoothly_to_the_last_
     assert heights[-1, 0] < -0.025 and (lifted >= -1e-12).all()
     lift = lifted[:, 0] - heights[:, 0]
     assert np.abs(np.diff(lift, 2)).max() <= LIFT_SHARE * peaks[0] + 1e-12  # no kink, the last frames included
+
+
+def test_a_body_lifted_whole_keeps_its_other_points_at_least_at_their_capture_height():
+    """A heel that lands 13 mm under the floor is lifted along its envelope; the toe on the same
+    bone, dipping 6 mm in the air as the foot lands, keeps at least its capture height in the
+    frames the heel is lifted (so the foot is carried up, not tipped toe down onto the floor),
+    and is left to the floor elsewhere; a point of another bone is not touched."""
+    n = 60
+    heel = landing(depth=0.013)
+    toe = 0.035 + 0.1 * np.clip((30 - np.arange(n)) / 10, 0, None) - 0.006 * (np.arange(n) == 30)
+    knee = np.full(n, 0.45)
+    heights = np.stack([heel, toe, knee], axis=1)
+    level = np.zeros(3)
+    peaks = np.abs(np.diff(heights, 2, axis=0)).max(axis=0) + 1e-12
+    lifted = floor_lifts(heights, level, peaks)
+    whole, raised = whole_lifts(lifted, heights, level, np.array([0, 0, 1]))
+    heel_lifted = lifted[:, 0] > heights[:, 0]
+    assert heel_lifted.any() and not heel_lifted.all()
+    np.testing.assert_array_equal(whole[:, 0], lifted[:, 0])  # the heel keeps its own lift
+    np.testing.assert_array_equal(whole[heel_lifted, 1], heights[heel_lifted, 1])  # the toe its height
+    np.testing.assert_array_equal(whole[~heel_lifted, 1], lifted[~heel_lifted, 1])  # and only there
+    np.testing.assert_array_equal(whole[:, 2], lifted[:, 2])  # another bone: untouched
+    np.testing.assert_array_equal(raised, np.stack([0 * heel_lifted, heel_lifted, 0 * heel_lifted], axis=1) > 0)
+
+
+@pytest.mark.shared_data
+def test_each_site_belongs_to_the_body_of_the_joint_it_is_fixed_to():
+    sk = walk().skeleton
+    bodies = dict(zip(sk.frame_names, rigid_bodies(sk)))
+    ankle = bodies["RightAnkle"]
+    assert bodies["RightAnkle_end"] == ankle and bodies["LeftAnkle"] != ankle
+    assert len(set(bodies[name] for name in sk.joint_names)) == sk.n_joints  # one body per joint

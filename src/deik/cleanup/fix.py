@@ -42,6 +42,7 @@ from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.calm import calm
 from deik.cleanup.clip_goals import (
     FIDELITY_LEVEL,
+    FLOOR_LEVEL,
     ClipGoals,
     clip_balance,
     clip_problem,
@@ -163,9 +164,15 @@ def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, T) as _errors, met (N,): every contact, floor, balance and reach goal of the
     frame (the levels above fidelity) within tolerance)."""
     errors = _errors(problem, poses)
-    held = np.array([goal.level < FIDELITY_LEVEL for goal in problem.goals])
-    within = errors[:, held] <= problem.table.term_float[held, 3]
-    return errors, np.all(np.isnan(errors[:, held]) | within, axis=1)
+    return errors, _within(problem, errors, lambda level: level < FIDELITY_LEVEL)
+
+
+def _within(problem, errors: np.ndarray, levels: Callable[[int], bool]) -> np.ndarray:
+    """(N,) frames whose goals on the priority `levels` chosen (levels(level) -> bool) all lie
+    within tolerance, of `errors` (N, T) as _errors."""
+    chosen = np.array([levels(goal.level) for goal in problem.goals], bool)
+    within = errors[:, chosen] <= problem.table.term_float[chosen, 3]
+    return np.all(np.isnan(errors[:, chosen]) | within, axis=1)
 
 
 def _pass_progress(progress, met: int, stage: str):
@@ -179,10 +186,13 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
 
 
-def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool):
+def _warm_start(
+    clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool, whole=False
+):
     """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
-    `goals` on `body`, with or without floor `lift`s and the feet's `roll` (warmstart.warm_start:
-    the heel and toe of each of body.feet keep their heights in the capture). With balance, the track is
+    `goals` on `body`, with or without floor `lift`s (each bone lifted `whole` or not) and the
+    feet's `roll` (warmstart.warm_start: the heel and toe of each of body.feet keep their
+    heights in the capture). With balance, the track is
     planned on the motion with its contacts met (a first warm start without it), and where the
     balanced warm start makes a frame jolt or turns a joint far from the capture
     (cleanup/dynamics.py), balance cannot hold there: those frames and their neighbours are
@@ -193,7 +203,7 @@ def _warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = _ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles)
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles, whole=whole)
         return _inside(sk, original, d), fixed
 
     if not goals.balance:
@@ -215,32 +225,41 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
     what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
     repairs what is taken back). With a floor it is tried with the floor lifted along smooth
-    envelopes and the feet rolling as captured, and on the plain floor without, and the one
-    that leaves more frames meeting their contacts (along the ground, as the warm start holds
-    them: _judged), floor and balance is kept (fewer frames taken back on a tie): an envelope
-    lets a landing foot slow down before the floor, but on a body lying on the floor for long
-    it can ask more than the joints give without a jolt. Reach tracks are the user's motion:
+    envelopes and the feet rolling as captured, so lifted with each bone lifted whole
+    (warmstart.whole_lifts), and on the plain floor without either, and the one that leaves
+    the most frames meeting their floor goals (FLOOR_LEVEL, the highest priority), then the
+    most meeting their contacts (along the ground, as the warm start holds them: _judged),
+    floor and balance, then the fewest taken back, is kept (the first tried on a tie): an
+    envelope lets a landing foot slow down before the floor, and a bone lifted whole lands
+    without tipping, but on a body lying on the floor for long either can ask more than the
+    joints give without a jolt. Reach tracks are the user's motion:
     what they add on the plain floor (the feet rolling if they do in the fix) is added, not
     calmed, on top of the fix without them, so outside a reach's window the clip is the same as
     without it (and an unreachable reach drags no planted foot: on the lifted floor it dragged
     a toe 10 mm)."""
     alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
     plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
-    for lift in ((True, False) if goals.floor is not None else (False,)) if alone else ():
-        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift)
+    tried = ((True, False), (True, True), (False, False)) if goals.floor is not None else ((False, False),)
+    for lift, whole in tried if alone else ():
+        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift, whole)
         displacement, calmed = calm(clip, warm, body.points)
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
-        met = _met(_judged(clip, plain, displacement, weights, fixed, balance), poses)[1]
-        outcomes[lift] = ((int(met.sum()), -int(calmed.sum())), (displacement, calmed, fixed, balance, None), warm)
-    lifted = max(outcomes, key=lambda lift: outcomes[lift][0]) if outcomes else False  # the lifted on a tie
-    best = outcomes.get(lifted)
+        problem = _judged(clip, plain, displacement, weights, fixed, balance)
+        errors, met = _met(problem, poses)
+        on_floor = _within(problem, errors, lambda level: level == FLOOR_LEVEL)
+        score = (int(on_floor.sum()), int(met.sum()), -int(calmed.sum()))
+        outcomes[lift, whole] = (score, (displacement, calmed, fixed, balance, None), warm)
+        if score == (clip.n_frames, clip.n_frames, 0):  # none can do better, and the first wins a tie
+            break
+    chosen = max(outcomes, key=lambda tried: outcomes[tried][0]) if outcomes else (False, False)  # the first on a tie
+    best, lifted = outcomes.get(chosen), chosen[0]
     if not goals.reach:
         return best[1]
     displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body, False, lifted)
     if not alone:  # reach tracks only: all of the change is theirs
         return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
     # what the reach adds on the plain floor, with the feet rolling as in the fix it is added to
-    base = outcomes[False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
+    base = outcomes[False, False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
     added = displacement - base
     held, calmed = best[1][:2]
     return held + added, calmed, fixed, balance, added

@@ -27,6 +27,15 @@ out of the floor as far as the deepest of them and the soles rigidly linked to t
 captured. These rows weigh ROLL_WEIGHT, so a foot that cannot keep both its plant and its
 height keeps its plant, and the steps stop on the other rows alone; the reach phase leaves
 them out (pulled against by an unreachable reach, they let it drag a planted toe 1.5 mm).
+
+A body lifted whole (`whole`): a floor lift raises the point that sinks, and the cheapest way
+to do that is often to turn the bone it is on: a heel lifted 13 mm as a jump lands tipped the
+toe down 28 mm onto the floor and back, a jolt that calm then took back, leaving the heel in
+the floor. With `whole`, every other point fixed in the same joint's frame (rigid_bodies: the
+ankle, toe tip and soles of a foot) keeps at least its capture height in the frames one of
+them is lifted (whole_lifts), so the bone is carried up rather than turned. These bounds only
+push up: such a point is not held where it is (a point held still would fight the plants).
+fix_clip tries the warm start with and without it and keeps the better.
 """
 
 from __future__ import annotations
@@ -160,6 +169,30 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     return out
 
 
+def rigid_bodies(skeleton: Skeleton) -> np.ndarray:
+    """(F,) a label per joint and site of `skeleton` (frame_names): the joint's own index for a
+    joint and for every site fixed in its frame (a foot's toe tip and soles with its ankle)."""
+    return np.concatenate([np.arange(skeleton.n_joints), skeleton.site_joint])
+
+
+def whole_lifts(
+    lifted: np.ndarray, heights: np.ndarray, level: np.ndarray, bodies: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(heights (N, F), raised (N, F) bool): the `lifted` (N, F) heights of floor_lifts (over
+    the capture `heights` (N, F) and the floor `level`, (F,) or (N, F)) with every point of a
+    body (`bodies` (F,) labels, rigid_bodies) one of whose points is lifted in a frame kept at
+    least at its capture height there, and where that raised it (module notes: a body lifted
+    whole)."""
+    level = np.broadcast_to(level, heights.shape)
+    floored = np.isfinite(level).all(axis=0)  # a point with no floor is lifted by none
+    up = lifted > heights  # where a point is lifted above its capture
+    raised = np.zeros(heights.shape, bool)
+    for body in np.unique(bodies[up.any(axis=0)]):
+        members = (bodies == body) & floored
+        raised |= up[:, members].any(axis=1)[:, None] & members[None, :] & (heights > lifted)
+    return np.where(raised, heights, lifted), raised
+
+
 def _running_max(values: np.ndarray, w: int) -> np.ndarray:
     """(N,) the largest of `values` (N,) within w frames of each (the end values held beyond the
     clip's ends: _hann)."""
@@ -182,12 +215,13 @@ def floor_rows(
     up: np.ndarray,
     level: np.ndarray | float,
     margin: float,
-    hold: float = 2.0,
+    hold: np.ndarray | float = 2.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, F), Jacobian rows (N, F, D)): each joint or site at positions x (N, F, 3) lower
     than its `level` ((N, F), (F,) or a number: floor_levels, floor_lifts) is lifted to it, and
-    one less than `hold` `margin`s above that is held where it is (a step's spring, pulling a
-    lifted point back towards the capture, would drop it through the floor again)."""
+    one less than `hold` `margin`s above that ((N, F) or a number) is held where it is (a
+    step's spring, pulling a lifted point back towards the capture, would drop it through the
+    floor again)."""
     height = x @ up
     low = height < level + (hold - 1.0) * margin
     return np.where(low, np.maximum(level - height, 0.0), 0.0), np.einsum("k,nfkd->nfd", up, jac) * low[..., None]
@@ -220,13 +254,14 @@ def _roll_rows(x, jac, up, roll) -> tuple[np.ndarray, np.ndarray]:
 def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     """(errors (N, H), rows (N, H, D)) of the contacts (along the ground: a contact holds a point
     still there, while the floor rows keep it out of the floor and the spring near its height in
-    the capture), floor and balance (ComOverSupport goals: two rows, the COM's ground position
-    onto its point) rows at the positions `x` and Jacobian `jac`."""
+    the capture), floor (`floors`: a (level, hold) of floor_rows each) and balance
+    (ComOverSupport goals: two rows, the COM's ground position onto its point) rows at the
+    positions `x` and Jacobian `jac`."""
     error, rows = _position_rows(x, jac, held_rows, longest, ground)
     errors, parts = [error], [rows]
-    for level in floors:
+    for level, hold in floors:
         F, margin = skeleton.n_frames, FLOOR_MARGIN * body_reach(skeleton)
-        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, level, margin, FLOOR_HOLD)
+        error, rows = floor_rows(x[:, :F], jac[:, :F], skeleton.up, level, margin, hold)
         errors.append(at_most(error[..., None], longest)[..., 0])
         parts.append(rows)
     for goal in balance:
@@ -247,6 +282,7 @@ def warm_start(
     fade: float = FADE,
     lift: bool = True,
     soles: Sequence[str] = (),
+    whole: bool = False,
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
     DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
@@ -263,7 +299,8 @@ def warm_start(
     a smooth envelope of its depth (floor_lifts), from before it touches to after it leaves;
     without, only in the frames it sinks. With a Floor, the joints or sites `soles` (each foot's
     heel and toe) keep their height in the capture while in contact (module notes: the feet's
-    roll). Limits are not applied here (fix_clip does)."""
+    roll). With `lift` and `whole`, a body is lifted whole (module notes). Limits are not
+    applied here (fix_clip does)."""
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -283,19 +320,27 @@ def warm_start(
     stiffness = motion_stiffness(skeleton, original, weights)
     margin = FLOOR_MARGIN * size
     x0 = forward_kinematics(skeleton, original).p_world_frame if floors else None
+    holds = [FLOOR_HOLD] * len(floors)
     if floors and not lift:
         floors = [floor_levels(g.height, margin, g.clearance) for g in floors]
     elif floors:
         # acceleration peaks per frame^2 (a frame time of 1): the lifts need no clock
         peaks = point_motion(x0, 1.0)[1].max(axis=0, initial=0.0)
         heights = x0 @ skeleton.up
-        floors = [floor_lifts(heights, floor_levels(g.height, margin, g.clearance), peaks) for g in floors]
+        levels = [floor_levels(g.height, margin, g.clearance) for g in floors]
+        floors = [floor_lifts(heights, level, peaks) for level in levels]
+        if whole:
+            bodies = rigid_bodies(skeleton)
+            wholes = [whole_lifts(lifted, heights, level, bodies) for lifted, level in zip(floors, levels)]
+            floors = [lifted for lifted, _ in wholes]
+            holds = [np.where(raised, 1.0, FLOOR_HOLD) for _, raised in wholes]
     rolling = np.isin([names[i] for i in held_rows[0]], list(soles))
     roll = roll_targets(x0, skeleton.up, held_rows, rolling, floors, size) if floors and rolling.any() else None
 
     def rows_at(d, free, rolling=True):
         x, jac = position_jacobian(skeleton, original + d, names, centre_of_mass=bool(balance))
-        error, rows = _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest)
+        floor_goals = list(zip(floors, holds))
+        error, rows = _goal_rows(x, jac, skeleton, held_rows, floor_goals, balance, ground, longest)
         counted = np.ones(error.shape[1], bool)
         if roll is not None and rolling:
             roll_error, roll_part = _roll_rows(x, jac, skeleton.up, roll)
