@@ -61,6 +61,7 @@ GAP = 0.05
 SHORTEST = 0.05
 SUNK, SUNK_SHARE = 0.05, 0.5  # of the span, of the frames (module notes: Up)
 OFF_SUPPORT, OFF_SUPPORT_GIVEN = 0.15, 0.2  # of the span (module notes: Up)
+FLOOR_ESCAPE = "--floor none or --floor HEIGHT fixes it with this up"  # a clip fix's way past the check
 
 
 @dataclass(frozen=True)
@@ -156,11 +157,22 @@ def sunk_share(body: Body, paths: Paths, floor: float) -> float:
     return float(np.mean(floor - surface > SUNK * body.span)) if len(surface) else 0.0
 
 
-def check_rests_on_floor(clip: Motion, body: Body, paths: Paths, floor: FloorChoice) -> None:
+def check_clip_rests(clip: Motion, escape: str) -> None:
+    """check_rests_on_floor on `clip` as read, with its body, paths and floor found here;
+    `escape` ends the refusal: how the command keeps the up it was given."""
+    body = body_of(clip)
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    check_rests_on_floor(clip, body, paths, detect_floor(motion, body, paths), escape)
+
+
+def check_rests_on_floor(
+    clip: Motion, body: Body, paths: Paths, floor: FloorChoice, escape: str = FLOOR_ESCAPE
+) -> None:
     """InputError when `clip` (as read: without its body's sole sites), on its `body` and `paths`,
     does not rest on the `floor` detected along its skeleton's up, or does not stand over what
     rests on it while it would along another axis (module notes: Up), naming the axes along
-    which it does."""
+    which it does; `escape` ends the line: how the command keeps this up."""
     share, off = sunk_share(body, paths, floor.height), _off_support(body, paths, floor.height)
     if share <= SUNK_SHARE and off <= OFF_SUPPORT_GIVEN:
         return
@@ -195,9 +207,7 @@ def check_rests_on_floor(clip: Motion, body: Body, paths: Paths, floor: FloorCho
         else f"its centre lies {off:.2g} of its span along the ground from what rests on the floor {up}, as no body "
         "standing under gravity does, so that is not its up direction"
     )
-    raise InputError(
-        f"{clip.source or 'the clip'}: {why}; {hint} (--floor none or --floor HEIGHT fixes it with this up)"
-    )
+    raise InputError(f"{clip.source or 'the clip'}: {why}; {hint} ({escape})")
 
 
 def _off_support(body: Body, paths: Paths, floor: float) -> float:

@@ -85,7 +85,7 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
         with command_inputs(protect=not payload["overwrite"]):
             if payload["command"] == "clip":
                 return _clean_one(payload, progress)
-            result = cli_retarget.retarget_file(payload["source"], payload["options"], progress)
+            result = cli_retarget.retarget_file(payload["source"], payload["options"], payload["reading"], progress)
             cli_retarget.write_outputs(result, payload["outputs"])
             return cli_retarget.library_record(result)
     except USER_ERRORS as error:
@@ -123,8 +123,8 @@ def _options(args) -> tuple[dict, dict, dict]:
         tracks = [track_file(spec) for spec in options.reach]
         files |= {f"--reach {k}": track for k, track in enumerate(tracks) if track is not None}
     else:
-        options = cli_retarget.retarget_options(args)
-        common, settings = {"options": options}, dict(options)
+        options, reading = cli_retarget.retarget_options(args), cli_retarget.reading_options(args)
+        common, settings = {"options": options, "reading": reading}, {**options, **reading}
         files = {"--map": args.map, "--to": args.to if os.path.splitext(args.to or "")[1] else None}  # humanoid: none
     files = {flag: path for flag, path in files.items() if path is not None}
     for flag, path in files.items():

@@ -14,7 +14,7 @@ import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from deik.cli.arguments import UsageError, add_free_translations, check_outputs
+from deik.cli.arguments import UsageError, add_free_translations, add_up, check_outputs, up_of
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
@@ -62,6 +62,7 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
     r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
     add_free_translations(r)
+    add_up(r)
     add_output_flags(r)
 
 
@@ -91,18 +92,32 @@ def _frames(text: str | None):
 
 
 def retarget_options(args: argparse.Namespace) -> dict:
-    """deik.retarget's keyword arguments from the flags: to, scale, joint_map and frames (cut
-    from the source first)."""
-    return {"to": args.to, "scale": _scale(args.scale), "joint_map": args.map, "frames": _frames(args.frames)}
+    """deik.retarget's keyword arguments from the flags: to, scale, joint_map, frames (cut
+    from the source first) and check_up (a source whose up --up gives is trusted)."""
+    return {
+        "to": args.to,
+        "scale": _scale(args.scale),
+        "joint_map": args.map,
+        "frames": _frames(args.frames),
+        "check_up": args.up is None,
+    }
 
 
-def retarget_file(path: str, options: dict, progress: Callable[[int, int], None] | None = None) -> Retarget:
-    """deik.retarget of the BVH clip at `path` with `options` (retarget_options);
-    `progress(met, total)` follows the frames that meet their contacts."""
+def reading_options(args: argparse.Namespace) -> dict:
+    """deik.read_bvh's keyword arguments for the source from the flags: free_translations, up."""
+    return {"free_translations": args.free_translations, "up": up_of(args)}
+
+
+def retarget_file(
+    path: str, options: dict, reading: dict, progress: Callable[[int, int], None] | None = None
+) -> Retarget:
+    """deik.retarget of the BVH clip at `path`, read with `reading` (reading_options), with
+    `options` (retarget_options); `progress(met, total)` follows the frames that meet their
+    contacts."""
     from deik.retargeting.api import retarget
     from deik.retargeting.outcome import frame_range
 
-    clip = frame_range(read_bvh(path), options["frames"])
+    clip = frame_range(read_bvh(path, **reading), options["frames"])
     report = None if progress is None else (lambda met, stage: progress(met, clip.n_frames))
     return retarget(clip, **{**options, "frames": None}, progress=report)
 
@@ -157,7 +172,7 @@ def run_retarget(args: argparse.Namespace) -> int:
     from deik.retargeting.outcome import frame_range
 
     options = retarget_options(args)
-    clip = frame_range(read_bvh(args.clip, free_translations=args.free_translations), options["frames"])
+    clip = frame_range(read_bvh(args.clip, **reading_options(args)), options["frames"])
     # the bar counts the frames that meet their contacts, after the warm start and each repair pass
     with progress_bar(clip.n_frames, "deik retarget", "frame", show_progress(args)) as bar:
         result = retarget(clip, **{**options, "frames": None}, progress=frames_reporter(bar, "their contacts"))

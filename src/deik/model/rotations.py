@@ -38,6 +38,18 @@ def axis_angle_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
+def upright(up: np.ndarray) -> np.ndarray:
+    """(3, 3) the shortest turn taking the unit direction `up` to +Y (a half turn about X when
+    `up` is -Y; the identity when it is +Y)."""
+    up = np.asarray(up, dtype=np.float64)
+    axis = np.cross(up, [0.0, 1.0, 0.0])
+    length = np.linalg.norm(axis)
+    angle = np.arctan2(length, up[1])
+    if length < 1e-12:
+        return np.eye(3) if up[1] > 0 else axis_angle_matrix(np.array([1.0, 0.0, 0.0]), np.pi)
+    return axis_angle_matrix(axis / length, angle)
+
+
 def euler_matrix(order: str, angles: np.ndarray) -> np.ndarray:
     """Intrinsic Euler rotation: `order` like "ZXY", `angles` (*batch, len(order)) -> (*batch, 3, 3)."""
     angles = np.asarray(angles, dtype=np.float64)

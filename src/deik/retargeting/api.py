@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from numpy.typing import ArrayLike
 
 from deik.cleanup.coherence import hinge_channels
+from deik.cleanup.ground import check_clip_rests
 from deik.errors import InputError
 from deik.io.bvh import read_bvh
 from deik.io.bvh.preview import view_clip
@@ -55,6 +58,7 @@ def retarget(
     up: ArrayLike | None = None,
     velocity: dict[str, float] | None = None,
     progress: Progress | None = None,
+    check_up: bool = True,
 ) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
@@ -66,14 +70,20 @@ def retarget(
       `velocity` {DOF name: limit, rad/s or length units/s} bounds each DOF's step between
       frames (default: a URDF's own `<limit velocity>`s, none for another target).
     `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
-    is called after each stage. ValueError for a mistake in the inputs."""
+    is called after each stage. The source's up is its skeleton's (deik.read_bvh(path, up=...)
+    for a file made with another than +Y; a map's rotation is written for a +Y-up source, and
+    another is turned upright first); `check_up` refuses a source whose body does not rest on a
+    floor along it (docs/clips.md, "Up"), False trusts it. ValueError for a mistake in the
+    inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
+    if check_up:
+        check_clip_rests(clip, "--up with the file's up direction skips this check")
     if joint_map is None:
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
             return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
-        target, _ = _target(to, None)
+        target = replace(_target(to, None)[0], up=clip.skeleton.up)  # the same rig: the source's up
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
         return retarget_proportions(clip, target, progress)
     if to is None or scale is not None:

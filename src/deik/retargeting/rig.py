@@ -38,6 +38,7 @@ from deik.io.trajectory import Trajectory
 from deik.model.build import with_sites
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
+from deik.model.rotations import upright
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
 from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
@@ -116,7 +117,9 @@ def retarget_rig(
     `progress(frames, stage)` is called after each IK pass and the space-time pass."""
     began = time.perf_counter()
     check_map(joint_map, source.skeleton, target)
-    rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
+    # a map's rotation is written for a source with +Y up, the BVH convention: one read with
+    # another up is first turned upright
+    rotation = (np.eye(3) if joint_map.rotation is None else joint_map.rotation) @ upright(source.skeleton.up)
     source_names = [p.source for p in joint_map.points]
     sited = with_sites(target, [(p.site, p.target, p.offset) for p in joint_map.points if any(p.offset)])
     names = [p.site for p in joint_map.points]
