@@ -120,6 +120,18 @@ def _cli(argv, capsys):
     return status, capsys.readouterr().err
 
 
+def test_a_clip_whose_bones_all_have_zero_length_is_refused_by_clip_and_retarget(tmp_path, capsys):
+    path = tmp_path / "point.bvh"
+    path.write_text(TOY_BVH.replace("OFFSET 0 1 0", "OFFSET 0 0 0"))
+    out = tmp_path / "out.bvh"
+    for argv in (["clip", path, "--out", out], ["retarget", path, "--scale", "Arm=2", "--out", out]):
+        status, err = _cli(argv, capsys)
+        assert (
+            status == 2 and err.strip() == f"deik: error: {path}: every bone has zero length: there is no body to clean"
+        )
+        assert not out.exists()
+
+
 def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
     clip = tmp_path / "walk.bvh"
     clip.write_text(TOY_BVH)

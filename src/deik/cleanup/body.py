@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
 from deik.model.capsules import bone_starts, carrier_joints, default_radii
@@ -243,6 +244,8 @@ def body_of(clip: Motion) -> Body:
     poses = clip.frames if clip.n_frames else sk.reference[None]
     p = forward_kinematics(sk, poses).p_world_frame
     length = np.where(start >= 0, np.median(np.linalg.norm(p - p[:, np.maximum(start, 0)], axis=-1), axis=0), 0.0)
+    if not np.any(length > 0):
+        raise InputError(f"{clip.source or 'the clip'}: every bone has zero length: there is no body to clean")
     span = _tree_span(sk, length, part) or sk.reach
     standing = _standing_pose(clip, part)
     kin = forward_kinematics(sk, standing[None])
