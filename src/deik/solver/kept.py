@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, fields
+from operator import attrgetter
 
 import numpy as np
 
@@ -25,12 +26,13 @@ from deik.solver.workspace import Workspace
 
 KEEP_BYTES = 1 << 20  # buffers of a kept solve: small problems, where set-up dominates
 KEEP_STRUCTURES = 16
-_SETTING_NAMES = tuple(f.name for f in fields(Settings) if f.name != "seed")  # a seed is set per call
+_unseeded = attrgetter(*(f.name for f in fields(Settings) if f.name != "seed"))  # a seed is set per call
 
 
 @dataclass
 class _Kept:
     skeleton: object  # held, so that the key's id() cannot be reused by another skeleton
+    structure: object  # the problem's structure token (Compiled.structure), held likewise
     engine: Engine
     workspace: Workspace
 
@@ -42,8 +44,13 @@ _lock = threading.Lock()
 def _structure(problem: Problem, settings: Settings) -> tuple:
     """Everything an Engine is built from but the seed, the targets and the comfort reference
     poses (which a kept engine takes in place): equal keys give engines that differ only in
-    those. The gains are in the key because the Result's per-term facts read them."""
-    table = problem.table
+    those. The gains are in the key because the Result's per-term facts read them. Problems of
+    a structure kept by deik.solver.structures share a token (Compiled.structure) that stands
+    for all of the table's part."""
+    compiled = problem.compiled
+    if compiled.structure is not None:
+        return (compiled.structure, *_unseeded(settings))
+    table = compiled.table
     arrays = (table.term_int, table.term_float, table.dof_weight, table.pair_int, table.pair_radius)
     return (
         id(problem.skeleton),
@@ -53,7 +60,7 @@ def _structure(problem: Problem, settings: Settings) -> tuple:
         table.params.shape,
         table.params[:, :, -1].tobytes(),  # the gains (objectives.kinds.GAIN): the report reads them
         *(a.tobytes() for a in arrays),
-        *(getattr(settings, name) for name in _SETTING_NAMES),
+        *_unseeded(settings),
     )
 
 
@@ -94,10 +101,10 @@ class kept_engine:  # noqa: N801 (a context manager used like a function, as con
                 np.dtype(settings.dtype).itemsize,
                 0,
             )
-            kept = _Kept(problem.skeleton, engine, Workspace()) if size <= KEEP_BYTES else None
-            if kept is None:
+            if size > KEEP_BYTES:
                 self._kept = None
                 return engine, Workspace()
+            kept = _Kept(problem.skeleton, problem.compiled.structure, engine, Workspace())
         self._kept = kept
         return engine, kept.workspace
 

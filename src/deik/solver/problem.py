@@ -30,12 +30,15 @@ class Compiled:
     problem whose structure was compiled before shares that problem's rows, so a row's params
     are the targets of the problem that compiled it and only the table's are this problem's),
     its TermTable (params (B, T, N_PARAMS)), the comfort reference pose of each term per problem
-    (B, T, D) and its batch shape (() or (B,))."""
+    (B, T, D) and its batch shape (() or (B,)). `structure`: a token that every problem of one
+    structure kept by deik.solver.structures shares (their tables differ only in targets), or
+    None."""
 
     rows: tuple[TermRow, ...]
     table: TermTable
     reference: np.ndarray
     batch_shape: tuple[int, ...]
+    structure: object = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,9 +151,7 @@ class Problem:
         known = structures.recall(self.skeleton, self.goals, self.limits)
         if known is not None:
             return known
-        compiled = self._compile_rows()
-        structures.keep(self.skeleton, self.goals, self.limits, compiled)
-        return compiled
+        return structures.keep(self.skeleton, self.goals, self.limits, self._compile_rows())
 
     def _compile_rows(self) -> Compiled:
         """_compile from every goal's row."""

@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 _SETTING_NAMES = frozenset(f.name for f in fields(Settings))
 _MERGED: dict = {}  # merge_settings' checked Settings by (settings, overrides but the seed)
 MAX_MERGED = 64
+_NO_SEED = object()  # merge_settings: no seed among the overrides
 
 
 def solve(
@@ -166,19 +167,20 @@ def merge_settings(
     if defaults:
         return Settings(**{**defaults, **(vars(settings) if settings else {}), **overrides})
     # a loop of solves passes the same settings with a new seed each call: the rest is checked once
-    key = (settings, *((name, type(v), v) for name, v in overrides.items() if name != "seed"))
+    unseeded = dict(overrides)
+    seed = unseeded.pop("seed", _NO_SEED)
+    key = (settings, tuple(unseeded.items()), tuple(map(type, unseeded.values())))  # types: 1 == 1.0 == True
     try:
         merged = _MERGED.get(key)
     except TypeError:  # an unhashable value: checked below as it is
         key = merged = None
     if merged is None:
-        unseeded = {name: v for name, v in overrides.items() if name != "seed"}
         merged = Settings(**{**(vars(settings) if settings else {}), **unseeded})
         if key is not None:
             if len(_MERGED) >= MAX_MERGED:
                 _MERGED.clear()
             _MERGED[key] = merged
-    return merged.with_seed(overrides["seed"]) if "seed" in overrides else merged
+    return merged if seed is _NO_SEED else merged.with_seed(seed)
 
 
 def make_result(
