@@ -83,9 +83,12 @@ class kept_engine:  # noqa: N801 (a context manager used like a function, as con
         if kept is not None and kept.skeleton is problem.skeleton:
             engine = kept.engine
             engine.problem = problem
-            for terms in {id(t): t for t in (engine.terms, engine.terms64)}.values():
+            # the problems of one structure token share their comfort references (none differ)
+            shared_reference = kept.structure is not None
+            for terms in (engine.terms,) if engine.terms64 is engine.terms else (engine.terms, engine.terms64):
                 terms.params[...] = problem.table.params
-                terms.reference[...] = problem.reference
+                if not shared_reference:
+                    terms.reference[...] = problem.reference
             # held by this call alone: its settings (which differ at most in the seed) set in place
             if settings.seed != engine.settings.seed:
                 engine.kernel_settings = engine.kernel_settings._replace(seed=np.uint64(settings.seed))

@@ -198,6 +198,8 @@ def make_result(
     best_index = (np.arange(len(state.best)), state.best)
     best = state.pop[best_index].astype(np.float64, copy=False)  # indexing copies already
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
-    history = state.history if isinstance(state, Workspace) else state.history.copy()  # a Workspace's is new
-    best_poses = BestPoses(angles=best, raw=raw, generations=state.generations.copy(), history=history)
+    generations = state.generations.copy()
+    # a Workspace's history is joined only when the Result's is read
+    history = state.history_reader(generations) if isinstance(state, Workspace) else state.history.copy()
+    best_poses = BestPoses(angles=best, raw=raw, generations=generations, history=history)
     return engine.report_terms.result(problem.skeleton, best_poses, shape, wall_time, engine.settings)
