@@ -18,7 +18,7 @@ from operator import attrgetter
 
 import numpy as np
 
-from deik.solver.engine import Engine
+from deik.solver.engine import Engine, seeded
 from deik.solver.footprint import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.settings import Settings
@@ -91,7 +91,7 @@ class kept_engine:  # noqa: N801 (a context manager used like a function, as con
                     terms.reference[...] = problem.reference
             # held by this call alone: its settings (which differ at most in the seed) set in place
             if settings.seed != engine.settings.seed:
-                engine.kernel_settings = engine.kernel_settings._replace(seed=np.uint64(settings.seed))
+                engine.kernel_settings = seeded(engine.kernel_settings, settings.seed)
             engine.settings = settings if settings.device != "auto" else settings.with_device(engine.settings.device)
         else:
             engine = Engine(problem, settings).for_problem(problem)

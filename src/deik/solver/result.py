@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -98,8 +99,7 @@ class ReportTerms:
         )
 
 
-@dataclass(frozen=True)
-class BestPoses:
+class BestPoses(NamedTuple):
     """The best pose of each of B problems after a solve: `angles` (B, D) radians or length
     units, their raw errors `raw` (B, T) float64, `generations` (B,) run and `history`
     (B, G, 2) the best fitness and mean per generation, or a function that returns it."""

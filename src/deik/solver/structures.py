@@ -87,11 +87,8 @@ def keep(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str, compiled: Com
     whose every goal with a target has a quick check. Returns `compiled`, with its structure's
     token (Compiled.structure) when that structure is kept."""
     key = _key(skeleton, goals, limits)
-    if key is None or compiled.batch_shape != ():
+    if key is None or compiled.batch_shape != () or key in _known:
         return compiled
-    known = _known.get(key)
-    if known is not None and known.skeleton is skeleton:  # a target the quick checks declined
-        return _with(compiled, structure=known.compiled.structure)
     quick = []
     for t, goal in enumerate(goals):
         if hasattr(goal, "target"):
