@@ -161,8 +161,8 @@ def merge_settings(
 ) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
-    unknown = sorted(set(overrides) - _SETTING_NAMES)
-    if unknown:
+    if not _SETTING_NAMES.issuperset(overrides):
+        unknown = sorted(set(overrides) - _SETTING_NAMES)
         raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(_SETTING_NAMES)}")
     if defaults:
         return Settings(**{**defaults, **(vars(settings) if settings else {}), **overrides})

@@ -83,7 +83,8 @@ class Workspace:
         never read). The rows from where each problem stopped are NaN'd once, in `history`: a
         problem's generations only grow within a solve."""
         if advanced:
-            rows = self.work.history[:advanced, running]  # indexing copies
+            steps = self.work.history[:advanced]
+            rows = steps.copy() if running is self._everyone else steps[:, running]  # indexing copies
             self._rows.append((self.generation, running, rows))
         self.generation += advanced
 
