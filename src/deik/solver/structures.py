@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from operator import methodcaller
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,6 +38,7 @@ class _Known:
     quick: tuple  # per goal with a target: (term index, its quick check)
 
 
+_structure_of = methodcaller("structure")  # Goal.structure, called at C speed
 _known: dict = {}
 _lock = threading.Lock()
 
@@ -44,7 +46,7 @@ _lock = threading.Lock()
 def _key(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str) -> tuple | None:
     """The structure of a problem (what its compile reads but the targets), hashable, or None
     when a goal's structure is not plain (Goal.structure)."""
-    parts = tuple(g.structure() for g in goals)
+    parts = tuple(map(_structure_of, goals))
     return None if None in parts else (id(skeleton), limits, parts)
 
 
