@@ -53,6 +53,9 @@ class Workspace:
         self._steps = self.work.history
         self._everyone = np.arange(B)
         self._sizes = sizes
+        # the Status arrays stay for every solve of these sizes: attributes, not properties
+        self.status: Status = self.work.status
+        self.best, self.generations, self.active = self.status.best, self.status.generations, self.status.active
 
     def begin(self, engine: Engine, n_generations: int, initial: ArrayLike | None = None) -> None:
         """A first population for engine's problem (seeded with `initial` poses, checked as
@@ -89,10 +92,6 @@ class Workspace:
         self.generation += advanced
 
     @property
-    def status(self) -> Status:
-        return self.work.status
-
-    @property
     def pop(self) -> np.ndarray:
         return self.work.current.pop
 
@@ -103,18 +102,6 @@ class Workspace:
     @property
     def total(self) -> np.ndarray:
         return self.work.current.total
-
-    @property
-    def best(self) -> np.ndarray:
-        return self.status.best
-
-    @property
-    def generations(self) -> np.ndarray:
-        return self.status.generations
-
-    @property
-    def active(self) -> np.ndarray:
-        return self.status.active
 
     def history_reader(self, generations: np.ndarray) -> Callable[[], np.ndarray]:
         """A function that joins this solve's history, best and mean total per generation (B, G,
