@@ -112,13 +112,16 @@ def test_every_solver_sees_every_target_once(n, chunks):
     assert min(sizes) >= 1 and max(sizes) - min(sizes) <= 1 and len(sizes) == min(n, chunks)
 
 
-def test_turns_alternate_chunk_by_chunk():
+def test_turns_alternate_chunk_by_chunk_and_each_solver_goes_first_in_turn():
     solvers = ["deik", "placo", "tracik"]
     order = turn_order(30, 10, solvers)
-    assert [s for s, _, _ in order] == solvers * 10
+    firsts = []
     for chunk in range(10):  # every solver has its turn on a chunk before the next chunk starts
         turns = order[3 * chunk : 3 * chunk + 3]
-        assert len({(a, b) for _, a, b in turns}) == 1
+        assert len({(a, b) for _, a, b in turns}) == 1 and sorted(s for s, _, _ in turns) == sorted(solvers)
+        firsts.append(turns[0][0])
+    assert firsts[:4] == ["deik", "placo", "tracik", "deik"]  # the cold first turn rotates
+    assert [firsts.count(s) for s in solvers] == [4, 3, 3]
 
 
 def test_take_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
@@ -137,5 +140,5 @@ def test_take_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
     assert out["deik"]["targets"] == list(range(10)) and out["deik"]["wall"] == [2] * 5
     assert out["other"]["targets"] == list(range(10))
     assert out["peer"] == {"skipped": "crashed"}
-    assert [name for name, _ in log[:6]] == ["deik", "peer", "other"] * 2
+    assert [name for name, _ in log[:6]] == ["deik", "peer", "other", "peer", "other", "deik"]
     assert ("peer", 6) not in log
