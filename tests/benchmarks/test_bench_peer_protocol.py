@@ -4,6 +4,7 @@ Runs in the deik venv alone: nothing here needs the peers venv (.venv-peers).
 """
 
 import time
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -112,13 +113,21 @@ def test_every_solver_sees_every_target_once(n, chunks):
     assert min(sizes) >= 1 and max(sizes) - min(sizes) <= 1 and len(sizes) == min(n, chunks)
 
 
-def test_turns_alternate_chunk_by_chunk():
-    solvers = ["deik", "placo", "tracik"]
-    order = turn_order(30, 10, solvers)
-    assert [s for s, _, _ in order] == solvers * 10
-    for chunk in range(10):  # every solver has its turn on a chunk before the next chunk starts
-        turns = order[3 * chunk : 3 * chunk + 3]
-        assert len({(a, b) for _, a, b in turns}) == 1
+@pytest.mark.parametrize(
+    "solvers", [["deik", "placo", "tracik"], ["deik", "deik-solver", "deik-batch", "rtb", "tracik"], list("abcd")]
+)
+def test_turns_alternate_chunk_by_chunk_and_every_solver_follows_every_other_alike(solvers):
+    k = len(solvers)
+    cycle = 2 * k if k % 2 else k
+    order = turn_order(10 * cycle, cycle, solvers)
+    follows = Counter()
+    for chunk in range(cycle):  # every solver has its turn on a chunk before the next chunk starts
+        turns = [name for name, _, _ in order[k * chunk : k * chunk + k]]
+        assert len({(a, b) for _, a, b in order[k * chunk : k * chunk + k]}) == 1 and sorted(turns) == sorted(solvers)
+        follows.update(zip(turns, turns[1:]))
+    # within the chunks, every ordered pair of solvers is adjacent equally often
+    assert set(follows) == {(a, b) for a in solvers for b in solvers if a != b}
+    assert len(set(follows.values())) == 1
 
 
 def test_take_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
@@ -137,5 +146,9 @@ def test_take_turns_joins_outputs_in_target_order_and_drops_a_failed_peer():
     assert out["deik"]["targets"] == list(range(10)) and out["deik"]["wall"] == [2] * 5
     assert out["other"]["targets"] == list(range(10))
     assert out["peer"] == {"skipped": "crashed"}
-    assert [name for name, _ in log[:6]] == ["deik", "peer", "other"] * 2
+    assert [name for name, _ in log[:3]] == ["deik", "peer", "other"] and {name for name, _ in log[3:6]} == {
+        "deik",
+        "peer",
+        "other",
+    }
     assert ("peer", 6) not in log

@@ -137,13 +137,11 @@ class Goal:
         int, a float or a string (an array, a mask, a tuple), whose equality a key cannot
         tell cheaply. Two goals of one structure compile to rows that differ only in their
         targets (deik.solver.structures)."""
-        items = [type(self)]
-        for name, value in vars(self).items():
-            if name != "target":
-                if type(value) not in _PLAIN:
-                    return None
-                items.append((name, type(value), value))
-        return tuple(items)
+        fields = dict(vars(self))
+        fields.pop("target", None)
+        values = tuple(fields.values())
+        types = tuple(map(type, values))  # compared too: 1 == 1.0 == True
+        return (type(self), tuple(fields), types, values) if _PLAIN.issuperset(types) else None
 
     def target_params(self, skeleton: Skeleton, target: ArrayLike) -> tuple[np.ndarray, bool]:
         """(params (B, N_PARAMS), batched) of this goal with `target` in place of its own,

@@ -138,7 +138,7 @@ class Engine:
         """A copy that draws its random numbers from `seed` (and shares everything else)."""
         new = copy.copy(self)
         new.settings = self.settings.with_seed(seed)
-        new.kernel_settings = self.kernel_settings._replace(seed=np.uint64(seed))
+        new.kernel_settings = seeded(self.kernel_settings, seed)
         return new
 
     def initial_poses(self, initial: ArrayLike | None) -> Seeds:
@@ -249,6 +249,17 @@ class Engine:
     def step(self, state: EvolutionState) -> EvolutionState:
         """One generation."""
         return self.run(state, 1)
+
+
+_SEED_FIELD = KernelSettings._fields.index("seed")
+
+
+def seeded(kernel_settings: KernelSettings, seed: int) -> KernelSettings:
+    """`kernel_settings` with `seed` (the NamedTuple built directly: its _replace took 2 us of
+    a 0.1 ms robot solve)."""
+    return tuple.__new__(
+        KernelSettings, (*kernel_settings[:_SEED_FIELD], np.uint64(seed), *kernel_settings[_SEED_FIELD + 1 :])
+    )
 
 
 def _check_generations(n_generations: int) -> None:

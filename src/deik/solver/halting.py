@@ -100,10 +100,11 @@ _watchdog_lock = threading.Lock()
 
 def _the_watchdog() -> _Watchdog:
     global _watchdog
-    with _watchdog_lock:
-        if _watchdog is None:
-            _watchdog = _Watchdog()
-        return _watchdog
+    if _watchdog is None:  # the lock only until it exists: every guarded launch asks
+        with _watchdog_lock:
+            if _watchdog is None:
+                _watchdog = _Watchdog()
+    return _watchdog
 
 
 class guarded:  # noqa: N801 (a context manager used like a function, as contextlib's are)

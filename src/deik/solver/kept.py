@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, fields
+from operator import attrgetter
 
 import numpy as np
 
-from deik.solver.engine import Engine
+from deik.solver.engine import Engine, seeded
 from deik.solver.footprint import solve_bytes
 from deik.solver.problem import Problem
 from deik.solver.settings import Settings
@@ -25,12 +26,13 @@ from deik.solver.workspace import Workspace
 
 KEEP_BYTES = 1 << 20  # buffers of a kept solve: small problems, where set-up dominates
 KEEP_STRUCTURES = 16
-_SETTING_NAMES = tuple(f.name for f in fields(Settings) if f.name != "seed")  # a seed is set per call
+_unseeded = attrgetter(*(f.name for f in fields(Settings) if f.name != "seed"))  # a seed is set per call
 
 
 @dataclass
 class _Kept:
     skeleton: object  # held, so that the key's id() cannot be reused by another skeleton
+    structure: object  # the problem's structure token (Compiled.structure), held likewise
     engine: Engine
     workspace: Workspace
 
@@ -42,8 +44,13 @@ _lock = threading.Lock()
 def _structure(problem: Problem, settings: Settings) -> tuple:
     """Everything an Engine is built from but the seed, the targets and the comfort reference
     poses (which a kept engine takes in place): equal keys give engines that differ only in
-    those. The gains are in the key because the Result's per-term facts read them."""
-    table = problem.table
+    those. The gains are in the key because the Result's per-term facts read them. Problems of
+    a structure kept by deik.solver.structures share a token (Compiled.structure) that stands
+    for all of the table's part."""
+    compiled = problem.compiled
+    if compiled.structure is not None:
+        return (compiled.structure, *_unseeded(settings))
+    table = compiled.table
     arrays = (table.term_int, table.term_float, table.dof_weight, table.pair_int, table.pair_radius)
     return (
         id(problem.skeleton),
@@ -53,7 +60,7 @@ def _structure(problem: Problem, settings: Settings) -> tuple:
         table.params.shape,
         table.params[:, :, -1].tobytes(),  # the gains (objectives.kinds.GAIN): the report reads them
         *(a.tobytes() for a in arrays),
-        *(getattr(settings, name) for name in _SETTING_NAMES),
+        *_unseeded(settings),
     )
 
 
@@ -76,12 +83,15 @@ class kept_engine:  # noqa: N801 (a context manager used like a function, as con
         if kept is not None and kept.skeleton is problem.skeleton:
             engine = kept.engine
             engine.problem = problem
-            for terms in {id(t): t for t in (engine.terms, engine.terms64)}.values():
+            # the problems of one structure token share their comfort references (none differ)
+            shared_reference = kept.structure is not None
+            for terms in (engine.terms,) if engine.terms64 is engine.terms else (engine.terms, engine.terms64):
                 terms.params[...] = problem.table.params
-                terms.reference[...] = problem.reference
+                if not shared_reference:
+                    terms.reference[...] = problem.reference
             # held by this call alone: its settings (which differ at most in the seed) set in place
             if settings.seed != engine.settings.seed:
-                engine.kernel_settings = engine.kernel_settings._replace(seed=np.uint64(settings.seed))
+                engine.kernel_settings = seeded(engine.kernel_settings, settings.seed)
             engine.settings = settings if settings.device != "auto" else settings.with_device(engine.settings.device)
         else:
             engine = Engine(problem, settings).for_problem(problem)
@@ -94,10 +104,10 @@ class kept_engine:  # noqa: N801 (a context manager used like a function, as con
                 np.dtype(settings.dtype).itemsize,
                 0,
             )
-            kept = _Kept(problem.skeleton, engine, Workspace()) if size <= KEEP_BYTES else None
-            if kept is None:
+            if size > KEEP_BYTES:
                 self._kept = None
                 return engine, Workspace()
+            kept = _Kept(problem.skeleton, problem.compiled.structure, engine, Workspace())
         self._kept = kept
         return engine, kept.workspace
 

@@ -2,8 +2,9 @@
 
 Python sees progress reports only between launches, so a solve runs in launches of about
 LAUNCH_SECONDS each (the time limit and Ctrl-C also reach inside a launch: deik.solver.halting). The first is
-sized from an estimate of its work (individuals x frames per generation over an assumed rate),
-later ones from the measured pace of the one before, growing at most GROWTH-fold per launch so
+sized from an estimate of its work (individuals x frames per generation over an assumed rate)
+to end within GUARD_SECONDS, which spares it the watchdog, later ones from the measured pace
+of the one before, growing at most GROWTH-fold per launch so
 that a first launch slowed by compilation does not set the pace. A time limit makes the first
 launch a probe of TIME_PROBE generations and caps each later one at a quarter of the time left;
 progress reports come every PROGRESS_CHUNK generations.
@@ -14,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 
+from deik.solver.halting import GUARD_SECONDS
 from deik.solver.settings import Settings
 
 LAUNCH_SECONDS = 0.25
@@ -41,12 +43,15 @@ class Launches:
         self.deadline = start + settings.time_limit if settings.time_limit else math.inf
         self.chunk = PROGRESS_CHUNK if progress else self.budget
         rate = FRAME_EVALUATIONS_PER_SECOND[settings.device]
-        self.size = max(1, int(LAUNCH_SECONDS * rate / max(frame_work, 1)))
         self.pace = None  # seconds per generation of the last launch
         self._first_seconds = polish_work / POLISH_FLOPS_PER_SECOND[settings.device]
         self._generation_seconds = (
             frame_work / rate + self._first_seconds * settings.polish_count / settings.polish_every
         )
+        # the first launch stays within GUARD_SECONDS by the estimate, so that it runs unguarded
+        # (arming the watchdog is 5 us of a 0.1 ms robot solve, which most often ends in it)
+        unguarded = int((GUARD_SECONDS - self._first_seconds) / self._generation_seconds)
+        self.size = max(1, min(int(LAUNCH_SECONDS * rate / max(frame_work, 1)), unguarded))
 
     def expected_seconds(self, count: int) -> float:
         """About how long a launch of `count` generations takes: the last launch's pace, or

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 
 import numpy as np
 
@@ -30,12 +29,15 @@ class Compiled:
     problem whose structure was compiled before shares that problem's rows, so a row's params
     are the targets of the problem that compiled it and only the table's are this problem's),
     its TermTable (params (B, T, N_PARAMS)), the comfort reference pose of each term per problem
-    (B, T, D) and its batch shape (() or (B,))."""
+    (B, T, D) and its batch shape (() or (B,)). `structure`: a token that every problem of one
+    structure kept by deik.solver.structures shares (their tables differ only in targets), or
+    None."""
 
     rows: tuple[TermRow, ...]
     table: TermTable
     reference: np.ndarray
     batch_shape: tuple[int, ...]
+    structure: object = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,7 +49,8 @@ class Problem:
     "paper" applies the paper's Algorithm 2 (only the +-2 pi range, limits used for sampling).
     Targets with a leading batch axis pose B problems at once (B = batch_size).
     `parts`: the problems a stacked problem is made of (set by Problem.stack, whose goals are
-    then the first part's)."""
+    then the first part's). `compiled`: the term rows, table, references and batch shape (see
+    Compiled), compiled when the problem is made."""
 
     skeleton: Skeleton
     goals: Sequence[Goal]
@@ -58,7 +61,9 @@ class Problem:
         object.__setattr__(self, "goals", tuple(self.goals))
         object.__setattr__(self, "parts", tuple(self.parts))
         self._check()
-        _ = self.table  # compile now so that bad goals fail here, not inside a solve
+        # compiled now so that bad goals fail here, not inside a solve; set as a plain attribute
+        # (functools.cached_property takes a lock on every first read: 1 us of a 0.1 ms solve)
+        object.__setattr__(self, "compiled", self._stacked() if self.parts else self._compile())
 
     def _check(self) -> None:
         if not isinstance(self.skeleton, Skeleton):
@@ -70,11 +75,10 @@ class Problem:
                 raise TypeError(f"goals must be deik goal objects, got {type(g).__name__}")
         if self.limits not in LIMIT_MODES:
             raise InputError(f"limits must be one of {LIMIT_MODES}, got {self.limits!r}")
-        first = self.parts[0] if self.parts else self
-        if (
+        if self.parts and (
             not all(isinstance(p, Problem) for p in self.parts)
-            or len(first.goals) != len(self.goals)
-            or any(a is not b for a, b in zip(first.goals, self.goals))
+            or len(self.parts[0].goals) != len(self.goals)
+            or any(a is not b for a, b in zip(self.parts[0].goals, self.goals))
         ):
             raise InputError("a stacked problem's parts must be Problems and its goals the first part's")
 
@@ -106,18 +110,15 @@ class Problem:
         first = problems[0]
         return cls(first.skeleton, first.goals, first.limits, parts=problems)
 
-    @cached_property
-    def compiled(self) -> Compiled:
-        """The term rows, table, references and batch shape (see Compiled), compiled once."""
-        if self.parts:
-            rows, params, reference = _merge_parts(self.parts)
-            return Compiled(
-                rows=rows,
-                table=compile_rows(rows, params, self.skeleton.n_dofs),
-                reference=reference,
-                batch_shape=(len(params),),
-            )
-        return self._compile()
+    def _stacked(self) -> Compiled:
+        """The Compiled of a stacked problem (Problem.stack), from its parts."""
+        rows, params, reference = _merge_parts(self.parts)
+        return Compiled(
+            rows=rows,
+            table=compile_rows(rows, params, self.skeleton.n_dofs),
+            reference=reference,
+            batch_shape=(len(params),),
+        )
 
     @property
     def rows(self) -> tuple[TermRow, ...]:
@@ -148,9 +149,7 @@ class Problem:
         known = structures.recall(self.skeleton, self.goals, self.limits)
         if known is not None:
             return known
-        compiled = self._compile_rows()
-        structures.keep(self.skeleton, self.goals, self.limits, compiled)
-        return compiled
+        return structures.keep(self.skeleton, self.goals, self.limits, self._compile_rows())
 
     def _compile_rows(self) -> Compiled:
         """_compile from every goal's row."""

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -86,39 +88,49 @@ class ReportTerms:
         fields shaped `shape` + their own axes, `wall_time` seconds. Takes best's arrays over
         (the caller hands fresh ones)."""
         best.raw.setflags(write=False)  # the goals' errors are views of it, and fitness is worked out from it later
-        return Result(
+        # the fields set as the frozen dataclass's __init__ would, without its per-field
+        # object.__setattr__ (1 us of a 0.1 ms robot solve)
+        result = object.__new__(Result)
+        result.__dict__.update(
             skeleton=skeleton,
             angles=best.angles.reshape(shape + best.angles.shape[1:]),
             generations=best.generations.reshape(shape),
-            history=best.history.reshape(shape + best.history.shape[1:]),
             wall_time=wall_time,
             device=settings.device,
             settings=settings,
-            evaluation=Evaluation(self, best.raw, shape),
+            evaluation=Evaluation(self, best.raw, shape, best.history),
         )
+        result.__post_init__()
+        return result
 
 
-@dataclass(frozen=True)
-class BestPoses:
+class BestPoses(NamedTuple):
     """The best pose of each of B problems after a solve: `angles` (B, D) radians or length
     units, their raw errors `raw` (B, T) float64, `generations` (B,) run and `history`
-    (B, G, 2) the best fitness and mean per generation."""
+    (B, G, 2) the best fitness and mean per generation, or a function that returns it."""
 
     angles: np.ndarray
     raw: np.ndarray
     generations: np.ndarray
-    history: np.ndarray
+    history: np.ndarray | Callable[[], np.ndarray]
 
 
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """The float64 raw errors `raw` (B, T) of a Result's best poses with the per-term facts
-    `terms` they are reported with, and the Result's batch `shape`: what its fitness, goals and
-    converged are worked out from, on first use."""
+    `terms` they are reported with, the Result's batch `shape` and the solve's history (B, G, 2)
+    (or a function that returns it, BestPoses.history): what its fitness, goals, converged and
+    history are worked out from, on first use."""
 
     terms: ReportTerms
     raw: np.ndarray
     shape: tuple[int, ...]
+    solve_history: np.ndarray | Callable[[], np.ndarray]
+
+    def history(self) -> np.ndarray:
+        """Best and mean total fitness per generation, (*shape, G, 2)."""
+        history = self.solve_history() if callable(self.solve_history) else self.solve_history
+        return history.reshape(self.shape + history.shape[1:])
 
     def fitness(self) -> np.ndarray:
         """Total weighted sum of normalised errors, (*shape,)."""
@@ -142,7 +154,12 @@ class Evaluation:
 
 # the fields of a Result worked out on first use: a reused Solver's caller often reads the
 # angles alone, and these cost more than the rest of the Result together
-_ON_FIRST_USE = {"fitness": Evaluation.fitness, "goals": Evaluation.goals, "converged": Evaluation.converged}
+_ON_FIRST_USE = {
+    "fitness": Evaluation.fitness,
+    "goals": Evaluation.goals,
+    "converged": Evaluation.converged,
+    "history": Evaluation.history,
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,8 +173,9 @@ class Result:
     total weighted sum; generations and converged (*batch,); history (*batch, G, 2) best and
     mean total fitness per generation, all read-only NumPy arrays (0-d when batch is ()); goals:
     one GoalReport per term, whose error, normalised, active and met are arrays of shape batch
-    (float64 errors of the best pose). wall_time seconds; device "cpu" or "gpu". fitness, goals
-    and converged are worked out from `evaluation` (the raw errors) when first read, then kept."""
+    (float64 errors of the best pose). wall_time seconds; device "cpu" or "gpu". fitness, goals,
+    converged and history are worked out from `evaluation` (the raw errors, the solve's
+    history) when first read, then kept."""
 
     skeleton: Skeleton
     angles: np.ndarray
@@ -165,14 +183,14 @@ class Result:
     goals: tuple[GoalReport, ...] = field(init=False)
     generations: np.ndarray
     converged: np.ndarray = field(init=False)
-    history: np.ndarray
+    history: np.ndarray = field(init=False)
     wall_time: float
     device: str
     settings: object = field(repr=False)
     evaluation: Evaluation = field(repr=False)
 
     def __post_init__(self):
-        for value in (self.angles, self.generations, self.history):
+        for value in (self.angles, self.generations):
             value.setflags(write=False)
 
     def __getattr__(self, name: str):

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 from deik.console import Progress
 from deik.errors import InputError, SolveError, UnknownNameError
 from deik.objectives.kinds import GAIN
-from deik.solver.engine import Engine
+from deik.solver.engine import Engine, seeded
 from deik.solver.problem import Problem
 from deik.solver.result import Result
 from deik.solver.settings import Settings, SettingsChanges
@@ -93,7 +93,7 @@ class Solver:
             engine.settings, engine.kernel_settings = self.settings, self._kernel_settings
         else:  # the engine is the Solver's own: set its seed rather than copy it (Engine.with_seed)
             engine.settings = self.settings.with_seed(seed)
-            engine.kernel_settings = self._kernel_settings._replace(seed=np.uint64(seed))
+            engine.kernel_settings = seeded(self._kernel_settings, seed)
         shape = (self.problem.batch_size,) if batched else self.problem.batch_shape
         return run_engine(self.problem, engine, initial, progress, self._workspace, shape)
 

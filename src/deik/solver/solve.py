@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 _SETTING_NAMES = frozenset(f.name for f in fields(Settings))
 _MERGED: dict = {}  # merge_settings' checked Settings by (settings, overrides but the seed)
 MAX_MERGED = 64
+_NO_SEED = object()  # merge_settings: no seed among the overrides
 
 
 def solve(
@@ -160,25 +161,26 @@ def merge_settings(
 ) -> Settings:
     """Settings from `defaults`, then `settings`, then keyword `overrides`; unknown keywords
     raise a TypeError naming `caller` and the valid names."""
-    unknown = sorted(set(overrides) - _SETTING_NAMES)
-    if unknown:
+    if not _SETTING_NAMES.issuperset(overrides):
+        unknown = sorted(set(overrides) - _SETTING_NAMES)
         raise TypeError(f"unknown {caller} settings {unknown}; choose from {sorted(_SETTING_NAMES)}")
     if defaults:
         return Settings(**{**defaults, **(vars(settings) if settings else {}), **overrides})
     # a loop of solves passes the same settings with a new seed each call: the rest is checked once
-    key = (settings, *((name, type(v), v) for name, v in overrides.items() if name != "seed"))
+    unseeded = dict(overrides)
+    seed = unseeded.pop("seed", _NO_SEED)
+    key = (settings, tuple(unseeded.items()), tuple(map(type, unseeded.values())))  # types: 1 == 1.0 == True
     try:
         merged = _MERGED.get(key)
     except TypeError:  # an unhashable value: checked below as it is
         key = merged = None
     if merged is None:
-        unseeded = {name: v for name, v in overrides.items() if name != "seed"}
         merged = Settings(**{**(vars(settings) if settings else {}), **unseeded})
         if key is not None:
             if len(_MERGED) >= MAX_MERGED:
                 _MERGED.clear()
             _MERGED[key] = merged
-    return merged.with_seed(overrides["seed"]) if "seed" in overrides else merged
+    return merged if seed is _NO_SEED else merged.with_seed(seed)
 
 
 def make_result(
@@ -196,6 +198,8 @@ def make_result(
     best_index = (np.arange(len(state.best)), state.best)
     best = state.pop[best_index].astype(np.float64, copy=False)  # indexing copies already
     raw = state.raw[best_index] if state.raw.dtype == np.float64 else engine.raw_errors(best)
-    history = state.history if isinstance(state, Workspace) else state.history.copy()  # a Workspace's is new
-    best_poses = BestPoses(angles=best, raw=raw, generations=state.generations.copy(), history=history)
+    generations = state.generations.copy()
+    # a Workspace's history is joined only when the Result's is read
+    history = state.history_reader(generations) if isinstance(state, Workspace) else state.history.copy()
+    best_poses = BestPoses(angles=best, raw=raw, generations=generations, history=history)
     return engine.report_terms.result(problem.skeleton, best_poses, shape, wall_time, engine.settings)

@@ -9,12 +9,15 @@ kept; a later problem of the same structure checks each new target with its goal
 table with its own targets written into a copy of the parameters. A target the quick check
 declines (a batch axis, another form, a value to report) compiles the whole problem afresh, so
 every error reads as before. At most MAX_STRUCTURES structures are kept, the oldest dropped.
+The problems of a kept structure share a token (Compiled.structure), which deik.solve's kept
+engines (solver/kept.py) are found by instead of comparing the tables.
 """
 
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from operator import methodcaller
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,10 +34,11 @@ MAX_STRUCTURES = 32
 @dataclass(frozen=True)
 class _Known:
     skeleton: Skeleton  # held, so that the key's id() cannot be reused by another skeleton
-    compiled: Compiled  # of the first problem of this structure
+    compiled: Compiled  # of the first problem of this structure, with the structure's token
     quick: tuple  # per goal with a target: (term index, its quick check)
 
 
+_structure_of = methodcaller("structure")  # Goal.structure, called at C speed
 _known: dict = {}
 _lock = threading.Lock()
 
@@ -42,7 +46,7 @@ _lock = threading.Lock()
 def _key(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str) -> tuple | None:
     """The structure of a problem (what its compile reads but the targets), hashable, or None
     when a goal's structure is not plain (Goal.structure)."""
-    parts = tuple(g.structure() for g in goals)
+    parts = tuple(map(_structure_of, goals))
     return None if None in parts else (id(skeleton), limits, parts)
 
 
@@ -70,25 +74,33 @@ def _with_params(compiled: Compiled, params: np.ndarray) -> Compiled:
     a 100 us robot solve)."""
     table = object.__new__(type(compiled.table))
     table.__dict__.update(vars(compiled.table), params=params)
+    return _with(compiled, table=table)
+
+
+def _with(compiled: Compiled, **fields) -> Compiled:
+    """`compiled` with `fields` replaced, unchecked (see _with_params)."""
     new = object.__new__(type(compiled))
-    new.__dict__.update(vars(compiled), table=table)
+    new.__dict__.update(vars(compiled), **fields)
     return new
 
 
-def keep(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str, compiled: Compiled) -> None:
+def keep(skeleton: Skeleton, goals: tuple[Goal, ...], limits: str, compiled: Compiled) -> Compiled:
     """Keep `compiled` for later problems of its structure: only a single (unbatched) problem
-    whose every goal with a target has a quick check."""
+    whose every goal with a target has a quick check. Returns `compiled`, with its structure's
+    token (Compiled.structure) when that structure is kept."""
     key = _key(skeleton, goals, limits)
     if key is None or compiled.batch_shape != () or key in _known:
-        return
+        return compiled
     quick = []
     for t, goal in enumerate(goals):
         if hasattr(goal, "target"):
             check = goal.quick_target(skeleton)
             if check is None:
-                return
+                return compiled
             quick.append((t, check))
+    compiled = _with(compiled, structure=object())
     with _lock:
         _known[key] = _Known(skeleton, compiled, tuple(quick))
         while len(_known) > MAX_STRUCTURES:
             del _known[next(iter(_known))]
+    return compiled

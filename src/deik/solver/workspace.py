@@ -12,6 +12,8 @@ nothing is filled or allocated again while the sizes stay the same.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,8 +30,8 @@ class Workspace:
     """The buffers of solves of one size: `begin(engine, n, initial)` sets up a population and
     runs its first n generations, `advance(n)` runs more. Between launches `pop`, `raw`,
     `total` (the current Buffers', on the GPU only each problem's best individual), `best`,
-    `generations`, `active` (the Status') and `generation` describe the state; `history` joins
-    the launches' rows, (B, G, 2)."""
+    `generations`, `active` (the Status') and `generation` describe the state; `history_reader`
+    joins the launches' rows, (B, G, 2)."""
 
     def __init__(self):
         self._sizes, self.generation = None, 0
@@ -51,6 +53,9 @@ class Workspace:
         self._steps = self.work.history
         self._everyone = np.arange(B)
         self._sizes = sizes
+        # the Status arrays stay for every solve of these sizes: attributes, not properties
+        self.status: Status = self.work.status
+        self.best, self.generations, self.active = self.status.best, self.status.generations, self.status.active
 
     def begin(self, engine: Engine, n_generations: int, initial: ArrayLike | None = None) -> None:
         """A first population for engine's problem (seeded with `initial` poses, checked as
@@ -81,13 +86,10 @@ class Workspace:
         never read). The rows from where each problem stopped are NaN'd once, in `history`: a
         problem's generations only grow within a solve."""
         if advanced:
-            rows = self.work.history[:advanced, running]  # indexing copies
+            steps = self.work.history[:advanced]
+            rows = steps.copy() if running is self._everyone else steps[:, running]  # indexing copies
             self._rows.append((self.generation, running, rows))
         self.generation += advanced
-
-    @property
-    def status(self) -> Status:
-        return self.work.status
 
     @property
     def pop(self) -> np.ndarray:
@@ -101,24 +103,19 @@ class Workspace:
     def total(self) -> np.ndarray:
         return self.work.current.total
 
-    @property
-    def best(self) -> np.ndarray:
-        return self.status.best
+    def history_reader(self, generations: np.ndarray) -> Callable[[], np.ndarray]:
+        """A function that joins this solve's history, best and mean total per generation (B, G,
+        2), NaN once a problem had stopped, from what it holds: the rows kept of each launch
+        (a later solve starts a list of its own) and `generations` (B,), a copy of each
+        problem's count. A Result joins it only when its history is read."""
+        return partial(_joined_history, tuple(self._rows), self.generation, generations)
 
-    @property
-    def generations(self) -> np.ndarray:
-        return self.status.generations
 
-    @property
-    def active(self) -> np.ndarray:
-        return self.status.active
-
-    @property
-    def history(self) -> np.ndarray:
-        """Best and mean total per generation, (B, G, 2), NaN once a problem had stopped."""
-        history = np.full((len(self.status.best), self.generation, 2), np.nan)
-        for first, running, rows in self._rows:
-            history[running, first : first + len(rows)] = rows.transpose(1, 0, 2)
-        if self._rows:
-            history[np.arange(self.generation) >= self.status.generations[:, None]] = np.nan
-        return history
+def _joined_history(launches: tuple, n_generations: int, generations: np.ndarray) -> np.ndarray:
+    """History (B, G, 2) from each launch's (first generation, problems running, rows (n, R, 2))."""
+    history = np.full((len(generations), n_generations, 2), np.nan)
+    for first, running, rows in launches:
+        history[running, first : first + len(rows)] = rows.transpose(1, 0, 2)
+    if launches:
+        history[np.arange(n_generations) >= generations[:, None]] = np.nan
+    return history
