@@ -15,7 +15,7 @@ from deik.cleanup.body import on_body
 from deik.cleanup.clip_goals import ClipGoals, fixed_goals, sized_goals
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.ground import GAP, clearances, rest_runs, resting_body
-from deik.cleanup.warmstart import dof_weights, warm_start
+from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
 
@@ -45,7 +45,7 @@ def warm_sole_heights(soles: bool):
     names = [name for foot in body.feet for name in (foot.heel, foot.toe)]
     movable = np.broadcast_to(~hinge_channels(motion), motion.frames.shape)
     d = warm_start(body.skeleton, motion.poses(), fixed_goals(motion, goals, weights), movable, weights,
-                   soles=names if soles else ())  # fmt: skip
+                   lifting=Lifting(soles=tuple(names) if soles else ()))  # fmt: skip
     index = [body.skeleton.frame_index(site) for site in contacts.sites]
     heights = [forward_kinematics(body.skeleton, frames).p_world_frame[:, index] @ body.skeleton.up
                for frames in (motion.frames, motion.frames + d)]  # fmt: skip

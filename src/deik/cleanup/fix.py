@@ -55,7 +55,7 @@ from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.contacts import site_positions
 from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
-from deik.cleanup.warmstart import dof_weights, warm_start
+from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
@@ -203,7 +203,7 @@ def _warm_start(
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = _ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lift=lift, soles=soles, whole=whole)
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lifting=Lifting(lift, whole, tuple(soles)))
         return _inside(sk, original, d), fixed
 
     if not goals.balance:

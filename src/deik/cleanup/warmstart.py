@@ -41,6 +41,7 @@ fix_clip tries the warm start with and without it and keeps the better.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -273,6 +274,20 @@ def _goal_rows(x, jac, skeleton, held_rows, floors, balance, ground, longest):
     return np.concatenate(errors, axis=1), np.concatenate(parts, axis=1)
 
 
+class Lifting(NamedTuple):
+    """How a warm start keeps the body above a Floor: `lift` a point that sinks in the capture
+    along a smooth envelope of its depth (else only in the frames it sinks), lift each bone
+    `whole`, and keep the joints or sites `soles` (each foot's heel and toe) at their capture
+    heights while in contact (the feet's roll)."""
+
+    lift: bool = True
+    whole: bool = False
+    soles: tuple[str, ...] = ()
+
+
+LIFTING = Lifting()  # points lifted along envelopes, bones not whole, no soles
+
+
 def warm_start(
     skeleton: Skeleton,
     original: np.ndarray,
@@ -280,9 +295,7 @@ def warm_start(
     movable: np.ndarray,
     weights: np.ndarray,
     fade: float = FADE,
-    lift: bool = True,
-    soles: Sequence[str] = (),
-    whole: bool = False,
+    lifting: Lifting = LIFTING,
 ) -> np.ndarray:
     """(N, D) displacement from the `original` poses (N, D), moving only the `movable` (N, D)
     DOFs, that meets the Position goals above REACH_LEVEL active in each frame (contacts),
@@ -295,12 +308,13 @@ def warm_start(
     over between DOFs smoothly; with reach tracks, as many more that add them, moving only the
     frames of their (eased) windows, so a reach changes nothing outside them. A step moves a
     site or the COM at most LONGEST_STEP x reach, so an unreachable target is approached, not
-    chased. With `lift`, a point that sinks through the floor in the capture is lifted along
-    a smooth envelope of its depth (floor_lifts), from before it touches to after it leaves;
-    without, only in the frames it sinks. With a Floor, the joints or sites `soles` (each foot's
-    heel and toe) keep their height in the capture while in contact (module notes: the feet's
-    roll). With `lift` and `whole`, a body is lifted whole (module notes). Limits are not
-    applied here (fix_clip does)."""
+    chased. With `lifting.lift`, a point that sinks through the floor in the capture is lifted
+    along a smooth envelope of its depth (floor_lifts), from before it touches to after it
+    leaves; without, only in the frames it sinks. With a Floor, the joints or sites
+    `lifting.soles` (each foot's heel and toe) keep their height in the capture while in contact
+    (module notes: the feet's roll). With `lift` and `whole`, a body is lifted whole (module
+    notes). Limits are not applied here (fix_clip does)."""
+    lift, whole, soles = lifting
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]

@@ -92,15 +92,9 @@ def _frames(text: str | None):
 
 
 def retarget_options(args: argparse.Namespace) -> dict:
-    """deik.retarget's keyword arguments from the flags: to, scale, joint_map, frames (cut
-    from the source first) and check_up (a source whose up --up gives is trusted)."""
-    return {
-        "to": args.to,
-        "scale": _scale(args.scale),
-        "joint_map": args.map,
-        "frames": _frames(args.frames),
-        "check_up": args.up is None,
-    }
+    """deik.retarget's keyword arguments from the flags: to, scale, joint_map and frames (cut
+    from the source first)."""
+    return {"to": args.to, "scale": _scale(args.scale), "joint_map": args.map, "frames": _frames(args.frames)}
 
 
 def reading_options(args: argparse.Namespace) -> dict:

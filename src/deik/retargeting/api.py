@@ -58,7 +58,6 @@ def retarget(
     up: ArrayLike | None = None,
     velocity: dict[str, float] | None = None,
     progress: Progress | None = None,
-    check_up: bool = True,
 ) -> Retarget:
     """Retarget `source` (a deik.Clip or a BVH path) and return a Retarget (motion, BVH clip,
     report).
@@ -72,12 +71,10 @@ def retarget(
     `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
     is called after each stage. The source's up is its skeleton's (deik.read_bvh(path, up=...)
     for a file made with another than +Y; a map's rotation is written for a +Y-up source, and
-    another is turned upright first); `check_up` refuses a source whose body does not rest on a
-    floor along it (docs/clips.md, "Up"), False trusts it. ValueError for a mistake in the
-    inputs."""
+    another is turned upright first); a source whose body does not rest on one level floor along
+    it is refused (docs/clips.md, "Up"). ValueError for a mistake in the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
-    if check_up:
-        check_clip_rests(clip, "--up with the file's up direction skips this check")
+    check_clip_rests(clip, "a retarget keeps the source's one level floor")
     if joint_map is None:
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
