@@ -10,6 +10,7 @@ turned back. (A narrow body read along its side can look as if it rests there: t
 walk with only its root turned is not refused, so only its cleaning with --up is asserted.)"""
 
 import dataclasses
+import json
 import warnings
 
 import numpy as np
@@ -83,7 +84,7 @@ def _refused_with_z_up(path, tmp_path, capsys) -> None:
     assert main(["clip", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and err.startswith(f"deik: error: {path}: "), err
-    assert "it rests along 0 0 1: give --up 0 0 1" in err and "--floor none" in err, err
+    assert "so that is not its up direction; it rests along 0 0 1: give --up 0 0 1" in err, err
     assert not out.exists()
 
 
@@ -138,15 +139,19 @@ def test_up_is_a_direction_of_a_skeleton_file(walks, capsys):
     assert "up (0.0, 0.0, 1.0)" in capsys.readouterr().out
 
 
-def test_a_walk_played_in_place_is_refused_and_cleaned_without_a_floor(tmp_path, capsys):
+def test_a_walk_played_in_place_rests_on_no_floor_and_is_not_lifted(tmp_path, capsys):
     """The walk with its root held at the origin (a treadmill: the feet slide back under a fixed
-    pelvis, never resting) has no floor to rest on: refused by default, cleaned with --floor none."""
+    pelvis, never resting) rests on no floor along any axis: not refused, and its floor is its
+    lowest points, which lift nothing (before, the floor was found at the still pelvis and the
+    fix bent the legs up to it)."""
     rig = sunk_walk().rig
     frames = rig.frames.copy()
     frames[:, [rig.columns.index((0, f"{a}position")) for a in "XYZ"]] = 0.0
     path = tmp_path / "in_place.bvh"
     path.write_text(format_rig(dataclasses.replace(rig, frames=frames)))
-    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "its feet never rest (a clip played in place" in err
-    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh"), "--floor", "none"]) == 0
+    json_path = tmp_path / "out.json"
+    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh"), "--json", str(json_path)]) == 0
+    assert "floor at" in capsys.readouterr().out
+    record = json.loads(json_path.read_text())
+    assert record["floor"]["how"] == "lowest points"
+    assert record["metrics"]["joint_angle_deviation_max_deg"]["after"] < 1.0

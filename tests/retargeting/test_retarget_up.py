@@ -33,7 +33,7 @@ def test_a_source_made_with_z_up_is_refused_naming_the_up(walks, tmp_path, capsy
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and err.startswith(f"deik: error: {walks['z_up']}: ")
-    assert "it rests along 0 0 1: give --up 0 0 1" in err and not out.exists()
+    assert "so that is not its up direction; it rests along 0 0 1: give --up 0 0 1" in err and not out.exists()
 
 
 def test_with_its_up_it_lands_on_the_humanoid_as_the_y_up_source_does(walks):

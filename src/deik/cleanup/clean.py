@@ -23,7 +23,7 @@ from deik.cleanup.contacts import Contacts
 from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
-from deik.cleanup.ground import FloorChoice, body_paths, check_rests_on_floor
+from deik.cleanup.ground import FloorChoice, body_paths, floor_it_rests_on
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
 from deik.errors import InputError
@@ -210,7 +210,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     paths = body_paths(motion, body)
     floor, keep_floor = floor_choice(motion, body, options.floor, paths)
     if options.floor == "auto":
-        check_rests_on_floor(clip, body, paths, floor)
+        floor = floor_it_rests_on(clip, body, paths, floor)
     thresholds = (options.contact_height, options.contact_speed)
     contacts = all_contacts(motion, body, (options.plant_feet, options.contact), floor.height, thresholds, paths)
     reach = reaches(clip, options.reach)

@@ -25,20 +25,21 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   still rest: it rises about the toe without sliding, as high as in the capture (the foot's
   roll, cleanup/warmstart.py). A point still sliding fast as it lands does not rest until it
   slows: planting it sooner would stop it in a frame, a jolt.
-- Up (check_rests_on_floor): a capture rests on its floor, so in most frames no part of the body
+- Up (floor_it_rests_on): a capture rests on its floor, so in most frames no part of the body
   lies far under it, and its body stands over what rests: the centre of its points lies near
   the resting points along the ground (the median over the frames in which something rests of
   the distance to the nearest; at most 0.12 span on every shared clip, crawls and lying ones
   included). A clip read with the wrong up (a BVH made with Z up read as the convention's Y up)
   breaks one or the other: in more than SUNK_SHARE of the frames the body's lowest surface lies
-  more than SUNK x span under the floor detected (or its ground is not one level plane: stairs,
-  a slope), or its centre lies more than OFF_SUPPORT_GIVEN x span from its support while along
-  another axis direction it rests and lies at most half as far (and OFF_SUPPORT x span) from
-  it. Such a clip is refused rather than fixed against a floor it never stood on, and the
-  refusal names the axis directions, of the six, along which the body rests (sunk in at most a
-  fifth of SUNK_SHARE of the frames) and stands over its support, most balanced first: a lying
-  body looks alike along several axes, so deik never turns a clip's up by itself. --floor none
-  or a given height skips the check (the user's choice of floor).
+  more than SUNK x span under the floor detected, or its centre lies more than
+  OFF_SUPPORT_GIVEN x span from its support. When along another axis direction the body does
+  rest (sunk in at most a fifth of SUNK_SHARE of the frames) and lies at most half as far (and
+  OFF_SUPPORT x span) from its support (of the four across its up: upside down, a clip whose
+  head stays still would look as if it stood on it), the clip is refused, naming those, most
+  balanced first (a lying body looks alike along several, so deik never turns a clip's up by
+  itself), rather than fixed against a floor it never stood on. When along none, the body
+  rests on no one floor (it floats, climbs stairs, or is played in place with its feet sliding
+  under a fixed root): a sunk body's floor is then its lowest points, which lift nothing.
 """
 
 from __future__ import annotations
@@ -61,7 +62,6 @@ GAP = 0.05
 SHORTEST = 0.05
 SUNK, SUNK_SHARE = 0.05, 0.5  # of the span, of the frames (module notes: Up)
 OFF_SUPPORT, OFF_SUPPORT_GIVEN = 0.15, 0.2  # of the span (module notes: Up)
-FLOOR_ESCAPE = "--floor none or --floor HEIGHT fixes it with this up"  # a clip fix's way past the check
 
 
 @dataclass(frozen=True)
@@ -144,7 +144,7 @@ def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorC
     surface = np.where(body.part, paths.heights - body.radius, np.inf)
     level = _median_lowest(surface, paths.slow & body.part)
     if level is None:
-        return FloorChoice(float(np.percentile(surface.min(axis=1), 5.0)), "lowest points")
+        return lowest_points(body, paths)
     if abs(level) <= GROUND_PLANE * body.span:
         return FloorChoice(0.0, "ground plane", level)
     return FloorChoice(level, "resting contacts", level)
@@ -157,29 +157,27 @@ def sunk_share(body: Body, paths: Paths, floor: float) -> float:
     return float(np.mean(floor - surface > SUNK * body.span)) if len(surface) else 0.0
 
 
-def check_clip_rests(clip: Motion, escape: str) -> None:
-    """check_rests_on_floor on `clip` as read, with its body, paths and floor found here;
-    `escape` ends the refusal: how the command keeps the up it was given."""
+def check_clip_rests(clip: Motion) -> None:
+    """floor_it_rests_on for `clip` as read, with its body, paths and floor found here: an
+    InputError when its up direction is not its file's, nothing otherwise."""
     body = body_of(clip)
     motion = on_body(clip, body)
     paths = body_paths(motion, body)
-    check_rests_on_floor(clip, body, paths, detect_floor(motion, body, paths), escape)
+    floor_it_rests_on(clip, body, paths, detect_floor(motion, body, paths))
 
 
-def check_rests_on_floor(
-    clip: Motion, body: Body, paths: Paths, floor: FloorChoice, escape: str = FLOOR_ESCAPE
-) -> None:
-    """InputError when `clip` (as read: without its body's sole sites), on its `body` and `paths`,
-    does not rest on the `floor` detected along its skeleton's up, or does not stand over what
-    rests on it while it would along another axis (module notes: Up), naming the axes along
-    which it does; `escape` ends the line: how the command keeps this up."""
+def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice) -> FloorChoice:
+    """The floor `clip` (as read: without its body's sole sites), on its `body` and `paths`,
+    rests on along its skeleton's up: the `floor` detected when it rests there; when it does
+    not but does along another axis direction, an InputError naming those (its file's up is
+    another); when it rests along none, the lowest points (module notes: Up)."""
     share, off = sunk_share(body, paths, floor.height), _off_support(body, paths, floor.height)
     if share <= SUNK_SHARE and off <= OFF_SUPPORT_GIVEN:
-        return
+        return floor
     sk = clip.skeleton
     rests = []  # (how far the body's centre lies from its support, axis) of the axes it rests along
     for axis in np.vstack([np.eye(3), -np.eye(3)]):
-        if axis @ sk.up < 0.999:
+        if abs(axis @ sk.up) < 0.999:  # not its up, nor upside down (a still head looks like a foot)
             turned = Trajectory(replace(sk, up=axis), clip.frames, clip.frame_time, clip.source)
             turned_body = body_of(turned)
             turned_paths = body_paths(on_body(turned, turned_body), turned_body)
@@ -187,27 +185,24 @@ def check_rests_on_floor(
             if sunk_share(turned_body, turned_paths, level) <= SUNK_SHARE / 5:
                 rests.append((_off_support(turned_body, turned_paths, level), tuple(axis)))
     balanced = [_words(axis) for away, axis in sorted(rests) if away <= min(OFF_SUPPORT, off / 2)]
-    if share <= SUNK_SHARE and not balanced:
-        return  # off balance along its up, but no better along any other: a pose deik cannot judge
+    if not balanced:  # no better along any other axis: a floating body, stairs, a clip played in place
+        return floor if share <= SUNK_SHARE else lowest_points(body, paths)
     if len(balanced) == 1:
         hint = f"it rests along {balanced[0]}: give --up {balanced[0]}"
-    elif balanced:
+    else:
         hint = (
             f"it may rest along {', '.join(balanced[:-1])} or {balanced[-1]} (a lying body looks alike along "
             "several): give --up with the one that was up in the capture"
         )
-    else:
-        hint = "if the file's up direction is another, give it with --up X Y Z"
     up = f"along up {_words(sk.up)}"
     why = (
         f"in {share:.0%} of the frames the body lies more than {SUNK * body.span:.3g} length units under the floor "
-        f"its resting points sit on ({floor.height:.4g} {up}): that is not its up direction, its ground is not "
-        "level, or its feet never rest (a clip played in place, its root fixed)"
+        f"its resting points sit on ({floor.height:.4g} {up})"
         if share > SUNK_SHARE
         else f"its centre lies {off:.2g} of its span along the ground from what rests on the floor {up}, as no body "
-        "standing under gravity does, so that is not its up direction"
+        "standing under gravity does"
     )
-    raise InputError(f"{clip.source or 'the clip'}: {why}; {hint} ({escape})")
+    raise InputError(f"{clip.source or 'the clip'}: {why}, so that is not its up direction; {hint}")
 
 
 def _off_support(body: Body, paths: Paths, floor: float) -> float:
@@ -229,6 +224,12 @@ def _off_support(body: Body, paths: Paths, floor: float) -> float:
 def _words(vector: np.ndarray) -> str:
     """A direction as the words of --up, e.g. "0 0 1"."""
     return " ".join(f"{value:g}" for value in np.asarray(vector, float) + 0.0)
+
+
+def lowest_points(body: Body, paths: Paths) -> FloorChoice:
+    """The floor when nothing rests on one: the 5th percentile of each frame's lowest surface."""
+    surface = np.where(body.part, paths.heights - body.radius, np.inf)
+    return FloorChoice(float(np.percentile(surface.min(axis=1), 5.0)), "lowest points")
 
 
 def clearances(body: Body) -> np.ndarray:

@@ -71,10 +71,11 @@ def retarget(
     `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
     is called after each stage. The source's up is its skeleton's (deik.read_bvh(path, up=...)
     for a file made with another than +Y; a map's rotation is written for a +Y-up source, and
-    another is turned upright first); a source whose body does not rest on one level floor along
-    it is refused (docs/clips.md, "Up"). ValueError for a mistake in the inputs."""
+    another is turned upright first); a source whose body does not rest on a floor along it
+    but does along another axis is refused (docs/clips.md, "Up"). ValueError for a mistake in
+    the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
-    check_clip_rests(clip, "a retarget keeps the source's one level floor")
+    check_clip_rests(clip)
     if joint_map is None:
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
