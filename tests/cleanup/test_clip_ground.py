@@ -11,7 +11,7 @@ import pytest
 from benchmarks.clip_cases import Case, anon, studio
 from benchmarks.clip_rigs import format_rig
 from benchmarks.clip_walk import STANCE, procedural_walk
-from deik.cleanup.contacts import _runs
+from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import widened
 from deik.cleanup.ground import resting_body
 from deik.io.bvh import parse_bvh
@@ -65,7 +65,7 @@ def test_a_walking_foot_rests_in_its_stance_and_lifts_in_its_swing(family):
         for site in (foot.heel, foot.toe):
             rest = contacts.mask[:, contacts.sites.index(site)]
             assert not (rest & ~widened(down, slack)).any()  # never while the foot swings
-            for a, b in _runs(down):  # each stance found, give or take two frames at its ends
+            for a, b in true_runs(down):  # each stance found, give or take two frames at its ends
                 inside = rest[a:b]
                 assert inside[slack : len(inside) - slack].all() or b - a <= 2 * slack + 1, (site, a, b)
 

@@ -14,7 +14,14 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
   above floor + clearance) is at most BAND x span; gaps shorter than GAP seconds are filled and
-  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A run's last frames
+  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A gap is a move,
+  not filled, when the point lies on the body's surface (a sole site, no radius) and moves
+  across it faster than resting speed on average (from the run's last frame to the next's
+  first): the sole went somewhere (a toe shuffled 16 mm in a frame between two rests of the
+  shared punch, a dancer's toe swivelled on), and one plant over both would hold it still
+  through a move the capture makes. A joint with a radius (a knee, a hand) rolls over its
+  skin as the body rocks on it, so its centre moves while the contact stays: its gaps are
+  filled. A run's last frames
   (at most GAP seconds of them) are dropped while the point already moves faster than SPEED
   into them from the frame before: a lift-off. A speed is a central difference, which averages
   a lift-off's first fast step with the slow one before it, and a plant held in that frame
@@ -238,16 +245,22 @@ def clearances(body: Body) -> np.ndarray:
 
 
 def rest_runs(
-    mask: np.ndarray, frame_time: float, positions: np.ndarray | None = None, step: float = np.inf
+    mask: np.ndarray,
+    frame_time: float,
+    positions: np.ndarray | None = None,
+    step: float = np.inf,
+    surface: np.ndarray | None = None,
 ) -> np.ndarray:
-    """`mask` (N, K) with gaps under GAP seconds filled, each run's last frames dropped (at most
-    GAP seconds of them) while the point, at `positions` (N, K, 3) (smoothed; None: none
-    dropped), moves more than `step` (length units) from the frame before (module notes: a
-    lift-off), and runs under SHORTEST dropped (a run of the whole clip stays, however short
-    the clip)."""
+    """`mask` (N, K) with gaps under GAP seconds filled, but for the points on the body's
+    `surface` (K,) bool (None: none) the gaps across which they move more than `step` a frame
+    (module notes: a move), each run's last frames dropped (at most GAP seconds of them) while
+    the point, at `positions` (N, K, 3) (smoothed; None: none dropped), moves more than `step`
+    (length units) from the frame before (module notes: a lift-off), and runs under SHORTEST
+    dropped (a run of the whole clip stays, however short the clip)."""
     gap = max(1, int(round(GAP / frame_time)))
     shortest = min(max(2, int(round(SHORTEST / frame_time))), len(mask))
-    mask = fill_gaps(mask, gap + 1)
+    moves = np.inf if surface is None else np.where(surface, step, np.inf)
+    mask = fill_gaps(mask, gap + 1, positions, moves)
     if positions is not None:
         mask = _lifting_off(mask, np.linalg.norm(np.diff(positions, axis=0), axis=-1) > step, gap)
     return drop_short(mask, shortest)
@@ -295,7 +308,7 @@ def detect_resting(
     clear = body.radius[index]
     low = paths.heights[:, index] - floor - clear <= band
     smooth = smoothed(paths.positions[:, index], clip.frame_time)
-    rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time)
+    rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time, surface=clear == 0)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
