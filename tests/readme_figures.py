@@ -25,6 +25,8 @@ from pathlib import Path
 
 from readme_commands import README, ROOT
 
+from benchmarks.clip_judge import STEP_SLACK
+
 RESULTS = ROOT / "benchmarks" / "results"
 # a number as prose writes it: 0.018, -30, 2,000, a range 7-27 (its unit may follow)
 NUMBER = re.compile(r"(?<![\w.\-/])-?\d+(?:,\d{3})*(?:\.\d+)?(?:-\d+(?:\.\d+)?)?(?![\w.]*\d)(?!-[A-Za-z])")
@@ -166,6 +168,17 @@ FIGURES = (
         r"sliding holds on (\d+) and depth on (\d+)",
         TARGETS,
         lambda r: [_met(r, "peaks"), _met(r, "travel"), _met(r, "sliding"), _met(r, "depth")],
+    ),
+    Figure(
+        r"every resting run of the feet is found again \(lifting and landing within ([\d.]+) s of the capture's\) "
+        r"on (\d+); (\d+) of the (\d+) cases meet every target",
+        TARGETS,
+        lambda r: [
+            STEP_SLACK,
+            _met(r, "steps"),
+            sum(all(case["verdicts"].values()) for case in r["cases"]),
+            len(r["cases"]),
+        ],
     ),
     Figure(
         r"the run's feet, (\d+) mm under the floor in the capture, are (\d+) mm under after",

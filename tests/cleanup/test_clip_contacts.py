@@ -235,3 +235,31 @@ def test_a_one_frame_gap_between_two_contacts_is_filled_and_a_longer_one_kept():
     filled = fill_gaps(mask)
     np.testing.assert_array_equal(np.flatnonzero(filled[:, 0]), [0, 1, 2, 3, 4, 5])
     np.testing.assert_array_equal(filled[:, 1], mask[:, 1])
+
+
+def test_a_gap_the_point_moves_across_faster_than_resting_speed_is_a_move_and_stays():
+    mask = np.zeros((10, 3), bool)
+    mask[[0, 1, 2, 4, 5, 6], :] = True  # down, up for frame 3, down again
+    p = np.zeros((10, 3, 3))
+    p[4:, 0, 0] = 0.02  # point 0 shuffles 2 cm across the gap: 1 cm a frame on average
+    p[3, 1, 0] = 0.02  # point 1 jitters out in the gap and comes back where it was
+    p[4:, 2, 0] = 0.02  # point 2 moves as point 0 but may move 1.5 cm a frame at rest
+    filled = fill_gaps(mask, 2, p, np.array([0.005, 0.005, 0.015]))
+    np.testing.assert_array_equal(filled[:, 0], mask[:, 0])  # two rests: the sole went somewhere
+    np.testing.assert_array_equal(np.flatnonzero(filled[:, 1]), np.arange(7))
+    np.testing.assert_array_equal(np.flatnonzero(filled[:, 2]), np.arange(7))
+    np.testing.assert_array_equal(fill_gaps(mask, 2, p, 0.005)[:, 0], mask[:, 0])  # one step for every point
+
+
+def test_a_heel_resting_while_its_toe_moves_between_two_rests_keeps_the_toe_s_lift():
+    from deik.cleanup.plants import lifted_heights
+
+    heights = np.array([[0.005, -0.02]] * 8)  # a heel 5 mm over the floor at 0, its toe 2 cm under it
+    mask = np.ones((8, 2), bool)
+    mask[4, 1] = False  # the toe moves between two rests in frame 4
+    mask[6:, 0] = False  # the heel lifts at frame 6, the toe rests on
+    raised = lifted_heights(heights, mask, [(0, 1, 0.15)], np.zeros(2))
+    np.testing.assert_allclose(raised[:, 0], 0.025)  # the heel rises with its toe in every frame, 4 included
+    np.testing.assert_allclose(raised[mask[:, 1], 1], 0.0)
+    mask[:, 1] = [True, True, False, False, False, False, False, False]  # the toe lifts for good at 2
+    assert lifted_heights(heights, mask, [(0, 1, 0.15)], np.zeros(2))[4, 0] == 0.005  # no longer sunk

@@ -11,7 +11,7 @@ import pytest
 from benchmarks.clip_cases import Case, anon, studio
 from benchmarks.clip_rigs import format_rig
 from benchmarks.clip_walk import STANCE, procedural_walk
-from deik.cleanup.contacts import _runs
+from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import widened
 from deik.cleanup.ground import resting_body
 from deik.io.bvh import parse_bvh
@@ -65,7 +65,7 @@ def test_a_walking_foot_rests_in_its_stance_and_lifts_in_its_swing(family):
         for site in (foot.heel, foot.toe):
             rest = contacts.mask[:, contacts.sites.index(site)]
             assert not (rest & ~widened(down, slack)).any()  # never while the foot swings
-            for a, b in _runs(down):  # each stance found, give or take two frames at its ends
+            for a, b in true_runs(down):  # each stance found, give or take two frames at its ends
                 inside = rest[a:b]
                 assert inside[slack : len(inside) - slack].all() or b - a <= 2 * slack + 1, (site, a, b)
 
@@ -84,3 +84,39 @@ def test_a_kicking_foot_flies_and_the_standing_foot_rests():
     for site in (right.heel, right.toe):
         if site in contacts.sites:
             assert not contacts.mask[up, contacts.sites.index(site)].any()
+
+
+def test_a_foot_standing_on_its_sole_has_left_the_floor_once_it_rises_3_cm():
+    """The procedural walk's root rises 4 cm and back over the second half of a stance, so the
+    flat standing foot rises off the floor and slows at the top: where its sole is 3 cm or more
+    up, its heel and toe do not rest (a sole lies on the body's surface: its height is the
+    foot's distance from the floor), while the other stances are found as before."""
+    walk = procedural_walk()
+    rig, down = walk.rig, stance(walk, "Right")
+    a, b = true_runs(down)[1]
+    middle = (a + b) // 2
+    rise = np.zeros(len(rig.frames))
+    rise[middle:b] = 0.04 * np.sin(np.pi * np.arange(b - middle) / (b - middle)) ** 2
+    up = rise > 0.03
+    frames = rig.frames.copy()
+    frames[:, [k for k, (j, c) in enumerate(rig.columns) if j == 0 and c == "Yposition"]] += rise[:, None]
+    body, _, contacts = resting_body(read(dataclasses.replace(walk, rig=dataclasses.replace(rig, frames=frames))))
+    right = next(foot for foot in body.feet if foot.ankle == "RightAnkle")
+    assert up.sum() >= 3
+    for site in (right.heel, right.toe):
+        rest = contacts.mask[:, contacts.sites.index(site)]
+        assert not rest[up].any(), site
+        assert rest[a + 3 : middle].all(), site  # it rested until it rose
+
+
+@pytest.mark.parametrize("height", [0.03, -0.03])
+def test_a_walk_3_cm_above_or_under_its_ground_plane_still_rests_in_every_stance(height):
+    """The file's ground plane stays the floor, and the feet rest where the capture put them."""
+    case = lifted(procedural_walk(), height)
+    body, found, contacts = resting_body(read(case))
+    assert (found.height, found.how) == (0.0, "ground plane")
+    slack = int(round(0.07 / case.rig.frame_time))
+    for foot, side in zip(body.feet, ("Right", "Left")):
+        for a, b in true_runs(stance(case, side if case.names[f"{side}Ankle"] == foot.ankle else "Left")):
+            for site in (foot.heel, foot.toe):
+                assert contacts.mask[a + slack : b - slack, contacts.sites.index(site)].all(), (site, a, b)

@@ -50,7 +50,7 @@ def foot_sites(skeleton: Skeleton) -> tuple[str, ...]:
     return tuple(skeleton.frame_names[f] for f in sorted(found, key=owner))
 
 
-def _runs(column: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(column: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) of each run of True in a (N,) bool array, stop exclusive."""
     edges = np.flatnonzero(np.diff(np.concatenate([[0], column.astype(np.int8), [0]])))
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
@@ -96,7 +96,7 @@ class Contacts:
             if site not in self.sites:
                 raise UnknownNameError(f"{site!r} is not a contact site; the sites are {self.sites}")
             site = self.sites.index(site)
-        return _runs(self.mask[:, site])
+        return true_runs(self.mask[:, site])
 
     def describe(self) -> str:
         """One line per site: its contact frames and intervals, shown inclusive (first-last)."""
@@ -161,15 +161,23 @@ def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     return np.linalg.norm(np.gradient(p, frame_time, axis=0), axis=-1)
 
 
-def fill_gaps(mask: np.ndarray, frames: int = MIN_FRAMES) -> np.ndarray:
+def fill_gaps(
+    mask: np.ndarray, frames: int = MIN_FRAMES, positions: np.ndarray | None = None, step=np.inf
+) -> np.ndarray:
     """(N, S) contact `mask` with its gaps shorter than `frames` frames between two contact
     runs filled: a point that is slow and low on both sides of one frame never left the floor,
-    and two plants either side would make it jump."""
+    and two plants either side would make it jump. With `positions` (N, S, 3), a gap across
+    which the point moves (from the run's last frame to the next's first) more than `step`
+    (length units, a number or (S,)) a frame on average stays: the point went somewhere,
+    faster than resting speed (a pivot, a shuffle), and one plant over both runs would hold it
+    still through a move the capture makes."""
     mask = np.array(mask, bool)
+    step = np.broadcast_to(step, mask.shape[1:])
     for s in range(mask.shape[1]):
-        runs = _runs(mask[:, s])
+        runs = true_runs(mask[:, s])
         for (_, stop), (start, _) in zip(runs, runs[1:]):
-            if start - stop < frames:
+            moved = 0.0 if positions is None else np.linalg.norm(positions[start, s] - positions[stop - 1, s])
+            if start - stop < frames and moved <= step[s] * (start - stop + 1):
                 mask[stop:start, s] = True
     return mask
 
@@ -178,7 +186,7 @@ def drop_short(mask: np.ndarray, frames: int = MIN_FRAMES) -> np.ndarray:
     """(N, S) contact `mask` without its runs shorter than `frames` frames."""
     mask = np.array(mask, bool)
     for s in range(mask.shape[1]):
-        for a, b in _runs(mask[:, s]):
+        for a, b in true_runs(mask[:, s]):
             if b - a < frames:
                 mask[a:b, s] = False
     return mask

@@ -13,8 +13,27 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   estimate). FloorChoice says which and how.
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
-  above floor + clearance) is at most BAND x span; gaps shorter than GAP seconds are filled and
-  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A run's last frames
+  above floor + clearance) is at most BAND x span. A foot's heel or toe that rises (faster than
+  RISING x resting speed) while the foot stands on its sole (its ankle above both by at least
+  half the ankle's height over the sole, the foot pitched by at most 30 degrees, FLAT) rests
+  only up to SOLE_BAND x span above the floor, or above the level the body rests at where that
+  is higher (feet floating over the file's ground plane). A sole site is on the body's
+  surface: standing on it, its height is the foot's distance from the floor, known to the
+  capture's error rather than to an estimated radius, and a sole that rises past SOLE_BAND (2
+  cm on the shared humanoid) is lifting off; the wider band held a foot that rose slowly 2-3
+  cm before a jump planted (the shared jump at 30 fps), its heel still along the ground as it
+  rose and its toe pulled 17 mm up by the plants. One that sits still above SOLE_BAND rests on
+  a surface the sole sites miss (the shared get-up's toes stay 27 mm up as it crouches), and a
+  foot on its toes, its side or its top (kneeling, lying) touches the floor with a surface the
+  sole sites do not lie on: both keep the wider band; gaps shorter than GAP seconds are filled and
+  runs shorter than SHORTEST seconds dropped (each at least a frame or two). A gap is a move,
+  not filled, when the point lies on the body's surface (a sole site, no radius) and moves
+  across it faster than resting speed on average (from the run's last frame to the next's
+  first): the sole went somewhere (a toe shuffled 16 mm in a frame between two rests of the
+  shared punch, a dancer's toe swivelled on), and one plant over both would hold it still
+  through a move the capture makes. A joint with a radius (a knee, a hand) rolls over its
+  skin as the body rocks on it, so its centre moves while the contact stays: its gaps are
+  filled. A run's last frames
   (at most GAP seconds of them) are dropped while the point already moves faster than SPEED
   into them from the frame before: a lift-off. A speed is a central difference, which averages
   a lift-off's first fast step with the slow one before it, and a plant held in that frame
@@ -58,6 +77,9 @@ SPEED = 0.1
 SMOOTH = 0.02
 GROUND_PLANE = 0.04
 BAND = 0.02
+SOLE_BAND = 0.01  # of the span: the band of a sole standing on its sole (module notes)
+FLAT = 0.5  # sine of the steepest pitch of a foot standing on its sole (30 degrees)
+RISING = 0.1  # of resting speed: a sole rising faster is lifting (module notes: Resting)
 GAP = 0.05
 SHORTEST = 0.05
 SUNK, SUNK_SHARE = 0.05, 0.5  # of the span, of the frames (module notes: Up)
@@ -136,13 +158,19 @@ def _median_lowest(values: np.ndarray, slow: np.ndarray) -> float | None:
     return float(np.median(finite)) if finite.size else None
 
 
+def resting_level(body: Body, paths: Paths) -> float | None:
+    """The level the body rests at (module notes: Floor): the median, over the frames with a
+    slow point, of the lowest slow point's surface; None when nothing is ever slow."""
+    surface = np.where(body.part, paths.heights - body.radius, np.inf)
+    return _median_lowest(surface, paths.slow & body.part)
+
+
 def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorChoice:
     """The floor of `clip` (module notes)."""
     if clip.n_frames == 0:
         raise InputError("the clip has no frames: there is no floor to detect")
     paths = paths or body_paths(clip, body)
-    surface = np.where(body.part, paths.heights - body.radius, np.inf)
-    level = _median_lowest(surface, paths.slow & body.part)
+    level = resting_level(body, paths)
     if level is None:
         return lowest_points(body, paths)
     if abs(level) <= GROUND_PLANE * body.span:
@@ -239,16 +267,22 @@ def clearances(body: Body) -> np.ndarray:
 
 
 def rest_runs(
-    mask: np.ndarray, frame_time: float, positions: np.ndarray | None = None, step: float = np.inf
+    mask: np.ndarray,
+    frame_time: float,
+    positions: np.ndarray | None = None,
+    step: float = np.inf,
+    surface: np.ndarray | None = None,
 ) -> np.ndarray:
-    """`mask` (N, K) with gaps under GAP seconds filled, each run's last frames dropped (at most
-    GAP seconds of them) while the point, at `positions` (N, K, 3) (smoothed; None: none
-    dropped), moves more than `step` (length units) from the frame before (module notes: a
-    lift-off), and runs under SHORTEST dropped (a run of the whole clip stays, however short
-    the clip)."""
+    """`mask` (N, K) with gaps under GAP seconds filled, but for the points on the body's
+    `surface` (K,) bool (None: none) the gaps across which they move more than `step` a frame
+    (module notes: a move), each run's last frames dropped (at most GAP seconds of them) while
+    the point, at `positions` (N, K, 3) (smoothed; None: none dropped), moves more than `step`
+    (length units) from the frame before (module notes: a lift-off), and runs under SHORTEST
+    dropped (a run of the whole clip stays, however short the clip)."""
     gap = max(1, int(round(GAP / frame_time)))
     shortest = min(max(2, int(round(SHORTEST / frame_time))), len(mask))
-    mask = fill_gaps(mask, gap + 1)
+    moves = np.inf if surface is None else np.where(surface, step, np.inf)
+    mask = fill_gaps(mask, gap + 1, positions, moves)
     if positions is not None:
         mask = _lifting_off(mask, np.linalg.norm(np.diff(positions, axis=0), axis=-1) > step, gap)
     return drop_short(mask, shortest)
@@ -290,16 +324,41 @@ def detect_resting(
         raise InputError("detect_resting needs at least one joint or site")
     index = [sk.frame_index(name) for name in points]
     paths = paths or body_paths(clip, body)
-    band = BAND * body.span if band is None else band
+    given_band, band = band, BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
     clear = body.radius[index]
-    low = paths.heights[:, index] - floor - clear <= band
+    above = paths.heights[:, index] - floor - clear
+    if given_band is None:  # the soles' band is measured from where the body rests, if above the floor
+        level = max(resting_level(body, paths) or floor, floor)
+        standing = _standing_soles(body, paths, points, clip.frame_time)
+        low = np.where(standing, above - (level - floor) <= min(SOLE_BAND * body.span, band), above <= band)
+    else:
+        low = above <= band
     smooth = smoothed(paths.positions[:, index], clip.frame_time)
-    rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time)
+    rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time, surface=clear == 0)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
+
+
+def _standing_soles(body: Body, paths: Paths, points: tuple[str, ...], frame_time: float) -> np.ndarray:
+    """(N, K) bool: whether each of `points` is a foot's heel or toe rising in a frame in which
+    its foot stands on its sole (module notes: Resting); `frame_time` seconds."""
+    sk = body.skeleton
+    standing = np.zeros((len(paths.heights), len(points)), bool)
+    for foot in body.feet:
+        heel, toe, ankle = (sk.frame_index(name) for name in (foot.heel, foot.toe, foot.ankle))
+        rise = np.abs(paths.heights[:, heel] - paths.heights[:, toe])
+        length = np.linalg.norm(paths.positions[:, heel] - paths.positions[:, toe], axis=-1)
+        above = paths.heights[:, ankle] - np.maximum(paths.heights[:, heel], paths.heights[:, toe])
+        flat = (rise <= FLAT * length) & (above >= 0.5 * body.radius[ankle])
+        for sole in (foot.heel, foot.toe):
+            if sole in points and len(paths.heights) > 1:
+                height = smoothed(paths.heights[:, sk.frame_index(sole)], frame_time)
+                rising = np.gradient(height, frame_time) > RISING * SPEED * body.span
+                standing[:, points.index(sole)] = flat & rising
+    return standing
 
 
 def given_contacts(clip: Motion, body: Body, floor: float, masks: dict[str, np.ndarray]) -> Contacts:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from deik.cleanup.contacts import Contacts, site_positions
+from deik.cleanup.contacts import Contacts, site_positions, true_runs
 from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach
@@ -113,15 +113,30 @@ def lifted_heights(
     heights: np.ndarray, mask: np.ndarray, pairs: list[tuple[int, int, float]], floor: np.ndarray
 ) -> np.ndarray:
     """(N, S) heights of the contact sites, each frame's raised by the depth below its `floor`
-    ((S,) or (N, S)) of the deepest of the site and the sites rigidly linked to it (`pairs`) in contact then:
-    a foot sunk through the floor (legs made longer) plants its ankle as high above the floor as
-    its toe is above the sole."""
-    depth = np.where(mask, np.maximum(floor - heights, 0.0), 0.0)
-    lift = depth.copy()
+    ((S,) or (N, S)) of the deepest of the site and the sites rigidly linked to it (`pairs`) in
+    contact then (or moving between two of its contacts while the site rests: _between): a foot
+    sunk through the floor (legs made longer) plants its ankle as high above the floor as its
+    toe is above the sole."""
+    sunk = np.maximum(floor - heights, 0.0)
+    lift = np.where(mask, sunk, 0.0)
     for s, t, _ in pairs:
-        lift[:, s] = np.maximum(lift[:, s], depth[:, t])
-        lift[:, t] = np.maximum(lift[:, t], depth[:, s])
+        lift[:, s] = np.maximum(lift[:, s], np.where(mask[:, t] | _between(mask[:, s], mask[:, t]), sunk[:, t], 0.0))
+        lift[:, t] = np.maximum(lift[:, t], np.where(mask[:, s] | _between(mask[:, t], mask[:, s]), sunk[:, s], 0.0))
     return heights + lift
+
+
+def _between(holder: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """(N,) bool: the frames of each run of `holder` (N,) bool from the first to the last frame of
+    `other` (N,) bool in it. A toe that moves between two of its rests (ground.py: a move)
+    while its heel rests stays on the floor with the heel, sunk as deep: lifting the heel by
+    the toe's depth only while the toe rests dropped it 27 mm for the one frame of the move
+    (the shared punch with longer legs), a jolt."""
+    out = np.zeros(len(holder), bool)
+    for a, b in true_runs(holder):
+        inside = np.flatnonzero(other[a:b])
+        if inside.size:
+            out[a + inside[0] : a + inside[-1] + 1] = True
+    return out
 
 
 def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> np.ndarray:
