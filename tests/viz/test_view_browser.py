@@ -192,9 +192,11 @@ def test_a_clip_plays_scrubs_and_shows_its_original_in_grey(tmp_path, browser):
         assert _bones(first).sum() > 300 and _count(first, "tip") > 30 and _count(first, "root") > 10
         assert _count(first, "left") > 50 and _count(first, "right") > 50  # each side in its colour
         page.get_by_label("compare: original.bvh").uncheck()
-        without = _steady_shot(page, lambda shot: (np.abs(first - shot).max(axis=-1) > 60).sum() > 100)
-        grey = np.abs(first - without).max(axis=-1) > 60
-        assert grey.sum() > 100 and _mask(first, "compare")[grey].mean() > 0.5  # the compared figure, in grey
+        # the compared figure is the grey one: its pixels go with its box, the clip's bones stay (a
+        # share of all changed pixels misjudged it under a loaded suite, where more than it changes)
+        gone = lambda shot: (_mask(first, "compare") & ~_mask(shot, "compare")).sum()  # noqa: E731
+        without = _steady_shot(page, lambda shot: gone(shot) > 100)
+        assert gone(without) > 100 and _bones(without).sum() > 300
         page.get_by_role("textbox").last.fill("9")  # the slider's number box
         page.keyboard.press("Enter")
         page.get_by_text("frame 9 of 12, t = 0.300 s").wait_for()

@@ -162,7 +162,7 @@ def speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
 
 
 def fill_gaps(
-    mask: np.ndarray, frames: int = MIN_FRAMES, positions: np.ndarray | None = None, step=np.inf
+    mask: np.ndarray, frames: int = MIN_FRAMES, positions: np.ndarray | None = None, step: float | np.ndarray = np.inf
 ) -> np.ndarray:
     """(N, S) contact `mask` with its gaps shorter than `frames` frames between two contact
     runs filled: a point that is slow and low on both sides of one frame never left the floor,
