@@ -133,3 +133,28 @@ def test_a_shin_swinging_along_the_floor_about_its_knee_is_sliding():
     assert on_shin.any() and along.rest[:, on_shin].all()
     long = np.nan_to_num(steps[:, on_shin]).max(axis=1) > SLIDING_TOLERANCE * body.span
     assert np.flatnonzero(long).tolist() == [m - 1, m]
+
+
+def test_a_shin_rising_from_a_sunk_knee_rests_next_to_it():
+    """The lying body with a shin pitched 20 degrees up from its knee, lowered until the knee's
+    surface is 1 cm under the floor (a kneeling knee sunk in a capture): the shin's point next
+    to the knee (4.3 cm along it, its axis 1.5 cm above the knee's) lies on the floor and rests
+    in every frame; its point next to the ankle, 13 cm up, rests in none."""
+    motion, body = lying()
+    sk = motion.skeleton
+    knee = sk.frame_index("RightKnee")
+    frames = motion.frames.copy()
+    pitch = [d for d in range(sk.n_dofs) if sk.dof_joint[d] == knee and sk.dof_names[d].endswith("Zrotation")]
+    frames[:, pitch] += np.radians(20.0)  # the knee's Z axis is the body's side axis: up, lying
+    pitched = motion.with_frames(frames)
+    sunk = pitched.kinematics.p_world_frame[0, knee] @ sk.up - body.radius[knee] + 0.01
+    frames[:, root_channel(motion, 1)] -= sunk
+    kneeling = motion.with_frames(frames)
+    along = bone_points(kneeling, body, 0.0)
+    on_shin = np.flatnonzero(along.end == sk.frame_index("RightAnkle"))
+    near, far = on_shin[np.argmin(along.share[on_shin])], on_shin[np.argmax(along.share[on_shin])]
+    rise = (along.positions(kneeling.kinematics.p_world_frame)[0, [near, far]] @ sk.up) - (
+        kneeling.kinematics.p_world_frame[0, knee] @ sk.up
+    )
+    assert 0.01 < rise[0] < 0.02 and rise[1] > 0.1
+    assert along.rest[:, near].all() and not along.rest[:, far].any()

@@ -3,11 +3,18 @@
 A shin lying on the floor while its knee pivots slides along its length, not at the knee; the
 joints and sites of the body (cleanup/body.py) do not see it. Along every bone of the body but
 the feet's (their soles are their surface), points lie at most the resting band (ground.BAND x
-span, 4.3 cm on the shared humanoid) apart, each with its bone's capsule radius
-(Body.bone_radius). A point rests in a frame by the rule of cleanup/ground.py (slow, its surface
-within the band of the floor, in runs of seconds) when it also touches: its surface at most TIE
-x span above its bone's lowest end's, as both ends of a bone lying level touch together (a
-thigh that rises from a kneeling knee does not lie on the floor, only its knee does).
+span, 4.3 cm on the shared humanoid) apart. Each has the radius of the body's surface there: a
+limb segment (a bone whose start joint starts no other) is the frustum cleanup/body.py sizes
+its top joint by, TOP x its capsule radius (Body.bone_radius) at the top tapering to TAPER of
+that, never thinner than the capsule (the next joint is sized by its own segment); any other
+bone is its capsule. A point rests in a frame by the rule of cleanup/ground.py (slow, its surface
+within the band of the floor, in runs of seconds) when it also touches: its axis at most TIE x
+span above its bone's lower end's, as both ends of a bone lying level touch together (a thigh
+that rises from a kneeling knee does not lie on the floor, only its knee does), or its surface
+within TIE x span of the floor where that end's surface (the point's radius below it) lies under
+the floor. A capture sinks a kneeling knee into the floor (by 1.2 cm on the shared crawl): the
+shin next to it rises 1.5 cm from the knee yet lies on the floor, and measured from the sunk
+knee it would not.
 """
 
 from __future__ import annotations
@@ -17,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.cleanup import ground
-from deik.cleanup.body import Body
+from deik.cleanup.body import TAPER, TOP, Body
 from deik.io.trajectory import Motion
 from deik.model.capsules import bone_starts
 
@@ -53,6 +60,18 @@ def _bones(body: Body) -> tuple[np.ndarray, np.ndarray]:
     return start[ends], ends
 
 
+def _radii(body: Body, start: np.ndarray, end: np.ndarray, bone: np.ndarray, share: np.ndarray) -> np.ndarray:
+    """(P,) the surface's radius at each point, `share` (P,) along bone `bone` (P,) of the bones
+    from frames `start` to `end` (B,): a limb segment's (its start joint starts no other bone)
+    frustum, TOP x its capsule radius at its top tapering to TAPER of that (cleanup/body.py), but
+    never under the capsule radius; any other bone's capsule radius (module notes)."""
+    capsule = body.bone_radius[end][bone]
+    starts = bone_starts(body.skeleton)
+    limb = (np.bincount(starts[starts >= 0], minlength=len(starts))[start] == 1)[bone]
+    frustum = TOP * capsule * (1.0 - (1.0 - TAPER) * share)
+    return np.where(limb, np.maximum(frustum, capsule), capsule)
+
+
 def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     """The BonePoints of `capture` (on body.skeleton) over the floor at height `floor` (module
     notes)."""
@@ -66,11 +85,11 @@ def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     points = BonePoints(start[bone], end[bone], share, np.zeros((capture.n_frames, len(bone)), bool))
     if not len(bone):
         return points
-    radius = body.bone_radius[end][bone]
+    radius = _radii(body, start, end, bone, share)
     x = points.positions(p)
     surface = x @ up - floor - radius
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
-    low = (surface <= band) & (surface <= lowest + TIE * body.span)
+    low = (surface <= band) & (surface <= np.maximum(lowest, 0.0) + TIE * body.span)
     slow = ground.point_speeds(x, capture.frame_time) <= ground.SPEED * body.span
     step = ground.SPEED * body.span * capture.frame_time
     rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time), step)
