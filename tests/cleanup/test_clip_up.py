@@ -155,3 +155,14 @@ def test_a_walk_played_in_place_rests_on_no_floor_and_is_not_lifted(tmp_path, ca
     record = json.loads(json_path.read_text())
     assert record["floor"]["how"] == "lowest points"
     assert record["metrics"]["joint_angle_deviation_max_deg"]["after"] < 1.0
+
+
+def test_a_problem_file_gives_a_bvh_its_up(walks, tmp_path):
+    _, paths = walks
+    problem = tmp_path / "p.toml"
+    goal = '[[goal]]\ntype = "position"\nframe = "LeftAnkle"\ntarget = [0.0, 0.5, 0.1]\n'
+    problem.write_text(f'skeleton = "{paths["z_up"]}"\nframe = 3\nup = [0, 0, 1]\n{goal}')
+    np.testing.assert_array_equal(deik.load_problem(problem).problem.skeleton.up, [0.0, 0.0, 1.0])
+    problem.write_text(f'skeleton = "chain:3"\nup = [0, 0, 1]\n{goal.replace("LeftAnkle", "tip")}')
+    with pytest.raises(deik.InputError, match="field 'up' only applies to a URDF robot or a BVH clip"):
+        deik.load_problem(problem)
