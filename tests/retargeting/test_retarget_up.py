@@ -1,18 +1,19 @@
 """A retarget from a clip made with Z up (issue 27, "any rig"): the procedural walk
 (benchmarks/clip_walk.py) turned whole so that Z is up (tests/cleanup/test_clip_up.py) is
 refused by `deik retarget` with one line naming `--up 0 0 1`, and with it lands on the humanoid
-and on a URDF as the Y-up walk does: a map's rotation is written for a Y-up source, and a source
-read with another up is turned upright first."""
+and on a URDF as the Y-up walk does (a map's rotation is written for a Y-up source, and a source
+read with another up is turned upright first), and its legs lengthen on its own rig as the Y-up
+walk's do."""
 
 import numpy as np
 import pytest
 
 import deik
-from benchmarks.clip_rigs import format_rig
+from benchmarks.clip_rigs import format_rig, parse_rig, pose_points
 from deik.cli import main
 from helpers import ROOT
 from tests.cleanup.test_clip_any_rig import sunk_walk
-from tests.cleanup.test_clip_up import TO_Z, turned
+from tests.cleanup.test_clip_up import TO_Y, TO_Z, turned
 
 HUMANOID_MAP = ROOT / "examples/maps/shared_bvh_to_humanoid.toml"
 
@@ -52,3 +53,16 @@ def test_the_command_takes_up_for_the_source(walks, tmp_path, capsys):
         assert main(argv) == 0, capsys.readouterr().err
         written[name] = deik.read_bvh(out).frames
     np.testing.assert_allclose(written["z_up"], written["y_up"], atol=1e-5)
+
+
+def test_longer_legs_on_the_z_up_rig_are_the_y_up_rig_s_turned(walks, tmp_path, capsys):
+    """The same-rig retarget scales the root's path whatever the order of its position channels
+    (turned whole, the root's are X, Z, Y): it once needed X, Y, Z."""
+    points = {}
+    for name, flags in (("y_up", []), ("z_up", ["--up", "0", "0", "1"])):
+        out = tmp_path / f"{name}_legs.bvh"
+        argv = ["retarget", str(walks[name]), *flags, "--scale", "LeftHip=1.1,RightHip=1.1", "--out", str(out)]
+        assert main(argv) == 0, capsys.readouterr().err
+        rig = parse_rig(out.read_text())
+        points[name] = pose_points(rig if name == "y_up" else turned(rig, TO_Y))
+    np.testing.assert_allclose(points["z_up"], points["y_up"], atol=1e-6)

@@ -57,19 +57,19 @@ def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str]) -> float
 
 
 def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np.ndarray:
-    """(N, D) the clip's frames with the root's X, Y, Z translations (which must come first)
-    moved so that the target's root follows the source's path scaled by `ratio` about the floor
-    point below its first position."""
+    """(N, D) the clip's frames with the root's three translations (which must come first, along
+    three different axes in any order) moved so that the target's root follows the source's
+    path scaled by `ratio` about the floor point below its first position."""
     sk = clip.skeleton
     start = sk.joint_dof_start[0]
-    kinds = sk.dof_kind[start : start + 3]
-    if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(sk.dof_axis[start : start + 3], np.eye(3)):
-        raise InputError(f"the root {sk.joint_names[0]!r} needs X, Y and Z position channels first to be scaled")
+    kinds, axes = sk.dof_kind[start : start + 3], sk.dof_axis[start : start + 3]
+    if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(axes @ axes.T, np.eye(3)):
+        raise InputError(f"the root {sk.joint_names[0]!r} needs three position channels first to be scaled")
     root = forward_kinematics(sk, clip.poses()).p_world_frame[:, 0]
     origin = floor_origin(sk, clip.pose(0), ground)
     wanted = origin + ratio * (root - origin)
     frames = clip.frames.copy()
-    frames[:, start : start + 3] = (wanted - target.offsets[0]) @ target.joint_rotation[0]
+    frames[:, start : start + 3] = (wanted - target.offsets[0]) @ target.joint_rotation[0] @ axes.T
     return frames
 
 
