@@ -161,8 +161,7 @@ def _median_lowest(values: np.ndarray, slow: np.ndarray) -> float | None:
 def resting_level(body: Body, paths: Paths) -> float | None:
     """The level the body rests at (module notes: Floor): the median, over the frames with a
     slow point, of the lowest slow point's surface; None when nothing is ever slow."""
-    surface = np.where(body.part, paths.heights - body.radius, np.inf)
-    return _median_lowest(surface, paths.slow & body.part)
+    return _median_lowest(_surface(body, paths), paths.slow & body.part)
 
 
 def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorChoice:
@@ -181,8 +180,8 @@ def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorC
 def sunk_share(body: Body, paths: Paths, floor: float) -> float:
     """The share of frames in which the body's lowest surface lies more than SUNK x span under
     `floor` (length units along up)."""
-    surface = np.where(body.part, paths.heights - body.radius, np.inf).min(axis=1)
-    return float(np.mean(floor - surface > SUNK * body.span)) if len(surface) else 0.0
+    lowest = _surface(body, paths).min(axis=1)
+    return float(np.mean(floor - lowest > SUNK * body.span)) if len(lowest) else 0.0
 
 
 def check_clip_rests(clip: Motion) -> None:
@@ -239,14 +238,11 @@ def _off_support(body: Body, paths: Paths, floor: float) -> float:
     resting point: small when the body stands on what rests, as a body under gravity does; inf
     when nothing rests."""
     up = body.skeleton.up
-    surface = np.where(body.part, paths.heights - body.radius, np.inf)
-    resting = paths.slow & body.part & (surface <= floor + BAND * body.span)
-    centre = paths.positions[:, body.part].mean(axis=1)
-    away = []
-    for n in np.flatnonzero(resting.any(axis=1)):
-        offset = paths.positions[n, resting[n]] - centre[n]
-        away.append(np.linalg.norm(offset - np.outer(offset @ up, up), axis=1).min())
-    return float(np.median(away)) / body.span if away else np.inf
+    resting = paths.slow & body.part & (_surface(body, paths) <= floor + BAND * body.span)
+    offset = paths.positions - paths.positions[:, body.part].mean(axis=1, keepdims=True)
+    along = np.linalg.norm(offset - (offset @ up)[..., None] * up, axis=-1)
+    away = np.where(resting, along, np.inf).min(axis=1)[resting.any(axis=1)]
+    return float(np.median(away)) / body.span if away.size else np.inf
 
 
 def _words(vector: np.ndarray) -> str:
@@ -256,8 +252,13 @@ def _words(vector: np.ndarray) -> str:
 
 def lowest_points(body: Body, paths: Paths) -> FloorChoice:
     """The floor when nothing rests on one: the 5th percentile of each frame's lowest surface."""
-    surface = np.where(body.part, paths.heights - body.radius, np.inf)
-    return FloorChoice(float(np.percentile(surface.min(axis=1), 5.0)), "lowest points")
+    return FloorChoice(float(np.percentile(_surface(body, paths).min(axis=1), 5.0)), "lowest points")
+
+
+def _surface(body: Body, paths: Paths) -> np.ndarray:
+    """(N, F) how high the body's surface lies at each joint and site (its height less its
+    radius; inf for what is no part of the body)."""
+    return np.where(body.part, paths.heights - body.radius, np.inf)
 
 
 def clearances(body: Body) -> np.ndarray:
