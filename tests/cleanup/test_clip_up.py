@@ -20,6 +20,15 @@ from scipy.spatial.transform import Rotation
 import deik
 from benchmarks.clip_judge import judge
 from benchmarks.clip_rigs import format_rig, parse_rig, pose_points
+from deik.cleanup.body import body_of, on_body
+from deik.cleanup.ground import (
+    OFF_SUPPORT_GIVEN,
+    body_paths,
+    detect_floor,
+    floor_it_rests_on,
+    off_support,
+    sunk_share,
+)
 from deik.cli import main
 from tests.cleanup.test_clip_any_rig import sunk_walk
 
@@ -166,3 +175,16 @@ def test_a_problem_file_gives_a_bvh_its_up(walks, tmp_path):
     problem.write_text(f'skeleton = "chain:3"\nup = [0, 0, 1]\n{goal.replace("LeftAnkle", "tip")}')
     with pytest.raises(deik.InputError, match="field 'up' only applies to a URDF robot or a BVH clip"):
         deik.load_problem(problem)
+
+
+@pytest.mark.parametrize("name", ["crawl", "dance_a", "getup_facedown", "jump", "kick", "punch", "run", "walk"])
+def test_every_shared_clip_as_captured_rests_on_its_floor_and_stands_over_it(name, shared_data):
+    """docs/clips.md ("Up"): as captured, no shared clip's body is sunk far under its floor, and
+    its centre lies at most 0.12 span along the ground from what rests (the check's bound: 0.2)."""
+    clip = deik.read_bvh(shared_data / "humanoid" / f"humanoid3d_{name}.bvh")
+    body = body_of(clip)
+    paths = body_paths(on_body(clip, body), body)
+    floor = detect_floor(on_body(clip, body), body, paths)
+    assert sunk_share(body, paths, floor.height) <= 0.01
+    assert off_support(body, paths, floor.height) <= 0.12 < OFF_SUPPORT_GIVEN
+    assert floor_it_rests_on(clip, body, paths, floor) is floor

@@ -198,7 +198,7 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
     rests on along its skeleton's up: the `floor` detected when it rests there; when it does
     not but does along another axis direction, an InputError naming those (its file's up is
     another); when it rests along none, the lowest points (module notes: Up)."""
-    share, off = sunk_share(body, paths, floor.height), _off_support(body, paths, floor.height)
+    share, off = sunk_share(body, paths, floor.height), off_support(body, paths, floor.height)
     if share <= SUNK_SHARE and off <= OFF_SUPPORT_GIVEN:
         return floor
     sk = clip.skeleton
@@ -210,7 +210,7 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
             turned_paths = body_paths(on_body(turned, turned_body), turned_body)
             level = detect_floor(turned, turned_body, turned_paths).height
             if sunk_share(turned_body, turned_paths, level) <= SUNK_SHARE / 5:
-                rests.append((_off_support(turned_body, turned_paths, level), tuple(axis)))
+                rests.append((off_support(turned_body, turned_paths, level), tuple(axis)))
     balanced = [_words(axis) for away, axis in sorted(rests) if away <= min(OFF_SUPPORT, off / 2)]
     if not balanced:  # no better along any other axis: a floating body, stairs, a clip played in place
         return floor if share <= SUNK_SHARE else lowest_points(body, paths)
@@ -232,7 +232,7 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
     raise InputError(f"{clip.source or 'the clip'}: {why}, so that is not its up direction; {hint}")
 
 
-def _off_support(body: Body, paths: Paths, floor: float) -> float:
+def off_support(body: Body, paths: Paths, floor: float) -> float:
     """The median, over the frames in which part of the body rests near `floor`, of how far
     (along the ground, as a share of the span) the centre of its points lies from the nearest
     resting point: small when the body stands on what rests, as a body under gravity does; inf
