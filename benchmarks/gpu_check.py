@@ -22,7 +22,8 @@ Solver, GPU and CPU, with launches and bytes per GPU solve; the first polish by 
 per problem against a thread per problem on the same batches, taking turns in one Solver (the
 speed-up of deik.backends.cuda_team); DE-only joint evaluations per second
 on 100-link chains (one problem at population 500, and a batch filling the GPU); the kernels'
-registers, local and shared memory and occupancy; the crossovers.
+registers, local and shared memory and occupancy; a profile of the GPU solves (deik's functions,
+ms per solve); the crossovers.
 """
 
 from __future__ import annotations
@@ -72,6 +73,7 @@ def main(argv: list[str]) -> int:
     check.stage("panda", check.panda)
     check.stage("polish", check.polish)
     check.stage("evolution", check.evolution)
+    check.stage("profile", check.profile)
     check.stage("kernels", check.kernels)
     check.stage("crossover", lambda: check.crossover("--store-crossover" in flags))
     check.write_markdown()
@@ -150,8 +152,14 @@ class Check:
 
         import deik
 
+        sys.path.insert(0, str(HERE.parent))  # run as a script: the benchmarks package from the root
+        from benchmarks.harness import cpu_info
+
+        model, flags = cpu_info()
         env = {
             "deik": deik.__version__,
+            "cpu_model": model,
+            "cpu_flags": flags,
             "numba": numba.__version__,
             "numpy": np.__version__,
             "cpus": os.cpu_count(),
@@ -312,6 +320,35 @@ class Check:
                 }
         return {"rows": rows}
 
+    def profile(self) -> dict:
+        """Where a reused Solver's GPU solve of Panda strict batches spends its time: cProfile of
+        3 solves, milliseconds per solve in each of deik's functions (cumulative, the top 12),
+        and how many problems ran how many generations."""
+        if "gpu" not in self.devices:
+            return {"skipped": "no GPU in this run"}
+        import cProfile
+        import pstats
+
+        import deik
+
+        rows = {}
+        for n in (2,) if self.quick else (2000, 10000):
+            _, batch, start = panda_problem(n)
+            solver = deik.Solver(batch, population=32, device="gpu", seed=1)
+            result = solver.solve(initial=start[None])
+            profiler = cProfile.Profile()
+            profiler.enable()
+            for _ in range(3):
+                solver.solve(initial=start[None])
+            profiler.disable()
+            stats = pstats.Stats(profiler).stats  # (file, line, name) -> (calls, calls, own s, cumulative s, callers)
+            ours = {f"{Path(f).name}:{name}": 1e3 * v[3] / 3 for (f, _, name), v in stats.items() if "deik" in f}
+            rows[f"gpu/{n}"] = {
+                "ms_per_solve": dict(sorted(ours.items(), key=lambda kv: -kv[1])[:12]),
+                "generations": np.bincount(np.asarray(result.generations, int)).tolist(),
+            }
+        return rows
+
     def kernels(self) -> dict:
         if "gpu" not in self.devices:
             return {"skipped": "no GPU in this run"}
@@ -381,7 +418,8 @@ class Check:
             "first_solve_s": firsts,
         }
         lines = [
-            f"# deik GPU check: {env.get('gpu', 'no GPU')} beside {env.get('cpus', '?')} CPU cores",
+            f"# deik GPU check: {env.get('gpu', 'no GPU')} beside {env.get('cpus', '?')} CPU cores "
+            f"({env.get('cpu_model', '?')}; {' '.join(env.get('cpu_flags', []))})",
             "",
             f"`{' '.join(['python', 'benchmarks/gpu_check.py', *sys.argv[1:]])}`; deik {env.get('deik')}, "
             f"numba {env.get('numba')}, NumPy {env.get('numpy')}; quick sizes: {r.get('quick')}.",

@@ -40,7 +40,7 @@ def test_gpu_check_runs_every_stage_in_the_simulator(tmp_path, shared_data):
     assert done.returncode == 0, done.stderr[-3000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gpu_check.json", "gpu_check.md"]
     result = json.loads((tmp_path / "gpu_check.json").read_text())
-    for stage in ("environment", "first_solve", "panda", "polish", "evolution", "kernels", "crossover"):
+    for stage in ("environment", "first_solve", "panda", "polish", "evolution", "profile", "kernels", "crossover"):
         assert "error" not in result[stage] and "skipped" not in result[stage], (stage, result[stage])
     assert result["environment"]["gpu"] == "CUDA simulator"
     rows = result["panda"]["rows"]
@@ -51,6 +51,9 @@ def test_gpu_check_runs_every_stage_in_the_simulator(tmp_path, shared_data):
     polish = result["polish"]["rows"]["gpu/2"]  # the team polish against the thread per problem, taking turns
     assert polish["team_kernel"] == "first_polish_team" and polish["team_strict"] == polish["thread_strict"] == 1.0
     assert polish["team_ms"] > 0 and polish["thread_ms"] > 0
+    profile = result["profile"]["gpu/2"]  # deik's own functions, ms per solve, the solve itself among them
+    assert profile["ms_per_solve"]["reusable.py:solve"] > 0 and sum(profile["generations"]) == 2
+    assert result["environment"]["cpu_model"]
     table = (tmp_path / "gpu_check.md").read_text()
     assert "CUDA simulator" in table and "Panda 2,000 strict targets" in table and "speed-up" in table
 
