@@ -109,6 +109,13 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
         f"Population {cfg['population']}: time grows {shape} with generations (least-squares R^2 >= "
         f"{worst_r2:.3f}); seconds per generation on the CPU ({names['cpu']}): {cpu_line}. GPU: {gpu_line}."
     )
+    if use_gpu:
+        ratios = [per_gen[("gpu", n)] / per_gen[("cpu", n)] for n in cfg["links"]]
+        below = sum(r < 1 for r in ratios)
+        headline += (
+            f" The GPU's line lies below the CPU's at {below} of {len(ratios)} joint counts "
+            f"(GPU / CPU time per generation {min(ratios):.2f}-{max(ratios):.2f}x)."
+        )
     measurement = markdown_table(
         [
             "joints",

@@ -144,9 +144,9 @@ def run(out_dir: str, quick: bool = False, device: str = "auto") -> Section:
         measurement=measurement,
         differences="The ratio is not the paper's quantity: our serial baseline is interpreted NumPy (one "
         "Python-level fitness call per candidate), the parallel engine is compiled (Numba), so "
-        "most of the CPU ratio is compiled vs interpreted code; the 1-thread column isolates it, "
-        "and the 1 thread / all threads column is the parallel part on this 2-core CPU. The "
-        "paper compared two compiled implementations (C++ and CUDA) and names neither device. "
+        "most of the CPU ratio is compiled vs interpreted code; the 1-thread column isolates it, and "
+        f"the 1 thread / all threads column is the parallel part on this CPU's {numba.get_num_threads()} "
+        "threads. The paper compared two compiled implementations (C++ and CUDA) and names neither device. "
         "Timings are taken on a shared machine; the CSV keeps every repeat.",
         command=command(NAME, quick),
         notes=[note] if note else [],
