@@ -121,6 +121,21 @@ BALANCE = "deik clip ../shared/data/humanoid/humanoid3d_walk.bvh --balance"
 WHEEL = "benchmarks/results/wheel_install.json"
 VIEW = "benchmarks/results/wheel_install_view.json"
 COLD = "benchmarks/results/compare/cold_start_b549e62_9f6735a.json"
+GPU = "benchmarks/results/gpu/gpu_check.json"
+
+
+def _gpu_ms(record: dict, row: str) -> float:
+    return record["panda"]["rows"][row]["best_ms"]
+
+
+def _de_rate(record: dict, row: str) -> float:
+    return record["evolution"]["rows"][row]["joint_evaluations_per_s"]
+
+
+def _de_batches(record: dict) -> dict[str, int]:
+    """The DE stage's batch on each device that is not one problem: {"gpu": 528, "cpu": 64}."""
+    rows = [key.split("/") for key in record["evolution"]["rows"] if not key.endswith("/1")]
+    return {device: int(batch) for device, batch in rows}
 
 
 def _cpu(record: dict, case: str) -> float:
@@ -133,6 +148,48 @@ def _cores(record: dict) -> int:
 
 
 FIGURES = (
+    Figure(
+        r"beside (\d+) CPU cores of the same machine, ([\d,]+) strict Panda targets take (\d+) ms on the GPU and "
+        r"(\d+) ms on the CPU; at ([\d,]+) they tie",
+        GPU,
+        lambda r: [r["environment"]["cpus"], 10000, _gpu_ms(r, "gpu/10000"), _gpu_ms(r, "cpu/10000"), 2000],
+    ),
+    Figure(r"to the GPU from about ([\d,]+) problems", GPU, lambda r: [r["crossover"]["polish_problems"]], 0.05),
+    Figure(
+        r"DE on (\d+) problems of (\d+) links runs (\d+)x faster than the CPU on (\d+); one problem alone runs at "
+        r"(0\.\d+)x",
+        GPU,
+        lambda r: [
+            _de_batches(r)["gpu"],
+            r["evolution"]["rows"]["gpu/1"]["links"],
+            _de_rate(r, f"gpu/{_de_batches(r)['gpu']}") / _de_rate(r, f"cpu/{_de_batches(r)['cpu']}"),
+            _de_batches(r)["cpu"],
+            _de_rate(r, "gpu/1") / _de_rate(r, "cpu/1"),
+        ],
+    ),
+    Figure(
+        r"Panda 2,000 strict targets, one batch \| 28 ms \| ([\d.]+) ms \| ([\d.]+) ms \|.*?"
+        r"\| Panda 10,000 strict targets \| 131,000/s \| ([\d,]+)/s \((\d+) ms\) \| ([\d,]+)/s \((\d+) ms\) \|.*?"
+        r"\| one target on the GPU \| 12\.5 ms \| ([\d.]+) ms \| ([\d.]+) ms \|",
+        GPU,
+        lambda r: [
+            _gpu_ms(r, "gpu/2000"),
+            _gpu_ms(r, "cpu/2000"),
+            1e4 / _gpu_ms(r, "gpu/10000") * 1e3,
+            _gpu_ms(r, "gpu/10000"),
+            1e4 / _gpu_ms(r, "cpu/10000") * 1e3,
+            _gpu_ms(r, "cpu/10000"),
+            _gpu_ms(r, "gpu/1"),
+            _gpu_ms(r, "cpu/1"),
+        ],
+        ("shown", "shown", 0.01, "shown", 0.01, "shown", "shown", "shown"),
+        document="docs/gpu.md",
+    ),
+    Figure(
+        r"first GPU solve after install takes (\d+) s \(the kernels compile\), (\d\.\d) s in the next process",
+        GPU,
+        lambda r: [r["first_solve"]["fresh_cache"]["first_s"], r["first_solve"]["second_process"]["first_s"]],
+    ),
     Figure(
         r"says so first \(([\d-]+) s of CPU time on (\d+) cores",
         COLD,

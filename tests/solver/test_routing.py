@@ -35,7 +35,8 @@ def test_auto_runs_on_the_cpu_without_a_gpu():
 
 def test_auto_sends_robot_batches_to_the_gpu_from_the_crossover_up(gpu_here):
     settings = deik.Settings(population=32, device="auto")
-    for n, device in ((1, "cpu"), (9_999, "cpu"), (10_000, "gpu")):
+    start = int(routing.DEFAULT_CROSSOVER["polish_problems"])
+    for n, device in ((1, "cpu"), (start - 1, "cpu"), (start, "gpu")):
         chain, tips = _targets(n)
         problem = deik.Problem(chain, [deik.Position("tip", tips, tolerance=1e-4)])
         assert routing.polish_regime(problem, settings)
@@ -64,3 +65,15 @@ def test_a_machines_measured_crossover_replaces_the_default(gpu_here):
     (gpu_here / routing.CROSSOVER_FILE).write_text("not json")  # a damaged record: the defaults
     routing.crossover.cache_clear()
     assert routing.crossover() == routing.DEFAULT_CROSSOVER
+
+
+def test_the_default_crossovers_are_the_committed_gpu_measurement():
+    """routing's defaults are the crossovers benchmarks/gpu_check.py measured on a real GPU
+    (benchmarks/results/gpu/gpu_check.json), to within the rounding its docstring gives."""
+    import json
+    from pathlib import Path
+
+    record = json.loads((Path(__file__).parents[2] / "benchmarks/results/gpu/gpu_check.json").read_text())
+    assert record["environment"]["gpu"].startswith("NVIDIA") and not record["quick"]
+    for name, default in routing.DEFAULT_CROSSOVER.items():
+        assert default == pytest.approx(record["crossover"][name], rel=0.02), name

@@ -10,11 +10,13 @@ and large ones on the GPU. Two regimes, two crossovers:
 - the evolution regime (DE generations), where the cost grows with individuals x kinematic
   frames per generation: the GPU from `evolution_work` up.
 
-The defaults come from the first measurement on an NVIDIA H200 beside 16 CPU cores (docs/gpu.md):
-a GPU solve then cost about 12 ms plus 6 us per problem against the CPU's 7.4 us per problem,
-equal near 9,000 problems; DE on one 100-link problem at population 500 (50,000 frames per
-generation) ran at 0.23x the CPU and 528 such problems at 14.6x, equal near 4 problems. A
-machine's own crossovers, measured by `benchmarks/gpu_check.py --store-crossover`, are kept in
+The defaults come from the second measurement on an NVIDIA H200 beside 16 CPU cores of the
+same machine (benchmarks/results/gpu/gpu_check.json, docs/gpu.md): a reused Solver's GPU solve of
+strict Panda targets cost about 5 ms plus 4.0 us per problem against the CPU's 7.0 us per
+problem, equal near 1,600 problems; DE on one 100-link problem at population 500 (50,000 frames
+per generation) ran at 0.22x the CPU and 528 such problems at 13x the CPU's 64, equal near
+225,000 frames per generation. A machine's own crossovers, measured by
+`benchmarks/gpu_check.py --store-crossover`, are kept in
 CROSSOVER_FILE beside the kernel cache and take precedence.
 """
 
@@ -26,7 +28,7 @@ from functools import cache
 from deik.solver.problem import Problem
 from deik.solver.settings import Settings
 
-DEFAULT_CROSSOVER = {"polish_problems": 10_000, "evolution_work": 200_000}
+DEFAULT_CROSSOVER = {"polish_problems": 1_600, "evolution_work": 225_000}
 CROSSOVER_FILE = "deik-gpu-crossover.json"
 
 
