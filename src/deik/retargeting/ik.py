@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from deik.cleanup.dynamics import jolted_points
 from deik.cleanup.warmstart import at_most, position_jacobian
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
@@ -40,6 +41,10 @@ FLOOR_WEIGHT = 10.0  # a point below the floor counts this many times a key poin
 # OUTLIER_SPAN frames around it and more than OUTLIER_ERROR x reach (3 cm on a person)
 OUTLIER_RATIO, OUTLIER_SPAN, OUTLIER_ERROR = 2.0, 5, 0.017
 OUTLIER_ROUNDS = 3  # a run of outliers is repaired from its ends inwards, a frame a round
+# a jolted frame's pose from its neighbours is kept when its worst error is at most this much
+# (x size) above its own: 1.5 cm on a person, half what makes a frame an outlier
+JOLT_SLACK = 0.5 * OUTLIER_ERROR
+JOLT_TIE = 1.1  # a pose nearer its targets may jolt its neighbourhood this much more
 SMOOTHING = 2.0  # frames: the width (a Gaussian's sigma) of the smoothing rebasin starts from
 
 Targets = np.ndarray | Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -217,3 +222,65 @@ def rebasin(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
     whose pose stands apart from its neighbours' starts among theirs and mostly settles in their
     basin, and a clip that switches basins does so in fewer frames."""
     return solve_keypoints(goals, smoothed(poses, full_turns(goals.skeleton)))
+
+
+def _key_points(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
+    """(n, K, 3) where the goals' frames lie at `poses` (n, D)."""
+    kin = forward_kinematics(goals.skeleton, poses)
+    return np.stack([kin.position(name) for name in goals.names], axis=1)
+
+
+def _jolt(x: np.ndarray, first: int, last: int) -> tuple[float, float]:
+    """(largest step, largest second difference) of the points x (N, K, 3) (length units per
+    frame, and per frame squared) from frame first - 1 to last + 1: how much the poses of frames
+    first..last jolt their neighbourhood."""
+    window = x[max(first - 1, 0) : min(last + 1, len(x) - 1) + 1]
+    steps = np.diff(window, axis=0)
+    speed = float(np.linalg.norm(steps, axis=-1).max()) if len(steps) else 0.0
+    turns = np.diff(steps, axis=0)
+    return speed, float(np.linalg.norm(turns, axis=-1).max()) if len(turns) else 0.0
+
+
+def _runs(frames: np.ndarray) -> list[tuple[int, int]]:
+    """[(first, last)] of the runs of consecutive frames in the sorted `frames`."""
+    breaks = np.flatnonzero(np.diff(frames) > 1)
+    return list(zip(frames[np.r_[0, breaks + 1]], frames[np.r_[breaks, len(frames) - 1]]))
+
+
+def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> np.ndarray:
+    """(N, D) `poses` (N, D) with each run of frames where a key point jolts (moves or
+    accelerates past what its targets do: cleanup.dynamics.jolted_points) solved again whole,
+    from the pose of the frame before it and from that of the frame after; the run's poses that
+    jolt the neighbourhood least (its points' largest second difference), moving none of them
+    faster, are kept when no frame of them lies further from its targets
+    than the run and its two neighbours did, or than JOLT_SLACK x size above its own. A redundant
+    limb that cannot reach all its key points has several close compromises, and frames that
+    alternate between two of them (an arm flicking between two elbow angles) pass the outlier
+    test; up to OUTLIER_ROUNDS rounds."""
+    poses = np.array(poses, float)
+    N = len(poses)
+    frames = np.arange(N)
+    for _ in range(OUTLIER_ROUNDS if N >= 3 else 0):
+        x = _key_points(goals, poses)
+        jolted = np.flatnonzero(jolted_points(targets_at(goals.targets, poses, frames), x, frame_time, goals.length))
+        changed = False
+        for first, last in _runs(jolted) if jolted.size else []:
+            run = np.arange(first, last + 1)
+            around = np.arange(max(first - 1, 0), min(last + 1, N - 1) + 1)
+            own = worst_errors(goals, poses[run], run)
+            allowed = np.maximum(worst_errors(goals, poses[around], around).max(), own + JOLT_SLACK * goals.length)
+            best, (speed, lowest) = None, _jolt(x, first, last)
+            for seed in {max(first - 1, 0), min(last + 1, N - 1)}:
+                found = solve_keypoints(goals, np.repeat(poses[seed : seed + 1], len(run), axis=0), run)
+                if (worst_errors(goals, found, run) > allowed).any():
+                    continue
+                trial = x.copy()
+                trial[run] = _key_points(goals, found)
+                trial_speed, jolt = _jolt(trial, first, last)
+                if jolt < lowest and trial_speed <= speed:  # calmer, and no faster anywhere
+                    best, lowest = (found, trial[run]), jolt
+            if best is not None:
+                poses[run], x[run], changed = best[0], best[1], True
+        if not changed:
+            break
+    return poses

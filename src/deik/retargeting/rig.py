@@ -12,7 +12,9 @@
    from its origin at each step.
 3. The same IK again with every joint and site of the body kept above the floor, outliers
    repaired, then REBASIN times from the clip's poses smoothed over the frames, so that
-   neighbouring frames share a basin (ik.rebasin).
+   neighbouring frames share a basin (ik.rebasin); runs of frames whose key points still jolt
+   are solved again from a neighbour's pose (ik.repair_jolts: an arm flicking between two
+   equally good compromises).
 4. The last steps (settle.py): every mapped source point at rest near the source's floor
    planted on the target frame it maps to, each DOF's step within its allowance (a robot's
    velocity limits), the joint values continuous, and the space-time pass (smooth.py): all
@@ -41,7 +43,7 @@ from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import upright
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
-from deik.retargeting.ik import KeypointGoals, rebasin, repair_outliers, solve_keypoints
+from deik.retargeting.ik import KeypointGoals, rebasin, repair_jolts, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.outcome import Progress, Retarget
 from deik.retargeting.resting import rest_floor
@@ -165,6 +167,7 @@ def retarget_rig(
         if k:
             poses = rebasin(goals, poses)
         poses = repair_outliers(goals, poses)
+    poses = repair_jolts(goals, poses, source.frame_time)
     progress(len(poses), "the floor")
     # the orientation points steered the torso; the motion's skeleton is the target's own, and
     # its capsules too (a bone to an orientation point would thin the chest's: model.capsules).
