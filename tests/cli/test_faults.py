@@ -13,9 +13,10 @@ import sys
 
 import pytest
 
+import deik
 from deik.cli.app import main
 from deik.io import atomic
-from helpers import kill_when_ready
+from helpers import kill_when_ready, shared_path
 
 SOLVE = ["solve", "chain:3", "--reach", "tip", "1", "1", "0", "--generations", "3", "--quiet"]
 
@@ -41,6 +42,40 @@ def test_a_full_disk_ends_in_one_line_naming_the_file_and_keeps_the_old_outputs(
     assert run.stderr.startswith("deik: error: ") and run.stderr.count("\n") == 1 and "Traceback" not in run.stderr
     assert "cannot write it: File too large" in run.stderr and str(tmp_path) in run.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pose.json"] and out.read_text() == "old pose\n"
+
+
+def test_a_reader_that_stops_early_loses_no_output(tmp_path):
+    """`deik solve ... --out pose.json | head -0`: the pose is written before the table is
+    printed, so the reader leaving (exit 141, as for any command whose pipe closes) loses nothing."""
+    out = tmp_path / "pose.json"
+    read, write = os.pipe()
+    os.close(read)  # the reader has gone before the first line
+    try:
+        run = subprocess.run(
+            _deik(SOLVE + ["--out", out]), stdout=write, stderr=subprocess.PIPE, text=True, timeout=600
+        )
+    finally:
+        os.close(write)
+    assert run.returncode == 141 and run.stderr == "", run.stderr
+    pose = json.loads(out.read_text())
+    assert len(pose["angles"]) == 3
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("command", ["clip", "retarget"])
+def test_clip_and_retarget_write_everything_before_a_reader_can_leave(tmp_path, command):
+    walk = shared_path("humanoid", "humanoid3d_walk.bvh")
+    out, report = tmp_path / "out.bvh", tmp_path / "report.json"
+    extra = [] if command == "clip" else ["--scale", "LeftKnee=1.1,RightKnee=1.1"]
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        argv = [command, walk, "--out", out, "--json", report, *extra]
+        run = subprocess.run(_deik(argv), stdout=write, stderr=subprocess.PIPE, text=True, timeout=600)
+    finally:
+        os.close(write)
+    assert run.returncode == 141 and "Traceback" not in run.stderr, run.stderr
+    assert deik.read_bvh(out).n_frames == deik.read_bvh(walk).n_frames and json.loads(report.read_text())
 
 
 KILLED_BETWEEN_MOVES = """

@@ -344,8 +344,8 @@ def library_record(cleaned: CleanedClip) -> dict:
 
 
 def run_clip(args: argparse.Namespace) -> int:
-    """`deik clip` on one clip: check the flags, clean it (deik.clean_clip), print, write
-    (atomically; nothing is written on an error)."""
+    """`deik clip` on one clip: check the flags, clean it (deik.clean_clip), write (atomically;
+    nothing is written on an error), print."""
     outputs = (
         {"--out": args.out, "--report": args.report, "--json": args.json},
         {"--out": (".bvh",), "--report": (".png",), "--json": (".json",)},
@@ -361,6 +361,7 @@ def run_clip(args: argparse.Namespace) -> int:
     check_outputs(*outputs)  # the reach tracks it read are inputs too
     with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         cleaned = plan.run(progress=frames_reporter(bar, "every goal"))
-    print_outcome(cleaned, args.quiet)
+    # written before anything is printed: a reader that stops early (`| head`) loses no output
     write_outputs(cleaned, {"out": args.out, "json": args.json, "report": args.report}, args.report_3d)
+    print_outcome(cleaned, args.quiet)
     return 0

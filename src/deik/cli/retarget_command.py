@@ -155,8 +155,8 @@ def print_velocity_steps(result: Retarget) -> None:
 
 
 def run_retarget(args: argparse.Namespace) -> int:
-    """`deik retarget` on one clip: check the flags, retarget (deik.retarget), print the
-    report's summary, write (all outputs or none)."""
+    """`deik retarget` on one clip: check the flags, retarget (deik.retarget), write (all
+    outputs or none), print the report's summary."""
     check_outputs(
         {"--out": args.out, "--view": args.view, "--json": args.json},
         {"--out": (".bvh", ".csv", ".json"), "--view": (".bvh",), "--json": (".json",)},
@@ -172,6 +172,8 @@ def run_retarget(args: argparse.Namespace) -> int:
         result = retarget(clip, **{**options, "frames": None}, progress=frames_reporter(bar, "their contacts"))
     if isinstance(result.motion, Clip) and not args.out.lower().endswith(".bvh"):
         raise UsageError(f"--out {args.out!r}: a BVH target's motion is written as .bvh")
+    # written before anything is printed: a reader that stops early (`| head`) loses no output
+    write_outputs(result, {"out": args.out, "view": args.view, "json": args.json})
     summary = result.report["summary"]
     rows = [[label, unit, figure(summary[key])] for key, label, unit in SHOWN if key in summary]
     print(format_table(["measure", "unit", "value"], rows))
@@ -180,5 +182,4 @@ def run_retarget(args: argparse.Namespace) -> int:
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
     print_velocity_steps(result)
-    write_outputs(result, {"out": args.out, "view": args.view, "json": args.json})
     return 0

@@ -292,11 +292,7 @@ def run_solve(args: argparse.Namespace) -> int:
         ]
         for r in result.goals
     ]
-    print(format_table(["goal", "error", "tolerance", "met"], rows))
-    print(
-        f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
-        f"converged {'yes' if result.converged else 'no'}"
-    )
+    # written before anything is printed: a reader that stops early (`| head`) loses no output
     with all_or_nothing():
         if args.out:
             _write_pose(args.out, problem, result, loaded, frame, unit)
@@ -304,4 +300,9 @@ def run_solve(args: argparse.Namespace) -> int:
             spec = args.skeleton_flag or args.skeleton or args.problem
             title = f"deik solve {os.path.basename(str(spec))}"
             plot.plot_result(problem, result, args.plot, title, "3d" if args.plot_3d else "2d", unit)
+    print(format_table(["goal", "error", "tolerance", "met"], rows))
+    print(
+        f"generations {int(result.generations)}  time {result.wall_time:.3f} s  device {result.device}  "
+        f"converged {'yes' if result.converged else 'no'}"
+    )
     return 0
