@@ -169,6 +169,16 @@ def test_reused_solver_on_the_gpu_moves_only_targets_in_and_answers_out():
     }
     assert sim["answer_bytes"] == (3 + 1) * (7 + 14 + 2) * 8  # B + 1 rows of 7 fields, D angles, T errors
     np.testing.assert_array_equal(np.array(sim["angles"]), np.array(cpu["angles"]))
+    # a batch whose first polish leaves one problem unmet: after the first launch's whole-batch
+    # answers, the unmet list (8 bytes) and, per launch of generations, that problem's row and
+    # the history rows of the generations it ran, nothing of the other two
+    third, row = sim["third"], sim["answer_bytes"] // 4
+    assert third["converged"] == [True, True, False] == cpu["third"]["converged"]
+    assert third["generations"] == cpu["third"]["generations"] and third["generations"][2] > 0
+    launches = third["moved"]["launches"]
+    assert launches >= 2
+    assert third["moved"]["bytes_to_host"] == 4 * row + 8 + (launches - 1) * row + 16 * third["generations"][2]
+    np.testing.assert_array_equal(np.array(third["angles"]), np.array(cpu["third"]["angles"]))
 
 
 def _nvvm_or_skip():

@@ -31,6 +31,27 @@ second = solver.solve({"position tip": positions[1], "orientation tip": rotation
 after = dict(vars(backend.traffic)) if hasattr(backend, "traffic") else {}
 moved = {key: after[key] - before[key] for key in after}
 engine = solver._engine
+
+# a third solve whose last target the arm cannot meet (its tip at the edge of reach, turned as the
+# other targets ask): the first polish meets the other two, and only that problem's rows come back
+# from the launches of generations that follow
+far = positions[1].copy()
+far[2] = [0.0, 0.0, 6.95]
+goals = [deik.Position("tip", far, tolerance=1e-4), deik.Orientation("tip", rotations[1], tolerance=1e-3)]
+straggler = deik.Solver(
+    deik.Problem(arm, goals),
+    population=16,
+    dtype="float64",
+    device=sys.argv[1],
+    seed=3,
+    generations=6,
+    patience=100,
+)
+straggler.solve(initial=start)
+back = straggler._engine.backend
+before_third = dict(vars(back.traffic)) if hasattr(back, "traffic") else {}
+third = straggler.solve(initial=start)
+after_third = dict(vars(back.traffic)) if hasattr(back, "traffic") else {}
 print(
     json.dumps(
         {
@@ -41,6 +62,12 @@ print(
             "target_bytes": int(engine.terms.params.nbytes),
             "seed_bytes": int(len(positions[1]) * arm.n_dofs * 8),
             "answer_bytes": int(getattr(backend, "host_answers", np.empty(0)).nbytes),
+            "third": {
+                "converged": [bool(c) for c in third.converged],
+                "generations": np.asarray(third.generations).tolist(),
+                "angles": np.asarray(third.angles).tolist(),
+                "moved": {key: after_third[key] - before_third[key] for key in after_third},
+            },
         }
     )
 )

@@ -4,7 +4,9 @@ The CUDA back-end of an Engine keeps on the GPU, from solve to solve, everything
 change while only the targets do: the skeleton, the goal table, the population buffers, the
 Status, the scratch. A solve copies in the target parameters (and the comfort reference or
 seed poses when given) and copies out one answer row per problem: its Status fields and best
-individual (cuda_kernels.write_answer), plus the history rows of the generations it ran. A
+individual (cuda_kernels.write_answer), plus the history rows of the generations it ran; an
+`evolve` launch writes the rows of the problems it ran in its own order, so only those come back
+(the few problems a batch's first polish leaves unmet no longer bring the whole batch's rows). A
 batch of robot targets that the first polish meets is one launch (`first_polish_team`, a team
 of threads per problem, deik.backends.cuda_team, where the skeleton and goals allow; else
 `first_polish`, a thread per problem); problems it leaves unmet take a second (`evolve`).
@@ -142,8 +144,11 @@ class CudaBackend:
             self.unmet = cuda.device_array(B, np.int64)
             self.order = self._to_device(np.arange(B, dtype=np.int64))
             self.answers = cuda.device_array((B + 1, kernels.answer_width(sizes)), np.float64)
+            self.evolve_answers = cuda.device_array((B, kernels.answer_width(sizes)), np.float64)
             self.history = cuda.device_array((0, B, 2), np.float64)
+            self.history_rows = cuda.device_array((0, 0, 2), np.float64)
         self.host_answers = np.empty((B + 1, kernels.answer_width(sizes)), np.float64)
+        self.host_evolve_answers = np.empty((B, kernels.answer_width(sizes)), np.float64)
         self._sizes, self._polishers, self._bound = sizes, count, None
 
     def _team_geometry(self, inputs: KernelInputs) -> tuple[int, int] | None:
@@ -171,6 +176,14 @@ class CudaBackend:
             with on_gpu("allocating the history"):
                 self.history = self.cuda.device_array((n_generations,) + self.history.shape[1:], np.float64)
         return self.history[:n_generations]
+
+    def _history_rows_for(self, n_generations: int, n: int):
+        """Device history rows (n_generations, n, 2) of one launch's n problems, in its order: a
+        buffer kept while a launch of the same shape follows, so its first rows are one block."""
+        if self.history_rows.shape[:2] != (n_generations, n):
+            with on_gpu("allocating the history"):
+                self.history_rows = self.cuda.device_array((n_generations, n, 2), np.float64)
+        return self.history_rows
 
     def _bind(self, work: SolveBuffers, upload: bool) -> None:
         """Make the device buffers hold work's state: uploaded when `upload` and work is not
@@ -219,10 +232,17 @@ class CudaBackend:
             self.traffic.launches += 1
             self._to_host(self.answers, self.host_answers)
         n_unmet = int(self.host_answers[B, 0])
-        if n_unmet:
-            problems = (self.unmet[:n_unmet], n_unmet)
-            self._evolve(device, problems, (initial, seeds.count), kernels.COMPLETE_FIRST, (0, n_generations))
-        return self._answers(work, np.arange(B), copied=not n_unmet)
+        if not n_unmet:
+            self._apply(work, np.arange(B), self.host_answers[:B])
+            return 0
+        problems = (self.unmet[:n_unmet], n_unmet)
+        self._evolve(device, problems, (initial, seeds.count), kernels.COMPLETE_FIRST, (0, n_generations))
+        with on_gpu("copying the unmet problems' list"):
+            unmet = np.empty(n_unmet, np.int64)
+            self._to_host(self.unmet[:n_unmet], unmet)
+        met = np.setdiff1d(np.arange(B), unmet, assume_unique=True)
+        self._apply(work, met, self.host_answers[met])
+        return self._answers(work, unmet)
 
     def run(self, inputs: KernelInputs, work: SolveBuffers, first_generation: int, n_generations: int) -> int:
         """Up to n_generations more from first_generation, for the problems still active."""
@@ -269,6 +289,7 @@ class CudaBackend:
         order, n = problems
         first_generation, n_generations = generations
         self._launch_history = self._history_for(n_generations)
+        history_rows = self._history_rows_for(n_generations, n)
         with on_gpu("running the generations"):
             self.kernels.evolve[min(self.blocks, n), self.threads](
                 np.int64(mode),
@@ -283,24 +304,33 @@ class CudaBackend:
                 np.int64(seeds[1]),
                 np.int64(first_generation),
                 np.int64(n_generations),
-                self.answers,
+                self.evolve_answers,
+                history_rows,
                 self.evolve_pool,
                 self.polish_matrices,
             )
             self.traffic.launches += 1
 
-    def _answers(self, work: SolveBuffers, problems: np.ndarray, copied: bool = False) -> int:
-        """Copy the answer rows out (unless `copied` already), write each of `problems`' best
-        individual and Status fields into the host buffers, and the history rows the last
-        launch wrote; returns the most generations it ran for any of them."""
-        k = self.kernels
+    def _answers(self, work: SolveBuffers, problems: np.ndarray) -> int:
+        """After an evolve launch over `problems` (n,), in its order: copy their answer rows
+        and the history rows of the generations it ran out (the first n rows of each: nothing of
+        the problems it did not run), write them into the host buffers; returns the most
+        generations it ran for any of them."""
+        n = len(problems)
         with on_gpu("copying the answers from the GPU"):
-            if not copied:
-                self._to_host(self.answers, self.host_answers)
-            rows = self.host_answers[problems]
-            advanced = int(rows[:, k.ANSWER_RAN].max()) if len(rows) else 0
+            rows = self.host_evolve_answers[:n]
+            self._to_host(self.evolve_answers[:n], rows)
+            advanced = int(rows[:, self.kernels.ANSWER_RAN].max()) if n else 0
             if advanced:
-                self._to_host(self._launch_history[:advanced], work.history[:advanced])
+                steps = np.empty((advanced, n, 2))
+                self._to_host(self.history_rows[:advanced], steps)
+                work.history[:advanced, problems] = steps
+        self._apply(work, problems, rows)
+        return advanced
+
+    def _apply(self, work: SolveBuffers, problems: np.ndarray, rows: np.ndarray) -> None:
+        """Write `problems`' (n,) answer rows (n, width) into the host Status and best individuals."""
+        k = self.kernels
         status, cur = work.status, work.current
         best = rows[:, k.ANSWER_BEST].astype(np.int64)
         status.best[problems] = best
@@ -312,4 +342,3 @@ class CudaBackend:
         cur.total[problems, best] = rows[:, k.ANSWER_TOTAL]
         cur.pop[problems, best] = rows[:, k.ANSWER_POSE : k.ANSWER_POSE + D]
         cur.raw[problems, best] = rows[:, k.ANSWER_POSE + D :]
-        return advanced

@@ -116,11 +116,12 @@ def carve_scratch(column, matrices, skel, D, L, T):
 
 
 @cuda.jit(device=True)
-def write_answer(b, ran, state, status, answers):
+def write_answer(b, slot, ran, state, status, answers):
     """Problem b's Status fields, the generations the launch ran for it and its best individual
-    into answers[b] (float64)."""
+    into answers[slot] (float64): the first polish writes row b of the whole batch's answers,
+    evolve row `slot` of its own list's, which the host copies back as one prefix."""
     k = status.best[b]
-    row = answers[b]
+    row = answers[slot]
     row[ANSWER_RAN] = ran
     row[ANSWER_BEST] = k
     row[ANSWER_ACTIVE] = 1.0 if status.active[b] else 0.0
@@ -155,7 +156,7 @@ def first_polish(cur, status, skel, terms, settings, schedule, rules, initial, n
                 device_evolution.copy_individual(cur, cur, b, 0, i)
             device_evolution.rank_first(b, cur, status)
             device_evolution.settle_after_polish(b, 0, cur, terms, status, rules, False)
-            write_answer(b, 0, cur, status, answers)
+            write_answer(b, b, 0, cur, status, answers)
         else:
             unmet[int(cuda.atomic.add(answers, (B, 0), 1.0))] = b
 
@@ -179,6 +180,7 @@ def evolve(
     gen_start,
     n_gens,
     answers,
+    history_rows,
     pool,
     matrices,
 ):
@@ -187,7 +189,9 @@ def evolve(
     settling; SAMPLE_FIRST: a whole first population), then up to n_gens generations from
     gen_start, as deik.backends.cpu_kernels.run_generations does for one problem: a polish
     round (side by side, undone after the first success) when due, breeding, bookkeeping. The
-    final state of every problem is left in `cur`, and answers[b] gets its answer."""
+    final state of every problem is left in `cur`; the answer of order[slot] goes to
+    answers[slot] and its history rows to history_rows[:, slot] (n_gens, n_order, 2), so that
+    the host copies back only the rows of the problems this launch ran."""
     tid, threads = cuda.threadIdx.x, cuda.blockDim.x
     P, D = cur.pop.shape[1], cur.pop.shape[2]
     L, T = cur.levels.shape[2], cur.raw.shape[2]
@@ -264,4 +268,7 @@ def evolve(
                 device_evolution.copy_individual(nxt, cur, b, i, i)
         cuda.syncthreads()
         if tid == 0:
-            write_answer(b, swaps, cur, status, answers)
+            write_answer(b, slot, swaps, cur, status, answers)
+            for g in range(swaps):
+                history_rows[g, slot, 0] = history[g, b, 0]
+                history_rows[g, slot, 1] = history[g, b, 1]

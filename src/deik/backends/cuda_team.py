@@ -413,7 +413,7 @@ def first_polish_team(cur, status, skel, terms, settings, schedule, rules, initi
             if met:
                 device_evolution.rank_first(b, cur, status)
                 device_evolution.settle_after_polish(b, 0, cur, terms, status, rules, False)
-                write_answer(b, 0, cur, status, answers)
+                write_answer(b, b, 0, cur, status, answers)
             else:
                 unmet[int(cuda.atomic.add(answers, (B, 0), 1.0))] = b
         cuda.syncthreads()
