@@ -263,3 +263,52 @@ def test_a_heel_resting_while_its_toe_moves_between_two_rests_keeps_the_toe_s_li
     np.testing.assert_allclose(raised[mask[:, 1], 1], 0.0)
     mask[:, 1] = [True, True, False, False, False, False, False, False]  # the toe lifts for good at 2
     assert lifted_heights(heights, mask, [(0, 1, 0.15)], np.zeros(2))[4, 0] == 0.005  # no longer sunk
+
+
+def creeping_toe(frame_time: float, gap: float) -> tuple[Clip, Contacts, np.ndarray]:
+    """(clip, contacts, toe positions (N, 3)): a toe on the floor creeping along X at 3 mm per
+    30th of a second through a rest of 0.1 s, shuffling 2 cm forward over the next `gap` seconds
+    and creeping on through a rest of 0.4 s, at `frame_time` seconds a frame (the contacts are
+    the two rests)."""
+    rate, first, second = 0.09, round(0.1 / frame_time), round(0.4 / frame_time)
+    between = round(gap / frame_time)
+    n = first + between + second
+    speed = np.full(n, rate * frame_time)
+    speed[first : first + between] += 0.02 / between
+    poses = np.zeros((n, 3))
+    poses[1:, 0] = np.cumsum(speed[1:])
+    sk = build_skeleton([Joint("root", None, dofs=translation("XYZ", -1.0, 1.0))], [Site("toe", "root")])
+    clip = Clip.from_poses(sk, poses, frame_time)
+    contacts = contacts_from_ranges(clip, {"toe": [(0, first), (first + between, n)]})
+    return clip, contacts, poses
+
+
+@pytest.mark.parametrize("frame_time", [1 / 30, 1 / 120])
+def test_two_rests_a_move_apart_plant_the_capture_s_move_apart(frame_time):
+    """A creeping toe's rests either side of a shuffle (a gap of at most ground.GAP seconds):
+    their plants lie as far apart as the toe moves across the gap in the capture, at any frame
+    rate, where each rest's own median would put them farther apart (the second rest's median
+    lies halfway through its creep) and the toe would move faster between them than captured."""
+    clip, contacts, p = creeping_toe(frame_time, gap=0.034)
+    (a, b), (c, d) = contacts.intervals("toe")
+    assert c - b == round(0.034 / frame_time) and c - b >= 1  # a gap of one frame at 30 fps, four at 120
+    targets = planted_targets(clip, contacts)[:, 0]
+    move = p[c] - p[b - 1]
+    np.testing.assert_allclose(targets[c] - targets[a], move, atol=1e-12)
+    alone = np.median(p[c:d], axis=0) - np.median(p[a:b], axis=0)
+    assert alone[0] > move[0] + 0.005  # what each rest's median alone gives: 5 mm or more farther
+    # both rests count as they would alone: the first plant is the median over both, the
+    # second's positions moved back by the move
+    shifted = np.concatenate([p[a:b], p[c:d] - move])
+    np.testing.assert_allclose(targets[a], np.median(shifted, axis=0), atol=1e-12)
+    assert (targets[a:b] == targets[a]).all() and (targets[c:d] == targets[c]).all()
+
+
+def test_two_rests_a_step_apart_plant_where_each_rests():
+    """A gap longer than ground.GAP (the toe lifted and stepped) leaves each rest's own plant:
+    the median of its own positions."""
+    clip, contacts, p = creeping_toe(1 / 30, gap=0.2)
+    (a, b), (c, d) = contacts.intervals("toe")
+    targets = planted_targets(clip, contacts)[:, 0]
+    np.testing.assert_allclose(targets[a], np.median(p[a:b], axis=0), atol=1e-12)
+    np.testing.assert_allclose(targets[c], np.median(p[c:d], axis=0), atol=1e-12)

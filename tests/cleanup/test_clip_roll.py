@@ -2,13 +2,15 @@
 is known: the procedural walk (benchmarks/clip_walk.py: each foot flat and still through its
 stance) raised 1 cm, so its resting soles sit above the floor where nothing but the fix holds
 their height, and skating (the whole body swaying 2 cm back and forth along the walk), so each
-plant holds a foot where the capture slides it; and resting runs made of points whose motion is
-given frame by frame."""
+plant holds a foot where the capture slides it; the walk with one foot swivelling on its heel
+(its toe creeping, then moving 2 cm in a frame); and resting runs made of points whose motion
+is given frame by frame."""
 
 import dataclasses
 
 import numpy as np
 
+import deik
 from benchmarks.clip_rigs import format_rig
 from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import on_body
@@ -20,6 +22,7 @@ from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
 
 RAISED, SWAY, SWAY_PERIOD = 0.01, 0.02, 0.55  # metres, metres, seconds
+CREEP, SWIVEL, SWIVEL_FRAME = 0.5, 8.0, 9  # degrees a frame, degrees in one frame, its frame
 
 
 def skating_walk():
@@ -82,3 +85,36 @@ def test_a_resting_run_ends_before_the_frames_a_lift_off_moves_into_at_more_than
     # slower than `step`, or without positions, nothing goes
     assert (rest_runs(mask, dt, positions, 4 * step)[:, 0] == mask[:, 0]).all()
     assert (rest_runs(mask, dt)[:, 0] == mask[:, 0]).all()
+
+
+def swivelling_walk():
+    """The procedural walk whose right foot, standing from frame 0 to 20, turns on its ankle
+    (about up) CREEP degrees a frame and SWIVEL more into frame SWIVEL_FRAME, as a Clip."""
+    rig = procedural_walk().rig
+    frames = rig.frames.copy()
+    k = np.arange(len(frames))
+    yaw = CREEP * np.minimum(k, 20) + SWIVEL * (k >= SWIVEL_FRAME)
+    frames[:, rig.columns.index((rig.names.index("RightAnkle"), "Yrotation"))] += yaw
+    return parse_bvh(format_rig(dataclasses.replace(rig, frames=frames)), "swivelling.bvh")
+
+
+def test_a_toe_swivelling_between_two_rests_moves_as_far_as_captured():
+    """The toe rests before and after its swivel (a move, not a step: ground.py) while creeping
+    1.2 mm a frame: the cleaned toe holds still in both rests and moves between them as far as
+    the capture does (22 mm); planted at each rest's own median it moved 32 mm, faster than
+    captured (the shared punch's front toe lost its rest before such a move so)."""
+    clip = swivelling_walk()
+    body, _, contacts = resting_body(clip)
+    toe = body.feet[0].toe if "Right" in body.feet[0].ankle else body.feet[1].toe
+    (a, b), (c, d) = contacts.intervals(toe)[:2]
+    assert b <= SWIVEL_FRAME < c and c - b <= round(GAP / clip.frame_time)  # a move between two rests
+    cleaned = deik.clean_clip(clip)
+    f = body.skeleton.frame_index(toe)
+    before, after = (
+        forward_kinematics(body.skeleton, on_body(motion, body).frames).p_world_frame[:, f][:, [0, 2]]
+        for motion in (clip, cleaned.clip)
+    )
+    captured, moved = (np.linalg.norm(x[c] - x[b - 1]) for x in (before, after))
+    assert captured > 0.02 and abs(moved - captured) < 1e-3
+    steps = np.linalg.norm(np.diff(after, axis=0), axis=1)  # steps[n]: from frame n to n + 1
+    assert steps[a + 5 : b - 1].max() < 1e-4 and steps[c : d - 1].max() < 1e-3  # still (the first frames ease in)

@@ -8,9 +8,15 @@ site's clearance (how far above it a knee joint sits when the knee touches, Cont
 A plant within SNAP_FRACTION x reach above the floor is put on it when the site has no
 clearance (a sole, a toe tip); one with a clearance stays where the capture rests it, since a
 clearance is an estimate and lowering a hand onto a guessed radius could push the real hand
-into the floor. Plants of two rigidly linked
-sites (an ankle and its toe) are placed relative to each other (_linked_plants), so both can be
-met at once.
+into the floor. Rests of one site a move apart (the gap between them at most GAP seconds, as
+cleanup/ground.py keeps only where the point moves across it: a toe shuffling or swivelling
+while its heel rests) plant the capture's move apart (_moved_plants): each rest's median alone
+puts the plants of a creeping point farther apart than it moves across the gap, and the move
+between them is faster than the capture's (the shared punch's front toe moved 29 mm over two
+frames between its plants where the capture moves 19, and its rest before the move was lost).
+Plants of two rigidly linked sites (an ankle and its toe) are then placed relative to each
+other (_linked_plants), so both can be met at once: a whole foot that shuffles (heel and toe
+across the same gap) is still held where it first rested, as a foot rolling from heel to toe.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from deik.cleanup.contacts import Contacts, site_positions, true_runs
+from deik.cleanup.ground import GAP
 from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach
@@ -139,6 +146,32 @@ def _between(holder: np.ndarray, other: np.ndarray) -> np.ndarray:
     return out
 
 
+def _moved_plants(plants: dict, site: int, spans, p: np.ndarray, up: np.ndarray, gap: int, along: str) -> dict:
+    """`plants` {(site, start, stop): target (3,)} with those of `site`, whose contact intervals
+    are `spans` [(start, stop)] in order, placed the capture's move apart along the ground in
+    each chain of intervals at most `gap` frames apart (a move), from the last frame of one to
+    the first of the next: the chain's first plant is the median (`along` "median") or mean
+    ("mean") of the capture positions `p` (N, 3) of every interval less its offset from the
+    first, so every rest counts as it would alone; each plant keeps its own height."""
+    out = dict(plants)
+    chains = [[span] for span in spans[:1]]
+    for (_, stop), (start, end) in zip(spans, spans[1:]):
+        if start - stop <= gap:
+            chains[-1].append((start, end))
+        else:
+            chains.append([(start, end)])
+    centre = np.median if along == "median" else np.mean
+    for chain in (chain for chain in chains if len(chain) > 1):
+        offsets = [np.zeros(3)]
+        for (_, stop), (start, _) in zip(chain, chain[1:]):
+            move = p[start] - p[stop - 1]
+            offsets.append(offsets[-1] + move - (move @ up) * up)
+        first = centre(np.concatenate([p[a:b] - offset for (a, b), offset in zip(chain, offsets)]), axis=0)
+        for (a, b), offset in zip(chain, offsets):
+            out[site, a, b] = _on_level(first + offset, plants[site, a, b], up)
+    return out
+
+
 def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
@@ -148,7 +181,8 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
     a site rigidly linked to it is below its floor (`contacts.ground` plus its clearance); a
     height within SNAP_FRACTION x reach of the floor is put on it when the site has no
     clearance. Two sites a fixed distance apart (an ankle and its toe) whose intervals overlap
-    get targets that distance apart (_linked_plants), so both can be met at once.
+    get targets that distance apart (_linked_plants), so both can be met at once. A site's
+    intervals at most GAP seconds apart (a move) plant the capture's move apart (module notes).
     """
     if contacts.mask.shape[0] != clip.n_frames:
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
@@ -165,6 +199,9 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
             if contacts.clearance[s] == 0 and height - floor[s] <= SNAP_FRACTION * body_reach(clip.skeleton):
                 height = floor[s]
             plants[s, a, b] = mean + (height - mean @ up) * up
+    gap = max(1, int(round(GAP / clip.frame_time)))
+    for s in range(len(contacts.sites)):
+        plants = _moved_plants(plants, s, contacts.intervals(s), p[:, s], up, gap, along)
     plants = _linked_plants(plants, pairs, p, up)
     targets = np.full(p.shape, np.nan)
     for (s, a, b), target in plants.items():
