@@ -44,7 +44,6 @@ OUTLIER_ROUNDS = 3  # a run of outliers is repaired from its ends inwards, a fra
 # a jolted frame's pose from its neighbours is kept when its worst error is at most this much
 # (x size) above its own: 1.5 cm on a person, half what makes a frame an outlier
 JOLT_SLACK = 0.5 * OUTLIER_ERROR
-JOLT_TIE = 1.1  # a pose nearer its targets may jolt its neighbourhood this much more
 SMOOTHING = 2.0  # frames: the width (a Gaussian's sigma) of the smoothing rebasin starts from
 
 Targets = np.ndarray | Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -166,13 +165,17 @@ def solve_keypoints(goals: KeypointGoals, poses: np.ndarray, frames: np.ndarray 
     return poses
 
 
+def _key_points(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
+    """(n, K, 3) where the goals' frames lie at `poses` (n, D)."""
+    kin = forward_kinematics(goals.skeleton, poses)
+    return np.stack([kin.position(name) for name in goals.names], axis=1)
+
+
 def worst_errors(goals: KeypointGoals, poses: np.ndarray, frames: np.ndarray | None = None) -> np.ndarray:
     """(n,) the largest distance of the goals' frames at `poses` (n, D) of the clip frames
     `frames` (default all) from their targets (targets_at), length units."""
     frames = np.arange(len(poses)) if frames is None else np.asarray(frames)
-    kin = forward_kinematics(goals.skeleton, poses)
-    x = np.stack([kin.position(name) for name in goals.names], axis=1)
-    return np.linalg.norm(x - targets_at(goals.targets, poses, frames), axis=-1).max(axis=1)
+    return np.linalg.norm(_key_points(goals, poses) - targets_at(goals.targets, poses, frames), axis=-1).max(axis=1)
 
 
 def _local_median(values: np.ndarray, span: int) -> np.ndarray:
@@ -224,12 +227,6 @@ def rebasin(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
     return solve_keypoints(goals, smoothed(poses, full_turns(goals.skeleton)))
 
 
-def _key_points(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
-    """(n, K, 3) where the goals' frames lie at `poses` (n, D)."""
-    kin = forward_kinematics(goals.skeleton, poses)
-    return np.stack([kin.position(name) for name in goals.names], axis=1)
-
-
 def _jolt(x: np.ndarray, first: int, last: int) -> tuple[float, float]:
     """(largest step, largest second difference) of the points x (N, K, 3) (length units per
     frame, and per frame squared) from frame first - 1 to last + 1: how much the poses of frames
@@ -252,11 +249,11 @@ def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> 
     accelerates past what its targets do: cleanup.dynamics.jolted_points) solved again whole,
     from the pose of the frame before it and from that of the frame after; the run's poses that
     jolt the neighbourhood least (its points' largest second difference), moving none of them
-    faster, are kept when no frame of them lies further from its targets
-    than the run and its two neighbours did, or than JOLT_SLACK x size above its own. A redundant
-    limb that cannot reach all its key points has several close compromises, and frames that
-    alternate between two of them (an arm flicking between two elbow angles) pass the outlier
-    test; up to OUTLIER_ROUNDS rounds."""
+    faster, are kept when no frame of them lies further from its targets than the run and its
+    two neighbours did, or than JOLT_SLACK x size above its own. A redundant limb that cannot
+    reach all its key points has several close compromises, and frames that alternate between
+    two of them (an arm flicking between two elbow angles) pass the outlier test; up to
+    OUTLIER_ROUNDS rounds."""
     poses = np.array(poses, float)
     N = len(poses)
     frames = np.arange(N)
@@ -270,7 +267,7 @@ def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> 
             own = worst_errors(goals, poses[run], run)
             allowed = np.maximum(worst_errors(goals, poses[around], around).max(), own + JOLT_SLACK * goals.length)
             best, (speed, lowest) = None, _jolt(x, first, last)
-            for seed in {max(first - 1, 0), min(last + 1, N - 1)}:
+            for seed in dict.fromkeys((max(first - 1, 0), min(last + 1, N - 1))):  # before, after
                 found = solve_keypoints(goals, np.repeat(poses[seed : seed + 1], len(run), axis=0), run)
                 if (worst_errors(goals, found, run) > allowed).any():
                     continue
