@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import jolted_points
 from deik.cleanup.warmstart import at_most, position_jacobian
 from deik.model.joints import ROTATE
@@ -238,12 +239,6 @@ def _jolt(x: np.ndarray, first: int, last: int) -> tuple[float, float]:
     return speed, float(np.linalg.norm(turns, axis=-1).max()) if len(turns) else 0.0
 
 
-def _runs(frames: np.ndarray) -> list[tuple[int, int]]:
-    """[(first, last)] of the runs of consecutive frames in the sorted `frames`."""
-    breaks = np.flatnonzero(np.diff(frames) > 1)
-    return list(zip(frames[np.r_[0, breaks + 1]], frames[np.r_[breaks, len(frames) - 1]]))
-
-
 def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> np.ndarray:
     """(N, D) `poses` (N, D) with each run of frames where a key point jolts (moves or
     accelerates past what its targets do: cleanup.dynamics.jolted_points) solved again whole,
@@ -259,10 +254,10 @@ def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> 
     frames = np.arange(N)
     for _ in range(OUTLIER_ROUNDS if N >= 3 else 0):
         x = _key_points(goals, poses)
-        jolted = np.flatnonzero(jolted_points(targets_at(goals.targets, poses, frames), x, frame_time, goals.length))
+        jolted = jolted_points(targets_at(goals.targets, poses, frames), x, frame_time, goals.length)
         changed = False
-        for first, last in _runs(jolted) if jolted.size else []:
-            run = np.arange(first, last + 1)
+        for first, stop in true_runs(jolted):
+            last, run = stop - 1, np.arange(first, stop)
             around = np.arange(max(first - 1, 0), min(last + 1, N - 1) + 1)
             own = worst_errors(goals, poses[run], run)
             allowed = np.maximum(worst_errors(goals, poses[around], around).max(), own + JOLT_SLACK * goals.length)
