@@ -19,6 +19,10 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   floats, the feet slide.
 - noisy: capture noise (0.2 degrees on every rotation channel, 1 mm on the root) and the whole
   body 12 mm lower, so the feet rest under the floor.
+- bind: the rig's bind pose (every rotation channel 0: a T-pose) as a first frame before the
+  motion, as many exporters write it: over the first frame's root, standing on the floor (its
+  lowest joint or End Site at height 0).
+- glitch: the middle frame's rotation channels all 0: the pose leaps into the T-pose and back.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from benchmarks.clip_rigs import Rig, joint_values, parse_rig
+from benchmarks.clip_rigs import Rig, joint_values, parse_rig, pose_points
 
 CANON = (
     "Hips", "RightHip", "RightKnee", "RightAnkle", "LeftHip", "LeftKnee", "LeftAnkle", "Chest", "Neck",
@@ -48,6 +52,7 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
     "walk": "noisy", "run": "fast", "jump": "backwards", "crawl": "limbs", "getup_facedown": "anon",
     "kick": "noisy", "punch": "limbs", "dance_a": "backwards",
 }  # fmt: skip
+CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,15 +209,44 @@ def noisy(case: Case, seed: int = 0) -> Case:
     return dataclasses.replace(case, name=case.name + "_noisy", rig=rig, description="noise, 12 mm under the floor")
 
 
-TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy}
+def _t_pose(rig: Rig, frame: np.ndarray) -> np.ndarray:
+    """`frame` (C,) of `rig` with every rotation channel 0: the rig's T-pose."""
+    out = frame.copy()
+    out[[k for k, (_, c) in enumerate(rig.columns) if c.endswith("rotation")]] = 0.0
+    return out
+
+
+def bind(case: Case) -> Case:
+    """The bind transform (module notes)."""
+    rig = case.rig
+    pose = _t_pose(rig, rig.frames[0])
+    lowest = pose_points(dataclasses.replace(rig, frames=pose[None]))[0, :, 1].min()
+    pose[[k for k, (j, c) in enumerate(rig.columns) if j == 0 and c == "Yposition"]] -= lowest
+    rig = dataclasses.replace(rig, frames=np.concatenate([pose[None], rig.frames]))
+    return dataclasses.replace(case, name=case.name + "_bind", rig=rig, description="a T-pose frame before the motion")
+
+
+def glitch(case: Case) -> Case:
+    """The glitch transform (module notes)."""
+    frames = case.rig.frames.copy()
+    middle = len(frames) // 2
+    frames[middle] = _t_pose(case.rig, frames[middle])
+    rig = dataclasses.replace(case.rig, frames=frames)
+    return dataclasses.replace(case, name=case.name + "_glitch", rig=rig, description="the middle frame a T-pose")
+
+
+TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
+              "bind": bind, "glitch": glitch}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
-    """Every shared clip in `folder` (or those `names`), its studio rig and its EXTRAS transform."""
+    """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform and
+    its CUTS transform, if any."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
         if names and base.name not in names:
             continue
         out += [base, studio(base), TRANSFORMS[EXTRAS.get(base.name, "noisy")](base)]
+        out += [TRANSFORMS[CUTS[base.name]](base)] if base.name in CUTS else []
     return out

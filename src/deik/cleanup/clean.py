@@ -15,15 +15,19 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from deik.cleanup.body import Body, body_of, on_body
-from deik.cleanup.clip_goals import GRAVITY, ClipGoals, Reach
+from deik.cleanup.clip_goals import FLOOR_TOLERANCE, GRAVITY, ClipGoals, Reach
 from deik.cleanup.contacts import Contacts
+from deik.cleanup.cuts import Cuts, find_cuts
 from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
-from deik.cleanup.ground import FloorChoice, body_paths, floor_it_rests_on
+from deik.cleanup.floor import penetration
+from deik.cleanup.ground import FloorChoice, body_paths, clearances, floor_it_rests_on
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
 from deik.errors import InputError
@@ -155,7 +159,8 @@ class CleanPlan:
     table, if given), the `body` it is fixed on (cleanup/body.py: soles, radii, span), `goals`,
     the `contacts` (None for none), the `floor` (ground.FloorChoice: height, how it was found)
     with whether it is `floor_kept` as a goal, the `reach` tracks and the length `unit`
-    (`unit_guessed` when no unit was given)."""
+    (`unit_guessed` when no unit was given); `captured` the clip as given and its `cuts` (the
+    fix sees `clip`, cuts.stand_in of it: cleanup/cuts.py)."""
 
     clip: Motion
     options: CleanOptions
@@ -167,6 +172,8 @@ class CleanPlan:
     reach: tuple[Reach, ...]
     unit: str
     unit_guessed: bool
+    captured: Motion
+    cuts: Cuts
 
     def run(self, progress: Callable[[int, str], object] | None = None) -> CleanedClip:
         """Fix the clip (cleanup/fix.fix_clip) and record the outcome; `progress(met, stage)` as fix_clip's."""
@@ -175,8 +182,23 @@ class CleanPlan:
         tracks = [(r.site, r.mask, r.targets) for r in self.reach]
         floor = self.floor.record() | {"kept": self.floor_kept}
         report = clip_document(fix, self.contacts, tracks, self.unit, METRES[self.unit], FAR_DEGREES, floor)
+        clip, report = self._with_kept_frames(fix.clip, report)
         height = self.floor.height
-        return CleanedClip(fix.clip, fix.original, report, fix, self.contacts, height, self.unit, self.unit_guessed)
+        return CleanedClip(clip, self.captured, report, fix, self.contacts, height, self.unit, self.unit_guessed)
+
+    def _with_kept_frames(self, fixed: Motion, report: dict) -> tuple[Motion, dict]:
+        """The fixed clip with the frames the cuts keep written back as captured, and the report
+        saying so: such a frame is met when nothing of the body lies under the floor in it."""
+        report = report | {"cuts": self.cuts.record()}
+        kept = np.flatnonzero(self.cuts.kept)
+        if not len(kept):
+            return fixed, report
+        clip = replace(fixed, frames=np.where(self.cuts.kept[:, None], self.captured.frames, fixed.frames))
+        part = on_body(replace(clip, frames=clip.frames[kept]), self.body)
+        depth = penetration(part.kinematics, self.body.skeleton, self.floor.height, clearances(self.body))
+        met = np.array(report["met_per_frame"], bool)
+        met[kept] = depth <= FLOOR_TOLERANCE * self.body.span
+        return clip, report | {"met_per_frame": met.tolist(), "frames_met": int(met.sum())}
 
 
 def _within_limits(clip: Motion, path: str) -> Motion:
@@ -205,7 +227,11 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     clip = read_clip(clip)
     if options.limits:
         clip = _within_limits(clip, options.limits)
-    body = body_of(clip)
+    captured, body = clip, body_of(clip)
+    cuts = find_cuts(clip, body.span)
+    clip = cuts.stand_in(clip)
+    if clip is not captured:  # the body as the motion without its jumps shows it
+        body = body_of(clip)
     motion = on_body(clip, body)
     paths = body_paths(motion, body)
     floor, keep_floor = floor_choice(motion, body, options.floor, paths)
@@ -244,6 +270,8 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
         reach=reach,
         unit=unit,
         unit_guessed=not options.units,
+        captured=captured,
+        cuts=cuts,
     )
 
 

@@ -29,7 +29,7 @@ from deik.cli.arguments import (
 from deik.console import add_output_flags, frames_reporter, progress_bar, show_progress
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
-from deik.viz.text import figure, format_table
+from deik.viz.text import cut_lines, figure, format_table, frame_spans
 
 if TYPE_CHECKING:  # deik.cleanup.clean loads when a clip is cleaned
     from deik.cleanup.clean import CleanedClip, CleanOptions
@@ -176,16 +176,6 @@ def _print_tables(document: dict, quiet: bool) -> None:
     print(format_table(["metric", "unit", "before", "after"], rows))
 
 
-def _spans(frames: list[int]) -> str:
-    """Frames as inclusive ranges: [3, 4, 5, 9] -> "3-5, 9"."""
-    runs, start = [], frames[0]
-    for a, b in zip(frames, frames[1:] + [None]):
-        if b != a + 1:
-            runs.append(f"{start}-{a}" if a > start else f"{a}")
-            start = b
-    return ", ".join(runs)
-
-
 def _summary_notes(document: dict) -> list[str]:
     """Lines for the report picture: the standard clip metrics, the peaks against the capture's."""
     metrics = document["metrics"]
@@ -212,9 +202,9 @@ def _summary_notes(document: dict) -> list[str]:
 
 
 def _outcome_lines(document: dict) -> list[str]:
-    """Lines after the tables: the floor, the frames missing a goal and those whose change was
+    """Lines after the tables: the cuts in the capture, the floor, the frames missing a goal and those whose change was
     taken back, balance kept and skipped, peaks against the capture's (the worst point's)."""
-    lines = []
+    lines = cut_lines(document["cuts"], "written back as captured")
     floor, unit = document["floor"], document["length_unit"]
     if floor is not None:
         from deik.cleanup.ground import FloorChoice
@@ -224,15 +214,15 @@ def _outcome_lines(document: dict) -> list[str]:
     unmet = [n for n, met in enumerate(document["met_per_frame"]) if not met]
     if unmet:
         lines.append(
-            f"frames not met (a goal missed, the body under the floor, a resting point sliding): {_spans(unmet)}"
+            f"frames not met (a goal missed, the body under the floor, a resting point sliding): {frame_spans(unmet)}"
         )
     for key, words in (("sunk_frames", "the body under the floor"), ("sliding_frames", "a resting point sliding")):
         if document.get(key):
-            lines.append(f"  of these, {words}: {_spans(document[key])}")
+            lines.append(f"  of these, {words}: {frame_spans(document[key])}")
     if document["calmed_frames"]:
         lines.append(
             f"frames whose fix was partly taken back so that no point accelerates past x"
-            f"{document['dynamics']['peak_ratio_limit']:g} its capture peak: {_spans(document['calmed_frames'])}"
+            f"{document['dynamics']['peak_ratio_limit']:g} its capture peak: {frame_spans(document['calmed_frames'])}"
         )
     balance = document["balance"]
     if balance is not None:
@@ -240,8 +230,8 @@ def _outcome_lines(document: dict) -> list[str]:
         line = f"balance: ZMP over the support in {len(kept)} frames"
         if skipped:
             line += (
-                f"; skipped in {len(skipped)} frames ({_spans(skipped)}): holding them would move the centre of mass"
-                f" faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
+                f"; skipped in {len(skipped)} frames ({frame_spans(skipped)}): holding them would move the centre of"
+                f" mass faster than {balance['acceleration_budget_m_per_s2']:.3g} m/s^2 of acceleration or further than"
                 " the performance allows, or make the motion jolt"
             )
         lines.append(line)
@@ -299,7 +289,7 @@ def print_outcome(cleaned: CleanedClip, quiet: bool) -> None:
     _print_tables(document, quiet)
     for key, missed in cleaned.unreachable.items():
         print(
-            f"{key}: out of reach in {len(missed['frames'])} frames ({_spans(missed['frames'])}), up to "
+            f"{key}: out of reach in {len(missed['frames'])} frames ({frame_spans(missed['frames'])}), up to "
             f"{max(missed['distance_mm']):.4g} mm short; contacts and the floor come first"
         )
     passes = f"{fix.passes} DE pass{'' if fix.passes == 1 else 'es'}"

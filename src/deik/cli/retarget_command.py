@@ -20,7 +20,7 @@ from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.bvh import read_bvh, write_bvh
 from deik.io.motion import Clip
 from deik.io.trajectory import write_trajectory
-from deik.viz.text import figure, format_table
+from deik.viz.text import cut_lines, figure, format_table
 
 if TYPE_CHECKING:  # deik.retargeting loads when a clip is retargeted
     from deik.retargeting.outcome import Retarget
@@ -181,5 +181,7 @@ def run_retarget(args: argparse.Namespace) -> int:
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
+    for line in cut_lines(result.report["cuts"], "held at the motion's nearest frame in the target"):
+        print(line)
     print_velocity_steps(result)
     return 0

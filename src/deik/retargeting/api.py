@@ -6,7 +6,9 @@ from dataclasses import replace
 
 from numpy.typing import ArrayLike
 
+from deik.cleanup.body import body_of
 from deik.cleanup.coherence import hinge_channels
+from deik.cleanup.cuts import find_cuts
 from deik.cleanup.ground import check_clip_rests
 from deik.errors import InputError
 from deik.io.bvh import read_bvh
@@ -72,10 +74,27 @@ def retarget(
     is called after each stage. The source's up is its skeleton's (deik.read_bvh(path, up=...)
     for a file made with another than +Y; a map's rotation is written for a +Y-up source, and
     another is turned upright first); a source whose body does not rest on a floor along it
-    but does along another axis is refused (docs/clips.md, "Up"). ValueError for a mistake in
-    the inputs."""
+    but does along another axis is refused (docs/clips.md, "Up"). A source whose pose jumps
+    (cleanup/cuts.py) is retargeted as the motion without the jump: a bind pose before or after
+    the motion becomes a hold of the motion's nearest frame, a glitch is blended across;
+    report["cuts"] says where. ValueError for a mistake in the inputs."""
     clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
     check_clip_rests(clip)
+    cuts = find_cuts(clip, body_of(clip).span)
+    result = _retarget(cuts.stand_in(clip), to, scale, joint_map, up, velocity, progress)
+    return replace(result, report=result.report | {"cuts": cuts.record()})
+
+
+def _retarget(
+    clip: Clip,
+    to: str | Clip | Skeleton | FilePath | None,
+    scale: dict[str, float] | None,
+    joint_map: JointMap | FilePath | None,
+    up: ArrayLike | None,
+    velocity: dict[str, float] | None,
+    progress: Progress | None,
+) -> Retarget:
+    """deik.retarget of `clip` (cut to its frames, its jumps stood in for) with the same arguments."""
     if joint_map is None:
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")

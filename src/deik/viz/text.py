@@ -27,3 +27,37 @@ def figure(value: float | None, form: str = ".4g") -> str:
     """`value` to `form`, or "-" when it was not measured (None, or NaN: a clip too short for an
     acceleration, a measure with nothing to measure)."""
     return "-" if value is None or not math.isfinite(value) else f"{value:{form}}"
+
+
+def frame_spans(frames: list[int]) -> str:
+    """Frames as inclusive ranges: [3, 4, 5, 9] -> "3-5, 9"."""
+    runs, start = [], frames[0]
+    for a, b in zip(frames, frames[1:] + [None]):
+        if b != a + 1:
+            runs.append(f"{start}-{a}" if a > start else f"{a}")
+            start = b
+    return ", ".join(runs)
+
+
+def _frames(frames: list[int]) -> str:
+    """ "frame 3" or "frames 3-5, 9"."""
+    return f"frame{'s' if len(frames) > 1 else ''} {frame_spans(frames)}"
+
+
+def cut_lines(record: dict, kept: str) -> list[str]:
+    """Lines on the cuts of a capture (deik.cleanup.cuts.Cuts.record): its bind poses, what
+    became of them (`kept`), its glitches and the cuts cleaned across."""
+    lines = []
+    if record["kept_frames"]:
+        lines.append(f"{_frames(record['kept_frames'])}: a pose the motion jumps from or to (a bind pose), {kept}")
+    if record["bridged_frames"]:
+        lines.append(
+            f"{_frames(record['bridged_frames'])}: the pose jumps away and back (a glitch); "
+            "blended across from the frames beside them"
+        )
+    for n in record["between_takes"]:
+        lines.append(
+            f"the pose jumps between frames {n} and {n + 1} (a seam where two takes, or a loop's end and start, "
+            "meet): fixed across it as one motion"
+        )
+    return lines
