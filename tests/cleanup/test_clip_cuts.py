@@ -185,3 +185,34 @@ def test_every_shared_clip_moves_without_cuts_and_a_t_pose_beside_or_in_it_is_on
         assert np.flatnonzero(ratios >= CUT_RATIO).tolist() == [18] and 7.0 < ratios[18] < 7.6
     for rig in (bind(base).rig, with_bind_pose(base.rig, "after"), glitch(base).rig):
         assert largest_abruptness(rig) >= 9.0
+
+
+def written_differently(rig: Rig) -> Rig:
+    """`rig` with the same rotations written otherwise: a third of its frames as each joint's
+    Euler twin (a + 180, 180 - b, c + 180), every fourth frame a whole turn further."""
+    frames = rig.frames.copy()
+    n = len(frames)
+    twins = slice(n // 3, 2 * n // 3)
+    for j, channels in enumerate(rig.channels):
+        first = sum(len(c) for c in rig.channels[:j])
+        a, b, c = [first + k for k, name in enumerate(channels) if name.endswith("rotation")]
+        frames[twins, a] += 180.0
+        frames[twins, b] = 180.0 - frames[twins, b]
+        frames[twins, c] += 180.0
+    frames[::4, rotation_columns(rig)] += 360.0
+    return dataclasses.replace(rig, frames=frames)
+
+
+def test_rotations_written_as_euler_twins_or_whole_turns_clean_as_the_clip_itself(shared_data, tmp_path):
+    """The same rotations in other channel values are the same motion: no leap, no cut, the same
+    cleaned clip (a third of the shared dance written as Euler twins had left 20 mm of the body
+    under the floor, where the dance itself leaves 1.7 mm)."""
+    dance = source_case(shared_data / "humanoid" / "humanoid3d_dance_a.bvh").rig
+    other = written_differently(dance)
+    assert np.abs(world_frames(other)[1] - world_frames(dance)[1]).max() < 1e-9
+    assert np.abs(other.frames - dance.frames).max() > 300
+    out_dance, report_dance = cleaned_rig(dance, tmp_path, "dance")
+    out_other, report_other = cleaned_rig(other, tmp_path, "other")
+    assert report_other["cuts"]["cut_after_frames"] == report_dance["cuts"]["cut_after_frames"] == []
+    assert report_other["met_per_frame"] == report_dance["met_per_frame"]
+    assert np.abs(world_frames(out_other)[1] - world_frames(out_dance)[1]).max() < 1e-4  # 0.1 mm: the files round

@@ -31,6 +31,7 @@ from deik.cleanup.ground import FloorChoice, body_paths, clearances, floor_it_re
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
 from deik.errors import InputError
+from deik.io.euler import canonical_frames
 from deik.io.files import FilePath
 from deik.io.motion import Clip
 from deik.io.trajectory import Motion, Trajectory
@@ -225,6 +226,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     if not isinstance(options, CleanOptions):
         raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
     clip = read_clip(clip)
+    clip = replace(clip, frames=canonical_frames(clip.skeleton, clip.frames))  # turns and Euler twins are no motion
     if options.limits:
         clip = _within_limits(clip, options.limits)
     captured, body = clip, body_of(clip)

@@ -8,7 +8,8 @@ A joint's rotation DOFs (radians, about signed coordinate axes) describe the sam
   LOCK), a and c trade: (a + s t, b, c - t) for any t, s = +-1 by the axes.
 `continuous_angles` re-expresses solved poses nearest the frames they replace;
 `continuous_frames` re-expresses every frame nearest the frame before it, so that no channel
-jumps by a turn or flips where the motion itself is smooth.
+jumps by a turn or flips where the motion itself is smooth; `canonical_frames` also writes the
+first frame nearest 0, so that one motion reads the same whatever values its file chose.
 """
 
 from __future__ import annotations
@@ -74,14 +75,32 @@ def _lock_sign(axes: np.ndarray, b: float) -> float:
     return float(np.sign((axis_angle_matrix(axes[1], b) @ axes[2]) @ axes[0]))
 
 
+def _rotation_groups(sk: Skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """(the Tait-Bryan triples (T, 3) of DOF indices, (D,) bool the other rotation DOFs)."""
+    triples = np.array(tait_bryan_triples(sk), dtype=np.intp).reshape(-1, 3)
+    single = sk.dof_kind == ROTATE
+    single[triples.ravel()] = False
+    return triples, single
+
+
+def canonical_frames(sk: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """`frames` (N, D) written one way whatever whole turns or Euler twins a file used: the first
+    frame's rotations nearest 0 (each triple or its twin, by whole turns), every later frame
+    nearest the one before it (continuous_frames); no rotation changes."""
+    out = np.array(frames, dtype=np.float64)
+    if len(out):
+        triples, single = _rotation_groups(sk)
+        out[0, single] = nearest_turn(out[0, single], 0.0)
+        out[0, triples] = _nearest_triple(out[0, triples], np.zeros(triples.shape))
+    return continuous_frames(sk, out)
+
+
 def continuous_frames(sk: Skeleton, frames: np.ndarray) -> np.ndarray:
     """`frames` (N, D) with every frame after the first re-expressed nearest the one before
     it (see the module notes; the first frame is kept), radians / length units; no rotation
     changes (at gimbal lock by at most LOCK radians times the trade)."""
     out = np.array(frames, dtype=np.float64)
-    triples = np.array(tait_bryan_triples(sk), dtype=np.intp).reshape(-1, 3)
-    single = sk.dof_kind == ROTATE
-    single[triples.ravel()] = False
+    triples, single = _rotation_groups(sk)
     for n in range(1, len(out)):
         out[n, single] = nearest_turn(out[n, single], out[n - 1, single])
         chosen = _nearest_triple(out[n, triples], out[n - 1, triples])
