@@ -215,3 +215,25 @@ def test_rotations_written_as_euler_twins_or_whole_turns_clean_as_the_clip_itsel
     assert report_other["cuts"]["cut_after_frames"] == report_dance["cuts"]["cut_after_frames"] == []
     assert report_other["met_per_frame"] == report_dance["met_per_frame"]
     assert np.abs(world_frames(out_other)[1] - world_frames(out_dance)[1]).max() < 1e-4  # 0.1 mm: the files round
+
+
+def test_info_clip_and_retarget_say_where_the_pose_jumps_and_what_became_of_it(tmp_path, capsys):
+    from deik.cli.app import main
+
+    walk = procedural_walk().rig
+    frames = with_bind_pose(walk, "before").frames.copy()
+    middle = len(frames) // 2
+    frames[middle, rotation_columns(walk)] = 0.0
+    path = tmp_path / "bound.bvh"
+    path.write_text(format_rig(dataclasses.replace(walk, frames=frames)))
+    bind = "frame 0: a pose the motion jumps from or to (a bind pose); "
+    glitch = f"frame {middle}: the pose jumps away and back (a glitch); "
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "  " + bind + "deik clip writes it back as captured" in out and "  " + glitch in out
+    assert main(["clip", str(path), "--out", str(tmp_path / "out.bvh"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert bind + "written back as captured" in out and glitch + "blended across" in out
+    scaled = ["retarget", str(path), "--scale", "RightHip=1.1", "--out", str(tmp_path / "r.bvh"), "--quiet"]
+    assert main(scaled) == 0
+    assert bind + "the target holds the motion's nearest frame there" in capsys.readouterr().out

@@ -204,7 +204,10 @@ def _summary_notes(document: dict) -> list[str]:
 def _outcome_lines(document: dict) -> list[str]:
     """Lines after the tables: the cuts in the capture, the floor, the frames missing a goal and those whose change was
     taken back, balance kept and skipped, peaks against the capture's (the worst point's)."""
-    lines = cut_lines(document["cuts"], "written back as captured")
+    lines = cut_lines(
+        document["cuts"],
+        ("written back as captured", "blended across from the frames beside it", "fixed across it as one motion"),
+    )
     floor, unit = document["floor"], document["length_unit"]
     if floor is not None:
         from deik.cleanup.ground import FloorChoice

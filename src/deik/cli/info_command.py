@@ -10,7 +10,7 @@ from deik.cli.arguments import up_of
 from deik.io.describe import describe_skeleton
 from deik.io.load import load_skeleton
 from deik.viz.marks import length_unit
-from deik.viz.text import format_table
+from deik.viz.text import cut_lines, format_table
 
 
 def _number(value: float) -> str:
@@ -37,6 +37,14 @@ def _joint_line(joint: dict) -> str:
     return f"{'  ' * joint['depth']}{joint['name']}  ({'; '.join(notes)})"
 
 
+CUT_FATES = (
+    "deik clip writes it back as captured, deik retarget holds the motion's nearest frame there",
+    "deik clip and deik retarget blend across it",
+    "deik clip and deik retarget work across it as one motion",
+)
+NO_CUTS = {"kept_frames": [], "bridged_frames": [], "between_takes": []}
+
+
 def format_info(info: dict, source: str, unit: tuple[str, str] = ("length units", "the skeleton's own")) -> str:
     """The text `deik info` prints of describe_skeleton's record `info` of `source`, lengths in
     `unit` (name, where it comes from: deik.viz.marks.length_unit)."""
@@ -50,6 +58,7 @@ def format_info(info: dict, source: str, unit: tuple[str, str] = ("length units"
     ]
     if info["clip"] is not None:
         lines.append(f"clip: {info['clip']['frames']} frames, {info['clip']['frame_time_s']:g} s per frame")
+        lines += ["  " + line for line in cut_lines(info["clip"].get("cuts") or NO_CUTS, CUT_FATES)]
     lines += ["", "joint tree:"] + ["  " + _joint_line(joint) for joint in info["joints"]]
     lines += ["", format_table(["DOF", "motion (axis)", "limits"], [_dof_cells(dof) for dof in info["dofs"]])]
     tables = (
@@ -77,5 +86,11 @@ def run_info(args: argparse.Namespace) -> int:
     """`deik info`: print the joint tree, DOFs and limits, masses and sites of a skeleton."""
     up = up_of(args)
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
-    print(format_info(describe_skeleton(loaded), args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
+    info = describe_skeleton(loaded)
+    if loaded.clip is not None and loaded.clip.n_frames > 1:
+        from deik.cleanup.body import body_of
+        from deik.cleanup.cuts import find_cuts
+
+        info["clip"]["cuts"] = find_cuts(loaded.clip, body_of(loaded.clip).span).record()
+    print(format_info(info, args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
     return 0

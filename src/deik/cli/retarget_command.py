@@ -181,7 +181,8 @@ def run_retarget(args: argparse.Namespace) -> int:
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
-    for line in cut_lines(result.report["cuts"], "held at the motion's nearest frame in the target"):
+    fates = ("the target holds the motion's nearest frame there", "retargeted blended across", "retargeted across it")
+    for line in cut_lines(result.report["cuts"], fates):
         print(line)
     print_velocity_steps(result)
     return 0

@@ -44,20 +44,17 @@ def _frames(frames: list[int]) -> str:
     return f"frame{'s' if len(frames) > 1 else ''} {frame_spans(frames)}"
 
 
-def cut_lines(record: dict, kept: str) -> list[str]:
-    """Lines on the cuts of a capture (deik.cleanup.cuts.Cuts.record): its bind poses, what
-    became of them (`kept`), its glitches and the cuts cleaned across."""
+def cut_lines(record: dict, fates: tuple[str, str, str]) -> list[str]:
+    """Lines on the cuts of a capture (deik.cleanup.cuts.Cuts.record): its bind poses, its
+    glitches and its seams, each followed by what became of it, `fates` (bind, glitch, seam)."""
     lines = []
     if record["kept_frames"]:
-        lines.append(f"{_frames(record['kept_frames'])}: a pose the motion jumps from or to (a bind pose), {kept}")
+        lines.append(f"{_frames(record['kept_frames'])}: a pose the motion jumps from or to (a bind pose); {fates[0]}")
     if record["bridged_frames"]:
-        lines.append(
-            f"{_frames(record['bridged_frames'])}: the pose jumps away and back (a glitch); "
-            "blended across from the frames beside them"
-        )
+        lines.append(f"{_frames(record['bridged_frames'])}: the pose jumps away and back (a glitch); {fates[1]}")
     for n in record["between_takes"]:
         lines.append(
             f"the pose jumps between frames {n} and {n + 1} (a seam where two takes, or a loop's end and start, "
-            "meet): fixed across it as one motion"
+            f"meet); {fates[2]}"
         )
     return lines
