@@ -237,3 +237,12 @@ def test_info_clip_and_retarget_say_where_the_pose_jumps_and_what_became_of_it(t
     scaled = ["retarget", str(path), "--scale", "RightHip=1.1", "--out", str(tmp_path / "r.bvh"), "--quiet"]
     assert main(scaled) == 0
     assert bind + "the target holds the motion's nearest frame there" in capsys.readouterr().out
+
+
+def test_a_summary_names_a_few_seams_and_counts_the_rest():
+    from deik.viz.text import SEAMS_SHOWN, cut_lines
+
+    record = {"kept_frames": [], "bridged_frames": [], "between_takes": list(range(10, 200, 10))}
+    (line,) = cut_lines(record, ("kept", "blended", "across"))
+    assert line.startswith("the pose jumps between frames 10 and 11, 20 and 21,")
+    assert f"and {len(record['between_takes']) - SEAMS_SHOWN} more" in line and line.endswith("; across")

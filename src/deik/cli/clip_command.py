@@ -206,7 +206,7 @@ def _outcome_lines(document: dict) -> list[str]:
     taken back, balance kept and skipped, peaks against the capture's (the worst point's)."""
     lines = cut_lines(
         document["cuts"],
-        ("written back as captured", "blended across from the frames beside it", "fixed across it as one motion"),
+        ("written back as captured", "blended across from the frames beside it", "fixed across as one motion"),
     )
     floor, unit = document["floor"], document["length_unit"]
     if floor is not None:

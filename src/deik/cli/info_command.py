@@ -40,7 +40,7 @@ def _joint_line(joint: dict) -> str:
 CUT_FATES = (
     "deik clip writes it back as captured, deik retarget holds the motion's nearest frame there",
     "deik clip and deik retarget blend across it",
-    "deik clip and deik retarget work across it as one motion",
+    "deik clip and deik retarget work across as one motion",
 )
 NO_CUTS = {"kept_frames": [], "bridged_frames": [], "between_takes": []}
 

@@ -181,7 +181,7 @@ def run_retarget(args: argparse.Namespace) -> int:
         f"{summary['frames_count']} frames of {os.path.basename(args.clip)} onto "
         f"{result.motion.skeleton.name} in {summary['wall_time_s']:.2f} s"
     )
-    fates = ("the target holds the motion's nearest frame there", "retargeted blended across", "retargeted across it")
+    fates = ("the target holds the motion's nearest frame there", "retargeted blended across", "retargeted across")
     for line in cut_lines(result.report["cuts"], fates):
         print(line)
     print_velocity_steps(result)

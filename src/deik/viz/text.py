@@ -44,6 +44,9 @@ def _frames(frames: list[int]) -> str:
     return f"frame{'s' if len(frames) > 1 else ''} {frame_spans(frames)}"
 
 
+SEAMS_SHOWN = 5  # seams a summary names; --json lists them all
+
+
 def cut_lines(record: dict, fates: tuple[str, str, str]) -> list[str]:
     """Lines on the cuts of a capture (deik.cleanup.cuts.Cuts.record): its bind poses, its
     glitches and its seams, each followed by what became of it, `fates` (bind, glitch, seam)."""
@@ -52,9 +55,12 @@ def cut_lines(record: dict, fates: tuple[str, str, str]) -> list[str]:
         lines.append(f"{_frames(record['kept_frames'])}: a pose the motion jumps from or to (a bind pose); {fates[0]}")
     if record["bridged_frames"]:
         lines.append(f"{_frames(record['bridged_frames'])}: the pose jumps away and back (a glitch); {fates[1]}")
-    for n in record["between_takes"]:
+    seams = record["between_takes"]
+    if seams:
+        pairs = ", ".join(f"{n} and {n + 1}" for n in seams[:SEAMS_SHOWN])
+        more = f" and {len(seams) - SEAMS_SHOWN} more" if len(seams) > SEAMS_SHOWN else ""
         lines.append(
-            f"the pose jumps between frames {n} and {n + 1} (a seam where two takes, or a loop's end and start, "
+            f"the pose jumps between frames {pairs}{more} (a seam where two takes, or a loop's end and start, "
             f"meet); {fates[2]}"
         )
     return lines
