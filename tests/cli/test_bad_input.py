@@ -132,6 +132,16 @@ def test_a_clip_whose_bones_all_have_zero_length_is_refused_by_clip_and_retarget
         assert not out.exists()
 
 
+def test_info_prints_a_clip_whose_bones_all_have_zero_length(tmp_path, capsys):
+    """deik info reads the file as it is: no body to look for cuts in is no error."""
+    from deik.cli import main
+
+    path = tmp_path / "point.bvh"
+    path.write_text(TOY_BVH.replace("OFFSET 0 1 0", "OFFSET 0 0 0"))
+    assert main(["info", str(path)]) == 0
+    assert "clip: 2 frames" in capsys.readouterr().out
+
+
 def test_output_that_is_the_input_is_refused_before_solving(tmp_path, capsys):
     clip = tmp_path / "walk.bvh"
     clip.write_text(TOY_BVH)

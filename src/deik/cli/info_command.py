@@ -4,9 +4,11 @@ and limits, masses and sites."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 
 from deik.cli.arguments import up_of
+from deik.errors import InputError
 from deik.io.describe import describe_skeleton
 from deik.io.load import load_skeleton
 from deik.viz.marks import length_unit
@@ -91,6 +93,7 @@ def run_info(args: argparse.Namespace) -> int:
         from deik.cleanup.body import body_of
         from deik.cleanup.cuts import find_cuts
 
-        info["clip"]["cuts"] = find_cuts(loaded.clip, body_of(loaded.clip).span).record()
+        with contextlib.suppress(InputError):  # a clip with no body (every bone of zero length) has no cuts
+            info["clip"]["cuts"] = find_cuts(loaded.clip, body_of(loaded.clip).span).record()
     print(format_info(info, args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
     return 0
