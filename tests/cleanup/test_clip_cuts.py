@@ -246,3 +246,16 @@ def test_a_summary_names_a_few_seams_and_counts_the_rest():
     (line,) = cut_lines(record, ("kept", "blended", "across"))
     assert line.startswith("the pose jumps between frames 10 and 11, 20 and 21,")
     assert f"and {len(record['between_takes']) - SEAMS_SHOWN} more" in line and line.endswith("; across")
+
+
+def test_a_pose_held_then_left_with_a_leap_is_a_seam_and_its_held_frames_stay():
+    """A capture that froze for four frames and caught up in one: nothing stood in for (a seam
+    where the leap is a cut), for a point resting while it froze rests in the capture too."""
+    walk = procedural_walk().rig
+    frames = walk.frames.copy()
+    k = len(frames) // 2
+    frames[k : k + 4] = frames[k - 1]
+    clip = read(dataclasses.replace(walk, frames=frames))
+    cuts = find_cuts(clip, body_of(clip).span)
+    assert cuts.between_takes.tolist() in ([], [k + 3]) and not cuts.bridged.any() and not cuts.kept.any()
+    assert cuts.stand_in(clip) is clip
