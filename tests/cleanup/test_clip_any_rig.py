@@ -15,6 +15,7 @@ import deik
 from benchmarks.clip_cases import studio
 from benchmarks.clip_rigs import format_rig, parse_rig, world_frames
 from benchmarks.clip_walk import ROTATIONS, procedural_walk
+from deik.cleanup.body import body_of, with_helpers
 from deik.io.bvh import parse_bvh
 from deik.model.capsules import body_reach
 
@@ -76,3 +77,74 @@ def test_a_clip_captured_far_from_the_origin_is_cleaned_as_at_the_origin(offset,
         cleaned[name] = deik.clean_clip(deik.read_bvh(path)).clip.channel_values()
     shift = moved - walk.rig.frames
     np.testing.assert_allclose(cleaned["away"] - shift, cleaned["here"], atol=1e-6 * max(1.0, offset))
+
+
+def with_ik_helpers(case):
+    """`case` on the studio rig with helper bones on its `Reference` root, as a game engine's
+    rigs carry them (an IK foot root with a bone at each foot, an IK hand root with a bone at a
+    hand and one at the other), at their places in the rest pose and never moving."""
+    rig = case.rig
+    names, parents, offsets = list(rig.names), list(rig.parents), list(rig.offsets)
+    rest = rig.frames[:1].copy()
+    rest[:, [k for k, (_, c) in enumerate(rig.columns) if c.endswith("rotation")]] = 0.0
+    rest[:, :3] = 0.0
+    at = {name: p for name, p in zip(rig.names, world_frames(dataclasses.replace(rig, frames=rest))[1][0])}
+
+    def add(name, parent, offset):
+        names.append(name)
+        parents.append(names.index(parent))
+        offsets.append(np.asarray(offset, float))
+
+    add("ik_foot_root", "Reference", (0, 0, 0))
+    add("ik_foot_r", "ik_foot_root", at["foot_r"])
+    add("ik_foot_l", "ik_foot_root", at["foot_l"])
+    add("ik_hand_root", "Reference", (0, 0, 0))
+    add("ik_hand_gun", "ik_hand_root", at["lowerarm_r"])
+    add("ik_hand_l", "ik_hand_gun", at["lowerarm_l"] - at["lowerarm_r"])
+    extra = len(names) - len(rig.names)
+    held = np.concatenate([np.concatenate([offsets[j], np.zeros(3)]) for j in range(len(rig.names), len(names))])
+    frames = np.concatenate([rig.frames, np.broadcast_to(held, (len(rig.frames), 6 * extra))], axis=1)
+    channels = rig.channels + (rig.channels[1],) * extra  # six channels, positions repeating the OFFSET
+    new = dataclasses.replace(rig, names=tuple(names), parents=tuple(parents), offsets=np.array(offsets),
+                              channels=channels, frames=frames)  # fmt: skip
+    return dataclasses.replace(case, name=case.name + "_helpers", rig=new)
+
+
+def test_helper_bones_that_never_move_are_no_part_of_the_body(tmp_path):
+    """The IK helpers stand on the floor at the feet's rest places: taken for body parts, they
+    made a foot of the Reference joint and planted it (the kick lost every foot run); still
+    branches hanging from the root are no part of the body, and the walk cleans as without them."""
+    plain = studio(sunk_walk(), order=ROTATIONS)
+    helped = with_ik_helpers(plain)
+    assert helped.rig.frames.shape[1] == plain.rig.frames.shape[1] + 36
+    body = body_of(with_helpers(deik.read_bvh(_written(helped, tmp_path))))
+    helpers = {"Reference", "ik_foot_root", "ik_foot_r", "ik_foot_l", "ik_hand_root", "ik_hand_gun", "ik_hand_l"}
+    assert not any(body.part[body.skeleton.frame_names.index(name)] for name in helpers)
+    assert {foot.ankle for foot in body.feet} == {"foot_r", "foot_l"}
+    _, plain_after = cleaned_joints(plain, tmp_path)
+    _, helped_after = cleaned_joints(helped, tmp_path)
+    # within 0.5 mm: the DE repairs draw their numbers per DOF, and the helpers' DOFs are more of them
+    gap = np.linalg.norm(helped_after - plain_after, axis=-1)
+    assert gap.max() <= 5e-4, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
+    out = parse_rig((tmp_path / f"{helped.name}_out.bvh").read_text(), helped.rig.position_mode)
+    mine = [k for k, (j, _) in enumerate(helped.rig.columns) if helped.rig.names[j] in helpers - {"Reference"}]
+    np.testing.assert_allclose(out.frames[:, mine], helped.rig.frames[:, mine], atol=1e-6)  # left as they were
+
+
+def _written(case, tmp_path):
+    path = tmp_path / f"{case.name}.bvh"
+    path.write_text(format_rig(case.rig))
+    return path
+
+
+def test_a_retarget_onto_longer_legs_leaves_helper_bones_out(tmp_path):
+    """The same-rig retarget of the studio walk with and without its helper bones: the same
+    floor (the helpers' rest places stand under it), key points and report."""
+    plain = studio(sunk_walk(), order=ROTATIONS)
+    helped = with_ik_helpers(plain)
+    reports = []
+    for case in (plain, helped):
+        result = deik.retarget(deik.read_bvh(_written(case, tmp_path)), scale={"thigh_r": 1.1, "thigh_l": 1.1})
+        reports.append(result.report["summary"])
+    for key in ("keypoint_error_mean_mm", "keypoint_error_max_mm", "penetration_max_mm", "floor_height"):
+        assert reports[1][key] == pytest.approx(reports[0][key], abs=0.01), key  # mm: its DOFs are more to solve

@@ -5,7 +5,8 @@ Size (`span`): the longest path along the bones between two ends of the body, ea
 as its median over the capture (2.14 m on the shared humanoid, 1.6 m tall). Every size,
 threshold and tolerance of deik.cleanup is a share of it, never a DOF limit or a unit. Joints
 above the body that only carry it (deik.model.capsules.carrier_joints: a `Reference` joint on the
-ground) are not part of it.
+ground) are not part of it, nor are helpers hanging from them that the clip never moves (a game
+rig's IK target bones: with_helpers marks them on the skeleton).
 
 Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
 a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
@@ -36,14 +37,14 @@ along it, thinner than a limb where it is thickest and than a palm, so two point
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
-from deik.model.capsules import bone_starts, carrier_joints, default_radii
+from deik.model.capsules import bone_starts, carrier_joints, default_radii, helper_joints, off_body
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -114,6 +115,22 @@ class Body:
 def on_body(motion: Motion, body: Body) -> Trajectory:
     """`motion`'s frames on body.skeleton (its sole sites included), same frame time and source."""
     return Trajectory(body.skeleton, motion.frames, motion.frame_time, motion.source)
+
+
+def with_helpers(clip: Motion) -> Motion:
+    """`clip` on its skeleton with the helper joints its frames show marked (skeleton.helpers:
+    deik.model.capsules.helper_joints), so that every measure of the body leaves them out, and
+    the mass a reader gave them moved back onto the body's own joints (the total kept); `clip`
+    itself when it has none."""
+    sk = clip.skeleton
+    helpers = helper_joints(sk, clip.frames)
+    if not helpers.any():
+        return clip
+    on_helper = helpers[sk.mass_joint]
+    mass = sk.mass_value
+    if on_helper.any() and mass[~on_helper].sum() > 0:  # their estimated share goes back to the body
+        mass = np.where(on_helper, 0.0, mass) * (mass.sum() / mass[~on_helper].sum())
+    return replace(clip, skeleton=replace(sk, helpers=helpers | sk.helpers, mass_value=mass))
 
 
 def median_pose(clip: Motion) -> np.ndarray:
@@ -238,8 +255,8 @@ def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -
 def body_of(clip: Motion) -> Body:
     """The Body of `clip` (module notes)."""
     sk = clip.skeleton
-    carriers = carrier_joints(sk)
-    part = np.concatenate([~carriers, ~carriers[sk.site_joint]])
+    off = carrier_joints(sk) | sk.helpers
+    part = ~off_body(sk)
     start = bone_starts(sk)
     poses = clip.frames if clip.n_frames else sk.reference[None]
     p = forward_kinematics(sk, poses).p_world_frame
@@ -257,7 +274,7 @@ def body_of(clip: Motion) -> Body:
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
     body = with_sites(sk, sites)
-    joint_radius = np.where(carriers, 0.0, default_radii(sk, standing))
+    joint_radius = np.where(off, 0.0, default_radii(sk, standing))
     own = _thinnest(sk, joint_radius, start)
     own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])

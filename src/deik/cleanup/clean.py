@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.body import Body, body_of, on_body, with_helpers
 from deik.cleanup.clip_goals import FLOOR_TOLERANCE, GRAVITY, ClipGoals, Reach
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.cuts import Cuts, find_cuts
@@ -227,6 +227,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
         raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
     clip = read_clip(clip)
     clip = replace(clip, frames=canonical_frames(clip.skeleton, clip.frames))  # turns and Euler twins are no motion
+    clip = with_helpers(clip)
     if options.limits:
         clip = _within_limits(clip, options.limits)
     captured, body = clip, body_of(clip)

@@ -10,6 +10,7 @@ from (every bone leaving a joint shares that joint's radius). Lengths are the sk
 from __future__ import annotations
 
 import weakref
+from dataclasses import replace
 
 import numpy as np
 
@@ -40,15 +41,47 @@ def carrier_joints(skeleton: Skeleton) -> np.ndarray:
     """(J,) bool: the joints above the body, which carry it but are no part of it (a `Reference`
     or `root` joint on the ground above a character's hips): the chain from the root down to
     the first joint with two or more children, when the root has no site and that joint exists.
-    A body branches at its pelvis; a chain (a robot arm) has no carrier."""
-    children = np.bincount(skeleton.parents[1:], minlength=skeleton.n_joints)
+    A body branches at its pelvis; a chain (a robot arm) has no carrier. Helper joints
+    (skeleton.helpers) are no children."""
+    moving = ~skeleton.helpers
+    children = np.bincount(skeleton.parents[1:], weights=moving[1:], minlength=skeleton.n_joints).astype(np.int64)
     sites = np.bincount(skeleton.site_joint, minlength=skeleton.n_joints)
     out = np.zeros(skeleton.n_joints, bool)
     k = 0
     while children[k] == 1 and sites[k] == 0:
         out[k] = True
-        k = int(np.flatnonzero(skeleton.parents == k)[0])
+        k = int(np.flatnonzero((skeleton.parents == k) & moving)[0])
     return out if children[k] >= 2 else np.zeros(skeleton.n_joints, bool)
+
+
+def off_body(skeleton: Skeleton) -> np.ndarray:
+    """(F,) bool: the joints and sites that are no part of the body: the carriers and the
+    helpers (skeleton.helpers), and the sites on them."""
+    joints = carrier_joints(skeleton) | skeleton.helpers
+    return np.concatenate([joints, joints[skeleton.site_joint]])
+
+
+def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: the branches hanging from
+    the joints that carry the body (carrier_joints, counting only moving branches as children)
+    whose DOFs, and those of every joint below them, keep one value through the clip. None when
+    nothing moves at all."""
+    frames = np.asarray(frames, float)
+    J = skeleton.n_joints
+    if len(frames) < 2:
+        return np.zeros(J, bool)
+    fixed = np.ptp(frames, axis=0) <= 1e-9 * np.maximum(1.0, np.abs(frames).max(axis=0))
+    still = np.array([fixed[skeleton.joint_dof_start[j] : skeleton.joint_dof_start[j + 1]].all() for j in range(J)])
+    for j in range(J - 1, 0, -1):  # children after parents: reversed is bottom-up
+        still[skeleton.parents[j]] &= still[j]
+    if still[0]:
+        return np.zeros(J, bool)
+    trial = replace(skeleton, helpers=still & (np.arange(J) > 0))
+    carriers = carrier_joints(trial)
+    out = np.zeros(J, bool)
+    for j in range(1, J):
+        out[j] = out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and still[j])
+    return out
 
 
 def body_root(skeleton: Skeleton) -> int:
@@ -70,9 +103,8 @@ def body_reach(skeleton: Skeleton) -> float:
         root = body_root(skeleton)
         longest = skeleton.reach
         if root != 0:
-            carriers = np.concatenate([carrier_joints(skeleton), np.zeros(skeleton.n_frames - skeleton.n_joints, bool)])
             depth = np.array([skeleton.path_length(f) for f in range(skeleton.n_frames)])
-            longest = float(depth[~carriers].max() - depth[root])
+            longest = float(depth[~off_body(skeleton)].max() - depth[root])
         _BODY_REACH[skeleton] = longest if longest > 0 else 1.0
     return _BODY_REACH[skeleton]
 
@@ -115,7 +147,7 @@ def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndar
     if skeleton.total_mass <= 0:
         return MASSLESS_RADIUS * longest
     p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
-    body = ~np.concatenate([carrier_joints(skeleton), np.zeros(len(skeleton.site_names), bool)])
+    body = ~off_body(skeleton)
     height = np.ptp(p[body] @ skeleton.up) or skeleton.reach
     fraction = np.bincount(skeleton.mass_joint, skeleton.mass_value, J) / skeleton.total_mass
     volume = fraction * BODY_VOLUME * height**3

@@ -54,6 +54,9 @@ class Skeleton:
     joint_labels (J,): the names poses are keyed by (angles_by_joint, joint_dofs, Comfort's
     joint_weights): the joint names, except for a URDF robot, whose skeleton joints are its
     links (the frames goals name) and whose labels are the URDF joints that move them.
+    helpers (J,) bool: joints that are no part of the body although they hang from its root (a
+    game rig's IK target bones, which a clip never moves: deik.model.capsules.helper_joints);
+    all False by default.
     """
 
     name: str
@@ -85,6 +88,7 @@ class Skeleton:
     mimic_scale: np.ndarray | None = None
     mimic_bias: np.ndarray | None = None
     joint_labels: tuple[str, ...] = ()
+    helpers: np.ndarray | None = None
 
     def __post_init__(self):
         if not self.joint_labels:
@@ -97,6 +101,7 @@ class Skeleton:
             mimic_source=np.zeros(0, np.int32),
             mimic_scale=np.zeros(0),
             mimic_bias=np.zeros(0),
+            helpers=np.zeros(len(self.joint_names), bool),
         )
         for key, value in defaults.items():
             if getattr(self, key) is None:
@@ -126,6 +131,8 @@ class Skeleton:
             _fail(f"joint_labels must be {J} distinct names, one per joint")
         if self.parents.shape != (J,) or self.offsets.shape != (J, 3):
             _fail(f"parents must be ({J},) and offsets ({J}, 3)")
+        if self.helpers.shape != (J,) or self.helpers.dtype != bool:
+            _fail(f"helpers must be ({J},) bool, one per joint")
         for k, p in enumerate(self.parents):
             if k == 0 and p != -1:
                 _fail(f"joint 0 ({self.joint_names[0]!r}) must be the root with parent -1, got {p}")

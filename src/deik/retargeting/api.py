@@ -6,7 +6,7 @@ from dataclasses import replace
 
 from numpy.typing import ArrayLike
 
-from deik.cleanup.body import body_of
+from deik.cleanup.body import body_of, with_helpers
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.cuts import find_cuts
 from deik.cleanup.ground import check_clip_rests
@@ -78,7 +78,7 @@ def retarget(
     (cleanup/cuts.py) is retargeted as the motion without the jump: a bind pose before or after
     the motion becomes a hold of the motion's nearest frame, a glitch is blended across;
     report["cuts"] says where. ValueError for a mistake in the inputs."""
-    clip = frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames)
+    clip = with_helpers(frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames))
     check_clip_rests(clip)
     cuts = find_cuts(clip, body_of(clip).span)
     result = _retarget(cuts.stand_in(clip), to, scale, joint_map, up, velocity, progress)

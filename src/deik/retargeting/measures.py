@@ -5,7 +5,8 @@
   key points (mm);
 - contact sliding: the largest step from frame n to n+1 of a contact site in contact in both,
   at frame n+1 (mm/frame; clips.metrics.sliding_steps);
-- penetration: depth of the deepest joint or site below the floor (mm; clips.floor);
+- penetration: depth of the deepest joint or site below the floor (mm; clips.floor), a rig's
+  helper bones (Skeleton.helpers) left out;
 - floating: the highest contact site in contact above floor + its clearance (mm; clips.floor);
 - limit violations: DOFs outside their limits (count; a rotation counts by its angle modulo a
   turn), which must be 0;
@@ -137,7 +138,8 @@ def retarget_report(
         clearance = floor.clearance(kin, sk, contacts)
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
     ground = 0.0 if contacts is None else contacts.ground  # a retarget without contacts: its world's floor
-    per_frame["penetration_mm"] = floor.penetration(kin, sk, ground) * mm
+    helpers = np.concatenate([sk.helpers, sk.helpers[sk.site_joint]])  # a rig's helper bones: no body to sink
+    per_frame["penetration_mm"] = floor.penetration(kin, sk, ground, np.where(helpers, np.nan, 0.0)) * mm
     per_frame["limit_violations_count"] = limit_violations(sk, motion.frames).sum(axis=1).astype(float)
     pairs = body_pairs(sk, sk.frame_names) if pairs is None else pairs
     per_frame["self_penetration_mm"] = penetration_depths(sk, motion.poses(), pairs).max(axis=1, initial=0.0) * mm

@@ -87,12 +87,14 @@ def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None
     notes); `progress(frames, stage)` is called after the space-time pass."""
     began = time.perf_counter()
     sk = clip.skeleton
+    target = replace(target, helpers=sk.helpers)  # the same rig: the same joints
     floor = rest_floor(clip, stature(sk))
     ratio = leg_ratio(sk, target, sk.frame_names)
     frames = scaled_root(clip, target, floor, ratio)
     target = _room_to_travel(target, frames)
     scaled = Clip(target, frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
-    names = list(target.frame_names)
+    helpers = np.concatenate([sk.helpers, sk.helpers[sk.site_joint]])  # the source's helper bones: no key points
+    names = [name for name, helper in zip(target.frame_names, helpers) if not helper]
     kin = forward_kinematics(target, scaled.poses())
     targets = np.stack([kin.position(name) for name in names], axis=1)
     searched = ~hinge_channels(clip) & ~((target.dof_kind == TRANSLATE) & (target.dof_joint > 0))

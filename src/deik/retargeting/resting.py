@@ -50,8 +50,10 @@ def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float)
 
 def rest_floor(clip: Motion, size: float) -> float:
     """The height (along up, length units) `clip` rests on (module notes); `size` its stature."""
-    p = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
-    heights = p @ clip.skeleton.up
+    sk = clip.skeleton
+    body = ~np.concatenate([sk.helpers, sk.helpers[sk.site_joint]])  # a rig's helper bones are no body
+    p = forward_kinematics(sk, clip.frames).p_world_frame[:, body]
+    heights = p @ sk.up
     low = p[np.arange(len(p)), heights.argmin(axis=1)]
     slow = _slow(low[:, None], p, clip.frame_time, size)[:, 0]
     return float(np.percentile(heights.min(axis=1)[slow] if slow.any() else heights.min(axis=1), FLOOR_PERCENTILE))
