@@ -148,3 +148,19 @@ def test_a_retarget_onto_longer_legs_leaves_helper_bones_out(tmp_path):
         reports.append(result.report["summary"])
     for key in ("keypoint_error_mean_mm", "keypoint_error_max_mm", "penetration_max_mm", "floor_height"):
         assert reports[1][key] == pytest.approx(reports[0][key], abs=0.01), key  # mm: its DOFs are more to solve
+
+
+@pytest.mark.parametrize("family", ["source", "studio"])
+def test_still_legs_are_no_helpers(family, tmp_path):
+    """A clip whose legs never move (an upper body gesturing over planted legs) keeps its legs:
+    a body's still branch starts a bone away from its parent, where a helper root sits on it."""
+    walk = procedural_walk()
+    case = walk if family == "source" else studio(walk, order=ROTATIONS)
+    rig = case.rig
+    legs = {case.names[name] for name in ("RightHip", "RightKnee", "RightAnkle", "LeftHip", "LeftKnee", "LeftAnkle")}
+    frames = rig.frames.copy()
+    frozen = [k for k, (j, c) in enumerate(rig.columns) if rig.names[j] in legs]
+    frames[:, frozen] = frames[0, frozen]
+    clip = deik.read_bvh(_written(dataclasses.replace(case, rig=dataclasses.replace(rig, frames=frames)), tmp_path))
+    assert with_helpers(clip) is clip
+    assert len(body_of(clip).feet) == 2

@@ -62,10 +62,12 @@ def off_body(skeleton: Skeleton) -> np.ndarray:
 
 
 def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
-    """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: the branches hanging from
-    the joints that carry the body (carrier_joints, counting only moving branches as children)
-    whose DOFs, and those of every joint below them, keep one value through the clip. None when
-    nothing moves at all."""
+    """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: branches that never move
+    against their parents (every DOF in them keeps one value through the clip) hanging from the
+    joints that carry the body (carrier_joints, counting such branches as no children) and
+    starting where the carrier is (no offset from it), as a game rig's IK target roots do.
+    (A body's own still branch, such as the legs of a seated clip, starts a bone away from its
+    parent.) None when the clip has fewer than two frames or nothing in it moves."""
     frames = np.asarray(frames, float)
     J = skeleton.n_joints
     if len(frames) < 2:
@@ -74,13 +76,14 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     still = np.array([fixed[skeleton.joint_dof_start[j] : skeleton.joint_dof_start[j + 1]].all() for j in range(J)])
     for j in range(J - 1, 0, -1):  # children after parents: reversed is bottom-up
         still[skeleton.parents[j]] &= still[j]
-    if still[0]:
+    on_parent = np.linalg.norm(skeleton.offsets, axis=1) <= 1e-9 * max(1.0, skeleton.reach)
+    tops = still & on_parent & (np.arange(J) > 0)
+    if still[0] or not tops.any():
         return np.zeros(J, bool)
-    trial = replace(skeleton, helpers=still & (np.arange(J) > 0))
-    carriers = carrier_joints(trial)
+    carriers = carrier_joints(replace(skeleton, helpers=tops))
     out = np.zeros(J, bool)
     for j in range(1, J):
-        out[j] = out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and still[j])
+        out[j] = out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and tops[j])
     return out
 
 
