@@ -90,10 +90,10 @@ def run_info(args: argparse.Namespace) -> int:
     loaded = load_skeleton(args.skeleton, base=args.base, tip=args.tip, segments=args.segments, up=up)
     info = describe_skeleton(loaded)
     if loaded.clip is not None and loaded.clip.n_frames > 1:
-        from deik.cleanup.body import body_of
+        from deik.cleanup.body import body_of, with_helpers
         from deik.cleanup.cuts import find_cuts
 
         with contextlib.suppress(InputError):  # a clip with no body (every bone of zero length) has no cuts
-            info["clip"]["cuts"] = find_cuts(loaded.clip, body_of(loaded.clip).span).record()
+            info["clip"]["cuts"] = find_cuts(loaded.clip, body_of(with_helpers(loaded.clip)).span).record()
     print(format_info(info, args.skeleton, length_unit(loaded.skeleton, loaded.kind)))
     return 0
