@@ -99,13 +99,20 @@ def abruptness(p: np.ndarray, span: float, around: int) -> np.ndarray:
     around it."""
     moves = np.diff(p, axis=0)
     step = np.linalg.norm(moves, axis=-1).mean(axis=1)
-    acceleration = np.linalg.norm(np.diff(moves, axis=0), axis=-1).mean(axis=1)  # [m]: frame m + 1
     out = np.zeros(len(step))
-    for n in np.flatnonzero(step >= CUT_SPAN * span):
-        own = [m for m in (n - 1, n) if 0 <= m < len(acceleration)]  # frames n and n + 1
-        others = [m for m in range(n - 1 - around, n + 1 + around) if 0 <= m < len(acceleration) and m not in own]
-        if own and others:
-            out[n] = acceleration[own].min() / max(float(np.median(acceleration[others])), np.finfo(float).tiny)
+    if len(step) < 2:
+        return out
+    acceleration = np.linalg.norm(np.diff(moves, axis=0), axis=-1).mean(axis=1)  # [m]: frame m + 1
+    padded = np.pad(acceleration, (around + 1, around + 1), constant_values=np.nan)
+    # step n: its frames' accelerations are [n - 1] and [n]; the window around them [n - 1 - around, n + around]
+    window = np.lib.stride_tricks.sliding_window_view(padded, 2 * around + 2)[: len(step)].copy()
+    own = window[:, around : around + 2].copy()
+    window[:, around : around + 2] = np.nan
+    has_own, has_others = np.isfinite(own).any(axis=1), np.isfinite(window).any(axis=1)
+    ok = (step >= CUT_SPAN * span) & has_own & has_others
+    if ok.any():
+        typical = np.nanmedian(window[ok], axis=1)
+        out[ok] = np.nanmin(own[ok], axis=1) / np.maximum(typical, np.finfo(float).tiny)
     return out
 
 

@@ -88,10 +88,15 @@ def canonical_frames(sk: Skeleton, frames: np.ndarray) -> np.ndarray:
     frame's rotations nearest 0 (each triple or its twin, by whole turns), every later frame
     nearest the one before it (continuous_frames); no rotation changes."""
     out = np.array(frames, dtype=np.float64)
-    if len(out):
-        triples, single = _rotation_groups(sk)
-        out[0, single] = nearest_turn(out[0, single], 0.0)
-        out[0, triples] = _nearest_triple(out[0, triples], np.zeros(triples.shape))
+    if not len(out):
+        return out
+    triples, single = _rotation_groups(sk)
+    out[0, single] = nearest_turn(out[0, single], 0.0)
+    out[0, triples] = _nearest_triple(out[0, triples], np.zeros(triples.shape))
+    rotation = sk.dof_kind == ROTATE
+    steps = np.abs(np.diff(out[:, rotation], axis=0))
+    if (steps < 0.25 * math.pi).all() and not (np.abs(np.cos(out[:, triples[:, 1]])) < LOCK).any():
+        return out  # no channel steps by a turn or a twin's half turn, none locks: every frame is its nearest
     return continuous_frames(sk, out)
 
 
