@@ -44,7 +44,7 @@ import numpy as np
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
-from deik.model.capsules import bone_starts, carrier_joints, default_radii, helper_joints, off_body
+from deik.model.capsules import bone_starts, default_radii, helper_joints, off_body
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -255,8 +255,8 @@ def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -
 def body_of(clip: Motion) -> Body:
     """The Body of `clip` (module notes)."""
     sk = clip.skeleton
-    off = carrier_joints(sk) | sk.helpers
     part = ~off_body(sk)
+    off = ~part[: sk.n_joints]
     start = bone_starts(sk)
     poses = clip.frames if clip.n_frames else sk.reference[None]
     p = forward_kinematics(sk, poses).p_world_frame

@@ -54,11 +54,15 @@ def carrier_joints(skeleton: Skeleton) -> np.ndarray:
     return out if children[k] >= 2 else np.zeros(skeleton.n_joints, bool)
 
 
+def on_joints(skeleton: Skeleton, joints: np.ndarray) -> np.ndarray:
+    """(F,) bool: `joints` (J,) bool, and the sites on them."""
+    return np.concatenate([joints, joints[skeleton.site_joint]])
+
+
 def off_body(skeleton: Skeleton) -> np.ndarray:
     """(F,) bool: the joints and sites that are no part of the body: the carriers and the
     helpers (skeleton.helpers), and the sites on them."""
-    joints = carrier_joints(skeleton) | skeleton.helpers
-    return np.concatenate([joints, joints[skeleton.site_joint]])
+    return on_joints(skeleton, carrier_joints(skeleton) | skeleton.helpers)
 
 
 def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
@@ -67,7 +71,7 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     joints that carry the body (carrier_joints, counting such branches as no children) and
     starting where the carrier is (no offset from it), as a game rig's IK target roots do.
     (A body's own still branch, such as the legs of a seated clip, starts a bone away from its
-    parent.) None when the clip has fewer than two frames or nothing in it moves."""
+    parent.) No helpers when the clip has fewer than two frames or nothing in it moves."""
     frames = np.asarray(frames, float)
     J = skeleton.n_joints
     if len(frames) < 2:

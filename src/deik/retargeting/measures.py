@@ -39,6 +39,7 @@ from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.metrics import joint_angles, sliding_steps
 from deik.io.trajectory import Motion
+from deik.model.capsules import on_joints
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -138,7 +139,7 @@ def retarget_report(
         clearance = floor.clearance(kin, sk, contacts)
         per_frame["floating_mm"] = _row_stat(floor.floating(kin, sk, contacts, clearance) * mm, np.nanmax)
     ground = 0.0 if contacts is None else contacts.ground  # a retarget without contacts: its world's floor
-    helpers = np.concatenate([sk.helpers, sk.helpers[sk.site_joint]])  # a rig's helper bones: no body to sink
+    helpers = on_joints(sk, sk.helpers)  # a rig's helper bones: no body to sink
     per_frame["penetration_mm"] = floor.penetration(kin, sk, ground, np.where(helpers, np.nan, 0.0)) * mm
     per_frame["limit_violations_count"] = limit_violations(sk, motion.frames).sum(axis=1).astype(float)
     pairs = body_pairs(sk, sk.frame_names) if pairs is None else pairs

@@ -25,6 +25,7 @@ from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
 from deik.io.motion import Clip
+from deik.model.capsules import on_joints
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -93,7 +94,7 @@ def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None
     frames = scaled_root(clip, target, floor, ratio)
     target = _room_to_travel(target, frames)
     scaled = Clip(target, frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
-    helpers = np.concatenate([sk.helpers, sk.helpers[sk.site_joint]])  # the source's helper bones: no key points
+    helpers = on_joints(sk, sk.helpers)  # the source's helper bones: no key points
     names = [name for name, helper in zip(target.frame_names, helpers) if not helper]
     kin = forward_kinematics(target, scaled.poses())
     targets = np.stack([kin.position(name) for name in names], axis=1)
