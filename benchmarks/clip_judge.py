@@ -17,8 +17,9 @@ Measures, in mm and the case's frames:
   in the capture (every point that rests in the capture, whatever a cleaner detects);
 - depth: the deepest any shape's surface goes below the floor (a box's corners, a capsule's ends,
   a sphere's bottom);
-- peaks: per joint and End Site, its largest acceleration (second difference / dt^2) over the
-  capture's; the worst ratio and its point;
+- peaks: per joint and End Site, its acceleration (second difference / dt^2) in each frame over
+  its largest in the capture within PEAK_SECONDS of that frame (at least STILL): the worst ratio
+  and its point (a pop in a quiet stretch counts, however hard that point moves elsewhere);
 - travel: how far the pelvis goes over the ground, first frame to last, against the capture;
 - steps: the capture's resting runs of the foot points matched in the result (an overlapping run
   whose first and last frames are within STEP_SLACK seconds, at least one frame, of the capture's).
@@ -35,6 +36,8 @@ BAND = 0.02  # metres above the floor
 SPEED = 0.15  # metres per second
 REST_SECONDS = 0.05
 STEP_SLACK = 0.07  # seconds
+PEAK_SECONDS = 2.0  # each side of a frame
+STILL = 0.1  # metres per second^2: a capture's point accelerating less is still
 FOOT_BOX = ((0.045, -0.0225, 0.0), (0.0885, 0.0275, 0.045))  # centre, half sizes in the ankle's frame
 SPHERES = (("Hips", (0, 0.07, 0), 0.09), ("Chest", (0, 0.12, 0), 0.11), ("Neck", (0, 0.175, 0), 0.1025),
            ("RightElbow", (0, -0.258947, 0), 0.04), ("LeftElbow", (0, -0.258947, 0), 0.04))  # fmt: skip
@@ -131,8 +134,8 @@ def _sliding(points: np.ndarray, rest: np.ndarray) -> tuple[float, str | None, i
     return float(step[n, k]), int(k), int(n + 1), per_frame
 
 
-def _acceleration_peaks(rig: Rig, case: Case) -> np.ndarray:
-    """(K,) largest acceleration of every canonical joint and its End Sites, metres per s^2."""
+def _accelerations(rig: Rig, case: Case) -> np.ndarray:
+    """(N - 2, K) acceleration of every canonical joint and its End Sites in each frame, metres per s^2."""
     R, p = world_frames(rig)
     columns = [rig.names.index(case.names[name]) for name in case.names]
     points = [p[:, j] for j in columns] + [
@@ -140,8 +143,18 @@ def _acceleration_peaks(rig: Rig, case: Case) -> np.ndarray:
     ]
     x = np.stack(points, axis=1) / case.unit
     if len(x) < 3:
-        return np.zeros(x.shape[1])
-    return np.linalg.norm(np.diff(x, 2, axis=0), axis=-1).max(axis=0) / rig.frame_time**2
+        return np.zeros((0, x.shape[1]))
+    return np.linalg.norm(np.diff(x, 2, axis=0), axis=-1) / rig.frame_time**2
+
+
+def _peak_ratios(before: np.ndarray, after: np.ndarray, frame_time: float) -> np.ndarray:
+    """(K,) each point's largest ratio of `after` (M, K) to `before`'s largest within
+    PEAK_SECONDS of that frame (at least STILL)."""
+    if not len(before):
+        return np.zeros(before.shape[1])
+    w = max(1, int(round(PEAK_SECONDS / frame_time)))
+    around = np.array([before[max(0, m - w) : m + w + 1].max(axis=0) for m in range(len(before))])
+    return (after / np.maximum(around, STILL)).max(axis=0)
 
 
 def _point_labels(rig: Rig, case: Case) -> list[str]:
@@ -170,8 +183,7 @@ def judge(case: Case, capture: Rig, result: Rig, unmet: np.ndarray | None = None
     slide_before = _sliding(before, rest)
     slide_after = _sliding(after, rest)
     depth_before, depth_after = deepest(case, capture), deepest(case, result)
-    peaks_before, peaks_after = _acceleration_peaks(capture, case), _acceleration_peaks(result, case)
-    ratios = peaks_after / np.maximum(peaks_before, 1e-9)
+    ratios = _peak_ratios(_accelerations(capture, case), _accelerations(result, case), capture.frame_time)
     worst = int(np.argmax(ratios))
     feet = [k for k, name in enumerate(names) if name.endswith(("heel", "toe"))]
     matched, total = _steps(rest[:, feet], resting(after, clear, result.frame_time)[:, feet], capture.frame_time)

@@ -332,8 +332,8 @@ FIGURES += tuple(
 # Numbers beside a command that are not measurements: {pattern: why}. Every number a pattern's
 # match covers counts as explained.
 SETTINGS = {
-    r"accelerate past 1\.1 times its own peak in the capture": "the calm stage's limit "
-    "(deik.cleanup.dynamics.PEAK_RATIO)",
+    r"accelerate past 1\.1 times its own peak in the capture \(within 2 s of that frame\)": "the calm stage's "
+    "limit and window (deik.cleanup.dynamics.PEAK_RATIO, PEAK_SECONDS)",
     r"other joint names, 30 fps\) and with one more change .*? the middle frame a T-pose\)": "the hard cases' "
     "transforms (benchmarks/clip_cases.py)",
     r"contact detector, floor at 0 ": "the judge's floor (benchmarks/clip_judge.py)",
