@@ -17,7 +17,7 @@ import numpy as np
 from deik.cleanup.balance import BalanceTrack
 from deik.cleanup.bone_points import bone_points
 from deik.cleanup.contacts import Contacts
-from deik.cleanup.dynamics import PEAK_RATIO, jolted_frames, peak_ratios, point_acceleration_ratios
+from deik.cleanup.dynamics import PEAK_RATIO, PEAK_SECONDS, jolted_frames, peak_ratios, point_acceleration_ratios
 from deik.cleanup.ground import body_paths, clearances, detect_resting
 from deik.cleanup.metrics import large_deviations
 from deik.cleanup.plants import planted_targets
@@ -135,8 +135,8 @@ def balance_record(track: BalanceTrack | None, metres: float) -> dict | None:
 def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None = None) -> dict:
     """How the fix's velocity and acceleration peaks compare with the capture's (cleanup/dynamics.py):
     the ratio of each peak, each joint and site's (of `points` (F,) bool) acceleration peak over
-    its own in the capture and the worst of them, the limit, whether every one is kept, and the
-    frames that jolt or turn a joint far."""
+    its own in the capture around each frame (within the window, s) and the worst of them, the
+    limit, whether every one is kept, and the frames that jolt or turn a joint far."""
     ratios = peak_ratios(original, fixed)
     names = [name for name, kept in zip(original.skeleton.frame_names, points if points is not None else ()) if kept]
     per_point = point_acceleration_ratios(original, fixed, points)
@@ -146,6 +146,7 @@ def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None =
     kept = all(not r > PEAK_RATIO for r in ratios.values()) and not (per_point > PEAK_RATIO).any()
     return {
         "peak_ratio_limit": PEAK_RATIO,
+        "peak_window_s": PEAK_SECONDS,
         "peak_ratios": ratios,
         "point_acceleration_ratios": {name: float(r) for name, r in zip(names, per_point)},
         "worst_point": None if worst is None else {"point": names[worst], "ratio": float(per_point[worst])},

@@ -225,7 +225,8 @@ def _outcome_lines(document: dict) -> list[str]:
     if document["calmed_frames"]:
         lines.append(
             f"frames whose fix was partly taken back so that no point accelerates past x"
-            f"{document['dynamics']['peak_ratio_limit']:g} its capture peak: {frame_spans(document['calmed_frames'])}"
+            f"{document['dynamics']['peak_ratio_limit']:g} its own capture peak within "
+            f"{document['dynamics']['peak_window_s']:g} s: {frame_spans(document['calmed_frames'])}"
         )
     balance = document["balance"]
     if balance is not None:
@@ -242,7 +243,10 @@ def _outcome_lines(document: dict) -> list[str]:
     ratios = ", ".join(f"{k.replace('_', ' ')} x{figure(v, '.3f')}" for k, v in dynamics["peak_ratios"].items())
     worst = dynamics["worst_point"]
     if worst is not None:
-        ratios += f"; worst point's acceleration {worst['point']} x{figure(worst['ratio'], '.3f')}"
+        ratios += (
+            f"; worst point's acceleration {worst['point']} x{figure(worst['ratio'], '.3f')} its own peak within "
+            f"{dynamics['peak_window_s']:g} s"
+        )
     kept = "kept" if dynamics["peaks_kept"] else f"NOT kept (limit x{dynamics['peak_ratio_limit']:g})"
     lines.append(f"peaks against the capture's, {kept}: {ratios}")
     return lines
