@@ -55,11 +55,13 @@ from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.contacts import site_positions
 from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
+from deik.cleanup.plants import linked_at_heights, rigid_pairs
 from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
 from deik.memory import check_memory
+from deik.model.capsules import body_reach
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -277,14 +279,17 @@ def _judged(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarra
 
 def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
     """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
-    its floor): the warm start holds contacts still along the ground only, and DE, whose contact
-    goals are points, must not pull them back to the plants' heights."""
+    its floor), rigidly linked plants kept their distance apart at those heights
+    (plants.linked_at_heights): the warm start holds contacts still along the ground only, and
+    DE, whose contact goals are points, must not pull them back to the plants' heights."""
     contacts, up = goals.contacts, clip.skeleton.up
     plants = contact_plants(clip, goals)
     heights = site_positions(clip.with_frames(poses), contacts.sites) @ up
     if goals.floor is not None:
         heights = np.maximum(heights, goals.floor + contacts.clearance)
     moved = plants + (heights - plants @ up)[..., None] * up
+    pairs = rigid_pairs(site_positions(clip, contacts.sites), body_reach(clip.skeleton))
+    moved = linked_at_heights(np.where(contacts.mask[..., None], moved, 0.0), contacts.mask, pairs, up)
     return dataclasses.replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
 
 

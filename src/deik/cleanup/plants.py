@@ -172,6 +172,26 @@ def _moved_plants(plants: dict, site: int, spans, p: np.ndarray, up: np.ndarray,
     return out
 
 
+def linked_at_heights(targets: np.ndarray, mask: np.ndarray, pairs, up: np.ndarray) -> np.ndarray:
+    """`targets` (N, S, 3) (each site's plant in the frames of `mask` (N, S) bool, heights as a
+    fix holds them) with, in every frame both sites of a rigidly linked pair (`pairs`,
+    rigid_pairs) are planted, the one of the shorter run moved along the ground to lie their
+    distance apart from the other (_at_distance): a foot tipped by lifting its sole out of the
+    floor spans less ground between its heel and toe than in the capture, and plants left the
+    capture's span apart could not both be met (the shared walk standing still 12 mm deep:
+    3 mm apart, every frame of the stand unmet)."""
+    out = np.array(targets, float, copy=True)
+    run_length = np.zeros(mask.shape)
+    for s in range(mask.shape[1]):
+        for a, b in true_runs(mask[:, s]):
+            run_length[a:b, s] = b - a
+    for s, t, distance in pairs:
+        for n in np.flatnonzero(mask[:, s] & mask[:, t]):
+            keep, move = (s, t) if run_length[n, s] >= run_length[n, t] else (t, s)
+            out[n, move] = _at_distance(out[n, move], out[n, keep], distance, up)
+    return out
+
+
 def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> np.ndarray:
     """Where each site should stay planted: (N, S, 3) length units, NaN outside contacts.
 
