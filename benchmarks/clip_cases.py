@@ -23,6 +23,9 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   motion, as many exporters write it: over the first frame's root, standing on the floor (its
   lowest joint or End Site at height 0).
 - glitch: the middle frame's rotation channels all 0: the pose leaps into the T-pose and back.
+- stand: the first and last poses held 2 s each (an actor standing still as a take starts and
+  ends) and the whole body 12 mm lower (a floor calibrated a centimetre off): the standing feet
+  rest through the floor.
 """
 
 from __future__ import annotations
@@ -53,6 +56,8 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
     "kick": "noisy", "punch": "limbs", "dance_a": "backwards",
 }  # fmt: skip
 CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
+STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
+STAND_SECONDS, SUNK = 2.0, 0.012  # s held at each end, m under the floor
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,6 +198,13 @@ def limbs(case: Case) -> Case:
                 scale, "left leg +8 %, right leg -4 %, arms +10 %")  # fmt: skip
 
 
+def _lowered(case: Case, frames: np.ndarray, metres: float) -> np.ndarray:
+    """`frames` of `case`'s rig with the root `metres` lower."""
+    out = frames.copy()
+    out[:, [k for k, (j, c) in enumerate(case.rig.columns) if j == 0 and c == "Yposition"]] -= metres * case.unit
+    return out
+
+
 def noisy(case: Case, seed: int = 0) -> Case:
     """The noisy transform (module notes)."""
     rig = case.rig
@@ -203,9 +215,7 @@ def noisy(case: Case, seed: int = 0) -> Case:
             frames[:, k] += rng.normal(0.0, 0.2, len(frames))
         elif j == 0:
             frames[:, k] += rng.normal(0.0, 0.001 * case.unit, len(frames))
-            if channel == "Yposition":
-                frames[:, k] -= 0.012 * case.unit
-    rig = dataclasses.replace(rig, frames=frames)
+    rig = dataclasses.replace(rig, frames=_lowered(case, frames, SUNK))
     return dataclasses.replace(case, name=case.name + "_noisy", rig=rig, description="noise, 12 mm under the floor")
 
 
@@ -235,13 +245,22 @@ def glitch(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_glitch", rig=rig, description="the middle frame a T-pose")
 
 
+def stand(case: Case) -> Case:
+    """The stand transform (module notes)."""
+    frames, n = case.rig.frames, int(round(STAND_SECONDS / case.rig.frame_time))
+    held = np.concatenate([np.repeat(frames[:1], n, axis=0), frames, np.repeat(frames[-1:], n, axis=0)])
+    rig = dataclasses.replace(case.rig, frames=_lowered(case, held, SUNK))
+    description = "standing 2 s at each end, 12 mm deep"
+    return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description)
+
+
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
-              "bind": bind, "glitch": glitch}  # fmt: skip
+              "bind": bind, "glitch": glitch, "stand": stand}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
-    """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform and
-    its CUTS transform, if any."""
+    """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
+    its CUTS transform, if any, and its stand if in STANDS."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -249,4 +268,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
             continue
         out += [base, studio(base), TRANSFORMS[EXTRAS.get(base.name, "noisy")](base)]
         out += [TRANSFORMS[CUTS[base.name]](base)] if base.name in CUTS else []
+        out += [stand(base)] if base.name in STANDS else []
     return out
