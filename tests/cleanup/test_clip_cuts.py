@@ -170,7 +170,9 @@ def test_every_shared_clip_moves_without_cuts_and_a_t_pose_beside_or_in_it_is_on
     its middle at least 9 times. The one cut on the shared clips is the walk's loop seam (step
     18: its loop starts again), 7.3 times."""
     base = source_case(shared_data / "humanoid" / f"humanoid3d_{name}.bvh")
-    variants = [base] + [make(base) for key, make in TRANSFORMS.items() if key not in ("bind", "glitch")]
+    # a stand joins a held pose to the clip's first frame, where a clip cut from a longer take
+    # may already move at full speed: a jump in velocity, not motion
+    variants = [base] + [make(base) for key, make in TRANSFORMS.items() if key not in ("bind", "glitch", "stand")]
     variants += [fast(fast(base)), fast(studio(base)), tenth_of_a_second(base)]
     for case in variants:
         clip = read(case.rig)

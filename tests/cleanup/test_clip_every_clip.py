@@ -40,7 +40,9 @@ def cleaned(clip, reach=()):
 @pytest.mark.parametrize("name", CLIPS)
 def test_every_clip_keeps_its_contacts_off_the_floor_slide_and_jolts(name):
     """The floor is the capture's ground plane; in every frame that meets its goals (most of them)
-    the planted points slide at most 0.5 mm a frame and the body's surface stays above the
+    the planted points slide at most 1 mm a frame (issue 27's bound; a planted heel that rises as
+    the foot rolls comes nearer its planted toe, plants.linked_at_heights: the dance's 0.95 mm,
+    0.5 mm before) and the body's surface stays above the
     floor; no joint or end site accelerates beyond 1.1 times its own peak in the capture and no
     rotation channel beyond its peak, in any frame; no Euler channel jumps."""
     clip = humanoid(name)
@@ -50,7 +52,7 @@ def test_every_clip_keeps_its_contacts_off_the_floor_slide_and_jolts(name):
     assert met.mean() >= 0.5, f"{met.sum()} of {clip.n_frames} frames met"
     before, after = fix.on_body()
     report = clip_report(before, after, dataclasses.replace(contacts, mask=contacts.mask & met[:, None]))
-    assert not report["sliding_max_mm_per_frame"]["after"] > 0.5  # NaN: no contact step in a met frame
+    assert not report["sliding_max_mm_per_frame"]["after"] > 1.0  # NaN: no contact step in a met frame
     surface = forward_kinematics(after.skeleton, after.frames).p_world_frame @ clip.skeleton.up - fix.body.radius
     assert surface[met].min() >= fix.goals.floor - 1e-3
     own = np.arange(after.skeleton.n_frames) < clip.skeleton.n_frames

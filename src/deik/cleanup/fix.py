@@ -293,6 +293,15 @@ def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
     return dataclasses.replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
 
 
+def _plants_moved(clip, goals: ClipGoals, judged: ClipGoals) -> bool:
+    """Whether a plant of `judged` lies farther along the ground from that of `goals` than the
+    contact tolerance in some frame."""
+    up = clip.skeleton.up
+    move = contact_plants(clip, judged) - contact_plants(clip, goals)
+    along = np.linalg.norm(move - (move @ up)[..., None] * up, axis=-1)
+    return bool(np.nanmax(along, initial=0.0) > goals.contact_tolerance)
+
+
 def _ease_frames(clip) -> float:
     """EASE_SECONDS in frames of `clip` (at least 2, at most its length: longer is the same)."""
     return min(max(EASE_SECONDS / clip.frame_time, 2.0), max(clip.n_frames, 2))
@@ -338,7 +347,8 @@ def fix_clip(
     **overrides: object,
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals` on its `body` (default body_of(clip);
-    contacts may name its sole sites): the warm start, then up to
+    contacts may name its sole sites): the warm start (run a second time on plants moved where
+    the first tipped a foot out of the floor, _plants_at_heights), then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
     settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
@@ -378,6 +388,13 @@ def fix_clip(
     movable = np.broadcast_to(~fixed_dofs, original.shape)
     displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(clip, goals, weights, movable, body)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
+        fix_alone = displacement if reached is None else displacement - reached  # a reach drags no plant
+        fitted = _plants_at_heights(clip, goals, original + fix_alone)
+        if _plants_moved(clip, goals, fitted):  # a foot tipped out of the floor: again, on plants it can meet
+            displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(
+                clip, fitted, weights, movable, body
+            )
+            goals = fitted
         goals = _plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)
     searched = searched_dofs(clip, fixed_part)
