@@ -4,16 +4,26 @@ pop in a quiet stretch of a long take counts even when the same point moves hard
 import dataclasses
 
 import numpy as np
+import pytest
 
 from benchmarks.clip_rigs import format_rig, pose_points
 from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.calm import calm
+from deik.cleanup.contacts import running_max
 from deik.cleanup.dynamics import PEAK_RATIO, PEAK_SECONDS, SLACK, jolted_frames, own_peaks, point_acceleration_ratios
 from deik.io.bvh import parse_bvh
 
 FPS = 30.0
 SWING_SECONDS = 3.0  # the arm swings hard this long, then hangs still
 POP_SECONDS = 7.0  # where the test's pop goes: more than PEAK_SECONDS after the swing
+
+
+@pytest.mark.parametrize(("n", "w"), [(1, 3), (2, 1), (5, 2), (50, 7), (200, 30), (7, 100)])
+def test_the_running_maximum_is_the_largest_within_w_frames(n, w):
+    values = np.random.default_rng(n + w).random((n, 3))
+    expected = np.array([values[max(0, m - w) : m + w + 1].max(axis=0) for m in range(n)])
+    np.testing.assert_array_equal(running_max(values, w), expected)
+    np.testing.assert_array_equal(running_max(values[:, 0], w), expected[:, 0])
 
 
 def test_own_peaks_is_the_largest_within_the_window_or_the_still_floor():

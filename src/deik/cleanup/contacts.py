@@ -56,6 +56,20 @@ def true_runs(column: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
 
 
+def running_max(values: np.ndarray, w: int) -> np.ndarray:
+    """(N, ...) the largest of `values` (N, ...) within `w` frames of each, along the first axis
+    (the end frames held beyond the ends, which changes no maximum). In log2(2w + 1) passes:
+    each doubles the span a row covers, and two overlapping spans cover the window."""
+    if w <= 0 or not len(values):
+        return np.array(values, copy=True)
+    width = 2 * w + 1
+    level, span = np.pad(values, [(w, w)] + [(0, 0)] * (values.ndim - 1), mode="edge"), 1
+    while 2 * span <= width:
+        level, span = np.maximum(level[:-span], level[span:]), 2 * span
+    n = len(values)
+    return np.maximum(level[:n], level[width - span : width - span + n])
+
+
 @dataclass(frozen=True, eq=False)
 class Contacts:
     """Which of `sites` touch the ground in each frame: `mask` (N, S) bool, read-only.

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from deik.cleanup.contacts import running_max
 from deik.cleanup.metrics import joint_angles, point_motion, spikes
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach
@@ -54,10 +55,7 @@ def own_peaks(accelerations: np.ndarray, frame_time: float, reach: float) -> np.
     still = SLACK["position_acceleration"] / (PEAK_RATIO - 1.0) * reach
     if not accelerations.size:
         return np.full(accelerations.shape, still)
-    w = max(1, int(round(PEAK_SECONDS / frame_time)))
-    padded = np.pad(accelerations, ((w, w), (0, 0)))
-    around = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1, axis=0).max(axis=-1)
-    return np.maximum(around, still)
+    return np.maximum(running_max(accelerations, max(1, int(round(PEAK_SECONDS / frame_time)))), still)
 
 
 def _peaks(clip, points: np.ndarray | None = None) -> dict:

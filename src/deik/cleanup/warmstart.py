@@ -48,6 +48,7 @@ import numpy as np
 from deik.cleanup.balance import horizontal_axes
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
+from deik.cleanup.contacts import running_max
 from deik.cleanup.metrics import point_motion
 from deik.cleanup.plants import lifted_heights, rigid_pairs
 from deik.cleanup.spacetime import spacetime_step
@@ -153,7 +154,7 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     envelope over how far it sinks below its `level` (F,), so that a point that sinks is lifted
     from before it touches to after it leaves, without a kink. The envelope of a point's depth
     d (N,) is d's running maximum over +-w frames smoothed by a Hann window of half width w
-    (d's end values held beyond the clip's ends), which is >= d everywhere; w grows until the
+    (its end values held beyond the clip's ends), which is >= d everywhere; w grows until the
     envelope's second difference is at most LIFT_SHARE x the point's largest in the capture,
     `peaks` (F,) (length units per frame^2): the lift adds at most that share to the point's
     acceleration."""
@@ -163,7 +164,7 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     widths = [w for w in LIFT_WIDTHS if 2 * w + 1 <= N] or [0]  # a window no longer than the clip
     for f in np.flatnonzero(depth.max(axis=0) > 0):
         for w in widths:
-            envelope = _hann(_running_max(depth[:, f], w), w)
+            envelope = _hann(running_max(depth[:, f], w), w)
             if N < 3 or np.abs(np.diff(envelope, 2)).max() <= LIFT_SHARE * peaks[f]:
                 break
         out[:, f] = np.maximum(out[:, f], heights[:, f] + envelope)
@@ -192,13 +193,6 @@ def whole_lifts(
         members = (bodies == body) & floored
         raised |= up[:, members].any(axis=1)[:, None] & members[None, :] & (heights > lifted)
     return np.where(raised, heights, lifted), raised
-
-
-def _running_max(values: np.ndarray, w: int) -> np.ndarray:
-    """(N,) the largest of `values` (N,) within w frames of each (the end values held beyond the
-    clip's ends: _hann)."""
-    padded = np.pad(values, w, mode="edge")
-    return np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1)
 
 
 def _hann(values: np.ndarray, w: int) -> np.ndarray:
