@@ -22,10 +22,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack, balance_track
-from deik.cleanup.contacts import Contacts
-from deik.cleanup.plants import planted_targets
+from deik.cleanup.contacts import Contacts, site_positions
+from deik.cleanup.plants import linked_at_heights, planted_targets, rigid_pairs
 from deik.errors import InputError
 from deik.io.trajectory import Motion
+from deik.model.capsules import body_reach
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
@@ -191,6 +192,31 @@ def neighbour_displacement(displacement: np.ndarray) -> np.ndarray:
 def contact_plants(clip: Motion, goals: ClipGoals) -> np.ndarray:
     """(N, S, 3) where `goals` hold each contact site: its plants, else planted_targets."""
     return planted_targets(clip, goals.contacts) if goals.plants is None else np.asarray(goals.plants, float)
+
+
+def plants_at_heights(clip: Motion, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
+    """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
+    its floor), rigidly linked plants kept their distance apart at those heights
+    (plants.linked_at_heights): the warm start holds contacts still along the ground only, and
+    DE, whose contact goals are points, must not pull them back to the plants' heights."""
+    contacts, up = goals.contacts, clip.skeleton.up
+    plants = contact_plants(clip, goals)
+    heights = site_positions(clip.with_frames(poses), contacts.sites) @ up
+    if goals.floor is not None:
+        heights = np.maximum(heights, goals.floor + contacts.clearance)
+    moved = plants + (heights - plants @ up)[..., None] * up
+    pairs = rigid_pairs(site_positions(clip, contacts.sites), body_reach(clip.skeleton))
+    moved = linked_at_heights(np.where(contacts.mask[..., None], moved, 0.0), contacts.mask, pairs, up)
+    return replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
+
+
+def plants_moved(clip: Motion, goals: ClipGoals, judged: ClipGoals) -> bool:
+    """Whether a plant of `judged` lies farther along the ground from that of `goals` than the
+    contact tolerance in some frame."""
+    up = clip.skeleton.up
+    move = contact_plants(clip, judged) - contact_plants(clip, goals)
+    along = np.linalg.norm(move - (move @ up)[..., None] * up, axis=-1)
+    return bool(np.nanmax(along, initial=0.0) > goals.contact_tolerance)
 
 
 def clip_balance(

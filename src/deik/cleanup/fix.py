@@ -46,22 +46,20 @@ from deik.cleanup.clip_goals import (
     ClipGoals,
     clip_balance,
     clip_problem,
-    contact_plants,
     fixed_goals,
     goal_names,
+    plants_at_heights,
+    plants_moved,
     sized_goals,
 )
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
-from deik.cleanup.contacts import site_positions
 from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
-from deik.cleanup.plants import linked_at_heights, rigid_pairs
 from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion, Trajectory
 from deik.memory import check_memory
-from deik.model.capsules import body_reach
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives.kinds import GAIN
@@ -270,36 +268,11 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
 def _judged(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed, balance):
     """The clip problem that judges a warm start's `displacement` (N, D) of `goals` (their
     `fixed` goals, with `balance`'s track): its contacts at the heights the displacement gives
-    them (_plants_at_heights), since a warm start holds them still along the ground only."""
+    them (clip_goals.plants_at_heights), since a warm start holds them still along the ground only."""
     if goals.contacts is None:
         return clip_problem(clip, goals, displacement, weights, fixed)
-    judged = _plants_at_heights(clip, goals, clip.poses() + displacement)
+    judged = plants_at_heights(clip, goals, clip.poses() + displacement)
     return clip_problem(clip, judged, displacement, weights, fixed_goals(clip, judged, weights, balance))
-
-
-def _plants_at_heights(clip, goals: ClipGoals, poses: np.ndarray) -> ClipGoals:
-    """`goals` with each contact's plant at the height its site has in `poses` (N, D) (at least
-    its floor), rigidly linked plants kept their distance apart at those heights
-    (plants.linked_at_heights): the warm start holds contacts still along the ground only, and
-    DE, whose contact goals are points, must not pull them back to the plants' heights."""
-    contacts, up = goals.contacts, clip.skeleton.up
-    plants = contact_plants(clip, goals)
-    heights = site_positions(clip.with_frames(poses), contacts.sites) @ up
-    if goals.floor is not None:
-        heights = np.maximum(heights, goals.floor + contacts.clearance)
-    moved = plants + (heights - plants @ up)[..., None] * up
-    pairs = rigid_pairs(site_positions(clip, contacts.sites), body_reach(clip.skeleton))
-    moved = linked_at_heights(np.where(contacts.mask[..., None], moved, 0.0), contacts.mask, pairs, up)
-    return dataclasses.replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
-
-
-def _plants_moved(clip, goals: ClipGoals, judged: ClipGoals) -> bool:
-    """Whether a plant of `judged` lies farther along the ground from that of `goals` than the
-    contact tolerance in some frame."""
-    up = clip.skeleton.up
-    move = contact_plants(clip, judged) - contact_plants(clip, goals)
-    along = np.linalg.norm(move - (move @ up)[..., None] * up, axis=-1)
-    return bool(np.nanmax(along, initial=0.0) > goals.contact_tolerance)
 
 
 def _ease_frames(clip) -> float:
@@ -348,7 +321,7 @@ def fix_clip(
 ) -> ClipFix:
     """Fix every frame of `clip` (a deik.Clip) for `goals` on its `body` (default body_of(clip);
     contacts may name its sole sites): the warm start (run a second time on plants moved where
-    the first tipped a foot out of the floor, _plants_at_heights), then up to
+    the first tipped a foot out of the floor, clip_goals.plants_at_heights), then up to
     `passes` >= 0 DE passes (default PASSES, BALANCE_PASSES with balance or self-collision)
     over the frames that still miss a floor, self-collision, contact, balance or reach goal;
     settings default to CLIP_SETTINGS (BALANCE_SETTINGS with balance) and may be overridden
@@ -389,13 +362,13 @@ def fix_clip(
     displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(clip, goals, weights, movable, body)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         fix_alone = displacement if reached is None else displacement - reached  # a reach drags no plant
-        fitted = _plants_at_heights(clip, goals, original + fix_alone)
-        if _plants_moved(clip, goals, fitted):  # a foot tipped out of the floor: again, on plants it can meet
+        fitted = plants_at_heights(clip, goals, original + fix_alone)
+        if plants_moved(clip, goals, fitted):  # a foot tipped out of the floor: again, on plants it can meet
             displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(
                 clip, fitted, weights, movable, body
             )
             goals = fitted
-        goals = _plants_at_heights(clip, goals, original + displacement)
+        goals = plants_at_heights(clip, goals, original + displacement)
         fixed_part = fixed_goals(clip, goals, weights, balance)
     searched = searched_dofs(clip, fixed_part)
     stages = [{"stage": "warm start", "seconds": time.perf_counter() - start, "calmed": int(first_calmed.sum())}]

@@ -172,7 +172,9 @@ def _moved_plants(plants: dict, site: int, spans, p: np.ndarray, up: np.ndarray,
     return out
 
 
-def linked_at_heights(targets: np.ndarray, mask: np.ndarray, pairs, up: np.ndarray) -> np.ndarray:
+def linked_at_heights(
+    targets: np.ndarray, mask: np.ndarray, pairs: list[tuple[int, int, float]], up: np.ndarray
+) -> np.ndarray:
     """`targets` (N, S, 3) (each site's plant in the frames of `mask` (N, S) bool, heights as a
     fix holds them) with, in every frame both sites of a rigidly linked pair (`pairs`,
     rigid_pairs) are planted, the one of the shorter run moved along the ground to lie their
