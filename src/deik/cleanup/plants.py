@@ -47,17 +47,18 @@ def rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
 
 
 def _at_distance(point: np.ndarray, anchor: np.ndarray, distance: float, up: np.ndarray) -> np.ndarray:
-    """`point` (3,) moved to lie `distance` from `anchor` (3,): along the ground, keeping its
-    height, when their heights differ by less than `distance`, else along the line between
+    """`point` (..., 3) moved to lie `distance` from `anchor` (..., 3): along the ground, keeping
+    its height, when their heights differ by less than `distance`, else along the line between
     them; unchanged when they coincide (no direction to move in)."""
     delta = point - anchor
     rise = delta @ up
-    flat = delta - rise * up
-    if abs(rise) < distance and np.linalg.norm(flat) > 0:
-        return anchor + rise * up + flat * (np.sqrt(distance**2 - rise**2) / np.linalg.norm(flat))
-    if np.linalg.norm(delta) > 0:
-        return anchor + delta * (distance / np.linalg.norm(delta))
-    return point
+    flat = delta - rise[..., None] * up
+    flat_length, length = np.linalg.norm(flat, axis=-1), np.linalg.norm(delta, axis=-1)
+    along = (np.abs(rise) < distance) & (flat_length > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ground = anchor + rise[..., None] * up + flat * (np.sqrt(distance**2 - rise**2) / flat_length)[..., None]
+        line = anchor + delta * (distance / length)[..., None]
+    return np.where(along[..., None], ground, np.where((length > 0)[..., None], line, point))
 
 
 def _links(plants: dict, pairs, p: np.ndarray, up: np.ndarray) -> dict:
@@ -188,9 +189,13 @@ def linked_at_heights(
         for a, b in true_runs(mask[:, s]):
             run_length[a:b, s] = b - a
     for s, t, distance in pairs:
-        for n in np.flatnonzero(mask[:, s] & mask[:, t]):
-            keep, move = (s, t) if run_length[n, s] >= run_length[n, t] else (t, s)
-            out[n, move] = _at_distance(out[n, move], out[n, keep], distance, up)
+        both = mask[:, s] & mask[:, t]
+        for keep, move, moves in (
+            (s, t, run_length[:, s] >= run_length[:, t]),
+            (t, s, run_length[:, s] < run_length[:, t]),
+        ):
+            frames = both & moves
+            out[frames, move] = _at_distance(out[frames, move], out[frames, keep], distance, up)
     return out
 
 
