@@ -10,7 +10,8 @@ shared machine inflate less than the wall. Cases (median of --repeats):
 - first solve, float32 or float64, with the LM polish or without (`--polish 0 --generations
   20`): `deik solve chain:20 --reach tip 12 8 0` on an empty NUMBA_CACHE_DIR, as after an
   install, then twice more on the cache it filled: "compile" is the first run's wall minus the
-  median of those, and deik's own record of each kernel's compile seconds is kept;
+  median of those, and deik's own record of each kernel's compile seconds is kept, with the
+  seconds its compile note said the wait would take ("note_s");
 - warmup: `deik warmup --quiet` on an empty cache; warm solve: the same solve on a filled cache;
 - `import deik`, `deik --version`, and `python -c pass`, the interpreter's own start, for scale.
 --python runs every case with another interpreter, e.g. a virtual environment holding only what
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -57,8 +59,8 @@ INTERPRETER = [sys.executable]  # the `python` every case runs (--python)
 
 
 def python(args: list[str], cache: Path) -> dict:
-    """Wall and CPU seconds of `python ARGS` in a fresh process with NUMBA_CACHE_DIR=cache; the
-    CPU seconds include its compile workers'."""
+    """Wall and CPU seconds and the standard error of `python ARGS` in a fresh process with
+    NUMBA_CACHE_DIR=cache; the CPU seconds include its compile workers'."""
     env = {key: value for key, value in os.environ.items() if key != "PYTHONDONTWRITEBYTECODE"}
     env.update(PYTHONPATH=str(SOURCE), NUMBA_CACHE_DIR=str(cache))
     before, began = os.times(), time.perf_counter()
@@ -67,7 +69,7 @@ def python(args: list[str], cache: Path) -> dict:
     if done.returncode != 0:
         raise RuntimeError(f"python {' '.join(args)} failed: {done.stderr[-2000:]}")
     cpu = after.children_user - before.children_user + after.children_system - before.children_system
-    return {"wall": wall, "cpu": cpu}
+    return {"wall": wall, "cpu": cpu, "stderr": done.stderr}
 
 
 def kernel_records(cache: Path) -> list[dict]:
@@ -81,13 +83,19 @@ def first_solve(flags: list[str]) -> dict:
         cold = python(SOLVE + flags, Path(cache))
         warm = statistics.median(python(SOLVE + flags, Path(cache))["wall"] for _ in range(2))
         kernels = kernel_records(Path(cache))
+    note = re.search(r"about (\d+) s", cold["stderr"])
     return {
         "wall": cold["wall"],
         "cpu": cold["cpu"],
         "warm_wall": warm,
         "compile_wall": cold["wall"] - warm,
         "kernels": kernels,
+        "note_s": float(note[1]) if note else None,
     }
+
+
+def _timed(run: dict) -> dict:
+    return {"wall": run["wall"], "cpu": run["cpu"]}
 
 
 def warmup() -> dict:
@@ -109,7 +117,7 @@ def main(argv=None) -> dict:
         python(SOLVE, Path(warm_cache))  # a filled cache for the warm calls
         jobs = {case: (lambda flags=flags: first_solve(flags)) for case, flags in FIRST_SOLVES.items()}
         jobs["warmup"] = warmup
-        jobs |= {case: (lambda a=a: python(a, Path(warm_cache))) for case, a in CALLS.items()}
+        jobs |= {case: (lambda a=a: _timed(python(a, Path(warm_cache)))) for case, a in CALLS.items()}
         cases = {}
         for case, job in jobs.items():
             if not args.cases or case in args.cases:

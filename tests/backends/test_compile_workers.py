@@ -24,10 +24,11 @@ def test_each_job_goes_once_the_longest_first_to_the_least_loaded_worker():
     assert len(shares(jobs, 8)) == len(jobs) and len(shares(jobs[:1], 4)) == 1 and len(shares(jobs, 0)) == 1
 
 
-def test_the_estimate_is_the_busiest_workers_share_slowed_by_the_others(monkeypatch):
+def test_the_estimate_is_the_busiest_workers_share_slowed_while_another_compiles_beside_it(monkeypatch):
     jobs = _jobs(18.0, 5.0, 2.0)
-    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "2")  # 18 | 5 + 2, the 18 slowed by the other beside it
-    assert expected_seconds(jobs) == 18.0 * compiling.SIDE_BY_SIDE
+    monkeypatch.setenv("DEIK_COMPILE_WORKERS", "2")  # 18 | 5 + 2: the 18 slowed for the 7 s beside it
+    assert expected_seconds(jobs) == pytest.approx(18.0 + 7.0 * (compiling.SIDE_BY_SIDE - 1.0))
+    assert expected_seconds(_jobs(10.0, 10.0)) == pytest.approx(10.0 * compiling.SIDE_BY_SIDE)
     assert expected_seconds(jobs[:1]) == 18.0  # alone
     monkeypatch.setenv("DEIK_COMPILE_WORKERS", "1")
     assert expected_seconds(jobs) == 25.0

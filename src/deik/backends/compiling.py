@@ -29,9 +29,10 @@ from typing import NamedTuple
 from deik.errors import UsageError
 
 TICK = 0.25  # seconds between the bar's moves
-# how much longer a compile takes beside others on 2 cores: `deik warmup` took 0.69 of its
-# one-process wall time with two workers against the ideal 0.50 (benchmarks/cold_start.py, docs/performance.md)
-SIDE_BY_SIDE = 1.3
+# how much longer a compile takes while another compiles beside it on 2 cores: in `deik warmup`
+# the two DE kernels took 22.2-22.3 s of Numba's timer each, against 19.8 for one of them alone
+# (benchmarks/results/cold_start.json, an idle 2-core AMD EPYC VM)
+SIDE_BY_SIDE = 1.12
 
 
 class KernelJob(NamedTuple):
@@ -72,11 +73,11 @@ def shares(jobs: list[KernelJob], workers: int) -> list[list[KernelJob]]:
 
 
 def expected_seconds(jobs: list[KernelJob]) -> float:
-    """About how long compile_all takes: its busiest worker's share, slowed by SIDE_BY_SIDE when
-    others compile beside it."""
-    split = shares(jobs, max(1, workers()))
-    busiest = max((sum(j.seconds for j in share) for share in split), default=0.0)
-    return busiest * (SIDE_BY_SIDE if len(split) > 1 else 1.0)
+    """About how long compile_all takes: its busiest worker's share, slowed by SIDE_BY_SIDE for as
+    long as another worker compiles beside it."""
+    totals = sorted((sum(j.seconds for j in share) for share in shares(jobs, max(1, workers()))), reverse=True)
+    beside = totals[1] if len(totals) > 1 else 0.0
+    return (totals[0] if totals else 0.0) + (SIDE_BY_SIDE - 1.0) * beside
 
 
 @contextmanager

@@ -30,23 +30,25 @@ if TYPE_CHECKING:
     from deik.solver.engine import Engine
 
 # Seconds each kernel of the build for every kind takes to compile on an idle 2-core AMD EPYC VM
-# without AVX-512 (the machine of issue 28: a first float32 solve 42-48 s wall, `deik warmup`
-# 74.5 s, both compiling in one process), split among the kernels as Numba's compile timers split
-# them in benchmarks/cold_start.py's runs of 2026-11-27 (results/compare/cold_start_*_b90ee42.json)
+# (benchmarks/cold_start.py at 4070ea6, results/cold_start.json: a first float32 reach solve
+# 18.8 s wall, `deik warmup` 26.4 s, each compiling side by side in workers), from Numba's compile
+# timers in those runs: the DE kernels of the position builds a first solve compiles over
+# BASE_SHARE, its report likewise, the clip Jacobians as `deik warmup` compiled them
 REFERENCE_SECONDS = {
-    "DE float32": 34.0,
-    "DE float32 without polish": 26.0,
-    "DE float64": 32.0,
-    "DE float64 without polish": 21.0,
-    "report float64": 5.5,
-    "clip warm start float64": 3.5,
+    "DE float32": 19.8,
+    "DE float32 without polish": 9.4,
+    "DE float64": 20.5,
+    "DE float64 without polish": 9.9,
+    "report float64": 2.4,
+    "clip warm start float64": 2.3,
     # the CUDA kernels compiled to PTX and SASS on the same kind of machine, without a GPU: CPU
     # seconds (tests/scripts/compile_cuda.py, benchmarks/results/gpu/kernel_resources.json)
     "CUDA kernels float32": 149.0,
     "CUDA kernels float64": 147.0,
 }
 # The share of a build's compile that the build for position goals alone takes (its DE kernel
-# took 0.86-0.91 of the full build's in the runs above), and what each other switch of
+# took 0.86-0.91 of the full build's in benchmarks/cold_start.py's runs of 2026-11-27,
+# results/compare/cold_start_*_b90ee42.json), and what each other switch of
 # deik.device.compiled_kinds adds to it: the rest split by how much device code each kind's
 # branch holds (estimated, not timed).
 BASE_SHARE = 0.88
