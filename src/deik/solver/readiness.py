@@ -30,15 +30,16 @@ if TYPE_CHECKING:
     from deik.solver.engine import Engine
 
 # Seconds each kernel of the build for every kind takes to compile on an idle 2-core AMD EPYC VM
-# (benchmarks/cold_start.py at 4070ea6, results/cold_start.json: a first float32 reach solve
-# 18.8 s wall, `deik warmup` 26.4 s, each compiling side by side in workers), from Numba's compile
-# timers in those runs: the DE kernels of the position builds a first solve compiles over
-# BASE_SHARE, its report likewise, the clip Jacobians as `deik warmup` compiled them
+# (two runs of benchmarks/cold_start.py, at 4070ea6 and 2bd66e4, results/cold_start.json: a first
+# float32 reach solve 18.8 s wall, `deik warmup` 26.4-26.9 s, each compiling side by side in
+# workers), from Numba's compile timers in those runs: the DE kernels of the position builds a
+# first solve compiles (the mean of four) over BASE_SHARE, its report likewise, the clip
+# Jacobians as `deik warmup` compiled them
 REFERENCE_SECONDS = {
     "DE float32": 19.8,
-    "DE float32 without polish": 9.4,
-    "DE float64": 20.5,
-    "DE float64 without polish": 9.9,
+    "DE float32 without polish": 9.3,
+    "DE float64": 19.7,
+    "DE float64 without polish": 9.3,
     "report float64": 2.4,
     "clip warm start float64": 2.3,
     # the CUDA kernels compiled to PTX and SASS on the same kind of machine, without a GPU: CPU
@@ -66,7 +67,9 @@ SWITCH_SHARE = {
 }
 REFERENCE_MACHINE = "a 2-core machine"
 RECORD_FILE = "deik-compile-seconds.json"
-STARTUP_SECONDS = 2.0  # the workers' start (importing Numba on shared cores) and this process's loads
+# the workers' start and this process's loads: a first solve's wall time less its DE kernel's
+# compile timer, 1.1-1.5 s in the runs above
+STARTUP_SECONDS = 1.3
 
 
 def launch_name(dtype: str, polish: bool, switches: frozenset[str] | None = None) -> str:
