@@ -31,7 +31,7 @@ from deik.errors import UsageError
 TICK = 0.25  # seconds between the bar's moves
 # how much longer a compile takes while another compiles beside it on 2 cores: in `deik warmup`
 # the two DE kernels took 22.2-22.3 s of Numba's timer each, against 19.8 for one of them alone
-# (benchmarks/results/cold_start.json, an idle 2-core AMD EPYC VM)
+# (two runs of benchmarks/cold_start.py on an idle 2-core AMD EPYC VM: docs/performance.md)
 SIDE_BY_SIDE = 1.12
 
 
