@@ -12,7 +12,8 @@ shared machine inflate less than the wall. Cases (median of --repeats):
   install, then twice more on the cache it filled: "compile" is the first run's wall minus the
   median of those, and deik's own record of each kernel's compile seconds is kept, with the
   seconds its compile note said the wait would take ("note_s");
-- warmup: `deik warmup --quiet` on an empty cache; warm solve: the same solve on a filled cache;
+- warmup: `deik warmup` on an empty cache (its note's seconds kept too); warm solve: the same
+  solve on a filled cache;
 - `import deik`, `deik --version`, and `python -c pass`, the interpreter's own start, for scale.
 --python runs every case with another interpreter, e.g. a virtual environment holding only what
 `pip install deik` brings (the development one also holds the test and GPU extras, whose
@@ -83,15 +84,20 @@ def first_solve(flags: list[str]) -> dict:
         cold = python(SOLVE + flags, Path(cache))
         warm = statistics.median(python(SOLVE + flags, Path(cache))["wall"] for _ in range(2))
         kernels = kernel_records(Path(cache))
-    note = re.search(r"about (\d+) s", cold["stderr"])
     return {
         "wall": cold["wall"],
         "cpu": cold["cpu"],
         "warm_wall": warm,
         "compile_wall": cold["wall"] - warm,
         "kernels": kernels,
-        "note_s": float(note[1]) if note else None,
+        "note_s": _note_seconds(cold["stderr"]),
     }
+
+
+def _note_seconds(stderr: str) -> float | None:
+    """The seconds deik's compile note said the wait would take (None: no note)."""
+    note = re.search(r"about (\d+) s", stderr)
+    return float(note[1]) if note else None
 
 
 def _timed(run: dict) -> dict:
@@ -100,8 +106,13 @@ def _timed(run: dict) -> dict:
 
 def warmup() -> dict:
     with tempfile.TemporaryDirectory(prefix="deik-cold-") as cache:
-        run = python(["-m", "deik", "warmup", "--quiet"], Path(cache))
-        return {"wall": run["wall"], "cpu": run["cpu"], "kernels": kernel_records(Path(cache))}
+        run = python(["-m", "deik", "warmup"], Path(cache))  # no bar: stderr is no terminal
+        return {
+            "wall": run["wall"],
+            "cpu": run["cpu"],
+            "kernels": kernel_records(Path(cache)),
+            "note_s": _note_seconds(run["stderr"]),
+        }
 
 
 def main(argv=None) -> dict:
