@@ -101,18 +101,14 @@ def _note_seconds(stderr: str) -> float | None:
 
 
 def _timed(run: dict) -> dict:
+    """A run of python() without its standard error: what the results keep."""
     return {"wall": run["wall"], "cpu": run["cpu"]}
 
 
 def warmup() -> dict:
     with tempfile.TemporaryDirectory(prefix="deik-cold-") as cache:
         run = python(["-m", "deik", "warmup"], Path(cache))  # no bar: stderr is no terminal
-        return {
-            "wall": run["wall"],
-            "cpu": run["cpu"],
-            "kernels": kernel_records(Path(cache)),
-            "note_s": _note_seconds(run["stderr"]),
-        }
+        return _timed(run) | {"kernels": kernel_records(Path(cache)), "note_s": _note_seconds(run["stderr"])}
 
 
 def main(argv=None) -> dict:
