@@ -40,9 +40,9 @@ def test_every_way_of_solving_runs_one_kernel_per_dtype():
     assert any(("float64", True) in kinds for kinds in per_build), per_build
 
 
-def _run(code: str, cache: str, **env: str) -> subprocess.CompletedProcess:
+def _run(code: str, cache: str, argv: list = (), **env: str) -> subprocess.CompletedProcess:
     done = subprocess.run(
-        [sys.executable, "-c", code],
+        [sys.executable, "-c", code, *map(str, argv)],
         capture_output=True,
         text=True,
         timeout=600,
@@ -67,7 +67,7 @@ SOLVE_WITHOUT_POLISH = (
 
 @pytest.mark.slow  # a real cold compile (about 25 s on 2 cores)
 def test_a_solve_without_polish_compiles_no_lm_and_a_second_process_compiles_nothing(tmp_path):
-    first = _run(SOLVE_WITHOUT_POLISH, str(tmp_path))
+    first = _run(SOLVE_WITHOUT_POLISH, str(tmp_path), DEIK_COMPILE_WORKERS="1")  # compiled here, to look into
     assert "compiling the CPU kernels first (DE float64 without polish [position]): about" in first.stderr
     assert "LM 0 compiled 1" in first.stdout
     # the device maths was lowered only to be linked into the kernel: no machine code of its own
@@ -111,8 +111,10 @@ def test_the_build_for_a_problems_own_kinds_gives_the_answers_of_the_build_for_e
 
 
 FIRST_FLOAT32_SOLVE = (
+    "import sys\n"
     "from deik.cli.app import main\n"
-    "main(['solve', 'chain:3', '--reach', 'tip', '1', '1', '0.5', '--polish', '0', '--generations', '5'])\n"
+    "main(['solve', 'chain:6', '--reach', 'tip', '1', '1', '0.5', '--polish', '0', '--generations', '30',\n"
+    "      '--tolerance', '1e-9', '--out', sys.argv[1], '--verbose'])\n"
     "from deik.backends.targets import cpu_entry\n"
     "position = frozenset({'POSITION_ON'})\n"
     "kernels = (cpu_entry('launch', position), cpu_entry('evaluate_poses', position))\n"
@@ -121,20 +123,39 @@ FIRST_FLOAT32_SOLVE = (
 )
 
 
-@pytest.mark.slow  # a real cold compile of two kernels (about 20 s on 2 cores)
+def _worker_reports(stderr: str) -> list[dict]:
+    marker = "a compile worker reported "
+    return [json.loads(line.split(marker)[1]) for line in stderr.splitlines() if marker in line]
+
+
+@pytest.mark.slow  # two real cold compiles of two kernels (about 20 s on 2 cores)
 def test_a_first_float32_solve_compiles_its_two_kernels_in_workers_for_its_goal_kinds_only(tmp_path):
-    first = _run(FIRST_FLOAT32_SOLVE, str(tmp_path), DEIK_COMPILE_WORKERS="2")
+    cache = tmp_path / "cache"
+    first = _run(FIRST_FLOAT32_SOLVE, str(cache), DEIK_COMPILE_WORKERS="2", argv=[tmp_path / "split.json"])
     note = "compiling the CPU kernels first (DE float32 without polish [position], report float64 [position])"
     assert note in first.stderr
     # the workers compiled both into the cache; this process loaded them
     assert "compiled here 0" in first.stdout and "loaded 2" in first.stdout
     cached = sorted(
-        os.path.basename(path).split("-")[0] for path in glob.glob(str(tmp_path / "**" / "*.nbi"), recursive=True)
+        os.path.basename(path).split("-")[0] for path in glob.glob(str(cache / "**" / "*.nbi"), recursive=True)
     )
     assert cached == ["cpu_kernels.evaluate_poses_k001", "cpu_kernels.launch_k001"]  # no other kind, no other kernel
-    (record,) = glob.glob(str(tmp_path / "**" / "deik-compile-seconds.json"), recursive=True)
+    (record,) = glob.glob(str(cache / "**" / "deik-compile-seconds.json"), recursive=True)
     with open(record) as file:
         assert set(json.load(file)) == {"DE float32 without polish [position]", "report float64 [position]"}
+    # one worker compiled the DE kernel, loading its generations loop from the other, which
+    # compiled that loop first (deik.backends.sharing), then the report
+    kernel, helper = sorted(_worker_reports(first.stderr), key=lambda report: len(report["seconds"]))
+    assert set(kernel["seconds"]) == {"DE float32 without polish [position]"} and "run_generations" in kernel["loaded"]
+    assert list(helper["seconds"]) == [
+        "DE float32 without polish [position]: run_generations",
+        "report float64 [position]",
+    ]
+    # the kernel compiled in one process gives the same answers, bit for bit
+    _run(FIRST_FLOAT32_SOLVE, str(tmp_path / "alone"), DEIK_COMPILE_WORKERS="1", argv=[tmp_path / "alone.json"])
+    split, alone = (json.loads((tmp_path / name).read_text()) for name in ("split.json", "alone.json"))
+    assert split["generations"] == alone["generations"] == 30
+    assert split["angles"] == alone["angles"] and split["fitness"] == alone["fitness"]
 
 
 WARMUP_THEN_SOLVE = (

@@ -5,9 +5,10 @@ Numba compiles a kernel in one thread, and holds one lock while it does, so two 
 process compile one after the other. A first float32 solve needs two (its DE kernel and the
 float64 report), `deik warmup` four: each worker process compiles its share (the longest first,
 to the least loaded worker) into the disk cache and reports each kernel's compile seconds, and
-this process then loads them, as a later command would. Meanwhile a bar runs over the expected
-seconds. Without a writable disk cache, or when a worker fails, this process compiles what is
-left itself.
+this process then loads them, as a later command would. A DE kernel, most of the wait, is itself
+split when there are workers to spare: another worker compiles its generations loop's call tree
+beside it (PartJob, deik.backends.sharing). Meanwhile a bar runs over the expected seconds.
+Without a writable disk cache, or when a worker fails, this process compiles what is left itself.
 
     python -m deik.backends.compiling   (a worker: reads pickled jobs on stdin, prints seconds as JSON)
 """
@@ -15,6 +16,7 @@ left itself.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import pickle
 import subprocess
@@ -33,6 +35,14 @@ TICK = 0.25  # seconds between the bar's moves
 # the two DE kernels took 22.2-22.3 s of Numba's timer each, against 19.8 for one of them alone
 # (two runs of benchmarks/cold_start.py on an idle 2-core AMD EPYC VM: docs/performance.md)
 SIDE_BY_SIDE = 1.12
+# A DE kernel compiled while another worker compiles its generations loop (PartJob) takes SPLIT of
+# its time alone, and that worker spends HELPER of it on the loop (benchmarks/cold_start.py: see
+# docs/performance.md)
+SPLIT = 0.73
+HELPER = 0.46
+# the linked function of a kernel that a helper compiles, and the types of the kernel's locals
+# its call passes (names of numba.core.types)
+PARTS = {"launch": ("run_generations", (("lazy", "boolean"),))}
 
 
 class KernelJob(NamedTuple):
@@ -44,6 +54,17 @@ class KernelJob(NamedTuple):
     signature: tuple
     label: str
     seconds: float
+
+
+class PartJob(NamedTuple):
+    """The call tree of `function` (PARTS) in `job`'s kernel, compiled beside the kernel."""
+
+    job: KernelJob
+    function: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.job.label}: {self.function}"
 
 
 def cores() -> int:
@@ -62,20 +83,35 @@ def workers() -> int:
         ) from None
 
 
-def shares(jobs: list[KernelJob], workers: int) -> list[list[KernelJob]]:
-    """Jobs split among up to `workers` workers: the longest first, each to the least loaded."""
-    loads = [[0.0, []] for _ in range(max(1, min(workers, len(jobs))))]
-    for job in sorted(jobs, key=lambda j: -j.seconds):
+def shares(jobs: list[KernelJob], workers: int) -> list[list[KernelJob | PartJob]]:
+    """Jobs split among up to `workers` workers (_loads)."""
+    return [share for _, share in _loads(jobs, workers)]
+
+
+def _loads(jobs: list[KernelJob], workers: int) -> list[tuple[float, list[KernelJob | PartJob]]]:
+    """(expected seconds, jobs) of each worker that gets any. When there are at least two workers
+    per DE kernel (a "launch" job), each has a worker of its own, at SPLIT of its seconds, and a
+    helper that compiles its PartJob first; the other jobs go the longest first, each to the least
+    loaded worker."""
+    launches = [job for job in jobs if job.kernel in PARTS]
+    split = bool(launches) and workers >= 2 * len(launches)
+    loads = []
+    for job in launches if split else []:
+        loads += [[job.seconds * SPLIT, [job]], [job.seconds * HELPER, [PartJob(job, PARTS[job.kernel][0])]]]
+    rest = [job for job in jobs if not (split and job.kernel in PARTS)]
+    loads += [[0.0, []] for _ in range(max(1 - len(loads), min(workers - len(loads), len(rest))))]
+    for job in sorted(rest, key=lambda j: -j.seconds):
         least = min(loads, key=lambda load: load[0])
         least[0] += job.seconds
         least[1].append(job)
-    return [share for _, share in loads if share]
+    return [(seconds, share) for seconds, share in loads if share]
 
 
 def expected_seconds(jobs: list[KernelJob]) -> float:
     """About how long compile_all takes: its busiest worker's share, slowed by SIDE_BY_SIDE for as
     long as another worker compiles beside it."""
-    totals = sorted((sum(j.seconds for j in share) for share in shares(jobs, max(1, workers()))), reverse=True)
+    n = workers()
+    totals = sorted((seconds for seconds, _ in _loads(jobs, n if n > 1 else 1)), reverse=True)
     beside = totals[1] if len(totals) > 1 else 0.0
     return (totals[0] if totals else 0.0) + (SIDE_BY_SIDE - 1.0) * beside
 
@@ -111,13 +147,18 @@ def time_bar(description: str, seconds: float, show: bool | None) -> Iterator[No
         bar.update(total - bar.n)
 
 
-def _compile(jobs: list[KernelJob]) -> dict[str, float]:
-    """Compile (or load) each job's entry point in this process; {label: compile seconds} of
-    those compiled."""
+def _compile(jobs: list[KernelJob | PartJob]) -> dict[str, float]:
+    """Compile (or load) each job's entry point in this process, and each PartJob's call tree;
+    {label: compile seconds} of the entry points compiled and of the PartJobs."""
     from deik.backends.targets import cpu_entry
 
     seconds = {}
     for job in jobs:
+        if isinstance(job, PartJob):
+            began = time.perf_counter()
+            _compile_part(job)
+            seconds[job.label] = time.perf_counter() - began
+            continue
         entry = cpu_entry(job.kernel, job.build)
         entry.compile(job.signature)
         took = entry.compile_seconds().get(tuple(job.signature))
@@ -126,21 +167,38 @@ def _compile(jobs: list[KernelJob]) -> dict[str, float]:
     return seconds
 
 
-def _start_worker(jobs: list[KernelJob]) -> subprocess.Popen:
-    """A worker process compiling `jobs` (stderr kept in a file: a chatty compile cannot stall it)."""
+def _compile_part(part: PartJob) -> None:
+    """Compile a PartJob's function for the types its kernel's compile will ask for."""
+    from numba.core import types
+
+    from deik.backends import cpu_kernels
+    from deik.backends.sharing import call_signature
+    from deik.backends.targets import cpu_build
+
+    function, local_types = PARTS[part.job.kernel]
+    local_types = {name: getattr(types, kind) for name, kind in local_types}
+    signature = call_signature(getattr(cpu_kernels, part.job.kernel), function, part.job.signature, local_types)
+    getattr(cpu_build(part.job.build), function).compile(signature)
+
+
+def _start_worker(jobs: list[KernelJob | PartJob], folder: str) -> subprocess.Popen:
+    """A worker process compiling `jobs`, sharing linked functions through `folder` (stderr kept
+    in a file: a chatty compile cannot stall it)."""
     worker = subprocess.Popen(
         [sys.executable, "-m", "deik.backends.compiling"],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=tempfile.TemporaryFile(),
     )
-    worker.stdin.write(pickle.dumps(jobs))
+    worker.stdin.write(pickle.dumps((folder, jobs)))
     worker.stdin.close()
     return worker
 
 
-def _finish(worker: subprocess.Popen) -> dict[str, float]:
-    """The seconds a worker reports once done ({} if it failed: this process compiles instead)."""
+def _finish(worker: subprocess.Popen) -> dict:
+    """What a worker reports once done: {"seconds": {label: compile seconds}, "loaded": [names of
+    the linked functions it loaded from another worker]} ({} if it failed: this process compiles
+    instead)."""
     out = worker.stdout.read()
     if worker.wait() != 0 or not out.strip():
         return {}
@@ -167,17 +225,31 @@ def compile_all(jobs: list[KernelJob], show: bool | None = None) -> dict[str, fl
     names = ", ".join(job.label for job in to_compile)
     with time_bar(f"compiling {names}", expected_seconds(to_compile), show):
         cached = all(_writable(cpu_entry(job.kernel, job.build).cache_folder) for job in to_compile)
-        if cached and len(to_compile) > 1 and workers() > 1:
-            started = [_start_worker(share) for share in shares(to_compile, workers())]
-            try:
-                for worker in started:
-                    seconds.update(_finish(worker))
-            finally:
-                for worker in started:
-                    if worker.poll() is None:
-                        worker.kill()
+        split = shares(to_compile, workers())
+        if cached and len(split) > 1:
+            seconds.update(_in_workers(split))
         seconds.update(_compile(jobs))  # loads what the workers compiled, compiles what they did not
     return seconds
+
+
+def _in_workers(split: list[list[KernelJob | PartJob]]) -> dict[str, float]:
+    """Run one worker per share of `split`, sharing linked functions through a folder of their
+    own; {label: compile seconds}, a kernel compiled beside its PartJob counted as alone."""
+    seconds, log = {}, logging.getLogger(__name__)
+    with tempfile.TemporaryDirectory(prefix="deik-compile-") as folder:
+        started = [_start_worker(share, folder) for share in split]
+        try:
+            for worker in started:
+                report = _finish(worker)
+                seconds.update(report.get("seconds", {}))
+                log.debug("a compile worker reported %s", json.dumps(report))
+        finally:
+            for worker in started:
+                if worker.poll() is None:
+                    worker.kill()
+    parts = {job.label: job.job.label for share in split for job in share if isinstance(job, PartJob)}
+    helped = set(parts.values())
+    return {label: s / SPLIT if label in helped else s for label, s in seconds.items() if label not in parts}
 
 
 def _writable(folder: str | None) -> bool:
@@ -192,9 +264,14 @@ def _writable(folder: str | None) -> bool:
 
 
 def main() -> None:
-    """A worker: compile the pickled jobs on stdin into the disk cache; print their seconds."""
-    jobs = pickle.loads(sys.stdin.buffer.read())
-    print(json.dumps(_compile(jobs)))
+    """A worker: compile the pickled (folder, jobs) on stdin into the disk cache, sharing linked
+    functions through the folder; print _finish's report."""
+    from deik.backends import compiling, sharing  # this module by its name, as the jobs were pickled
+
+    folder, jobs = pickle.loads(sys.stdin.buffer.read())
+    with sharing.through(folder):
+        seconds = compiling._compile(jobs)
+    print(json.dumps({"seconds": seconds, "loaded": sharing.loaded}))
 
 
 if __name__ == "__main__":

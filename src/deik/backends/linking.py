@@ -23,9 +23,11 @@ import importlib.util
 import sys
 from contextlib import contextmanager
 
-from numba.core import codegen, compiler, dispatcher, registry
+from numba.core import codegen, compiler, dispatcher, registry, sigutils
 from numba.core import types as numba_types
+from numba.core.compiler_lock import global_compiler_lock
 
+from deik.backends import sharing
 from deik.backends.entries import Entry
 
 
@@ -126,6 +128,8 @@ class LinkOnlyDispatcher(registry.CPUDispatcher):
     typed as their plain types, so `f(x, 0)` and `f(x, 1)` share one compile. Called from
     Python, it runs `entry`, its cached trampoline (deik.backends.entries)."""
 
+    library_class = LinkOnlyLibrary
+
     def __init__(self, py_func, targetoptions, original, entry_name: str):
         """py_func: the copy to compile (deik.backends.targets.compile_namespace); original: the
         function it copies, whose module, file and first line the entry takes; entry_name:
@@ -136,6 +140,17 @@ class LinkOnlyDispatcher(registry.CPUDispatcher):
 
     def get_call_template(self, args, kws):
         return super().get_call_template(tuple(numba_types.unliteral(a) for a in args), kws)
+
+    def compile(self, sig):
+        """Numba's compile, except that while a kernel compiles in two processes a signature
+        the other compiles is loaded from it (deik.backends.sharing)."""
+        if not sharing.active():
+            return super().compile(sig)
+        with global_compiler_lock:
+            args = tuple(sigutils.normalize_signature(sig)[0])
+            if args not in self.overloads:
+                sharing.compile_once(self, args, lambda: super(LinkOnlyDispatcher, self).compile(sig))
+            return self.overloads[args].entry_point
 
     def add_overload(self, cres):
         key = _LinkKey(self.py_func.__qualname__)
