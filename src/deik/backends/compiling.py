@@ -36,10 +36,12 @@ TICK = 0.25  # seconds between the bar's moves
 # (two runs of benchmarks/cold_start.py on an idle 2-core AMD EPYC VM: docs/performance.md)
 SIDE_BY_SIDE = 1.12
 # A DE kernel compiled while another worker compiles its generations loop (PartJob) takes SPLIT of
-# its time alone, and that worker spends HELPER of it on the loop (benchmarks/cold_start.py: see
-# docs/performance.md)
-SPLIT = 0.73
-HELPER = 0.46
+# its time alone, slowed by SIDE_BY_SIDE while the helper runs, and the helper spends HELPER of it
+# on the loop: two runs of benchmarks/cold_start.py on an idle 2-core AMD EPYC VM, the float32 DE
+# kernel for position goals 11.4-12.0 s of Numba's timer against 14.5-14.7 s alone, its loop
+# 6.8 s (docs/performance.md)
+SPLIT = 0.61
+HELPER = 0.41
 # the linked function of a kernel that a helper compiles, and the types of the kernel's locals
 # its call passes (names of numba.core.types)
 PARTS = {"launch": ("run_generations", (("lazy", "boolean"),))}
@@ -248,8 +250,8 @@ def _in_workers(split: list[list[KernelJob | PartJob]]) -> dict[str, float]:
                 if worker.poll() is None:
                     worker.kill()
     parts = {job.label: job.job.label for share in split for job in share if isinstance(job, PartJob)}
-    helped = set(parts.values())
-    return {label: s / SPLIT if label in helped else s for label, s in seconds.items() if label not in parts}
+    helped, share = set(parts.values()), SPLIT + (SIDE_BY_SIDE - 1.0) * HELPER
+    return {label: s / share if label in helped else s for label, s in seconds.items() if label not in parts}
 
 
 def _writable(folder: str | None) -> bool:

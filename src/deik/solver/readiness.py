@@ -29,10 +29,11 @@ if TYPE_CHECKING:
     from deik.device.layout import PackedSkeleton
     from deik.solver.engine import Engine
 
-# Seconds each kernel of the build for every kind takes to compile on an idle 2-core AMD EPYC VM
-# (two runs of benchmarks/cold_start.py, at 4070ea6 and 2bd66e4: a first float32 reach solve
-# 18.8 s wall, `deik warmup` 26.4-26.9 s, each compiling side by side in workers; a third run
-# took 17.1 and 24.4 s, a fourth, results/cold_start.json, 18.6 and 25.0 s: docs/performance.md),
+# Seconds each kernel of the build for every kind takes to compile alone on an idle 2-core AMD EPYC
+# VM (two runs of benchmarks/cold_start.py, at 4070ea6 and 2bd66e4: a first float32 reach solve
+# 18.8 s wall, `deik warmup` 26.4-26.9 s, each compiling side by side in workers, before a lone DE
+# kernel got a helper (deik.backends.compiling.SPLIT); a third run took 17.1 and 24.4 s, a fourth
+# 18.6 and 25.0 s: docs/performance.md),
 # from Numba's compile timers in the two: the DE kernels of the position builds a first solve compiles (the mean of
 # four) over BASE_SHARE, its report likewise, the clip Jacobians as `deik warmup` compiled them
 REFERENCE_SECONDS = {
