@@ -226,19 +226,20 @@ def compile_all(jobs: list[KernelJob], show: bool | None = None) -> dict[str, fl
     seconds = {}
     names = ", ".join(job.label for job in to_compile)
     with time_bar(f"compiling {names}", expected_seconds(to_compile), show):
-        cached = all(_writable(cpu_entry(job.kernel, job.build).cache_folder) for job in to_compile)
+        folders = [cpu_entry(job.kernel, job.build).cache_folder for job in to_compile]
         split = shares(to_compile, workers())
-        if cached and len(split) > 1:
-            seconds.update(_in_workers(split))
+        if all(map(_writable, folders)) and len(split) > 1:
+            seconds.update(_in_workers(split, folders[0]))
         seconds.update(_compile(jobs))  # loads what the workers compiled, compiles what they did not
     return seconds
 
 
-def _in_workers(split: list[list[KernelJob | PartJob]]) -> dict[str, float]:
+def _in_workers(split: list[list[KernelJob | PartJob]], cache: str) -> dict[str, float]:
     """Run one worker per share of `split`, sharing linked functions through a folder of their
-    own; {label: compile seconds}, a kernel compiled beside its PartJob counted as alone."""
+    own in the disk cache's folder `cache` (writable, as the workers need it anyway); {label:
+    compile seconds}, a kernel compiled beside its PartJob counted as alone."""
     seconds, log = {}, logging.getLogger(__name__)
-    with tempfile.TemporaryDirectory(prefix="deik-compile-") as folder:
+    with tempfile.TemporaryDirectory(prefix="deik-compile-", dir=cache) as folder:
         started = [_start_worker(share, folder) for share in split]
         try:
             for worker in started:
