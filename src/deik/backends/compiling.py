@@ -111,8 +111,9 @@ def _loads(jobs: list[KernelJob], workers: int) -> list[tuple[float, list[Kernel
 
 def expected_seconds(jobs: list[KernelJob]) -> float:
     """About how long compile_all takes: its busiest worker's share, slowed by SIDE_BY_SIDE for as
-    long as another worker compiles beside it."""
-    n = workers()
+    long as another worker compiles beside it; workers beyond the cores count as none (they take
+    turns on them)."""
+    n = min(workers(), cores())
     totals = sorted((seconds for seconds, _ in _loads(jobs, n if n > 1 else 1)), reverse=True)
     beside = totals[1] if len(totals) > 1 else 0.0
     return (totals[0] if totals else 0.0) + (SIDE_BY_SIDE - 1.0) * beside
