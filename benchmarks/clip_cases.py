@@ -64,7 +64,9 @@ STAND_SECONDS, SUNK = 2.0, 0.012  # s held at each end, m under the floor
 class Case:
     """One file to clean: `rig`, `names` {canonical joint: its name in the rig}, `unit` (length
     units per metre), `bone_scale` {canonical joint: scale of its bones (the bones it carries and
-    its End Sites')}, and what was done to it."""
+    its End Sites')}, what was done to it, and `truth`: the same rig's frames without the errors
+    a transform adds to the data (noise, the body sunk, a glitch frame), or None where it adds
+    none; the judge takes where points rest from it (benchmarks/clip_judge.py)."""
 
     name: str
     rig: Rig
@@ -72,6 +74,12 @@ class Case:
     unit: float
     bone_scale: dict
     description: str
+    truth: Rig | None = None
+
+    @property
+    def reference(self) -> Rig:
+        """The motion the case shows: `truth`, else the file as written."""
+        return self.truth if self.truth is not None else self.rig
 
 
 def source_case(path: Path) -> Case:
@@ -215,8 +223,9 @@ def noisy(case: Case, seed: int = 0) -> Case:
             frames[:, k] += rng.normal(0.0, 0.2, len(frames))
         elif j == 0:
             frames[:, k] += rng.normal(0.0, 0.001 * case.unit, len(frames))
-    rig = dataclasses.replace(rig, frames=_lowered(case, frames, SUNK))
-    return dataclasses.replace(case, name=case.name + "_noisy", rig=rig, description="noise, 12 mm under the floor")
+    noisy_rig = dataclasses.replace(rig, frames=_lowered(case, frames, SUNK))
+    description = "noise, 12 mm under the floor"
+    return dataclasses.replace(case, name=case.name + "_noisy", rig=noisy_rig, description=description, truth=rig)
 
 
 def _t_pose(rig: Rig, frame: np.ndarray) -> np.ndarray:
@@ -242,7 +251,8 @@ def glitch(case: Case) -> Case:
     middle = len(frames) // 2
     frames[middle] = _t_pose(case.rig, frames[middle])
     rig = dataclasses.replace(case.rig, frames=frames)
-    return dataclasses.replace(case, name=case.name + "_glitch", rig=rig, description="the middle frame a T-pose")
+    description = "the middle frame a T-pose"
+    return dataclasses.replace(case, name=case.name + "_glitch", rig=rig, description=description, truth=case.rig)
 
 
 def stand(case: Case) -> Case:
@@ -251,7 +261,8 @@ def stand(case: Case) -> Case:
     held = np.concatenate([np.repeat(frames[:1], n, axis=0), frames, np.repeat(frames[-1:], n, axis=0)])
     rig = dataclasses.replace(case.rig, frames=_lowered(case, held, SUNK))
     description = "standing 2 s at each end, 12 mm deep"
-    return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description)
+    truth = dataclasses.replace(case.rig, frames=held)
+    return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description, truth=truth)
 
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,

@@ -23,6 +23,12 @@ Measures, in mm and the case's frames:
 - travel: how far the pelvis goes over the ground, first frame to last, against the capture;
 - steps: the capture's resting runs of the foot points matched in the result (an overlapping run
   whose first and last frames are within STEP_SLACK seconds, at least one frame, of the capture's).
+Where a case's transform added errors to the capture's data (noise, the body sunk under the
+floor, a glitch frame: benchmarks/clip_cases.py, Case.truth), where points rest is taken from
+the data without them: a heel the transform sank 12 mm into the band is not a step, nor is a
+run the glitch frame cut in two, and a foot the noise shakes still rests. Everything else is
+measured against the capture as written: sliding on its and the result's own points, depth,
+travel, and the acceleration peaks (a cleaner must add no pop to what it was given).
 """
 
 from __future__ import annotations
@@ -174,12 +180,15 @@ def _steps(before: np.ndarray, after: np.ndarray, frame_time: float) -> tuple[in
     return matched, total
 
 
-def judge(case: Case, capture: Rig, result: Rig, unmet: np.ndarray | None = None) -> dict:
+def judge(case: Case, capture: Rig, result: Rig, unmet: np.ndarray | None = None, truth: Rig | None = None) -> dict:
     """The module's measures of `result` against `capture` (both of `case`'s rig); `unmet` (N,)
-    the frames the cleaner said it did not meet (for listed_misses)."""
+    the frames the cleaner said it did not meet (for listed_misses); `truth`: the capture
+    without the errors a case's transform added to its data (Case.truth), where points rest (a
+    foot the transform sank 12 mm, or a glitch frame, is not a step), default the capture."""
+    truth = capture if truth is None else truth
     names, before, clear = contact_points(case, capture)
     after = contact_points(case, result)[1]
-    rest = resting(before, clear, capture.frame_time)
+    rest = resting(contact_points(case, truth)[1], clear, truth.frame_time)
     slide_before = _sliding(before, rest)
     slide_after = _sliding(after, rest)
     depth_before, depth_after = deepest(case, capture), deepest(case, result)

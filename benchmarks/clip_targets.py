@@ -10,8 +10,9 @@ this process (deik.cli.app.main) and measured by benchmarks/clip_judge.py, which
 with deik: its own BVH reader and kinematics, the DeepMimic collision shapes as the body, its
 own contact detector, the floor at height 0.
 
-Targets per case (TARGETS): contact sliding at most 1 mm per frame over every point that rests
-in the capture; no part of the body more than 2 mm under the floor; no joint or End Site whose
+Targets per case (TARGETS), "the capture" without the errors a transform added to its data
+(the judge's notes): contact sliding at most 1 mm per frame over every point that rests in the
+capture; no part of the body more than 2 mm under the floor; no joint or End Site whose
 acceleration peak rises above 1.1 times its own peak in the capture; every frame that misses
 one of those listed by deik as unmet; the pelvis travels as far as in the capture (within 5 %
 or 2 cm); every resting run of the feet found again (lifting and landing within 0.07 s).
@@ -75,7 +76,7 @@ def run_case(case, folder: Path) -> dict:
            "frame_time_s": case.rig.frame_time, "exit_status": status, "seconds": seconds}  # fmt: skip
     if result is not None:
         unmet = ~np.array(report["met_per_frame"], bool)
-        row |= judge(case, case.rig, result, unmet)
+        row |= judge(case, case.rig, result, unmet, case.truth)
         row["deik_frames_met"] = report["frames_met"]
         row["deik_floor"] = report.get("floor")
     row["verdicts"] = verdicts(row)
