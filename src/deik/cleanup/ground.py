@@ -43,7 +43,10 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   (cleanup/plants.py), so a heel that begins to lift as the foot rolls onto its toes may
   still rest: it rises about the toe without sliding, as high as in the capture (the foot's
   roll, cleanup/warmstart.py). A point still sliding fast as it lands does not rest until it
-  slows: planting it sooner would stop it in a frame, a jolt.
+  slows: planting it sooner would stop it in a frame, a jolt. A clip's first and last frames
+  take their neighbours' slowness: there a speed is a one-sided difference over one frame,
+  which doubles a capture's jitter, and a foot resting from the first frame of a noisy clip
+  was planted from the second, the first left 24 mm away (the shared kick with capture noise).
 - Up (floor_it_rests_on): a capture rests on its floor, so in most frames no part of the body
   lies far under it, and its body stands over what rests: the centre of its points lies near
   the resting points along the ground (the median over the frames in which something rests of
@@ -131,6 +134,15 @@ def point_speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
     if len(p) < 2:
         return np.zeros(p.shape[:2])
     return np.linalg.norm(np.gradient(smoothed(p, frame_time), frame_time, axis=0), axis=-1)
+
+
+def _ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
+    """(N, K) `slow` with each end frame taking its neighbour's (module notes: Resting); as it
+    is with fewer than 3 frames."""
+    slow = np.array(slow, bool)
+    if len(slow) >= 3:
+        slow[0], slow[-1] = slow[1], slow[-2]
+    return slow
 
 
 @dataclass(frozen=True, eq=False)
@@ -328,6 +340,7 @@ def detect_resting(
     given_band, band = band, BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
     slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
+    slow = _ends_as_neighbours(slow)
     clear = body.radius[index]
     above = paths.heights[:, index] - floor - clear
     if given_band is None:  # the soles' band is measured from where the body rests, if above the floor
