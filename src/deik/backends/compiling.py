@@ -10,7 +10,7 @@ split when there are workers to spare: another worker compiles its generations l
 beside it (PartJob, deik.backends.sharing). Meanwhile a bar runs over the expected seconds.
 Without a writable disk cache, or when a worker fails, this process compiles what is left itself.
 
-    python -m deik.backends.compiling   (a worker: reads pickled jobs on stdin, prints seconds as JSON)
+    python -m deik.backends.compiling   (a worker: reads pickled (folder, jobs) on stdin, prints its report as JSON)
 """
 
 from __future__ import annotations
@@ -66,6 +66,7 @@ class PartJob(NamedTuple):
 
     @property
     def label(self) -> str:
+        """Its name in reports, e.g. "DE float32 [position]: run_generations"."""
         return f"{self.job.label}: {self.function}"
 
 
