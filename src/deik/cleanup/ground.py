@@ -6,11 +6,12 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   SPEED x span per second.
 - Floor (detect_floor): the level the body rests on: the median, over the frames in which a
   point of the body is slow, of the lowest slow point's surface (its height less its radius:
-  a sole's, a kneeling knee's, a lying back's); without any slow point, the 5th percentile of
-  each frame's lowest surface. When that level lies within GROUND_PLANE x span of height 0, the
-  floor is the file's ground plane, height 0: captures are made on it, and their resting
-  contacts sit on it, a little above or below (a long leg's foot sinks, a radius is an
-  estimate). FloorChoice says which and how.
+  a sole's, a kneeling knee's, a lying back's). When that level lies within GROUND_PLANE x span
+  of height 0, the floor is the file's ground plane, height 0: captures are made on it, and
+  their resting contacts sit on it, a little above or below (a long leg's foot sinks, a radius
+  is an estimate). Without any slow point nothing rests to show where the floor is, and it is
+  the 5th percentile of each frame's lowest surface ("lowest points"), which lifts nothing.
+  FloorChoice says which and how.
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
   above floor + clearance) is at most BAND x span. A foot's heel or toe that rises (faster than
