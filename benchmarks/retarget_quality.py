@@ -68,8 +68,6 @@ STUDIO_NAMES = {  # the shared rig's joints as another studio names them
     "LeftElbow": "lowerarm_l",
 }
 LEG_NODES = ("RightKnee", "RightAnkle", "RightAnkle_end", "LeftKnee", "LeftAnkle", "LeftAnkle_end")
-SOURCE_CASES = ("backwards", "sped_up", "long_legs", "noisy", "studio")
-ROBOT_CASES = ("reordered", "continuous", "slow")
 
 
 def source_case(bvh: Bvh, case: str, seed: int = 0) -> Bvh:
