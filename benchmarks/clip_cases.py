@@ -76,11 +76,6 @@ class Case:
     description: str
     truth: Rig | None = None
 
-    @property
-    def reference(self) -> Rig:
-        """The motion the case shows: `truth`, else the file as written."""
-        return self.truth if self.truth is not None else self.rig
-
 
 def source_case(path: Path) -> Case:
     """The shared clip at `path` as it is."""
