@@ -17,7 +17,7 @@ from deik.model.capsules import bone_starts
 from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
-from deik.retargeting.smooth import MotionGoals, smooth_motion
+from deik.retargeting.smooth import MotionGoals, eased_offsets, smooth_motion
 
 POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
 POINTS += ("left_knee", "right_knee", "chest", "pelvis")
@@ -260,3 +260,46 @@ def test_the_space_time_pass_keeps_each_step_within_its_largest():
     assert np.abs(np.diff(free[:, twist])).max() > 0.5  # without the rows the snap stays
     assert np.abs(np.diff(found[:, 6:], axis=0)).max() < 0.05 * 1.05  # each step within its largest (row margin 5 %)
     assert (found >= h.lower - 1e-12).all() and (found <= h.upper + 1e-12).all()
+
+
+def test_eased_offsets_take_the_plant_inside_a_contact_and_fade_outside():
+    N, frames = 60, 6.0
+    mask = np.zeros((N, 1), bool)
+    mask[10:20] = mask[23:30] = True  # a second contact 3 frames after the first
+    gaps = np.random.default_rng(0).normal(size=(N, 1, 3))
+    out = eased_offsets(mask, gaps, frames)
+    np.testing.assert_array_equal(out[mask[:, 0], 0], gaps[mask[:, 0], 0])
+    assert not out[:3].any() and not out[37:].any()  # further than `frames` from every contact
+    # the first frames outside a contact keep nearly all of the gap at its edge
+    x = 1.0 / (frames + 1.0)
+    np.testing.assert_allclose(out[9, 0], gaps[10, 0] * (1 - x * x * (3 - 2 * x)))
+    np.testing.assert_allclose(out[30, 0], gaps[29, 0] * (1 - x * x * (3 - 2 * x)))
+    # between the close contacts: from the one's edge gap to the other's, each frame a blend of the two
+    for n, u in zip((20, 21, 22), (0.25, 0.5, 0.75)):
+        s = u * u * (3 - 2 * u)
+        np.testing.assert_allclose(out[n, 0], (1 - s) * gaps[19, 0] + s * gaps[23, 0])
+
+
+def test_a_key_point_that_rests_joins_its_plant_and_leaves_it_without_a_jump():
+    h = deik.humanoid()
+    truth, drifting, _ = _clip(h, 60)
+    names = [name for name in POINTS if not name.startswith("left_")] + ["left_toe_tip"]
+    targets = np.stack([deik.forward_kinematics(h, drifting).position(name) for name in names], axis=1)
+    mask = np.zeros((len(truth), 1), bool)
+    mask[10:30] = True  # the toe's target drifts through the contact, as a source's sliding toe does
+    contacts = Contacts(("left_toe_tip",), mask, False, None, None, 0.0)
+    weights = dof_weights(Trajectory(h, truth, DT))
+    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
+    goals = MotionGoals(
+        h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach
+    )
+    found = smooth_motion(goals, drifting)
+    toe = deik.forward_kinematics(h, found).position("left_toe_tip")
+    path = targets[:, -1]
+    step, path_step = (np.linalg.norm(np.diff(p, axis=0), axis=-1) for p in (toe, path))
+    assert step[10:29].max() < 1e-3  # planted
+    drift = np.linalg.norm(path[29] - toe[29])  # how far the plant lies from the target as it ends
+    assert drift > 0.02
+    # it rejoins its path over the easing, not in the frame the plant ends
+    assert step[29:45].max() < path_step[25:45].max() + 0.5 * drift
+    assert np.linalg.norm(toe[45] - path[45]) < 0.003

@@ -10,7 +10,12 @@ clip finds the displacement from those poses that
   body's bone capsules apart (collision.py),
 - keeps the key points and orientation points near their targets, counted KEYPOINT_WEIGHT /
   HELD_WEIGHT as much as the rows above, so a point the body cannot reach while its feet stay
-  planted is given up first,
+  planted is given up first; a key point that is also a contact site has its plant as target
+  during the contact, and its target joins the plant over EASE_SECONDS before the contact and
+  leaves it over EASE_SECONDS after (eased_offsets): a point the source moves while it rests
+  (a toe dragged along the floor, a hand pivoting) would otherwise be pulled back to the
+  source's path in the frame its plant ends, a jump (102 mm in a frame on the shared kick
+  retargeted to longer legs, twice its fastest step in the source),
 - against the spring energy of the displacement (cleanup/spacetime.py: each DOF's stiffness by
   how much of the body it moves, clips.warmstart.motion_stiffness): a correction that a contact
   needs starts before the contact does and fades after it, so the motion keeps the per-frame
@@ -33,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deik.cleanup.contacts import Contacts
+from deik.cleanup.contacts import Contacts, true_runs
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows, motion_stiffness, position_jacobian
@@ -48,6 +53,7 @@ ITERATIONS = 30
 REPLANT = 5  # iterations between plantings
 DAMPING = (1e-6, 1.0, 1e8)  # least, first and most damping (weighted DOF units squared)
 CAPSULE_MARGIN = 1e-4  # of the size: how far apart a collision row pushes two capsules
+EASE_SECONDS = 0.15  # how long a key point's target takes to join its plant, and to leave it
 STEP_MARGIN = 0.95  # a step row asks a DOF's step down to this share of its largest step
 STEP_WEIGHT = (
     0.1 * HELD_WEIGHT
@@ -89,6 +95,38 @@ def step_rows(q: np.ndarray, largest: np.ndarray, weights: np.ndarray) -> tuple[
     return over * STEP_WEIGHT, errors
 
 
+def eased_offsets(mask: np.ndarray, gaps: np.ndarray, frames: float) -> np.ndarray:
+    """(N, S, 3) what to add to the targets of S key points that are contact sites so that
+    they meet their plants: `gaps` (N, S, 3), plant minus target, taken whole in the frames
+    `mask` (N, S) marks; outside, the gap at the nearest contact frame falls as a smoothstep to
+    0 over `frames` frames, and between two contacts closer than twice that it passes from the
+    one's gap to the other's by a smoothstep across the frames between them."""
+    N = len(mask)
+    out = np.where(mask[..., None], gaps, 0.0)
+
+    def fall(distance):
+        x = np.clip(distance / (frames + 1.0), 0.0, 1.0)
+        return 1.0 - x * x * (3.0 - 2.0 * x)
+
+    for s in range(mask.shape[1]):
+        runs = true_runs(mask[:, s])
+        for (_, end), (begin, _) in zip([(None, 0)] + runs, runs + [(N, None)]):
+            between = np.arange(end, begin)
+            if not len(between):
+                continue
+            after, before = between - end + 1, begin - between  # frames from the contact before, after
+            if 0 < end and begin < N and begin - end < 2 * frames:
+                u = after / (begin - end + 1.0)
+                weights = (1.0 - u * u * (3.0 - 2.0 * u), u * u * (3.0 - 2.0 * u))
+            else:
+                weights = (fall(after) if end > 0 else 0.0 * after, fall(before) if begin < N else 0.0 * before)
+            if end > 0:
+                out[between, s] += weights[0][:, None] * gaps[end - 1, s]
+            if begin < N:
+                out[between, s] += weights[1][:, None] * gaps[begin, s]
+    return out
+
+
 def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     """(N, D) poses near the per-frame IK's `first` (N, D) that meet `goals` as the module
     notes say. Rotations free over a whole turn come out unwrapped (continuous over the
@@ -111,14 +149,26 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     largest = np.full(D, np.inf) if goals.largest_step is None else np.asarray(goals.largest_step, float)
     size2 = goals.size**2
 
-    def plants_at(q):
-        if contacts is None:
-            return np.zeros((N, 0, 3))
-        # the mean along the ground: the IK's path of a planted point, fast ends included, is its own
-        return planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts, along="mean")
+    planted_keys = [(s, goals.names.index(name)) for s, name in enumerate(contacts.sites if contacts else ())
+                    if name in goals.names]  # fmt: skip
+    ease_frames = EASE_SECONDS / goals.frame_time
 
-    def measured(q, plants):
+    def plants_at(q):
+        """(plants (N, S, 3), what to add to the key points' targets (N, K, 3))."""
+        offsets = np.zeros((N, len(points), 3))
+        if contacts is None:
+            return np.zeros((N, 0, 3)), offsets
+        # the mean along the ground: the IK's path of a planted point, fast ends included, is its own
+        plants = planted_targets(Trajectory(skeleton, q, goals.frame_time), contacts, along="mean")
+        if planted_keys:
+            s, k = (list(column) for column in zip(*planted_keys))
+            gaps = plants[:, s] - targets_at(goals.targets, q, np.arange(N))[:, k]
+            offsets[:, k] = eased_offsets(mask[:, s], gaps, ease_frames)
+        return plants, offsets
+
+    def measured(q, planted):
         """(cost, errors (N, R), rows (N, R, D) per weighted DOF unit, row weights (N, R), step rows)."""
+        plants, offsets = planted
         x, jac = position_jacobian(skeleton, q, frames)
         held_errors = [np.where(mask[..., None], plants - x[:, sites], 0.0).reshape(N, -1)]
         held_rows = [(jac[:, sites] * mask[:, :, None, None]).reshape(N, -1, D)]
@@ -132,7 +182,7 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
         held_errors.append(error)
         held_rows.append(rows)
         held = np.concatenate(held_errors, axis=1)
-        key = (targets_at(goals.targets, q, np.arange(N)) - x[:, points]).reshape(N, -1)
+        key = (targets_at(goals.targets, q, np.arange(N)) + offsets - x[:, points]).reshape(N, -1)
         errors = np.concatenate([held, key], axis=1)
         rows = np.concatenate(held_rows + [jac[:, points].reshape(N, -1, D)], axis=1) * scale
         row_weights = np.concatenate([np.full(held.shape, HELD_WEIGHT), np.full(key.shape, KEYPOINT_WEIGHT)], axis=1)
