@@ -106,7 +106,7 @@ def _meets_strict_targets(run):
         assert error <= (1e-5 if label.startswith("position") else 1e-4), (label, error)
 
 
-@pytest.mark.parametrize(("case", "dofs"), [("arm", 7), ("chain", 24)])
+@pytest.mark.parametrize(("case", "dofs"), [("arm", 7), ("chain", 24), ("turns", 7)])
 def test_team_polish_meets_strict_targets_in_the_bits_of_the_thread_kernel_and_the_cpu(case, dofs):
     # a 7-DOF arm's 6-D targets (the dual step) and a 24-DOF chain's (the dual step, and on one
     # problem 36 rows: the normal equations, three DOFs a lane), random in-limit poses' FK

@@ -13,6 +13,7 @@ from deik.device import driver as device_driver
 from deik.device import layout
 from deik.device import lm as device_lm
 from deik.device import terms as device_terms
+from helpers import robot_arm
 
 
 def test_device_imports_resolve_to_the_compiled_namespace():
@@ -39,3 +40,16 @@ def test_packed_skeleton_columns_are_named():
     assert isinstance(skel, layout.PackedSkeleton)
     np.testing.assert_array_equal(skel.joint_int[:, layout.PARENT], chain.parents)
     np.testing.assert_array_equal(skel.limits[:, layout.LOWER], chain.lower)
+
+
+def test_rotations_spanning_a_whole_turn_are_marked_to_wrap_and_no_other_dof():
+    chain = deik.chain(3)  # every joint +-pi: a whole turn
+    narrow = deik.with_limits(chain, {"link1.Zrotation": (-3.0, 3.0)})
+    for dtype in (np.float32, np.float64):
+        turn = dtype(2 * np.pi)
+        np.testing.assert_array_equal(pack_skeleton(chain, dtype).limits[:, layout.TURN], [turn] * 3)
+        np.testing.assert_array_equal(pack_skeleton(narrow, dtype).limits[:, layout.TURN], [turn, 0, turn])
+    # a slide 10 long is no turn; a wrist from -pi to 2 pi is one and a half
+    arm = deik.with_limits(robot_arm(), {"slide.Zposition": (-5.0, 5.0), "wrist.roll": (-np.pi, 2 * np.pi)})
+    turns = pack_skeleton(arm, np.float64).limits[:, layout.TURN]
+    np.testing.assert_array_equal(turns, [0, 0, 0, 0, 2 * np.pi, 0])

@@ -13,8 +13,11 @@ problem 1 the positions of links 1-11 too (36 rows for 24 DOFs: the normal equat
 DOFs per lane), the centre of mass on problems 1 and 2 and its ground projection on problems 1
 and 3 (every Jacobian function's columns split across the lanes, in the dual step and the
 normal equations). "wide": a 34-DOF chain's tip targets, more DOFs than a team's shared slab
-holds (the thread-per-problem kernel runs). Every target is the forward kinematics of a random
-in-limit pose; the start is that pose moved by up to 0.3 rad a DOF. PATH: "team" (the GPU's
+holds (the thread-per-problem kernel runs). "turns": the arm with every joint turning all round
+(limits +-pi), 6-D targets whose every joint lies within 0.25 rad of +-pi, each started 0.3 rad
+across +-pi from it (the polish wraps round: stopped at the limit it stalls). Every other target
+is the forward kinematics of a random in-limit pose; the start is that pose moved by up to 0.3
+rad a DOF. PATH: "team" (the GPU's
 team per problem where it can), "thread" (a thread per problem) or "cpu". Used by
 tests/backends/test_cuda.py in subprocesses (the CUDA simulator needs its own process).
 """
@@ -31,8 +34,9 @@ from deik import Joint, Site, hinge
 STRICT = (1e-5, 1e-4)  # metres, radians
 
 
-def arm():
-    """A 7-revolute arm with the Franka Panda's joint origins, rest rotations, z hinges and limits."""
+def arm(all_round=False):
+    """A 7-revolute arm with the Franka Panda's joint origins, rest rotations, z hinges and
+    limits (every joint +-pi with `all_round`)."""
     half = math.pi / 2
 
     def rx(angle):
@@ -50,6 +54,7 @@ def arm():
     ]
     joints = [Joint("base", None, mass=4.0)]
     for k, (offset, angle, lower, upper) in enumerate(links):
+        lower, upper = (-math.pi, math.pi) if all_round else (lower, upper)
         parent = joints[-1].name
         joints.append(
             Joint(f"joint{k + 1}", parent, offset, hinge((0, 0, 1), lower, upper), mass=1.0, rotation=rx(angle))
@@ -70,14 +75,17 @@ def _kind_and_target(goal, kin):
 
 def problem(case):
     """(skeleton, Problem, start poses, goals: [(kind, frame, targets, active)] as lists)."""
-    if case == "arm":
-        skeleton, end, n = arm(), "flange", 18
+    if case in ("arm", "turns"):
+        skeleton, end, n = arm(case == "turns"), "flange", 18
     else:
         skeleton, end, n = deik.chain(12 if case == "chain" else 17, dims=3, lower=-1.0, upper=1.0), "tip", 5
-    poses = np.random.default_rng(11).uniform(skeleton.lower, skeleton.upper, (n, skeleton.n_dofs))
+    rng = np.random.default_rng(11)
+    poses = rng.uniform(skeleton.lower, skeleton.upper, (n, skeleton.n_dofs))
+    if case == "turns":  # each joint near +-pi, its start 0.3 rad on across it
+        poses = rng.choice([-1.0, 1.0], poses.shape) * (math.pi - rng.uniform(0.0, 0.25, poses.shape))
     kin = deik.forward_kinematics(skeleton, poses)
     goals = [deik.Position(end, kin.position(end), tolerance=STRICT[0])]
-    if case == "arm":
+    if case in ("arm", "turns"):
         goals.append(deik.Orientation(end, kin.rotation(end), tolerance=STRICT[1]))
     elif case == "chain":
         first, second = np.arange(n) == 0, np.arange(n) == 1
@@ -87,6 +95,8 @@ def problem(case):
         goals.append(deik.CentreOfMass(kin.p_world_com, tolerance=STRICT[0], active=np.isin(np.arange(n), (1, 2))))
         goals.append(deik.ComOverSupport(kin.p_world_com, tolerance=STRICT[0], active=np.isin(np.arange(n), (1, 3))))
     start = poses + np.random.default_rng(12).uniform(-0.3, 0.3, poses.shape)  # near each target's pose
+    if case == "turns":
+        start = np.angle(np.exp(1j * (poses + 0.3 * np.sign(poses))))
     listed = [(*_kind_and_target(goal, kin), (np.ones(n, bool) if goal.active is None else goal.active).tolist())
               for goal in goals]  # fmt: skip
     return skeleton, deik.Problem(skeleton, goals), np.clip(start, skeleton.lower, skeleton.upper), listed
@@ -99,7 +109,7 @@ settings = deik.Settings(population=4, dtype=dtype, device="cpu" if path == "cpu
 engine = deik.Engine(prob, settings)
 if path != "cpu":
     engine.backend.cooperative_polish = path == "team"
-    if case == "arm":
+    if case in ("arm", "turns"):
         engine.backend._resident_threads = 128
 state = engine.start(0, initial=start[:, None, :])
 # the team's scratch pool exists once first_polish_team has run (CudaBackend._team_geometry)

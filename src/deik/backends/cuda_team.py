@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 from deik.backends import targets
 from deik.backends.cuda_kernels import carve_scratch, take, write_answer
 from deik.backends.gpu import numba_cuda, simulated
-from deik.device.layout import LOWER, UPPER, LmScratch
+from deik.device.layout import LmScratch
 from deik.device.lm import DAMPING, DAMPING_FLOOR, MAX_DAMPING, REDUNDANT_DAMPING, STALL_ITERATIONS
 from deik.objectives.kinds import TERM_KIND, TERM_LEVEL
 
@@ -161,7 +161,7 @@ def team_system(b, top, m, skel, terms, scratch, axes, lm, D, lane, work):
 @cuda.jit(device=True)
 def held(q, gradient, limits, d):
     """Is DOF d at a limit the gradient pushes it beyond (held fixed by the step)?"""
-    return (q[d] <= limits[d, LOWER] and gradient[d] > 0.0) or (q[d] >= limits[d, UPPER] and gradient[d] < 0.0)
+    return device_lm.held_at_limit(q[d], -gradient[d], limits, d)
 
 
 @cuda.jit(device=True)
@@ -354,7 +354,7 @@ def team_converge(b, state, iterations, skel, terms, scratch, axes, lm, q, lv, r
         kept = False
         if stepped:
             for d in range(D):
-                q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
+                q[d] = device_lm.into_limits(x[d] + lm.delta[d], limits, d)
             device_maths.forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
             tot = device_terms.score(q, b, skel, terms, scratch, lv, rw)
             trial_cost = device_lm.polished_cost(b, rw, terms, top)

@@ -9,6 +9,7 @@ import numpy as np
 
 from deik.device.layout import PackedSkeleton, PackedTerms
 from deik.model.geometry import ground_frame
+from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.objectives.kinds import MU, PRIORITY_TOLERANCE, SCALE, TOLERANCE
 from deik.objectives.table import TermTable
@@ -21,7 +22,8 @@ def kernel_array(a, dtype) -> np.ndarray:
 
 
 def pack_skeleton(skeleton: Skeleton, dtype=np.float32, limits: np.ndarray | None = None) -> PackedSkeleton:
-    """The skeleton's arrays; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi).
+    """The skeleton's arrays; `limits` (D, 2) overrides the skeleton's (e.g. the paper's +-pi);
+    a rotation whose limits span a whole turn or more gets TURN = 2 pi (layout: LM wraps it).
     Without an override they are cached per (frozen) skeleton and dtype: callers must not
     write into them."""
     if limits is None:
@@ -49,7 +51,9 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleto
     mass_data = np.concatenate([s.mass_offset, fraction[:, None]], axis=1)
     if limits is None:
         limits = np.stack([s.lower, s.upper], axis=1)
-    limits = inward(np.asarray(limits, np.float64), dtype)
+    limits = np.asarray(limits, np.float64)
+    turns = np.where((s.dof_kind == ROTATE) & (limits[:, 1] - limits[:, 0] >= 2.0 * np.pi), 2.0 * np.pi, 0.0)
+    limits = inward(limits, dtype)
     return PackedSkeleton(
         joint_int=kernel_array(joint_int, np.int32),
         joint_frame=f(joint_frame.reshape(-1, 12)),
@@ -59,7 +63,7 @@ def _pack(skeleton: Skeleton, dtype, limits: np.ndarray | None) -> PackedSkeleto
         site_frame=f(site_frame.reshape(-1, 12)),
         mass_joint=kernel_array(s.mass_joint, np.int32),
         mass_data=f(mass_data.reshape(-1, 4)),
-        limits=f(limits),
+        limits=f(np.concatenate([limits, turns[:, None]], axis=1)),
         bounds=f(limits.reshape(-1)),
         ground=f(ground_frame(s.up)),
     )

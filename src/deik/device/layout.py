@@ -32,8 +32,10 @@ ROTATE_MOTION = ROTATE
 AXIS, MOTION_SCALE, MOTION_BIAS = 0, 3, 4
 # mass_data columns: offset (3) in the joint's frame, then the mass fraction
 MASS_OFFSET, MASS_FRACTION = 0, 3
-# limits columns (radians or length units) and ground rows (two horizontal unit axes, then up)
-LOWER, UPPER = 0, 1
+# limits columns (radians or length units; TURN: 2 pi for a rotation whose limits span a whole
+# turn or more, which the polish wraps round rather than stops at, else 0) and ground rows (two
+# horizontal unit axes, then up)
+LOWER, UPPER, TURN = 0, 1, 2
 HORIZONTAL_U, HORIZONTAL_V, UP = 0, 1, 2
 # KernelSettings.strategy and .limit_mode codes
 RAND_1, BEST_1, CURRENT_TO_BEST_1 = 0, 1, 2
@@ -61,7 +63,7 @@ class PackedSkeleton(NamedTuple):
     site_frame: np.ndarray  # (S, 12): OFFSET, ROTATION in that joint's frame
     mass_joint: np.ndarray  # (M,) int32: the joint each mass point hangs from
     mass_data: np.ndarray  # (M, 4): MASS_OFFSET, MASS_FRACTION
-    limits: np.ndarray  # (D, 2): LOWER, UPPER
+    limits: np.ndarray  # (D, 3): LOWER, UPPER, TURN
     bounds: np.ndarray  # (2 D,): the same limits flat, LOWER and UPPER of DOF d at 2 d and 2 d + 1
     ground: np.ndarray  # (3, 3) rows: HORIZONTAL_U, HORIZONTAL_V, UP
 

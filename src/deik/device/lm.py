@@ -14,8 +14,7 @@ for a lower one and never leaves the limits. lm is a layout.LmScratch.
 import math
 
 from deik.device.compiled_kinds import CENTRE_OF_MASS_ON, COMFORT_ON
-from deik.device.evolution import keep_trial, within_tolerances
-from deik.device.layout import LOWER, UPPER
+from deik.device.evolution import held_at_limit, into_limits, keep_trial, within_tolerances
 from deik.device.maths import centre_of_mass, forward_kinematics
 from deik.device.polish import is_polished, term_rows
 from deik.device.terms import score, uses_centre_of_mass, weight_of
@@ -136,7 +135,7 @@ def dual_step(lm, D, m, damping, q, limits, halt):
         inverse[d] = diagonal
         peak = max(peak, diagonal)
     for d in range(D):
-        if (q[d] <= limits[d, LOWER] and gradient[d] > 0.0) or (q[d] >= limits[d, UPPER] and gradient[d] < 0.0):
+        if held_at_limit(q[d], -gradient[d], limits, d):
             inverse[d] = 0.0
         else:
             inverse[d] = 1.0 / (damping * max(inverse[d], DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30)
@@ -186,7 +185,7 @@ def comfort_step(b, q, terms, lm, D, pull, limits, halt):
             any_comfort = True
             at = q[d] + lm.delta[d]
             v[d] = pull * (target / weight - at)
-            if (at <= limits[d, LOWER] and v[d] < 0.0) or (at >= limits[d, UPPER] and v[d] > 0.0):
+            if held_at_limit(at, v[d], limits, d):
                 v[d] = 0.0
     if not any_comfort:
         return False
@@ -254,7 +253,7 @@ def damped_step(lm, D, damping, q, limits, halt):
     for a in range(D):
         A[a * D + a] += damping * max(A[a * D + a], DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30
         delta[a] = -gradient[a]
-        if (q[a] <= limits[a, LOWER] and gradient[a] > 0.0) or (q[a] >= limits[a, UPPER] and gradient[a] < 0.0):
+        if held_at_limit(q[a], -gradient[a], limits, a):
             for c in range(D):
                 A[a * D + c] = 0.0
                 A[c * D + a] = 0.0
@@ -374,7 +373,7 @@ def converge(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw,
             formed = True
         if dual_step(lm, D, m, damping, x, limits, halt) if dual else damped_step(lm, D, damping, x, limits, halt):
             for d in range(D):
-                q[d] = min(max(x[d] + lm.delta[d], limits[d, LOWER]), limits[d, UPPER])
+                q[d] = into_limits(x[d] + lm.delta[d], limits, d)
             forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
             tot = score(q, b, skel, terms, scratch, lv, rw)
             trial_cost = polished_cost(b, rw, terms, top)
@@ -430,7 +429,7 @@ def relax(b, i, state, iterations, skel, terms, scratch, axes, lm, q, lv, rw, fr
                 pulled = comfort_step(b, pop[b, i], terms, lm, D, pull, limits, halt)
             delta = lm.delta
             for d in range(D):
-                q[d] = min(max(pop[b, i, d] + delta[d], limits[d, LOWER]), limits[d, UPPER])
+                q[d] = into_limits(pop[b, i, d] + delta[d], limits, d)
             forward_kinematics(q, skel, scratch.R, scratch.p, scratch.work, axes, True)
             tot = score(q, b, skel, terms, scratch, lv, rw)
             if improves(lv, tot, levels[b, i], total[b, i]):
