@@ -140,22 +140,25 @@ def _measured(h, poses, names, targets, dt=DT):
     return slide, np.linalg.norm(points - targets, axis=-1).mean(), acceleration, toe_acceleration
 
 
+def _toe_planted(h, truth, names, targets):
+    """MotionGoals on the humanoid: the key points `names` on `targets` (N, K, 3) and the left
+    toe planted in frames 10-29; no capsule pairs (the humanoid's hanging hands graze its
+    thighs' capsules, and the swinging truth puts them in; the arm test below checks the pass's
+    capsule rows)."""
+    mask = np.zeros((len(truth), 1), bool)
+    mask[10:30] = True
+    contacts = Contacts(("left_toe_tip",), mask, False, None, None, 0.0)
+    weights = dof_weights(Trajectory(h, truth, DT))
+    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
+    return MotionGoals(h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
+
+
 def test_the_space_time_pass_plants_a_sliding_contact_without_a_jolt():
     h = deik.humanoid()
     truth, drifting, _ = _clip(h)
     names = [name for name in POINTS if not name.startswith("left_")]  # only the contact holds the left foot
     targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in names], axis=1)
-    mask = np.zeros((len(truth), 1), bool)
-    mask[10:30] = True
-    contacts = Contacts(("left_toe_tip",), mask, False, None, None, 0.0)
-    weights = dof_weights(Trajectory(h, truth, DT))
-    # no capsule pairs: the humanoid's hanging hands graze its thighs' capsules, and the swinging
-    # truth puts them in; the arm test below checks the pass's capsule rows
-    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    goals = MotionGoals(
-        h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach
-    )
-    found = smooth_motion(goals, drifting)
+    found = smooth_motion(_toe_planted(h, truth, names, targets), drifting)
     assert (found >= h.lower).all() and (found <= h.upper).all()
     slide, error, _, toe_acceleration = _measured(h, found, names, targets)
     slide_before, error_before, _, toe_acceleration_before = _measured(h, drifting, names, targets)
@@ -284,16 +287,9 @@ def test_a_key_point_that_rests_joins_its_plant_and_leaves_it_without_a_jump():
     h = deik.humanoid()
     truth, drifting, _ = _clip(h, 60)
     names = [name for name in POINTS if not name.startswith("left_")] + ["left_toe_tip"]
+    # the toe's target drifts through its contact, as a source's sliding toe does
     targets = np.stack([deik.forward_kinematics(h, drifting).position(name) for name in names], axis=1)
-    mask = np.zeros((len(truth), 1), bool)
-    mask[10:30] = True  # the toe's target drifts through the contact, as a source's sliding toe does
-    contacts = Contacts(("left_toe_tip",), mask, False, None, None, 0.0)
-    weights = dof_weights(Trajectory(h, truth, DT))
-    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    goals = MotionGoals(
-        h, names, targets, contacts, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach
-    )
-    found = smooth_motion(goals, drifting)
+    found = smooth_motion(_toe_planted(h, truth, names, targets), drifting)
     toe = deik.forward_kinematics(h, found).position("left_toe_tip")
     path = targets[:, -1]
     step, path_step = (np.linalg.norm(np.diff(p, axis=0), axis=-1) for p in (toe, path))
