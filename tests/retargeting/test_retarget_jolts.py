@@ -6,7 +6,7 @@ import numpy as np
 
 import deik
 from deik.cleanup.dynamics import jolted_points
-from deik.retargeting.ik import KeypointGoals, repair_jolts, solve_keypoints, worst_errors
+from deik.retargeting.ik import KeypointGoals, repair_flips, repair_jolts, solve_keypoints, worst_errors
 
 DT = 1 / 30
 FRAMES = 16
@@ -57,3 +57,44 @@ def test_a_clip_without_jolts_is_left_as_it_was():
     points = np.stack([kin.position("tip"), kin.position("link1")], axis=1)
     assert not jolted_points(goals.targets, points, DT, goals.length).any()
     assert np.array_equal(repair_jolts(goals, up, DT), up)
+
+
+def mirror_goals(seed: int) -> tuple[KeypointGoals, np.ndarray, np.ndarray]:
+    """(goals, poses, their mirror images) of a planar three-link arm whose tip alone is a key
+    point, sweeping slowly along an arc within reach: a pose and its mirror image about the line
+    from the base to the tip reach it alike, so a frame may swap to the mirror with no key point
+    moving."""
+    arm = deik.chain(3)
+    rng = np.random.default_rng(seed)
+    heading = rng.uniform(-1, 1) + np.linspace(0.0, rng.uniform(-0.3, 0.3), FRAMES)
+    distance = rng.uniform(1.6, 2.2) + np.linspace(0.0, 0.2, FRAMES)
+    tip = np.stack([distance * np.cos(heading), distance * np.sin(heading), np.zeros(FRAMES)], axis=1)
+    goals = KeypointGoals(arm, ["tip"], tip[:, None], np.ones(3, bool), np.ones(3))
+    poses = solve_keypoints(goals, np.stack([heading - 0.5, np.full(FRAMES, 0.6), np.full(FRAMES, 0.4)], axis=1))
+    mirror = np.stack([2 * heading - poses[:, 0], -poses[:, 1], -poses[:, 2]], axis=1)
+    return goals, poses, mirror
+
+
+def test_frames_swapped_to_a_pose_that_reaches_as_well_follow_their_neighbours_back():
+    for seed in range(3):
+        goals, poses, mirror = mirror_goals(seed)
+        assert np.allclose(worst_errors(goals, poses), worst_errors(goals, mirror), atol=1e-9)
+        assert worst_errors(goals, poses).max() < 1e-4
+        swapped = poses.copy()
+        swapped[5] = mirror[5]  # one frame, and every frame from 10 on
+        swapped[10:] = mirror[10:]
+        kin = deik.forward_kinematics(goals.skeleton, swapped)
+        assert not jolted_points(goals.targets, kin.position("tip")[:, None], DT, goals.length).any()
+
+        repaired = repair_flips(goals, swapped, 0.2)
+
+        assert np.abs(np.diff(repaired, axis=0)).max() < 0.2, seed  # no joint turns past the limit
+        # the basin of the frames before: the same bends, a little along the self-motion at most
+        assert (np.sign(repaired[:, 1:]) == np.sign(poses[:, 1:])).all(), seed
+        assert np.allclose(repaired, poses, atol=0.1), seed
+        assert worst_errors(goals, repaired).max() < 1e-4
+
+
+def test_a_clip_without_swaps_is_left_as_it_was():
+    goals, poses, _ = mirror_goals(4)
+    assert np.array_equal(repair_flips(goals, poses, 0.2), poses)

@@ -28,7 +28,9 @@ import numpy as np
 
 from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import jolted_points
+from deik.cleanup.metrics import joint_angles
 from deik.cleanup.warmstart import at_most, position_jacobian
+from deik.io.trajectory import Trajectory
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
@@ -275,4 +277,33 @@ def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> 
                 poses[run], x[run], changed = best[0], best[1], True
         if not changed:
             break
+    return poses
+
+
+def repair_flips(goals: KeypointGoals, poses: np.ndarray, largest: float) -> np.ndarray:
+    """(N, D) `poses` (N, D) with each frame in which a joint turns more than `largest` radians
+    from the frame before solved again from that frame's pose, in order, so that a run of frames
+    follows its neighbour's basin; kept where it turns less and lies no further from its targets
+    than JOLT_SLACK x size above its own. DOFs the key points leave free can swap between poses
+    that reach them alike (a pelvis turned one way with the spine and hips turned back, or the
+    other way): the crawl onto human.urdf turned its lumbar joint 70 degrees in a frame with no
+    key point jolting, and the space-time pass, holding each step within its allowance, spread
+    the turn over frames, moving a shoulder 88 mm in one."""
+    poses = np.array(poses, float)
+    sk = goals.skeleton
+    limit = np.degrees(largest)
+
+    def turn(a, b):  # degrees, the largest joint turn from pose a (D,) to pose b (D,)
+        angles = joint_angles(Trajectory(sk, a[None], 1.0), Trajectory(sk, b[None], 1.0))
+        return float(angles.max(initial=0.0))
+
+    for n in range(1, len(poses)):
+        own = turn(poses[n - 1], poses[n])
+        if own <= limit:
+            continue
+        frame = np.array([n])
+        found = solve_keypoints(goals, poses[n - 1 : n], frame)
+        allowed = worst_errors(goals, poses[n : n + 1], frame) + JOLT_SLACK * goals.length
+        if turn(poses[n - 1], found[0]) < own and (worst_errors(goals, found, frame) <= allowed).all():
+            poses[n] = found[0]
     return poses

@@ -43,11 +43,11 @@ from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import upright
 from deik.model.skeleton import Skeleton
 from deik.retargeting import keypoints as kp
-from deik.retargeting.ik import KeypointGoals, rebasin, repair_jolts, repair_outliers, solve_keypoints
+from deik.retargeting.ik import KeypointGoals, rebasin, repair_flips, repair_jolts, repair_outliers, solve_keypoints
 from deik.retargeting.maps import JointMap, check_map
 from deik.retargeting.outcome import Progress, Retarget
 from deik.retargeting.resting import rest_floor
-from deik.retargeting.settle import Settling, settle
+from deik.retargeting.settle import STEP_ALLOWANCE, Settling, largest_turn, settle
 from deik.retargeting.skeletons import with_floating_root, with_free_root
 
 TORSO_ARM = 0.25  # of the target's reach: how far the torso's orientation points lie from it
@@ -168,6 +168,7 @@ def retarget_rig(
             poses = rebasin(goals, poses)
         poses = repair_outliers(goals, poses)
     poses = repair_jolts(goals, poses, source.frame_time)
+    poses = repair_flips(goals, poses, STEP_ALLOWANCE * largest_turn(source))
     progress(len(poses), "the floor")
     # the orientation points steered the torso; the motion's skeleton is the target's own, and
     # its capsules too (a bone to an orientation point would thin the chest's: model.capsules).
