@@ -286,10 +286,11 @@ def repair_jolts(goals: KeypointGoals, poses: np.ndarray, frame_time: float) -> 
 
 def repair_flips(goals: KeypointGoals, poses: np.ndarray, largest: float) -> np.ndarray:
     """(N, D) `poses` (N, D) with each frame in which a joint turns more than `largest` radians
-    from the frame before solved again, with the frames after it up to the next such turn, from
-    that frame's pose, in order, so that the run follows its neighbour's basin; kept where the
-    turn into it shrinks and no frame of it lies further from its targets than JOLT_SLACK x size
-    above its own. DOFs the key points leave free can swap between poses that reach them alike
+    from the frame before solved again, with the FLIP_CHUNK - 1 frames after it, from that
+    frame's pose, in order (a swap that lasts is met again where the re-solved frames end, and
+    so followed to its end), so that the run follows its neighbour's basin; kept where the turn
+    into it shrinks and no frame of it lies further from its targets than JOLT_SLACK x size above
+    its own. DOFs the key points leave free can swap between poses that reach them alike
     (a pelvis turned one way with the spine and hips turned back, or the other way): the crawl
     onto human.urdf turned its lumbar joint 70 degrees in a frame with no key point jolting, and
     the space-time pass, holding each step within its allowance, spread the turn over frames,
