@@ -303,16 +303,16 @@ def repair_flips(goals: KeypointGoals, poses: np.ndarray, largest: float) -> np.
         angles = joint_angles(Trajectory(sk, q[:-1], 1.0), Trajectory(sk, q[1:], 1.0))
         return angles.max(axis=1, initial=0.0)
 
-    steps = turns(poses) if N > 1 else np.zeros(0)
-    n = 1
-    while n < N:
-        if steps[n - 1] > limit:  # from here FLIP_CHUNK frames at once, from the pose before them
-            chunk = np.arange(n, min(n + FLIP_CHUNK, N))
-            found = solve_keypoints(goals, np.repeat(poses[n - 1 : n], len(chunk), axis=0), chunk)
-            allowed = worst_errors(goals, poses[chunk], chunk) + JOLT_SLACK * goals.length
-            into = turns(np.stack([poses[n - 1], found[0]]))[0]
-            if into < steps[n - 1] and (worst_errors(goals, found, chunk) <= allowed).all():
-                poses[chunk] = found
-                steps = turns(poses)
-        n += 1
+    steps = turns(poses) if N > 1 else np.zeros(0)  # steps[n]: from frame n to n + 1
+    for n in range(1, N):
+        if steps[n - 1] <= limit:
+            continue
+        chunk = np.arange(n, min(n + FLIP_CHUNK, N))  # solved at once from the pose before them
+        found = solve_keypoints(goals, np.repeat(poses[n - 1 : n], len(chunk), axis=0), chunk)
+        allowed = worst_errors(goals, poses[chunk], chunk) + JOLT_SLACK * goals.length
+        around = np.concatenate([poses[n - 1 : n], found, poses[chunk[-1] + 1 : chunk[-1] + 2]])
+        local = turns(around)  # the steps into, within and out of the chunk as found
+        if local[0] < steps[n - 1] and (worst_errors(goals, found, chunk) <= allowed).all():
+            poses[chunk] = found
+            steps[n - 1 : n - 1 + len(local)] = local
     return poses
