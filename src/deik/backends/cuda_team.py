@@ -159,12 +159,6 @@ def team_system(b, top, m, skel, terms, scratch, axes, lm, D, lane, work):
 
 
 @cuda.jit(device=True)
-def held(q, gradient, limits, d):
-    """Is DOF d at a limit the gradient pushes it beyond (held fixed by the step)?"""
-    return device_lm.held_at_limit(q[d], -gradient[d], limits, d)
-
-
-@cuda.jit(device=True)
 def team_dual_system(lm, D, m, damping, q, limits, lane, work):
     """device_lm.dual_step up to its factorisation, by a team: the damping diagonal's inverse
     (lm.jac[0:D]), the m x m matrix I + J Lambda^-1 J^T in lm.A (elements by lane) and its
@@ -184,7 +178,7 @@ def team_dual_system(lm, D, m, damping, q, limits, lane, work):
         for d in range(D):
             peak = max(peak, diagonal[d])
         for d in range(lane, D, TEAM_LANES):
-            if held(q, gradient, limits, d):
+            if device_lm.held_at_limit(q[d], -gradient[d], limits, d):
                 inverse[d] = 0.0
             else:
                 inverse[d] = 1.0 / (damping * max(diagonal[d], DAMPING_FLOOR * peak) + 1e-9 * peak + 1e-30)
@@ -236,7 +230,7 @@ def team_damped_system(lm, D, damping, q, limits, lane, work):
     cuda.syncthreads()
     if work:
         for a in range(lane, D, TEAM_LANES):
-            if held(q, gradient, limits, a):
+            if device_lm.held_at_limit(q[a], -gradient[a], limits, a):
                 for c in range(D):
                     A[a * D + c] = 0.0
                     A[c * D + a] = 0.0
