@@ -203,6 +203,13 @@ FIGURES = (
             _cores(r),
         ],
     ),
+    Figure(
+        r"([\d-]+) s wall on a day the same machine runs slower",
+        "benchmarks/results/compare/cold_start_183beee_ef4dff5.json",
+        lambda r: _span(
+            [v for f in r["figures"] if f["figure"] == "first solve float32, wall s" for v in f["after"]["values"]]
+        ),
+    ),
     Figure(r"about (\d+) s of CPU time on 2 cores for both dtypes", COLD, lambda r: [_cpu(r, "warmup")], 0.15),
     Figure(
         r"`pip install \.` brings (\d+) packages and about (\d+) MB",
