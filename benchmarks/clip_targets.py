@@ -2,11 +2,11 @@
 
     PYTHONPATH=src python -m benchmarks.clip_targets [--clips walk run ...] [--out benchmarks/results]
 
-Cases (benchmarks/clip_cases.py): every shared humanoid clip as it is, on another rig family
+Cases (judging/cases.py): every shared humanoid clip as it is, on another rig family
 (centimetres, a root above the hips, six channels on every joint, other joint names, 30 fps) and
 with one more transform each (joints named J00.. at 120 fps, backwards, twice the speed, limbs
 scaled, noise and the body 12 mm under the floor). Each is cleaned by the default command in
-this process (deik.cli.app.main) and measured by benchmarks/clip_judge.py, which shares no code
+this process (deik.cli.app.main) and measured by judging/clips.py, which shares no code
 with deik: its own BVH reader and kinematics, the DeepMimic collision shapes as the body, its
 own contact detector, the floor at height 0.
 
@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.clip_cases import cases
-from benchmarks.clip_judge import judge
-from benchmarks.clip_rigs import format_rig, parse_rig
 from benchmarks.data import need
 from benchmarks.harness import md_table, parser, start
+from judging.cases import cases
+from judging.clips import judge
+from judging.rigs import format_rig, parse_rig
 
 TARGETS = {"sliding_mm_per_frame": 1.0, "depth_mm": 2.0, "peak_ratio": 1.1, "travel_share": 0.05, "travel_m": 0.02}
 

@@ -1,4 +1,4 @@
-"""Retargets judged by an independent measurement (benchmarks/retarget_judge.py): every shared
+"""Retargets judged by an independent measurement (judging/retargets.py): every shared
 clip and hard cases made from them, onto human.urdf (and robots made from it) and onto the same
 rig with other proportions.
 
@@ -28,7 +28,7 @@ import numpy as np
 
 from benchmarks.data import need, shared_data
 from benchmarks.harness import md_table, parser, start
-from benchmarks.retarget_judge import (
+from judging.retargets import (
     PENETRATION_BOUND,
     SLIDING_BOUND,
     STEP_ALLOWANCE,

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from readme_commands import README, ROOT
 
-from benchmarks.clip_judge import STEP_SLACK
+from judging.clips import STEP_SLACK
 
 RESULTS = ROOT / "benchmarks" / "results"
 # a number as prose writes it: 0.018, -30, 2,000, a range 7-27 (its unit may follow)
@@ -350,9 +350,9 @@ SETTINGS = {
     r"accelerate past 1\.1 times its own peak in the capture \(within 2 s of that frame\)": "the calm stage's "
     "limit and window (deik.cleanup.dynamics.PEAK_RATIO, PEAK_SECONDS)",
     r"other joint names, 30 fps\) and with one more change .*? the middle frame a T-pose\) and three standing still "
-    r".*? the body 12 mm under the\s+floor\)": "the hard cases' transforms (benchmarks/clip_cases.py)",
-    r"contact detector, floor at 0 ": "the judge's floor (benchmarks/clip_judge.py)",
-    r"as resting up to 2 cm above the floor": "the judge's resting band (benchmarks.clip_judge.BAND)",
+    r".*? the body 12 mm under the\s+floor\)": "the hard cases' transforms (judging/cases.py)",
+    r"contact detector, floor at 0 ": "the judge's floor (judging/clips.py)",
+    r"as resting up to 2 cm above the floor": "the judge's resting band (judging.clips.BAND)",
     r"The targets: sliding at most 1 mm per frame .*? accelerating past 1\.1x its own capture peak": "issue 27's "
     "targets (benchmarks.clip_targets.TARGETS)",
     r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_stand \|(?: [^|]* \|){5}": "the table of "

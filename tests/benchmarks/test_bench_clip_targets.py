@@ -20,7 +20,7 @@ def test_the_readme_table_is_the_benchmark_s():
 def test_a_clip_with_a_bind_pose_or_a_glitch_meets_the_targets_of_the_clip_itself():
     """The README: deik cleans a clip with a cut as if the jump were not there, so each such case
     meets the targets its clip meets (the judge reads where feet rest from the clip without the
-    glitch frame, benchmarks/clip_cases.Case.truth)."""
+    glitch frame, judging/cases.Case.truth)."""
     verdicts = {case["case"]: case["verdicts"] for case in RESULTS["cases"]}
     cut = [name for name in verdicts if name.endswith(("_bind", "_glitch"))]
     assert len(cut) == 5

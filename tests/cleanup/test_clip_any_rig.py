@@ -1,9 +1,9 @@
 """One motion on two rig families cleans to one motion (issue 27, "any rig"): the procedural walk
-(benchmarks/clip_walk.py) sunk under the floor, and the same walk on the studio rig (centimetres,
+(judging/walk.py) sunk under the floor, and the same walk on the studio rig (centimetres,
 a `Reference` joint on the ground above the hips that carries the walk, six channels on every
 joint, other joint names; its rotation channels in the source's order, so that only the rig
 family differs), each cleaned by `deik.clean_clip` with the default options. Measured by the
-benchmarks' own forward kinematics (benchmarks/clip_rigs.py), in metres: the cleaned joints lie
+benchmarks' own forward kinematics (judging/rigs.py), in metres: the cleaned joints lie
 where they lie on the other rig, and the sunk body is lifted out of the floor on both."""
 
 import dataclasses
@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 import deik
-from benchmarks.clip_cases import studio
-from benchmarks.clip_rigs import format_rig, parse_rig, world_frames
-from benchmarks.clip_walk import ROTATIONS, procedural_walk
 from deik.cleanup.body import body_of, with_helpers
 from deik.io.bvh import parse_bvh
 from deik.model.capsules import body_reach
+from judging.cases import studio
+from judging.rigs import format_rig, parse_rig, world_frames
+from judging.walk import ROTATIONS, procedural_walk
 
 SUNK = 0.015  # metres: the walk's body this far lower, so its feet rest under the floor
 

@@ -1,17 +1,17 @@
 """The body a clean-up works on (cleanup/body.py), checked against independent computations on the
-procedural walk (benchmarks/clip_walk.py) and its other rig families: the span as the longest
+procedural walk (judging/walk.py) and its other rig families: the span as the longest
 path between two ends of the rig, the feet found without a name to go by, the soles flat on the
 rest pose's lowest point, the carrier joint above a studio rig's hips, the radii."""
 
 import numpy as np
 import pytest
 
-from benchmarks.clip_cases import anon, studio
-from benchmarks.clip_rigs import format_rig
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import PALM, TAPER, TOP, body_of, median_pose
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
+from judging.cases import anon, studio
+from judging.rigs import format_rig
+from judging.walk import procedural_walk
 
 
 def read(case):

@@ -1,5 +1,5 @@
 """Clips whose pose jumps (cleanup/cuts.py): a bind pose before or after the motion, a glitch, two
-takes in one file. Made from the procedural walk (benchmarks/clip_walk.py), whose feet rest
+takes in one file. Made from the procedural walk (judging/walk.py), whose feet rest
 still on the floor through every stance: whatever jumps beside it, the cleaned walk keeps them
 still, and nothing that only moves fast is taken for a jump."""
 
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import deik
-from benchmarks.clip_cases import TRANSFORMS, Case, anon, bind, fast, glitch, source_case, studio
-from benchmarks.clip_rigs import Rig, format_rig, pose_points, world_frames
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import body_of
 from deik.cleanup.cuts import CUT_RATIO, abruptness, find_cuts, window
 from deik.io.bvh import parse_bvh
+from judging.cases import TRANSFORMS, Case, anon, bind, fast, glitch, source_case, studio
+from judging.rigs import Rig, format_rig, pose_points, world_frames
+from judging.walk import procedural_walk
 
 
 def read(rig: Rig, name: str = "walk"):
@@ -39,7 +39,7 @@ def with_bind_pose(rig: Rig, where: str) -> Rig:
 def sole_slide_mm(rig: Rig, frames: slice) -> float:
     """The largest step along the ground of an ankle's End Site (the toe, on the sole) between two
     frames in which it lies within 1 mm of its lowest height in the capture: the procedural
-    walk's resting toes, measured on `rig`'s own kinematics (benchmarks/clip_rigs.py)."""
+    walk's resting toes, measured on `rig`'s own kinematics (judging/rigs.py)."""
     R, p = world_frames(dataclasses.replace(rig, frames=rig.frames[frames]))
     worst = 0.0
     for _, j, offset in rig.sites:
@@ -54,7 +54,7 @@ def sole_slide_mm(rig: Rig, frames: slice) -> float:
 
 def cleaned_rig(rig: Rig, tmp_path, name: str) -> tuple[Rig, dict]:
     """(the cleaned clip as the clip tools read it back, deik's report) of `rig`."""
-    from benchmarks.clip_rigs import parse_rig
+    from judging.rigs import parse_rig
 
     cleaned = deik.clean_clip(read(rig, name))
     out = tmp_path / f"{name}_out.bvh"

@@ -1,5 +1,5 @@
 """Where a clip rests (cleanup/ground.py), on motions whose answer is known: the procedural walk
-(benchmarks/clip_walk.py: each foot flat and still on the floor at 0 through its stance), raised
+(judging/walk.py: each foot flat and still on the floor at 0 through its stance), raised
 onto a platform, sunk a little, in centimetres, at another frame rate, with a foot that kicks
 instead of stepping."""
 
@@ -8,13 +8,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from benchmarks.clip_cases import Case, anon, studio
-from benchmarks.clip_rigs import format_rig
-from benchmarks.clip_walk import STANCE, procedural_walk
 from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import widened
 from deik.cleanup.ground import resting_body
 from deik.io.bvh import parse_bvh
+from judging.cases import Case, anon, studio
+from judging.rigs import format_rig
+from judging.walk import STANCE, procedural_walk
 
 
 def read(case: Case):
@@ -31,7 +31,7 @@ def lifted(case: Case, height: float) -> Case:
 
 def stance(case: Case, side: str) -> np.ndarray:
     """(N,) bool: the frames in which the procedural walk's `side` foot is down, from its own gait."""
-    from benchmarks.clip_walk import PERIOD
+    from judging.walk import PERIOD
 
     t = np.arange(len(case.rig.frames)) * case.rig.frame_time
     phase = t / PERIOD + (0.5 if side == "Left" else 0.0)

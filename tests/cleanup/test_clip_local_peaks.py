@@ -6,12 +6,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from benchmarks.clip_rigs import format_rig, pose_points
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.calm import calm
 from deik.cleanup.contacts import running_max
 from deik.cleanup.dynamics import PEAK_RATIO, PEAK_SECONDS, SLACK, jolted_frames, own_peaks, point_acceleration_ratios
 from deik.io.bvh import parse_bvh
+from judging.rigs import format_rig, pose_points
+from judging.walk import procedural_walk
 
 FPS = 30.0
 SWING_SECONDS = 3.0  # the arm swings hard this long, then hangs still

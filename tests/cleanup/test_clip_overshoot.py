@@ -21,14 +21,14 @@ import numpy as np
 import pytest
 
 import deik.cleanup.warmstart as warmstart
-from benchmarks.clip_rigs import format_rig
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import on_body
 from deik.cleanup.clip_goals import ClipGoals, fixed_goals, sized_goals
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.ground import clearances, resting_body
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
+from judging.rigs import format_rig
+from judging.walk import procedural_walk
 
 SUNK, OVERSHOOT = 0.03, 6.0  # metres under the floor; how much too long every step is
 

@@ -1,5 +1,5 @@
 """The feet's roll and lift-off (cleanup/warmstart.py, cleanup/ground.py), on motions whose answer
-is known: the procedural walk (benchmarks/clip_walk.py: each foot flat and still through its
+is known: the procedural walk (judging/walk.py: each foot flat and still through its
 stance) raised 1 cm, so its resting soles sit above the floor where nothing but the fix holds
 their height, and skating (the whole body swaying 2 cm back and forth along the walk), so each
 plant holds a foot where the capture slides it; the walk with one foot swivelling on its heel
@@ -11,8 +11,6 @@ import dataclasses
 import numpy as np
 
 import deik
-from benchmarks.clip_rigs import format_rig
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import on_body
 from deik.cleanup.clip_goals import ClipGoals, fixed_goals, sized_goals
 from deik.cleanup.coherence import hinge_channels
@@ -20,6 +18,8 @@ from deik.cleanup.ground import GAP, clearances, rest_runs, resting_body
 from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
+from judging.rigs import format_rig
+from judging.walk import procedural_walk
 
 RAISED, SWAY, SWAY_PERIOD = 0.01, 0.02, 0.55  # metres, metres, seconds
 CREEP, SWIVEL, SWIVEL_FRAME = 0.5, 8.0, 9  # degrees a frame, degrees in one frame, its frame

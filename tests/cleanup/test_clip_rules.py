@@ -1,6 +1,6 @@
 """Issue 27's rules for `deik clip IN --out OUT` with no other flags, on generated cases nobody tuned
-for (the procedural walk of benchmarks/clip_walk.py on other rig families, played backwards or
-faster, with capture noise under the floor), judged by benchmarks/clip_judge.py, which shares no
+for (the procedural walk of judging/walk.py on other rig families, played backwards or
+faster, with capture noise under the floor), judged by judging/clips.py, which shares no
 code with deik (its own BVH reader and kinematics, the DeepMimic collision shapes, its own contact
 detector, the floor at 0): sliding of every resting point at most 1 mm per frame, nothing of the
 body more than 2 mm under the floor, no point accelerating beyond 1.1 times its own peak, the body
@@ -13,15 +13,15 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks.clip_cases import TRANSFORMS, source_case
-from benchmarks.clip_judge import contact_points, judge, resting
-from benchmarks.clip_rigs import format_rig, parse_rig
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.calm import calm
 from deik.cleanup.dynamics import PEAK_RATIO, point_acceleration_ratios
 from deik.cli.app import main
 from deik.io.bvh import parse_bvh, read_bvh
 from helpers import shared_path
+from judging.cases import TRANSFORMS, source_case
+from judging.clips import contact_points, judge, resting
+from judging.rigs import format_rig, parse_rig
+from judging.walk import procedural_walk
 
 
 def cleaned(case, tmp_path):

@@ -6,12 +6,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from benchmarks.clip_cases import source_case
-from benchmarks.clip_rigs import format_rig
 from deik.cleanup.clean import CleanOptions, clean_clip
 from deik.cleanup.plants import linked_at_heights
 from deik.io.bvh import parse_bvh
 from helpers import shared_path
+from judging.cases import source_case
+from judging.rigs import format_rig
 
 UP = np.array([0.0, 1.0, 0.0])
 

@@ -1,11 +1,11 @@
 """A clip made with another up direction (issue 27, "any rig"): the procedural walk
-(benchmarks/clip_walk.py) sunk under the floor, turned whole so that Z is up the way a Z-up
+(judging/walk.py) sunk under the floor, turned whole so that Z is up the way a Z-up
 exporter writes it (every OFFSET, End Site and root position turned, every rotation channel
 conjugated: a turn about Y becomes one about Z, one about Z one about -Y, exactly), and the same
 walk with only its root turned each frame (its rest pose still along Y); and every shared clip
 of a standing body turned whole. By default `deik clip` refuses a turned clip with one line
 naming the file and the up it rests along; with `--up 0 0 1` it is cleaned as the Y-up walk is,
-judged by the benchmarks' own kinematics and body model (benchmarks/clip_judge.py) on the walk
+judged by the benchmarks' own kinematics and body model (judging/clips.py) on the walk
 turned back. (A narrow body read along its side can look as if it rests there: the procedural
 walk with only its root turned is not refused, so only its cleaning with --up is asserted.)"""
 
@@ -18,8 +18,6 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import deik
-from benchmarks.clip_judge import judge
-from benchmarks.clip_rigs import format_rig, parse_rig, pose_points
 from deik.cleanup.body import body_of, on_body
 from deik.cleanup.ground import (
     OFF_SUPPORT_GIVEN,
@@ -30,6 +28,8 @@ from deik.cleanup.ground import (
     sunk_share,
 )
 from deik.cli import main
+from judging.clips import judge
+from judging.rigs import format_rig, parse_rig, pose_points
 from tests.cleanup.test_clip_any_rig import sunk_walk
 
 TO_Z = {"X": ("X", 1.0), "Y": ("Z", 1.0), "Z": ("Y", -1.0)}  # a turn of 90 degrees about X: Y -> Z, Z -> -Y

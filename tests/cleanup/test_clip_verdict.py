@@ -1,4 +1,4 @@
-"""Which frames a report calls met (cleanup/verdict.py), on the procedural walk (benchmarks/clip_walk.py:
+"""Which frames a report calls met (cleanup/verdict.py), on the procedural walk (judging/walk.py:
 each foot flat and still on the floor at 0 through its stance) changed in known frames: the body
 shifted along the ground from one frame on (every resting point slides in that step), the body
 lowered in one frame (its soles under the floor); and the same rig lying on its back, a shin
@@ -10,8 +10,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from benchmarks.clip_rigs import format_rig
-from benchmarks.clip_walk import procedural_walk
 from deik.cleanup.body import body_of, on_body
 from deik.cleanup.bone_points import bone_points
 from deik.cleanup.clip_goals import FLOOR_TOLERANCE
@@ -21,6 +19,8 @@ from deik.cleanup.summary import Grounding
 from deik.cleanup.verdict import SLIDING_TOLERANCE, frame_verdict
 from deik.io.bvh import parse_bvh
 from deik.model.joints import TRANSLATE
+from judging.rigs import format_rig
+from judging.walk import procedural_walk
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
 """No function outside the compiled kernels takes more than 8 parameters: what travels together
-travels as one record (a goal's row, a clip's goals, a back-end's inputs). Counted over deik and
-the benchmarks: positional and keyword parameters, *args and **kwargs one each, self and cls not."""
+travels as one record (a goal's row, a clip's goals, a back-end's inputs). Counted over deik, the
+benchmarks and the judge: positional and keyword parameters, *args and **kwargs one each, self and cls not."""
 
 import ast
 from pathlib import Path
@@ -8,7 +8,8 @@ from pathlib import Path
 import deik
 
 MAX_PARAMETERS = 8
-ROOTS = {"deik": Path(deik.__file__).parent, "benchmarks": Path(__file__).resolve().parents[2] / "benchmarks"}
+ROOT = Path(__file__).resolve().parents[2]
+ROOTS = {"deik": Path(deik.__file__).parent, "benchmarks": ROOT / "benchmarks", "judging": ROOT / "judging"}
 # The compiled kernels, exempt: Numba types every argument of a kernel, and a record of arrays
 # would be a tuple each call unpacks. The device maths is compiled whole for every target
 # (backends/targets.py); elsewhere a kernel is a function under one of these decorators

@@ -1,4 +1,4 @@
-"""Retargets a robot can play, judged by an independent measurement (benchmarks/retarget_judge.py:
+"""Retargets a robot can play, judged by an independent measurement (judging/retargets.py:
 yourdfpy's transforms of the written trajectory CSV, its own BVH reader and contact detector),
 on shared clips and on cases made from them: continuous joint values (no wraps or Euler twins),
 steps within the URDF's velocity limits or listed per frame and DOF, every resting point planted
@@ -16,13 +16,13 @@ import pytest
 import deik
 import deik.io.trajectory
 import deik.io.urdf
-from benchmarks import retarget_judge as judge
 from benchmarks import retarget_quality as quality
 from deik.io.load import load_skeleton
 from deik.retargeting.continuity import continuous_within_limits, rotation_triples
 from deik.retargeting.maps import read_map
 from deik.retargeting.measures import limit_violations
 from helpers import ROOT, shared_path
+from judging import retargets as judge
 
 URDF_MAP = ROOT / "examples/maps/shared_bvh_to_human_urdf.toml"
 HANDS = ["LeftElbow_end", "RightElbow_end"]

@@ -1,5 +1,5 @@
 """A retarget from a clip made with Z up (issue 27, "any rig"): the procedural walk
-(benchmarks/clip_walk.py) turned whole so that Z is up (tests/cleanup/test_clip_up.py) is
+(judging/walk.py) turned whole so that Z is up (tests/cleanup/test_clip_up.py) is
 refused by `deik retarget` with one line naming `--up 0 0 1`, and with it lands on the humanoid
 and on a URDF as the Y-up walk does (a map's rotation is written for a Y-up source, and a source
 read with another up is turned upright first), and its legs lengthen on its own rig as the Y-up
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import deik
-from benchmarks.clip_rigs import format_rig, parse_rig, pose_points
 from deik.cli import main
 from helpers import ROOT
+from judging.rigs import format_rig, parse_rig, pose_points
 from tests.cleanup.test_clip_any_rig import sunk_walk
 from tests.cleanup.test_clip_up import TO_Y, TO_Z, turned
 

@@ -1,6 +1,6 @@
-"""Hard cases for deik clip, made from the shared humanoid clips without deik (benchmarks/clip_rigs.py).
+"""Hard cases for deik clip, made from the shared humanoid clips without deik (judging/rigs.py).
 
-Each case is a BVH file and what the judge (benchmarks/clip_judge.py) needs to measure it: which
+Each case is a BVH file and what the judge (judging/clips.py) needs to measure it: which
 of its joints is which canonical joint of the source rig (the DeepMimic humanoid: Hips, RightHip,
 RightKnee, ... and their End Sites), its length units per metre and how much each bone was
 scaled. The floor stays at height 0 (up +Y) in every case: the source clips stand on it.
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from benchmarks.clip_rigs import Rig, joint_values, parse_rig, pose_points
+from judging.rigs import Rig, joint_values, parse_rig, pose_points
 
 CANON = (
     "Hips", "RightHip", "RightKnee", "RightAnkle", "LeftHip", "LeftKnee", "LeftAnkle", "Chest", "Neck",
@@ -66,7 +66,7 @@ class Case:
     units per metre), `bone_scale` {canonical joint: scale of its bones (the bones it carries and
     its End Sites')}, what was done to it, and `truth`: the same rig's frames without the errors
     a transform adds to the data (noise, the body sunk, a glitch frame), or None where it adds
-    none; the judge takes where points rest from it (benchmarks/clip_judge.py)."""
+    none; the judge takes where points rest from it (judging/clips.py)."""
 
     name: str
     rig: Rig

@@ -1,5 +1,5 @@
 """A walk made from nothing but geometry, for the clip tests and benchmarks that must run without
-the shared clips: the DeepMimic humanoid's rig (benchmarks/clip_cases.CANON, metres, Y up, facing
+the shared clips: the DeepMimic humanoid's rig (judging/cases.CANON, metres, Y up, facing
 +X, its right side +Z) walking on the floor at height 0 with feet that never slide.
 
 Each foot is flat and still on the floor through its stance (STANCE of the cycle) and swings
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.clip_cases import CANON, Case
-from benchmarks.clip_rigs import Rig
+from judging.cases import CANON, Case
+from judging.rigs import Rig
 
 ROTATIONS = ("Zrotation", "Xrotation", "Yrotation")
 OFFSETS = {  # the shared humanoid's bones, metres

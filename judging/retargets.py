@@ -3,7 +3,7 @@ calls it): nothing here uses deik's report code, its forward kinematics or its c
 
 Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, the floating
 root (ROOT.X/Y/Zposition, ROOT.Z/X/Yrotation, intrinsic, in the root link's axes) applied on top;
-BVH files are read, written and posed by benchmarks/clip_rigs.py, the clip judge's own (a
+BVH files are read, written and posed by judging/rigs.py, the clip judge's own (a
 joint's local transform is its OFFSET plus its position channels, then its rotation channels
 in file order, intrinsic).
 
@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from benchmarks.clip_rigs import Rig, format_rig, joint_values, parse_rig, pose_points
+from judging.rigs import Rig, format_rig, joint_values, parse_rig, pose_points
 
 # the judge's contact: slower than REST_SPEED statures/s or REST_RATIO x the body's mean point,
 # within REST_BAND statures of its own lowest resting height, which lies within REST_NEAR
@@ -73,7 +73,7 @@ class Bvh:
 
 
 def read_bvh_file(path: Path) -> Bvh:
-    """Parse a BVH file (benchmarks/clip_rigs.py): its joints, then its End Sites ("JOINT_end")."""
+    """Parse a BVH file (judging/rigs.py): its joints, then its End Sites ("JOINT_end")."""
     rig = parse_rig(Path(path).read_text())
     names = [*rig.names, *(name for name, _, _ in rig.sites)]
     parents = [*rig.parents, *(joint for _, joint, _ in rig.sites)]
@@ -83,7 +83,7 @@ def read_bvh_file(path: Path) -> Bvh:
 
 
 def as_rig(bvh: Bvh) -> Rig:
-    """`bvh` as a clip_rigs.Rig: its nodes with channels or children are joints (first), the
+    """`bvh` as a judging.rigs.Rig: its nodes with channels or children are joints (first), the
     others End Sites."""
     joints = [p for p in range(len(bvh.names)) if bvh.channels[p] or p in bvh.parents]
     if joints != list(range(len(joints))):
@@ -108,7 +108,7 @@ def write_bvh_file(path: Path, bvh: Bvh) -> None:
 def bvh_transforms(bvh: Bvh) -> tuple[np.ndarray, np.ndarray]:
     """(positions (N, P, 3), local rotations (N, P, 3, 3)) of every node in every frame: a
     node's local transform is its OFFSET plus its position channels, then its rotation
-    channels in file order, intrinsic (clip_rigs, position channels as displacements)."""
+    channels in file order, intrinsic (judging.rigs, position channels as displacements)."""
     rig = as_rig(bvh)
     local = joint_values(rig)[0]
     sites = np.broadcast_to(np.eye(3), (len(local), len(rig.sites), 3, 3))

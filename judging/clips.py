@@ -1,4 +1,4 @@
-"""An independent judge of a cleaned clip: its own kinematics (benchmarks/clip_rigs.py), its own
+"""An independent judge of a cleaned clip: its own kinematics (judging/rigs.py), its own
 body model and contact detector, the floor at height 0 (up +Y). Nothing here calls deik.
 
 Body: the DeepMimic humanoid's collision shapes (the source model of the shared clips,
@@ -24,7 +24,7 @@ Measures, in mm and the case's frames:
 - steps: the capture's resting runs of the foot points matched in the result (an overlapping run
   whose first and last frames are within STEP_SLACK seconds, at least one frame, of the capture's).
 Where a case's transform added errors to the capture's data (noise, the body sunk under the
-floor, a glitch frame: benchmarks/clip_cases.py, Case.truth), where points rest is taken from
+floor, a glitch frame: judging/cases.py, Case.truth), where points rest is taken from
 the data without them: a heel the transform sank 12 mm into the band is not a step, nor is a
 run the glitch frame cut in two, and a foot the noise shakes still rests. Everything else is
 measured against the capture as written: sliding on its and the result's own points, depth,
@@ -35,8 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.clip_cases import Case
-from benchmarks.clip_rigs import Rig, world_frames
+from judging.cases import Case
+from judging.rigs import Rig, world_frames
 
 BAND = 0.02  # metres above the floor
 SPEED = 0.15  # metres per second
