@@ -1,7 +1,8 @@
 """The package layers of docs/architecture.md: every deik module imports only from its own
 package and the layers below it, so the data flows one way and no import cycle can form;
 nothing above the solver reaches into the device maths or the back-ends; no two source files
-share a name; no module is over 450 lines."""
+share a name; no module is over 450 lines. Beside the package, the independent judge (judging/)
+imports nothing of deik, so that what it measures is not deik measuring itself."""
 
 import ast
 from collections import Counter
@@ -45,6 +46,14 @@ def _imports(path: Path):
             for alias in node.names:
                 if alias.name.split(".")[0] == "deik":
                     yield node.lineno, alias.name
+
+
+def test_the_judge_shares_no_code_with_deik():
+    judging = Path(__file__).resolve().parents[2] / "judging"
+    modules = sorted(judging.glob("*.py"))
+    assert len(modules) >= 5, modules
+    found = [f"{path.name}:{line} {name}" for path in modules for line, name in _imports(path)]
+    assert not found, found
 
 
 def test_every_module_belongs_to_a_layer():
