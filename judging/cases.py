@@ -26,6 +26,10 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - stand: the first and last poses held 2 s each (an actor standing still as a take starts and
   ends) and the whole body 12 mm lower (a floor calibrated a centimetre off): the standing feet
   rest through the floor.
+- digits: a game rig's hands and feet: each hand End Site becomes a wrist joint carrying four
+  fingers and a thumb of three joints each, curled 15 degrees, and each foot's toe tip hangs from
+  a toe joint 70 % of the way from the ankle; none of them moves (a capture that leaves fingers
+  and toes still). The toes change no point the judge measures, the fingers lengthen the body.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
 }  # fmt: skip
 CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
 STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
+DIGITS = ("run", "jump", "punch", "dance_a")  # and fingers and toes
 STAND_SECONDS, SUNK = 2.0, 0.012  # s held at each end, m under the floor
 
 
@@ -260,13 +265,82 @@ def stand(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description, truth=truth)
 
 
+# metres: each finger's spread across the palm and its three bones
+FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, (0.048, 0.03, 0.022)),
+           (0.03, (0.04, 0.025, 0.02)), (0.04, (0.03, 0.03, 0.025)))  # fmt: skip
+PALM, TOE, CURL = 0.08, 0.7, 15.0  # metres from the wrist to the knuckles; the toe joint's share; degrees
+
+
+def digits(case: Case) -> Case:
+    """The digits transform (module notes)."""
+    rig, unit = case.rig, case.unit
+    rotations, translations = joint_values(rig)
+    N = len(rig.frames)
+    nodes = [(name, parent, rig.offsets[j], rig.channels[j], rotations[:, j], translations[:, j])
+             for j, (name, parent) in enumerate(zip(rig.names, rig.parents))]  # fmt: skip
+    channels = ("Zrotation", "Xrotation", "Yrotation")
+    still, curl = (
+        np.broadcast_to(np.eye(3), (N, 3, 3)),
+        np.broadcast_to(Rotation.from_euler("x", CURL, degrees=True).as_matrix(), (N, 3, 3)),
+    )
+
+    def add(name, parent, offset, rotation):
+        nodes.append((name, parent, offset, channels, rotation, np.broadcast_to(offset, (N, 3))))
+        return len(nodes) - 1
+
+    hands = {case.names[name] for name in ("RightElbow", "LeftElbow")}
+    feet = {case.names[name] for name in ("RightAnkle", "LeftAnkle")}
+    sites = []
+    for name, j, offset in rig.sites:
+        along = offset / np.linalg.norm(offset)
+        if rig.names[j] in hands:
+            wrist = add(f"{rig.names[j]}_wrist", j, offset, still)
+            across = np.cross(along, [1.0, 0.0, 0.0])
+            across /= np.linalg.norm(across)
+            for f, (spread, bones) in enumerate(FINGERS):
+                joint, step = wrist, (along * PALM + across * spread) * unit
+                for k, length in enumerate(bones):
+                    joint = add(f"{rig.names[j]}_finger{f}{k}", joint, step, curl)
+                    step = along * length * unit
+                sites.append((f"{nodes[joint][0]}_end", joint, step))
+        elif rig.names[j] in feet:
+            toe = add(f"{rig.names[j]}_toe", j, offset * TOE, still)
+            sites.append((f"{nodes[toe][0]}_end", toe, offset * (1.0 - TOE)))
+        else:
+            sites.append((name, j, offset))
+    order = []  # depth first, as a BVH file lists its joints
+
+    def visit(k):
+        order.append(k)
+        for c, node in enumerate(nodes):
+            if node[1] == k and c != k:
+                visit(c)
+
+    visit(0)
+    at = {k: i for i, k in enumerate(order)}
+    new = Rig(
+        tuple(nodes[k][0] for k in order),
+        tuple(at[nodes[k][1]] if nodes[k][1] >= 0 else -1 for k in order),
+        np.array([nodes[k][2] for k in order]),
+        tuple(nodes[k][3] for k in order),
+        tuple((name, at[j], offset) for name, j, offset in sites),
+        np.zeros((0, 0)),
+        0.0,
+        rig.position_mode,
+    )
+    rotations = np.stack([nodes[k][4] for k in order], axis=1)
+    translations = np.stack([nodes[k][5] for k in order], axis=1)
+    rig = encode(new, rotations, translations, rig.frame_time)
+    return dataclasses.replace(case, name=case.name + "_digits", rig=rig, description="still fingers, wrists and toes")
+
+
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
-              "bind": bind, "glitch": glitch, "stand": stand}  # fmt: skip
+              "bind": bind, "glitch": glitch, "stand": stand, "digits": digits}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
-    its CUTS transform, if any, and its stand if in STANDS."""
+    its CUTS transform, if any, its stand if in STANDS and its digits if in DIGITS."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -275,4 +349,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [base, studio(base), TRANSFORMS[EXTRAS.get(base.name, "noisy")](base)]
         out += [TRANSFORMS[CUTS[base.name]](base)] if base.name in CUTS else []
         out += [stand(base)] if base.name in STANDS else []
+        out += [digits(base)] if base.name in DIGITS else []
     return out

@@ -164,8 +164,9 @@ def largest_abruptness(rig: Rig, skip: list[int] = ()) -> float:
 
 @pytest.mark.parametrize("name", SHARED)
 def test_every_shared_clip_moves_without_cuts_and_a_t_pose_beside_or_in_it_is_one(name, shared_data):
-    """docs/clips.md ("Cuts"): motion reaches at most 4.3 times its typical acceleration (under
-    CUT_RATIO) as captured, on another rig family, at 120 fps, played backwards or four times as
+    """docs/clips.md ("Cuts"): motion reaches at most 4.8 times its typical acceleration (under
+    CUT_RATIO; 4.3 without the fingers of the digits transform, their tips the fastest points)
+    as captured, on another rig family, at 120 fps, played backwards or four times as
     fast, at 10 poses a second, with limbs rescaled or noise; a T-pose before it, after it or in
     its middle at least 9 times. The one cut on the shared clips is the walk's loop seam (step
     18: its loop starts again), 7.3 times."""
@@ -180,7 +181,7 @@ def test_every_shared_clip_moves_without_cuts_and_a_t_pose_beside_or_in_it_is_on
         seams = cuts.between_takes.tolist() if name == "walk" else []  # the walk's seam moves with its frames
         assert cuts.steps.tolist() == seams and len(seams) <= 1, case.name
         assert not cuts.kept.any() and not cuts.bridged.any()
-        assert largest_abruptness(case.rig, seams) < 4.5, case.name
+        assert largest_abruptness(case.rig, seams) < 5.0, case.name
     if name == "walk":  # its seam: the loop starts again at frame 19
         clip = read(base.rig)
         ratios = abruptness(clip.kinematics.p_world_frame, body_of(clip).span, window(clip.frame_time))

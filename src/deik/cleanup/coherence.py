@@ -51,18 +51,25 @@ def moving_dofs(skeleton: Skeleton, name: str) -> np.ndarray:
 
 
 def hinge_channels(clip: Motion) -> np.ndarray:
-    """(D,) bool: rotation DOFs that stay exactly 0 in every frame while another DOF of their
-    joint moves (the X and Y channels of a knee that bends about Z): the performance uses the
-    joint as a hinge, so the fix keeps it one. A translation that stays 0 is no hinge: a root
-    on the ground (a `Reference` joint at height 0, a walk along one axis) must still lift or
-    shift the body it carries."""
+    """(D,) bool: the rotation DOFs the fix keeps as captured. Those that stay exactly 0 in every
+    frame while another DOF of their joint moves (the X and Y channels of a knee that bends about
+    Z): the performance uses the joint as a hinge, so the fix keeps it one. And every rotation of
+    a joint below the root that the capture never turns while other joints move (a toe, a
+    finger, a wrist the performance leaves still): turning it would add an articulation the
+    performance never had (a toe bent to stand on while the capture's foot lands flat). A
+    translation that stays 0 is no hinge: a root on the ground (a `Reference` joint at height
+    0, a walk along one axis) must still lift or shift the body it carries."""
     sk = clip.skeleton
     frames = clip.frames
     zero = (frames == 0.0).all(axis=0)
     moving = np.ptp(frames, axis=0) > 0 if len(frames) else np.zeros(sk.n_dofs, bool)
     joint_moves = np.zeros(sk.n_joints, bool)
     np.logical_or.at(joint_moves, sk.dof_joint, moving)
-    return zero & joint_moves[sk.dof_joint] & (sk.dof_kind == ROTATE)
+    rotate = sk.dof_kind == ROTATE
+    turned = np.zeros(sk.n_joints, bool)
+    np.logical_or.at(turned, sk.dof_joint, moving & rotate)
+    still = ~turned[sk.dof_joint] & (sk.parents[sk.dof_joint] >= 0) & turned.any()
+    return (zero & joint_moves[sk.dof_joint] | still) & rotate
 
 
 def active_frames(goal: Goal, n_frames: int) -> np.ndarray:

@@ -171,10 +171,19 @@ def floor_lifts(heights: np.ndarray, level: np.ndarray, peaks: np.ndarray) -> np
     return out
 
 
-def rigid_bodies(skeleton: Skeleton) -> np.ndarray:
+def rigid_bodies(skeleton: Skeleton, movable: np.ndarray) -> np.ndarray:
     """(F,) a label per joint and site of `skeleton` (frame_names): the joint's own index for a
-    joint and for every site fixed in its frame (a foot's toe tip and soles with its ankle)."""
-    return np.concatenate([np.arange(skeleton.n_joints), skeleton.site_joint])
+    joint and for every site fixed in its frame (a foot's toe tip and soles with its ankle); a
+    joint none of whose DOFs is `movable` (D,) bool (a toe the capture never bends) moves with
+    its parent, and shares its label."""
+    moves = np.zeros(skeleton.n_joints, bool)
+    np.logical_or.at(moves, skeleton.dof_joint, np.asarray(movable, bool))
+    label = np.arange(skeleton.n_joints)
+    for j in range(skeleton.n_joints):  # parents come first
+        parent = int(skeleton.parents[j])
+        if parent >= 0 and not moves[j]:
+            label[j] = label[parent]
+    return np.concatenate([label, label[skeleton.site_joint]])
 
 
 def whole_lifts(
@@ -338,7 +347,7 @@ def warm_start(
         levels = [floor_levels(g.height, margin, g.clearance) for g in floors]
         floors = [floor_lifts(heights, level, peaks) for level in levels]
         if whole:
-            bodies = rigid_bodies(skeleton)
+            bodies = rigid_bodies(skeleton, movable.any(axis=0))
             wholes = [whole_lifts(lifted, heights, level, bodies) for lifted, level in zip(floors, levels)]
             floors = [lifted for lifted, _ in wholes]
             holds = [np.where(raised, 1.0, FLOOR_HOLD) for _, raised in wholes]
