@@ -26,6 +26,9 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - stand: the first and last poses held 2 s each (an actor standing still as a take starts and
   ends) and the whole body 12 mm lower (a floor calibrated a centimetre off): the standing feet
   rest through the floor.
+- tpose: the same motion on a rig whose rest pose is a T-pose: each shoulder's and elbow's frame
+  turned 90 degrees about Z so that the arms' bones point sideways at rotation 0 (the OFFSETs
+  and every rotation channel follow; the world motion is the same to rounding).
 - digits: a game rig's hands and feet: each hand End Site becomes a wrist joint carrying four
   fingers and a thumb of three joints each, curled 15 degrees, and each foot's toe tip hangs from
   a toe joint 70 % of the way from the ankle; none of them moves (a capture that leaves fingers
@@ -71,7 +74,9 @@ class Case:
     units per metre), `bone_scale` {canonical joint: scale of its bones (the bones it carries and
     its End Sites')}, what was done to it, and `truth`: the same rig's frames without the errors
     a transform adds to the data (noise, the body sunk, a glitch frame), or None where it adds
-    none; the judge takes where points rest from it (judging/clips.py)."""
+    none; the judge takes where points rest from it (judging/clips.py); `turns` {canonical
+    joint: (3, 3)} the constant turn a transform gave a joint's frame (its axes in the source's),
+    with which the judge turns the shapes it hangs there."""
 
     name: str
     rig: Rig
@@ -80,6 +85,7 @@ class Case:
     bone_scale: dict
     description: str
     truth: Rig | None = None
+    turns: dict = dataclasses.field(default_factory=dict)
 
 
 def source_case(path: Path) -> Case:
@@ -265,6 +271,29 @@ def stand(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description, truth=truth)
 
 
+def tpose(case: Case) -> Case:
+    """The tpose transform (module notes): joint j's frame turned by C_j, its rotation R_j
+    becomes C_parent^T R_j C_j and the OFFSETs below it C_j^T o, so every world position stays."""
+    rig = case.rig
+    rotations, translations = joint_values(rig)
+    canon = {name: key for key, name in case.names.items()}
+    turns = {}
+    for name in rig.names:
+        key = canon.get(name, "")
+        if key.endswith(("Shoulder", "Elbow")):
+            turns[key] = Rotation.from_euler("z", 90.0 if key.startswith("Left") else -90.0, degrees=True).as_matrix()
+    turn = np.array([turns.get(canon.get(name, ""), np.eye(3)) for name in rig.names])
+    up = np.array([turn[p] if p >= 0 else np.eye(3) for p in rig.parents])
+    rotations = np.einsum("jki,njkl,jlm->njim", up, rotations, turn)
+    translations = np.einsum("jki,njk->nji", up, translations)
+    offsets = np.einsum("jki,jk->ji", up, rig.offsets)
+    sites = tuple((name, j, turn[j].T @ offset) for name, j, offset in rig.sites)
+    new = dataclasses.replace(rig, offsets=offsets, sites=sites)
+    rig = encode(new, rotations, translations, rig.frame_time)
+    description = "a T-pose rest: arms sideways at rotation 0"
+    return dataclasses.replace(case, name=case.name + "_tpose", rig=rig, description=description, turns=turns)
+
+
 # metres: each finger's spread across the palm and its three bones
 FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, (0.048, 0.03, 0.022)),
            (0.03, (0.04, 0.025, 0.02)), (0.04, (0.03, 0.03, 0.025)))  # fmt: skip
@@ -335,7 +364,7 @@ def digits(case: Case) -> Case:
 
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
-              "bind": bind, "glitch": glitch, "stand": stand, "digits": digits}  # fmt: skip
+              "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:

@@ -3,7 +3,8 @@ body model and contact detector, the floor at height 0 (up +Y). Nothing here cal
 
 Body: the DeepMimic humanoid's collision shapes (the source model of the shared clips,
 `humanoid_deepmimic_source.urdf` at its 0.25 scale), attached to the canonical joints a case
-names and scaled by its length unit and bone scales: spheres for the pelvis, chest, head and
+names, turned with a joint whose frame the case turned (Case.turns) and scaled by its length
+unit and bone scales: spheres for the pelvis, chest, head and
 hands, capsules for the thighs, shins, upper arms and forearms, a box for each foot.
 
 Contact points: every sphere's centre, both ends of every capsule's axis, and the bottom of
@@ -74,7 +75,8 @@ def contact_points(case: Case, rig: Rig) -> tuple[list[str], np.ndarray, np.ndar
         scale = case.bone_scale.get(joint, 1.0)
         j = rig.names.index(case.names[joint])
         names.append(name)
-        points.append(_world(R, p, j, np.asarray(local, float) * case.unit * scale) * s)
+        local = case.turns.get(joint, np.eye(3)).T @ np.asarray(local, float)
+        points.append(_world(R, p, j, local * case.unit * scale) * s)
         clear.append(radius * scale)
 
     for joint, centre, radius in SPHERES:
@@ -102,7 +104,8 @@ def deepest(case: Case, rig: Rig) -> np.ndarray:
         j = rig.names.index(case.names[joint])
         for sx in (-1, 1):
             for sz in (-1, 1):
-                corner = _world(R, p, j, np.array([cx + sx * hx, cy - hy, cz + sz * hz]) * scale) / case.unit
+                local = case.turns.get(joint, np.eye(3)).T @ np.array([cx + sx * hx, cy - hy, cz + sz * hz])
+                corner = _world(R, p, j, local * scale) / case.unit
                 lowest = np.minimum(lowest, corner[:, 1])
     return -lowest
 

@@ -15,7 +15,8 @@ import deik
 from deik.cleanup.body import body_of, with_helpers
 from deik.io.bvh import parse_bvh
 from deik.model.capsules import body_reach
-from judging.cases import studio
+from judging.cases import studio, tpose
+from judging.clips import contact_points
 from judging.rigs import format_rig, parse_rig, world_frames
 from judging.walk import ROTATIONS, procedural_walk
 
@@ -51,6 +52,21 @@ def test_a_walk_on_another_rig_family_cleans_to_the_same_world_positions(tmp_pat
     assert np.linalg.norm(after - before, axis=-1).max() > SUNK / 2  # the fix lifted the body
     gap = np.linalg.norm(other_after - after, axis=-1)
     assert gap.max() <= 1e-4, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
+
+
+def test_a_walk_on_a_rig_resting_in_a_t_pose_cleans_to_the_same_world_positions(tmp_path):
+    """The rest pose is the rig's choice, not the motion's: arms whose frames are turned 90
+    degrees (every channel and OFFSET following) move the same, and so must their fix."""
+    walk = sunk_walk()
+    other = tpose(walk)
+    assert np.abs(other.rig.frames - walk.rig.frames).max() > 45.0  # the arms' channels differ
+    # the judge hangs its shapes on the turned frames turned back (Case.turns)
+    np.testing.assert_allclose(contact_points(other, other.rig)[1], contact_points(walk, walk.rig)[1], atol=1e-9)
+    before, after = cleaned_joints(walk, tmp_path)
+    other_before, other_after = cleaned_joints(other, tmp_path)
+    np.testing.assert_allclose(other_before, before, atol=1e-6)
+    gap = np.linalg.norm(other_after - after, axis=-1)
+    assert gap.max() <= 1e-3, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
 
 
 def test_the_body_s_reach_is_measured_from_the_hips_not_from_a_reference_joint_below_them():
