@@ -1,8 +1,10 @@
 """Fingers and toes the capture never moves (a game rig's hands and feet) change nothing a fix
 does to the body: their joints keep their rotations (coherence.hinge_channels), a toe joint that
 cannot bend moves with its ankle (warmstart.rigid_bodies) and adds no floor row over the sole
-(ground.clearances). Judged on the procedural walk sunk under the floor with and without the
-digits transform (judging/cases.py), by the judge's own kinematics."""
+(ground.clearances); a foot that ends in a toe joint, as a rig without End Sites writes it,
+stands on a sole below and beyond that joint (body.TOE_HEIGHT, TOE_REACH). Judged on the
+procedural walk sunk under the floor with and without the digits transform (judging/cases.py),
+by the judge's own kinematics."""
 
 import dataclasses
 
@@ -15,6 +17,7 @@ from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import rigid_bodies
 from deik.io.bvh import parse_bvh
+from deik.model.kinematics import forward_kinematics
 from helpers import shared_path
 from judging.cases import digits, source_case
 from judging.clips import contact_points, deepest, resting
@@ -92,3 +95,20 @@ def test_the_shared_punch_on_a_rig_with_toes_stays_out_of_the_floor(tmp_path):
     rest = resting(before, clear, case.rig.frame_time)
     step = np.linalg.norm(np.diff(points[..., [0, 2]], axis=0), axis=-1)
     assert step[rest[1:] & rest[:-1]].max() <= 1 * MM
+
+
+def test_a_foot_that_ends_in_a_toe_joint_stands_on_a_sole_below_and_beyond_it(tmp_path):
+    # a rig written without End Sites: each foot ends in its toe joint, inside the foot, and the
+    # toes' 30 % of the foot beyond it are no point of the rig; the judge's foot box is all of it
+    walk = digits(sunk_walk())
+    bare = dataclasses.replace(walk, name="walk_bare", rig=dataclasses.replace(walk.rig, sites=()))
+    body = body_of(parse_bvh(format_rig(bare.rig), "bare.bvh"))
+    sk = body.skeleton
+    toe_joint = sk.frame_index("RightAnkle_toe")
+    standing = forward_kinematics(sk, np.zeros(sk.n_dofs)[None]).p_world_frame[0]
+    sole_toe, heel = (standing[sk.frame_index(name)] for name in (body.feet[0].toe, body.feet[0].heel))
+    over = standing[toe_joint] @ sk.up - sole_toe @ sk.up
+    assert 0.01 < over < 0.02  # a ball of the foot under the toe joint
+    assert np.linalg.norm(sole_toe - heel) > 1.2 * np.linalg.norm(standing[toe_joint] - heel)
+    points, depth, _ = _cleaned(bare, tmp_path)
+    assert depth.max() <= 2 * MM, depth.max()

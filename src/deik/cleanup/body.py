@@ -13,7 +13,12 @@ a T-pose or a body standing with its arms down) unless it stands less than STAND
 the tallest frame (a rig that rests folded), then that frame. Feet: in that pose, the ends of
 the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
 joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
-chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose.
+chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose
+when the chain ends in an End Site (the toe tip, on the foot's surface); when it ends in a joint
+(a rig written without End Sites: the toe joint, inside the foot) TOE_HEIGHT x span below it,
+where the ball of a foot carries its toe joint (about 0.9 % of stature over the floor), and its
+toes reach TOE_REACH of the ankle-to-toe-joint length beyond it (the ball of the foot lies at
+about 0.7 of the way from the ankle to the toe tip).
 On it lie the foot's sole sites, fixed in the ankle's frame (the toe's in the frame carrying the
 toe tip): its heel, HEEL_BACK of the ankle-to-toe length behind the ankle, its toe under the toe
 tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either side.
@@ -54,6 +59,8 @@ FOOT_END = 0.12
 FOOT_CHAIN = 0.07
 HEEL_BACK = 0.33
 SOLE_WIDTH = 0.25
+TOE_HEIGHT = 0.007  # of the span: a toe joint's centre over the sole (1.5 cm on the shared humanoid)
+TOE_REACH = 0.4  # of the ankle-to-toe-joint length: how far the toes reach beyond their joint
 TAPER = 0.6  # a limb segment's far end over its near end
 TOP = (3.0 / (1.0 + TAPER + TAPER**2)) ** 0.5  # its near end over its volume's cylinder: 1.24
 PALM = 0.165  # half a hand's breadth, of the forearm's length
@@ -211,16 +218,18 @@ def _free_name(taken: set[str], name: str) -> str:
     return out
 
 
-def _soles(skeleton: Skeleton, chain, kin, height) -> tuple[list, float]:
+def _soles(skeleton: Skeleton, chain, kin, height, thickness: float) -> tuple[list, float]:
     """(sites [(name, frame name, offset in its frame)], sole height) of the foot `chain` in
-    the standing kinematics `kin` (one pose)."""
+    the standing kinematics `kin` (one pose), its sole `thickness` below the chain's lowest
+    point (length units)."""
     up = skeleton.up
     p = kin.p_world_frame[0]
     ankle, tip = chain[0], chain[-1]
-    sole = height[list(chain)].min()
+    sole = height[list(chain)].min() - thickness
     on_sole = lambda x: x + (sole - x @ up) * up  # noqa: E731
     heel_base, toe = on_sole(p[ankle]), on_sole(p[tip])
     forward = toe - heel_base
+    toe = toe + (TOE_REACH * forward if thickness > 0 else 0.0)  # the toes beyond a toe joint
     heel = heel_base - HEEL_BACK * forward
     length = np.linalg.norm(toe - heel)
     side = np.cross(up, forward / max(np.linalg.norm(forward), 1e-300)) * SOLE_WIDTH * length
@@ -269,7 +278,8 @@ def body_of(clip: Motion) -> Body:
     height = kin.p_world_frame[0] @ sk.up
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        soles, sole = _soles(sk, chain, kin, height)
+        thickness = TOE_HEIGHT * span if chain[-1] < sk.n_joints else 0.0  # module notes: Sole
+        soles, sole = _soles(sk, chain, kin, height, thickness)
         sites += soles
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
