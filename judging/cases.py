@@ -29,6 +29,9 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - tpose: the same motion on a rig whose rest pose is a T-pose: each shoulder's and elbow's frame
   turned 90 degrees about Z so that the arms' bones point sideways at rotation 0 (the OFFSETs
   and every rotation channel follow; the world motion is the same to rounding).
+- seats: CMU's zero-length bones: a joint at the hips' origin above each hip and one under the
+  chest (a zero OFFSET, three still rotation channels), as the CMU captures' LHipJoint,
+  RHipJoint and LowerBack sit at their Hips.
 - digits: a game rig's hands and feet: each hand End Site becomes a wrist joint carrying four
   fingers and a thumb of three joints each, curled 15 degrees, and each foot's toe tip hangs from
   a toe joint 70 % of the way from the ankle; none of them moves (a capture that leaves fingers
@@ -298,23 +301,59 @@ def tpose(case: Case) -> Case:
 FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, (0.048, 0.03, 0.022)),
            (0.03, (0.04, 0.025, 0.02)), (0.04, (0.03, 0.03, 0.025)))  # fmt: skip
 PALM, TOE, CURL = 0.08, 0.7, 15.0  # metres from the wrist to the knuckles; the toe joint's share; degrees
+CHANNELS = ("Zrotation", "Xrotation", "Yrotation")  # of every joint a transform adds
+
+
+def _nodes(rig: Rig) -> list[list]:
+    """`rig`'s joints as nodes [name, parent node, OFFSET, channels, rotations (N, 3, 3),
+    translations (N, 3)] that a transform may add to and rewire, for _built."""
+    rotations, translations = joint_values(rig)
+    return [[name, parent, rig.offsets[j], rig.channels[j], rotations[:, j], translations[:, j]]
+            for j, (name, parent) in enumerate(zip(rig.names, rig.parents))]  # fmt: skip
+
+
+def _built(rig: Rig, nodes: list[list], sites: list) -> Rig:
+    """A Rig of `nodes` (_nodes) and `sites` [(name, node, offset)], its joints in depth-first
+    order as a BVH file lists them, its frames encoded from the nodes' motion (`rig`'s frame
+    time and position mode)."""
+    order = []
+
+    def visit(k):
+        order.append(k)
+        for c, node in enumerate(nodes):
+            if node[1] == k and c != k:
+                visit(c)
+
+    visit(0)
+    at = {k: i for i, k in enumerate(order)}
+    new = Rig(
+        tuple(nodes[k][0] for k in order),
+        tuple(at[nodes[k][1]] if nodes[k][1] >= 0 else -1 for k in order),
+        np.array([nodes[k][2] for k in order]),
+        tuple(nodes[k][3] for k in order),
+        tuple((name, at[j], offset) for name, j, offset in sites),
+        np.zeros((0, 0)),
+        0.0,
+        rig.position_mode,
+    )
+    rotations = np.stack([nodes[k][4] for k in order], axis=1)
+    translations = np.stack([nodes[k][5] for k in order], axis=1)
+    return encode(new, rotations, translations, rig.frame_time)
 
 
 def digits(case: Case) -> Case:
     """The digits transform (module notes)."""
     rig, unit = case.rig, case.unit
-    rotations, translations = joint_values(rig)
     N = len(rig.frames)
-    nodes = [(name, parent, rig.offsets[j], rig.channels[j], rotations[:, j], translations[:, j])
-             for j, (name, parent) in enumerate(zip(rig.names, rig.parents))]  # fmt: skip
-    channels = ("Zrotation", "Xrotation", "Yrotation")
+    nodes = _nodes(rig)
+    channels = CHANNELS
     still, curl = (
         np.broadcast_to(np.eye(3), (N, 3, 3)),
         np.broadcast_to(Rotation.from_euler("x", CURL, degrees=True).as_matrix(), (N, 3, 3)),
     )
 
     def add(name, parent, offset, rotation):
-        nodes.append((name, parent, offset, channels, rotation, np.broadcast_to(offset, (N, 3))))
+        nodes.append([name, parent, offset, channels, rotation, np.broadcast_to(offset, (N, 3))])
         return len(nodes) - 1
 
     hands = {case.names[name] for name in ("RightElbow", "LeftElbow")}
@@ -337,34 +376,28 @@ def digits(case: Case) -> Case:
             sites.append((f"{nodes[toe][0]}_end", toe, offset * (1.0 - TOE)))
         else:
             sites.append((name, j, offset))
-    order = []  # depth first, as a BVH file lists its joints
-
-    def visit(k):
-        order.append(k)
-        for c, node in enumerate(nodes):
-            if node[1] == k and c != k:
-                visit(c)
-
-    visit(0)
-    at = {k: i for i, k in enumerate(order)}
-    new = Rig(
-        tuple(nodes[k][0] for k in order),
-        tuple(at[nodes[k][1]] if nodes[k][1] >= 0 else -1 for k in order),
-        np.array([nodes[k][2] for k in order]),
-        tuple(nodes[k][3] for k in order),
-        tuple((name, at[j], offset) for name, j, offset in sites),
-        np.zeros((0, 0)),
-        0.0,
-        rig.position_mode,
-    )
-    rotations = np.stack([nodes[k][4] for k in order], axis=1)
-    translations = np.stack([nodes[k][5] for k in order], axis=1)
-    rig = encode(new, rotations, translations, rig.frame_time)
+    rig = _built(rig, nodes, sites)
     return dataclasses.replace(case, name=case.name + "_digits", rig=rig, description="still fingers, wrists and toes")
 
 
+def seats(case: Case) -> Case:
+    """The seats transform (module notes)."""
+    rig = case.rig
+    N = len(rig.frames)
+    nodes = _nodes(rig)
+    for key in ("RightHip", "LeftHip", "Chest"):
+        j = rig.names.index(case.names[key])
+        still = np.broadcast_to(np.eye(3), (N, 3, 3))
+        nodes.append([f"{rig.names[j]}_seat", nodes[j][1], np.zeros(3), CHANNELS, still, np.zeros((N, 3))])
+        nodes[j][1] = len(nodes) - 1
+    rig = _built(rig, nodes, list(rig.sites))
+    description = "joints at the hips' origin (zero OFFSET) above each leg and the chest"
+    return dataclasses.replace(case, name=case.name + "_seats", rig=rig, description=description)
+
+
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
-              "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose}  # fmt: skip
+              "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
+              "seats": seats}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:

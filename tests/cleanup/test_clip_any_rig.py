@@ -15,7 +15,7 @@ import deik
 from deik.cleanup.body import body_of, with_helpers
 from deik.io.bvh import parse_bvh
 from deik.model.capsules import body_reach
-from judging.cases import studio, tpose
+from judging.cases import seats, studio, tpose
 from judging.clips import contact_points
 from judging.rigs import format_rig, parse_rig, world_frames
 from judging.walk import ROTATIONS, procedural_walk
@@ -62,6 +62,33 @@ def test_a_walk_on_a_rig_resting_in_a_t_pose_cleans_to_the_same_world_positions(
     assert np.abs(other.rig.frames - walk.rig.frames).max() > 45.0  # the arms' channels differ
     # the judge hangs its shapes on the turned frames turned back (Case.turns)
     np.testing.assert_allclose(contact_points(other, other.rig)[1], contact_points(walk, walk.rig)[1], atol=1e-9)
+    before, after = cleaned_joints(walk, tmp_path)
+    other_before, other_after = cleaned_joints(other, tmp_path)
+    np.testing.assert_allclose(other_before, before, atol=1e-6)
+    gap = np.linalg.norm(other_after - after, axis=-1)
+    assert gap.max() <= 1e-3, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
+
+
+def _joint_masses(skeleton) -> dict:
+    """{joint name: the mass (kg) it carries}."""
+    masses = np.bincount(skeleton.mass_joint, skeleton.mass_value, skeleton.n_joints)
+    return dict(zip(skeleton.joint_names, masses))
+
+
+def test_joints_sitting_at_the_hips_are_the_hips_point_and_change_no_fix(tmp_path):
+    """CMU's zero-length bones (LHipJoint, RHipJoint, LowerBack at the Hips): a joint at its
+    parent's origin has no bone and no mass of its own; the body's radii and masses are those of
+    the rig without it, and so is the fix."""
+    walk = sunk_walk()
+    other = seats(walk)
+    assert len(other.rig.names) == len(walk.rig.names) + 3
+    plain, seated = (parse_bvh(format_rig(case.rig), f"{case.name}.bvh") for case in (walk, other))
+    radius = [dict(zip(clip.skeleton.frame_names, body_of(clip).radius)) for clip in (plain, seated)]
+    mass = [_joint_masses(clip.skeleton) for clip in (plain, seated)]
+    for name in walk.rig.names:
+        assert radius[1][name] == pytest.approx(radius[0][name], rel=1e-9), name
+        assert mass[1][name] == pytest.approx(mass[0][name], rel=1e-9), name
+    assert radius[1]["RightHip_seat"] == pytest.approx(radius[0]["Hips"])  # the hips' point, as thick
     before, after = cleaned_joints(walk, tmp_path)
     other_before, other_after = cleaned_joints(other, tmp_path)
     np.testing.assert_allclose(other_before, before, atol=1e-6)

@@ -49,7 +49,7 @@ import numpy as np
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
-from deik.model.capsules import bone_starts, default_radii, helper_joints, off_body
+from deik.model.capsules import bone_starts, default_radii, helper_joints, off_body, seat_anchors
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -284,16 +284,20 @@ def body_of(clip: Motion) -> Body:
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
     body = with_sites(sk, sites)
-    joint_radius = np.where(off, 0.0, default_radii(sk, standing))
-    own = _thinnest(sk, joint_radius, start)
+    # a joint sitting on another (a zero OFFSET: the CMU rigs' LHipJoint at the Hips) is that
+    # point: its bones and mass are the other's, and it is as thick as the other is there
+    seat = seat_anchors(sk)
+    seated_start = np.where(start >= 0, seat[np.maximum(start, 0)], -1)
+    joint_radius = np.where(off, 0.0, default_radii(sk, standing, seated=True))
+    own = _thinnest(sk, joint_radius, seated_start)
     own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])
-    limb_top = (np.bincount(start[start >= 0], minlength=sk.n_frames) == 1) & (frame_radius > 0)
+    limb_top = (np.bincount(seated_start[seated_start >= 0], minlength=sk.n_frames) == 1) & (frame_radius > 0)
     own = np.where(limb_top, np.maximum(own, TOP * frame_radius), own)
     for f, value in foot_radius.items():
         own[f] = value
     radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])
     body_start = bone_starts(body)
-    bone_radius = np.where(body_start >= 0, joint_radius[np.maximum(body_start, 0)], 0.0)
+    bone_radius = np.where(body_start >= 0, joint_radius[seat[np.maximum(body_start, 0)]], 0.0)
     part = np.concatenate([part, np.ones(len(sites), bool)])
     return Body(body, float(span), radius, part, tuple(feet), bone_radius)

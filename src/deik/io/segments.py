@@ -19,7 +19,7 @@ import numpy as np
 from deik.errors import FileFormatError, InputError
 from deik.io.files import FilePath, number_value, numbers_value, read_json
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
-from deik.model.capsules import carrier_joints
+from deik.model.capsules import carrier_joints, seat_anchors
 from deik.model.joints import Segment
 from deik.model.skeleton import MAX_LENGTH, MAX_MASS, Skeleton
 from deik.suggest import did_you_mean
@@ -94,14 +94,17 @@ def bone_class(name: str) -> str | None:
 
 def _bone_ends(sk: Skeleton) -> np.ndarray:
     """(J, 3) end of each joint's bone in its frame: the mean of its children's and sites' origins
-    (its own origin when it has none)."""
+    (its own origin when it has none). A joint sitting at its parent's origin (seat_anchors) has
+    no bone: its children and sites count for the joint it sits on, whose frame it shares at rest."""
+    anchor = seat_anchors(sk)
     total, count = np.zeros((sk.n_joints, 3)), np.zeros(sk.n_joints)
     for k in range(1, sk.n_joints):
-        total[sk.parents[k]] += sk.offsets[k]
-        count[sk.parents[k]] += 1
+        if anchor[k] == k:
+            total[anchor[sk.parents[k]]] += sk.offsets[k]
+            count[anchor[sk.parents[k]]] += 1
     for s, k in enumerate(sk.site_joint):
-        total[k] += sk.site_offset[s]
-        count[k] += 1
+        total[anchor[k]] += sk.site_offset[s]
+        count[anchor[k]] += 1
     return total / np.maximum(count, 1)[:, None]
 
 

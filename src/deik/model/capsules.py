@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 
@@ -28,6 +29,22 @@ def bone_starts(skeleton: Skeleton) -> np.ndarray:
     """(F,) the frame each bone starts from: bone k runs from bone_starts[k] to frame k; -1 for
     the root, which ends no bone."""
     return np.concatenate([[-1], skeleton.parents[1:], skeleton.site_joint]).astype(np.int64)
+
+
+def seat_anchors(skeleton: Skeleton) -> np.ndarray:
+    """(J,) per joint the joint it sits on: itself, or for a joint at its parent's origin (a zero
+    OFFSET and no translation DOF, as the CMU rigs' LHipJoint sits at the Hips) the joint its
+    parent sits on. A body has no bone there: the two are one point."""
+    J = skeleton.n_joints
+    translates = np.zeros(J, bool)
+    np.logical_or.at(translates, skeleton.dof_joint, skeleton.dof_kind != ROTATE)
+    scale = max(float(np.abs(skeleton.offsets).max(initial=0.0)), 1e-300)
+    seated = (np.linalg.norm(skeleton.offsets, axis=1) <= 1e-12 * scale) & ~translates
+    anchor = np.arange(J)
+    for j in range(1, J):  # parents come first
+        if seated[j]:
+            anchor[j] = anchor[skeleton.parents[j]]
+    return anchor
 
 
 def bone_lengths(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
@@ -140,22 +157,25 @@ def link_distance(skeleton: Skeleton) -> np.ndarray:
     return distance
 
 
-def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
+def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None, seated: bool = False) -> np.ndarray:
     """(J,) capsule radius of the bones leaving each joint (length units), measured in `pose`
     (D,) (default the reference pose). With masses: the joint's share of the body volume
     (BODY_VOLUME times the height cubed, the height being the pose's extent along `up`, carrier
     joints aside) as a cylinder along its longest bone, so a thigh is about 8 cm and an upper arm
     4 cm on a 1.75 m humanoid and a massless joint (a neck, a clavicle) gets 0. Without masses:
-    MASSLESS_RADIUS times that bone's length."""
+    MASSLESS_RADIUS times that bone's length. With `seated`, a joint sitting on another
+    (seat_anchors) gives its bones and mass to that one and has none: the body's measure; the
+    capsules of self-collision keep each joint its own."""
     J = skeleton.n_joints
     start, length = bone_starts(skeleton), bone_lengths(skeleton, pose)
+    anchor = seat_anchors(skeleton) if seated else np.arange(J)
     longest = np.zeros(J)
-    np.maximum.at(longest, start[1:], length[1:])
+    np.maximum.at(longest, anchor[start[1:]], length[1:])
     if skeleton.total_mass <= 0:
         return MASSLESS_RADIUS * longest
     p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
     body = ~off_body(skeleton)
     height = np.ptp(p[body] @ skeleton.up) or skeleton.reach
-    fraction = np.bincount(skeleton.mass_joint, skeleton.mass_value, J) / skeleton.total_mass
+    fraction = np.bincount(anchor[skeleton.mass_joint], skeleton.mass_value, J) / skeleton.total_mass
     volume = fraction * BODY_VOLUME * height**3
     return np.sqrt(np.divide(volume, np.pi * longest, out=np.zeros(J), where=longest > 0))
