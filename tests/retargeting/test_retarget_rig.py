@@ -158,3 +158,40 @@ def test_limb_scale_needs_a_pelvis_and_says_so(tmp_path):
     path.write_text('scale = "bones"\n[points]\nHips = "pelvis"\n')
     with pytest.raises(ValueError, match=r'must be "limbs", "height" or a number > 0'):
         read_map(path)
+
+
+def _z_up_human(tmp_path):
+    """human.urdf stood on +Z: a base link under its pelvis turned 90 degrees about X (a robot's
+    convention), and the shared map onto it with `up` [0, 0, 1], without a rotation."""
+    urdf = shared_path("robots", "human.urdf").read_text()
+    base = '<link name="base"/><joint name="base_to_pelvis" type="fixed"><origin xyz="0 0 0" rpy="1.5707963 0 0"/>'
+    base += '<parent link="base"/><child link="middle_pelvis"/></joint>'
+    robot = tmp_path / "z_up_human.urdf"
+    robot.write_text(urdf.replace('<robot name="human_36dof_ISB_model">', '<robot name="z_up_human">' + base, 1))
+    joint_map = (ROOT / "examples/maps/shared_bvh_to_human_urdf.toml").read_text()
+    joint_map = joint_map.replace("up = [0, 1, 0]", "up = [0, 0, 1]").replace(
+        'target = "middle_pelvis" }', 'target = "base" }'
+    )
+    return robot, joint_map
+
+
+@pytest.mark.shared_data
+def test_a_map_s_rotation_must_stand_the_source_on_the_target_s_up(tmp_path):
+    robot, joint_map = _z_up_human(tmp_path)
+    walk = shared_path("humanoid", "humanoid3d_walk.bvh")
+    path = tmp_path / "map.toml"
+    path.write_text(joint_map)  # no rotation: the walk would lie on its back
+    with pytest.raises(ValueError, match=r"map.toml: up: the target's up is 0 0 1, the source's \+Y: give `rotation`"):
+        deik.retarget(walk, to=robot, joint_map=path)
+    # the rotation written row by row (each row where a source axis goes): upside down, and said so
+    path.write_text("rotation = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]\n" + joint_map)
+    with pytest.raises(ValueError, match=r"rotation: takes the source's up \(\+Y\) to 0 0 -1, .*its transpose does"):
+        deik.retarget(walk, to=robot, joint_map=path)
+    # as a matrix on columns it stands the walk on the floor, as on the Y-up human
+    path.write_text("rotation = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]\n" + joint_map)
+    upright = deik.retarget(walk, to=robot, joint_map=path).report["summary"]
+    plain = deik.retarget(
+        walk, to=shared_path("robots", "human.urdf"), joint_map=ROOT / "examples/maps/shared_bvh_to_human_urdf.toml"
+    ).report["summary"]
+    assert upright["keypoint_error_mean_mm"] < 1.2 * plain["keypoint_error_mean_mm"]
+    assert upright["penetration_max_mm"] <= 0.1 and upright["contact_sliding_max_mm_per_frame"] < 1.0

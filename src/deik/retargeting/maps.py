@@ -7,7 +7,7 @@ TOML or JSON (told apart by the ending: `.json` is JSON), every key optional but
                               # over source), "height" (the ratio of the mapped points' heights at
                               # rest) or a number
     up = [0, 1, 0]            # the target's up, for a URDF (whose convention is +Z)
-    rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # source world axes -> target world axes
+    rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # target = rotation @ source: its columns are the source's axes
     pelvis = { source = "Hips", target = "middle_pelvis" }   # the target's root: orientation
     torso = { source = "Chest", target = "middle_thorax" }   # orientation goal
     [points]                  # source joint or site = target joint or site
@@ -150,11 +150,39 @@ def read_map(path: FilePath) -> JointMap:
 SIZE_RANGE = 10.0  # the scaled source may be this many times taller or shorter than the target, no more
 
 
+def _check_up(joint_map: JointMap, target_up: np.ndarray) -> None:
+    """FileFormatError when the map's rotation (identity when none) does not take the source's
+    up, +Y (a source is turned upright first), to the target's `target_up` (3,): the motion
+    would be laid on its side or upside down, with one floor under neither."""
+    rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
+    lands = rotation @ np.array([0.0, 1.0, 0.0])
+    if lands @ target_up >= 1.0 - 1e-6:
+        return
+    words = " ".join(f"{v:g}" for v in np.round(lands, 6) + 0.0)
+    up = " ".join(f"{v:g}" for v in np.round(target_up, 6) + 0.0)
+    if joint_map.rotation is None:
+        fix = f"give `rotation` (target = rotation @ source) taking +Y to {up}, or `up` for a target that stands on +Y"
+        raise FileFormatError(joint_map.source, f"the target's up is {up}, the source's +Y: {fix}", element="up")
+    flipped = rotation.T @ np.array([0.0, 1.0, 0.0]) @ target_up >= 1.0 - 1e-6
+    hint = (
+        "; its transpose does (a rotation acts on columns: target = rotation @ source, so its columns, "
+        "not its rows, are where the source's X, Y and Z go)"
+        if flipped
+        else ""
+    )
+    raise FileFormatError(
+        joint_map.source,
+        f"takes the source's up (+Y) to {words}, not the target's up {up}{hint}",
+        element="rotation",
+    )
+
+
 def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: Skeleton) -> None:
     """FileFormatError naming the map's key when a name is not a frame of its skeleton (with
     close names), the pelvis target is not the target's root joint, the `scale` makes the
     source more than SIZE_RANGE times taller or shorter than the target (statures at rest), or
-    an offset is longer than the target is tall."""
+    an offset is longer than the target is tall, or the rotation does not stand the source's up
+    (+Y) on the target's (_check_up)."""
     names = [(f"points.{p.source}", p.source, p.target) for p in joint_map.points]
     for key in ("pelvis", "torso"):
         pair = getattr(joint_map, key)
@@ -173,6 +201,7 @@ def check_map(joint_map: JointMap, source_skeleton: Skeleton, target_skeleton: S
                     element=key,
                 )
     _check_sizes(joint_map, stature(source_skeleton), stature(target_skeleton), target_skeleton.name)
+    _check_up(joint_map, np.asarray(target_skeleton.up, float))
     if joint_map.pelvis and joint_map.pelvis[1] != target_skeleton.joint_names[0]:
         raise FileFormatError(
             joint_map.source,
