@@ -278,8 +278,8 @@ def clearances(body: Body) -> np.ndarray:
     """(F,) each point's clearance above the floor (module notes); NaN for what is no part of
     the body (a carrier joint), and for a foot's joints below its ankle (a toe joint): they lie
     just above the sole, whose sites keep the foot out of the floor, and a second floor row
-    there held the toe joint where it was while the sole rolled onto it (a foot turned on its
-    side on the shared punch with a toe joint added)."""
+    there would hold the toe joint in place while the sole rolls onto it, turning the foot on
+    its side."""
     below_ankle = [f for foot in body.feet for f in map(body.skeleton.frame_index, foot.chain[1:])]
     toes = np.zeros(len(body.radius), bool)
     toes[[f for f in below_ankle if f < body.skeleton.n_joints]] = True

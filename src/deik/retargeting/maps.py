@@ -153,7 +153,7 @@ SIZE_RANGE = 10.0  # the scaled source may be this many times taller or shorter 
 def _check_up(joint_map: JointMap, target_up: np.ndarray) -> None:
     """FileFormatError when the map's rotation (identity when none) does not take the source's
     up, +Y (a source is turned upright first), to the target's `target_up` (3,): the motion
-    would be laid on its side or upside down, with one floor under neither."""
+    would be laid on its side or upside down, its floor no longer under its feet."""
     rotation = np.eye(3) if joint_map.rotation is None else joint_map.rotation
     lands = rotation @ np.array([0.0, 1.0, 0.0])
     if lands @ target_up >= 1.0 - 1e-6:
