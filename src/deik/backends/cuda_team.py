@@ -390,12 +390,20 @@ def first_polish_team(cur, status, skel, terms, settings, schedule, rules, initi
     for first in range(cuda.blockIdx.x * teams, B, cuda.gridDim.x * teams):
         live = first + team < B
         b = min(first + team, B - 1)  # a team past the last problem reads the last one and writes nothing
-        if live:  # every lane alike: the same pose, frames and scores in every lane's scratch
+        # one lane writes the team's individual (scores accumulate in place: two lanes adding
+        # into one array would count a term twice), every lane then has its frames and scores
+        if live and lane == 0:
             device_driver.seed_individual(b, 0, cur, skel, settings, initial, n_initial)
+        cuda.syncthreads()  # the seeded pose, before any lane reads it
+        if live:
             device_maths.forward_kinematics(cur.pop[b, 0], skel, scratch.R, scratch.p, scratch.work, axes, True)
-            cur.total[b, 0] = device_terms.score(
-                cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0]
-            )
+            if lane == 0:
+                cur.total[b, 0] = device_terms.score(
+                    cur.pop[b, 0], b, skel, terms, scratch, cur.levels[b, 0], cur.raw[b, 0]
+                )
+            else:
+                device_terms.score(cur.pop[b, 0], b, skel, terms, scratch, lv, rw)
+        cuda.syncthreads()  # the individual's scores, before any lane reads them
         iterations = device_evolution.first_polish_iterations(schedule)
         team_converge(b, cur, iterations, skel, terms, scratch, axes, lm, q, lv, rw, status.halt, lane, live)
         met = live and device_evolution.within_tolerances(b, cur.raw[b, 0], terms, T)
