@@ -53,7 +53,7 @@ from deik.cleanup.metrics import point_motion
 from deik.cleanup.plants import lifted_heights, rigid_pairs
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
-from deik.model.capsules import body_reach, body_root, carrier_joints
+from deik.model.capsules import body_reach, body_root, carrier_joints, joined_to_parents
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -178,11 +178,7 @@ def rigid_bodies(skeleton: Skeleton, movable: np.ndarray) -> np.ndarray:
     its parent, and shares its label."""
     moves = np.zeros(skeleton.n_joints, bool)
     np.logical_or.at(moves, skeleton.dof_joint, np.asarray(movable, bool))
-    label = np.arange(skeleton.n_joints)
-    for j in range(skeleton.n_joints):  # parents come first
-        parent = int(skeleton.parents[j])
-        if parent >= 0 and not moves[j]:
-            label[j] = label[parent]
+    label = joined_to_parents(skeleton, ~moves)
     return np.concatenate([label, label[skeleton.site_joint]])
 
 

@@ -40,11 +40,17 @@ def seat_anchors(skeleton: Skeleton) -> np.ndarray:
     np.logical_or.at(translates, skeleton.dof_joint, skeleton.dof_kind != ROTATE)
     scale = max(float(np.abs(skeleton.offsets).max(initial=0.0)), 1e-300)
     seated = (np.linalg.norm(skeleton.offsets, axis=1) <= 1e-12 * scale) & ~translates
-    anchor = np.arange(J)
-    for j in range(1, J):  # parents come first
-        if seated[j]:
-            anchor[j] = anchor[skeleton.parents[j]]
-    return anchor
+    return joined_to_parents(skeleton, seated)
+
+
+def joined_to_parents(skeleton: Skeleton, joined: np.ndarray) -> np.ndarray:
+    """(J,) per joint the first joint at or above it that is not `joined` (J,) bool to its
+    parent (the root never is): the joint it moves with."""
+    label = np.arange(skeleton.n_joints)
+    for j in range(1, skeleton.n_joints):  # parents come first
+        if joined[j]:
+            label[j] = label[skeleton.parents[j]]
+    return label
 
 
 def bone_lengths(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
