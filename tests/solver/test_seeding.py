@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import deik
+from deik.model.joints import ROTATE
 from deik.solver.seeding import poses_around
 
 
@@ -29,8 +30,12 @@ def test_batch_of_poses_with_one_spread_per_copy():
 
 
 def test_pose_outside_limits_is_named():
-    sk = deik.chain(3)
-    pose = np.zeros(sk.n_dofs)
-    pose[1] = sk.upper[1] + 0.1
-    with pytest.raises(ValueError, match=rf"seed pose DOF {sk.dof_names[1]!r} = .* is outside its limits"):
+    """A DOF whose limits span less than a turn (a continuous joint's wraps round:
+    tests/solver/test_continuous_joints.py)."""
+    sk = deik.humanoid()
+    d = int(np.flatnonzero(sk.dof_kind == ROTATE)[0])
+    pose = sk.reference.copy()
+    pose[d] = sk.upper[d] + 0.1
+    message = rf"seed pose DOF {sk.dof_names[d]!r} = .* rad \(.* degrees\) is outside its limits"
+    with pytest.raises(ValueError, match=message):
         poses_around(sk, pose, 4)

@@ -155,9 +155,8 @@ def _time_left(settings: Settings, deadline: float) -> Settings:
 def _inside(skeleton, original: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     """`displacement` (N, D) from `original` (N, D) cut back to the joint limits, except on
     rotations free over a whole turn (they wrap)."""
-    full_turn = (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower >= 2 * np.pi)
     inside = np.clip(original + displacement, skeleton.lower, skeleton.upper) - original
-    return np.where(full_turn, displacement, inside)
+    return np.where(skeleton.full_turns, displacement, inside)
 
 
 def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from deik.errors import InputError, UnknownNameError
-from deik.model.joints import TRANSLATE
+from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.values import real_array
 from deik.suggest import did_you_mean
 
@@ -235,6 +235,12 @@ class Skeleton:
     @property
     def total_mass(self) -> float:
         return float(self.mass_value.sum())
+
+    @cached_property
+    def full_turns(self) -> np.ndarray:
+        """(D,) bool: the rotations free over a whole turn or more (a URDF continuous joint, a
+        free root's): their values wrap round instead of stopping at a limit."""
+        return (self.dof_kind == ROTATE) & (self.upper - self.lower >= 2 * np.pi)
 
     @cached_property
     def motions(self) -> Motions:

@@ -31,7 +31,6 @@ from deik.cleanup.dynamics import jolted_points
 from deik.cleanup.metrics import joint_angles
 from deik.cleanup.warmstart import at_most, position_jacobian
 from deik.io.trajectory import Trajectory
-from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
@@ -90,15 +89,9 @@ class KeypointGoals:
         return searched[frames] if searched.ndim == 2 else np.broadcast_to(searched, (len(frames), len(searched)))
 
 
-def full_turns(skeleton: Skeleton) -> np.ndarray:
-    """(D,) bool: the rotations free over a whole turn (a free root's), which wrap instead of
-    stopping at a limit."""
-    return (skeleton.dof_kind == ROTATE) & (skeleton.upper - skeleton.lower >= 2 * np.pi)
-
-
 def _inside(skeleton, poses: np.ndarray) -> np.ndarray:
     """`poses` within the limits; rotations free over a whole turn wrap instead."""
-    full_turn = full_turns(skeleton)
+    full_turn = skeleton.full_turns
     wrapped = wrap_rotations(poses, full_turn)
     return np.where(full_turn, wrapped, np.clip(poses, skeleton.lower, skeleton.upper))
 
@@ -231,7 +224,7 @@ def rebasin(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:
     """(N, D) solve_keypoints started from `poses` smoothed over the frames (smoothed): a frame
     whose pose stands apart from its neighbours' starts among theirs and mostly settles in their
     basin, and a clip that switches basins does so in fewer frames."""
-    return solve_keypoints(goals, smoothed(poses, full_turns(goals.skeleton)))
+    return solve_keypoints(goals, smoothed(poses, goals.skeleton.full_turns))
 
 
 def _jolt(x: np.ndarray, first: int, last: int) -> tuple[float, float]:

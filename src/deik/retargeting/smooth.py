@@ -45,7 +45,7 @@ from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows,
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
-from deik.retargeting.ik import Targets, full_turns, targets_at
+from deik.retargeting.ik import Targets, targets_at
 
 HELD_WEIGHT = 1e7  # contacts, floor, capsules and steps: their squared error in size units, against the spring
 KEYPOINT_WEIGHT = 1e3  # key points: 1e4 met them 1.2-3.9 mm closer (jump, crawl) but slid the jump's feet 2 mm/frame
@@ -133,7 +133,7 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     frames)."""
     skeleton, contacts, weights = goals.skeleton, goals.contacts, goals.weights
     N, D = first.shape
-    full_turn = full_turns(skeleton)
+    full_turn = skeleton.full_turns
     base = np.array(first, float)
     base[:, full_turn] = np.unwrap(base[:, full_turn], axis=0)
     lower = np.where(full_turn, -np.inf, skeleton.lower)

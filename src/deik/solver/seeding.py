@@ -25,19 +25,23 @@ def poses_around(
     """(*batch, count, D) poses: each `pose` (*batch, D) itself, then copies perturbed by
     Gaussian noise of `spread` radians on rotations and `spread` x reach on translations
     (`spread`: a scalar, or one value per perturbed copy (count - 1,) to mix fine and wide
-    starts). A DOF whose limits span a full turn wraps around; any other is folded back inside
-    its limits. Every pose must lie within the limits (ValueError naming the first DOF outside);
+    starts). A DOF whose limits span a full turn wraps around (in `pose` too: a continuous
+    joint at 350 degrees is at -10); any other is folded back inside its limits. Every other
+    DOF of `pose` must lie within its limits (InputError naming the first outside);
     more poses than `memory_limit` bytes hold (default: deik.memory's) are refused before they
     are made (SolveError)."""
+    lower, upper, full_turn = skeleton.lower, skeleton.upper, skeleton.full_turns
     pose = skeleton.check_angles(pose, "seed pose")
-    outside = np.argwhere((pose < skeleton.lower) | (pose > skeleton.upper))
+    turn = 2 * math.pi
+    above, below = np.ceil((pose - upper) / turn), np.ceil((lower - pose) / turn)  # whole turns past a limit
+    pose = np.where(
+        full_turn & (pose > upper), pose - turn * above, np.where(full_turn & (pose < lower), pose + turn * below, pose)
+    )
+    outside = np.argwhere((pose < lower) | (pose > upper))
     if outside.size:
         d = outside[0][-1]
         value = pose[tuple(outside[0])]
-        raise InputError(
-            f"seed pose DOF {skeleton.dof_names[d]!r} = {value:.6g} is outside its limits "
-            f"[{skeleton.lower[d]:.6g}, {skeleton.upper[d]:.6g}]"
-        )
+        raise InputError(f"seed pose DOF {skeleton.dof_names[d]!r} = {_shown(skeleton, d, value, lower[d], upper[d])}")
     if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)) or count < 1:
         raise InputError(f"count must be a whole number >= 1, got {count!r}")
     rotation = skeleton.dof_kind == ROTATE
@@ -53,8 +57,6 @@ def poses_around(
     shape = pose.shape[:-1] + (count - 1, skeleton.n_dofs)
     noise = np.random.default_rng(seed).normal(size=shape) * sigma
     poses = np.concatenate([pose[..., None, :], pose[..., None, :] + noise], axis=-2)
-    lower, upper = skeleton.lower, skeleton.upper
-    full_turn = rotation & (upper - lower >= 2 * math.pi)
     wrapped = lower + np.mod(poses - lower, 2 * math.pi)
     width = np.where(upper > lower, upper - lower, 1.0)
     folded = lower + width - np.abs(np.mod(poses - lower, 2 * width) - width)
@@ -62,3 +64,15 @@ def poses_around(
     out = np.where(full_turn, wrapped, folded)
     out[..., 0, :] = pose  # exactly, not through the folding arithmetic
     return out
+
+
+def _shown(skeleton: Skeleton, d: int, value: float, lower: float, upper: float) -> str:
+    """DOF d's `value` outside [lower, upper], in radians and degrees for a rotation (the
+    command line takes degrees), length units for a translation."""
+    if skeleton.dof_kind[d] != ROTATE:
+        return f"{value:.6g} is outside its limits [{lower:.6g}, {upper:.6g}] (length units)"
+    deg = np.degrees
+    return (
+        f"{value:.6g} rad ({deg(value):.4g} degrees) is outside its limits [{lower:.6g}, {upper:.6g}] rad "
+        f"([{deg(lower):.4g}, {deg(upper):.4g}] degrees)"
+    )
