@@ -17,6 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from deik.cleanup.units import METRES
 from deik.cli.arguments import UsageError, number, numbers
 from deik.objectives import goals as g
 from deik.objectives.self_collision import SelfCollision
@@ -55,8 +56,8 @@ def add_goal_arguments(s: argparse.ArgumentParser) -> None:
         "--tolerance",
         type=number(0.0),
         metavar="LENGTH",
-        help="--reach and --com-over goals are met within this distance (length units; default "
-        f"{g.LENGTH_TOLERANCE:g}, 1 mm for metres)",
+        help="--reach and --com-over goals are met within this distance (length units; default 1 mm "
+        f"in the skeleton's unit, `deik info` says which; {g.LENGTH_TOLERANCE:g} where it has none)",
     )
     s.add_argument(
         "--angle-tolerance",
@@ -124,15 +125,20 @@ def orientation_goal(words: list[str], tolerance: float | None) -> g.Orientation
     return goal
 
 
-def goals_from_flags(args: argparse.Namespace, frame_pose: np.ndarray | None) -> list[g.Goal]:
+def goals_from_flags(args: argparse.Namespace, frame_pose: np.ndarray | None, unit: str) -> list[g.Goal]:
     """Goals from the goal flags: targets on priority level 0, comfort below them on level 1
     (its reference `frame_pose` (D,), radians / length units, or None for the rest pose); with
-    --self-collision, that goal on level 0 and every other one level lower."""
+    --self-collision, that goal on level 0 and every other one level lower. Without --tolerance
+    a distance is met within 1 mm in the skeleton's length `unit` (deik.viz.marks.length_unit:
+    0.1 in centimetres, 1 in millimetres), or g.LENGTH_TOLERANCE units when it has none."""
     angle_tolerance = None if args.angle_tolerance is None else math.radians(args.angle_tolerance)
-    goals = [g.Position(frame, numbers("--reach", xyz), tolerance=args.tolerance) for frame, *xyz in args.reach]
+    tolerance = args.tolerance
+    if tolerance is None and unit in METRES:
+        tolerance = 0.001 / METRES[unit]
+    goals = [g.Position(frame, numbers("--reach", xyz), tolerance=tolerance) for frame, *xyz in args.reach]
     goals += [orientation_goal(words, angle_tolerance) for words in args.orient]
     if args.com_over:
-        goals.append(g.ComOverSupport(numbers("--com-over", args.com_over), tolerance=args.tolerance))
+        goals.append(g.ComOverSupport(numbers("--com-over", args.com_over), tolerance=tolerance))
     for values in args.obstacle:
         *centre, radius = numbers("--obstacle", values)
         goals.append(g.Obstacle(centre, radius))

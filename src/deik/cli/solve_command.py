@@ -29,10 +29,12 @@ from deik.cli.arguments import (
 )
 from deik.cli.goal_flags import FRAME_COMFORT, add_goal_arguments, goals_from_flags, has_goals
 from deik.console import Parser, add_output_flags, progress_bar, show_generation, show_progress
+from deik.errors import DeikError
 from deik.io.atomic import all_or_nothing, write_json_atomically
 from deik.io.limits import read_limits, with_limits
 from deik.io.load import load_skeleton
 from deik.io.pose_json import pose_angles, read_pose_json
+from deik.io.urdf import read_urdf
 from deik.model.joints import ROTATE
 from deik.solver.problem import Problem
 from deik.solver.problem_file import ProblemFile, load_problem
@@ -191,8 +193,29 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
         frame_pose = _start_pose(args.start, loaded.skeleton)
     if not has_goals(args):
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
-    problem = Problem(loaded.skeleton, goals_from_flags(args, frame_pose))
+    _check_cut(args, loaded, spec)
+    unit = length_unit(loaded.skeleton, loaded.kind)[0]
+    problem = Problem(loaded.skeleton, goals_from_flags(args, frame_pose, unit))
     return ProblemFile(problem, _settings(args), loaded, args.frame, frame_pose)
+
+
+def _check_cut(args, loaded, spec: str) -> None:
+    """UsageError when a goal names a link of the URDF `spec` that --base/--tip cut away (the
+    skeleton's own unknown-name error would suggest a link of the chain instead)."""
+    if loaded.kind != "urdf" or not (args.base or args.tip):
+        return
+    named = [frame for frame, *_ in args.reach] + [words[0] for words in args.orient]
+    missing = [name for name in named if name not in loaded.skeleton.frame_names]
+    if not missing:
+        return
+    try:
+        whole = read_urdf(spec, up=loaded.skeleton.up).frame_names
+    except DeikError:  # the rest of the file cannot be built: the skeleton's own error says enough
+        return
+    for name in missing:
+        if name in whole:
+            cut = " ".join([f"--base {args.base}"] * bool(args.base) + [f"--tip {tip}" for tip in args.tip])
+            raise UsageError(f"{name!r} is a link of {spec} but not on the chain {cut} keeps: add --tip {name}")
 
 
 def _settings(args) -> dict:

@@ -19,6 +19,7 @@ from deik.objectives import goals as g
 from deik.solver.problem import Problem
 
 CHAIN_UNIT = "link lengths"
+URDF_METRES_AT_MOST = 50.0  # units end to end (twice the root's farthest): a 25 m robot
 
 # One colour per kind of mark (RGB, 0-255), the same in PNGs and in the 3-D view, each distinct
 # enough to be found in a picture by its colour (the picture tests do). Bones are coloured by side
@@ -114,17 +115,22 @@ def spread_out(points: ArrayLike, indices: Iterable[int], fraction: float = 0.06
 def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None = None) -> tuple[str, str]:
     """(unit, where it comes from) for axis labels. `given` (e.g. --units) wins; `kind` is how the
     skeleton was loaded (deik.io.load.Loaded.kind: "urdf", "bvh", "builtin"; None for one built
-    in Python). URDF lengths and the built-in humanoid are metres; the paper's chains count link
-    lengths; a BVH file does not say, so its unit is read from the body's size (a person some
-    1.7 units tall is in metres, 170 in centimetres: deik.cleanup.units.guess_unit) and said
-    so; any other skeleton's unit is its own ("length units")."""
+    in Python). URDF lengths are metres, unless the robot spans URDF_METRES_AT_MOST units or more
+    from end to end, as one written in centimetres or millimetres does (a CAD export): then, as
+    for a BVH file, which does not say, the unit is read from the body's size (a person some 1.7
+    units tall is in metres, 170 in centimetres: deik.cleanup.units.guess_unit) and said so.
+    The built-in humanoid is in metres; the paper's chains count link lengths; any other
+    skeleton's unit is its own ("length units")."""
+    from deik.cleanup.units import guess_unit, span
+
     if given:
         return given, "given"
     if kind == "urdf":
-        return "m", "URDF"
+        size = 2.0 * span(skeleton)
+        if size < URDF_METRES_AT_MOST:
+            return "m", "URDF"
+        return guess_unit(skeleton), f"read from the robot's size, {size:.4g} units (a URDF in metres spans less)"
     if kind == "bvh":
-        from deik.cleanup.units import guess_unit
-
         return guess_unit(skeleton), "read from the body's size (a BVH file does not state its unit)"
     if kind in ("builtin", None) and skeleton.name == "humanoid":
         return "m", "built-in"
