@@ -197,3 +197,33 @@ def test_a_library_output_that_is_an_input_is_refused_before_any_work(tmp_path, 
     err = capsys.readouterr().err
     assert err.startswith("deik: error: --json: ") and "is also an input of the command" in err
     assert err.count("\n") == 1 and json.loads(track.read_text())[0]["frame"] == 0
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--workers", "-2"],
+        ["--workers", "0"],
+        ["--json", "INPUTS"],  # the clips' own folder, checked after --out's
+        ["--scale", "Spine=1.1", "--view", "OUT"],  # two outputs into one folder
+    ],
+)
+def test_a_refused_folder_run_creates_no_output_folder(tmp_path, capsys, extra):
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    (clips / "a.bvh").write_text(TOY_CLIP)
+    out = tmp_path / "out"
+    command = "retarget" if "--view" in extra else "clip"
+    extra = [str(clips) if word == "INPUTS" else str(out) if word == "OUT" else word for word in extra]
+    assert main([command, str(clips), "--out", str(out), *extra, "--quiet"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clips"]
+
+
+def test_more_workers_than_clips_start_one_per_clip(tmp_path, capsys):
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    for name in ("a.bvh", "b.bvh"):
+        (clips / name).write_text(TOY_CLIP)
+    assert main(["clip", str(clips), "--out", str(tmp_path / "out"), "--workers", "1000", "--quiet"]) == 0
+    assert "on 2 local workers" in capsys.readouterr().out

@@ -161,6 +161,8 @@ def _check_first(args) -> None:
             read_map(args.map)
     if args.address is not None and args.executor != "ray":
         raise UsageError("--address names a Ray cluster: give it with --executor ray")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers {args.workers}: use a whole number >= 1 (default one per core)")
 
 
 def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
@@ -169,11 +171,8 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
     from deik.library.jobs import Job, fingerprint, sidecar_path
 
     clips, others = find_clips(args.clip)
-    folders = {
-        flag: output_folder(OUTPUT_FLAGS[flag], getattr(args, flag), args.clip)
-        for flag in OUTPUT_FLAGS
-        if getattr(args, flag, None) is not None
-    }
+    given = [flag for flag in OUTPUT_FLAGS if getattr(args, flag, None) is not None]
+    folders = {flag: output_folder(OUTPUT_FLAGS[flag], getattr(args, flag), args.clip, create=False) for flag in given}
     common, settings, files = _options(args)
     jobs = []
     for path in clips:
@@ -195,6 +194,8 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
         jobs.append(
             Job(name, path, tuple(outputs.values()), sidecar_path(folders["out"], name), key, settings, payload)
         )
+    for flag in given:  # every check passed: now the folders
+        output_folder(OUTPUT_FLAGS[flag], getattr(args, flag), args.clip)
     return jobs, others
 
 

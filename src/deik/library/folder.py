@@ -42,10 +42,11 @@ def find_clips(folder: FilePath) -> tuple[list[str], list[str]]:
     return clips, others
 
 
-def output_folder(flag: str, folder: str, inputs: str) -> str:
-    """The absolute output `folder` of `flag`, created when its parent exists; ValueError when
-    the parent is missing, it is a file, or it is the `inputs` folder (outputs would replace
-    or mix with the clips)."""
+def output_folder(flag: str, folder: str, inputs: str, create: bool = True) -> str:
+    """The absolute output `folder` of `flag`, created (with `create`) when its parent exists;
+    InputError when the parent is missing, it is a file, or it is the `inputs` folder (outputs
+    would replace or mix with the clips). Check every folder with create=False before creating
+    any, so that a refused run leaves no folder behind."""
     path = os.path.abspath(folder)
     if os.path.exists(path) and not os.path.isdir(path):
         raise InputError(f"{flag} {folder!r} is a file; with a folder of clips, {flag} names a folder")
@@ -53,6 +54,8 @@ def output_folder(flag: str, folder: str, inputs: str) -> str:
         raise InputError(f"{flag}: folder {os.path.dirname(path)!r} does not exist; create it first")
     if os.path.isdir(path) and os.path.samefile(path, inputs):
         raise InputError(f"{flag} {folder!r} is the folder of the input clips; write the outputs to another folder")
+    if not create:
+        return path
     os.makedirs(path, exist_ok=True)
     if not os.access(path, os.W_OK | os.X_OK):
         raise InputError(f"{flag}: folder {folder!r} is not writable; choose another folder")

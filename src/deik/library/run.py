@@ -50,10 +50,10 @@ class LibraryRun:
 def _events(jobs, task, executor: str, workers: int | None, address: str | None):
     """(events, workers, threads) of the executor."""
     if executor == "local":
-        workers = workers or default_workers(len(jobs))
+        workers = min(workers, len(jobs)) if workers else default_workers(len(jobs))  # one clip a worker at most
         threads = threads_per_worker(workers)
         return local_events(jobs, task, workers, threads), workers, threads
-    return ray_events(jobs, task, address, workers), workers, 1
+    return ray_events(jobs, task, address, workers and min(workers, len(jobs))), workers, 1
 
 
 def _check(executor: str, workers, address) -> None:
