@@ -76,3 +76,14 @@ def test_overwrite_lets_the_output_replace_the_input_it_names(tmp_path, capsys):
     argv = ["solve", "--problem", str(problem), "--out", str(tmp_path / "walk.bvh"), "--quiet", "--overwrite"]
     assert main(argv) == 0
     assert (tmp_path / "walk.bvh").read_text() != TOY_BVH  # the frame was replaced, as asked
+
+
+def test_a_refusal_offers_overwrite_only_where_the_command_has_it(tmp_path, capsys):
+    """`deik clip` has --overwrite and says so; `deik retarget` has none and offers none."""
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(TOY_BVH)
+    for command, extra, offered in (("clip", [], True), ("retarget", ["--scale", "Spine=1.1"], False)):
+        assert main([command, str(clip), *extra, "--out", str(clip), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert "is the input file; write elsewhere" in err and ("--overwrite" in err) == offered, err
+        assert clip.read_text() == TOY_BVH

@@ -194,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser(_named_command(argv)).parse_args(argv)
         configure_logging(args)
         show_compile_bars(show_progress(args))
-        with command_inputs(protect=not getattr(args, "overwrite", False)):  # no output replaces an input
+        overwrite = getattr(args, "overwrite", None)  # None: the command has no --overwrite
+        with command_inputs(protect=not overwrite, overwrite_flag=overwrite is not None):  # no output replaces an input
             return args.run(args)
     except SystemExit as done:  # --help
         return done.code

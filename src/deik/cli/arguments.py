@@ -53,14 +53,15 @@ def check_outputs(
     outputs: dict[str, str | None],
     suffixes: dict[str, tuple[str, ...]],
     inputs: Iterable[str | None] = (),
-    overwrite: bool = False,
+    overwrite: bool | None = None,
 ) -> None:
     """Check every output a command will write before it starts work: `outputs` {flag: path or
     None}, `suffixes` {flag: allowed endings}. UsageError unless each folder exists and is
     writable, each path has an allowed ending, no two flags name one file, and no output is one
     of `inputs` (the files the command names) or of the files it has read so far (inside
-    deik.io.files.command_inputs: those named inside other inputs too) unless `overwrite`.
-    Call it again once every input is read."""
+    deik.io.files.command_inputs: those named inside other inputs too) unless `overwrite`
+    (None: the command has no --overwrite, and the message offers none). Call it again once
+    every input is read."""
     inputs = [*inputs, *inputs_read()]
     given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
     for flag, path in given.items():
@@ -89,10 +90,8 @@ def check_outputs(
                 and os.path.exists(source)
                 and os.path.samefile(path, source)
             ):
-                raise UsageError(
-                    f"{flag} {outputs[flag]!r} is the input file; write elsewhere, or add --overwrite "
-                    "to replace the input"
-                )
+                offer = "" if overwrite is None else ", or add --overwrite to replace the input"
+                raise UsageError(f"{flag} {outputs[flag]!r} is the input file; write elsewhere{offer}")
 
 
 def check_device(device: str) -> None:

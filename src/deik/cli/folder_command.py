@@ -82,7 +82,8 @@ def do_clip(payload: dict, progress: Callable[[int, int], None]) -> dict:
     from deik.library.jobs import JobFailed
 
     try:
-        with command_inputs(protect=not payload["overwrite"]):
+        overwrite = payload["overwrite"]  # None: the command has no --overwrite
+        with command_inputs(protect=not overwrite, overwrite_flag=overwrite is not None):
             if payload["command"] == "clip":
                 return _clean_one(payload, progress)
             result = cli_retarget.retarget_file(payload["source"], payload["options"], payload["reading"], progress)
@@ -188,7 +189,7 @@ def library_jobs(args: argparse.Namespace) -> tuple[list[Job], list[str]]:
             "command": args.command,
             "source": path,
             "outputs": outputs,
-            "overwrite": getattr(args, "overwrite", False),
+            "overwrite": getattr(args, "overwrite", None),
             **common,
         }
         jobs.append(

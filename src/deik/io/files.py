@@ -37,6 +37,7 @@ MAX_DEPTH = 32  # nesting of JSON arrays and objects, TOML arrays and tables: de
 MAX_NUMBER = 1e12  # the default bound of a number field: larger is corruption (squares overflow float32)
 _MISSING = object()
 PROTECT = "protect"  # the key of command_inputs' switch among the recorded (device, inode) keys
+OFFER = "offer"  # the key of whether the command has --overwrite
 _inputs: contextvars.ContextVar[dict | None] = contextvars.ContextVar("deik_inputs", default=None)
 
 
@@ -51,10 +52,11 @@ def max_input_bytes() -> int:
 
 
 @contextlib.contextmanager
-def command_inputs(protect: bool = True) -> Iterator[None]:
+def command_inputs(protect: bool = True, overwrite_flag: bool = False) -> Iterator[None]:
     """Record every file read inside the block (see inputs_read and input_named); `protect`:
-    refuse to write over any of them (check_not_input; a command's --overwrite turns it off)."""
-    token = _inputs.set({PROTECT: protect})
+    refuse to write over any of them (check_not_input; a command's --overwrite turns it off,
+    `overwrite_flag`: the command has one, which the refusal then offers)."""
+    token = _inputs.set({PROTECT: protect, OFFER: overwrite_flag})
     try:
         yield
     finally:
@@ -63,7 +65,7 @@ def command_inputs(protect: bool = True) -> Iterator[None]:
 
 def inputs_read() -> list[str]:
     """The paths of the files read so far inside command_inputs() (empty outside it)."""
-    return [path for key, path in (_inputs.get() or {}).items() if key != PROTECT]
+    return [path for key, path in (_inputs.get() or {}).items() if key not in (PROTECT, OFFER)]
 
 
 def input_named(path: FilePath) -> str | None:
@@ -86,10 +88,8 @@ def check_not_input(path: FilePath) -> None:
     source = input_named(path) if recorded and recorded[PROTECT] else None
     if source is not None:
         shown = "" if os.path.abspath(source) == os.path.abspath(path) else f" (read as {source})"
-        raise InputError(
-            f"{path}: this output is also an input of the command{shown}; write it elsewhere "
-            "(or add --overwrite where the command has it)"
-        )
+        offer = " (or add --overwrite to replace it)" if recorded.get(OFFER) else ""
+        raise InputError(f"{path}: this output is also an input of the command{shown}; write it elsewhere{offer}")
 
 
 def _fail_open(source: str, what: str, error: OSError) -> NoReturn:
