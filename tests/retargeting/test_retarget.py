@@ -88,3 +88,30 @@ def test_a_map_with_an_unknown_key_names_the_file_and_the_key(tmp_path):
     path.write_text('scael = 1.0\n[points]\nHips = "pelvis"\n')
     with pytest.raises(ValueError, match=r"map.toml: scael: unknown key; did you mean 'scale'"):
         read_map(path)
+
+
+def test_a_map_pulling_one_target_point_from_two_sources_names_both_keys(tmp_path):
+    """A copy-paste slip (the left knee mapped onto the right one) pulled the target two ways;
+    two sources on one target frame at different offsets are two points and stand."""
+    path = tmp_path / "map.toml"
+    path.write_text('[points]\nHips = "pelvis"\nLeftKnee = "right_knee"\nRightKnee = "right_knee"\n')
+    with pytest.raises(ValueError, match=r"points.LeftKnee and points.RightKnee both map onto 'right_knee'"):
+        read_map(path)
+    path.write_text(
+        '[points]\nLeftToe = { target = "left_ankle", offset = [0.1, 0, 0] }\n'
+        'LeftHeel = { target = "left_ankle", offset = [-0.05, 0, 0] }\n'
+    )
+    assert [p.source for p in read_map(path).points] == ["LeftToe", "LeftHeel"]
+
+
+def test_a_joint_scaled_twice_on_the_command_line_is_refused(tmp_path, capsys):
+    from deik.cli.app import main
+
+    out = tmp_path / "o.bvh"
+    assert main(["retarget", "humanoid", "--scale", "left_hip=1.1,left_hip=0.5", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err.strip()
+        == "deik: error: --scale 'left_hip=1.1,left_hip=0.5': left_hip is given twice; give each joint one factor"
+    )
+    assert not out.exists()

@@ -73,6 +73,8 @@ def _scale(text: str | None) -> dict | None:
     factors = {}
     for part in text.split(","):
         joint, equals, value = part.partition("=")
+        if joint.strip() in factors:
+            raise UsageError(f"--scale {text!r}: {joint.strip()} is given twice; give each joint one factor")
         try:
             factors[joint.strip()] = float(value)
         except ValueError:

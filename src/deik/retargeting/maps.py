@@ -90,6 +90,23 @@ def _point(source: str, name: str, value) -> PointPair:
     raise FileFormatError(source, 'must be "TARGET" or { target = "TARGET", offset = [x, y, z] }', element=key)
 
 
+def _check_one_source_each(source: str, pairs: tuple[PointPair, ...]) -> None:
+    """FileFormatError naming both keys when two source points follow one target point (the
+    same target frame and offset): one of them is a slip, and the target would be pulled two
+    ways (a left knee mapped onto the right one put the wrists 34 cm off)."""
+    seen = {}
+    for pair in pairs:
+        first = seen.setdefault((pair.target, pair.offset), pair.source)
+        if first != pair.source:
+            raise FileFormatError(
+                source,
+                f"points.{first} and points.{pair.source} both map onto {pair.target!r}"
+                + (f" at offset {list(pair.offset)}" if any(pair.offset) else "")
+                + "; give each source point its own target",
+                element=f"points.{pair.source}",
+            )
+
+
 def parse_map(data: object, source: str) -> JointMap:
     """A JointMap from the parsed file `data` (a dict); FileFormatError naming the key."""
     if not isinstance(data, dict):
@@ -123,8 +140,10 @@ def parse_map(data: object, source: str) -> JointMap:
             raise FileFormatError(
                 source, "must be a rotation matrix (orthonormal rows, determinant +1)", element="rotation"
             )
+    pairs = tuple(_point(source, str(name), value) for name, value in points.items())
+    _check_one_source_each(source, pairs)
     return JointMap(
-        points=tuple(_point(source, str(name), value) for name, value in points.items()),
+        points=pairs,
         scale=None if scale in ("height", "limbs") else float(scale),
         limbs=scale == "limbs",
         up=_up(source, data["up"]) if "up" in data else None,
