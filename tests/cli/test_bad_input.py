@@ -383,3 +383,19 @@ def test_an_error_about_a_huge_input_is_cut_to_one_short_line(tmp_path, capsys):
     status, err = _cli(["solve", "--problem", path], capsys)
     assert status == 2 and err.count("\n") == 1 and len(err) <= 520
     assert "huge.toml" in err and "1.0, 1.0" in err  # the echoed value, cut short
+
+
+def test_the_largest_chain_is_described_and_refused_for_a_solve_by_its_memory(capsys):
+    """chain:100000 is the largest built-in chain: `deik info` lists its tree without indenting
+    past MAX_INDENT levels (the text grew with depth squared: 24 GB, then the system killed it),
+    and `deik solve` refuses it in one line, where the LM polish's two D x D matrices failed
+    inside the kernel with an internal error."""
+    from deik.cli import main
+    from deik.cli.info_command import MAX_INDENT
+
+    assert main(["info", "chain:100000"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    deepest = next(line for line in lines if "link99999 " in line)
+    assert deepest.startswith("  " * (MAX_INDENT + 1) + "[depth 99999] link99999"), deepest[:120]
+    status, err = _cli(["solve", "chain:100000", "--reach", "tip", 1, 0, 0, "--generations", 5, "--quiet"], capsys)
+    assert status == 2 and err.count("\n") == 1 and "needs about" in err and "GiB" in err, err

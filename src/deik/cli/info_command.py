@@ -27,6 +27,9 @@ def _dof_cells(dof: dict) -> list[str]:
     return [dof["name"], f"{dof['kind']} ({axis})", f"{bound(dof['lower'])} .. {bound(dof['upper'])} {unit}".rstrip()]
 
 
+MAX_INDENT = 32  # levels of the joint tree indented; deeper joints say their depth
+
+
 def _joint_line(joint: dict) -> str:
     """One joint of the tree, indented by depth, with the URDF joint that moves it where its
     name differs (the key of its values in a pose), its DOF count and sites."""
@@ -36,7 +39,9 @@ def _joint_line(joint: dict) -> str:
         + ([f"{joint['mimics']} mimic"] if joint["mimics"] else [])
         + ([f"sites: {', '.join(joint['sites'])}"] if joint["sites"] else [])
     )
-    return f"{'  ' * joint['depth']}{joint['name']}  ({'; '.join(notes)})"
+    depth = joint["depth"]  # a long chain's tree stops indenting: its text would grow with depth squared
+    indent = "  " * depth if depth <= MAX_INDENT else "  " * MAX_INDENT + f"[depth {depth}] "
+    return f"{indent}{joint['name']}  ({'; '.join(notes)})"
 
 
 CUT_FATES = (
