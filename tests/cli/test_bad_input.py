@@ -101,8 +101,23 @@ def test_range_of_motion_of_a_clip_without_frames_is_refused(tmp_path):
         "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
         "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n"
     )
-    with pytest.raises(ValueError, match="the clip has no frames"):
+    with pytest.raises(ValueError, match=f"{path}: the clip has no frames"):
         range_of_motion(read_bvh(path), 10.0)
+
+
+def test_every_command_on_a_clip_without_frames_names_the_file(tmp_path, capsys):
+    path = tmp_path / "empty.bvh"
+    path.write_text(TOY_BVH.split("MOTION")[0] + "MOTION\nFrames: 0\nFrame Time: 0.033333\n")
+    out = tmp_path / "out.bvh"
+    for argv in (
+        ["clip", path, "--out", out],
+        ["retarget", path, "--scale", "Arm=2", "--out", out],
+        ["limits", path, "--out", tmp_path / "limits.json"],
+    ):
+        status, err = _cli(argv, capsys)
+        assert status == 2 and err.count("\n") == 1, err
+        assert err.startswith(f"deik: error: {path}: the clip has no frames"), err
+        assert not out.exists()
 
 
 TOY_BVH = (

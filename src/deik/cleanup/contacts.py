@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from deik.errors import InputError, UnknownNameError
+from deik.io.motion import message_prefix
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach
 from deik.model.skeleton import Skeleton
@@ -157,7 +158,7 @@ def detect_contacts(
     if not sites:
         raise InputError("detect_contacts needs at least one site")
     if clip.n_frames == 0:
-        raise InputError("the clip has no frames: there are no contacts to detect")
+        raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0): there are no contacts to detect")
     height = threshold(height, HEIGHT_FRACTION * body_reach(sk), "height")
     speed = threshold(speed, SPEED_FRACTION * body_reach(sk), "speed")
     p = site_positions(clip, sites)

@@ -57,7 +57,7 @@ from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
-from deik.io.motion import held_translations
+from deik.io.motion import held_translations, message_prefix
 from deik.io.trajectory import Motion, Trajectory
 from deik.memory import check_memory
 from deik.model.joints import ROTATE
@@ -339,7 +339,7 @@ def fix_clip(
     if isinstance(passes, bool) or not (isinstance(passes, int) and 0 <= passes <= MAX_PASSES):
         raise InputError(f"passes must be a whole number from 0 to {MAX_PASSES}, got {passes!r}")
     if clip.n_frames == 0:
-        raise InputError("the clip has no frames to fix")
+        raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0) to fix; give one with motion")
     if clip.skeleton.n_dofs == 0:
         raise InputError("the clip has no channels: its hierarchy moves no joint, so there is nothing to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS

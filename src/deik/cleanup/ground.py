@@ -74,6 +74,7 @@ import numpy as np
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
 from deik.errors import InputError
+from deik.io.motion import message_prefix
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.kinematics import forward_kinematics
 
@@ -180,7 +181,7 @@ def resting_level(body: Body, paths: Paths) -> float | None:
 def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorChoice:
     """The floor of `clip` (module notes)."""
     if clip.n_frames == 0:
-        raise InputError("the clip has no frames: there is no floor to detect")
+        raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0): there is no floor to detect")
     paths = paths or body_paths(clip, body)
     level = resting_level(body, paths)
     if level is None:

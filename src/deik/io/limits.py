@@ -22,7 +22,7 @@ import numpy as np
 from deik.errors import FileFormatError, InputError, UnknownNameError
 from deik.io.atomic import write_json_atomically
 from deik.io.files import FilePath, numbers_value, read_json
-from deik.io.motion import Clip, held_translations
+from deik.io.motion import Clip, held_translations, message_prefix
 from deik.model.joints import ROTATE
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
@@ -94,7 +94,10 @@ def range_of_motion(
         raise InputError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
     sk = clip.skeleton
     if clip.n_frames == 0:
-        raise InputError("the clip has no frames, so it has no range of motion to measure; give a clip with motion")
+        raise InputError(
+            f"{message_prefix(clip)}the clip has no frames, so it has no range of motion to measure; "
+            "give a clip with motion"
+        )
     poses = clip.poses()
     margin = np.where(sk.dof_kind == ROTATE, math.radians(margin_degrees), given)
     lower = np.maximum(poses.min(axis=0) - margin, sk.lower)

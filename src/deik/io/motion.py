@@ -321,3 +321,9 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
         )
         stack.extend(reversed([j for j in range(k + 1, sk.n_joints) if sk.parents[j] == k]))
     return tuple(entries)
+
+
+def message_prefix(clip) -> str:
+    """The words to begin an error about `clip` (a Clip or Trajectory) with: its `source` file
+    and a colon ("" without one)."""
+    return f"{clip.source}: " if clip.source else ""
