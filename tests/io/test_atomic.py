@@ -152,3 +152,22 @@ def test_a_damaged_journal_moves_nothing_and_is_removed(tmp_path):
     journal.write_text(json.dumps({"moves": [[str(elsewhere), str(target)]], "journals": [str(journal)]}))
     atomic.tidy(tmp_path)
     assert target.read_text() == "old" and elsewhere.read_text() == "not ours" and not journal.exists()
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, a folder no file can be made in")
+def test_a_folder_that_takes_no_files_is_named_with_the_target_and_found_before_any_work(tmp_path, capsys):
+    """/proc allows root by its permissions yet creates nothing: the error names the file asked
+    for (it named deik's hidden temporary file), and a command refuses --out there before it
+    starts (it refused only after the whole clean-up)."""
+    from deik.cli.app import main
+
+    with pytest.raises(OSError, match=r"cannot write it: .*'/proc/out\.txt'"):
+        atomic.write_text_atomically("/proc/out.txt", "x")
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "  End Site\n  {\n    OFFSET 0 1 0\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.033333\n0 0 0\n"
+    )
+    assert main(["clip", str(clip), "--out", "/proc/out.bvh"]) == 2
+    err = capsys.readouterr().err
+    assert err == "deik: error: --out: cannot write in folder '/proc' (No such file or directory); choose another\n"

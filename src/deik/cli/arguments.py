@@ -9,6 +9,7 @@ import os
 from collections.abc import Callable, Iterable
 
 from deik.errors import DeikError, UsageError
+from deik.io.atomic import check_writable
 from deik.io.files import inputs_read
 
 # what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
@@ -70,6 +71,10 @@ def check_outputs(
             raise UsageError(f"{flag}: folder {folder!r} does not exist; create it first")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise UsageError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+        try:
+            check_writable(folder)
+        except OSError as error:
+            raise UsageError(f"{flag}: cannot write in folder {folder!r} ({error.strerror}); choose another") from None
         allowed = suffixes.get(flag)
         if allowed and os.path.splitext(path)[1].lower() not in allowed:
             raise UsageError(f"{flag}: {outputs[flag]!r} must end in {' or '.join(allowed)}")

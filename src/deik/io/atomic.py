@@ -143,9 +143,22 @@ def save_atomically(path: FilePath, write: Callable[[BinaryIO], object]) -> None
         if temporary is not None:
             with contextlib.suppress(OSError):
                 os.unlink(temporary)
-        if isinstance(error, OSError) and error.filename is None and error.errno is not None:
+        ours = error.filename is None or os.path.basename(str(error.filename)).startswith(PARTIAL)
+        if isinstance(error, OSError) and ours and error.errno is not None:  # name the target, not our file
             raise type(error)(error.errno, f"cannot write it: {error.strerror}", path) from None
         raise
+
+
+def check_writable(folder: FilePath) -> None:
+    """OSError naming `folder` unless a file can be created in it (as save_atomically creates
+    its temporary file, then removed): permissions can say yes where the file system says no
+    (a read-only mount, /proc)."""
+    try:
+        handle, temporary = _create(str(folder), PARTIAL, "probe")
+    except OSError as error:
+        raise type(error)(error.errno, error.strerror, str(folder)) from None
+    os.close(handle)
+    os.unlink(temporary)
 
 
 def _commit(moves: list[tuple[str, str]]) -> None:
