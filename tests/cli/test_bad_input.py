@@ -414,3 +414,16 @@ def test_the_largest_chain_is_described_and_refused_for_a_solve_by_its_memory(ca
     assert deepest.startswith("  " * (MAX_INDENT + 1) + "[depth 99999] link99999"), deepest[:120]
     status, err = _cli(["solve", "chain:100000", "--reach", "tip", 1, 0, 0, "--generations", 5, "--quiet"], capsys)
     assert status == 2 and err.count("\n") == 1 and "needs about" in err and "GiB" in err, err
+
+
+def test_a_floor_above_the_body_and_a_reach_out_of_range_name_their_flags(tmp_path, capsys):
+    """Both used to stop with a goal's own words ("position RightAnkle_heel: target ... is
+    unreachable"), naming no flag."""
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(TOY_BVH)
+    out = tmp_path / "out.bvh"
+    status, err = _cli(["clip", clip, "--out", out, "--floor", 100], capsys)
+    assert status == 2 and err.startswith("deik: error: --floor 100: the floor would lie above the whole body"), err
+    status, err = _cli(["clip", clip, "--out", out, "--reach", "Arm_end=0,30,0@0:1"], capsys)
+    assert status == 2 and err.startswith("deik: error: --reach 'Arm_end=0,30,0@0:1': target [0.0, 30.0, 0.0]"), err
+    assert "is unreachable" in err and err.count("\n") == 1 and not out.exists()

@@ -36,6 +36,7 @@ from deik.cleanup.ground import (
 from deik.cleanup.tracks import parse_reach_spec
 from deik.errors import InputError
 from deik.io.trajectory import Motion
+from deik.objectives.goal_values import check_reachable
 from deik.suggest import did_you_mean
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
@@ -153,6 +154,12 @@ def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Path
         raise InputError(
             f"--floor {str(spec)[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
         )
+    top = float((clip.kinematics.p_world_frame @ clip.skeleton.up).max()) if clip.n_frames else height
+    if height > top:  # no frame could stand on it: a height in another unit, or along another axis
+        raise InputError(
+            f"--floor {str(spec)[:40]}: the floor would lie above the whole body in every frame (its highest point "
+            f"is {top:.4g} length units up); give a height in the clip's length units, auto or none"
+        )
     return FloorChoice(height, "given"), True
 
 
@@ -162,6 +169,7 @@ def reaches(clip: Motion, specs: Sequence[str]) -> tuple[Reach, ...]:
     for spec in specs:
         site, mask, targets = parse_reach_spec(spec, clip.n_frames)
         check_site(clip, site, f"--reach {spec!r}")
+        check_reachable(clip.skeleton, targets[mask], clip.skeleton.frame_index(site), f"--reach {spec!r}")
         out.append(Reach(site, mask, targets))
     return tuple(out)
 
