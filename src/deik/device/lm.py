@@ -17,7 +17,7 @@ from deik.device.compiled_kinds import CENTRE_OF_MASS_ON, COMFORT_ON
 from deik.device.evolution import held_at_limit, into_limits, keep_trial, within_tolerances
 from deik.device.maths import centre_of_mass, forward_kinematics
 from deik.device.polish import is_polished, term_rows
-from deik.device.terms import dof_gap, score, uses_centre_of_mass, weight_of
+from deik.device.terms import score, uses_centre_of_mass, weight_of
 from deik.objectives.kinds import COMFORT_MAX, COMFORT_SUM, SCALE, TERM_KIND, TERM_LEVEL, TOLERANCE
 
 MAX_DAMPING = 1e8
@@ -161,10 +161,9 @@ def comfort_step(b, q, terms, lm, D, pull, limits, halt):
     """Add to the step lm.delta a move towards the comfort terms' reference that leaves the
     polished terms' errors unchanged to first order: the minimiser of (x - v)^T W (x - v) +
     |J x|^2 / stiffness, (J^T J + stiffness W)^-1 stiffness W v, with W the comfort's DOF
-    weights, v = pull * (reference - (q + delta)) (the shorter way round: dof_gap) and a
-    stiffness far below J^T J's scale (the acceptance test catches what the curvature adds).
-    Overwrites lm.A (damped_step refills it). Returns whether problem b has a comfort term with
-    weight (else nothing is added)."""
+    weights, v = pull * (reference - (q + delta)) and a stiffness far below J^T J's scale (the
+    acceptance test catches what the curvature adds). Overwrites lm.A (damped_step refills it).
+    Returns whether problem b has a comfort term with weight (else nothing is added)."""
     if not COMFORT_ON:  # compiled without comfort terms (device/compiled_kinds.py)
         return False
     term_int, dof_weight, reference = terms.term_int, terms.dof_weight, terms.reference
@@ -172,20 +171,20 @@ def comfort_step(b, q, terms, lm, D, pull, limits, halt):
     v, w = lm.jac[0:D], lm.jac[D : 2 * D]
     any_comfort, peak, heaviest = False, 0.0, 0.0
     for d in range(D):
-        at = q[d] + lm.delta[d]
-        gap, weight = 0.0, 0.0  # weighted sum of the references' gaps from `at`, the shorter way round
+        target, weight = 0.0, 0.0
         for t in range(term_int.shape[0]):
             if term_int[t, TERM_KIND] == COMFORT_SUM or term_int[t, TERM_KIND] == COMFORT_MAX:
                 wt = weight_of(terms, b, t) * dof_weight[t, d]
                 if wt > 0.0:
-                    gap += wt * dof_gap(reference[b, t, d], at, limits, d)
+                    target += wt * reference[b, t, d]
                     weight += wt
         v[d], w[d] = 0.0, weight
         peak = max(peak, normal[d * D + d])
         heaviest = max(heaviest, weight)
         if weight > 0.0:
             any_comfort = True
-            v[d] = pull * gap / weight
+            at = q[d] + lm.delta[d]
+            v[d] = pull * (target / weight - at)
             if held_at_limit(at, v[d], limits, d):
                 v[d] = 0.0
     if not any_comfort:

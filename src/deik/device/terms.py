@@ -20,7 +20,7 @@ from deik.device.compiled_kinds import (
     SELF_COLLISION_ON,
     SUPPORT_POLYGON_ON,
 )
-from deik.device.layout import HORIZONTAL_U, HORIZONTAL_V, LOWER, PARENT, TURN, UP, UPPER
+from deik.device.layout import HORIZONTAL_U, HORIZONTAL_V, LOWER, PARENT, UP, UPPER
 from deik.device.maths import centre_of_mass, forward_kinematics, rotate_point
 from deik.objectives.kinds import (
     AIM,
@@ -113,16 +113,6 @@ def rotation_error(R, f, target):
     return vx, vy, vz, math.atan2(math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (trace - 1.0))
 
 
-def dof_gap(value, reference, limits, d):
-    """value - reference of DOF d, the shorter way round for a DOF that turns a whole turn or
-    more (TURN > 0: a continuous joint, where 5 rad and -1.28 rad are one angle)."""
-    gap = value - reference
-    turn = limits[d, TURN]
-    if turn > 0.0:
-        gap -= turn * math.floor(gap / turn + 0.5)
-    return gap
-
-
 def uses_centre_of_mass(term_int):
     """Whether any term (COM, COM over ground point, support polygon) reads the COM."""
     for t in range(term_int.shape[0]):
@@ -161,7 +151,7 @@ def term_error(t, q, b, skel, terms, R, p, work, cx, cy, cz):
     if COMFORT_ON and (kind == COMFORT_SUM or kind == COMFORT_MAX):
         total = 0.0
         for d in range(dof_weight.shape[1]):
-            e = dof_weight[t, d] * abs(dof_gap(q[d], reference[b, t, d], limits, d))
+            e = dof_weight[t, d] * abs(q[d] - reference[b, t, d])
             total = total + e if kind == COMFORT_SUM else max(total, e)
         return total
     if LIMITS_ON and kind == LIMITS:

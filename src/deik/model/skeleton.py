@@ -242,6 +242,15 @@ class Skeleton:
         free root's): their values wrap round instead of stopping at a limit."""
         return (self.dof_kind == ROTATE) & (self.upper - self.lower >= 2 * np.pi)
 
+    def wrapped(self, values: ArrayLike) -> np.ndarray:
+        """`values` (..., D) with each full-turn DOF (full_turns) outside its limits moved by whole
+        turns inside them (a continuous joint at 350 degrees is at -10); every other value as given."""
+        values = np.asarray(values, np.float64)
+        turn, lower, upper = 2 * np.pi, self.lower, self.upper
+        above, below = np.ceil((values - upper) / turn), np.ceil((lower - values) / turn)  # whole turns past
+        moved = np.where(values > upper, values - turn * above, np.where(values < lower, values + turn * below, values))
+        return np.where(self.full_turns, moved, values)
+
     @cached_property
     def motions(self) -> Motions:
         """Free and mimic DOFs merged per joint, in the order forward kinematics applies them."""

@@ -305,7 +305,9 @@ class Comfort(Goal):
 
     `joint_weights`: None (all 1), "start" / "end" (linear ramp keeping the chain straight near
     its start or end, Fig. 2b/2c), a dict {joint name: weight} or an array (D,).
-    `reference`: pose (D,) or (B, D); default the skeleton's reference pose.
+    `reference`: pose (D,) or (B, D); default the skeleton's reference pose. A continuous
+    joint's reference past its limits is the same angle inside them (Skeleton.wrapped: 5 rad
+    is -1.28 rad on a joint limited to +-pi; held at +pi before).
     """
 
     LABEL = "comfort ({mode})"
@@ -321,7 +323,7 @@ class Comfort(Goal):
             raise InputError(f"comfort mode must be 'sum' or 'max', got {self.mode!r}")
         kind = COMFORT_SUM if self.mode == "sum" else COMFORT_MAX
         reference = skeleton.reference[None] if self.reference is None else self.reference
-        reference = vector(reference, (skeleton.n_dofs,), "comfort reference")
+        reference = skeleton.wrapped(vector(reference, (skeleton.n_dofs,), "comfort reference"))
         return self._row(kind, NO_PARAMS, dof_weight=dof_weights(skeleton, self.joint_weights), reference=reference)
 
 

@@ -108,14 +108,11 @@ def support_polygon(x: Posed, term: Term) -> np.ndarray:
 
 
 def _comfort(x: Posed, term: Term) -> np.ndarray:
-    """(N, D) weighted |q - reference|, the shorter way round for a DOF free over a whole turn."""
-    gap = x.poses - term.reference
-    gap = np.where(x.skeleton.full_turns, gap - 2 * np.pi * np.floor(gap / (2 * np.pi) + 0.5), gap)
-    return term.dof_weight * np.abs(gap)
+    return term.dof_weight * np.abs(x.poses - term.reference)
 
 
 def comfort_sum(x: Posed, term: Term) -> np.ndarray:
-    """Weighted sum of |q - reference| (Eq. 6; a continuous joint's the shorter way round)."""
+    """Weighted sum of |q - reference| (Eq. 6)."""
     return _comfort(x, term).sum(axis=1)
 
 

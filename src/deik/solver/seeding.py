@@ -32,11 +32,7 @@ def poses_around(
     are made (SolveError)."""
     lower, upper, full_turn = skeleton.lower, skeleton.upper, skeleton.full_turns
     pose = skeleton.check_angles(pose, "seed pose")
-    turn = 2 * math.pi
-    above, below = np.ceil((pose - upper) / turn), np.ceil((lower - pose) / turn)  # whole turns past a limit
-    pose = np.where(
-        full_turn & (pose > upper), pose - turn * above, np.where(full_turn & (pose < lower), pose + turn * below, pose)
-    )
+    pose = skeleton.wrapped(pose)
     outside = np.argwhere((pose < lower) | (pose > upper))
     if outside.size:
         d = outside[0][-1]
