@@ -323,7 +323,7 @@ def _layout_from_skeleton(sk: Skeleton) -> tuple[JointChannels, ...]:
     return tuple(entries)
 
 
-def message_prefix(clip) -> str:
+def message_prefix(clip: Clip | KinematicsOnce) -> str:
     """The words to begin an error about `clip` (a Clip or Trajectory) with: its `source` file
     and a colon ("" without one)."""
     return f"{clip.source}: " if clip.source else ""
