@@ -81,6 +81,9 @@ def test_scaled_bones_lengthen_the_bones_below_a_joint_only():
     assert np.allclose(longer.offsets[h.joint_names.index("left_hip")], h.offsets[h.joint_names.index("left_hip")])
     with pytest.raises(ValueError, match="no joint 'left_hp'.*left_hip"):
         scaled_bones(h, {"left_hp": 1.1})
+    for factor in (1e9, 0.0, -1.0, float("nan")):  # 1e9 once failed later, naming an offsets row and no flag
+        with pytest.raises(ValueError, match=r"--scale left_hip=.*: a factor must be a number from 0.01 to 100"):
+            scaled_bones(h, {"left_hip": factor})
 
 
 def test_a_map_with_an_unknown_key_names_the_file_and_the_key(tmp_path):

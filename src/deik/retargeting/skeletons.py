@@ -23,10 +23,13 @@ ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation"
 ROOT_AXES = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0], [0, 1, 0]], float)
 
 
+MAX_SCALE = 100.0  # a bone 100 times longer or shorter is another creature; 1e9 overflowed the offsets' range
+
+
 def bone_scales(skeleton: Skeleton, factors: dict[str, float]) -> np.ndarray:
     """(J,) the scale of the bones hanging from each joint: the product of the `factors`
-    {joint name: factor > 0} of the joint and its ancestors. ValueError naming a bad factor or
-    an unknown joint (with close names)."""
+    {joint name: factor from 1 / MAX_SCALE to MAX_SCALE} of the joint and its ancestors.
+    InputError naming a bad factor or an unknown joint (with close names)."""
     scale = np.ones(skeleton.n_joints)
     for name, factor in factors.items():
         if name not in skeleton.joint_names:
@@ -34,8 +37,11 @@ def bone_scales(skeleton: Skeleton, factors: dict[str, float]) -> np.ndarray:
                 f"--scale: no joint {name!r} in {skeleton.name!r}{did_you_mean(name, skeleton.joint_names)}; "
                 f"the joints are {', '.join(skeleton.joint_names)}"
             )
-        if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
-            raise InputError(f"--scale {name}={factor!r}: a factor must be a finite number > 0, e.g. {name}=1.1")
+        if not (isinstance(factor, (int, float)) and 1 / MAX_SCALE <= factor <= MAX_SCALE):
+            raise InputError(
+                f"--scale {name}={factor!r}: a factor must be a number from {1 / MAX_SCALE:g} to {MAX_SCALE:g}, "
+                f"e.g. {name}=1.1"
+            )
         scale[skeleton.joint_names.index(name)] *= float(factor)
     for k in range(1, skeleton.n_joints):
         scale[k] *= scale[skeleton.parents[k]]
