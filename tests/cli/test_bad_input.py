@@ -427,3 +427,11 @@ def test_a_floor_above_the_body_and_a_reach_out_of_range_name_their_flags(tmp_pa
     status, err = _cli(["clip", clip, "--out", out, "--reach", "Arm_end=0,30,0@0:1"], capsys)
     assert status == 2 and err.startswith("deik: error: --reach 'Arm_end=0,30,0@0:1': target [0.0, 30.0, 0.0]"), err
     assert "is unreachable" in err and err.count("\n") == 1 and not out.exists()
+
+
+def test_demo_into_a_file_names_the_flag(tmp_path, capsys):
+    taken = tmp_path / "taken.txt"
+    taken.write_text("keep")
+    status, err = _cli(["demo", "--out", taken], capsys)
+    assert status == 2 and err == f"deik: error: --out {str(taken)!r} is a file; give a folder for the pictures and demo.json\n"
+    assert taken.read_text() == "keep"

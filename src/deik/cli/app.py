@@ -26,7 +26,7 @@ import os
 import sys
 
 from deik import __version__
-from deik.cli.arguments import USER_ERRORS, add_up, check_outputs, number
+from deik.cli.arguments import USER_ERRORS, UsageError, add_up, check_outputs, number
 from deik.console import Parser, add_output_flags, configure_logging, show_compile_bars, show_progress
 from deik.errors import error_line
 from deik.experiments import flags as experiment_flags
@@ -42,6 +42,8 @@ def run_demo(args: argparse.Namespace) -> int:
     """`deik demo`: the paper's scenarios; status 1 when one misses its target."""
     from deik.experiments import demo
 
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UsageError(f"--out {args.out!r} is a file; give a folder for the pictures and demo.json")
     rows = demo.run_demo(args.out, show=show_progress(args))
     return 0 if all(row["passed"] for row in rows) else 1
 
