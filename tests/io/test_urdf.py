@@ -210,6 +210,16 @@ BAD_FILES = {
         _robot(GOOD_JOINT, '<link name="a"/><link name="b"/><link name="c"/>'),
         r"one tree with one root, found roots \['a', 'c'\]",
     ),
+    "cycle": (  # it said "found roots []"
+        _robot(
+            GOOD_JOINT
+            + GOOD_JOINT.replace('name="j"', 'name="k"')
+            .replace('"a"', '"x"')
+            .replace('"b"', '"a"')
+            .replace('"x"', '"b"')
+        ),
+        r"bad\.urdf: the joints form a cycle \(b -> a -> b\); a URDF is a tree",
+    ),
     "unknown mimic": (
         _robot(GOOD_JOINT.replace("</joint>", '<mimic joint="zz"/></joint>')),
         r"joint 'j': mimics unknown joint 'zz'",

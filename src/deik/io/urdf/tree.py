@@ -43,12 +43,28 @@ class LinkTree:
             self.joint_of[joint.child] = joint
             self.children[joint.parent].append(joint.child)
         roots = [name for name in self.links if name not in self.joint_of]
+        if not roots:  # every link has a parent: the joints close a loop
+            loop = self._loop()
+            raise FileFormatError(
+                source,
+                f"the joints form a cycle ({' -> '.join(loop)}); a URDF is a tree: remove the joint that closes it",
+            )
         if len(roots) != 1:
             raise FileFormatError(source, f"the links must form one tree with one root, found roots {roots}")
         self.root = roots[0]
         if len(self.below(self.root)) != len(self.links):
             cut = sorted(set(self.links) - set(self.below(self.root)))
             raise FileFormatError(source, f"links {cut[:5]} are not connected to the root {self.root!r} (a cycle?)")
+
+    def _loop(self) -> list[str]:
+        """The links of one cycle of parent joints, first link repeated at the end (every link
+        has a parent, so following parents from any link comes back round)."""
+        seen, link = [], next(iter(self.links))
+        while link not in seen:
+            seen.append(link)
+            link = self.joint_of[link].parent
+        loop = seen[seen.index(link) :]
+        return [*reversed(loop), loop[-1]]
 
     def failure(self, name: str, tag: str = "joint") -> Callable[[str], NoReturn]:
         """A function that raises FileFormatError about element `name` at its line."""
