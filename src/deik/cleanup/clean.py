@@ -102,6 +102,8 @@ class CleanOptions:
             object.__setattr__(self, "limits", str(self.limits))
         if self.units is not None and self.units not in METRES:
             raise InputError(f"--units {self.units!r}: use one of {', '.join(sorted(METRES))}")
+        if self.contact_speed is not None and not self.contact_speed > 0:  # at 0 nothing rests, so nothing is planted
+            raise InputError(f"--contact-speed {self.contact_speed!r}: give a speed above 0 (length units/s)")
 
     def settings(self) -> dict:
         """The DE settings given (SETTINGS), for fix_clip: memory_limit in bytes."""

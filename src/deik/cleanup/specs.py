@@ -82,9 +82,10 @@ def planted_feet(clip: Motion, body: Body, floor: float, forms: Sequence[str], d
     forms = list(forms) or ["auto"]
     if forms == ["none"]:
         return None
+    for alone in ("auto", "none"):
+        if alone in forms and len(forms) > 1:
+            raise InputError(f"--plant-feet {alone} cannot be combined with other values of it; use {PLANT_FORMS}")
     if "auto" in forms:
-        if len(forms) > 1:
-            raise InputError(f"--plant-feet auto cannot be combined with other --plant-feet values; use {PLANT_FORMS}")
         points = tuple(name for foot in body.feet for name in (foot.heel, foot.toe))
         return detect_resting(clip, body, floor, points, idle=False, **detect) if points else None
     masks = {}

@@ -78,7 +78,9 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
         metavar="LENGTH",
         help="detected contacts: height above the floor (feet) or above the point's resting height (--contact)",
     )
-    c.add_argument("--contact-speed", type=number(0.0), metavar="SPEED", help="auto contacts: speed (length units/s)")
+    c.add_argument(
+        "--contact-speed", type=number(0.0, above=True), metavar="SPEED", help="auto contacts: speed (length units/s)"
+    )
     c.add_argument(
         "--balance",
         action="store_true",
