@@ -437,3 +437,15 @@ def test_demo_into_a_file_names_the_flag(tmp_path, capsys):
     assert status == 2 and err.endswith(expected)
     assert err.count("\n") == 1
     assert taken.read_text() == "keep"
+
+
+def test_a_tolerance_finer_than_float32_resolves_is_warned_with_the_fix(capsys):
+    status, err = _cli(
+        ["solve", "chain:5", "--reach", "tip", 3, 2, 0, "--tolerance", 1e-12, "--generations", 20], capsys
+    )
+    assert status == 0  # the solve still runs, and says whether it converged
+    assert "--tolerance 1e-12 is finer than float32 kernels reliably reach" in err and "--dtype float64" in err
+    _, err = _cli(["solve", "chain:5", "--reach", "tip", 3, 2, 0, "--tolerance", 1e-12, "--dtype", "float64"], capsys)
+    assert "finer than float32" not in err
+    _, err = _cli(["solve", "chain:5", "--reach", "tip", 3, 2, 0, "--tolerance", 1e-4], capsys)
+    assert "finer than float32" not in err
