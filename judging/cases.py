@@ -29,6 +29,9 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - tpose: the same motion on a rig whose rest pose is a T-pose: each shoulder's and elbow's frame
   turned 90 degrees about Z so that the arms' bones point sideways at rotation 0 (the OFFSETs
   and every rotation channel follow; the world motion is the same to rounding).
+- laid: the same motion on a rig whose rest pose lies on its back (every joint's frame turned 90
+  degrees about X, the root's rotation carrying the body upright in every frame), as an FBX
+  export of a Z-up scene writes it.
 - seats: CMU's zero-length bones: a joint at the hips' origin above each hip and one under the
   chest (a zero OFFSET, three still rotation channels), as the CMU captures' LHipJoint,
   RHipJoint and LowerBack sit at their Hips.
@@ -274,17 +277,13 @@ def stand(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_stand", rig=rig, description=description, truth=truth)
 
 
-def tpose(case: Case) -> Case:
-    """The tpose transform (module notes): joint j's frame turned by C_j, its rotation R_j
-    becomes C_parent^T R_j C_j and the OFFSETs below it C_j^T o, so every world position stays."""
+def _turned(case: Case, turns: dict, suffix: str, description: str) -> Case:
+    """`case` with the frame of each canonical joint of `turns` {canonical name: C (3, 3)} turned
+    by C: its rotation R_j becomes C_parent^T R_j C_j and the OFFSETs below it C_j^T o, so every
+    world position stays."""
     rig = case.rig
     rotations, translations = joint_values(rig)
     canon = {name: key for key, name in case.names.items()}
-    turns = {}
-    for name in rig.names:
-        key = canon.get(name, "")
-        if key.endswith(("Shoulder", "Elbow")):
-            turns[key] = Rotation.from_euler("z", 90.0 if key.startswith("Left") else -90.0, degrees=True).as_matrix()
     turn = np.array([turns.get(canon.get(name, ""), np.eye(3)) for name in rig.names])
     up = np.array([turn[p] if p >= 0 else np.eye(3) for p in rig.parents])
     rotations = np.einsum("jki,njkl,jlm->njim", up, rotations, turn)
@@ -293,8 +292,23 @@ def tpose(case: Case) -> Case:
     sites = tuple((name, j, turn[j].T @ offset) for name, j, offset in rig.sites)
     new = dataclasses.replace(rig, offsets=offsets, sites=sites)
     rig = encode(new, rotations, translations, rig.frame_time)
-    description = "a T-pose rest: arms sideways at rotation 0"
-    return dataclasses.replace(case, name=case.name + "_tpose", rig=rig, description=description, turns=turns)
+    return dataclasses.replace(case, name=case.name + suffix, rig=rig, description=description, turns=turns)
+
+
+def tpose(case: Case) -> Case:
+    """The tpose transform (module notes)."""
+    turns = {
+        key: Rotation.from_euler("z", 90.0 if key.startswith("Left") else -90.0, degrees=True).as_matrix()
+        for key in case.names
+        if key.endswith(("Shoulder", "Elbow"))
+    }
+    return _turned(case, turns, "_tpose", "a T-pose rest: arms sideways at rotation 0")
+
+
+def laid(case: Case) -> Case:
+    """The laid transform (module notes)."""
+    turn = Rotation.from_euler("x", -90.0, degrees=True).as_matrix()
+    return _turned(case, dict.fromkeys(case.names, turn), "_laid", "a rest pose lying on its back, the hips turned up")
 
 
 # metres: each finger's spread across the palm and its three bones
@@ -397,7 +411,7 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "seats": seats}  # fmt: skip
+              "laid": laid, "seats": seats}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:

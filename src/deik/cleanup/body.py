@@ -10,7 +10,13 @@ rig's IK target bones: with_helpers marks them on the skeleton).
 
 Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
 a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
-the tallest frame (a rig that rests folded), then that frame. Feet: in that pose, the ends of
+the tallest frame or carried rest below. A rig that rests lying (its hips, or a joint above
+them, turned 90 degrees in every frame, as an FBX export writes a Z-up scene) stands in its rest
+pose once its body root and the joints above it turn as in a frame of the capture: the
+tallest of those carried rests, when it stands STANDING as tall. Only then the tallest frame
+itself, whose feet may be tilted (a rig that rests folded): on the shared walk with its rest
+pose laid down, the tallest frame's heel strike tilted the soles laid through it and the fix
+slid 16 mm a frame. Feet: in that pose, the ends of
 the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
 joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
 chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose
@@ -49,9 +55,10 @@ import numpy as np
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
-from deik.model.capsules import bone_starts, default_radii, helper_joints, off_body, seat_anchors
+from deik.model.capsules import body_root, bone_starts, default_radii, helper_joints, off_body, seat_anchors
 from deik.model.joints import ROTATE
-from deik.model.kinematics import forward_kinematics
+from deik.model.kinematics import Kinematics, forward_kinematics
+from deik.model.rotations import upright
 from deik.model.skeleton import Skeleton
 
 STANDING = 0.5
@@ -163,15 +170,52 @@ def _tree_span(skeleton: Skeleton, length: np.ndarray, part: np.ndarray) -> floa
     return best
 
 
-def _standing_pose(clip: Motion, part: np.ndarray) -> np.ndarray:
-    """(D,) the standing pose of the module notes."""
+def _carried_rests(clip: Motion) -> np.ndarray:
+    """(N, D) the rest pose (median_pose) turned in each frame as the capture turns the joints
+    that carry the body: the body root (capsules.body_root) and every joint above it."""
+    sk = clip.skeleton
+    carrying, k = set(), body_root(sk)
+    while k >= 0:
+        carrying.add(k)
+        k = int(sk.parents[k])
+    turns = np.isin(sk.dof_joint, list(carrying)) & (sk.dof_kind == ROTATE)
+    return np.where(turns, clip.frames, median_pose(clip))
+
+
+def _levelled(kin: Kinematics, joint: int) -> Kinematics:
+    """`kin` (one pose) turned so that the axis of `joint`'s frame nearest to up points exactly
+    up: a rest pose carried upright by a capture frame's turn, without that frame's tilt."""
+    up = kin.skeleton.up
+    frame_axes = kin.R_world_frame[0, joint].T  # rows: the frame's x, y and z in the world
+    axes = np.concatenate([frame_axes, -frame_axes])
+    nearest = axes[int(np.argmax(axes @ up))]
+    turn = upright(up).T @ upright(nearest)  # nearest -> +Y -> up
+    return replace(
+        kin,
+        R_world_frame=turn @ kin.R_world_frame,
+        p_world_frame=kin.p_world_frame @ turn.T,
+        p_world_com=kin.p_world_com @ turn.T,
+    )
+
+
+def _standing(clip: Motion, part: np.ndarray) -> tuple[np.ndarray, Kinematics]:
+    """(pose (D,), its kinematics) of the standing pose of the module notes."""
     sk = clip.skeleton
     rest = median_pose(clip)
     if not clip.n_frames:
-        return rest
-    heights = forward_kinematics(sk, np.vstack([rest, clip.frames])).p_world_frame[:, part] @ sk.up
+        return rest, forward_kinematics(sk, rest[None])
+    carried = _carried_rests(clip)
+    heights = forward_kinematics(sk, np.vstack([rest, clip.frames, carried])).p_world_frame[:, part] @ sk.up
     extent = np.ptp(heights, axis=1)
-    return rest if extent[0] >= STANDING * extent.max() else clip.frames[int(np.argmax(extent[1:]))]
+    rest_extent, frame_extent, carried_extent = extent[0], extent[1 : clip.n_frames + 1], extent[clip.n_frames + 1 :]
+    tallest = max(frame_extent.max(), carried_extent.max())
+    if rest_extent >= STANDING * tallest:
+        return rest, forward_kinematics(sk, rest[None])
+    if carried_extent.max() >= STANDING * tallest:  # the rest pose stood up by the body's own turn
+        pose = carried[int(np.argmax(carried_extent))]
+        return pose, _levelled(forward_kinematics(sk, pose[None]), body_root(sk))
+    pose = clip.frames[int(np.argmax(frame_extent))]
+    return pose, forward_kinematics(sk, pose[None])
 
 
 def _ends(skeleton: Skeleton, part: np.ndarray) -> np.ndarray:
@@ -273,8 +317,7 @@ def body_of(clip: Motion) -> Body:
     if not np.any(length > 0):
         raise InputError(f"{clip.source or 'the clip'}: every bone has zero length: there is no body to clean")
     span = _tree_span(sk, length, part) or sk.reach
-    standing = _standing_pose(clip, part)
-    kin = forward_kinematics(sk, standing[None])
+    standing, kin = _standing(clip, part)
     height = kin.p_world_frame[0] @ sk.up
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
