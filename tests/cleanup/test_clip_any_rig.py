@@ -17,7 +17,7 @@ from deik.io.bvh import parse_bvh
 from deik.model.capsules import body_reach
 from judging.cases import seats, studio, tpose
 from judging.clips import contact_points
-from judging.rigs import format_rig, parse_rig, world_frames
+from judging.rigs import format_rig, joint_values, parse_rig, world_frames
 from judging.walk import ROTATIONS, procedural_walk
 
 SUNK = 0.015  # metres: the walk's body this far lower, so its feet rest under the floor
@@ -209,6 +209,37 @@ def test_still_legs_are_no_helpers(family, tmp_path):
     assert len(body_of(clip).feet) == 2
 
 
+def _judged(case, tmp_path):
+    """The judge's measures (judging/clips.py) of `case` cleaned by the default command's API."""
+    from judging.clips import judge
+
+    path = tmp_path / f"{case.name}.bvh"
+    path.write_text(format_rig(case.rig))
+    result = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
+    out = tmp_path / f"{case.name}_out.bvh"
+    deik.write_bvh(out, result.clip)
+    unmet = ~np.array(result.report["met_per_frame"], bool)
+    return judge(case, case.rig, parse_rig(out.read_text(), case.rig.position_mode), unmet)
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("name", ["walk", "run"])
+def test_a_clip_captured_at_120_fps_plants_its_feet_from_the_frame_they_land(tmp_path, name):
+    """The shared clip resampled to 120 fps (slerp): a rest found on smoothed speeds began two
+    frames after the foot arrived, and the plant, held from there, pulled the run's toe 8 mm in
+    one frame, in frames the report called met (sliding 4.1 mm a frame; the walk's 1.3). Now
+    each run begins in the frame the foot arrived (ground._landed)."""
+    from helpers import shared_path
+    from judging.cases import encode, resample, source_case
+
+    plain = source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
+    rotations, translations = resample(*joint_values(plain.rig), 4)
+    rig = encode(plain.rig, rotations, translations, plain.rig.frame_time / 4)
+    fast = _judged(dataclasses.replace(plain, name=f"{name}_120", rig=rig), tmp_path)
+    assert fast["sliding_mm_per_frame"] <= 1.0 and fast["depth_mm"] <= 2.0, fast
+    assert fast["misses_listed"] and fast["steps_matched"] == fast["steps"], fast
+
+
 @pytest.mark.shared_data
 @pytest.mark.parametrize("name", ["walk", "kick"])
 def test_a_clip_on_a_rig_resting_lying_down_cleans_as_the_standing_rig(tmp_path, name):
@@ -219,19 +250,9 @@ def test_a_clip_on_a_rig_resting_lying_down_cleans_as_the_standing_rig(tmp_path,
     1 of its 4 foot runs). Judged independently, the fix meets what the standing rig's meets."""
     from helpers import shared_path
     from judging.cases import laid, source_case
-    from judging.clips import judge
-
-    def judged(case):
-        path = tmp_path / f"{case.name}.bvh"
-        path.write_text(format_rig(case.rig))
-        result = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
-        out = tmp_path / f"{case.name}_out.bvh"
-        deik.write_bvh(out, result.clip)
-        unmet = ~np.array(result.report["met_per_frame"], bool)
-        return judge(case, case.rig, parse_rig(out.read_text(), case.rig.position_mode), unmet)
 
     plain = source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
-    standing, lying = judged(plain), judged(laid(plain))
+    standing, lying = _judged(plain, tmp_path), _judged(laid(plain), tmp_path)
     assert lying["sliding_mm_per_frame"] <= max(1.0, standing["sliding_mm_per_frame"]), lying
     assert lying["depth_mm"] <= max(2.0, standing["depth_mm"]), lying
     assert lying["steps_matched"] == standing["steps_matched"] == standing["steps"], lying

@@ -40,7 +40,9 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   a lift-off's first fast step with the slow one before it, and a plant held in that frame
   stops the toe there and lets it jump when it is let go (10 mm in a frame on the shared walk),
   a jolt the fix then takes back, floor lift and all. A landing keeps its first frame: the
-  point arrives there and stays. A plant holds a point still along the ground only
+  point arrives there and stays; the smoothing, which averages a landing's last fast steps into
+  it, would begin the rest as many frames late as it reaches, so a run begins sooner while the
+  point moves at most resting speed into it, unsmoothed (_landed). A plant holds a point still along the ground only
   (cleanup/plants.py), so a heel that begins to lift as the foot rolls onto its toes may
   still rest: it rises about the toe without sliding, as high as in the capture (the foot's
   roll, cleanup/warmstart.py). A point still sliding fast as it lands does not rest until it
@@ -323,6 +325,32 @@ def _lifting_off(mask: np.ndarray, moves: np.ndarray, most: int) -> np.ndarray:
     return mask
 
 
+def _landed(mask: np.ndarray, low: np.ndarray, still: np.ndarray, most: int) -> np.ndarray:
+    """`mask` (N, K) with each run begun up to `most` frames sooner (the frames the smoothing
+    reaches: SMOOTH seconds), while the frame before its first is `low` (N, K) and the point
+    moves no more than resting speed from it into the run's first, `still` (N-1, K) (row n: from
+    frame n to n+1, unsmoothed): the frame it arrived in. The smoothed speed that finds a rest
+    averages a landing's last fast steps into the first frames on the floor: at 120 fps a run's
+    toe began to rest two frames after it arrived and the plant, held from there, pulled it 8 mm
+    in one of them. detect_resting begins runs sooner only where the smoothing reaches two frames
+    or more: at 60 fps, one frame sooner let the shared get-up's heel slide 1.5 mm a frame into
+    its plant in frames called met, and at 30 fps it reaches less than a frame."""
+    mask = np.array(mask, bool)
+    for k in range(mask.shape[1]):
+        for start in np.flatnonzero(np.diff(np.concatenate([[0], mask[:, k].astype(np.int8)])) == 1):
+            first = start
+            while (
+                first > 0
+                and start - first < most
+                and low[first - 1, k]
+                and still[first - 1, k]
+                and not mask[max(first - 2, 0) : first, k].any()  # a frame's gap stays between two rests
+            ):
+                first -= 1
+            mask[first:start, k] = True
+    return mask
+
+
 def detect_resting(
     clip: Motion,
     body: Body,
@@ -359,6 +387,9 @@ def detect_resting(
         low = above <= band
     smooth = smoothed(paths.positions[:, index], clip.frame_time)
     rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time, surface=clear == 0)
+    steps = np.linalg.norm(np.diff(paths.positions[:, index], axis=0), axis=-1)
+    reach = int(SMOOTH / clip.frame_time)  # whole frames the smoothing reaches: 2 at 120 fps, 1 at 60
+    rest = _landed(rest, low, steps <= limit * clip.frame_time, reach if reach >= 2 else 0)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
