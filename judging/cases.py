@@ -14,6 +14,8 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   frames per second (rotations interpolated by slerp, positions linearly).
 - backwards: the frames in reverse order.
 - fast: every other frame at the same frame time (twice the speed).
+- hifps: the same motion at 120 frames per second (slerp between the frames), every name and
+  channel as it is.
 - limbs: the left leg's bones 8 % longer and the right leg's 4 % shorter, the arms 10 % longer,
   the root raised by the mean change of the legs: one foot sinks through the floor, the other
   floats, the feet slide.
@@ -71,6 +73,8 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
 CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
 STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
 DIGITS = ("run", "jump", "punch", "dance_a")  # and fingers and toes
+LAID = ("walk", "kick", "crawl")  # and a rest pose lying down
+HIFPS = ("walk", "run", "kick", "punch")  # and 120 fps (the 30 fps clips)
 STAND_SECONDS, SUNK = 2.0, 0.012  # s held at each end, m under the floor
 
 
@@ -187,6 +191,13 @@ def anon(case: Case) -> Case:
 def backwards(case: Case) -> Case:
     rig = dataclasses.replace(case.rig, frames=case.rig.frames[::-1].copy())
     return dataclasses.replace(case, name=case.name + "_backwards", rig=rig, description="played backwards")
+
+
+def hifps(case: Case) -> Case:
+    """The hifps transform (module notes)."""
+    rotations, translations = resample(*joint_values(case.rig), round(case.rig.frame_time * 120))
+    rig = encode(case.rig, rotations, translations, 1 / 120)
+    return dataclasses.replace(case, name=case.name + "_120fps", rig=rig, description="captured at 120 fps")
 
 
 def fast(case: Case) -> Case:
@@ -411,12 +422,13 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "laid": laid, "seats": seats}  # fmt: skip
+              "laid": laid, "seats": seats, "hifps": hifps}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
-    its CUTS transform, if any, its stand if in STANDS and its digits if in DIGITS."""
+    its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
+    in LAID and its 120 fps copy if in HIFPS."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -426,4 +438,6 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [TRANSFORMS[CUTS[base.name]](base)] if base.name in CUTS else []
         out += [stand(base)] if base.name in STANDS else []
         out += [digits(base)] if base.name in DIGITS else []
+        out += [laid(base)] if base.name in LAID else []
+        out += [hifps(base)] if base.name in HIFPS else []
     return out

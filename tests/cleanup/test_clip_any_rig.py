@@ -241,13 +241,15 @@ def test_a_clip_captured_at_120_fps_plants_its_feet_from_the_frame_they_land(tmp
 
 
 @pytest.mark.shared_data
-@pytest.mark.parametrize("name", ["walk", "kick"])
+@pytest.mark.parametrize("name", ["walk", "kick", "crawl"])
 def test_a_clip_on_a_rig_resting_lying_down_cleans_as_the_standing_rig(tmp_path, name):
     """An FBX export of a Z-up scene rests its rig lying (every joint's frame turned 90 degrees,
     the hips' rotation carrying the body upright in every frame): the body's soles come from the
     rest pose stood up by the capture's own turn of the hips, levelled, not from the tallest
     frame, whose heel strike tilted them (the shared walk then slid 1.9-16 mm a frame and found
-    1 of its 4 foot runs). Judged independently, the fix meets what the standing rig's meets."""
+    1 of its 4 foot runs); the crawl, upright in no frame, stands its rest pose on its two feet
+    (its lying rest passed for standing, and 98 mm under the floor was reported met). Judged
+    independently, the fix meets what the standing rig's meets."""
     from helpers import shared_path
     from judging.cases import laid, source_case
 

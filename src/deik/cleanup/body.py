@@ -10,13 +10,20 @@ rig's IK target bones: with_helpers marks them on the skeleton).
 
 Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
 a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
-the tallest frame or carried rest below. A rig that rests lying (its hips, or a joint above
-them, turned 90 degrees in every frame, as an FBX export writes a Z-up scene) stands in its rest
-pose once its body root and the joints above it turn as in a frame of the capture: the
-tallest of those carried rests, when it stands STANDING as tall. Only then the tallest frame
-itself, whose feet may be tilted (a rig that rests folded): on the shared walk with its rest
-pose laid down, the tallest frame's heel strike tilted the soles laid through it and the fix
-slid 16 mm a frame. Feet: in that pose, the ends of
+the tallest frame, the tallest carried rest below, or its own length (its longest extent along
+its body root's axes). A rig that rests lying (its hips, or a joint above them, turned 90
+degrees in every frame, as an FBX export writes a Z-up scene) stands in its rest pose once its
+body root and the joints above it turn as in a frame of the capture: the tallest of those
+carried rests, when it stands UPRIGHT x its length, levelled (the body root's axis nearest up
+turned onto it). A clip that never stands (a crawl) carries it upright in no frame: the rest
+pose is then stood on the axis of its body root along which it stands on two feet (two foot
+chains at its lowest, the body root LEGS x span above them: a T- or A-pose does so only on its
+own up), and only when none does, the tallest frame itself, whose feet may be tilted (a rig
+that rests folded): on the shared walk with its rest pose laid down, the tallest frame's heel
+strike tilted the soles laid through it and the fix slid 16 mm a frame; on the crawl, whose
+rest passed for standing beside its low frames, the soles lay on the hips and the body 98 mm
+under the floor was reported met. The body's height for its radii is that standing pose's
+extent along up. Feet: in that pose, the ends of
 the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
 joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
 chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose
@@ -64,6 +71,8 @@ from deik.model.skeleton import Skeleton
 STANDING = 0.5
 FOOT_END = 0.12
 FOOT_CHAIN = 0.07
+LEGS = 0.2  # of the span: a body root standing on two feet lies at least this far above them
+UPRIGHT = 0.9  # of the rest pose's length along its own axes: a carried rest that stands this tall stands
 HEEL_BACK = 0.33
 SOLE_WIDTH = 0.25
 TOE_HEIGHT = 0.007  # of the span: a toe joint's centre over the sole (1.5 cm on the shared humanoid)
@@ -182,14 +191,15 @@ def _carried_rests(clip: Motion) -> np.ndarray:
     return np.where(turns, clip.frames, median_pose(clip))
 
 
-def _levelled(kin: Kinematics, joint: int) -> Kinematics:
-    """`kin` (one pose) turned so that the axis of `joint`'s frame nearest to up points exactly
-    up: a rest pose carried upright by a capture frame's turn, without that frame's tilt."""
-    up = kin.skeleton.up
-    frame_axes = kin.R_world_frame[0, joint].T  # rows: the frame's x, y and z in the world
-    axes = np.concatenate([frame_axes, -frame_axes])
-    nearest = axes[int(np.argmax(axes @ up))]
-    turn = upright(up).T @ upright(nearest)  # nearest -> +Y -> up
+def _frame_axes(kin: Kinematics, joint: int) -> np.ndarray:
+    """(6, 3) the world directions of `joint`'s frame axes in `kin` (one pose), each way."""
+    axes = kin.R_world_frame[0, joint].T  # rows: the frame's x, y and z in the world
+    return np.concatenate([axes, -axes])
+
+
+def _stood_on(kin: Kinematics, axis: np.ndarray) -> Kinematics:
+    """`kin` (one pose) turned so that the world direction `axis` (3,) points up."""
+    turn = upright(kin.skeleton.up).T @ upright(axis)  # axis -> +Y -> up
     return replace(
         kin,
         R_world_frame=turn @ kin.R_world_frame,
@@ -198,7 +208,32 @@ def _levelled(kin: Kinematics, joint: int) -> Kinematics:
     )
 
 
-def _standing(clip: Motion, part: np.ndarray) -> tuple[np.ndarray, Kinematics]:
+def _levelled(kin: Kinematics, joint: int) -> Kinematics:
+    """`kin` (one pose) turned so that the axis of `joint`'s frame nearest to up points exactly
+    up: a rest pose carried upright by a capture frame's turn, without that frame's tilt."""
+    axes = _frame_axes(kin, joint)
+    return _stood_on(kin, axes[int(np.argmax(axes @ kin.skeleton.up))])
+
+
+def _on_two_feet(kin: Kinematics, part: np.ndarray, span: float) -> Kinematics | None:
+    """The rest kinematics `kin` stood on the axis of its body root's frame along which it stands
+    on two feet (two foot chains at its lowest, _foot_chains, the body root LEGS x span above
+    them), the tallest such; None when no axis does. A T- or A-pose stands so only along its
+    own up: upside down its head is lowest, on its side one hand, lying flat every end at once."""
+    sk = kin.skeleton
+    root = body_root(sk)
+    best, tallest = None, 0.0
+    for axis in _frame_axes(kin, root):
+        turned = _stood_on(kin, axis)
+        p = turned.p_world_frame[0]
+        height = p[part] @ sk.up
+        if len(_foot_chains(sk, p, part, span)) == 2 and p[root] @ sk.up - height.min() >= LEGS * span:
+            if np.ptp(height) > tallest:
+                best, tallest = turned, float(np.ptp(height))
+    return best
+
+
+def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, Kinematics]:
     """(pose (D,), its kinematics) of the standing pose of the module notes."""
     sk = clip.skeleton
     rest = median_pose(clip)
@@ -208,12 +243,17 @@ def _standing(clip: Motion, part: np.ndarray) -> tuple[np.ndarray, Kinematics]:
     heights = forward_kinematics(sk, np.vstack([rest, clip.frames, carried])).p_world_frame[:, part] @ sk.up
     extent = np.ptp(heights, axis=1)
     rest_extent, frame_extent, carried_extent = extent[0], extent[1 : clip.n_frames + 1], extent[clip.n_frames + 1 :]
-    tallest = max(frame_extent.max(), carried_extent.max())
-    if rest_extent >= STANDING * tallest:
-        return rest, forward_kinematics(sk, rest[None])
-    if carried_extent.max() >= STANDING * tallest:  # the rest pose stood up by the body's own turn
+    at_rest = forward_kinematics(sk, rest[None])
+    p = at_rest.p_world_frame[0, part]
+    length = np.ptp(p @ _frame_axes(at_rest, body_root(sk))[:3].T, axis=0).max()  # along its own axes
+    if rest_extent >= STANDING * max(frame_extent.max(), carried_extent.max(), length):
+        return rest, at_rest
+    if carried_extent.max() >= UPRIGHT * length:  # the rest pose stood up by the body's own turn
         pose = carried[int(np.argmax(carried_extent))]
         return pose, _levelled(forward_kinematics(sk, pose[None]), body_root(sk))
+    stood = _on_two_feet(at_rest, part, span)
+    if stood is not None:  # no frame stands it up (a crawl): its own two feet do
+        return rest, stood
     pose = clip.frames[int(np.argmax(frame_extent))]
     return pose, forward_kinematics(sk, pose[None])
 
@@ -317,7 +357,7 @@ def body_of(clip: Motion) -> Body:
     if not np.any(length > 0):
         raise InputError(f"{clip.source or 'the clip'}: every bone has zero length: there is no body to clean")
     span = _tree_span(sk, length, part) or sk.reach
-    standing, kin = _standing(clip, part)
+    standing, kin = _standing(clip, part, span)
     height = kin.p_world_frame[0] @ sk.up
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
@@ -331,7 +371,8 @@ def body_of(clip: Motion) -> Body:
     # point: its bones and mass are the other's, and it is as thick as the other is there
     seat = seat_anchors(sk)
     seated_start = np.where(start >= 0, seat[np.maximum(start, 0)], -1)
-    joint_radius = np.where(off, 0.0, default_radii(sk, standing, seated=True))
+    stature = float(np.ptp(height[part]))  # the standing kinematics', which may be a turned rest pose
+    joint_radius = np.where(off, 0.0, default_radii(sk, standing, seated=True, height=stature))
     own = _thinnest(sk, joint_radius, seated_start)
     own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])

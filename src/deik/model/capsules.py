@@ -163,11 +163,14 @@ def link_distance(skeleton: Skeleton) -> np.ndarray:
     return distance
 
 
-def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None, seated: bool = False) -> np.ndarray:
+def default_radii(
+    skeleton: Skeleton, pose: np.ndarray | None = None, seated: bool = False, height: float | None = None
+) -> np.ndarray:
     """(J,) capsule radius of the bones leaving each joint (length units), measured in `pose`
     (D,) (default the reference pose). With masses: the joint's share of the body volume
-    (BODY_VOLUME times the height cubed, the height being the pose's extent along `up`, carrier
-    joints aside) as a cylinder along its longest bone, so a thigh is about 8 cm and an upper arm
+    (BODY_VOLUME times the height cubed, the height being `height` or else the pose's extent
+    along `up`, carrier joints aside: a rest pose lying down is as tall as it stands) as a
+    cylinder along its longest bone, so a thigh is about 8 cm and an upper arm
     4 cm on a 1.75 m humanoid and a massless joint (a neck, a clavicle) gets 0. Without masses:
     MASSLESS_RADIUS times that bone's length. With `seated`, a joint sitting on another
     (seat_anchors) gives its bones and mass to that one and has none: the body's measure; the
@@ -179,9 +182,9 @@ def default_radii(skeleton: Skeleton, pose: np.ndarray | None = None, seated: bo
     np.maximum.at(longest, anchor[start[1:]], length[1:])
     if skeleton.total_mass <= 0:
         return MASSLESS_RADIUS * longest
-    p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
-    body = ~off_body(skeleton)
-    height = np.ptp(p[body] @ skeleton.up) or skeleton.reach
+    if height is None:
+        p = forward_kinematics(skeleton, skeleton.reference if pose is None else pose).p_world_frame
+        height = np.ptp(p[~off_body(skeleton)] @ skeleton.up) or skeleton.reach
     fraction = np.bincount(anchor[skeleton.mass_joint], skeleton.mass_value, J) / skeleton.total_mass
     volume = fraction * BODY_VOLUME * height**3
     return np.sqrt(np.divide(volume, np.pi * longest, out=np.zeros(J), where=longest > 0))
