@@ -233,6 +233,23 @@ def _on_two_feet(kin: Kinematics, part: np.ndarray, span: float) -> Kinematics |
     return best
 
 
+def rest_stands_along(clip: Motion) -> np.ndarray | None:
+    """(3,) the world direction along which `clip`'s rest pose (median_pose, as the file writes
+    it) stands on two feet (_on_two_feet), None when along none: a file made with Z up stands
+    its rest pose along Z whichever up it is read with."""
+    sk = clip.skeleton
+    part = ~off_body(sk)
+    at_rest = forward_kinematics(sk, median_pose(clip)[None])
+    p = at_rest.p_world_frame[0]
+    start = bone_starts(sk)
+    length = np.where(start >= 0, np.linalg.norm(p - p[np.maximum(start, 0)], axis=-1), 0.0)
+    stood = _on_two_feet(at_rest, part, _tree_span(sk, length, part) or sk.reach)
+    if stood is None:
+        return None
+    turn = stood.R_world_frame[0, 0] @ at_rest.R_world_frame[0, 0].T  # at rest -> stood
+    return turn.T @ sk.up
+
+
 def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, Kinematics]:
     """(pose (D,), its kinematics) of the standing pose of the module notes."""
     sk = clip.skeleton

@@ -73,7 +73,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.cleanup.body import Body, body_of, on_body
+from deik.cleanup.body import Body, body_of, on_body, rest_stands_along
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
 from deik.errors import InputError
 from deik.io.motion import message_prefix
@@ -215,9 +215,10 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
     not but does along another axis direction, an InputError naming those (its file's up is
     another); when it rests along none, the lowest points (module notes: Up)."""
     share, off = sunk_share(body, paths, floor.height), off_support(body, paths, floor.height)
-    if share <= SUNK_SHARE and off <= OFF_SUPPORT_GIVEN:
-        return floor
     sk = clip.skeleton
+    if share <= SUNK_SHARE and off <= OFF_SUPPORT_GIVEN:
+        _check_rest_up(clip, off)
+        return floor
     rests = []  # (how far the body's centre lies from its support, axis) of the axes it rests along
     for axis in np.vstack([np.eye(3), -np.eye(3)]):
         if abs(axis @ sk.up) < 0.999:  # not its up, nor upside down (a still head looks like a foot)
@@ -227,7 +228,13 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
             level = detect_floor(turned, turned_body, turned_paths).height
             if sunk_share(turned_body, turned_paths, level) <= SUNK_SHARE / 5:
                 rests.append((off_support(turned_body, turned_paths, level), tuple(axis)))
-    balanced = [_words(axis) for away, axis in sorted(rests) if away <= min(OFF_SUPPORT, off / 2)]
+    own = rest_stands_along(clip)
+    balanced = []
+    for away, axis in sorted(rests):
+        # along the axis the rest pose stands on two feet it need only be balanced, not twice as well
+        ours = own is not None and np.dot(own, axis) >= 0.999
+        if away <= (OFF_SUPPORT if ours else min(OFF_SUPPORT, off / 2)):
+            balanced.append(_words(axis))
     if not balanced:  # no better along any other axis: a floating body, stairs, a clip played in place
         return floor if share <= SUNK_SHARE else lowest_points(body, paths)
     if len(balanced) == 1:
@@ -246,6 +253,36 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
         "standing under gravity does"
     )
     raise InputError(f"{clip.source or 'the clip'}: {why}, so that is not its up direction; {hint}")
+
+
+def _rests_along(clip: Motion, axis: np.ndarray) -> float | None:
+    """How far (off_support) `clip`'s body lies from its support with `axis` (3,) as up, when it
+    rests along it (sunk in at most a fifth of SUNK_SHARE of the frames); None otherwise."""
+    turned = Trajectory(replace(clip.skeleton, up=axis), clip.frames, clip.frame_time, clip.source)
+    body = body_of(turned)
+    paths = body_paths(on_body(turned, body), body)
+    level = detect_floor(turned, body, paths).height
+    return off_support(body, paths, level) if sunk_share(body, paths, level) <= SUNK_SHARE / 5 else None
+
+
+def _check_rest_up(clip: Motion, off: float) -> None:
+    """InputError when `clip` rests along its up with its body `off` (off_support) its support,
+    but its rest pose stands on two feet along another axis (body.rest_stands_along) along which
+    it rests at most half as far off: a file made with Z up and read with Y up, whose walk then
+    looks like a body lying along the floor, resting on its side (module notes: Up). A body that
+    lies still in the capture rests alike along both and is kept."""
+    sk = clip.skeleton
+    axis = rest_stands_along(clip)
+    if axis is None or abs(axis @ sk.up) >= 0.999:
+        return
+    away = _rests_along(clip, axis)
+    if away is not None and away <= min(OFF_SUPPORT, off / 2):
+        words = _words(np.round(axis, 6))
+        raise InputError(
+            f"{clip.source or 'the clip'}: its rest pose stands on two feet along {words}, where its centre lies "
+            f"{away:.2g} of its span from what rests, against {off:.2g} along up {_words(sk.up)}, so that is not "
+            f"its up direction; it rests along {words}: give --up {words}"
+        )
 
 
 def off_support(body: Body, paths: Paths, floor: float) -> float:
