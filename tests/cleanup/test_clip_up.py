@@ -19,14 +19,8 @@ from scipy.spatial.transform import Rotation
 
 import deik
 from deik.cleanup.body import body_of, on_body
-from deik.cleanup.ground import (
-    OFF_SUPPORT_GIVEN,
-    body_paths,
-    detect_floor,
-    floor_it_rests_on,
-    off_support,
-    sunk_share,
-)
+from deik.cleanup.ground import body_paths, detect_floor
+from deik.cleanup.up_axis import OFF_SUPPORT_GIVEN, floor_it_rests_on, off_support, sunk_share
 from deik.cli import main
 from judging.clips import judge
 from judging.rigs import format_rig, parse_rig, pose_points

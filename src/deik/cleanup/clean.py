@@ -27,9 +27,10 @@ from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
 from deik.cleanup.floor import penetration
-from deik.cleanup.ground import FloorChoice, body_paths, clearances, floor_it_rests_on
+from deik.cleanup.ground import FloorChoice, body_paths, clearances
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
+from deik.cleanup.up_axis import floor_it_rests_on
 from deik.errors import InputError
 from deik.io.euler import canonical_frames
 from deik.io.files import FilePath

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 from deik.cleanup.body import body_of, with_helpers
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.cuts import find_cuts
-from deik.cleanup.ground import check_clip_rests
+from deik.cleanup.up_axis import check_clip_rests
 from deik.errors import InputError
 from deik.io.bvh import read_bvh
 from deik.io.bvh.preview import view_clip
