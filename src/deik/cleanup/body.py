@@ -257,10 +257,11 @@ def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, 
     if not clip.n_frames:
         return rest, forward_kinematics(sk, rest[None])
     carried = _carried_rests(clip)
-    heights = forward_kinematics(sk, np.vstack([rest, clip.frames, carried])).p_world_frame[:, part] @ sk.up
-    extent = np.ptp(heights, axis=1)
+    every = forward_kinematics(sk, np.vstack([rest, clip.frames, carried]))
+    extent = np.ptp(every.p_world_frame[:, part] @ sk.up, axis=1)
     rest_extent, frame_extent, carried_extent = extent[0], extent[1 : clip.n_frames + 1], extent[clip.n_frames + 1 :]
-    at_rest = forward_kinematics(sk, rest[None])
+    first = {name: getattr(every, name)[:1] for name in ("R_world_frame", "p_world_frame", "p_world_com")}
+    at_rest = replace(every, **first)  # the rest pose's row: its kinematics once
     p = at_rest.p_world_frame[0, part]
     length = np.ptp(p @ _frame_axes(at_rest, body_root(sk))[:3].T, axis=0).max()  # along its own axes
     if rest_extent >= STANDING * max(frame_extent.max(), carried_extent.max(), length):
