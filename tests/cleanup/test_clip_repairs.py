@@ -6,6 +6,7 @@ already jolted."""
 import numpy as np
 
 from deik.cleanup.body import body_of
+from deik.cleanup.clip_goals import ClipGoals
 from deik.cleanup.fix import _without_jolts
 from deik.io.bvh import Clip
 from deik.model.build import build_skeleton
@@ -54,7 +55,7 @@ def test_a_repair_eases_only_its_change_and_keeps_the_corrections_of_frames_no_s
     repaired = (np.arange(N) >= 60) & (np.arange(N) <= 74)
     found = warm.copy()
     found[:, KNEE] += bump(59, 75, np.radians(0.1))
-    taken, refused = _without_jolts(clip, warm, found, repaired, searched, body_of(clip).points)
+    taken, refused = _without_jolts(clip, warm, found, repaired, searched, body_of(clip), ClipGoals(floor=0.0))
     assert refused == 0
     np.testing.assert_allclose(taken[repaired], found[repaired], atol=1e-12)
     np.testing.assert_allclose(taken[~repaired], warm[~repaired], atol=1e-12)
@@ -72,6 +73,6 @@ def test_a_repair_that_turns_a_joint_far_from_the_pose_it_repairs_is_refused():
     repaired = (np.arange(N) >= 40) & (np.arange(N) <= 44)
     found = warm.copy()
     found[repaired, ARM] += np.radians(150.0)
-    taken, refused = _without_jolts(clip, warm, found, repaired, searched, body_of(clip).points)
+    taken, refused = _without_jolts(clip, warm, found, repaired, searched, body_of(clip), ClipGoals(floor=0.0))
     assert refused == repaired.sum()
     np.testing.assert_array_equal(taken, warm)

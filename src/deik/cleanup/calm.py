@@ -38,20 +38,24 @@ def calm(
     points: np.ndarray | None = None,
     ratio: float = PEAK_RATIO,
     base: np.ndarray | None = None,
+    captured: Motion | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(displacement (N, D), taken back (N,) bool): `displacement` (N, D) of `motion`'s frames,
-    a change made on top of `base` (N, D) (default none: the capture), with the change taken
-    back, as the module notes say, where it makes a joint or site of `points` (F,) bool
-    (default all) jolt against the capture in a frame the base alone does not."""
+    a change made on top of `base` (N, D) (default none), with the change taken back, as the
+    module notes say, where it makes a joint or site of `points` (F,) bool (default all) jolt
+    against the capture, `captured` (default `motion`: a capture low-passed before the fix is
+    measured against the capture as it was, cleanup/noise.py), in a frame that `motion` with
+    the base alone does not."""
     N = len(displacement)
     start = motion.frames if base is None else motion.frames + base
+    captured = motion if captured is None else captured
 
     def jolting(share):
         moved = motion.with_frames(start + share[:, None] * displacement)
-        return jolted_frames(motion, moved, ratio, degrees=np.inf, points=points) & ~already
+        return jolted_frames(captured, moved, ratio, degrees=np.inf, points=points) & ~already
 
     already = np.zeros(N, bool)
-    if base is not None:
+    if base is not None or captured is not motion:
         already = jolting(np.zeros(N))
 
     share = np.ones(N)

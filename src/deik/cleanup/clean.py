@@ -27,7 +27,8 @@ from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
 from deik.cleanup.floor import penetration
-from deik.cleanup.ground import FloorChoice, body_paths, clearances
+from deik.cleanup.ground import SPEED, FloorChoice, body_paths, clearances
+from deik.cleanup.noise import Noise, capture_noise, low_passed
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
 from deik.cleanup.up_axis import floor_it_rests_on
@@ -163,8 +164,9 @@ class CleanPlan:
     table, if given), the `body` it is fixed on (cleanup/body.py: soles, radii, span), `goals`,
     the `contacts` (None for none), the `floor` (ground.FloorChoice: height, how it was found)
     with whether it is `floor_kept` as a goal, the `reach` tracks and the length `unit`
-    (`unit_guessed` when no unit was given); `captured` the clip as given and its `cuts` (the
-    fix sees `clip`, cuts.stand_in of it: cleanup/cuts.py)."""
+    (`unit_guessed` when no unit was given); `captured` the clip as given, its `cuts` and its
+    capture `noise` (the fix sees `clip`: cuts.stand_in of it, cleanup/cuts.py, low-passed when
+    noisy, cleanup/noise.py)."""
 
     clip: Motion
     options: CleanOptions
@@ -178,6 +180,7 @@ class CleanPlan:
     unit_guessed: bool
     captured: Motion
     cuts: Cuts
+    noise: Noise
 
     def run(self, progress: Callable[[int, str], object] | None = None) -> CleanedClip:
         """Fix the clip (cleanup/fix.fix_clip) and record the outcome; `progress(met, stage)` as fix_clip's."""
@@ -186,6 +189,7 @@ class CleanPlan:
         tracks = [(r.site, r.mask, r.targets) for r in self.reach]
         floor = self.floor.record() | {"kept": self.floor_kept}
         report = clip_document(fix, self.contacts, tracks, self.unit, METRES[self.unit], FAR_DEGREES, floor)
+        report["noise"] = self.noise.record()
         clip, report = self._with_kept_frames(fix.clip, report)
         height = self.floor.height
         return CleanedClip(clip, self.captured, report, fix, self.contacts, height, self.unit, self.unit_guessed)
@@ -239,6 +243,11 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     if clip is not captured:  # the body as the motion without its jumps shows it
         body = body_of(clip)
     motion = on_body(clip, body)
+    noise = capture_noise(motion.kinematics.p_world_frame[:, body.part], body.span, clip.frame_time, SPEED * body.span)
+    unfiltered = clip
+    if noise.low_pass is not None:  # the shake out first: it hides rests, and stays wherever nothing is planted
+        clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))
+        motion = on_body(clip, body)
     paths = body_paths(motion, body)
     floor, keep_floor = floor_choice(motion, body, options.floor, paths)
     if options.floor == "auto":
@@ -256,6 +265,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
         self_collision=options.self_collision,
         floor=floor.height if keep_floor else None,
         gravity=GRAVITY / METRES[unit],
+        captured=None if clip is unfiltered else unfiltered,
     )
     if not options.units:
         log.info(
@@ -278,6 +288,7 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
         unit_guessed=not options.units,
         captured=captured,
         cuts=cuts,
+        noise=noise,
     )
 
 

@@ -105,7 +105,9 @@ class ClipGoals:
     radius; NaN: not held; None: 0, the joints and sites themselves); `plants`: where each
     contact site is held (N, S, 3) length units, NaN outside its contacts (None:
     plants.planted_targets of the clip); tolerances in length units (None: their share of the
-    body's span, sized_goals)."""
+    body's span, sized_goals). `captured`: the capture whose acceleration peaks the fix keeps
+    within (cleanup/dynamics.py), when the clip fixed is not it (a capture low-passed of its
+    noise, cleanup/noise.py; None: the clip itself)."""
 
     contacts: Contacts | None = None
     reach: tuple[Reach, ...] = ()
@@ -120,6 +122,7 @@ class ClipGoals:
     gravity: float = GRAVITY
     plants: np.ndarray | None = None
     floor_clearance: np.ndarray | None = None
+    captured: Motion | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "reach", tuple(self.reach))

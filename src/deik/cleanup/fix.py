@@ -212,12 +212,18 @@ def _warm_start(
     balance = clip_balance(clip, goals, frames=unbalanced)
     for round_ in range(GUARD_ROUNDS):
         displacement, fixed = warm(goals, balance)
-        jolted = jolted_frames(clip, clip.with_frames(clip.frames + displacement), points=points)
+        jolted = jolted_frames(captured(clip, goals, body), clip.with_frames(clip.frames + displacement), points=points)
         jolting = widened(jolted, GUARD_REACH) & balance.balanced
         if round_ == GUARD_ROUNDS - 1 or not jolting.any():
             break
         balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
     return displacement, fixed, balance
+
+
+def captured(clip: Motion, goals: ClipGoals, body: Body) -> Motion:
+    """The capture whose acceleration peaks a fix of `clip` on `body` keeps within: goals.captured
+    on the body, or the clip itself."""
+    return clip if goals.captured is None else on_body(goals.captured, body)
 
 
 def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body):
@@ -241,7 +247,7 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     tried = ((True, False), (True, True), (False, False)) if goals.floor is not None else ((False, False),)
     for lift, whole in tried if alone else ():
         warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift, whole)
-        displacement, calmed = calm(clip, warm, body.points)
+        displacement, calmed = calm(clip, warm, body.points, captured=captured(clip, goals, body))
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
         problem = _judged(clip, plain, displacement, weights, fixed, balance)
         errors, met = _met(problem, poses)
@@ -279,7 +285,7 @@ def _ease_frames(clip) -> float:
     return min(max(EASE_SECONDS / clip.frame_time, 2.0), max(clip.n_frames, 2))
 
 
-def _without_jolts(clip, displacement, found, repaired, searched, points) -> tuple[np.ndarray, int]:
+def _without_jolts(clip, displacement, found, repaired, searched, body, goals) -> tuple[np.ndarray, int]:
     """(displacement (N, D), refused): the `repaired` (N,) frames take the DE's displacements
     `found` (N, D) on their `searched` (N, D) DOFs; only that change is eased into the DOFs and
     frames no search moved (coherence.ease), so outside a repair's easing `displacement` stays
@@ -288,9 +294,10 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
     DE search starts each frame afresh and may land a pose apart from its neighbours'. The
     repairs within an easing of a new jolt are refused and the rest tried again, until none
     jolts (all of them when a new jolt lies beyond every repair's easing). `refused` counts them
-    (they are listed unmet)."""
+    (they are listed unmet). Jolts are measured against the capture (captured(clip, goals, body))."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
+    reference = captured(clip, goals, body)
 
     def taken(frames):
         change = np.where(frames[:, None] & searched, found - displacement, 0.0)
@@ -300,7 +307,7 @@ def _without_jolts(clip, displacement, found, repaired, searched, points) -> tup
     kept = repaired.copy()
     while kept.any():
         candidate = taken(kept)
-        new = newly_jolted(clip, current, clip.with_frames(clip.frames + candidate), points)
+        new = newly_jolted(reference, current, clip.with_frames(clip.frames + candidate), body.points)
         if not new.any():
             return candidate, int((repaired & ~kept).sum())
         near = widened(new, reach)
@@ -340,6 +347,9 @@ def fix_clip(
         raise InputError(f"passes must be a whole number from 0 to {MAX_PASSES}, got {passes!r}")
     if clip.n_frames == 0:
         raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0) to fix; give one with motion")
+    if goals.captured is not None and goals.captured.frames.shape != clip.frames.shape:
+        shapes = f"{goals.captured.frames.shape}, the clip {clip.frames.shape}"
+        raise InputError(f"goals.captured has frames {shapes}: give the capture of this very clip")
     if clip.skeleton.n_dofs == 0:
         raise InputError("the clip has no channels: its hierarchy moves no joint, so there is nothing to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
@@ -392,7 +402,7 @@ def fix_clip(
         budget = settings if deadline is None else _time_left(settings, deadline)
         result = solve(problem, budget, initial=initial, progress=during)
         found = wrap_rotations(result.angles - original, rotation)
-        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body.points)
+        displacement, refused = _without_jolts(clip, displacement, found, unmet, searched, body, goals)
         generations = result.generations[unmet]
         stages.append(
             {
@@ -406,10 +416,11 @@ def fix_clip(
             }
         )
     began = time.perf_counter()
+    reference = captured(clip, goals, body)
     if reached is None:
-        displacement, calmed = calm(clip, displacement, body.points)
+        displacement, calmed = calm(clip, displacement, body.points, captured=reference)
     else:  # what the reach tracks add is the user's motion: calm the rest on top of it
-        rest, calmed = calm(clip, displacement - reached, body.points, base=reached)
+        rest, calmed = calm(clip, displacement - reached, body.points, base=reached, captured=reference)
         displacement = reached + rest
     calmed |= first_calmed
     stages.append({"stage": "calm", "seconds": time.perf_counter() - began, "calmed": int(calmed.sum())})

@@ -60,6 +60,7 @@ import numpy as np
 
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
+from deik.cleanup.noise import gaussian
 from deik.errors import InputError
 from deik.io.motion import message_prefix
 from deik.io.trajectory import Motion
@@ -104,15 +105,7 @@ class FloorChoice:
 
 def smoothed(p: np.ndarray, frame_time: float) -> np.ndarray:
     """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held)."""
-    sigma = SMOOTH / frame_time
-    if sigma < 0.3 or len(p) < 3:
-        return p
-    half = min(int(np.ceil(3 * sigma)), len(p) - 1)
-    offsets = np.arange(-half, half + 1)
-    kernel = np.exp(-0.5 * (offsets / sigma) ** 2)
-    kernel /= kernel.sum()
-    index = np.clip(np.arange(len(p))[:, None] + offsets[None, :], 0, len(p) - 1)
-    return np.tensordot(kernel, p[index.T], axes=(0, 0))
+    return gaussian(p, SMOOTH / frame_time) if len(p) >= 3 else p
 
 
 def point_speeds(p: np.ndarray, frame_time: float) -> np.ndarray:

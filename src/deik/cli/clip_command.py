@@ -211,6 +211,11 @@ def _outcome_lines(document: dict) -> list[str]:
         ("written back as captured", "blended across from the frames beside it", "fixed across as one motion"),
     )
     floor, unit = document["floor"], document["length_unit"]
+    noise = document.get("noise") or {}
+    if noise.get("low_pass_s") is not None:
+        from deik.cleanup.noise import Noise
+
+        lines.append(Noise(noise["level"], noise["low_pass_s"]).describe(unit))
     if floor is not None:
         from deik.cleanup.ground import FloorChoice
 

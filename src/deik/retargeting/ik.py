@@ -29,6 +29,7 @@ import numpy as np
 from deik.cleanup.contacts import true_runs
 from deik.cleanup.dynamics import jolted_points
 from deik.cleanup.metrics import joint_angles
+from deik.cleanup.noise import gaussian
 from deik.cleanup.warmstart import at_most, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.kinematics import forward_kinematics
@@ -213,11 +214,7 @@ def smoothed(poses: np.ndarray, full_turn: np.ndarray, width: float = SMOOTHING)
     ends repeated), the `full_turn` (D,) rotations unwrapped first so a spin past pi stays a spin."""
     poses = np.array(poses, float)
     poses[:, full_turn] = np.unwrap(poses[:, full_turn], axis=0)
-    half = int(np.ceil(3 * width))
-    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / width) ** 2)
-    padded = np.concatenate([np.repeat(poses[:1], half, axis=0), poses, np.repeat(poses[-1:], half, axis=0)])
-    windows = np.lib.stride_tricks.sliding_window_view(padded, len(kernel), axis=0)  # (N, D, window)
-    return windows @ (kernel / kernel.sum())
+    return gaussian(poses, width)
 
 
 def rebasin(goals: KeypointGoals, poses: np.ndarray) -> np.ndarray:

@@ -1,0 +1,149 @@
+"""Capture noise: how much a clip's points jitter where they should rest, and the clip low-passed
+when that is more than motion captured cleanly shows.
+
+A marker-based capture solves every frame on its own, so its points shake from frame to frame
+(white noise) on top of the motion. Where a point rests, the motion adds almost nothing to its
+fourth differences along the frames, and white noise of standard deviation s gives them a
+median absolute value of 0.6745 sqrt(70) s: noise_levels reads s there, per point. On the
+shared clips (30 to 120 fps) the median over the body's points is at most 0.02 % of the span,
+with 0.2 degrees of noise on every channel 0.11 % or more (tests/cleanup/test_clip_noise.py).
+
+Noisy speeds hide rests: at 120 fps the shake moves a resting toe about 1 m/s. Speeds are
+taken on paths smoothed against each point's own noise (ground.smoothing_widths), and a clip
+whose points shake more than NOISY x span at rest is low-passed before anything else
+(low_passed): every joint's rotation averaged by a Gaussian of LOW_PASS seconds (a 6 Hz low-pass,
+where filters of captured human motion sit) as rotation matrices, so an Euler triple near
+gimbal lock averages as the rotation it is, the root's translation and other channels as
+values. The fix then plants, lifts and reports the motion without the shake, which a plant
+alone removes only from the frames it holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from deik.io.euler import tait_bryan_triples
+from deik.model.rotations import axis_angle_matrix
+from deik.model.skeleton import Skeleton
+
+QUIET = 0.05  # seconds: the smoothing of the paths on which noise is read where a point may rest
+NOISE_FRAMES = 8  # windows of five quiet frames a point needs for its noise to be read
+NOISY = 5e-4  # of the span: the median noise at rest above which a clip is low-passed
+WHITE = 0.75 * np.sqrt(70.0 / 6.0)  # fourth over second differences (median sizes) above which a path is noise
+WIDEST_FRAME = 1.0  # frames: a low-pass narrower than this (under 45 fps) is left to the plants
+LOW_PASS = 0.022  # seconds: the Gaussian's width (a 6 Hz cut-off) a noisy clip is low-passed by
+FOURTH = 0.6745 * np.sqrt(70.0)  # median |fourth difference| of unit white noise
+STEPS = 3  # Gauss-Newton steps that put a triple's averaged angles onto its averaged rotation
+DAMPING = 1e-4  # of a step's normal equations: a combination of angles the rotation barely moves stays
+
+
+def gaussian(values: np.ndarray, sigma: float) -> np.ndarray:
+    """values (N, ...) averaged along the frames by a Gaussian of `sigma` frames cut at three
+    sigma, the end frames held beyond the ends; as they are below 0.3 frames."""
+    values = np.asarray(values, float)
+    if sigma < 0.3 or len(values) < 2:
+        return values
+    half = int(np.ceil(3 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
+    padded = np.pad(values, [(half, half)] + [(0, 0)] * (values.ndim - 1), mode="edge")
+    return sliding_window_view(padded, len(kernel), axis=0) @ (kernel / kernel.sum())
+
+
+def noise_levels(p: np.ndarray, frame_time: float, speed: float) -> np.ndarray:
+    """(K,) the deviation of the capture noise of each point of p (N, K, 3), length units, read
+    where it may rest (module notes): from its fourth differences along the frames of the
+    windows in which its path, smoothed over QUIET seconds, moves at most `speed` (length units
+    per second); 0 for a point with fewer than NOISE_FRAMES such windows."""
+    N, K = p.shape[:2]
+    out = np.zeros(K)
+    if N < 5:
+        return out
+    path = gaussian(p, max(QUIET / frame_time, 1.0))
+    calm = np.linalg.norm(np.gradient(path, frame_time, axis=0), axis=-1) <= speed
+    windows = calm[:-4] & calm[1:-3] & calm[2:-2] & calm[3:-1] & calm[4:]
+    fourth = np.abs(np.diff(p, 4, axis=0))
+    for k in np.flatnonzero(windows.sum(axis=0) >= NOISE_FRAMES):
+        out[k] = np.median(fourth[windows[:, k], k]) / FOURTH
+    return out
+
+
+@dataclass(frozen=True)
+class Noise:
+    """A clip's capture noise: `level`, the median over the body's points of their noise at rest
+    (length units; 0 when nothing rests long enough to read it), and `low_pass`, the seconds
+    of the Gaussian it is low-passed by (None: clean enough to keep)."""
+
+    level: float
+    low_pass: float | None
+
+    def record(self) -> dict:
+        """The JSON record: level (length units) and low_pass_s (None: kept as captured)."""
+        return {"level": self.level, "low_pass_s": self.low_pass}
+
+    def describe(self, unit: str) -> str:
+        """One line for people, in `unit`."""
+        if self.low_pass is None:
+            return ""
+        return (
+            f"capture noise {self.level:.3g} {unit} at rest: low-passed by a Gaussian of "
+            f"{self.low_pass * 1000:.0f} ms ({0.1325 / self.low_pass:.0f} Hz) before the fix"
+        )
+
+
+def capture_noise(p: np.ndarray, span: float, frame_time: float, speed: float) -> Noise:
+    """The Noise of the body's points p (N, K, 3) (module notes; `span` the body's, `speed`
+    resting speed, length units per second): low-passed above NOISY x span where the filter
+    spans a frame or more. In a clip in which no point is ever quiet long enough (a run at 120
+    fps rolls its feet faster than resting speed), the noise is read over all frames on the
+    points whose fourth differences are those of white noise against their second (median
+    sizes sqrt(70) : sqrt(6)), not the much smaller share a smooth motion gives."""
+    levels = noise_levels(p, frame_time, speed)
+    if not levels.any() and len(p) >= 5:
+        fourth, second = (np.median(np.abs(np.diff(p, k, axis=0)), axis=(0, 2)) for k in (4, 2))
+        white = fourth >= WHITE * second  # what the motion adds to fourth differences is far less
+        levels = np.where(white, fourth / FOURTH, 0.0)
+    read = levels[levels > 0]
+    level = float(np.median(read)) if read.size else 0.0
+    noisy = level > NOISY * span and LOW_PASS / frame_time >= WIDEST_FRAME
+    return Noise(level, LOW_PASS if noisy else None)
+
+
+def low_passed(skeleton: Skeleton, frames: np.ndarray, seconds: float, frame_time: float) -> np.ndarray:
+    """(N, D) `frames` (N, D) averaged along the frames by a Gaussian of `seconds` (module notes):
+    every channel as values, then each Tait-Bryan triple moved, by damped Gauss-Newton steps,
+    onto the average of the rotation matrices it makes (projected onto rotations). Near gimbal
+    lock a rotation barely moves along one combination of the triple's angles, and its Euler
+    values read back from the averaged matrix jump there by tens of degrees; the damped steps
+    leave that combination where the averaged channels put it, so no channel jumps."""
+    sigma = seconds / frame_time
+    out = gaussian(frames, sigma)
+    for triple in tait_bryan_triples(skeleton):
+        axes = skeleton.dof_axis[triple]
+        target = _nearest_rotations(gaussian(_triple_matrices(axes, frames[:, triple])[0], sigma))
+        for _ in range(STEPS):
+            R, jacobian = _triple_matrices(axes, out[:, triple])
+            M = np.swapaxes(R, -1, -2) @ target
+            turn = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
+            normal = np.swapaxes(jacobian, -1, -2) @ jacobian + DAMPING * np.eye(3)
+            out[:, triple] += np.linalg.solve(normal, (np.swapaxes(jacobian, -1, -2) @ turn[..., None]))[..., 0]
+    return out
+
+
+def _triple_matrices(axes: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rotations (N, 3, 3), Jacobian (N, 3, 3)) of a Tait-Bryan triple about `axes` (3, 3)
+    (intrinsic, in order) at `angles` (N, 3) radians: R = R1 R2 R3, and the body-frame turn per
+    radian of each angle as the columns (R3^T R2^T a1, R3^T a2, a3)."""
+    R1, R2, R3 = (axis_angle_matrix(axes[k], angles[:, k]) for k in range(3))
+    T3 = np.swapaxes(R3, -1, -2)
+    columns = [T3 @ np.swapaxes(R2, -1, -2) @ axes[0], T3 @ axes[1], np.broadcast_to(axes[2], T3.shape[:-1])]
+    return R1 @ R2 @ R3, np.stack(columns, axis=-1)
+
+
+def _nearest_rotations(M: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) the rotations nearest the matrices M (N, 3, 3) (Frobenius; a reflection's sign fixed)."""
+    u, _, vt = np.linalg.svd(M)
+    u[..., -1] *= np.sign(np.linalg.det(u @ vt))[..., None]
+    return u @ vt
