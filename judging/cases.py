@@ -21,6 +21,9 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   floats, the feet slide.
 - noisy: capture noise (0.2 degrees on every rotation channel, 1 mm on the root) and the whole
   body 12 mm lower, so the feet rest under the floor.
+- shaky: the noisy transform at 60 frames per second or more (the clips captured at 30 fps
+  resampled to 120 fps first, as hifps): capture noise hides rests there and stays in every
+  frame nothing plants.
 - bind: the rig's bind pose (every rotation channel 0: a T-pose) as a first frame before the
   motion, as many exporters write it: over the first frame's root, standing on the floor (its
   lowest joint or End Site at height 0).
@@ -75,6 +78,7 @@ STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
 DIGITS = ("run", "jump", "punch", "dance_a")  # and fingers and toes
 LAID = ("walk", "kick", "crawl")  # and a rest pose lying down
 HIFPS = ("walk", "run", "kick", "punch")  # and 120 fps (the 30 fps clips)
+SHAKY = ("walk", "run", "kick", "jump", "dance_a")  # and noisy at 60 fps or more
 STAND_SECONDS, SUNK = 2.0, 0.012  # s held at each end, m under the floor
 
 
@@ -191,6 +195,11 @@ def anon(case: Case) -> Case:
 def backwards(case: Case) -> Case:
     rig = dataclasses.replace(case.rig, frames=case.rig.frames[::-1].copy())
     return dataclasses.replace(case, name=case.name + "_backwards", rig=rig, description="played backwards")
+
+
+def shaky(case: Case) -> Case:
+    """The shaky transform (module notes)."""
+    return noisy(hifps(case) if case.rig.frame_time > 1 / 45 else case)
 
 
 def hifps(case: Case) -> Case:
@@ -422,13 +431,13 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "laid": laid, "seats": seats, "hifps": hifps}  # fmt: skip
+              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
-    in LAID and its 120 fps copy if in HIFPS."""
+    in LAID, its 120 fps copy if in HIFPS and its noisy copy at 60 fps or more if in SHAKY."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -440,4 +449,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [digits(base)] if base.name in DIGITS else []
         out += [laid(base)] if base.name in LAID else []
         out += [hifps(base)] if base.name in HIFPS else []
+        out += [shaky(base)] if base.name in SHAKY else []
     return out
