@@ -182,3 +182,15 @@ def test_every_shared_clip_as_captured_rests_on_its_floor_and_stands_over_it(nam
     assert sunk_share(body, paths, floor.height) <= 0.01
     assert off_support(body, paths, floor.height) <= 0.12 < OFF_SUPPORT_GIVEN
     assert floor_it_rests_on(clip, body, paths, floor) is floor
+
+
+def test_a_clip_read_upside_down_is_refused_with_its_up(walks, tmp_path, capsys):
+    """`--up 0 -1 0` on a Y-up walk: its floor was found over its head ("nothing rests: the
+    lowest points"), nothing was planted and the clip was written with exit 0. Its rest pose
+    stands on two feet along +Y, so the upside-down reading is checked like any other axis."""
+    out = tmp_path / "out.bvh"
+    path = walks[1]["y_up"]
+    assert main(["clip", str(path), "--out", str(out), "--up", "0", "-1", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "it rests along 0 1 0: give --up 0 1 0" in err, err
+    assert not out.exists()

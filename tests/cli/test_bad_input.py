@@ -5,7 +5,12 @@ import numpy as np
 import pytest
 
 import deik
+from deik.cli import main
+from deik.errors import InputError
 from deik.io.urdf import read_urdf
+from helpers import robot_arm
+from judging.rigs import format_rig
+from judging.walk import procedural_walk
 
 
 @pytest.mark.parametrize(
@@ -449,3 +454,31 @@ def test_a_tolerance_finer_than_float32_resolves_is_warned_with_the_fix(capsys):
     assert "finer than float32" not in err
     _, err = _cli(["solve", "chain:5", "--reach", "tip", 3, 2, 0, "--tolerance", 1e-4], capsys)
     assert "finer than float32" not in err
+
+
+def test_an_output_name_too_long_or_ending_in_a_slash_is_refused_before_any_output(tmp_path, capsys):
+    """A --json name over 255 bytes: --out was written, then the journal's move of the report
+    failed naming deik's temporary file (a half-written set); a trailing slash wrote a file."""
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(format_rig(procedural_walk().rig))
+    for extra in (["--json", str(tmp_path / ("b" * 300 + ".json"))], ["--json", str(tmp_path / "r.json") + "/"]):
+        before = sorted(p.name for p in tmp_path.iterdir())
+        assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--quiet", *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and err.startswith("deik: error: --json: "), err
+        assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_a_limits_table_past_a_robot_s_own_limits_is_refused_in_degrees(tmp_path, capsys):
+    """A limits table narrows a skeleton's limits: one that went past a URDF joint's own let a
+    solve leave panda_joint4 at +60 degrees, where the robot allows -176 to -4, with exit 0."""
+    from deik.io.limits import with_limits
+
+    arm = robot_arm()
+    d = next(k for k in range(arm.n_dofs) if not arm.full_turns[k] and np.isfinite(arm.upper[k]))
+    name = arm.dof_names[d]
+    wide = (float(arm.lower[d]) - 0.5, float(arm.upper[d]) + 0.5)
+    with pytest.raises(InputError, match=rf"DOF '{name}': limits \[.*\] degrees go past the skeleton's own"):
+        with_limits(arm, {name: wide})
+    narrow = with_limits(arm, {name: (float(arm.lower[d]) + 0.1, float(arm.upper[d]) - 0.1)})
+    assert narrow.upper[d] == pytest.approx(arm.upper[d] - 0.1)

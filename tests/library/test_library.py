@@ -324,3 +324,15 @@ def _running(pid: int) -> bool:
             return file.read().rsplit(")", 1)[1].split()[0] != "Z"
     except FileNotFoundError:
         return False
+
+
+def test_a_clip_named_up_to_the_file_system_s_limit_keeps_a_record_that_fits(tmp_path):
+    """A 252-byte clip name made the record `.NAME.deik.json` 266 bytes: its outputs were
+    written, its record could not be, and every rerun redid the clip and failed alike."""
+    short, long = "walk.bvh", "c" * 248 + ".bvh"
+    for name in (short, long):
+        path = sidecar_path(tmp_path, name)
+        assert len(os.path.basename(path).encode()) <= 255
+        (tmp_path / os.path.basename(path)).write_text("{}")  # a file system takes the name
+    assert os.path.basename(sidecar_path(tmp_path, short)) == ".walk.bvh.deik.json"
+    assert sidecar_path(tmp_path, long) != sidecar_path(tmp_path, "c" * 247 + "d.bvh")  # whole name in the digest

@@ -196,3 +196,22 @@ def test_a_map_scale_out_of_range_is_refused_naming_the_file(tmp_path):
         deik.retarget(
             shared_path("humanoid", "humanoid3d_walk.bvh"), shared_path("robots", "human.urdf"), joint_map=path
         )
+
+
+def test_a_csv_header_quotes_a_dof_named_with_a_comma_or_a_quote(tmp_path):
+    """A URDF joint named `left,knee_Z` wrote a header of 45 fields over rows of 44 (exit 0)."""
+    import csv
+    import dataclasses
+
+    from helpers import robot_arm
+
+    arm = robot_arm()
+    names = list(arm.dof_names)
+    names[:2] = ["left,knee_Z", 'a "quoted" name']
+    skeleton = dataclasses.replace(arm, dof_names=tuple(names))
+    motion = deik.io.trajectory.Trajectory(skeleton, np.zeros((3, arm.n_dofs)), 1 / 30)
+    path = tmp_path / "motion.csv"
+    deik.io.trajectory.write_trajectory(path, motion)
+    rows = list(csv.reader(path.read_text().splitlines(keepends=True)))
+    assert rows[0] == ["frame", "time_s", *names]
+    assert {len(row) for row in rows} == {arm.n_dofs + 2}

@@ -10,8 +10,9 @@ breaks one or the other: in more than SUNK_SHARE of the frames the body's lowest
 more than SUNK x span under the floor detected, or its centre lies more than
 OFF_SUPPORT_GIVEN x span from its support. When along another axis direction the body does
 rest (sunk in at most a fifth of SUNK_SHARE of the frames) and lies at most half as far (and
-OFF_SUPPORT x span) from its support (of the four across its up: upside down, a clip whose
-head stays still would look as if it stood on it), the clip is refused, naming those, most
+OFF_SUPPORT x span) from its support (of the four across its up, and upside down only where
+the rig's rest pose stands that way: else a clip whose head stays still would look as if it
+stood on it), the clip is refused, naming those, most
 balanced first (a lying body looks alike along several, so deik never turns a clip's up by
 itself), rather than fixed against a floor it never stood on. When along none, the body
 rests on no one floor (it floats, climbs stairs, or is played in place with its feet sliding
@@ -65,15 +66,17 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
         _check_rest_up(clip, off)
         return floor
     rests = []  # (how far the body's centre lies from its support, axis) of the axes it rests along
+    own = rest_stands_along(clip)
     for axis in np.vstack([np.eye(3), -np.eye(3)]):
-        if abs(axis @ sk.up) < 0.999:  # not its up, nor upside down (a still head looks like a foot)
+        # not its up, nor upside down (a still head looks like a foot) unless its rest pose stands that way
+        flipped = own is not None and axis @ sk.up <= -0.999 and np.dot(own, axis) >= 0.999
+        if abs(axis @ sk.up) < 0.999 or flipped:
             turned = Trajectory(replace(sk, up=axis), clip.frames, clip.frame_time, clip.source)
             turned_body = body_of(turned)
             turned_paths = body_paths(on_body(turned, turned_body), turned_body)
             level = detect_floor(turned, turned_body, turned_paths).height
             if sunk_share(turned_body, turned_paths, level) <= SUNK_SHARE / 5:
                 rests.append((off_support(turned_body, turned_paths, level), tuple(axis)))
-    own = rest_stands_along(clip)
     balanced = []
     for away, axis in sorted(rests):
         # along the axis the rest pose stands on two feet it need only be balanced, not twice as well

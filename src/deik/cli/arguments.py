@@ -9,7 +9,7 @@ import os
 from collections.abc import Callable, Iterable
 
 from deik.errors import DeikError, UsageError
-from deik.io.atomic import check_writable
+from deik.io.atomic import NAME_MAX, check_writable
 from deik.io.files import inputs_read
 
 # what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
@@ -66,6 +66,13 @@ def check_outputs(
     inputs = [*inputs, *inputs_read()]
     given = {flag: os.path.abspath(path) for flag, path in outputs.items() if path is not None}
     for flag, path in given.items():
+        if outputs[flag].endswith(("/", os.sep)):
+            raise UsageError(f"{flag}: {outputs[flag]!r} ends in a slash, as a folder does; give a file name")
+        length = len(os.path.basename(path).encode())
+        if length > NAME_MAX:
+            raise UsageError(
+                f"{flag}: the file name is {length} bytes, longer than the {NAME_MAX} a file system takes; shorten it"
+            )
         folder = os.path.dirname(path)
         if not os.path.isdir(folder):
             raise UsageError(f"{flag}: folder {folder!r} does not exist; create it first")

@@ -127,6 +127,8 @@ def save_atomically(path: FilePath, write: Callable[[BinaryIO], object]) -> None
     inputs; an OSError (a full disk) names `path`."""
     path = os.path.abspath(path)
     check_not_input(path)
+    if len(os.path.basename(path).encode()) > NAME_MAX:  # refused before a file of the set is written
+        raise OSError(errno.ENAMETOOLONG, f"cannot write it: its name is longer than {NAME_MAX} bytes", path)
     folder = os.path.dirname(path)
     tidy(folder)
     temporary = None

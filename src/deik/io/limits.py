@@ -30,18 +30,38 @@ from deik.suggest import did_you_mean
 
 def with_limits(skeleton: Skeleton, limits: dict[str, tuple[float, float]]) -> Skeleton:
     """`skeleton` with the DOFs named in `limits` ({dof name: (lower, upper)}, radians or
-    length units) given those limits. Unknown names raise a KeyError with close matches;
-    non-finite or inverted limits a ValueError naming the DOF."""
+    length units) given those limits. A hinge's (a rotation short of whole turns: a robot's
+    joint) only narrow its own: it cannot turn further than its URDF says; a BVH joint's
+    rotations turn whole turns and its translations' limits are the capture's range, which a
+    table may widen. Unknown names raise a KeyError with close matches; non-finite or inverted
+    limits, or a hinge's past its own, an InputError naming the DOF (rotations in degrees, as
+    the table gives them)."""
     lower, upper = skeleton.lower.copy(), skeleton.upper.copy()
     for name, bounds in limits.items():
         if name not in skeleton.dof_names:
             raise UnknownNameError(_not_a_dof(skeleton, name))
         low, high = (float(b) for b in bounds)
-        if not (math.isfinite(low) and math.isfinite(high) and low <= high):
-            raise InputError(f"DOF {name!r}: limits must be finite with lower <= upper, got [{low}, {high}]")
         d = skeleton.dof_names.index(name)
+        shown = _shown(skeleton, d)
+        if not (math.isfinite(low) and math.isfinite(high) and low <= high):
+            raise InputError(f"DOF {name!r}: limits must be finite with lower <= upper, got {shown(low, high)}")
+        hinge = skeleton.dof_kind[d] == ROTATE and not skeleton.full_turns[d]
+        if hinge and (low < lower[d] or high > upper[d]):
+            raise InputError(
+                f"DOF {name!r}: limits {shown(low, high)} go past the skeleton's own {shown(lower[d], upper[d])}; "
+                "a limits table only narrows them"
+            )
         lower[d], upper[d] = low, high
     return replace(skeleton, lower=lower, upper=upper)
+
+
+def _shown(skeleton: Skeleton, d: int):
+    """A function writing DOF d's (lower, upper) as the limits table gives them: degrees for a
+    rotation, length units for a translation."""
+    rotation = skeleton.dof_kind[d] == ROTATE
+    return lambda low, high: (
+        f"[{math.degrees(low):.6g}, {math.degrees(high):.6g}] degrees" if rotation else f"[{low:.6g}, {high:.6g}]"
+    )
 
 
 def _not_a_dof(skeleton: Skeleton, name: str) -> str:

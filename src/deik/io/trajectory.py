@@ -15,6 +15,8 @@ Files, one row per frame (written atomically):
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from dataclasses import dataclass, replace
 
@@ -77,12 +79,12 @@ class Trajectory(KinematicsOnce):
 
 def format_trajectory_csv(trajectory: Trajectory) -> str:
     """The CSV text of `trajectory` (see the module notes)."""
-    header = ["frame", "time_s", *trajectory.skeleton.dof_names]
-    rows = [",".join(header)]
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")  # a DOF named with a comma or a quote is quoted
+    writer.writerow(["frame", "time_s", *trajectory.skeleton.dof_names])
     for n, values in enumerate(trajectory.frames):
-        numbers = ",".join(repr(float(v)) for v in values)
-        rows.append(f"{n},{n * trajectory.frame_time:.9g}" + (f",{numbers}" if numbers else ""))
-    return "\n".join(rows) + "\n"
+        writer.writerow([n, f"{n * trajectory.frame_time:.9g}", *(repr(float(v)) for v in values)])
+    return out.getvalue()
 
 
 # what the clip machinery reads frames from: a BVH clip or any skeleton's joint trajectory

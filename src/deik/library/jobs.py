@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 from deik import __version__
 from deik.errors import FileFormatError
-from deik.io.atomic import write_json_atomically
+from deik.io.atomic import NAME_MAX, write_json_atomically
 from deik.io.files import Fields, FilePath, open_input, read_json
 
 SIDECAR = ".deik.json"
@@ -96,8 +96,15 @@ def fingerprint(command: str, settings: dict, source: str, files: dict, outputs:
 
 
 def sidecar_path(folder: FilePath, name: str) -> str:
-    """OUTDIR/.NAME.deik.json for the clip file `name` (hidden: see the module notes)."""
-    return os.path.join(os.path.abspath(folder), f".{name}{SIDECAR}")
+    """OUTDIR/.NAME.deik.json for the clip file `name` (hidden: see the module notes); for a name
+    too long for that to fit a file system's NAME_MAX bytes, as much of it as fits and a digest
+    of the whole (a clip may be named up to the limit, and its record must still be written)."""
+    whole = f".{name}{SIDECAR}"
+    if len(whole.encode()) > NAME_MAX:
+        digest = "~" + hashlib.sha256(name.encode()).hexdigest()[:16]
+        room = NAME_MAX - len(f".{digest}{SIDECAR}".encode())
+        whole = f".{name.encode()[:room].decode('utf-8', 'ignore')}{digest}{SIDECAR}"
+    return os.path.join(os.path.abspath(folder), whole)
 
 
 def read_sidecar(job: Job) -> tuple[dict | None, str]:
