@@ -482,3 +482,24 @@ def test_a_limits_table_past_a_robot_s_own_limits_is_refused_in_degrees(tmp_path
         with_limits(arm, {name: wide})
     narrow = with_limits(arm, {name: (float(arm.lower[d]) + 0.1, float(arm.upper[d]) - 0.1)})
     assert narrow.upper[d] == pytest.approx(arm.upper[d] - 0.1)
+
+
+def test_a_setting_flag_out_of_range_is_named_and_a_json_key_given_twice_is_refused(tmp_path, capsys):
+    """`--population 0` said "population must be ...", naming no flag; a limits table with one
+    DOF twice kept the last silently; `{}` was called "not a JSON object"."""
+    assert main(["solve", "chain:5", "--reach", "tip", "1", "1", "0", "--population", "0"]) == 2
+    assert capsys.readouterr().err.startswith("deik: error: --population: population must be an integer >= 4")
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(format_rig(procedural_walk().rig))
+    assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--generations", "-1"]) == 2
+    assert capsys.readouterr().err.startswith("deik: error: --generations: ")
+    table = tmp_path / "limits.json"
+    for text, message in (
+        ('{"LeftKnee.Zrotation": [-150, 0], "LeftKnee.Zrotation": [-10, 0]}', "is given twice in one object"),
+        ("{}", "lists no DOF"),
+    ):
+        table.write_text(text)
+        assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--limits", str(table)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and str(table) in err and message in err, err
+    assert not (tmp_path / "o.bvh").exists()

@@ -159,3 +159,18 @@ def add_free_translations(parser: argparse.ArgumentParser) -> None:
         help="BVH: let deik move position channels below the first joint that translates (by default they "
         "keep the capture's values, so bones keep their lengths)",
     )
+
+
+def checked_settings(settings: dict, flags: Iterable[str]):
+    """deik.Settings of `settings` (name -> value); a UsageError naming the flag (--NAME) of one
+    of `flags` (the names the command line gave) whose value does not fit (a settings error
+    names its field first)."""
+    from deik.solver.settings import Settings
+
+    try:
+        return Settings(**settings)
+    except DeikError as error:
+        name = next((name for name in flags if str(error).startswith(f"{name} ")), None)
+        if name is None:
+            raise
+        raise UsageError(f"--{name.replace('_', '-')}: {error}") from None

@@ -23,6 +23,7 @@ from deik.cli.arguments import (
     add_up,
     check_device,
     check_outputs,
+    checked_settings,
     number,
     up_of,
 )
@@ -360,8 +361,10 @@ def run_clip(args: argparse.Namespace) -> int:
     from deik.cleanup.clean import plan_clean
 
     check_first(args)
+    options = clean_options(args)
+    checked_settings(options.settings(), options.settings())
     clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations, up=up_of(args))
-    plan = plan_clean(clip, clean_options(args))
+    plan = plan_clean(clip, options)
     check_outputs(*outputs)  # the reach tracks it read are inputs too
     with progress_bar(plan.clip.n_frames, "deik clip", "frame", show_progress(args)) as bar:
         cleaned = plan.run(progress=frames_reporter(bar, "every goal"))

@@ -23,6 +23,7 @@ from deik.cli.arguments import (
     add_up,
     check_device,
     check_outputs,
+    checked_settings,
     number,
     numbers,
     up_of,
@@ -298,7 +299,7 @@ def run_solve(args: argparse.Namespace) -> int:
     posed = pose_problem(args)
     check_outputs(*outputs, inputs, args.overwrite)  # the files a --problem file names are inputs too
     problem, loaded, frame = posed.problem, posed.loaded, posed.frame
-    settings = Settings(**posed.settings)
+    settings = checked_settings(posed.settings, _settings(args))
     check_device(settings.device)
     _check_precision(args, problem, settings)
     initial = None

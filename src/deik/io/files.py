@@ -189,11 +189,26 @@ def _parsed(data: object, source: str, what: str, max_depth: int) -> object:
     return data
 
 
+class _Twice(Exception):
+    """A JSON object that gives one key twice (args: the key)."""
+
+
+def _once(pairs: list[tuple[str, object]]) -> dict:
+    """The object of `pairs`; _Twice for a key given twice."""
+    out = dict(pairs)
+    if len(out) < len(pairs):
+        seen = set()
+        raise _Twice(next(key for key, _ in pairs if key in seen or seen.add(key)))
+    return out
+
+
 def parse_json(text: str, source: str, what: str, max_depth: int = MAX_DEPTH) -> object:
     """JSON `text` of file `source` parsed; FileFormatError naming the file (and line) when it
     is not JSON, nests deeper than `max_depth` or holds a number too long to read."""
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_once)
+    except _Twice as error:  # json keeps the last of two, silently
+        raise FileFormatError(source, f"key {error.args[0]!r} is given twice in one object; give it once") from None
     except json.JSONDecodeError as error:
         raise FileFormatError(source, f"not valid JSON ({error.msg}); give a {what} file", line=error.lineno) from None
     except RecursionError:

@@ -82,8 +82,10 @@ def read_limits(path: FilePath, skeleton: Skeleton) -> dict[str, tuple[float, fl
     mistake (an unknown DOF too) raises a FileFormatError naming the file."""
     path = str(path)
     table = read_json(path, "limits (JSON)")
-    if not isinstance(table, dict) or not table:
+    if not isinstance(table, dict):
         raise FileFormatError(path, 'must be a JSON object {"DOF name": [lower, upper], ...}')
+    if not table:
+        raise FileFormatError(path, 'lists no DOF: give {"DOF name": [lower, upper], ...}')
     limits = {}
     for name, bounds in table.items():
         if not (isinstance(bounds, list) and len(bounds) == 2):
