@@ -209,8 +209,9 @@ def test_still_legs_are_no_helpers(family, tmp_path):
     assert len(body_of(clip).feet) == 2
 
 
-def _judged(case, tmp_path):
-    """The judge's measures (judging/clips.py) of `case` cleaned by the default command's API."""
+def cleaned_and_judged(case, tmp_path) -> tuple[dict, dict]:
+    """(deik's report, the judge's measures, judging/clips.py) of `case` cleaned by the default
+    command's API, where points rest read from the case's truth."""
     from judging.clips import judge
 
     path = tmp_path / f"{case.name}.bvh"
@@ -219,7 +220,12 @@ def _judged(case, tmp_path):
     out = tmp_path / f"{case.name}_out.bvh"
     deik.write_bvh(out, result.clip)
     unmet = ~np.array(result.report["met_per_frame"], bool)
-    return judge(case, case.rig, parse_rig(out.read_text(), case.rig.position_mode), unmet)
+    return result.report, judge(case, case.rig, parse_rig(out.read_text(), case.rig.position_mode), unmet, case.truth)
+
+
+def _judged(case, tmp_path):
+    """The judge's measures of `case` cleaned by the default command's API (cleaned_and_judged)."""
+    return cleaned_and_judged(case, tmp_path)[1]
 
 
 @pytest.mark.shared_data

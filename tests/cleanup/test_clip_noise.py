@@ -11,9 +11,9 @@ import deik
 from deik.cleanup.noise import LOW_PASS, low_passed, noise_levels
 from deik.model.rotations import euler_matrix, rotation_angle
 from judging.cases import hifps, noisy, source_case
-from judging.clips import judge
-from judging.rigs import format_rig, parse_rig
+from judging.rigs import format_rig
 from judging.walk import procedural_walk
+from tests.cleanup.test_clip_any_rig import cleaned_and_judged
 
 FPS = 120.0
 
@@ -61,30 +61,19 @@ def test_low_passing_keeps_a_rotation_at_gimbal_lock_and_its_channels_continuous
     assert np.allclose(out[:, :3], clip.frames[:, :3])  # still channels stay
 
 
-def _cleaned(case, tmp_path):
-    """(deik's report, the judge's measures) of `case` cleaned by deik.clean_clip with the defaults."""
-    path = tmp_path / f"{case.name}.bvh"
-    path.write_text(format_rig(case.rig))
-    result = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
-    out = tmp_path / f"{case.name}_out.bvh"
-    deik.write_bvh(out, result.clip)
-    unmet = ~np.array(result.report["met_per_frame"], bool)
-    return result.report, judge(case, case.rig, parse_rig(out.read_text(), case.rig.position_mode), unmet, case.truth)
-
-
 def test_only_a_capture_that_shakes_at_a_high_frame_rate_is_low_passed(tmp_path):
     """The procedural walk at 120 fps is kept as captured; with 0.2 degrees of noise on every
     channel and 1 mm on the root it is low-passed, and its resting feet then slide less than a
     millimetre a frame where the walk without noise rests; at 30 fps the same noise is left to
     the plants (a 6 Hz filter there is under a frame wide and blurs the steps)."""
     walk = procedural_walk(fps=FPS)
-    report, _ = _cleaned(walk, tmp_path)
+    report, _ = cleaned_and_judged(walk, tmp_path)
     assert report["noise"]["low_pass_s"] is None
-    report, measured = _cleaned(noisy(walk), tmp_path)
+    report, measured = cleaned_and_judged(noisy(walk), tmp_path)
     assert report["noise"]["low_pass_s"] == LOW_PASS
     assert measured["sliding_mm_per_frame"] <= 1.0 and measured["depth_mm"] <= 2.0, measured
     slow = procedural_walk(fps=30.0)
-    report, _ = _cleaned(dataclasses.replace(noisy(slow), name="walk_30"), tmp_path)
+    report, _ = cleaned_and_judged(dataclasses.replace(noisy(slow), name="walk_30"), tmp_path)
     assert report["noise"]["low_pass_s"] is None
 
 
@@ -97,7 +86,7 @@ def test_a_shared_clip_shaking_at_120_fps_meets_every_target(tmp_path, name):
     from helpers import shared_path
 
     case = noisy(hifps(source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh"))))
-    report, measured = _cleaned(case, tmp_path)
+    report, measured = cleaned_and_judged(case, tmp_path)
     assert report["noise"]["low_pass_s"] == LOW_PASS
     assert measured["sliding_mm_per_frame"] <= 1.0 and measured["depth_mm"] <= 2.0, measured
     assert measured["misses_listed"] and measured["steps_matched"] == measured["steps"], measured
