@@ -1,6 +1,7 @@
 """Named kernel data: the device namespaces resolve calls on their own target, the engine's
 state matches the NamedTuples, and the packed arrays carry their names."""
 
+import dataclasses
 import inspect
 
 import numpy as np
@@ -50,6 +51,10 @@ def test_rotations_spanning_a_whole_turn_are_marked_to_wrap_and_no_other_dof():
         np.testing.assert_array_equal(pack_skeleton(chain, dtype).limits[:, layout.TURN], [turn] * 3)
         np.testing.assert_array_equal(pack_skeleton(narrow, dtype).limits[:, layout.TURN], [turn, 0, turn])
     # a slide 10 long is no turn; a wrist from -pi to 2 pi is one and a half
-    arm = deik.with_limits(robot_arm(), {"slide.Zposition": (-5.0, 5.0), "wrist.roll": (-np.pi, 2 * np.pi)})
+    arm = robot_arm()  # built with these limits (a limits table only narrows a hinge's)
+    lower, upper = arm.lower.copy(), arm.upper.copy()
+    for name, (low, high) in {"slide.Zposition": (-5.0, 5.0), "wrist.roll": (-np.pi, 2 * np.pi)}.items():
+        lower[arm.dof_names.index(name)], upper[arm.dof_names.index(name)] = low, high
+    arm = dataclasses.replace(arm, lower=lower, upper=upper)
     turns = pack_skeleton(arm, np.float64).limits[:, layout.TURN]
     np.testing.assert_array_equal(turns, [0, 0, 0, 0, 2 * np.pi, 0])

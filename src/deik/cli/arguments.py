@@ -7,10 +7,14 @@ import logging
 import math
 import os
 from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 from deik.errors import DeikError, UsageError
 from deik.io.atomic import NAME_MAX, check_writable
 from deik.io.files import inputs_read
+
+if TYPE_CHECKING:  # the solver loads NumPy: a command that needs no settings does without it
+    from deik.solver.settings import Settings
 
 # what a user's mistake raises: a DeikError (deik.errors: a wrong input, a solve that cannot run
 # as asked, a GPU that cannot run it), a missing optional package's ImportError, an unreadable
@@ -161,7 +165,7 @@ def add_free_translations(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def checked_settings(settings: dict, flags: Iterable[str]):
+def checked_settings(settings: dict, flags: Iterable[str]) -> Settings:
     """deik.Settings of `settings` (name -> value); a UsageError naming the flag (--NAME) of one
     of `flags` (the names the command line gave) whose value does not fit (a settings error
     names its field first)."""
