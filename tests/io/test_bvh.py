@@ -456,6 +456,8 @@ BAD = {
     "missing_motion": (lines_with(cut=19), 19, r"no MOTION section"),
     "missing_frames_line": (lines_with({21: "Frame Count: 2"}), 21, r"expected 'Frames: N'"),
     "fractional_frames": (lines_with({21: "Frames: 2.5"}), 21, r"expected 'Frames: N'"),
+    "absurd_frames": (lines_with({21: "Frames: 1000000000000"}), 21, r"more frames than any capture holds"),
+    "mac_line_ends": (TOY.replace("\n", "\r"), 1, r"lines end in CR alone.*convert them to LF"),
     "too_few_frame_lines": (lines_with(cut=23), 21, r"'Frames: 2' but only 1 frame lines follow"),
     "too_many_frame_lines": (TOY + "1 2 3 4 5 6 7\n", 25, r"more frame lines than 'Frames: 2'"),
     "frame_too_short": (lines_with({24: "1 2 3"}), 24, r"frame has 3 numbers, expected 7"),

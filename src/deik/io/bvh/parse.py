@@ -36,17 +36,28 @@ MAX_HIERARCHY_BYTES = 16 << 20  # the HIERARCHY section: a 100,000-joint skeleto
 
 def _lines(file: BinaryIO, source: str, first: int = 1):
     """(line number, text) of each line of `file` from line `first`, decoded (a byte-order mark
-    allowed on line 1); FileFormatError at a NUL byte or bytes that are not UTF-8."""
-    for n, raw in enumerate(iter(file.readline, b""), first):
-        if n == 1:
+    allowed on line 1), lines ending in LF or CR LF; FileFormatError at a NUL byte, bytes that
+    are not UTF-8 or lines ending in CR alone."""
+    n = first - 1
+    for raw in iter(file.readline, b""):
+        if n == 0:
             raw = raw.removeprefix(b"\xef\xbb\xbf")
         if b"\0" in raw:
-            raise FileFormatError(source, "not a text BVH file (NUL bytes)", line=n)
+            raise FileFormatError(source, "not a text BVH file (NUL bytes)", line=n + 1)
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError:
-            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)", line=n) from None
-        yield n, text.removesuffix("\n").removesuffix("\r")
+            raise FileFormatError(source, "not a text BVH file (bytes that are not UTF-8)", line=n + 1) from None
+        n += 1
+        text = text.removesuffix("\n").removesuffix("\r")
+        if "\r" in text:
+            raise FileFormatError(
+                source,
+                "its lines end in CR alone, as classic Mac OS wrote them: convert them to LF "
+                "(tr '\\r' '\\n' < IN > OUT)",
+                line=n,
+            )
+        yield n, text
 
 
 def _hierarchy(file: BinaryIO, source: str) -> tuple[list[str], int | None]:
@@ -79,9 +90,15 @@ def _header(source: str, lines, motion: int) -> tuple[int, float, int, int]:
         FRAMES.fullmatch(body[0][1]) if body else None,
         FRAME_TIME.fullmatch(body[1][1]) if len(body) > 1 else None,
     ]
-    if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit() and len(header[0][1]) <= 12):
+    if header[0] is None or not (header[0][1].isascii() and header[0][1].isdigit()):
         raise FileFormatError(
             source, "expected 'Frames: N' (N a whole number) after MOTION", line=body[0][0] if body else motion
+        )
+    if len(header[0][1]) > 12:
+        raise FileFormatError(
+            source,
+            f"'Frames: {header[0][1]}' is more frames than any capture holds (at most 12 digits)",
+            line=body[0][0],
         )
     if header[1] is None:
         raise FileFormatError(
