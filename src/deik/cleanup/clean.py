@@ -243,12 +243,13 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     if clip is not captured:  # the body as the motion without its jumps shows it
         body = body_of(clip)
     motion = on_body(clip, body)
-    noise = capture_noise(motion.kinematics.p_world_frame[:, body.part], body.span, clip.frame_time, SPEED * body.span)
+    paths = body_paths(motion, body)
+    noise = capture_noise(paths.positions[:, body.part], body.span, clip.frame_time, SPEED * body.span)
     unfiltered = clip
     if noise.low_pass is not None:  # the shake out first: it hides rests, and stays wherever nothing is planted
         clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))
         motion = on_body(clip, body)
-    paths = body_paths(motion, body)
+        paths = body_paths(motion, body)
     floor, keep_floor = floor_choice(motion, body, options.floor, paths)
     if options.floor == "auto":
         floor = floor_it_rests_on(clip, body, paths, floor)

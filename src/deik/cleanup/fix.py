@@ -212,7 +212,7 @@ def _warm_start(
     balance = clip_balance(clip, goals, frames=unbalanced)
     for round_ in range(GUARD_ROUNDS):
         displacement, fixed = warm(goals, balance)
-        jolted = jolted_frames(captured(clip, goals, body), clip.with_frames(clip.frames + displacement), points=points)
+        jolted = jolted_frames(captured(clip, goals), clip.with_frames(clip.frames + displacement), points=points)
         jolting = widened(jolted, GUARD_REACH) & balance.balanced
         if round_ == GUARD_ROUNDS - 1 or not jolting.any():
             break
@@ -220,10 +220,9 @@ def _warm_start(
     return displacement, fixed, balance
 
 
-def captured(clip: Motion, goals: ClipGoals, body: Body) -> Motion:
-    """The capture whose acceleration peaks a fix of `clip` on `body` keeps within: goals.captured
-    on the body, or the clip itself."""
-    return clip if goals.captured is None else on_body(goals.captured, body)
+def captured(clip: Motion, goals: ClipGoals) -> Motion:
+    """The capture whose peaks a fix of `clip` keeps within: goals.captured (on its body), or the clip."""
+    return clip if goals.captured is None else goals.captured
 
 
 def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body):
@@ -247,7 +246,7 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     tried = ((True, False), (True, True), (False, False)) if goals.floor is not None else ((False, False),)
     for lift, whole in tried if alone else ():
         warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift, whole)
-        displacement, calmed = calm(clip, warm, body.points, captured=captured(clip, goals, body))
+        displacement, calmed = calm(clip, warm, body.points, captured=captured(clip, goals))
         poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
         problem = _judged(clip, plain, displacement, weights, fixed, balance)
         errors, met = _met(problem, poses)
@@ -294,10 +293,10 @@ def _without_jolts(clip, displacement, found, repaired, searched, body, goals) -
     DE search starts each frame afresh and may land a pose apart from its neighbours'. The
     repairs within an easing of a new jolt are refused and the rest tried again, until none
     jolts (all of them when a new jolt lies beyond every repair's easing). `refused` counts them
-    (they are listed unmet). Jolts are measured against the capture (captured(clip, goals, body))."""
+    (they are listed unmet). Jolts are measured against the capture (captured(clip, goals))."""
     sk, original = clip.skeleton, clip.poses()
     reach = int(np.ceil(_ease_frames(clip)))
-    reference = captured(clip, goals, body)
+    reference = captured(clip, goals)
 
     def taken(frames):
         change = np.where(frames[:, None] & searched, found - displacement, 0.0)
@@ -348,8 +347,7 @@ def fix_clip(
     if clip.n_frames == 0:
         raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0) to fix; give one with motion")
     if goals.captured is not None and goals.captured.frames.shape != clip.frames.shape:
-        shapes = f"{goals.captured.frames.shape}, the clip {clip.frames.shape}"
-        raise InputError(f"goals.captured has frames {shapes}: give the capture of this very clip")
+        raise InputError(f"goals.captured has frames {goals.captured.frames.shape}, not the clip's: give its capture")
     if clip.skeleton.n_dofs == 0:
         raise InputError("the clip has no channels: its hierarchy moves no joint, so there is nothing to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
@@ -360,6 +358,8 @@ def fix_clip(
     written, body = clip, body_of(clip) if body is None else body
     clip = on_body(written, body)
     goals = sized_goals(goals, body.span)
+    if goals.captured is not None:  # on the body once: its kinematics and peaks are then computed once
+        goals = dataclasses.replace(goals, captured=on_body(goals.captured, body))
     if goals.floor is not None and goals.floor_clearance is None:
         goals = dataclasses.replace(goals, floor_clearance=clearances(body))
     sk = clip.skeleton
@@ -416,7 +416,7 @@ def fix_clip(
             }
         )
     began = time.perf_counter()
-    reference = captured(clip, goals, body)
+    reference = captured(clip, goals)
     if reached is None:
         displacement, calmed = calm(clip, displacement, body.points, captured=reference)
     else:  # what the reach tracks add is the user's motion: calm the rest on top of it

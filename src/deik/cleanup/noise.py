@@ -8,14 +8,14 @@ median absolute value of 0.6745 sqrt(70) s: noise_levels reads s there, per poin
 shared clips (30 to 120 fps) the median over the body's points is at most 0.02 % of the span,
 with 0.2 degrees of noise on every channel 0.11 % or more (tests/cleanup/test_clip_noise.py).
 
-Noisy speeds hide rests: at 120 fps the shake moves a resting toe about 1 m/s. Speeds are
-taken on paths smoothed against each point's own noise (ground.smoothing_widths), and a clip
-whose points shake more than NOISY x span at rest is low-passed before anything else
-(low_passed): every joint's rotation averaged by a Gaussian of LOW_PASS seconds (a 6 Hz low-pass,
-where filters of captured human motion sit) as rotation matrices, so an Euler triple near
-gimbal lock averages as the rotation it is, the root's translation and other channels as
-values. The fix then plants, lifts and reports the motion without the shake, which a plant
-alone removes only from the frames it holds.
+Noisy speeds hide rests: at 120 fps the shake moves a resting toe about 1 m/s. A clip whose
+points shake more than NOISY x span at rest, at a frame rate where the filter spans a frame or
+more (WIDEST_FRAME), is low-passed before anything else (low_passed): every channel averaged by
+a Gaussian of LOW_PASS seconds (a 6 Hz low-pass, where filters of captured human motion sit),
+then each joint's Euler triple moved onto the average of the rotation matrices it makes, so
+that near gimbal lock it averages as the rotation it is and no channel jumps. At 30 fps the
+plants remove the noise where points rest. The fix then plants, lifts and reports the motion
+without the shake, its jolts measured against the capture as given (ClipGoals.captured).
 """
 
 from __future__ import annotations

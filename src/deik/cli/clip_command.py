@@ -362,7 +362,8 @@ def run_clip(args: argparse.Namespace) -> int:
 
     check_first(args)
     options = clean_options(args)
-    checked_settings(options.settings(), options.settings())
+    given = options.settings()
+    checked_settings(given, given)  # every setting there came from a flag
     clip = read_bvh(args.clip, segments=args.segments, free_translations=args.free_translations, up=up_of(args))
     plan = plan_clean(clip, options)
     check_outputs(*outputs)  # the reach tracks it read are inputs too
