@@ -366,7 +366,7 @@ SETTINGS = {
     r"moves\), three on a rig that\s+rests lying .*? every frame, as an FBX export of a Z-up scene writes it\), "
     r"four captured at 120 fps\s+\(`_120fps`\) and five with capture noise at 60 fps or more \(`_120fps_noisy`, and "
     r"`_noisy` for\s+the clips captured at 60 fps\)": "the hard cases' transforms (judging/cases.py)",
-    r"A capture that shakes at 60 fps or more is low-passed before the fix\s+\(a 6 Hz Gaussian": "when and how "
+    r"A capture that shakes at 45 fps or more is low-passed before the fix\s+\(a 6 Hz Gaussian": "when and how "
     "deik low-passes a capture (deik.cleanup.noise: WIDEST_FRAME, LOW_PASS)",
     r"the kick and the run at 120 fps with noise meet every target; the walk at 120 fps": "the cases named "
     "(judging/cases.py: shaky), their verdicts in the table below",
