@@ -503,3 +503,31 @@ def test_a_setting_flag_out_of_range_is_named_and_a_json_key_given_twice_is_refu
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and str(table) in err and message in err, err
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_a_zero_obstacle_and_a_point_given_two_targets_name_their_flags(capsys):
+    """`--obstacle X Y Z 0` was refused in the goal's own words ("bone_radius >= 0"), naming no
+    flag; two --reach targets for one point were solved as a compromise that met neither."""
+    base = ["solve", "chain:5", "--generations", 5, "--quiet"]
+    status, err = _cli([*base, "--reach", "tip", 3, 2, 0, "--obstacle", 1, 1, 0, 0], capsys)
+    assert status == 2 and err == "deik: error: --obstacle 1 1 0 0: the radius (the last number) must be above 0\n"
+    status, err = _cli([*base, "--reach", "tip", 3, 2, 0, "--reach", "tip", 3, 1, 0], capsys)
+    assert (
+        status == 2 and err == "deik: error: --reach tip is given more than once: give one target per joint or site\n"
+    )
+    status, err = _cli([*base, "--orient", "tip", "rpy", 0, 0, 0, "--orient", "tip", "rpy", 0, 9, 0], capsys)
+    assert status == 2 and err.startswith("deik: error: --orient tip is given more than once"), err
+    assert _cli([*base, "--reach", "tip", 3, 2, 0, "--orient", "tip", "rpy", 0, 0, 0], capsys)[0] == 0
+
+
+def test_a_scale_retarget_of_a_rig_without_legs_names_the_file(tmp_path, capsys):
+    """The refusal named no file ("the source's root is not above its contact sites")."""
+    path = tmp_path / "upright.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  JOINT Spine\n  {\n"
+        "    OFFSET 0 1 0\n    CHANNELS 1 Zrotation\n    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\n"
+        "MOTION\nFrames: 2\nFrame Time: 0.0333\n0 0 0 0\n0 0 0 5\n"
+    )
+    status, err = _cli(["retarget", path, "--scale", "Spine=2", "--out", tmp_path / "o.bvh", "--quiet"], capsys)
+    assert status == 2 and err.startswith(f"deik: error: {path}: the root is above no joint or site at rest"), err
+    assert not (tmp_path / "o.bvh").exists()

@@ -349,7 +349,7 @@ def fix_clip(
     if goals.captured is not None and goals.captured.frames.shape != clip.frames.shape:
         raise InputError(f"goals.captured has frames {goals.captured.frames.shape}, not the clip's: give its capture")
     if clip.skeleton.n_dofs == 0:
-        raise InputError("the clip has no channels: its hierarchy moves no joint, so there is nothing to fix")
+        raise InputError(f"{message_prefix(clip)}the clip has no channels: no joint moves, nothing to fix")
     defaults = BALANCE_SETTINGS if goals.balance else CLIP_SETTINGS
     settings = merge_settings("fix_clip()", settings, overrides, defaults)
     _check_memory(clip, settings)  # before any work: the smallest a pass can take

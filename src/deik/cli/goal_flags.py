@@ -135,12 +135,16 @@ def goals_from_flags(args: argparse.Namespace, frame_pose: np.ndarray | None, un
     tolerance = args.tolerance
     if tolerance is None and unit in METRES:
         tolerance = 0.001 / METRES[unit]
+    _once("--reach", [frame for frame, *_ in args.reach])
     goals = [g.Position(frame, numbers("--reach", xyz), tolerance=tolerance) for frame, *xyz in args.reach]
+    _once("--orient", [words[0] for words in args.orient])
     goals += [orientation_goal(words, angle_tolerance) for words in args.orient]
     if args.com_over:
         goals.append(g.ComOverSupport(numbers("--com-over", args.com_over), tolerance=tolerance))
     for values in args.obstacle:
         *centre, radius = numbers("--obstacle", values)
+        if not radius > 0:
+            raise UsageError(f"--obstacle {' '.join(values)}: the radius (the last number) must be above 0")
         goals.append(g.Obstacle(centre, radius))
     weight = args.comfort if args.comfort is not None else (FRAME_COMFORT if frame_pose is not None else None)
     if weight:
@@ -148,3 +152,11 @@ def goals_from_flags(args: argparse.Namespace, frame_pose: np.ndarray | None, un
     if args.self_collision is not None:  # a target inside the body never buys a penetration
         goals = [SelfCollision(margin=args.self_collision)] + [replace(goal, level=goal.level + 1) for goal in goals]
     return goals
+
+
+def _once(flag: str, frames: list[str]) -> None:
+    """UsageError when `flag` names one joint or site twice: two targets for one point at one
+    priority are a compromise between them that meets neither."""
+    twice = sorted({frame for frame in frames if frames.count(frame) > 1})
+    if twice:
+        raise UsageError(f"{flag} {twice[0]} is given more than once: give one target per joint or site")

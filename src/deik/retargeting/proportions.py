@@ -24,7 +24,7 @@ import numpy as np
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
-from deik.io.motion import Clip
+from deik.io.motion import Clip, message_prefix
 from deik.model.capsules import on_joints
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
@@ -48,12 +48,13 @@ def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None
             )
 
 
-def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str]) -> float:
-    """Target over source height of the root above the lowest of `sites` (joints or sites) at rest."""
+def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str], prefix: str = "") -> float:
+    """Target over source height of the root above the lowest of `sites` (joints or sites) at
+    rest; `prefix` begins an error (the source file and a colon)."""
     heights = [rest_heights(sk, (sk.joint_names[0], *sites)) for sk in (source, target)]
     legs = [h[0] - h[1:].min() for h in heights]
     if not legs[0] > 0:
-        raise InputError("the source's root is not above its contact sites at rest: no leg length to scale by")
+        raise InputError(f"{prefix}the root is above no joint or site at rest: no leg length to scale by")
     return float(legs[1] / legs[0])
 
 
@@ -65,7 +66,9 @@ def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np
     start = sk.joint_dof_start[0]
     kinds, axes = sk.dof_kind[start : start + 3], sk.dof_axis[start : start + 3]
     if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(axes @ axes.T, np.eye(3)):
-        raise InputError(f"the root {sk.joint_names[0]!r} needs three position channels first to be scaled")
+        raise InputError(
+            f"{message_prefix(clip)}the root {sk.joint_names[0]!r} needs three position channels first to be scaled"
+        )
     root = forward_kinematics(sk, clip.poses()).p_world_frame[:, 0]
     origin = floor_origin(sk, clip.pose(0), ground)
     wanted = origin + ratio * (root - origin)
@@ -90,7 +93,7 @@ def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None
     sk = clip.skeleton
     target = replace(target, helpers=sk.helpers)  # the same rig: the same joints
     floor = rest_floor(clip, stature(sk))
-    ratio = leg_ratio(sk, target, sk.frame_names)
+    ratio = leg_ratio(sk, target, sk.frame_names, message_prefix(clip))
     frames = scaled_root(clip, target, floor, ratio)
     target = _room_to_travel(target, frames)
     scaled = Clip(target, frames, clip.frame_time, clip.layout, clip.source, clip.mass_source)
