@@ -8,8 +8,10 @@ Each case is retargeted through the command line (`deik retarget`) and judged fr
 wrote (the trajectory CSV, the BVH). Hard cases (source_case, robot_case): a clip played
 backwards, sped up 2x, with its legs 15 % longer (its feet sink), with noise on every channel,
 and as another rig family (centimetres, a Reference root on the floor above the hips, position
-channels on every joint, other joint names, 30 fps); robots made from human.urdf (another joint
-order, continuous shoulders and elbows, velocity limits halved). Writes retarget_quality.json
+channels on every joint, other joint names, 30 fps), and the walk, run and kick at 120 fps with
+capture noise (judging/cases.py's `_120fps_noisy`, judged against the clip without the noise);
+robots made from human.urdf (another joint order, continuous shoulders and elbows, velocity
+limits halved). Writes retarget_quality.json
 and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
 deik's own summary; --quick runs the walk alone.
 """
@@ -28,6 +30,7 @@ import numpy as np
 
 from benchmarks.data import need, shared_data
 from benchmarks.harness import md_table, parser, start
+from judging.cases import cases
 from judging.retargets import (
     PENETRATION_BOUND,
     SLIDING_BOUND,
@@ -44,6 +47,7 @@ from judging.retargets import (
     stature,
     write_bvh_file,
 )
+from judging.rigs import format_rig
 
 ROOT = Path(__file__).resolve().parents[1]
 HUMAN_URDF = shared_data("robots", "human.urdf")
@@ -202,8 +206,11 @@ def deik_retarget(arguments: list[str]) -> float:
     return time.perf_counter() - began
 
 
-def onto_robot(source_path: Path, robot_path: Path, map_path: Path, folder: Path, wrists: list[str]) -> dict:
-    """Retarget `source_path` onto the URDF at `robot_path` through `map_path` and judge it."""
+def onto_robot(
+    source_path: Path, robot_path: Path, map_path: Path, folder: Path, wrists: list[str], truth: Path | None = None
+) -> dict:
+    """Retarget `source_path` onto the URDF at `robot_path` through `map_path` and judge it
+    against `truth` (default the source: the source without the errors a case added)."""
     out = folder / (source_path.stem + ".csv")
     report = folder / (source_path.stem + ".json")
     wall = deik_retarget(
@@ -212,7 +219,7 @@ def onto_robot(source_path: Path, robot_path: Path, map_path: Path, folder: Path
     robot = read_robot(robot_path)
     joint_map = tomllib.loads(Path(map_path).read_text())
     pairing, names, values, dt = robot_pairing(robot, out, joint_map)
-    source = read_bvh_file(source_path)
+    source = read_bvh_file(truth or source_path)
     steps = {"robot": robot, "names": names, "values": values, "frame_time": dt}
     figures = judge(source, pairing, wrists, 1000.0, steps)  # a URDF is in metres
     return {**figures, "wall_s": wall, "deik": json.loads(report.read_text())["summary"]}
@@ -243,6 +250,7 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     hard = {"backwards": "crawl", "sped_up": "kick", "long_legs": "walk", "noisy": "punch", "studio": "walk"}
     hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump"}
     runs += [{"clip": clip, "case": case, "target": "human.urdf"} for case, clip in hard.items()]
+    runs += [{"clip": clip, "case": "120fps_noisy", "target": "human.urdf"} for clip in ("walk", "run", "kick")]
     runs += [
         {"clip": clip, "case": "as captured", "target": f"human.urdf, {case}"} for case, clip in hard_robots.items()
     ]
@@ -254,6 +262,12 @@ def retarget_case(spec: dict, clips: dict, folder: Path) -> dict:
     """Make the case of `spec` in `folder`, retarget it and judge it."""
     original = clips[spec["clip"]]
     source_path, map_path, robot_path, wrists = original, URDF_MAP, HUMAN_URDF, WRISTS
+    if spec["case"] == "120fps_noisy":  # judging/cases.py's, judged against the clip without its noise
+        case = next(c for c in cases(original.parent, [spec["clip"]]) if c.name == f"{spec['clip']}_120fps_noisy")
+        source_path, truth = folder / f"{case.name}.bvh", folder / f"{case.name}_truth.bvh"
+        source_path.write_text(format_rig(case.rig))
+        truth.write_text(format_rig(case.truth))
+        return onto_robot(source_path, robot_path, map_path, folder, wrists, truth)
     if spec["case"] != "as captured":
         bvh = source_case(read_bvh_file(original), spec["case"])
         source_path = folder / f"{spec['clip']}_{spec['case']}.bvh"

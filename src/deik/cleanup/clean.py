@@ -27,7 +27,7 @@ from deik.cleanup.document import clip_document
 from deik.cleanup.dynamics import FAR_DEGREES
 from deik.cleanup.fix import ClipFix, fix_clip
 from deik.cleanup.floor import penetration
-from deik.cleanup.ground import SPEED, FloorChoice, body_paths, clearances
+from deik.cleanup.ground import SPEED, FloorChoice, Paths, body_paths, clearances
 from deik.cleanup.noise import Noise, capture_noise, low_passed
 from deik.cleanup.specs import all_contacts, floor_choice, reaches
 from deik.cleanup.units import METRES, unit_of_span
@@ -225,6 +225,20 @@ def read_clip(clip: Motion | FilePath) -> Motion:
     return read_bvh(clip)
 
 
+def without_shake(clip: Clip, body: Body) -> tuple[Clip, Noise, Trajectory, Paths]:
+    """(`clip` low-passed when its capture noise calls for it, cleanup/noise.py; the Noise; its
+    frames on `body` and their Paths). The shake goes first: it hides rests, and it stays
+    wherever nothing is planted or tracked."""
+    motion = on_body(clip, body)
+    paths = body_paths(motion, body)
+    noise = capture_noise(paths.positions[:, body.part], body.span, clip.frame_time, SPEED * body.span)
+    if noise.low_pass is None:
+        return clip, noise, motion, paths
+    clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))
+    motion = on_body(clip, body)
+    return clip, noise, motion, body_paths(motion, body)
+
+
 def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> CleanPlan:
     """Resolve `options` (default CleanOptions()) against `clip` (a deik.Clip or a BVH path):
     the limits, floor, contacts, reach tracks and length unit; says on the "deik" logger which
@@ -242,14 +256,8 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     clip = cuts.stand_in(clip)
     if clip is not captured:  # the body as the motion without its jumps shows it
         body = body_of(clip)
-    motion = on_body(clip, body)
-    paths = body_paths(motion, body)
-    noise = capture_noise(paths.positions[:, body.part], body.span, clip.frame_time, SPEED * body.span)
     unfiltered = clip
-    if noise.low_pass is not None:  # the shake out first: it hides rests, and stays wherever nothing is planted
-        clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))
-        motion = on_body(clip, body)
-        paths = body_paths(motion, body)
+    clip, noise, motion, paths = without_shake(clip, body)
     floor, keep_floor = floor_choice(motion, body, options.floor, paths)
     if options.floor == "auto":
         floor = floor_it_rests_on(clip, body, paths, floor)

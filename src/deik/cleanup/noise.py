@@ -15,7 +15,16 @@ a Gaussian of LOW_PASS seconds (a 6 Hz low-pass, where filters of captured human
 then each joint's Euler triple moved onto the average of the rotation matrices it makes, so
 that near gimbal lock it averages as the rotation it is and no channel jumps. At 30 fps the
 plants remove the noise where points rest. The fix then plants, lifts and reports the motion
-without the shake, its jolts measured against the capture as given (ClipGoals.captured).
+without the shake, its jolts measured against the capture as given (ClipGoals.captured);
+`deik retarget` low-passes its source the same way.
+
+Fast motion: 6 Hz is below what a run's swing or a kick holds, and one width for the whole clip
+moved the run's swinging toe 76 mm and its wrist 54 mm from the motion without noise at 120 fps
+(the noise alone moves them 14 mm). So each joint takes, frame by frame, the widest of SCALES
+widths (22 ms down to 5.5 ms, then none) whose departure from the capture its noise explains:
+at most BIAS times the mean departure the channels' own white noise (read from their fourth
+differences) makes. A resting or slowly moving joint keeps the full 22 ms; a joint turning fast
+keeps its capture, where the shake is small against the motion and nothing rests to be hidden.
 """
 
 from __future__ import annotations
@@ -38,18 +47,34 @@ LOW_PASS = 0.022  # seconds: the Gaussian's width (a 6 Hz cut-off) a noisy clip 
 FOURTH = 0.6745 * np.sqrt(70.0)  # median |fourth difference| of unit white noise
 STEPS = 3  # Gauss-Newton steps that put a triple's averaged angles onto its averaged rotation
 DAMPING = 1e-4  # of a step's normal equations: a combination of angles the rotation barely moves stays
+SCALES = 5  # widths of the low-pass tried, LOW_PASS x 2^(-j/2) for j < SCALES, then the capture itself
+BIAS = 2.0  # a width that moves a joint more than this many times its noise alone does moves the motion
+SETTLE = 2.0  # frames: the Gaussian smoothing each joint's departures and chosen widths
+MEAN_TURN = 2.0 * np.sqrt(2.0 / np.pi)  # mean angle of a rotation by unit white noise on three channels
+MEAN_CHANGE = np.sqrt(2.0 / np.pi)  # mean absolute value of unit white noise
 
 
-def gaussian(values: np.ndarray, sigma: float) -> np.ndarray:
+def gaussian(values: np.ndarray, sigma: float, fit_ends: bool = False) -> np.ndarray:
     """values (N, ...) averaged along the frames by a Gaussian of `sigma` frames cut at three
-    sigma, the end frames held beyond the ends; as they are below 0.3 frames."""
+    sigma; as they are below 0.3 frames. Where the window passes an end, the end frame is held
+    beyond it, or with `fit_ends` each frame there is the Gaussian-weighted straight line
+    through the frames it has (the plain average inside): a held end pulls a moving body's
+    first and last frames back along its path (26 mm on a run at 120 fps), while a speed read
+    from held ends falls to 0 there, as a point at rest at the clip's edge does."""
     values = np.asarray(values, float)
     if sigma < 0.3 or len(values) < 2:
-        return values
+        return values.copy()
     half = int(np.ceil(3 * sigma))
-    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
-    padded = np.pad(values, [(half, half)] + [(0, 0)] * (values.ndim - 1), mode="edge")
-    return sliding_window_view(padded, len(kernel), axis=0) @ (kernel / kernel.sum())
+    k = np.arange(-half, half + 1, dtype=float)
+    w = np.exp(-0.5 * (k / sigma) ** 2)
+    pad = [(half, half)] + [(0, 0)] * (values.ndim - 1)
+    if not fit_ends:
+        return sliding_window_view(np.pad(values, pad, mode="edge"), len(k), axis=0) @ (w / w.sum())
+    inside = sliding_window_view(np.pad(np.ones(len(values)), half), len(k))
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    s0, s1, s2 = ((inside @ (w * k**j)).reshape(shape) for j in range(3))
+    windows = sliding_window_view(np.pad(values, pad), len(k), axis=0)
+    return (s2 * (windows @ w) - s1 * (windows @ (w * k))) / (s0 * s2 - s1**2)
 
 
 def noise_levels(p: np.ndarray, frame_time: float, speed: float) -> np.ndarray:
@@ -83,13 +108,14 @@ class Noise:
         """The JSON record: level (length units) and low_pass_s (None: kept as captured)."""
         return {"level": self.level, "low_pass_s": self.low_pass}
 
-    def describe(self, unit: str) -> str:
-        """One line for people, in `unit`."""
+    def describe(self, unit: str, before: str = "the fix") -> str:
+        """One line for people, in `unit`, the filter applied `before` a stage ("" when none is)."""
         if self.low_pass is None:
             return ""
         return (
-            f"capture noise {self.level:.3g} {unit} at rest: low-passed by a Gaussian of "
-            f"{self.low_pass * 1000:.0f} ms ({0.1325 / self.low_pass:.0f} Hz) before the fix"
+            f"capture noise {self.level:.3g} {unit} at rest: low-passed by Gaussians of up to "
+            f"{self.low_pass * 1000:.0f} ms ({0.1325 / self.low_pass:.0f} Hz), narrower where a joint turns fast, "
+            f"before {before}"
         )
 
 
@@ -112,17 +138,43 @@ def capture_noise(p: np.ndarray, span: float, frame_time: float, speed: float) -
 
 
 def low_passed(skeleton: Skeleton, frames: np.ndarray, seconds: float, frame_time: float) -> np.ndarray:
-    """(N, D) `frames` (N, D) averaged along the frames by a Gaussian of `seconds` (module notes):
-    every channel as values, then each Tait-Bryan triple moved, by damped Gauss-Newton steps,
-    onto the average of the rotation matrices it makes (projected onto rotations). Near gimbal
-    lock a rotation barely moves along one combination of the triple's angles, and its Euler
-    values read back from the averaged matrix jump there by tens of degrees; the damped steps
-    leave that combination where the averaged channels put it, so no channel jumps."""
-    sigma = seconds / frame_time
-    out = gaussian(frames, sigma)
+    """(N, D) `frames` (N, D) low-passed along the frames by Gaussians of up to `seconds`, each
+    joint in each frame by the widest that does not move the motion (module notes, "Fast
+    motion"): the filter at SCALES widths (averaged), each joint's departure from the capture
+    under each (its rotation's angle, or a channel's own change), smoothed over SETTLE frames,
+    against what the channels' noise alone moves it by (fourth differences, as for points);
+    the widest under BIAS times that, with every narrower one, is taken, the choice smoothed
+    over SETTLE frames and the two widths beside it blended."""
+    frames = np.asarray(frames, float)
+    widths = [seconds * 2 ** (-j / 2) for j in range(SCALES)]
+    candidates = np.stack([_averaged(skeleton, frames, w / frame_time) for w in widths] + [frames])
+    noise = (
+        np.median(np.abs(np.diff(frames, 4, axis=0)), axis=0) / FOURTH if len(frames) > 4 else np.zeros(frames.shape[1])
+    )
+    out, n = np.empty_like(frames), np.arange(len(frames))
+    for unit in _joint_units(skeleton):
+        expected = np.sqrt(np.mean(noise[unit] ** 2)) * (MEAN_TURN if len(unit) == 3 else MEAN_CHANGE)
+        moved = np.stack([gaussian(_departure(skeleton, unit, c, frames), SETTLE) for c in candidates[:-1]])
+        fits = np.flip(np.cumprod(np.flip(moved <= BIAS * expected, 0), 0), 0).astype(bool)  # and every narrower
+        scale = np.clip(gaussian(np.where(fits.any(0), np.argmax(fits, 0), SCALES).astype(float), SETTLE), 0, SCALES)
+        below = np.floor(scale).astype(int)
+        share = (scale - below)[:, None]
+        chosen = candidates[:, :, unit]
+        out[:, unit] = (1 - share) * chosen[below, n] + share * chosen[np.minimum(below + 1, SCALES), n]
+    return out
+
+
+def _averaged(skeleton: Skeleton, frames: np.ndarray, sigma: float) -> np.ndarray:
+    """(N, D) `frames` (N, D) averaged along the frames by a Gaussian of `sigma` frames: every
+    channel as values, then each Tait-Bryan triple moved, by damped Gauss-Newton steps, onto
+    the average of the rotation matrices it makes (projected onto rotations). Near gimbal lock
+    a rotation barely moves along one combination of the triple's angles, and its Euler values
+    read back from the averaged matrix jump there by tens of degrees; the damped steps leave
+    that combination where the averaged channels put it, so no channel jumps."""
+    out = gaussian(frames, sigma, fit_ends=True)
     for triple in tait_bryan_triples(skeleton):
         axes = skeleton.dof_axis[triple]
-        target = _nearest_rotations(gaussian(_triple_matrices(axes, frames[:, triple])[0], sigma))
+        target = _nearest_rotations(gaussian(_triple_matrices(axes, frames[:, triple])[0], sigma, fit_ends=True))
         for _ in range(STEPS):
             R, jacobian = _triple_matrices(axes, out[:, triple])
             M = np.swapaxes(R, -1, -2) @ target
@@ -130,6 +182,24 @@ def low_passed(skeleton: Skeleton, frames: np.ndarray, seconds: float, frame_tim
             normal = np.swapaxes(jacobian, -1, -2) @ jacobian + DAMPING * np.eye(3)
             out[:, triple] += np.linalg.solve(normal, (np.swapaxes(jacobian, -1, -2) @ turn[..., None]))[..., 0]
     return out
+
+
+def _joint_units(skeleton: Skeleton) -> list[np.ndarray]:
+    """DOF indices of what low_passed chooses a width for: each Tait-Bryan triple, every other channel alone."""
+    triples = tait_bryan_triples(skeleton)
+    inside = {int(d) for triple in triples for d in triple}
+    return triples + [np.array([d]) for d in range(skeleton.n_dofs) if d not in inside]
+
+
+def _departure(skeleton: Skeleton, unit: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N,) how far frames `a` are from `b` (N, D) in `unit`: a triple's angle between its two
+    rotations (radians), a channel's difference."""
+    if len(unit) != 3:
+        return np.abs(a[:, unit[0]] - b[:, unit[0]])
+    axes = skeleton.dof_axis[unit]
+    Ra, Rb = (_triple_matrices(axes, x[:, unit])[0] for x in (a, b))
+    cosine = (np.trace(np.swapaxes(Ra, -1, -2) @ Rb, axis1=-2, axis2=-1) - 1.0) / 2.0
+    return np.arccos(np.clip(cosine, -1.0, 1.0))
 
 
 def _triple_matrices(axes: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -186,5 +186,11 @@ def run_retarget(args: argparse.Namespace) -> int:
     fates = ("the target holds the motion's nearest frame there", "retargeted blended across", "retargeted across")
     for line in cut_lines(result.report["cuts"], fates):
         print(line)
+    noise = result.report["noise"]
+    if noise["low_pass_s"] is not None:
+        from deik.cleanup.noise import Noise
+        from deik.cleanup.units import guess_unit
+
+        print(Noise(noise["level"], noise["low_pass_s"]).describe(guess_unit(clip.skeleton), "the retarget"))
     print_velocity_steps(result)
     return 0

@@ -7,6 +7,7 @@ from dataclasses import replace
 from numpy.typing import ArrayLike
 
 from deik.cleanup.body import body_of, with_helpers
+from deik.cleanup.clean import without_shake
 from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.cuts import find_cuts
 from deik.cleanup.up_axis import check_clip_rests
@@ -77,12 +78,16 @@ def retarget(
     but does along another axis is refused (docs/clips.md, "Up"). A source whose pose jumps
     (cleanup/cuts.py) is retargeted as the motion without the jump: a bind pose before or after
     the motion becomes a hold of the motion's nearest frame, a glitch is blended across;
-    report["cuts"] says where. ValueError for a mistake in the inputs."""
+    report["cuts"] says where. A source whose points shake at rest is low-passed first, as
+    `deik clip` does (cleanup/noise.py; report["noise"]). ValueError for a mistake in the inputs."""
     clip = with_helpers(frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames))
     check_clip_rests(clip)
-    cuts = find_cuts(clip, body_of(clip).span)
-    result = _retarget(cuts.stand_in(clip), to, scale, joint_map, up, velocity, progress)
-    return replace(result, report=result.report | {"cuts": cuts.record()})
+    body = body_of(clip)
+    cuts = find_cuts(clip, body.span)
+    stood = cuts.stand_in(clip)
+    quiet, noise = without_shake(stood, body if stood is clip else body_of(stood))[:2]
+    result = _retarget(quiet, to, scale, joint_map, up, velocity, progress)
+    return replace(result, report=result.report | {"cuts": cuts.record(), "noise": noise.record()})
 
 
 def _retarget(
