@@ -158,7 +158,10 @@ TRACKS = {
             "a clip fix of 39 frames x population 10000000 needs about",
         ),
         (["--contact-speed", "inf"], "argument --contact-speed: 'inf' is out of range"),
-        (["--contact-speed", "0"], "argument --contact-speed: '0' is out of range: give a finite number above 0"),
+        (
+            ["--contact-speed", "0"],
+            "argument --contact-speed: '0' is out of range: give a finite number above 0 to 1e+12",
+        ),
         (["--memory-limit", "inf"], "argument --memory-limit: 'inf' is out of range"),
         (["--contact", "LeftKnee-Hips@1-3"], "--contact 'LeftKnee-Hips@1-3' (a joint, an end site or a bone"),
         (["--contact", "LeftKnee@3-1"], "frames 3-1 are outside the clip or reversed; valid frames: 0..38"),

@@ -122,7 +122,7 @@ def test_a_clean_computes_the_clip_s_forward_kinematics_once(monkeypatch):
         ({"reach": "left_hand=0,1,0@30:40"}, "frames 30:40 are outside the clip"),
         ({"units": "furlong"}, "--units 'furlong'"),
         ({"plant_feet": 3}, "plant_feet takes a spec"),
-        ({"contact_speed": 0.0}, "--contact-speed 0.0: give a speed above 0"),  # nothing would rest
+        ({"contact_speed": 0.0}, "--contact-speed 0.0: give a finite number above 0"),  # nothing would rest
     ],
 )
 def test_options_that_do_not_fit_the_clip_raise_input_error(options, message):

@@ -1,6 +1,8 @@
 """Bad input a user can give: each case gets a clear error naming the problem and the fix,
 never a traceback, a silent guess or nonsense output."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -8,7 +10,7 @@ import deik
 from deik.cli import main
 from deik.errors import InputError
 from deik.io.urdf import read_urdf
-from helpers import robot_arm
+from helpers import MESH_ROBOT, robot_arm
 from judging.rigs import format_rig
 from judging.walk import procedural_walk
 
@@ -531,3 +533,80 @@ def test_a_scale_retarget_of_a_rig_without_legs_names_the_file(tmp_path, capsys)
     status, err = _cli(["retarget", path, "--scale", "Spine=2", "--out", tmp_path / "o.bvh", "--quiet"], capsys)
     assert status == 2 and err.startswith(f"deik: error: {path}: the root is above no joint or site at rest"), err
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_reach_tracks_giving_one_frame_two_targets_or_huge_numbers_are_refused(tmp_path, capsys):
+    """Two --reach tracks overlapping on a site were accepted (frames 2-3 had two targets), and
+    a fixed point of 1e300 printed a numpy overflow warning before its refusal."""
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(TOY_BVH)
+    out = tmp_path / "out.bvh"
+    status, err = _cli(
+        ["clip", clip, "--out", out, "--reach", "Arm_end=0,1,1@0:1", "--reach", "Arm_end=0,1.5,1@1:1"], capsys
+    )
+    assert status == 2 and err.count("\n") == 1 and "both give Arm_end a target in frame 1" in err, err
+    status, err = _cli(["clip", clip, "--out", out, "--reach", "Arm_end=1,1,1e300@0:1"], capsys)
+    assert status == 2 and err.count("\n") == 1 and "out of range: give numbers from -1e+12 to 1e+12" in err, err
+    assert not out.exists()
+
+
+def test_clean_options_are_checked_as_their_flags_are():
+    """CleanOptions took contact_height=-1 or inf silently, raised numpy's own error for 'x'
+    and Python's for balance='yes', clamped memory_limit=-5 to one byte, and called a dict of
+    limits a missing file."""
+    for fields, words in (
+        ({"contact_height": -1}, "--contact-height -1: give a finite number from 0"),
+        ({"contact_height": float("inf")}, "--contact-height inf"),
+        ({"contact_speed": float("inf")}, "--contact-speed inf"),
+        ({"contact_height": "x"}, "--contact-height 'x'"),
+        ({"balance": "yes"}, "balance: give True or False"),
+        ({"memory_limit": -5}, "--memory-limit -5: give a finite number above 0"),
+        ({"fidelity": 2}, "--fidelity 2: give a finite number from 0 to 1"),
+        ({"limits": {"Arm.Zrotation": [0, 1]}}, "limits: give the path of a limits table"),
+    ):
+        with pytest.raises(InputError, match=re.escape(words)):
+            deik.CleanOptions(**fields)
+    assert deik.CleanOptions(contact_height=np.float64(0.05), fidelity=1, balance=np.True_).balance
+
+
+def test_api_arguments_of_the_wrong_kind_are_named(tmp_path):
+    """read_urdf kept up=(0, 1) and a later balance goal failed on array shapes; retarget's
+    velocity, scale and frames and write_bvh's and range_of_motion's clip raised Python's own
+    errors (or accepted an unknown DOF)."""
+    from deik.io.limits import range_of_motion
+    from deik.retargeting.api import _check_velocity
+
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(TOY_BVH)
+    arm = tmp_path / "arm.urdf"
+    arm.write_text(MESH_ROBOT)
+    for up in ((0, 1), (0, 0, 0), "z", [[0], [0], [1]]):
+        with pytest.raises(InputError, match=r"up: give a direction of three finite numbers"):
+            deik.read_urdf(arm, up=up)
+    robot = deik.read_urdf(arm, up=(0, 0, 2))
+    assert np.allclose(robot.up, [0, 0, 1])
+    for velocity, words in (
+        ({"nope": 1.0}, "has no DOF 'nope'"),
+        ({robot.dof_names[0]: -1.0}, "must be a finite number above 0"),
+        ([1.0, 2.0], "give {DOF name: limit}"),
+    ):
+        with pytest.raises(InputError, match=re.escape(words)):
+            _check_velocity(velocity, robot)
+    with pytest.raises(InputError, match=r"scale: give \{joint: factor\}"):
+        deik.retarget(clip, scale="Arm=1.1")
+    with pytest.raises(InputError, match=r"frames: give \(start, stop\)"):
+        deik.retarget(clip, scale={"Arm": 1.1}, frames=(0, 2, 1))
+    with pytest.raises(TypeError, match="write_bvh writes a deik.Clip"):
+        deik.write_bvh(tmp_path / "x.bvh", deik.read_bvh(clip).skeleton)
+    with pytest.raises(TypeError, match="range_of_motion measures a deik.Clip"):
+        range_of_motion(str(clip), 10)
+
+
+def test_units_that_make_the_body_an_impossible_size_are_warned(tmp_path, capsys):
+    """`--units cm` on a clip in metres described a 2 cm person without a word."""
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(format_rig(procedural_walk().rig))
+    assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--units", "cm"]) == 0
+    assert "warning: --units cm: the body would span 0.0" in capsys.readouterr().err
+    assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--units", "m"]) == 0
+    assert "--units m: the body would span" not in capsys.readouterr().err

@@ -1,6 +1,7 @@
 """Joint limits tables: applied to a skeleton, read and written, measured from a clip, and used
 by `deik solve`, `deik clip` and problem files, with errors that name the file and the DOF."""
 
+import dataclasses
 import json
 import math
 
@@ -157,3 +158,83 @@ def test_problem_file_joint_limits_relative_to_the_file(tmp_path):
         ValueError, match="field 'joint_limits'.*missing.json: no such limits \\(JSON\\) file; check the path"
     ):
         load_problem(problem)
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("name", ["dance_a", "walk"])
+def test_a_table_measured_from_a_clip_holds_that_clip_in_clip_and_solve(tmp_path, capsys, name):
+    """`deik limits` measures the values as written; `deik clip` checked them after writing the
+    first frame's Euler triples nearest 0, so the shared dance (a shoulder at 46 degrees read as
+    its twin at 134) was refused by its own table; with --margin 0 the table, rounded to 6
+    decimals, cut a frame's own value off and `deik solve --frame` refused it."""
+    clip_path = shared_path("humanoid", f"humanoid3d_{name}.bvh")
+    for margin in ("10", "0"):
+        table = tmp_path / f"limits_{margin}.json"
+        assert main(["limits", str(clip_path), "--margin", margin, "--out", str(table)]) == 0
+        out = tmp_path / f"fixed_{margin}.bvh"
+        assert main(["clip", str(clip_path), "--limits", str(table), "--out", str(out), "--quiet"]) == 0, (
+            capsys.readouterr().err
+        )
+        clip = read_bvh(clip_path)
+        narrowed = with_limits(clip.skeleton, read_limits(table, clip.skeleton))
+        poses = clip.poses()
+        assert ((poses >= narrowed.lower) & (poses <= narrowed.upper)).all()  # outward rounding keeps every value
+        for frame in (0, clip.n_frames // 2, clip.n_frames - 1):
+            argv = ["solve", str(clip_path), "--frame", str(frame), "--limits", str(table), "--generations", "20"]
+            assert main([*argv, "--reach", "LeftElbow_end", "0.3", "1.0", "0.3", "--quiet"]) == 0, (
+                capsys.readouterr().err
+            )
+
+
+def _procedural_walk(tmp_path):
+    """The procedural walk (judging/walk.py) as a BVH file: (its path, the Clip)."""
+    from judging.rigs import format_rig
+    from judging.walk import procedural_walk
+
+    path = tmp_path / "walk.bvh"
+    path.write_text(format_rig(procedural_walk().rig))
+    return path, read_bvh(path)
+
+
+def test_a_frame_or_start_outside_the_limits_table_names_its_flag(tmp_path, capsys):
+    """The refusal named only "seed pose DOF ...", neither --frame nor --limits."""
+    clip_path, clip = _procedural_walk(tmp_path)
+    knee = clip.skeleton.dof_names.index("LeftKnee.Zrotation")
+    value = np.degrees(clip.poses()[5, knee])
+    table = tmp_path / "tight.json"
+    table.write_text(json.dumps({"LeftKnee.Zrotation": [value + 1, value + 2]}))
+    argv = [
+        "solve",
+        str(clip_path),
+        "--frame",
+        "5",
+        "--limits",
+        str(table),
+        "--reach",
+        "LeftAnkle_end",
+        "0.3",
+        "1",
+        "0.3",
+    ]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith(f"deik: error: --frame 5: LeftKnee.Zrotation = {value:.6g} lies outside --limits {table}"), (
+        err
+    )
+
+
+def test_the_first_frame_keeps_its_written_euler_values_where_its_twin_leaves_the_limits(tmp_path):
+    """canonical_frames writes a first frame's triple nearest 0, unless that twin lies outside
+    the skeleton's limits and the values as written do not."""
+    from deik.io.euler import canonical_frames
+
+    sk = _procedural_walk(tmp_path)[1].skeleton
+    chest = [d for d, n in enumerate(sk.dof_names) if n.startswith("Chest.") and "rotation" in n]
+    frames = np.zeros((3, sk.n_dofs))
+    frames[:, chest] = np.radians([170.0, 40.0, 170.0])  # its twin (-10, 140, -10) lies nearer 0
+    free = canonical_frames(sk, frames)
+    assert np.allclose(np.degrees(free[0, chest]), [-10.0, 140.0, -10.0])
+    lower, upper = sk.lower.copy(), sk.upper.copy()
+    lower[chest], upper[chest] = np.radians([150.0, 30.0, 150.0]), np.radians([180.0, 50.0, 180.0])
+    limited = canonical_frames(dataclasses.replace(sk, lower=lower, upper=upper), frames)
+    assert np.allclose(limited, frames)

@@ -88,3 +88,19 @@ def test_a_clip_report_marks_contacts_and_reach_over_their_frames(tmp_path, shar
     bad = {**document, "contacts": {"sites": [{"site": "x", "contacts": [{"first_frame": 30, "last_frame": 50}]}]}}
     with pytest.raises(ValueError, match="must list each site with its contacts"):
         with_clip_report(scene, bad, report)
+
+
+def test_a_clip_without_frames_shows_its_skeleton_at_rest(tmp_path):
+    """`deik view` of a BVH with Frames: 0 (a valid file) stopped with an internal error."""
+    from deik.viz.view import view_scene
+
+    path = tmp_path / "still.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  JOINT Arm\n  {\n"
+        "    OFFSET 0 1 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 1 0\n"
+        "    }\n  }\n}\nMOTION\nFrames: 0\nFrame Time: 0.033333\n"
+    )
+    scene = view_scene(str(path))
+    assert scene.n_steps == 1 and any("no frames" in note for note in scene.notes)
+    rest = figure_from_poses(deik.read_bvh(path).skeleton, np.zeros(6))
+    assert np.allclose(scene.figure.positions, rest.positions)

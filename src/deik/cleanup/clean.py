@@ -14,8 +14,11 @@ outcome (cleanup/document.py); clean_clip does both.
 from __future__ import annotations
 
 import logging
+import math
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from numbers import Real
 
 import numpy as np
 
@@ -50,6 +53,17 @@ def _texts(value, name: str) -> tuple[str, ...]:
     if not isinstance(value, Sequence) or not all(isinstance(item, str) for item in value):
         raise InputError(f"{name} takes a spec (text) or a list of specs, got {value!r}")
     return tuple(value)
+
+
+NUMBERS = (  # (field, low, high, above low only) of CleanOptions' numbers, the ranges of their flags
+    ("contact_height", 0.0, math.inf, False),
+    ("contact_speed", 0.0, math.inf, True),  # at 0 nothing rests, so nothing is planted
+    ("self_collision", 0.0, math.inf, False),
+    ("fidelity", 0.0, 1.0, False),
+    ("coherence", 0.0, 1.0, False),
+    ("time_limit", 0.0, math.inf, True),
+    ("memory_limit", 0.0, math.inf, True),
+)
 
 
 @dataclass(frozen=True)
@@ -101,11 +115,21 @@ class CleanOptions:
         for name in ("plant_feet", "contact", "reach"):
             object.__setattr__(self, name, _texts(getattr(self, name), name))
         if self.limits is not None:
+            if not isinstance(self.limits, (str, os.PathLike)):
+                raise InputError(f"limits: give the path of a limits table (JSON), got a {type(self.limits).__name__}")
             object.__setattr__(self, "limits", str(self.limits))
         if self.units is not None and self.units not in METRES:
             raise InputError(f"--units {self.units!r}: use one of {', '.join(sorted(METRES))}")
-        if self.contact_speed is not None and not self.contact_speed > 0:  # at 0 nothing rests, so nothing is planted
-            raise InputError(f"--contact-speed {self.contact_speed!r}: give a speed above 0 (length units/s)")
+        if not isinstance(self.balance, (bool, np.bool_)):
+            raise InputError(f"balance: give True or False, got {self.balance!r:.40}")
+        for name, low, high, above in NUMBERS:  # as the flags check them
+            value = getattr(self, name)
+            if value is None and name not in ("fidelity", "coherence"):
+                continue
+            inside = isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)
+            if not (inside and (value > low if above else value >= low) and value <= high):
+                shown = f"{'above' if above else 'from'} {low:g}" + (f" to {high:g}" if high < math.inf else "")
+                raise InputError(f"--{name.replace('_', '-')} {value!r:.40}: give a finite number {shown}")
 
     def settings(self) -> dict:
         """The DE settings given (SETTINGS), for fix_clip: memory_limit in bytes."""
@@ -247,10 +271,10 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     if not isinstance(options, CleanOptions):
         raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
     clip = read_clip(clip)
+    if options.limits:  # checked on the values as written, as `deik limits` measures them
+        clip = _within_limits(clip, options.limits)
     clip = replace(clip, frames=canonical_frames(clip.skeleton, clip.frames))  # turns and Euler twins are no motion
     clip = with_helpers(clip)
-    if options.limits:
-        clip = _within_limits(clip, options.limits)
     captured, body = clip, body_of(clip)
     cuts = find_cuts(clip, body.span)
     clip = cuts.stand_in(clip)
@@ -265,6 +289,11 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     contacts = all_contacts(motion, body, (options.plant_feet, options.contact), floor.height, thresholds, paths)
     reach = reaches(clip, options.reach)
     unit = options.units or unit_of_span(body.span)
+    if options.units and not 0.1 <= body.span * METRES[unit] <= 50.0:  # no body a clip is made of is that size
+        log.warning(
+            f"--units {unit}: the body would span {body.span * METRES[unit]:.3g} m from end to end; "
+            f"its size says {unit_of_span(body.span)}"
+        )
     goals = ClipGoals(
         contacts,
         reach,

@@ -166,11 +166,17 @@ def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Path
 
 def reaches(clip: Motion, specs: Sequence[str]) -> tuple[Reach, ...]:
     """The reach tracks of `specs` (SITE=TRACK) over `clip`'s frames."""
-    out = []
+    out, given = [], {}
     for spec in specs:
         site, mask, targets = parse_reach_spec(spec, clip.n_frames)
         check_site(clip, site, f"--reach {spec!r}")
         check_reachable(clip.skeleton, targets[mask], clip.skeleton.frame_index(site), f"--reach {spec!r}")
+        if site in given and (both := np.flatnonzero(given[site][1] & mask)).size:
+            raise InputError(
+                f"--reach {spec!r} and --reach {given[site][0]!r} both give {site} a target in frame {both[0]} "
+                f"({both.size} frames in all): give each frame one target"
+            )
+        given[site] = (spec, mask | given.get(site, ("", np.zeros_like(mask)))[1])
         out.append(Reach(site, mask, targets))
     return tuple(out)
 

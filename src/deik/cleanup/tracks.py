@@ -21,7 +21,7 @@ import numpy as np
 
 from deik.errors import FileFormatError, InputError
 from deik.io.bvh.hierarchy import number
-from deik.io.files import FilePath, integer_value, number_value, parse_csv, parse_json, read_input_text
+from deik.io.files import MAX_NUMBER, FilePath, integer_value, number_value, parse_csv, parse_json, read_input_text
 
 COLUMNS = ("frame", "x", "y", "z")
 SPEC_FORMS = (
@@ -169,6 +169,8 @@ def _fixed_point(spec: str, value: str, n_frames: int) -> tuple[np.ndarray, np.n
             f"numbers and not a .csv or .json track; the accepted forms are "
             f"{SPEC_FORMS}"
         )
+    if max(map(abs, point)) > MAX_NUMBER:
+        raise InputError(f"reach {spec!r}: {point_text!r} is out of range: give numbers from -1e+12 to 1e+12")
     first, last = 0, n_frames - 1
     if at:
         match = FRAME_RANGE.fullmatch(span)

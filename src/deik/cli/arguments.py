@@ -26,7 +26,7 @@ MAX_MAGNITUDE = 1e12  # of a number on the command line: larger is a typo (squar
 def number(low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE, above: bool = False) -> Callable[[str], float]:
     """An argparse `type` for a flag's number: finite, within [low, high] (above `low` when
     `above`), else one line naming the flag (argparse adds it) and the range."""
-    shown = f"{'above' if above else 'from'} {low:g}" + (f" to {high:g}" if high < MAX_MAGNITUDE else "")
+    shown = f"{'above' if above else 'from'} {low:g} to {high:g}"
 
     def parse(text: str) -> float:
         try:

@@ -192,12 +192,30 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
         raise UsageError("--frame only applies to a BVH clip")
     if args.start:
         frame_pose = _start_pose(args.start, loaded.skeleton)
+    if frame_pose is not None:
+        _within_limits(frame_pose, loaded.skeleton, "--start" if args.start else f"--frame {args.frame}", args.limits)
     if not has_goals(args):
         raise UsageError("no goals: add e.g. --reach FRAME X Y Z (see `deik solve --help`)")
     _check_cut(args, loaded, spec)
     unit = length_unit(loaded.skeleton, loaded.kind)[0]
     problem = Problem(loaded.skeleton, goals_from_flags(args, frame_pose, unit))
     return ProblemFile(problem, _settings(args), loaded, args.frame, frame_pose)
+
+
+def _within_limits(pose: np.ndarray, skeleton, flag: str, table: str | None) -> None:
+    """UsageError naming `flag` when the pose (D,) it gave lies outside the skeleton's limits
+    (narrowed by the --limits `table`, if any), in degrees for a rotation."""
+    pose = skeleton.wrapped(pose)
+    outside = np.flatnonzero((pose < skeleton.lower - 1e-9) | (pose > skeleton.upper + 1e-9))
+    if outside.size:
+        d = outside[0]
+        scale = np.degrees(1.0) if skeleton.dof_kind[d] == ROTATE else 1.0
+        where = f"--limits {table}" if table else "the skeleton's limits"
+        raise UsageError(
+            f"{flag}: {skeleton.dof_names[d]} = {pose[d] * scale:.6g} lies outside {where} "
+            f"[{skeleton.lower[d] * scale:.6g}, {skeleton.upper[d] * scale:.6g}]; "
+            + ("widen the table, or measure it with `deik limits`" if table else "give a pose within them")
+        )
 
 
 def _check_cut(args, loaded, spec: str) -> None:

@@ -24,6 +24,7 @@ from deik.model.skeleton import Skeleton
 
 TWO_PI = 2.0 * math.pi
 AXIS_TOLERANCE = 1e-9
+LIMIT_SLACK = 1e-9  # radians: a value this far past a limit is on it
 LOCK = 1e-9  # |cos b| below which a triple is at gimbal lock: trading a and c moves no point by more
 
 
@@ -85,14 +86,21 @@ def _rotation_groups(sk: Skeleton) -> tuple[np.ndarray, np.ndarray]:
 
 def canonical_frames(sk: Skeleton, frames: np.ndarray) -> np.ndarray:
     """`frames` (N, D) written one way whatever whole turns or Euler twins a file used: the first
-    frame's rotations nearest 0 (each triple or its twin, by whole turns), every later frame
-    nearest the one before it (continuous_frames); no rotation changes."""
+    frame's rotations nearest 0 (each triple or its twin, by whole turns) where that lies within
+    `sk`'s limits or the values as written do not, every later frame nearest the one before it
+    (continuous_frames); no rotation changes. A table of limits measured from the file's own
+    values (`deik limits`) thus still holds its first frame."""
     out = np.array(frames, dtype=np.float64)
     if not len(out):
         return out
     triples, single = _rotation_groups(sk)
+    first = out[0].copy()
     out[0, single] = nearest_turn(out[0, single], 0.0)
     out[0, triples] = _nearest_triple(out[0, triples], np.zeros(triples.shape))
+    written, chosen = ((pose >= sk.lower - LIMIT_SLACK) & (pose <= sk.upper + LIMIT_SLACK) for pose in (first, out[0]))
+    kept = written & ~chosen
+    kept[triples] = written[triples].all(axis=1, keepdims=True) & ~chosen[triples].all(axis=1, keepdims=True)
+    out[0, kept] = first[kept]
     rotation = sk.dof_kind == ROTATE
     steps = np.abs(np.diff(out[:, rotation], axis=0))
     if (steps < 0.25 * math.pi).all() and not (np.abs(np.cos(out[:, triples[:, 1]])) < LOCK).any():

@@ -111,6 +111,8 @@ def range_of_motion(
     not a range of motion: they are left out unless `margin_length` (length units) is given,
     as pinning them to the capture's exact range would leave a fix no room to lift or shift
     the body."""
+    if not isinstance(clip, Clip):
+        raise TypeError(f"range_of_motion measures a deik.Clip (deik.read_bvh(path)), got {type(clip).__name__}")
     given = 0.0 if margin_length is None else margin_length
     if not (math.isfinite(margin_degrees) and margin_degrees >= 0 and math.isfinite(given) and given >= 0):
         raise InputError(f"margins must be finite and >= 0, got {margin_degrees} degrees, {margin_length}")
@@ -146,9 +148,11 @@ def clip_within(clip: Clip, skeleton: Skeleton, source: str) -> Clip:
 
 
 def write_limits(path: FilePath, skeleton: Skeleton, limits: dict[str, tuple[float, float]]) -> None:
-    """Write `limits` (radians / length units) as a table (degrees for rotations), atomically."""
+    """Write `limits` (radians / length units) as a table (degrees for rotations, to 6 decimals
+    rounded outward, so that the values they were measured from stay inside), atomically."""
     table = {}
     for name, (low, high) in limits.items():
         rotation = skeleton.dof_kind[skeleton.dof_names.index(name)] == ROTATE
-        table[name] = [round(math.degrees(low), 6), round(math.degrees(high), 6)] if rotation else [low, high]
+        degrees = (math.floor(math.degrees(low) * 1e6) / 1e6, math.ceil(math.degrees(high) * 1e6) / 1e6)
+        table[name] = list(degrees) if rotation else [low, high]
     write_json_atomically(Path(path), table)

@@ -11,7 +11,22 @@ import math
 
 import numpy as np
 
+from deik.errors import InputError
+
 STRAIGHT = 1e-12  # radians: points that turn less than this are collinear (as rounding leaves them)
+
+
+def unit_up(up: object) -> np.ndarray:
+    """(3,) the unit direction of `up` (three finite numbers of any length but 0); InputError
+    naming `up` otherwise."""
+    try:
+        vector = np.asarray(up, np.float64)
+    except (TypeError, ValueError):
+        vector = np.full(1, np.nan)
+    length = float(np.linalg.norm(vector)) if vector.shape == (3,) and np.isfinite(vector).all() else 0.0
+    if not 1e-9 < length < math.inf:
+        raise InputError(f"up: give a direction of three finite numbers, not all 0 (e.g. (0, 0, 1)), got {up!r:.60}")
+    return vector / length
 
 
 def ground_frame(up: np.ndarray) -> np.ndarray:

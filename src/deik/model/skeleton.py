@@ -188,8 +188,8 @@ class Skeleton:
             _fail("site_rotation must be (S, 3, 3)")
         for k in _improper(self.site_rotation)[:1]:
             _fail(f"site {self.site_names[k]!r} rotation is not a proper rotation matrix")
-        if not np.isfinite(self.up).all() or abs(np.linalg.norm(self.up) - 1.0) > 1e-6:
-            _fail(f"up must be a unit vector, got {self.up}")
+        if self.up.shape != (3,) or not np.isfinite(self.up).all() or abs(np.linalg.norm(self.up) - 1.0) > 1e-6:
+            _fail(f"up must be a unit vector of 3 numbers, got {self.up.tolist()}")
         if self.joint_rotation.shape != (J, 3, 3):
             _fail(f"joint_rotation must be ({J}, 3, 3)")
         for k in _improper(self.joint_rotation)[:1]:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import replace
+from numbers import Real
 
 from numpy.typing import ArrayLike
 
@@ -25,6 +28,7 @@ from deik.retargeting.outcome import Progress, Retarget, frame_range
 from deik.retargeting.proportions import check_same_rig, retarget_proportions
 from deik.retargeting.rig import retarget_rig
 from deik.retargeting.skeletons import scaled_bones
+from deik.suggest import did_you_mean
 
 
 def _target(to, up) -> tuple[Skeleton, Clip | None]:
@@ -35,6 +39,19 @@ def _target(to, up) -> tuple[Skeleton, Clip | None]:
         return to.skeleton, to
     loaded = load_skeleton(str(to), up=up if str(to).lower().endswith(".urdf") else None)
     return loaded.skeleton, loaded.clip
+
+
+def _check_velocity(velocity: object, target: Skeleton) -> None:
+    """InputError unless `velocity` maps DOF names of `target` to limits above 0."""
+    if not isinstance(velocity, Mapping):
+        raise InputError(f"velocity: give {{DOF name: limit}}, got {velocity!r:.60}")
+    for name, limit in velocity.items():
+        if name not in target.dof_names:
+            raise InputError(
+                f"velocity: {target.name!r} has no DOF {name!r}{did_you_mean(str(name), target.dof_names)}"
+            )
+        if isinstance(limit, bool) or not isinstance(limit, Real) or not 0 < limit < math.inf:
+            raise InputError(f"velocity: the limit of {name!r} must be a finite number above 0, got {limit!r:.40}")
 
 
 def _bvh_clip(result: Retarget, target_clip: Clip | None) -> Clip:
@@ -104,6 +121,8 @@ def _retarget(
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
+            if not isinstance(scale, Mapping):
+                raise InputError(f"scale: give {{joint: factor}}, e.g. {{'LeftHip': 1.1}}, got {scale!r:.60}")
             return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
         target = replace(_target(to, None)[0], up=clip.skeleton.up)  # the same rig: the source's up
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
@@ -115,6 +134,8 @@ def _retarget(
     hinges = None if target_clip is None else hinge_channels(target_clip)
     if velocity is None and not isinstance(to, (Skeleton, Clip)) and str(to).lower().endswith(".urdf"):
         velocity = read_velocity_limits(to)
+    elif velocity is not None:
+        _check_velocity(velocity, target)
     result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, progress=progress)
     return Retarget(
         result.motion,

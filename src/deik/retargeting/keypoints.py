@@ -43,7 +43,10 @@ def height_ratio(source: Skeleton, target: Skeleton, source_names: Sequence[str]
     the source's mapped frames span no height (map a head and a foot)."""
     spans = [np.ptp(rest_heights(sk, names)) for sk, names in ((source, source_names), (target, target_names))]
     if not spans[0] > 1e-9 * stature(source):
-        raise InputError("the mapped source points span no height at rest; map a head and a foot, or give scale")
+        raise InputError(
+            'the joint map\'s scale = "height": its source points span no height at rest; map a head and a foot, '
+            "or give scale a number"
+        )
     return float(spans[1] / spans[0])
 
 

@@ -38,7 +38,10 @@ def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
     ValueError naming the valid frames when the range is empty or leaves the clip."""
     if frames is None:
         return clip
-    start, stop = (operator.index(v) for v in frames)
+    try:
+        start, stop = (operator.index(v) for v in frames)
+    except (TypeError, ValueError):
+        raise InputError(f"frames: give (start, stop), two whole numbers, got {frames!r:.60}") from None
     if not 0 <= start < stop <= clip.n_frames:
         raise InputError(
             f"frames {start}:{stop} are empty or outside the clip; give START:STOP with "

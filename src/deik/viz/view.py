@@ -88,9 +88,12 @@ def _skeleton_scene(file: str, options: ViewOptions) -> tuple[Scene, object]:
         figure = figure_from_poses(skeleton, angles)
         title = f"{title} in {os.path.basename(options.pose)}"
         step = "problem" if pose.batched else "pose"
-    elif loaded.clip is not None:
+    elif loaded.clip is not None and loaded.clip.n_frames:
         figure = figure_from_poses(skeleton, loaded.clip.poses())
         step, step_time = "frame", loaded.clip.frame_time
+    elif loaded.clip is not None:  # a hierarchy without motion: its skeleton at rest
+        figure, step = figure_from_poses(skeleton, skeleton.reference), "pose"
+        notes.append("the clip has no frames (Frames: 0): its skeleton at rest")
     else:
         figure, step = figure_from_poses(skeleton, skeleton.reference), "pose"
         notes.append("the reference pose: --pose pose.json shows a solved one")

@@ -26,6 +26,7 @@ from deik.io.files import FilePath, open_input
 from deik.io.motion import CHANNELS, Clip, JointChannels
 from deik.io.segments import estimate_segments, read_segment_table
 from deik.model.build import build_skeleton
+from deik.model.geometry import unit_up
 from deik.model.joints import ROTATE, Joint, Site, euler, translation
 
 MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 3600.0  # seconds: a megahertz capture to one frame an hour
@@ -239,7 +240,7 @@ def _read(file: BinaryIO, size: int, source: str, options: tuple[FilePath | None
     """The Clip of the BVH in binary `file` of `size` bytes (see parse_bvh); `options`:
     (segments, free_translations, up)."""
     segments, free_translations, up = options
-    up = BVH_UP if up is None else up
+    up = BVH_UP if up is None else unit_up(up)
     lines, motion = _hierarchy(file, source)
     last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=None)
     if last is None and motion is None:

@@ -67,4 +67,6 @@ def format_bvh(clip: Clip) -> str:
 
 def write_bvh(path: FilePath, clip: Clip) -> None:
     """Write `clip` to `path` as BVH, atomically: `path` is the old file or the whole new one."""
+    if not isinstance(clip, Clip):
+        raise TypeError(f"write_bvh writes a deik.Clip (deik.read_bvh, a fix's .clip), got {type(clip).__name__}")
     write_text_atomically(path, format_bvh(clip))

@@ -27,6 +27,7 @@ from deik.io.urdf.elements import UrdfJoint, read_joint, read_link
 from deik.io.urdf.safe_xml import read_xml
 from deik.io.urdf.tree import LinkTree
 from deik.model.build import build_skeleton
+from deik.model.geometry import unit_up
 from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
 from deik.model.orientations import rpy_matrix
 from deik.model.skeleton import Skeleton
@@ -51,7 +52,7 @@ def read_urdf(
     """Skeleton of the robot in URDF file `path`: the sub-tree below link `base` (default: the
     root link), cut to the paths from `base` to `tip` (a link name or a list of them; default:
     every link below `base`). `up` (3,): world up for balance goals (URDF's convention is +Z)."""
-    source = str(path)
+    source, up = str(path), unit_up(up)
     root = read_xml(path)
     links = [read_link(element, source) for element in root.iterchildren("link")]
     joints = [read_joint(element, source) for element in root.iterchildren("joint")]
