@@ -610,3 +610,37 @@ def test_units_that_make_the_body_an_impossible_size_are_warned(tmp_path, capsys
     assert "warning: --units cm: the body would span 0.0" in capsys.readouterr().err
     assert main(["clip", str(clip), "--out", str(tmp_path / "o.bvh"), "--units", "m"]) == 0
     assert "--units m: the body would span" not in capsys.readouterr().err
+
+
+def test_goals_and_files_that_name_things_oddly_are_refused_with_the_reason(tmp_path, capsys):
+    """A support polygon of one string was read letter by letter and one listing a corner three
+    times was solved; euler "XXY" was taken; a .json track holding a string was read as CSV;
+    `deik solve` told a clip of 0 frames to choose a frame, and `deik clip --floor none` called
+    it a floor it could not detect; `experiments --doc` wrote a report into a .txt."""
+    from deik.cleanup.tracks import read_track
+    from deik.errors import FileFormatError
+
+    human = deik.humanoid()
+    with pytest.raises(InputError, match="give a list of frame names, not the one string 'right_heel'"):
+        deik.Problem(human, [deik.ComInPolygon("right_heel")])
+    with pytest.raises(InputError, match="lists 'right_heel' more than once"):
+        deik.Problem(human, [deik.ComInPolygon(("right_heel", "right_heel", "left_heel"))])
+    problem = tmp_path / "p.toml"
+    problem.write_text(
+        'skeleton = "humanoid"\n[[goal]]\ntype = "orientation"\nframe = "head"\neuler = "XXY"\ndegrees = [1, 2, 3]\n'
+    )
+    status, err = _cli(["solve", "--problem", problem], capsys)
+    assert status == 2 and "euler 'XXY' turns about one axis twice in a row" in err, err
+    track = tmp_path / "track.json"
+    track.write_text('"frame,x,y,z"')
+    with pytest.raises(FileFormatError) as caught:
+        read_track(track, 3)
+    assert "header" not in str(caught.value), caught.value
+    still = tmp_path / "still.bvh"
+    still.write_text(TOY_BVH.replace("Frames: 2", "Frames: 0").split("Frame Time")[0] + "Frame Time: 0.033333\n")
+    status, err = _cli(["solve", still, "--reach", "Arm_end", 0, 1, 1], capsys)
+    assert status == 2 and "has no frames (Frames: 0), so no pose to start from" in err, err
+    status, err = _cli(["clip", still, "--floor", "none", "--out", tmp_path / "o.bvh"], capsys)
+    assert status == 2 and err.endswith("the clip has no frames (Frames: 0) to fix; give one with motion\n"), err
+    status, err = _cli(["experiments", "all", "--quick", "--doc", tmp_path / "e.txt", "--out", tmp_path / "e"], capsys)
+    assert status == 2 and "give a PATH.md" in err and not (tmp_path / "e.txt").exists(), err

@@ -218,9 +218,8 @@ def test_a_frame_or_start_outside_the_limits_table_names_its_flag(tmp_path, caps
     ]
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
-    assert err.startswith(f"deik: error: --frame 5: LeftKnee.Zrotation = {value:.6g} lies outside --limits {table}"), (
-        err
-    )
+    said = f"deik: error: --frame 5: DOF 'LeftKnee.Zrotation' = {value:.4g} degrees lies outside --limits {table}"
+    assert err.startswith(said), err
 
 
 def test_the_first_frame_keeps_its_written_euler_values_where_its_twin_leaves_the_limits(tmp_path):

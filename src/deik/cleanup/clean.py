@@ -38,7 +38,7 @@ from deik.cleanup.up_axis import floor_it_rests_on
 from deik.errors import InputError
 from deik.io.euler import canonical_frames
 from deik.io.files import FilePath
-from deik.io.motion import Clip
+from deik.io.motion import Clip, message_prefix
 from deik.io.trajectory import Motion, Trajectory
 
 log = logging.getLogger(__name__)
@@ -271,6 +271,8 @@ def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> 
     if not isinstance(options, CleanOptions):
         raise TypeError(f"options must be a deik.CleanOptions, got {type(options).__name__}")
     clip = read_clip(clip)
+    if clip.n_frames == 0:
+        raise InputError(f"{message_prefix(clip)}the clip has no frames (Frames: 0) to fix; give one with motion")
     if options.limits:  # checked on the values as written, as `deik limits` measures them
         clip = _within_limits(clip, options.limits)
     clip = replace(clip, frames=canonical_frames(clip.skeleton, clip.frames))  # turns and Euler twins are no motion

@@ -129,7 +129,7 @@ def read_track(path: FilePath, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
     """
     source = str(path)
     text = read_input_text(path, "track")
-    if text.lstrip()[:1] in ("[", "{"):
+    if text.lstrip()[:1] in ("[", "{") or source.lower().endswith(".json"):
         values = _json_values(source, text)
     else:
         values = _csv_values(source, _csv_rows(source, text))

@@ -186,6 +186,10 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
     frame_pose = None
     if loaded.kind == "bvh":
         if args.frame is None:
+            if not loaded.clip.n_frames:
+                raise UsageError(
+                    f"{spec}: the clip has no frames (Frames: 0), so no pose to start from; give one with motion"
+                )
             raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
         frame_pose = _clip_pose(loaded.clip, args.frame)
     elif args.frame is not None:
@@ -209,11 +213,11 @@ def _within_limits(pose: np.ndarray, skeleton, flag: str, table: str | None) -> 
     outside = np.flatnonzero((pose < skeleton.lower - 1e-9) | (pose > skeleton.upper + 1e-9))
     if outside.size:
         d = outside[0]
-        scale = np.degrees(1.0) if skeleton.dof_kind[d] == ROTATE else 1.0
-        where = f"--limits {table}" if table else "the skeleton's limits"
+        scale, unit = (np.degrees(1.0), "degrees") if skeleton.dof_kind[d] == ROTATE else (1.0, "length units")
+        where = f"--limits {table}" if table else "its limits"
         raise UsageError(
-            f"{flag}: {skeleton.dof_names[d]} = {pose[d] * scale:.6g} lies outside {where} "
-            f"[{skeleton.lower[d] * scale:.6g}, {skeleton.upper[d] * scale:.6g}]; "
+            f"{flag}: DOF {skeleton.dof_names[d]!r} = {pose[d] * scale:.4g} {unit} lies outside {where} "
+            f"([{skeleton.lower[d] * scale:.4g}, {skeleton.upper[d] * scale:.4g}] {unit}); "
             + ("widen the table, or measure it with `deik limits`" if table else "give a pose within them")
         )
 

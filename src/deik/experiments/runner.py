@@ -93,6 +93,8 @@ def _check_paths(args, names: list[str]) -> None:
             raise UsageError("--doc needs all experiments (NAME all), so the document holds every figure")
         if os.path.isdir(args.doc) or not os.path.isdir(os.path.dirname(os.path.abspath(args.doc))):
             raise UsageError(f"--doc {args.doc!r} must be a file in an existing folder")
+        if not args.doc.lower().endswith(".md"):
+            raise UsageError(f"--doc {args.doc!r}: the report is Markdown; give a PATH.md")
 
 
 def report(sections: list[Section], command: str, total: float, quick: bool, load: str, image_prefix: str = "") -> str:

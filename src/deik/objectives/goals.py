@@ -245,7 +245,9 @@ class Aim(Goal):
         """The frame, the unit axis in columns 0-2, the target in columns 3-5."""
         axis = np.asarray(self.axis, float)
         if axis.shape != (3,) or not np.linalg.norm(axis) > 0:
-            raise InputError(f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {self.axis!r}")
+            raise InputError(
+                f"aim axis for {self.frame!r} must be non-zero (a 3-vector), got {np.asarray(self.axis).tolist()}"
+            )
         params = pack((axis / np.linalg.norm(axis))[None], vector(self.target, (3,), "aim target"))
         return self._row(AIM, params, ANGLE_TOLERANCE, frames=(skeleton.frame_index(self.frame),))
 
@@ -293,8 +295,13 @@ class ComInPolygon(Goal):
 
     def row(self, skeleton: Skeleton) -> TermRow:
         need_mass(skeleton, "com_in_polygon")
+        if isinstance(self.frames, str):
+            raise InputError(f"support polygon: give a list of frame names, not the one string {self.frames!r}")
         if not 1 <= len(self.frames) <= MAX_TERM_FRAMES:
             raise InputError(f"support polygon needs 1 to {MAX_TERM_FRAMES} frames, got {len(self.frames)}")
+        twice = sorted({f for f in self.frames if list(self.frames).count(f) > 1})
+        if twice:
+            raise InputError(f"support polygon lists {twice[0]!r} more than once: name each corner once")
         frames = tuple(skeleton.frame_index(f) for f in self.frames)
         return self._row(SUPPORT_POLYGON, NO_PARAMS, 0.0, frames=frames, scale=skeleton.reach)
 

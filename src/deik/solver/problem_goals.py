@@ -132,6 +132,10 @@ def _orientation_target(table: dict, where: str) -> tuple:
     order = table["euler"]
     if not (isinstance(order, str) and 1 <= len(order) <= 3 and set(order) <= set("XYZ")):
         raise InputError(f"{where}: field 'euler' must be 1 to 3 of the letters X, Y, Z such as \"XYZ\", got {order!r}")
+    if any(a == b for a, b in zip(order, order[1:])):
+        raise InputError(
+            f"{where}: euler {order!r} turns about one axis twice in a row; give each next letter another axis"
+        )
     degrees = vector_field(
         table["degrees"],
         (len(order),),
