@@ -195,3 +195,69 @@ def test_a_map_s_rotation_must_stand_the_source_on_the_target_s_up(tmp_path):
     ).report["summary"]
     assert upright["keypoint_error_mean_mm"] < 1.2 * plain["keypoint_error_mean_mm"]
     assert upright["penetration_max_mm"] <= 0.1 and upright["contact_sliding_max_mm_per_frame"] < 1.0
+
+
+def _rest_pose_laid(tmp_path, case):
+    """(`case` written as it is, written with its rest pose lying on its back: judging/cases.py's
+    laid, the same motion in the world)."""
+    from judging.cases import laid
+    from judging.rigs import format_rig
+
+    plain, lying = tmp_path / "plain.bvh", tmp_path / "laid.bvh"
+    plain.write_text(format_rig(case.rig))
+    lying.write_text(format_rig(laid(case).rig))
+    return plain, lying
+
+
+def test_a_rig_whose_rest_pose_lies_retargets_as_the_one_that_stands(tmp_path):
+    """Sizes were read from the rest pose with every channel 0: lying, the walk's legs measured
+    no height, so --scale LeftHip=1.15 kept the hips where they were (leg ratio 1.0, the feet
+    sliding 18-77 mm a frame on the shared clips); onto human.urdf the body came out 4.6 times
+    its size. The rest pose now stands up first (cleanup.body.rest_standing)."""
+    from judging.walk import procedural_walk
+
+    plain, lying = _rest_pose_laid(tmp_path, procedural_walk())
+    scale = {"LeftHip": 1.15, "RightHip": 1.15}
+    results = [deik.retarget(path, scale=scale) for path in (plain, lying)]
+    assert results[0].report["summary"]["leg_ratio"] == pytest.approx(1.15, rel=0.02)
+    assert results[1].report["summary"]["leg_ratio"] == pytest.approx(results[0].report["summary"]["leg_ratio"])
+    worlds = [deik.forward_kinematics(r.clip.skeleton, r.clip.poses()).p_world_frame for r in results]
+    assert np.abs(worlds[1] - worlds[0]).max() < 1e-3 * results[0].clip.skeleton.reach
+
+
+@pytest.mark.shared_data
+def test_a_lying_rig_onto_a_robot_keeps_the_standing_rig_s_scale(tmp_path):
+    from judging.cases import source_case
+
+    plain, lying = _rest_pose_laid(tmp_path, source_case(shared_path("humanoid", "humanoid3d_walk.bvh")))
+    robot, joint_map = shared_path("robots", "human.urdf"), ROOT / "examples/maps/shared_bvh_to_human_urdf.toml"
+    results = [deik.retarget(path, robot, joint_map=joint_map, frames=(0, 20)) for path in (plain, lying)]
+    scales = [r.report["summary"]["body_scale"] for r in results]
+    assert scales[1] == pytest.approx(scales[0], rel=1e-6) and 1.0 < scales[0] < 1.2
+    assert np.abs(results[1].motion.frames - results[0].motion.frames).max() < 0.02
+
+
+def test_scaling_a_rig_rooted_on_the_floor_raises_its_hips_and_keeps_its_feet_on_the_floor(tmp_path):
+    """Another studio's rig (benchmarks/retarget_quality.py: a Reference root on the floor, the
+    hips below it with six channels, centimetres): the leg ratio was read from the Reference's
+    height (4.9 on the shared walk, and the shared jump refused as having no legs) and only the
+    Reference's path was scaled, so the hips stayed low and the feet went 322 mm through the floor.
+    Now the hips (model.capsules.body_root) give the ratio and follow the scaled path."""
+    from benchmarks import retarget_quality as quality
+    from judging.retargets import read_bvh_file, write_bvh_file
+    from judging.rigs import format_rig
+    from judging.walk import procedural_walk
+
+    plain, studio = tmp_path / "walk.bvh", tmp_path / "studio.bvh"
+    plain.write_text(format_rig(procedural_walk().rig))
+    write_bvh_file(studio, quality.source_case(read_bvh_file(plain), "studio"))
+    result = deik.retarget(studio, scale={"thigh_l": 1.15, "thigh_r": 1.15})
+    assert result.report["summary"]["leg_ratio"] == pytest.approx(1.15, rel=0.02)
+    source = deik.read_bvh(studio)
+    before, after = (deik.forward_kinematics(c.skeleton, c.poses()).p_world_frame for c in (source, result.clip))
+    up, hips = source.skeleton.up, source.skeleton.frame_index("pelvis")
+    floor = result.report["floor"]["height"]
+    ratio = (after[:, hips] @ up - floor) / (before[:, hips] @ up - floor)
+    assert np.median(ratio) == pytest.approx(1.15, abs=0.02)
+    feet = [source.skeleton.frame_index(n) for n in source.skeleton.frame_names if n.startswith("foot")]
+    assert (after[:, feet] @ up).min() >= floor - 0.1  # centimetres: 1 mm

@@ -250,6 +250,16 @@ def rest_stands_along(clip: Motion) -> np.ndarray | None:
     return turn.T @ sk.up
 
 
+def rest_standing(skeleton: Skeleton) -> Kinematics:
+    """The kinematics of `skeleton` at rest (every DOF 0), turned to stand along its up when the
+    rest pose stands on two feet along another axis (rest_stands_along: a rig exported lying);
+    as it is otherwise (a robot arm, a rest pose that stands)."""
+    zero = np.zeros((1, skeleton.n_dofs))
+    at_rest = forward_kinematics(skeleton, zero[0])
+    along = rest_stands_along(Trajectory(skeleton, zero, 1.0))
+    return at_rest if along is None or along @ skeleton.up > 1 - 1e-9 else _stood_on(at_rest, along)
+
+
 def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, Kinematics]:
     """(pose (D,), its kinematics) of the standing pose of the module notes."""
     sk = clip.skeleton

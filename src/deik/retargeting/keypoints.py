@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from deik.cleanup.body import rest_standing
 from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
@@ -22,8 +23,9 @@ from deik.model.skeleton import Skeleton
 
 
 def rest_heights(skeleton: Skeleton, names: Sequence[str]) -> np.ndarray:
-    """(K,) heights along skeleton.up of the frames `names` at rest (every DOF 0)."""
-    kin = forward_kinematics(skeleton, np.zeros(skeleton.n_dofs))
+    """(K,) heights along skeleton.up of the frames `names` at rest (every DOF 0, stood up:
+    cleanup.body.rest_standing)."""
+    kin = rest_standing(skeleton)
     return np.array([kin.position(name) @ skeleton.up for name in names])
 
 
@@ -32,7 +34,7 @@ def stature(skeleton: Skeleton) -> float:
     every threshold of a retarget is a fraction of (a rig with position channels on every joint
     has DOF limits, and so a reach, far wider than its body). The span in any direction for a
     rig with no height at rest."""
-    p = forward_kinematics(skeleton, np.zeros(skeleton.n_dofs)).p_world_frame
+    p = rest_standing(skeleton).p_world_frame
     height = float(np.ptp(p @ skeleton.up))
     return height if height > 0 else float(np.linalg.norm(np.ptp(p, axis=0)))
 
@@ -96,7 +98,7 @@ def limb_scales(
     """(root scale, (K,) limb scales) at rest: the root key point's height above the skeleton's
     lowest joint or site, and each point's distance from its parent point (limb_tree), target over
     source (a point within 1 % of the source's stature of its parent takes `fallback`)."""
-    rest = [forward_kinematics(sk, np.zeros(sk.n_dofs)).p_world_frame for sk in (source, target)]
+    rest = [rest_standing(sk).p_world_frame for sk in (source, target)]
     P, Q = (
         X[[sk.frame_index(n) for n in names]]
         for X, sk, names in zip(rest, (source, target), (source_names, target_names))
@@ -154,8 +156,8 @@ def mapped_rotations(
     the module notes)."""
     sk = source_clip.skeleton
     R_s = forward_kinematics(sk, source_clip.poses()).rotation(source_name)
-    R_s_rest = forward_kinematics(sk, np.zeros(sk.n_dofs)).rotation(source_name)
-    R_t_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(target_name)
+    R_s_rest = rest_standing(sk).rotation(source_name)
+    R_t_rest = rest_standing(target).rotation(target_name)
     return rotation @ R_s @ R_s_rest.T @ rotation.T @ R_t_rest
 
 

@@ -25,7 +25,7 @@ from deik.cleanup.coherence import hinge_channels
 from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
 from deik.io.motion import Clip, message_prefix
-from deik.model.capsules import on_joints
+from deik.model.capsules import body_root, on_joints
 from deik.model.joints import TRANSLATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -49,9 +49,10 @@ def check_same_rig(source: Skeleton, target: Skeleton, target_name: str) -> None
 
 
 def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str], prefix: str = "") -> float:
-    """Target over source height of the root above the lowest of `sites` (joints or sites) at
-    rest; `prefix` begins an error (the source file and a colon)."""
-    heights = [rest_heights(sk, (sk.joint_names[0], *sites)) for sk in (source, target)]
+    """Target over source height of the body root (the hips, under any Reference joint)
+    above the lowest of `sites` (joints or sites) at rest; `prefix` begins an error (the source
+    file and a colon)."""
+    heights = [rest_heights(sk, (sk.joint_names[body_root(sk)], *sites)) for sk in (source, target)]
     legs = [h[0] - h[1:].min() for h in heights]
     if not legs[0] > 0:
         raise InputError(f"{prefix}the root is above no joint or site at rest: no leg length to scale by")
@@ -60,21 +61,40 @@ def leg_ratio(source: Skeleton, target: Skeleton, sites: Sequence[str], prefix: 
 
 def scaled_root(clip: Clip, target: Skeleton, ground: float, ratio: float) -> np.ndarray:
     """(N, D) the clip's frames with the root's three translations (which must come first, along
-    three different axes in any order) moved so that the target's root follows the source's
-    path scaled by `ratio` about the floor point below its first position."""
+    three different axes in any order) moved so that the target's body root (model.capsules.
+    body_root: the hips, under any Reference joint on the floor) follows the source's path
+    scaled by `ratio` about the floor point below its first position. A body root with three
+    translations of its own follows it by those, the root then moving its ground track only:
+    the hips rise with longer legs while a Reference stays on the floor."""
     sk = clip.skeleton
-    start = sk.joint_dof_start[0]
-    kinds, axes = sk.dof_kind[start : start + 3], sk.dof_axis[start : start + 3]
-    if len(kinds) < 3 or (kinds != TRANSLATE).any() or not np.allclose(axes @ axes.T, np.eye(3)):
+    if not _translates(sk, 0):
         raise InputError(
             f"{message_prefix(clip)}the root {sk.joint_names[0]!r} needs three position channels first to be scaled"
         )
-    root = forward_kinematics(sk, clip.poses()).p_world_frame[:, 0]
+    body = body_root(sk)
+    movers = [0, body] if body and _translates(sk, body) else [0]
     origin = floor_origin(sk, clip.pose(0), ground)
-    wanted = origin + ratio * (root - origin)
+    source = forward_kinematics(sk, clip.poses()).p_world_frame
     frames = clip.frames.copy()
-    frames[:, start : start + 3] = (wanted - target.offsets[0]) @ target.joint_rotation[0] @ axes.T
+    for joint in movers:
+        followed = joint if len(movers) == 2 else body
+        wanted = origin + ratio * (source[:, followed] - origin)
+        if len(movers) == 2 and joint == 0:  # a carrier under the body: along the ground only
+            wanted -= ((wanted - source[:, joint]) @ sk.up)[:, None] * sk.up
+        now = forward_kinematics(target, frames)
+        parent = sk.parents[joint]
+        R_parent = now.R_world_frame[:, parent] if parent >= 0 else np.broadcast_to(np.eye(3), (len(frames), 3, 3))
+        move = np.einsum("nji,nj->ni", R_parent, wanted - now.p_world_frame[:, followed])
+        start = sk.joint_dof_start[joint]
+        frames[:, start : start + 3] += move @ target.joint_rotation[joint] @ sk.dof_axis[start : start + 3].T
     return frames
+
+
+def _translates(skeleton: Skeleton, joint: int) -> bool:
+    """Whether `joint`'s first three DOFs translate along three perpendicular axes."""
+    start, stop = skeleton.joint_dof_start[joint], skeleton.joint_dof_start[joint + 1]
+    kinds, axes = skeleton.dof_kind[start : min(start + 3, stop)], skeleton.dof_axis[start : min(start + 3, stop)]
+    return len(kinds) == 3 and (kinds == TRANSLATE).all() and np.allclose(axes @ axes.T, np.eye(3))
 
 
 def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:

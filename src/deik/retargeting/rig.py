@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 
+from deik.cleanup.body import rest_standing
 from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
 from deik.io.motion import Clip
@@ -61,7 +62,7 @@ def _prepared(target: Skeleton, joint_map: JointMap, targets: np.ndarray) -> Ske
     sites = [(p.site, p.target, p.offset) for p in joint_map.points if any(p.offset)]
     if joint_map.torso:
         arm = TORSO_ARM * target.reach
-        R_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(joint_map.torso[1])
+        R_rest = rest_standing(target).rotation(joint_map.torso[1])
         sites += [(name, joint_map.torso[1], R_rest[k] * arm) for k, name in enumerate(TORSO_SITES)]
     target = with_sites(target, sites)
     box = targets.reshape(-1, 3)
@@ -99,7 +100,7 @@ def _torso_targets(target: Skeleton, poses: np.ndarray, torso: str, R_torso: np.
     """(n, 2, 3) where the torso's two orientation points belong at orientations `R_torso`
     (n, 3, 3), measured from the torso's origin at `poses` (n, D)."""
     origin = forward_kinematics(target, poses).position(torso)
-    R_rest = forward_kinematics(target, np.zeros(target.n_dofs)).rotation(torso)
+    R_rest = rest_standing(target).rotation(torso)
     turned = R_torso @ R_rest.T  # the turn from rest: its first two columns carry the points
     return origin[:, None] + TORSO_ARM * target.reach * np.swapaxes(turned[:, :, :2], 1, 2)
 
