@@ -161,6 +161,6 @@ def settle(settling: Settling) -> tuple[Trajectory, Contacts | None, dict]:
 
 
 FLOOR_FOUND = (
-    "where the source rests: the median height of its lowest point over the frames that point is slow in "
+    "where the source rests: the lower quartile of its lowest point's heights over the frames that point is slow in "
     "(deik.retargeting.resting.rest_floor), carried into the target's world"
 )
