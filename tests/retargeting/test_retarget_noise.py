@@ -12,24 +12,39 @@ from judging.rigs import format_rig
 from judging.walk import procedural_walk
 
 
-def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp_path, capsys):
-    """The procedural walk at 120 fps with 0.2 degrees of noise on every channel, 1 mm on the
-    root and 12 mm under the floor, onto longer legs: kept as captured, its resting feet slid
-    21 mm a frame and a point's top speed was 1.57x its scaled source's; low-passed first, the
-    summary says so and they slide under 5 mm with no point faster than 1.1x."""
-    case = noisy(procedural_walk(fps=120.0))
-    source, truth = tmp_path / "shaking.bvh", tmp_path / "truth.bvh"
-    source.write_text(format_rig(case.rig))
-    truth.write_text(format_rig(case.truth))
-    out, report = tmp_path / "out.bvh", tmp_path / "out.json"
+def _retargeted(source, folder, argv_extra=()):
+    """(the --json report, the judge's figures against the walk without noise) of `deik retarget
+    source --scale LeftHip=1.1,RightHip=1.1`."""
+    out, report = folder / "out.bvh", folder / "out.json"
     argv = ["retarget", str(source), "--scale", "LeftHip=1.1,RightHip=1.1", "--out", str(out), "--json", str(report)]
-    assert main(argv) == 0
-    assert "capture noise 0.00256 m at rest: low-passed by Gaussians of up to 22 ms" in capsys.readouterr().out
+    assert main([*argv, *argv_extra]) == 0
     written = json.loads(report.read_text())
+    clean = read_bvh_file(folder / "truth.bvh")
+    pairing = rig_pairing(clean, read_bvh_file(out), written["floor"]["height"])
+    return written, judge(clean, pairing, ["LeftElbow_end"], 1000.0)
+
+
+def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp_path, capsys, monkeypatch):
+    """The procedural walk at 120 fps with 0.2 degrees of noise on every channel, 1 mm on the
+    root and 12 mm under the floor, onto longer legs: kept as captured (the low-pass turned off
+    here), its resting feet slide over 15 mm a frame and a point's top speed is over 1.4x its
+    scaled source's; low-passed first, the summary says so and they slide under 5 mm with no
+    point faster than 1.1x."""
+    import deik.cleanup.clean as clean_module
+    from deik.cleanup.noise import Noise
+
+    case = noisy(procedural_walk(fps=120.0))
+    source = tmp_path / "shaking.bvh"
+    source.write_text(format_rig(case.rig))
+    (tmp_path / "truth.bvh").write_text(format_rig(case.truth))
+    written, measured = _retargeted(source, tmp_path, ["--quiet"])
     assert written["noise"]["low_pass_s"] == LOW_PASS
-    clean = read_bvh_file(truth)
-    measured = judge(
-        clean, rig_pairing(clean, read_bvh_file(out), written["floor"]["height"]), ["LeftElbow_end"], 1000.0
-    )
     assert measured["sliding_max_mm_per_frame"] < 5.0, measured
     assert measured["speed_peak_ratio_max"] < 1.1, measured
+    assert main(["retarget", str(source), "--scale", "LeftHip=1.1,RightHip=1.1", "--out", str(tmp_path / "o.bvh")]) == 0
+    assert "capture noise 0.00256 m at rest: low-passed by Gaussians of up to 22 ms" in capsys.readouterr().out
+    shown = clean_module.capture_noise
+    monkeypatch.setattr(clean_module, "capture_noise", lambda *args: Noise(shown(*args).level, None))
+    written, kept = _retargeted(source, tmp_path, ["--quiet"])
+    assert written["noise"]["low_pass_s"] is None
+    assert kept["sliding_max_mm_per_frame"] > 15.0 and kept["speed_peak_ratio_max"] > 1.4, kept

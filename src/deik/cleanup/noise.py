@@ -19,8 +19,8 @@ without the shake, its jolts measured against the capture as given (ClipGoals.ca
 `deik retarget` low-passes its source the same way.
 
 Fast motion: 6 Hz is below what a run's swing or a kick holds, and one width for the whole clip
-moved the run's swinging toe 76 mm and its wrist 54 mm from the motion without noise at 120 fps
-(the noise alone moves them 14 mm). So each joint takes, frame by frame, the widest of SCALES
+moves the shared run's swinging toe 81 mm and its wrists 58 mm from the motion without noise at
+120 fps (relative to the hips; the noise alone moves no point 14 mm). So each joint takes, frame by frame, the widest of SCALES
 widths (22 ms down to 5.5 ms, then none) whose departure from the capture its noise explains:
 at most BIAS times the mean departure the channels' own white noise (read from their fourth
 differences) makes. A resting or slowly moving joint keeps the full 22 ms; a joint turning fast

@@ -46,10 +46,9 @@ def sunk_share(body: Body, paths: Paths, floor: float) -> float:
     return float(np.mean(floor - lowest > SUNK * body.span)) if len(lowest) else 0.0
 
 
-def check_clip_rests(clip: Motion) -> None:
-    """floor_it_rests_on for `clip` as read, with its body, paths and floor found here: an
-    InputError when its up direction is not its file's, nothing otherwise."""
-    body = body_of(clip)
+def check_clip_rests(clip: Motion, body: Body) -> None:
+    """floor_it_rests_on for `clip` as read on its `body` (body_of), with its paths and floor
+    found here: an InputError when its up direction is not its file's, nothing otherwise."""
     motion = on_body(clip, body)
     paths = body_paths(motion, body)
     floor_it_rests_on(clip, body, paths, detect_floor(motion, body, paths))

@@ -98,8 +98,8 @@ def retarget(
     report["cuts"] says where. A source whose points shake at rest is low-passed first, as
     `deik clip` does (cleanup/noise.py; report["noise"]). ValueError for a mistake in the inputs."""
     clip = with_helpers(frame_range(read_bvh(source) if not isinstance(source, Clip) else source, frames))
-    check_clip_rests(clip)
     body = body_of(clip)
+    check_clip_rests(clip, body)
     cuts = find_cuts(clip, body.span)
     stood = cuts.stand_in(clip)
     quiet, noise = without_shake(stood, body if stood is clip else body_of(stood))[:2]
