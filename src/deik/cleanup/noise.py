@@ -20,11 +20,12 @@ without the shake, its jolts measured against the capture as given (ClipGoals.ca
 
 Fast motion: 6 Hz is below what a run's swing or a kick holds, and one width for the whole clip
 moves the shared run's swinging toe 81 mm and its wrists 58 mm from the motion without noise at
-120 fps (relative to the hips; the noise alone moves no point 14 mm). So each joint takes, frame by frame, the widest of SCALES
-widths (22 ms down to 5.5 ms, then none) whose departure from the capture its noise explains:
-at most BIAS times the mean departure the channels' own white noise (read from their fourth
-differences) makes. A resting or slowly moving joint keeps the full 22 ms; a joint turning fast
-keeps its capture, where the shake is small against the motion and nothing rests to be hidden.
+120 fps (relative to the hips; the noise alone moves no point more than 14 mm). So each joint
+takes, frame by frame, the widest of SCALES widths (22 ms down to 5.5 ms, then none) whose
+departure from the capture its noise explains: at most BIAS times the mean departure the
+channels' own white noise (read from their fourth differences) makes. A resting or slowly
+moving joint keeps the full 22 ms; a joint turning fast keeps its capture, where the shake is
+small against the motion and nothing rests to be hidden.
 """
 
 from __future__ import annotations
