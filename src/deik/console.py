@@ -180,9 +180,12 @@ def _level(args: argparse.Namespace | None) -> int:
     return LEVELS.get(name, logging.INFO)
 
 
-# a word that is a negative number (-1e-3, -.5, -1e300, -inf), never an option: argparse's own
-# pattern knows only -1 and -1.5, so `--reach tip 1.5 -1e-3 0` failed as if -1e-3 were a flag
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+# a word that is a negative number (-1e-3, -.5, -1e300, -inf) or a frame range from the end
+# (-30:, -5:-1), never an option: argparse's own pattern knows only -1 and -1.5, so
+# `--reach tip 1.5 -1e-3 0` failed as if -1e-3 were a flag
+NEGATIVE_NUMBER = re.compile(
+    r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$|^-\d+:(-?\d+)?$", re.IGNORECASE
+)
 
 
 class Parser(argparse.ArgumentParser):

@@ -644,3 +644,23 @@ def test_goals_and_files_that_name_things_oddly_are_refused_with_the_reason(tmp_
     assert status == 2 and err.endswith("the clip has no frames (Frames: 0) to fix; give one with motion\n"), err
     status, err = _cli(["experiments", "all", "--quick", "--doc", tmp_path / "e.txt", "--out", tmp_path / "e"], capsys)
     assert status == 2 and "give a PATH.md" in err and not (tmp_path / "e.txt").exists(), err
+
+
+def test_frames_from_the_end_are_a_range_not_a_flag(tmp_path, capsys):
+    """`--frames -5:-1` failed in argparse ("expected one argument"): a range is now read as a
+    Python slice, in the CLI and in deik.retarget, and cuts the source the same way."""
+    from deik.retargeting.outcome import frame_range
+
+    path = tmp_path / "walk.bvh"
+    path.write_text(format_rig(procedural_walk().rig))
+    clip = deik.read_bvh(path)
+    n = clip.n_frames
+    for frames, kept in (((-5, -1), slice(n - 5, n - 1)), ((-5, None), slice(n - 5, n)), ((None, 3), slice(0, 3))):
+        assert np.array_equal(frame_range(clip, frames).frames, clip.frames[kept]), frames
+    with pytest.raises(InputError, match=f"clip of {n} frames"):
+        frame_range(clip, (-n - 1, None))
+    out = tmp_path / "out.bvh"
+    assert main(["retarget", str(path), "--scale", "LeftHip=1.0", "--frames", "-6:", "--out", str(out), "-q"]) == 0
+    assert deik.read_bvh(out).n_frames == 6
+    assert main(["retarget", str(path), "--scale", "LeftHip=1.0", "--frames", "4:2", "--out", str(out), "-q"]) == 2
+    assert "frames 4:2 are empty" in capsys.readouterr().err

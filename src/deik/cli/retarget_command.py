@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # deik.retargeting loads when a clip is retargeted
     from deik.retargeting.outcome import Retarget
 
 SHOWN_STEPS = 10  # velocity violations printed; --json lists them all
-FRAMES = re.compile(r"\s*(\d{1,12})\s*:\s*(\d{1,12})\s*")  # 12 digits: no clip is longer
+FRAMES = re.compile(r"\s*(-?\d{1,12})?\s*:\s*(-?\d{1,12})?\s*")  # 12 digits: no clip is longer
 SHOWN = (
     ("keypoint_error_mean_mm", "key-point error, mean", "mm"),
     ("keypoint_worst_max_mm", "key-point error, worst", "mm"),
@@ -60,7 +60,7 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     )
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
-    r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive)")
+    r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive; -30: the last 30)")
     add_free_translations(r)
     add_up(r)
     add_output_flags(r)
@@ -89,8 +89,11 @@ def _frames(text: str | None):
         return None
     match = FRAMES.fullmatch(text)
     if not match:
-        raise UsageError(f"--frames {text!r}: use START:STOP (two whole numbers, STOP exclusive), e.g. 0:20")
-    return int(match[1]), int(match[2])
+        raise UsageError(
+            f"--frames {text!r}: use START:STOP (whole numbers, STOP exclusive, either left out for the clip's "
+            "start or end, a negative one counted from the end), e.g. 0:20 or -30:"
+        )
+    return tuple(None if value is None else int(value) for value in match.groups())
 
 
 def retarget_options(args: argparse.Namespace) -> dict:

@@ -74,7 +74,7 @@ def retarget(
     *,
     scale: dict[str, float] | None = None,
     joint_map: JointMap | FilePath | None = None,
-    frames: tuple[int, int] | None = None,
+    frames: tuple[int | None, int | None] | None = None,
     up: ArrayLike | None = None,
     velocity: dict[str, float] | None = None,
     progress: Progress | None = None,
@@ -88,7 +88,8 @@ def retarget(
       path, "humanoid", or a Skeleton; `up` (3,) a URDF's up when the map does not say it;
       `velocity` {DOF name: limit, rad/s or length units/s} bounds each DOF's step between
       frames (default: a URDF's own `<limit velocity>`s, none for another target).
-    `frames` = (start, stop) cuts the source first (stop exclusive); `progress(frames, stage)`
+    `frames` = (start, stop) cuts the source first (a Python slice: stop exclusive, negative
+    from the end, None the clip's start or end); `progress(frames, stage)`
     is called after each stage. The source's up is its skeleton's (deik.read_bvh(path, up=...)
     for a file made with another than +Y; a map's rotation is written for a +Y-up source, and
     another is turned upright first); a source whose body does not rest on a floor along it

@@ -33,18 +33,23 @@ class Retarget:
 Progress = Callable[[int, str], None]  # progress(frames done, stage) after each stage of a retarget
 
 
-def frame_range(clip: Clip, frames: tuple[int, int] | None) -> Clip:
-    """`clip` cut to `frames` = (start, stop), stop exclusive, or None for every frame;
-    ValueError naming the valid frames when the range is empty or leaves the clip."""
+def frame_range(clip: Clip, frames: tuple[int | None, int | None] | None) -> Clip:
+    """`clip` cut to `frames` = (start, stop), stop exclusive, or None for every frame; as a
+    Python slice, a negative index counts from the end and None is the clip's start or end;
+    InputError naming the valid frames when the range is empty or leaves the clip."""
     if frames is None:
         return clip
     try:
-        start, stop = (operator.index(v) for v in frames)
+        start, stop = (None if v is None else operator.index(v) for v in frames)
     except (TypeError, ValueError):
-        raise InputError(f"frames: give (start, stop), two whole numbers, got {frames!r:.60}") from None
-    if not 0 <= start < stop <= clip.n_frames:
+        raise InputError(f"frames: give (start, stop), two whole numbers or None, got {frames!r:.60}") from None
+    n = clip.n_frames
+    first = 0 if start is None else start + n if start < 0 else start
+    end = n if stop is None else stop + n if stop < 0 else stop
+    if not 0 <= first < end <= n:
         raise InputError(
-            f"frames {start}:{stop} are empty or outside the clip; give START:STOP with "
-            f"0 <= START < STOP <= {clip.n_frames} (STOP exclusive)"
+            f"frames {'' if start is None else start}:{'' if stop is None else stop} are empty or outside the "
+            f"clip of {n} frames; give START:STOP with 0 <= START < STOP <= {n} (STOP exclusive; a negative "
+            "index counts from the end)"
         )
-    return replace(clip, frames=clip.frames[start:stop])
+    return replace(clip, frames=clip.frames[first:end])
