@@ -60,7 +60,9 @@ def add_arguments(r: argparse.ArgumentParser) -> None:
     )
     r.add_argument("--view", metavar="VIEW.bvh", help="also write a BVH of the target's motion to look at")
     r.add_argument("--json", metavar="report.json", help="the per-frame report as JSON")
-    r.add_argument("--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive; -30: the last 30)")
+    r.add_argument(
+        "--frames", metavar="START:STOP", help="retarget only these source frames (STOP exclusive; -30: the last 30)"
+    )
     add_free_translations(r)
     add_up(r)
     add_output_flags(r)
