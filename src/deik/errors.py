@@ -15,6 +15,8 @@ one line `deik: error: ...` and exits with status 2.
 
 from __future__ import annotations
 
+import errno
+
 
 class DeikError(Exception):
     """Base class of every error deik raises on purpose (a bug raises something else)."""
@@ -63,10 +65,13 @@ def error_line(error: BaseException, limit: int = MESSAGE_LIMIT) -> str:
     """The message of `error` on one line, safe for a terminal (control characters such as an
     escape sequence in a joint name are shown escaped, never run) and at most `limit` characters
     (a whole echoed input is cut); a KeyError's message is its args[0] (str() would add quotes),
-    an OSError about a file reads "FILE: what happened"."""
+    an OSError about a file reads "FILE: what happened", one about a full disk and no file
+    (standard output) names it and the fix."""
     message = error.args[0] if isinstance(error, KeyError) and error.args else error
     if isinstance(error, OSError) and error.filename is not None and error.strerror:
         message = f"{error.filename}: {error.strerror}"
+    elif isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT):
+        message = f"writing the standard output: {error.strerror}; free some space or redirect it elsewhere"
     line = " ".join(str(message).split())
     line = "".join(c if c.isprintable() else repr(c)[1:-1] for c in line)
     return line if len(line) <= limit else f"{line[: limit - 30]} ... ({len(line)} characters)"

@@ -1,6 +1,7 @@
 """Bad input a user can give: each case gets a clear error naming the problem and the fix,
 never a traceback, a silent guess or nonsense output."""
 
+import os
 import re
 
 import numpy as np
@@ -359,6 +360,23 @@ def test_piping_into_head_is_quiet():
     assert run.stdout.startswith("chain:20000") and run.stderr == ""
 
 
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_full_disk_under_standard_output_is_one_line_with_the_fix():
+    """`deik info X > /dev/full` said only "[Errno 28] No space left on device"."""
+    import subprocess
+    import sys
+
+    code = "import sys; from deik.cli import main; sys.exit(main())"
+    with open("/dev/full", "w") as full:
+        run = subprocess.run(
+            [sys.executable, "-c", code, "info", "chain:3"], stdout=full, stderr=subprocess.PIPE, text=True, timeout=300
+        )
+    assert run.returncode == 2
+    assert run.stderr.strip().splitlines() == [
+        "deik: error: writing the standard output: No space left on device; free some space or redirect it elsewhere"
+    ]
+
+
 def test_a_bug_is_reported_as_an_internal_error_not_a_usage_error(monkeypatch, capsys):
     import deik.cli.app as cli_main
 
@@ -434,6 +452,22 @@ def test_a_floor_above_the_body_and_a_reach_out_of_range_name_their_flags(tmp_pa
     status, err = _cli(["clip", clip, "--out", out, "--reach", "Arm_end=0,30,0@0:1"], capsys)
     assert status == 2 and err.startswith("deik: error: --reach 'Arm_end=0,30,0@0:1': target [0.0, 30.0, 0.0]"), err
     assert "is unreachable" in err and err.count("\n") == 1 and not out.exists()
+
+
+def test_a_floor_far_below_the_body_is_warned_and_one_near_it_is_not(tmp_path, capsys):
+    """`--floor -5` under a clip standing at 0 was taken without a word: nothing can rest on it."""
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(format_rig(procedural_walk().rig))
+    out = tmp_path / "out.bvh"
+    status, err = _cli(["clip", clip, "--out", out, "--floor", -5], capsys)
+    assert (
+        status == 0
+        and "warning: --floor -5: the body never comes within 5 length units of this floor (its lowest point is at 0)"
+        in err
+    ), err
+    assert "nothing rests on it" in err
+    status, err = _cli(["clip", clip, "--out", out, "--floor", -0.02, "--overwrite"], capsys)
+    assert status == 0 and "--floor" not in err, err
 
 
 def test_demo_into_a_file_names_the_flag(tmp_path, capsys):

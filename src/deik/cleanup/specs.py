@@ -16,6 +16,7 @@ is planted by default); a spec given replaces that default for its points only.
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Sequence
 
@@ -38,6 +39,8 @@ from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.objectives.goal_values import check_reachable
 from deik.suggest import did_you_mean
+
+log = logging.getLogger(__name__)
 
 PLANT_FORMS = "auto, none, or SITE:A-B[,A-B...] (repeatable)"
 CONTACT_FORMS = (
@@ -140,6 +143,7 @@ def body_contacts(clip: Motion, body: Body, floor: float, forms: Sequence[str], 
 
 
 MAX_FLOOR = 1e12  # a floor height beyond this is a typo (its squares overflow float32)
+FAR_BELOW = 0.5  # x the body's span: a given floor further below its lowest point is warned about
 
 
 def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Paths) -> tuple[FloorChoice, bool]:
@@ -155,11 +159,19 @@ def floor_choice(clip: Motion, body: Body, spec: str | float | None, paths: Path
         raise InputError(
             f"--floor {str(spec)[:40]!r}: use a height (a finite number of length units, within +-1e12), auto or none"
         )
-    top = float((clip.kinematics.p_world_frame @ clip.skeleton.up).max()) if clip.n_frames else height
+    heights = clip.kinematics.p_world_frame @ clip.skeleton.up
+    top = float(heights.max()) if clip.n_frames else height
     if height > top:  # no frame could stand on it: a height in another unit, or along another axis
         raise InputError(
             f"--floor {str(spec)[:40]}: the floor would lie above the whole body in every frame (its highest point "
             f"is {top:.4g} length units up); give a height in the clip's length units, auto or none"
+        )
+    lowest = float(heights.min()) if clip.n_frames else height
+    if lowest - height > FAR_BELOW * body.span:  # no contact can rest on it: a typo, or another unit
+        log.warning(
+            f"--floor {str(spec)[:40]}: the body never comes within {lowest - height:.4g} length units of this "
+            f"floor (its lowest point is at {round(lowest, 6) + 0.0:.4g}), so nothing rests on it; give the height "
+            "it stands at, auto or none"
         )
     return FloorChoice(height, "given"), True
 
