@@ -698,3 +698,15 @@ def test_frames_from_the_end_are_a_range_not_a_flag(tmp_path, capsys):
     assert deik.read_bvh(out).n_frames == 6
     assert main(["retarget", str(path), "--scale", "LeftHip=1.0", "--frames", "4:2", "--out", str(out), "-q"]) == 2
     assert "frames 4:2 are empty" in capsys.readouterr().err
+
+
+def test_true_and_false_are_not_coordinates():
+    """deik.Position("tip", True) broadcast to (1, 1, 1) and [True, False, True] was solved as
+    (1, 0, 1): a boolean where numbers belong is a mistake, refused by name."""
+    problem = deik.Problem(deik.chain(3), [deik.Position("tip", [0.5, 0.5, 0.0])])
+    assert deik.solve(problem, seed=0).converged
+    for target in (True, [True, False, True], np.array([1, 0, 1], bool)):
+        with pytest.raises(InputError, match=r"tip target holds True/False, not numbers"):
+            deik.solve(deik.Problem(deik.chain(3), [deik.Position("tip", target)]), seed=0)
+    with pytest.raises(InputError, match="holds True/False"):
+        deik.forward_kinematics(deik.chain(3), np.ones(deik.chain(3).n_dofs, bool))

@@ -10,9 +10,9 @@ from deik.errors import InputError
 
 
 def real_array(value: ArrayLike, what: str) -> np.ndarray:
-    """`value` as a float64 array; InputError naming `what` for complex numbers, strings, objects
-    or ragged nesting (shape and finiteness are the caller's to check)."""
-    if isinstance(value, np.ndarray) and value.dtype.kind in "fiub":
+    """`value` as a float64 array; InputError naming `what` for complex numbers, booleans, strings,
+    objects or ragged nesting (shape and finiteness are the caller's to check)."""
+    if isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
         return value.astype(np.float64, copy=False)
     try:
         raw = np.asarray(value)
@@ -22,7 +22,9 @@ def real_array(value: ArrayLike, what: str) -> np.ndarray:
         ) from None
     if raw.dtype.kind == "c":
         raise InputError(f"{what} holds complex numbers; give real ones (deik drops no imaginary part silently)")
-    if raw.dtype.kind not in "fiub":
+    if raw.dtype.kind == "b":
+        raise InputError(f"{what} holds True/False, not numbers; give numbers, got {value!r:.80}")
+    if raw.dtype.kind not in "fiu":
         raise InputError(f"{what} must be real numbers, got {value!r:.80}")
     try:
         return raw.astype(np.float64)
