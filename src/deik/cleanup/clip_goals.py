@@ -172,11 +172,12 @@ def reach_names(sites: Iterable[str]) -> list[str]:
 
 
 def goal_names(goals: ClipGoals) -> list[str]:
-    """The name of each goal clip_problem poses for `goals`, in its order: "contact SITE" per
-    site with a contact, "floor" (with a floor), "balance", reach_names, "fidelity", "coherence"
-    (where their weights are > 0)."""
+    """The name of each goal clip_problem poses for `goals`, in its order: "self-collision"
+    (with its margin), "contact SITE" per site with a contact, "floor" (with a floor),
+    "balance", reach_names, "fidelity", "coherence" (where their weights are > 0)."""
     contacts = goals.contacts
-    names = [] if contacts is None else [f"contact {s}" for s, on in zip(contacts.sites, contacts.mask.T) if on.any()]
+    names = ["self-collision"] * (goals.self_collision is not None)
+    names += [] if contacts is None else [f"contact {s}" for s, on in zip(contacts.sites, contacts.mask.T) if on.any()]
     names += ["floor"] * (goals.floor is not None)
     names += ["balance"] * goals.balance
     names += reach_names(r.site for r in goals.reach)
