@@ -104,6 +104,22 @@ def test_every_shared_standing_clip_made_with_z_up_is_refused_and_as_it_is_is_no
     assert deik.clean_clip(deik.read_bvh(source)).report["frames_met"] > 0  # as captured: cleaned
 
 
+@pytest.mark.parametrize("name", ["dance_a", "jump", "kick", "punch", "run", "walk"])
+def test_every_shared_standing_clip_with_its_root_turned_to_z_up_is_refused(name, shared_data, tmp_path, capsys):
+    """The world turned to Z up, the rest pose still along Y: the kick sank under its floor read
+    along Y (in 66 % of its frames) yet stood along Z a little off its support (0.105 of its span,
+    the rule wanted half of its 0.175 along Y), and was cleaned against a wall with exit 0."""
+    source = shared_data / "humanoid" / f"humanoid3d_{name}.bvh"
+    path = tmp_path / f"{name}_root_turned.bvh"
+    path.write_text(format_rig(root_turned(parse_rig(source.read_text()))))
+    out = tmp_path / "out.bvh"
+    assert main(["clip", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "so that is not its up direction" in err, err
+    assert "give --up 0 0 1" in err or "0 0 1 (a lying body looks alike along several)" in err, err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("name", ["z_up", "root_turned"])
 def test_with_up_given_the_clip_is_cleaned_as_the_y_up_one(walks, name, tmp_path, capsys):
     walk, paths = walks
@@ -158,6 +174,29 @@ def test_a_walk_played_in_place_rests_on_no_floor_and_is_not_lifted(tmp_path, ca
     record = json.loads(json_path.read_text())
     assert record["floor"]["how"] == "lowest points"
     assert record["metrics"]["joint_angle_deviation_max_deg"]["after"] < 1.0
+
+
+def test_a_walk_played_in_place_at_its_height_is_lifted_onto_the_ground_plane(tmp_path, capsys):
+    """A game's in-place walk: the root held over the ground, its height kept, the body sunk 12 mm
+    into the file's ground plane. Its feet slide back under the pelvis and never rest, so nothing
+    shows a floor; its lowest points lie within GROUND_PLANE of height 0, which is then the floor
+    (it was their 5th percentile, the capture's own penetration, which was left in place)."""
+    walk = sunk_walk()
+    rig = walk.rig
+    frames = rig.frames.copy()
+    held = [rig.columns.index((0, f"{a}position")) for a in "XZ"]
+    frames[:, held] = frames[:1, held]
+    in_place = dataclasses.replace(rig, frames=frames)
+    path = tmp_path / "in_place.bvh"
+    path.write_text(format_rig(in_place))
+    out, json_path = tmp_path / "out.bvh", tmp_path / "out.json"
+    assert main(["clip", str(path), "--out", str(out), "--json", str(json_path)]) == 0
+    assert "nothing rests: the file's ground plane, near the lowest points" in capsys.readouterr().out
+    record = json.loads(json_path.read_text())
+    assert record["floor"]["how"] == "ground plane, lowest points" and record["floor"]["height"] == 0.0
+    figures = judge(walk, in_place, parse_rig(out.read_text()))
+    assert figures["depth_capture_mm"] > 10 and figures["depth_mm"] <= 2.0, figures
+    assert figures["peak_ratio"] <= 1.1, figures
 
 
 def test_a_problem_file_gives_a_bvh_its_up(walks, tmp_path):

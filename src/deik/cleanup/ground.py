@@ -10,7 +10,9 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   of height 0, the floor is the file's ground plane, height 0: captures are made on it, and
   their resting contacts sit on it, a little above or below (a long leg's foot sinks, a radius
   is an estimate). Without any slow point nothing rests to show where the floor is, and it is
-  the 5th percentile of each frame's lowest surface ("lowest points"), which lifts nothing.
+  the 5th percentile of each frame's lowest surface ("lowest points"), which lifts nothing, or
+  the file's ground plane when that lies within GROUND_PLANE x span of it ("ground plane,
+  lowest points": a game's in-place clip, sunk into the plane it was made on).
   FloorChoice says which and how.
 - Clearance: how far above the floor a point sits when it touches: its radius (cleanup/body.py).
 - Resting (detect_resting): a point rests in a frame when it is slow and its surface (its height
@@ -80,8 +82,8 @@ SHORTEST = 0.05
 @dataclass(frozen=True)
 class FloorChoice:
     """The floor a fix keeps: `height` along up (length units), `how` it was found ("given",
-    "ground plane", "resting contacts", "lowest points"), and `resting` the level the resting
-    contacts sit at (None when given or nothing rests)."""
+    "ground plane", "resting contacts", "lowest points", "ground plane, lowest points"), and
+    `resting` the level the resting contacts sit at (None when given or nothing rests)."""
 
     height: float
     how: str
@@ -95,6 +97,7 @@ class FloorChoice:
             "ground plane": "the file's ground plane, where the resting contacts sit",
             "resting contacts": "where the resting contacts sit",
             "lowest points": "nothing rests: the lowest points",
+            "ground plane, lowest points": "nothing rests: the file's ground plane, near the lowest points",
         }
         return f"floor at {self.height:.4g} {unit} ({words[self.how]}{rest})"
 
@@ -170,8 +173,14 @@ def detect_floor(clip: Motion, body: Body, paths: Paths | None = None) -> FloorC
 
 
 def lowest_points(body: Body, paths: Paths) -> FloorChoice:
-    """The floor when nothing rests on one: the 5th percentile of each frame's lowest surface."""
-    return FloorChoice(float(np.percentile(surface_heights(body, paths).min(axis=1), 5.0)), "lowest points")
+    """The floor when nothing rests on one: the file's ground plane when the 5th percentile of
+    each frame's lowest surface lies within GROUND_PLANE x span of it, else that percentile."""
+    lowest = float(np.percentile(surface_heights(body, paths).min(axis=1), 5.0))
+    return (
+        FloorChoice(0.0, "ground plane, lowest points")
+        if abs(lowest) <= GROUND_PLANE * body.span
+        else FloorChoice(lowest, "lowest points")
+    )
 
 
 def surface_heights(body: Body, paths: Paths) -> np.ndarray:

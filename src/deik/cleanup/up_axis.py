@@ -10,13 +10,15 @@ breaks one or the other: in more than SUNK_SHARE of the frames the body's lowest
 more than SUNK x span under the floor detected, or its centre lies more than
 OFF_SUPPORT_GIVEN x span from its support. When along another axis direction the body does
 rest (sunk in at most a fifth of SUNK_SHARE of the frames) and lies at most half as far (and
-OFF_SUPPORT x span) from its support (of the four across its up, and upside down only where
-the rig's rest pose stands that way: else a clip whose head stays still would look as if it
-stood on it), the clip is refused, naming those, most
-balanced first (a lying body looks alike along several, so deik never turns a clip's up by
-itself), rather than fixed against a floor it never stood on. When along none, the body
-rests on no one floor (it floats, climbs stairs, or is played in place with its feet sliding
-under a fixed root): a sunk body's floor is then its lowest points, which lift nothing.
+OFF_SUPPORT x span; when none does and along its up the body both sinks and lies more than
+OFF_SUPPORT from its support, as no capture's body does, the latter only) from its support
+(of the four across its up, and upside down only where the rig's rest pose stands that way:
+else a clip whose head stays still would look as if it stood on it), the clip is refused,
+naming those, most balanced first (a lying body looks alike along several, so deik never
+turns a clip's up by itself), rather than fixed against a floor it never stood on. When
+along none, the body rests on no one floor (it floats, climbs stairs, or is played in place
+with its feet sliding under a fixed root): a sunk body's floor is then its lowest points,
+which lift nothing, or the file's ground plane near them (cleanup/ground.py, lowest_points).
 The rig's rest pose is evidence too (body.rest_stands_along: the axis along which it stands on
 two feet): along that axis a body need only be balanced (OFF_SUPPORT) to be named, and a
 clip that passes along its up is still refused when along that axis it rests at most half as
@@ -76,12 +78,15 @@ def floor_it_rests_on(clip: Motion, body: Body, paths: Paths, floor: FloorChoice
             level = detect_floor(turned, turned_body, turned_paths).height
             if sunk_share(turned_body, turned_paths, level) <= SUNK_SHARE / 5:
                 rests.append((off_support(turned_body, turned_paths, level), tuple(axis)))
-    balanced = []
-    for away, axis in sorted(rests):
-        # along the axis the rest pose stands on two feet it need only be balanced, not twice as well
-        ours = own is not None and np.dot(own, axis) >= 0.999
-        if away <= (OFF_SUPPORT if ours else min(OFF_SUPPORT, off / 2)):
-            balanced.append(_words(axis))
+
+    def limit(axis) -> float:  # along the axis the rest pose stands on two feet, balanced is enough
+        return OFF_SUPPORT if own is not None and np.dot(own, axis) >= 0.999 else min(OFF_SUPPORT, off / 2)
+
+    rests.sort()
+    balanced = [_words(axis) for away, axis in rests if away <= limit(axis)]
+    if not balanced and share > SUNK_SHARE and off > OFF_SUPPORT:  # sunk and off its support along its up
+        # as no capture's body is: along another axis, balanced is enough
+        balanced = [_words(axis) for away, axis in rests if away <= OFF_SUPPORT]
     if not balanced:  # no better along any other axis: a floating body, stairs, a clip played in place
         return floor if share <= SUNK_SHARE else lowest_points(body, paths)
     if len(balanced) == 1:
