@@ -1,6 +1,7 @@
 """Bad input a user can give: each case gets a clear error naming the problem and the fix,
 never a traceback, a silent guess or nonsense output."""
 
+import dataclasses
 import os
 import re
 
@@ -710,3 +711,62 @@ def test_true_and_false_are_not_coordinates():
             deik.solve(deik.Problem(deik.chain(3), [deik.Position("tip", target)]), seed=0)
     with pytest.raises(InputError, match="holds True/False"):
         deik.forward_kinematics(deik.chain(3), np.ones(deik.chain(3).n_dofs, bool))
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_outputs_that_are_no_regular_file_or_no_name_are_refused(tmp_path, capsys):
+    """A pipe given as --json was replaced by a regular file; `--out a.bvh/x.bvh` said the
+    folder a.bvh "does not exist"; `--out .bvh` said it "must end in .bvh"."""
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(TOY_BVH)
+    pipe = tmp_path / "report.json"
+    os.mkfifo(pipe)
+    status, err = _cli(["clip", clip, "--out", tmp_path / "o.bvh", "--json", pipe], capsys)
+    assert status == 2 and err.strip().endswith("is a device, pipe or socket; give a regular file path"), err
+    assert not (tmp_path / "o.bvh").exists() and pipe.is_fifo()
+    status, err = _cli(["clip", clip, "--out", tmp_path / "toy.bvh" / "x.bvh"], capsys)
+    assert status == 2 and "is a file, not a folder; give a path in a folder" in err, err
+    status, err = _cli(["clip", clip, "--out", tmp_path / ".bvh"], capsys)
+    assert status == 2 and "has no name before .bvh; give one" in err, err
+
+
+def test_an_address_where_nothing_answers_is_refused_at_once():
+    """ray.init waited for ever on a cluster address where nothing listened."""
+    import socket
+    import time
+
+    from deik.errors import SolveError
+    from deik.library.ray_cluster import check_address
+
+    with socket.socket() as probe:  # a port that was free a moment ago: nothing listens there
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    began = time.perf_counter()
+    for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}"):
+        with pytest.raises(SolveError, match=f"--address {re.escape(address)}: nothing answers there"):
+            check_address(address)
+    assert time.perf_counter() - began < 5.0
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        check_address(f"127.0.0.1:{server.getsockname()[1]}")  # something answers: Ray's to judge
+    check_address("auto")
+
+
+def test_a_zero_velocity_limit_is_none_and_a_one_frame_clip_needs_no_frame_flag(tmp_path, capsys):
+    """CAD exporters write <limit velocity="0"> for an unknown limit, and `deik info` refused
+    the robot; a clip of one frame asked for --frame N."""
+    from deik.io.urdf import read_velocity_limits
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(MESH_ROBOT.replace('upper="3"/>', 'upper="3" effort="0" velocity="0"/>'))
+    assert read_velocity_limits(urdf) == {} and main(["info", str(urdf)]) == 0
+    urdf.write_text(MESH_ROBOT.replace('upper="3"/>', 'upper="3" velocity="-1"/>'))
+    status, err = _cli(["info", urdf], capsys)
+    assert status == 2 and "a velocity limit must be > 0, or 0 for none" in err, err
+    walk = procedural_walk().rig
+    one = tmp_path / "one.bvh"
+    one.write_text(format_rig(dataclasses.replace(walk, frames=walk.frames[:1])))
+    hand = walk.sites[0][0]  # an End Site of the walk's rig
+    status, err = _cli(["solve", "--skeleton", one, "--reach", hand, 0.3, 0.9, 0.1, "-q"], capsys)
+    assert status == 0, err

@@ -78,6 +78,8 @@ def check_outputs(
                 f"{flag}: the file name is {length} bytes, longer than the {NAME_MAX} a file system takes; shorten it"
             )
         folder = os.path.dirname(path)
+        if os.path.isfile(folder):
+            raise UsageError(f"{flag}: {folder!r} is a file, not a folder; give a path in a folder")
         if not os.path.isdir(folder):
             raise UsageError(f"{flag}: folder {folder!r} does not exist; create it first")
         if not os.access(folder, os.W_OK | os.X_OK):
@@ -87,10 +89,14 @@ def check_outputs(
         except OSError as error:
             raise UsageError(f"{flag}: cannot write in folder {folder!r} ({error.strerror}); choose another") from None
         allowed = suffixes.get(flag)
+        if allowed and os.path.basename(path).lower() in allowed:
+            raise UsageError(f"{flag}: {outputs[flag]!r} has no name before {os.path.basename(path)}; give one")
         if allowed and os.path.splitext(path)[1].lower() not in allowed:
             raise UsageError(f"{flag}: {outputs[flag]!r} must end in {' or '.join(allowed)}")
         if os.path.isdir(path):
             raise UsageError(f"{flag}: {outputs[flag]!r} is a folder; give a file name")
+        if os.path.exists(path) and not os.path.isfile(path):  # a write would put a file in its place
+            raise UsageError(f"{flag}: {outputs[flag]!r} is a device, pipe or socket; give a regular file path")
     flags = list(given)
     for k, flag in enumerate(flags):
         for other in flags[k + 1 :]:

@@ -136,7 +136,11 @@ def add_arguments(c: argparse.ArgumentParser) -> None:
     c.add_argument("--generations", type=int, help="most generations per pass (default 60, 300 with --balance)")
     c.add_argument("--seed", type=int, help="random seed (same seed, same clip)")
     c.add_argument("--device", choices=["cpu", "gpu"], help="where the kernels run (default cpu)")
-    c.add_argument("--overwrite", action="store_true", help="allow --out to replace the input clip")
+    c.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="allow an output to replace an input (the clip, a limits table, a track)",
+    )
     c.add_argument(
         "--report",
         metavar="report.png",

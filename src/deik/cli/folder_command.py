@@ -162,6 +162,10 @@ def _check_first(args) -> None:
             read_map(args.map)
     if args.address is not None and args.executor != "ray":
         raise UsageError("--address names a Ray cluster: give it with --executor ray")
+    if args.address not in (None, "local"):
+        from deik.library.ray_cluster import check_address
+
+        check_address(args.address)
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers {args.workers}: use a whole number >= 1 (default one per core)")
 

@@ -125,7 +125,7 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
         "(needs deik[viz])",
     )
     s.add_argument("--plot-3d", action="store_true", help="draw --plot as one 3-D perspective view instead")
-    s.add_argument("--overwrite", action="store_true", help="allow --out to replace the input file")
+    s.add_argument("--overwrite", action="store_true", help="allow an output to replace an input file")
     s.add_argument(
         "--start",
         nargs="+",
@@ -190,7 +190,9 @@ def pose_problem(args: argparse.Namespace) -> ProblemFile:
                 raise UsageError(
                     f"{spec}: the clip has no frames (Frames: 0), so no pose to start from; give one with motion"
                 )
-            raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
+            if loaded.clip.n_frames > 1:
+                raise UsageError(f"{spec} is a clip of {loaded.clip.n_frames} frames: choose one with --frame N")
+        args.frame = 0 if args.frame is None else args.frame  # a clip of one frame: that one
         frame_pose = _clip_pose(loaded.clip, args.frame)
     elif args.frame is not None:
         raise UsageError("--frame only applies to a BVH clip")

@@ -54,9 +54,8 @@ def output_folder(flag: str, folder: str, inputs: str, create: bool = True) -> s
         raise InputError(f"{flag}: folder {os.path.dirname(path)!r} does not exist; create it first")
     if os.path.isdir(path) and os.path.samefile(path, inputs):
         raise InputError(f"{flag} {folder!r} is the folder of the input clips; write the outputs to another folder")
-    if not create:
-        return path
-    os.makedirs(path, exist_ok=True)
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise InputError(f"{flag}: folder {folder!r} is not writable; choose another folder")
+    if not os.access(path if os.path.isdir(path) else os.path.dirname(path), os.W_OK | os.X_OK):
+        raise InputError(f"{flag}: folder {folder!r} is not writable (or cannot be made); choose another folder")
+    if create:
+        os.makedirs(path, exist_ok=True)
     return path

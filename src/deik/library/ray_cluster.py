@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import socket
 from collections.abc import Iterator, Sequence
 from types import ModuleType
 
@@ -23,6 +24,7 @@ from deik.library.local import THREAD_VARIABLES, attempt
 
 RAY_MISSING = 'the Ray executor needs Ray, an optional extra: pip install "deik[ray]"'
 POLL_S = 0.25  # how often the driver looks for progress while tasks run
+CONNECT_S = 10.0  # how long a cluster's address may take to answer before the run is refused
 
 
 def require_ray() -> ModuleType:
@@ -39,6 +41,8 @@ def _start(ray: ModuleType, address: str | None) -> None:
     when it cannot (its processes too slow to start under a memory cap, nobody at the address):
     the machine's or the cluster's state, not a bug of deik."""
     here = address in (None, "local")
+    if not here:
+        check_address(address)
     try:
         ray.init(
             address=None if here else address,
@@ -52,6 +56,23 @@ def _start(ray: ModuleType, address: str | None) -> None:
         raise SolveError(
             f"the Ray executor could not {where} ({reason}); check free memory (Ray needs about 2 GiB) and the "
             "address, or run with --executor local"
+        ) from None
+
+
+def check_address(address: str) -> None:
+    """SolveError when nothing accepts a connection at `address` (HOST:PORT or ray://HOST:PORT)
+    within CONNECT_S: ray.init waits on such an address for ever. "auto" and other forms are
+    left to Ray."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_S).close()
+    except (OSError, ValueError, OverflowError) as error:
+        reason = getattr(error, "strerror", None) or error
+        raise SolveError(
+            f"--address {address}: nothing answers there within {CONNECT_S:g} s ({reason}); "
+            "check that the Ray cluster runs at that address, or run with --executor local"
         ) from None
 
 

@@ -87,8 +87,9 @@ def read_joint(element: etree._Element, source: str) -> UrdfJoint:
     limit = e.child(element, "limit")
     lower, upper = (e.numbers(limit, bound, 1, (None,), math.inf)[0] for bound in ("lower", "upper"))
     velocity = e.numbers(limit, "velocity", 1, (None,), math.inf)[0]
-    if velocity is not None and not velocity > 0:
-        e.fail(f'<limit velocity="{velocity:g}">: a velocity limit must be > 0 (rad/s or m/s)', limit)
+    if velocity is not None and velocity < 0:
+        e.fail(f'<limit velocity="{velocity:g}">: a velocity limit must be > 0, or 0 for none (rad/s or m/s)', limit)
+    velocity = velocity or None  # 0: none given, as CAD exporters write an unknown limit
     return UrdfJoint(name, kind, *ends, xyz, rpy, np.array(axis), lower, upper, e.mimic(), element.sourceline, velocity)
 
 
