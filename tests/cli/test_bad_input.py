@@ -770,3 +770,19 @@ def test_a_zero_velocity_limit_is_none_and_a_one_frame_clip_needs_no_frame_flag(
     hand = walk.sites[0][0]  # an End Site of the walk's rig
     status, err = _cli(["solve", "--skeleton", one, "--reach", hand, 0.3, 0.9, 0.1, "-q"], capsys)
     assert status == 0, err
+
+
+def test_a_clip_whose_warm_start_would_not_fit_is_refused_before_it(tmp_path, capsys):
+    """A rig of 4,000 joints died in the warm start with "internal error: MemoryError: Unable to
+    allocate 85.8 GiB" (2,000 joints: killed by the system); the warm start's Jacobians
+    (2 x N x F x 3 x D float64) are now checked against the memory limit with the DE's buffers."""
+    walk = procedural_walk().rig
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(format_rig(walk))
+    sk = deik.read_bvh(clip).skeleton
+    needed = 6 * len(walk.frames) * sk.n_frames * sk.n_dofs * 8  # the soles add frames: at least this
+    limit = needed / 2**30 / 2
+    status, err = _cli(["clip", clip, "--out", tmp_path / "o.bvh", "--memory-limit", limit, "-q"], capsys)
+    assert status == 2 and err.count("\n") == 1, err
+    assert f"the warm start of {len(walk.frames)} frames x " in err and "clean fewer frames at a time" in err, err
+    assert not (tmp_path / "o.bvh").exists()

@@ -8,24 +8,22 @@
 2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
    reach goal (goals the warm start cannot all meet, such as balance over a single contact
    point, or self-collision, which lets a frame's repair move every DOF). Each pass is one
-   batched solve of all N frame problems (one kernel launch on the CPU or the GPU): a frame that meets its goals gets a
-   population of copies of its pose, which DE cannot move, and stops at once; the others are
-   seeded around their current pose, moving only the DOFs their goals need, and run until
-   every such goal is within tolerance (stop_on_converged), the fidelity and coherence
-   terms (the last level) choosing among the poses that are.
+   batched solve of all N frame problems (one kernel launch on the CPU or the GPU): a frame
+   that meets its goals gets a population of copies of its pose, which DE cannot move, and
+   stops at once; the others are seeded around their current pose, moving only the DOFs their
+   goals need, until every such goal is within tolerance (stop_on_converged), the fidelity and
+   coherence terms (the last level) choosing among the poses that are.
 
 The fix works on the body (cleanup/body.py): the clip's skeleton with the soles of its feet,
-every tolerance a share of its span, the floor kept under the surface of each joint and site (its
-clearance, cleanup/ground.py), the position channels the clip holds (deik.io.motion.
-held_translations) never moved. Last, calm.py takes the change back wherever it makes a joint or site accelerate beyond
-its own peak in the capture (no new pops); those frames are reported.
+every tolerance a share of its span, the floor kept under the surface of each joint and site
+(its clearance, cleanup/ground.py), the position channels the clip holds never moved. Last,
+calm.py takes the change back wherever it makes a joint or site accelerate beyond its own peak
+in the capture (no new pops); those frames are reported.
 
-Where the time goes: the warm start (a block-banded solve per step, O(N D^3)), then
-per pass population x (generations + 1) pose evaluations per repaired frame, about
-population evaluations per frame that is left alone. Planted feet and reach tracks rarely
-need a repair (CLIP_SETTINGS, PASSES are a small budget for the few that do); balance leaves
-a few frames of each clip to DE (6 of the walk's 39), so it keeps the larger BALANCE_SETTINGS
-and BALANCE_PASSES.
+Time: the warm start (a block-banded solve per step, O(N D^3)), then per pass population x
+(generations + 1) pose evaluations per repaired frame, about population per frame left alone.
+Planted feet and reach tracks rarely need a repair (CLIP_SETTINGS, PASSES: a small budget);
+balance leaves a few frames to DE (6 of the walk's 39): BALANCE_SETTINGS, BALANCE_PASSES.
 """
 
 from __future__ import annotations
@@ -138,9 +136,11 @@ def _seeds(skeleton, poses: np.ndarray, searched: np.ndarray, count: int, seed: 
 
 
 def _check_memory(clip: Motion, settings: Settings, n_terms: int = 1, n_levels: int = 1) -> None:
-    """SolveError (deik.memory) when a DE pass over every frame would not fit the memory limit:
-    its seeds (two float64 copies of N x population x D) and its solve's buffers."""
-    N, P, D = clip.n_frames, settings.population, clip.skeleton.n_dofs
+    """SolveError (deik.memory) when the warm start's point Jacobians (float64, 2 x N x F x 3 x D)
+    or a DE pass's seeds (float64, 2 x N x population x D) and buffers would not fit the limit."""
+    N, P, D, F = clip.n_frames, settings.population, clip.skeleton.n_dofs, clip.skeleton.n_frames
+    fix = "clean fewer frames at a time, or a rig with fewer joints"
+    check_memory(6 * N * F * D * 8, settings.memory_limit, f"the warm start of {N} frames x {F} joints and sites", fix)
     itemsize = np.dtype(settings.dtype).itemsize
     needed = 2 * N * P * D * 8 + solve_bytes(N, P, D, n_terms, n_levels, itemsize, settings.generations)
     fix = "use a smaller population or generation budget (--population, --generations)"
