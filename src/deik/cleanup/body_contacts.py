@@ -57,4 +57,6 @@ def merge_contacts(parts: Iterable[Contacts], floor: float) -> Contacts:
     sites = tuple(masks)
     mask = np.stack([masks[site] for site in sites], axis=1) if sites else np.zeros((len(parts[0].mask), 0), bool)
     height, speed = (first.height, first.speed) if first else (None, None)
-    return Contacts(sites, mask, bool(detected), height, speed, floor, np.array([clear[site] for site in sites]))
+    clearance = np.array([clear[site] for site in sites])
+    seams = {n for part in parts for n in part.seams}
+    return Contacts(sites, mask, bool(detected), height, speed, floor, clearance, tuple(seams))

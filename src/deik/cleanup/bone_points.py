@@ -31,6 +31,7 @@ import numpy as np
 
 from deik.cleanup import ground
 from deik.cleanup.body import TAPER, TOP, Body
+from deik.cleanup.cuts import cut_steps
 from deik.io.trajectory import Motion
 from deik.model.capsules import bone_starts
 
@@ -96,7 +97,8 @@ def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     surface = x @ up - floor - radius
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
     low = (surface <= band) & (surface <= np.maximum(lowest, 0.0) + TIE * body.span)
-    slow = ground.point_speeds(x, capture.frame_time) <= ground.SPEED * body.span
+    seams = cut_steps(p, body.span, capture.frame_time)
+    slow = ground.point_speeds(x, capture.frame_time, seams) <= ground.SPEED * body.span
     step = ground.SPEED * body.span * capture.frame_time
-    rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time), step)
+    rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time, seams), step)
     return BonePoints(points.start, points.end, share, rest)

@@ -79,7 +79,9 @@ class Contacts:
     `ground`, or above the site's clearance) and `speed` (length units per second) it keeps;
     both None for contacts the user gave. `ground`: height of the floor along skeleton.up,
     length units. `clearance` (S,): how far above the floor each site sits when it touches (a
-    limb's radius; cleanup/ground.py), None for 0 (a sole, a toe tip).
+    limb's radius; cleanup/ground.py), None for 0 (a sole, a toe tip). `seams`: the steps n
+    (frame n to n + 1) where the clip's pose jumps (cleanup/cuts.py, two takes in one file): a
+    contact over one is two, one planted on each side.
     """
 
     sites: tuple[str, ...]
@@ -89,6 +91,7 @@ class Contacts:
     speed: float | None
     ground: float
     clearance: np.ndarray | None = None
+    seams: tuple[int, ...] = ()
 
     def __post_init__(self):
         sites, mask = tuple(self.sites), np.array(self.mask, dtype=bool)
@@ -104,14 +107,20 @@ class Contacts:
             raise InputError(f"clearance must have shape ({len(sites)},), got {clearance.shape}")
         clearance.setflags(write=False)
         object.__setattr__(self, "clearance", clearance)
+        object.__setattr__(self, "seams", tuple(sorted({int(n) for n in self.seams})))
 
     def intervals(self, site: int | str) -> list[tuple[int, int]]:
-        """Contact intervals (start, stop) of a site, by index or name; stop exclusive."""
+        """Contact intervals (start, stop) of a site, by index or name; stop exclusive; a run of
+        frames over a seam is two intervals."""
         if isinstance(site, str):
             if site not in self.sites:
                 raise UnknownNameError(f"{site!r} is not a contact site; the sites are {self.sites}")
             site = self.sites.index(site)
-        return true_runs(self.mask[:, site])
+        out = []
+        for a, b in true_runs(self.mask[:, site]):
+            cuts = [n + 1 for n in self.seams if a <= n and n + 1 < b]
+            out += list(zip([a, *cuts], [*cuts, b]))
+        return out
 
     def describe(self) -> str:
         """One line per site: its contact frames and intervals, shown inclusive (first-last)."""

@@ -116,10 +116,16 @@ def abruptness(p: np.ndarray, span: float, around: int) -> np.ndarray:
     return out
 
 
+def cut_steps(p: np.ndarray, span: float, frame_time: float) -> np.ndarray:
+    """(C,) the steps n (from frame n to n + 1) of the points p (N, F, 3) of a body that spans
+    `span` length units, `frame_time` seconds apart, in which the pose jumps (module notes)."""
+    return np.flatnonzero(abruptness(p, span, window(frame_time)) >= CUT_RATIO)
+
+
 def find_cuts(clip: Motion, span: float) -> Cuts:
     """The Cuts of `clip`, whose body spans `span` length units (module notes)."""
     N = clip.n_frames
-    steps = np.flatnonzero(abruptness(clip.kinematics.p_world_frame, span, window(clip.frame_time)) >= CUT_RATIO)
+    steps = cut_steps(clip.kinematics.p_world_frame, span, clip.frame_time)
     kept, bridged = np.zeros(N, bool), np.zeros(N, bool)
     starts = np.concatenate([[0], steps + 1, [N]])
     runs = list(zip(starts[:-1], starts[1:]))

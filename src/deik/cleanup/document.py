@@ -161,7 +161,7 @@ def grounding(fix: ClipFix, height: float) -> Grounding:
     planted or not, the points along its bones included (cleanup/bone_points.py)."""
     body = fix.body
     original = fix.on_body()[0]
-    paths = body_paths(original, body)
+    paths = body_paths(original, body, split_at_cuts=True)
     resting = detect_resting(original, body, height, paths=paths)
     return Grounding(height, clearances(body), resting, bone_points(original, body, height))
 

@@ -62,6 +62,7 @@ import numpy as np
 
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
+from deik.cleanup.cuts import cut_steps
 from deik.cleanup.noise import gaussian
 from deik.errors import InputError
 from deik.io.motion import message_prefix
@@ -77,6 +78,7 @@ FLAT = 0.5  # sine of the steepest pitch of a foot standing on its sole (30 degr
 RISING = 0.1  # of resting speed: a sole rising faster is lifting (module notes: Resting)
 GAP = 0.05
 SHORTEST = 0.05
+NO_SEAMS = np.zeros(0, np.int64)
 
 
 @dataclass(frozen=True)
@@ -106,17 +108,36 @@ class FloorChoice:
         return {"height": self.height, "how": self.how, "resting_contacts_height": self.resting}
 
 
-def smoothed(p: np.ndarray, frame_time: float) -> np.ndarray:
-    """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held)."""
-    return gaussian(p, SMOOTH / frame_time) if len(p) >= 3 else p
+def _segments(n: int, seams: np.ndarray) -> list[slice]:
+    """The runs of `n` frames between the `seams` (steps where the pose jumps, cleanup/cuts.py)."""
+    edges = [0, *(int(k) + 1 for k in seams), n]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
-def point_speeds(p: np.ndarray, frame_time: float) -> np.ndarray:
+def smoothed(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
+    """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held), each run
+    between `seams` on its own: a jump between takes is no motion to average in."""
+    out = np.array(p, float)
+    for run in _segments(len(p), seams):
+        if run.stop - run.start >= 3:
+            out[run] = gaussian(out[run], SMOOTH / frame_time)
+    return out
+
+
+def rates(values: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
+    """values (N, ...) differentiated along the frames (central differences, one-sided at the
+    ends of each run between `seams`; 0 for a run of one frame), per second."""
+    out = np.zeros(np.shape(values), float)
+    for run in _segments(len(values), seams):
+        if run.stop - run.start >= 2:
+            out[run] = np.gradient(values[run], frame_time, axis=0)
+    return out
+
+
+def point_speeds(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
     """(N, K) speed of points p (N, K, 3) along their smoothed paths, length units per second
-    (central differences, one-sided at the ends; 0 for a single frame)."""
-    if len(p) < 2:
-        return np.zeros(p.shape[:2])
-    return np.linalg.norm(np.gradient(smoothed(p, frame_time), frame_time, axis=0), axis=-1)
+    (rates of `smoothed`, each run between `seams` on its own; 0 for a single frame)."""
+    return np.linalg.norm(rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
 
 
 def _ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
@@ -131,19 +152,25 @@ def _ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Paths:
     """The body's points over a clip: `heights` (N, F) along up and `slow` (N, F) bool, for every
-    joint and site of body.skeleton; `positions` (N, F, 3)."""
+    joint and site of body.skeleton; `positions` (N, F, 3); `seams` (C,) the steps n (frame n to
+    n + 1) where the pose jumps (cleanup/cuts.py: two takes in one file), which no speed spans."""
 
     positions: np.ndarray
     heights: np.ndarray
     slow: np.ndarray
+    seams: np.ndarray
 
 
-def body_paths(clip: Motion, body: Body) -> Paths:
-    """The Paths of `clip`'s frames on `body`."""
+def body_paths(clip: Motion, body: Body, split_at_cuts: bool = False) -> Paths:
+    """The Paths of `clip`'s frames on `body`; with `split_at_cuts`, its seams are the steps where
+    its pose jumps (cleanup/cuts.py), else none. The report measures its resting points so, a
+    point resting beside a seam slow there and listed when it slides; the fix plants without
+    them (docs/decisions.md: planting both sides of a seam apart twisted the motion)."""
     sk = body.skeleton
     p = forward_kinematics(sk, clip.frames).p_world_frame
-    slow = point_speeds(p, clip.frame_time) <= SPEED * body.span
-    return Paths(p, p @ sk.up, slow)
+    seams = cut_steps(p, body.span, clip.frame_time) if split_at_cuts else NO_SEAMS
+    slow = point_speeds(p, clip.frame_time, seams) <= SPEED * body.span
+    return Paths(p, p @ sk.up, slow, seams)
 
 
 def _median_lowest(values: np.ndarray, slow: np.ndarray) -> float | None:
@@ -287,7 +314,8 @@ def detect_resting(
     paths = paths or body_paths(clip, body)
     given_band, band = band, BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
-    slow = paths.slow[:, index] if speed is None else point_speeds(paths.positions[:, index], clip.frame_time) <= limit
+    positions = paths.positions[:, index]
+    slow = paths.slow[:, index] if speed is None else point_speeds(positions, clip.frame_time, paths.seams) <= limit
     slow = _ends_as_neighbours(slow)
     clear = body.radius[index]
     above = paths.heights[:, index] - floor - clear
@@ -297,14 +325,14 @@ def detect_resting(
         low = np.where(standing, above - (level - floor) <= min(SOLE_BAND * body.span, band), above <= band)
     else:
         low = above <= band
-    smooth = smoothed(paths.positions[:, index], clip.frame_time)
+    smooth = smoothed(positions, clip.frame_time, paths.seams)
     rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time, surface=clear == 0)
-    steps = np.linalg.norm(np.diff(paths.positions[:, index], axis=0), axis=-1)
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
     reach = int(SMOOTH / clip.frame_time)  # whole frames the smoothing reaches: 2 at 120 fps, 1 at 60
     rest = _landed(rest, low, steps <= limit * clip.frame_time, reach if reach >= 2 else 0)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
-    return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep])
+    return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep], tuple(paths.seams))
 
 
 def _standing_soles(body: Body, paths: Paths, points: tuple[str, ...], frame_time: float) -> np.ndarray:
@@ -320,8 +348,8 @@ def _standing_soles(body: Body, paths: Paths, points: tuple[str, ...], frame_tim
         flat = (rise <= FLAT * length) & (above >= 0.5 * body.radius[ankle])
         for sole in (foot.heel, foot.toe):
             if sole in points and len(paths.heights) > 1:
-                height = smoothed(paths.heights[:, sk.frame_index(sole)], frame_time)
-                rising = np.gradient(height, frame_time) > RISING * SPEED * body.span
+                height = smoothed(paths.heights[:, sk.frame_index(sole)], frame_time, paths.seams)
+                rising = rates(height, frame_time, paths.seams) > RISING * SPEED * body.span
                 standing[:, points.index(sole)] = flat & rising
     return standing
 

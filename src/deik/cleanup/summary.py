@@ -95,13 +95,17 @@ class Grounding:
 
 def resting_steps(kin: Kinematics, skeleton: Skeleton, resting: Contacts, along: BonePoints | None) -> np.ndarray:
     """(N-1, K) how far each point resting in frames n and n+1 of the capture moves along the
-    ground between them in the clip of kinematics `kin` (NaN where it does not rest in both):
-    the `resting` joints and sites, then the points `along` the bones; length units."""
+    ground between them in the clip of kinematics `kin` (NaN where it does not rest in both, and
+    over a seam of `resting`, where the capture's pose jumps): the `resting` joints and sites,
+    then the points `along` the bones; length units."""
     index = [skeleton.frame_index(name) for name in resting.sites]
     steps = sliding_steps(kin, index, resting.mask, skeleton.up)
-    if along is None:
-        return steps
-    return np.concatenate([steps, point_steps(along.positions(kin.p_world_frame), along.rest, skeleton.up)], axis=1)
+    if along is not None:
+        steps = np.concatenate(
+            [steps, point_steps(along.positions(kin.p_world_frame), along.rest, skeleton.up)], axis=1
+        )
+    steps[[n for n in resting.seams if n < len(steps)]] = np.nan
+    return steps
 
 
 def _reach_keys(reach) -> dict:
