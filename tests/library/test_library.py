@@ -317,6 +317,38 @@ def test_ctrl_c_ends_busy_workers_at_once_and_leaves_no_warning(tmp_path):
     assert not any(map(_running, workers))
 
 
+SIGTERM_RUN = CTRL_C_RUN.replace(
+    "try:\n    run_library(jobs, library_task, workers=2, quiet=True)",
+    "from deik.cli.folder_command import _terminate_as_interrupt\n"
+    "try:\n    with _terminate_as_interrupt():\n        run_library(jobs, library_task, workers=2, quiet=True)",
+)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_to_a_folder_run_ends_its_workers_as_ctrl_c_does(tmp_path):
+    """`kill PID` on a folder run ended the parent at once and left its busy workers running,
+    their parent now init; `deik clip FOLDER` handles it as Ctrl-C (folder_command)."""
+    import subprocess
+
+    assert SIGTERM_RUN != CTRL_C_RUN
+    (tmp_path / "out").mkdir()
+    tests = os.path.dirname(os.path.abspath(__file__)).rsplit(os.sep, 1)[0]
+    run = subprocess.Popen([sys.executable, "-c", SIGTERM_RUN, str(tmp_path), tests], stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while len(list((tmp_path / "out").glob("*.pid"))) < 2:  # both workers busy
+            assert run.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        workers = [int(path.read_text()) for path in (tmp_path / "out").glob("*.pid")]
+        run.send_signal(signal.SIGTERM)  # to the parent alone, as `kill PID` sends it
+        status = run.wait(timeout=60)
+    finally:
+        run.kill()
+    err = run.stderr.read()
+    assert status == 130 and err == "interrupted\n", err
+    assert not any(map(_running, workers))
+
+
 def _running(pid: int) -> bool:
     """Whether process `pid` runs (a zombie, ended but not yet reaped by its parent, does not)."""
     try:

@@ -15,9 +15,12 @@ makes a rerun skip the clip. Every other flag applies to every clip.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
+import signal
 import sys
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -231,6 +234,25 @@ COLUMNS = {
 }
 
 
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM (a job scheduler's stop, `kill`) handled as Ctrl-C inside the block: the run stops
+    its workers and keeps the clips finished, where it ended at once and left the workers
+    running on (they wrote nothing, but held the machine)."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread sets handlers
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_folder(args: argparse.Namespace) -> int:
     """Every clip of the folder `args.clip`: skip those done, run the rest, print the summary;
     status 1 when a clip failed, 130 on Ctrl-C (the clips finished are kept)."""
@@ -247,16 +269,17 @@ def run_folder(args: argparse.Namespace) -> int:
             getattr(args, "device", None) or "cpu", "float32", polish=False, clip=True
         )  # the workers compile
     try:
-        run = run_library(
-            jobs,
-            do_clip,
-            executor=args.executor or "local",
-            workers=args.workers
-            or (1 if getattr(args, "device", None) == "gpu" and args.executor != "ray" else None),  # one GPU
-            address=args.address,
-            quiet=args.quiet,
-            progress=args.progress,
-        )
+        with _terminate_as_interrupt():
+            run = run_library(
+                jobs,
+                do_clip,
+                executor=args.executor or "local",
+                workers=args.workers
+                or (1 if getattr(args, "device", None) == "gpu" and args.executor != "ray" else None),  # one GPU
+                address=args.address,
+                quiet=args.quiet,
+                progress=args.progress,
+            )
     except KeyboardInterrupt:
         print("deik: interrupted; the clips finished are kept, and rerunning the command goes on", file=sys.stderr)
         return INTERRUPTED
