@@ -286,6 +286,16 @@ except KeyboardInterrupt:
 """
 
 
+def _busy_workers(run, out) -> list[int]:
+    """The process ids of the two workers of the script `run` (CTRL_C_RUN), once both hold a job
+    (each writes its pid into the folder `out`)."""
+    deadline = time.monotonic() + 120
+    while len(list(out.glob("*.pid"))) < 2:
+        assert run.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    return [int(path.read_text()) for path in out.glob("*.pid")]
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_ctrl_c_ends_busy_workers_at_once_and_leaves_no_warning(tmp_path):
     import subprocess
@@ -299,11 +309,7 @@ def test_ctrl_c_ends_busy_workers_at_once_and_leaves_no_warning(tmp_path):
         start_new_session=True,
     )
     try:
-        deadline = time.monotonic() + 120
-        while len(list((tmp_path / "out").glob("*.pid"))) < 2:  # both workers busy
-            assert run.poll() is None and time.monotonic() < deadline
-            time.sleep(0.05)
-        workers = [int(path.read_text()) for path in (tmp_path / "out").glob("*.pid")]
+        workers = _busy_workers(run, tmp_path / "out")
         for pid in workers:  # a worker ignores SIGINT from its first instruction: the parent stops it
             os.kill(pid, signal.SIGINT)
         time.sleep(4.0)  # a worker that took it for Ctrl-C had ended by now
@@ -335,11 +341,7 @@ def test_sigterm_to_a_folder_run_ends_its_workers_as_ctrl_c_does(tmp_path):
     tests = os.path.dirname(os.path.abspath(__file__)).rsplit(os.sep, 1)[0]
     run = subprocess.Popen([sys.executable, "-c", SIGTERM_RUN, str(tmp_path), tests], stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 120
-        while len(list((tmp_path / "out").glob("*.pid"))) < 2:  # both workers busy
-            assert run.poll() is None and time.monotonic() < deadline
-            time.sleep(0.05)
-        workers = [int(path.read_text()) for path in (tmp_path / "out").glob("*.pid")]
+        workers = _busy_workers(run, tmp_path / "out")
         run.send_signal(signal.SIGTERM)  # to the parent alone, as `kill PID` sends it
         status = run.wait(timeout=60)
     finally:
