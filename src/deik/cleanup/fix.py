@@ -53,6 +53,7 @@ from deik.cleanup.clip_goals import (
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
+from deik.cleanup.warm_choice import Tried, chosen, far_frames
 from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations, message_prefix
@@ -230,14 +231,12 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
     what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
     repairs what is taken back). With a floor it is tried with the floor lifted along smooth
     envelopes and the feet rolling as captured, so lifted with each bone lifted whole
-    (warmstart.whole_lifts), and on the plain floor without either, and the one that leaves
-    the most frames meeting their floor goals (FLOOR_LEVEL, the highest priority), then the
-    most meeting their contacts (along the ground, as the warm start holds them: _judged),
-    floor and balance, then the fewest taken back, is kept (the first tried on a tie): an
-    envelope lets a landing foot slow down before the floor, and a bone lifted whole lands
-    without tipping, but on a body lying on the floor for long either can ask more than the
-    joints give without a jolt. Reach tracks are the user's motion:
-    what they add on the plain floor (the feet rolling if they do in the fix) is added, not
+    (warmstart.whole_lifts), and on the plain floor without either, and kept as
+    cleanup/warm_choice.py says (contacts judged along the ground, as the warm start holds
+    them: _judged): an envelope lets a landing foot slow down before the floor, and a bone
+    lifted whole lands without tipping, but on a body lying on the floor for long either can
+    ask more than the joints give without a jolt. Reach tracks are the user's motion: what
+    they add on the plain floor (the feet rolling if they do in the fix) is added, not
     calmed, on top of the fix without them, so outside a reach's window the clip is the same as
     without it (and an unreachable reach drags no planted foot: on the lifted floor it dragged
     a toe 10 mm)."""
@@ -251,12 +250,12 @@ def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.
         problem = _judged(clip, plain, displacement, weights, fixed, balance)
         errors, met = _met(problem, poses)
         on_floor = _within(problem, errors, lambda level: level == FLOOR_LEVEL)
-        score = (int(on_floor.sum()), int(met.sum()), -int(calmed.sum()))
-        outcomes[lift, whole] = (score, (displacement, calmed, fixed, balance, None), warm)
-        if score == (clip.n_frames, clip.n_frames, 0):  # none can do better, and the first wins a tie
+        how = Tried(int(on_floor.sum()), int(met.sum()), int(calmed.sum()), far_frames(clip, displacement))
+        outcomes[lift, whole] = (how, (displacement, calmed, fixed, balance, None), warm)
+        if how.perfect(clip.n_frames):  # none can do better, and the first wins a tie
             break
-    chosen = max(outcomes, key=lambda tried: outcomes[tried][0]) if outcomes else (False, False)  # the first on a tie
-    best, lifted = outcomes.get(chosen), chosen[0]
+    kept = chosen({key: outcome[0] for key, outcome in outcomes.items()}, clip.n_frames) if outcomes else (False, False)
+    best, lifted = outcomes.get(kept), kept[0]
     if not goals.reach:
         return best[1]
     displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body, False, lifted)
