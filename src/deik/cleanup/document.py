@@ -192,6 +192,8 @@ def clip_document(
     (balance_record), the peaks against the capture's (dynamics_record), the frames whose change
     was taken back so that nothing jolts, and where the time went."""
     original, fixed = fix.on_body()
+    # peaks and turns are the capture's as given, before its noise was low-passed (cleanup/noise.py)
+    captured = original if fix.goals is None or fix.goals.captured is None else fix.goals.captured
     ground = None if floor is None else grounding(fix, floor["height"])
     goals = goal_table(fix, metres)
     met, sunk, sliding = fix.met, [], []
@@ -223,9 +225,9 @@ def clip_document(
         "sunk_frames": [int(n) for n in sunk],
         "sliding_frames": [int(n) for n in sliding],
         "contacts": None if contacts is None else contacts_record(original, contacts),
-        "joints_far_from_capture": _far(original, fixed, far_degrees),
+        "joints_far_from_capture": _far(captured, fixed, far_degrees),
         "balance": balance_record(fix.balance, metres),
-        "dynamics": dynamics_record(original, fixed, fix.body.points),
+        "dynamics": dynamics_record(captured, fixed, fix.body.points),
         "calmed_frames": np.flatnonzero(fix.calmed).tolist(),
         "wall_time_s": fix.wall_time,
         "stages": list(fix.stages),
