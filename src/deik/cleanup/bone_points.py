@@ -31,7 +31,6 @@ import numpy as np
 
 from deik.cleanup import ground
 from deik.cleanup.body import TAPER, TOP, Body
-from deik.cleanup.cuts import cut_steps
 from deik.io.trajectory import Motion
 from deik.model.capsules import bone_starts
 
@@ -79,9 +78,9 @@ def _radii(body: Body, start: np.ndarray, end: np.ndarray, bone: np.ndarray, sha
     return np.where(limb, np.maximum(frustum, capsule), capsule)
 
 
-def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
+def bone_points(capture: Motion, body: Body, floor: float, seams: np.ndarray = ground.NO_SEAMS) -> BonePoints:
     """The BonePoints of `capture` (on body.skeleton) over the floor at height `floor` (module
-    notes)."""
+    notes), speeds read between the `seams` (ground.Paths.seams) only."""
     start, end = _bones(body)
     p = capture.kinematics.p_world_frame
     length = np.median(np.linalg.norm(p[:, end] - p[:, start], axis=-1), axis=0) if len(end) else np.zeros(0)
@@ -97,7 +96,6 @@ def bone_points(capture: Motion, body: Body, floor: float) -> BonePoints:
     surface = x @ up - floor - radius
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
     low = (surface <= band) & (surface <= np.maximum(lowest, 0.0) + TIE * body.span)
-    seams = cut_steps(p, body.span, capture.frame_time)
     slow = ground.point_speeds(x, capture.frame_time, seams) <= ground.SPEED * body.span
     step = ground.SPEED * body.span * capture.frame_time
     rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time, seams), step)

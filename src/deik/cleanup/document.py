@@ -163,7 +163,7 @@ def grounding(fix: ClipFix, height: float) -> Grounding:
     original = fix.on_body()[0]
     paths = body_paths(original, body, split_at_cuts=True)
     resting = detect_resting(original, body, height, paths=paths)
-    return Grounding(height, clearances(body), resting, bone_points(original, body, height))
+    return Grounding(height, clearances(body), resting, bone_points(original, body, height, paths.seams))
 
 
 def _far(original, fixed, degrees: float) -> dict:

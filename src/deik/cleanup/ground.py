@@ -117,14 +117,12 @@ def _segments(n: int, seams: np.ndarray) -> list[slice]:
 def smoothed(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
     """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held), each run
     between `seams` on its own: a jump between takes is no motion to average in."""
-    out = np.array(p, float)
-    for run in _segments(len(p), seams):
-        if run.stop - run.start >= 3:
-            out[run] = gaussian(out[run], SMOOTH / frame_time)
-    return out
+    runs = _segments(len(p), seams)
+    parts = [gaussian(p[run], SMOOTH / frame_time) if run.stop - run.start >= 3 else p[run] for run in runs]
+    return np.concatenate(parts) if parts else np.asarray(p, float)
 
 
-def rates(values: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
+def _rates(values: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
     """values (N, ...) differentiated along the frames (central differences, one-sided at the
     ends of each run between `seams`; 0 for a run of one frame), per second."""
     out = np.zeros(np.shape(values), float)
@@ -136,8 +134,8 @@ def rates(values: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -
 
 def point_speeds(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
     """(N, K) speed of points p (N, K, 3) along their smoothed paths, length units per second
-    (rates of `smoothed`, each run between `seams` on its own; 0 for a single frame)."""
-    return np.linalg.norm(rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
+    (_rates of `smoothed`, each run between `seams` on its own; 0 for a single frame)."""
+    return np.linalg.norm(_rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
 
 
 def _ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
@@ -349,7 +347,7 @@ def _standing_soles(body: Body, paths: Paths, points: tuple[str, ...], frame_tim
         for sole in (foot.heel, foot.toe):
             if sole in points and len(paths.heights) > 1:
                 height = smoothed(paths.heights[:, sk.frame_index(sole)], frame_time, paths.seams)
-                rising = rates(height, frame_time, paths.seams) > RISING * SPEED * body.span
+                rising = _rates(height, frame_time, paths.seams) > RISING * SPEED * body.span
                 standing[:, points.index(sole)] = flat & rising
     return standing
 
