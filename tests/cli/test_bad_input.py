@@ -786,3 +786,15 @@ def test_a_clip_whose_warm_start_would_not_fit_is_refused_before_it(tmp_path, ca
     assert status == 2 and err.count("\n") == 1, err
     assert f"the warm start of {len(walk.frames)} frames x " in err and "clean fewer frames at a time" in err, err
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_an_existing_output_that_is_no_input_is_replaced(tmp_path, capsys):
+    """The README: an output that is none of the command's inputs is replaced, as a compiler
+    replaces its output; only an input needs --overwrite."""
+    clip = tmp_path / "toy.bvh"
+    clip.write_text(TOY_BVH)
+    out = tmp_path / "out.bvh"
+    out.write_text("an older result")
+    status, err = _cli(["clip", clip, "--out", out, "-q"], capsys)
+    assert status == 0, err
+    assert deik.read_bvh(out).n_frames == deik.read_bvh(clip).n_frames
