@@ -26,6 +26,15 @@ departure from the capture its noise explains: at most BIAS times the mean depar
 channels' own white noise (read from their fourth differences) makes. A resting or slowly
 moving joint keeps the full 22 ms; a joint turning fast keeps its capture, where the shake is
 small against the motion and nothing rests to be hidden.
+
+Resampled clips: a clip made from a slower capture by interpolating k frames per captured
+frame (30 fps slerped to 60 or 120) bends only at the captured frames, so its second
+differences are large every k-th frame and small between: white noise to the fourth-difference
+test. Where nothing rests and one phase of the frames modulo k holds second differences at
+least INTERPOLATED times those of every other phase, the noise is read from the frames between
+the captured ones, where a clean interpolation is nearly straight and noise added after it is
+not: the ORDER-th differences of their second differences, k frames apart (a curved path's
+bend there changes slowly), against those unit white noise gives.
 """
 
 from __future__ import annotations
@@ -46,6 +55,9 @@ WHITE = 0.75 * np.sqrt(70.0 / 6.0)  # fourth over second differences (median siz
 WIDEST_FRAME = 1.0  # frames: a low-pass narrower than this (under 45 fps) is left to the plants
 LOW_PASS = 0.022  # seconds: the Gaussian's width (a 6 Hz cut-off) a noisy clip is low-passed by
 FOURTH = 0.6745 * np.sqrt(70.0)  # median |fourth difference| of unit white noise
+INTERPOLATED = 2.5  # one phase's second differences over every other's: a clip resampled up
+ORDER = 2  # differences taken along each in-between phase's second differences
+RESAMPLED = range(2, 9)  # frames per captured frame (k) looked for
 STEPS = 3  # Gauss-Newton steps that put a triple's averaged angles onto its averaged rotation
 DAMPING = 1e-4  # of a step's normal equations: a combination of angles the rotation barely moves stays
 SCALES = 5  # widths of the low-pass tried, LOW_PASS x 2^(-j/2) for j < SCALES, then the capture itself
@@ -124,18 +136,48 @@ def capture_noise(p: np.ndarray, span: float, frame_time: float, speed: float) -
     """The Noise of the body's points p (N, K, 3) (module notes; `span` the body's, `speed`
     resting speed, length units per second): low-passed above NOISY x span where the filter
     spans a frame or more. In a clip in which no point is ever quiet long enough (a run at 120
-    fps rolls its feet faster than resting speed), the noise is read over all frames on the
-    points whose fourth differences are those of white noise against their second (median
-    sizes sqrt(70) : sqrt(6)), not the much smaller share a smooth motion gives."""
+    fps rolls its feet faster than resting speed), the noise is read over all frames: between
+    the captured frames of a clip resampled up (module notes), else on the points whose fourth
+    differences are those of white noise against their second (median sizes sqrt(70) :
+    sqrt(6)), not the much smaller share a smooth motion gives."""
     levels = noise_levels(p, frame_time, speed)
     if not levels.any() and len(p) >= 5:
-        fourth, second = (np.median(np.abs(np.diff(p, k, axis=0)), axis=(0, 2)) for k in (4, 2))
-        white = fourth >= WHITE * second  # what the motion adds to fourth differences is far less
-        levels = np.where(white, fourth / FOURTH, 0.0)
+        levels = _between_captured_frames(p)
+        if levels is None:
+            fourth, second = (np.median(np.abs(np.diff(p, k, axis=0)), axis=(0, 2)) for k in (4, 2))
+            white = fourth >= WHITE * second  # what the motion adds to fourth differences is far less
+            levels = np.where(white, fourth / FOURTH, 0.0)
     read = levels[levels > 0]
     level = float(np.median(read)) if read.size else 0.0
     noisy = level > NOISY * span and LOW_PASS / frame_time >= WIDEST_FRAME
     return Noise(level, LOW_PASS if noisy else None)
+
+
+def _between_captured_frames(p: np.ndarray) -> np.ndarray | None:
+    """(K,) the noise of each point of p (N, K, 3) read between the captured frames of a clip
+    resampled up from a slower capture (module notes, "Resampled clips"); None when p shows no
+    such phase."""
+    second_signed = np.diff(p, 2, axis=0)  # (N - 2, K, 3), centred on frames 1 .. N - 2
+    second = np.abs(second_signed)
+    centre = np.arange(1, len(p) - 1)
+    best, ratio = None, INTERPOLATED
+    for k in RESAMPLED:
+        if len(centre) < 3 * k:
+            break
+        size = np.array([np.median(second[centre % k == r]) for r in range(k)])
+        top = int(np.argmax(size))
+        others = np.delete(size, top).max()
+        if size[top] >= ratio * others:
+            best, ratio = (k, top), size[top] / max(others, np.finfo(float).tiny)
+    if best is None:
+        return None
+    k, top = best
+    phase = centre % k
+    changes = [np.abs(np.diff(second_signed[phase == r], ORDER, axis=0)) for r in range(k) if r != top]
+    weights = np.zeros(k * ORDER + 1)
+    weights[::k] = np.diff(np.eye(ORDER + 1), ORDER, axis=0)[0]  # the series' differences, k frames apart
+    spread = np.sqrt(np.sum(np.convolve(weights, [1.0, -2.0, 1.0]) ** 2))  # of unit white noise
+    return np.median(np.concatenate(changes), axis=(0, 2)) / (0.6745 * spread)
 
 
 def low_passed(skeleton: Skeleton, frames: np.ndarray, seconds: float, frame_time: float) -> np.ndarray:
