@@ -270,8 +270,9 @@ def _landed(mask: np.ndarray, low: np.ndarray, still: np.ndarray, most: int) -> 
     averages a landing's last fast steps into the first frames on the floor: at 120 fps a run's
     toe began to rest two frames after it arrived and the plant, held from there, pulled it 8 mm
     in one of them. detect_resting begins runs sooner only where the smoothing reaches two frames
-    or more: at 60 fps, one frame sooner let the shared get-up's heel slide 1.5 mm a frame into
-    its plant in frames called met, and at 30 fps it reaches less than a frame."""
+    or more, rounded (1.8 at 90 fps, where the walk's heel slid 1.9 mm a frame into a plant that
+    began a frame late): at 60 fps, one frame sooner let the shared get-up's heel slide 1.5 mm a
+    frame into its plant in frames called met, and at 30 fps it reaches less than a frame."""
     mask = np.array(mask, bool)
     for k in range(mask.shape[1]):
         for start in np.flatnonzero(np.diff(np.concatenate([[0], mask[:, k].astype(np.int8)])) == 1):
@@ -326,7 +327,7 @@ def detect_resting(
     smooth = smoothed(positions, clip.frame_time, paths.seams)
     rest = rest_runs(slow & low, clip.frame_time, smooth, limit * clip.frame_time, surface=clear == 0)
     steps = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
-    reach = int(SMOOTH / clip.frame_time)  # whole frames the smoothing reaches: 2 at 120 fps, 1 at 60
+    reach = round(SMOOTH / clip.frame_time)  # frames the smoothing reaches: 2 at 90 and 120 fps, 1 at 60
     rest = _landed(rest, low, steps <= limit * clip.frame_time, reach if reach >= 2 else 0)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
