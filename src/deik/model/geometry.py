@@ -93,20 +93,18 @@ def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.nda
 
 
 def polygon_distance(q: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside a
-    non-degenerate triangle of the points, else the distance to the nearest point-pair segment."""
+    """Distance of 2-D point q (N, 2) outside the convex hull of pts (N, n, 2): zero inside it or
+    on its edge, else the distance to the nearest point-pair segment. q lies in the hull unless
+    every point lies in one half-plane through q: unless, seen from q, the points' directions
+    leave a gap wider than half a turn (n log n a row, where testing every triangle of the
+    points took n^3: 40 s on a clip planting 34 finger and foot points)."""
+    rel = pts - q[:, None]
+    angle = np.sort(np.arctan2(rel[..., 1], rel[..., 0]), axis=1)
+    gaps = np.diff(np.concatenate([angle, angle[:, :1] + 2.0 * np.pi], axis=1), axis=1)
+    inside = gaps.max(axis=1, initial=0.0) <= np.pi
     n = pts.shape[1]
-    inside = np.zeros(len(q), bool)
-    cross = lambda o, a: (a[:, 0] - o[:, 0]) * (q[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (q[:, 0] - o[:, 0])  # noqa: E731
-    for a in range(n):
-        for b in range(a + 1, n):
-            for c in range(b + 1, n):
-                u, v = pts[:, b] - pts[:, a], pts[:, c] - pts[:, a]
-                proper = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] != 0
-                d = np.stack([cross(pts[:, a], pts[:, b]), cross(pts[:, b], pts[:, c]), cross(pts[:, c], pts[:, a])])
-                inside |= proper & ((d >= 0).all(axis=0) | (d <= 0).all(axis=0))
     best = np.full(len(q), np.inf)
     for a in range(n):
         for b in range(a, n):
             best = np.minimum(best, segment_distance(q, pts[:, a], pts[:, b]))
-    return np.where(inside, 0.0, best)
+    return np.where(inside & (n > 0), 0.0, best)
