@@ -511,3 +511,25 @@ def test_files_over_the_input_limit_are_refused(tmp_path, monkeypatch):
     monkeypatch.setenv("DEIK_MAX_INPUT_BYTES", "100")
     with pytest.raises(FileFormatError, match=r"big\.bvh: is 210 bytes, more than the 100 .* DEIK_MAX_INPUT_BYTES"):
         read_bvh(path)
+
+
+@pytest.mark.shared_data
+def test_joint_names_with_spaces_read_write_and_clean_as_plain_names(tmp_path):
+    """3ds Max's Biped writes "Bip01 L Thigh": a name is the rest of its line (runs of blanks as
+    one space). The shared walk with every joint so named reads, round-trips and cleans to the
+    same frames as with its own names (a name changes nothing but itself)."""
+    text = shared_path("humanoid", "humanoid3d_walk.bvh").read_text()
+    plain = parse_bvh(text, "walk.bvh")
+    renamed = text
+    for name in sorted(plain.skeleton.joint_names, key=len, reverse=True):
+        renamed = renamed.replace(f" {name}\n", f" Bip01  {name[:-2]} {name[-2:]}\n")
+    spaced = parse_bvh(renamed, "walk_biped.bvh")
+    first = plain.skeleton.joint_names[1]
+    assert spaced.skeleton.joint_names[1] == f"Bip01 {first[:-2]} {first[-2:]}"
+    path = tmp_path / "biped.bvh"
+    write_bvh(path, spaced)
+    again = read_bvh(path)
+    assert again.skeleton.joint_names == spaced.skeleton.joint_names
+    np.testing.assert_allclose(again.frames, spaced.frames, atol=1e-6)
+    fixed = [deik.clean_clip(clip, deik.CleanOptions()).clip.frames for clip in (plain, spaced)]
+    np.testing.assert_allclose(fixed[0], fixed[1], atol=1e-9)

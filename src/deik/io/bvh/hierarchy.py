@@ -133,9 +133,9 @@ class Hierarchy:
             self.fail("an End Site cannot have children", line)
         if key == "END" and [r.upper() for r in rest] != ["SITE"]:
             self.fail("expected 'End Site'", line)
-        if key != "END" and len(rest) != 1:
-            self.fail(f"{word} needs one name on its line, found {len(rest)} words", line)
-        name = top.name if key == "END" else rest[0]
+        if key != "END" and not rest:
+            self.fail(f"{word} needs a name on its line", line)
+        name = top.name if key == "END" else " ".join(rest)  # 3ds Max's Biped writes "Bip01 L Thigh"
         if key != "END" and name in self.first_line:
             self.fail(f"duplicate joint name {_show(name)} (first at line {self.first_line[name]})", line)
         if pos >= len(self.tokens) or self.tokens[pos][0] != "{":
