@@ -27,8 +27,10 @@ extent along up. Feet: in that pose, the ends of
 the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
 joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
 chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose
-when the chain ends in an End Site (the toe tip, on the foot's surface); when it ends in a joint
-(a rig written without End Sites: the toe joint, inside the foot) TOE_HEIGHT x span below it,
+when the chain ends in an End Site (the toe tip, on the foot's surface) or in a joint without
+channels (an End Site written as a joint: it turns nothing, so it only marks the tip); when it
+ends in a joint with channels (a rig written without End Sites: the toe joint, inside the foot)
+TOE_HEIGHT x span below it,
 where the ball of a foot carries its toe joint (about 0.9 % of stature over the floor), and its
 toes reach TOE_REACH of the ankle-to-toe-joint length beyond it (the ball of the foot lies at
 about 0.7 of the way from the ankle to the toe tip).
@@ -389,7 +391,10 @@ def body_of(clip: Motion) -> Body:
     height = kin.p_world_frame[0] @ sk.up
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        thickness = TOE_HEIGHT * span if chain[-1] < sk.n_joints else 0.0  # module notes: Sole
+        inside = (
+            chain[-1] < sk.n_joints and chain[-1] in sk.dof_joint
+        )  # a toe joint; a joint that turns nothing marks the tip
+        thickness = TOE_HEIGHT * span if inside else 0.0  # module notes: Sole
         soles, sole = _soles(sk, chain, kin, height, thickness)
         sites += soles
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
