@@ -391,9 +391,8 @@ def body_of(clip: Motion) -> Body:
     height = kin.p_world_frame[0] @ sk.up
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        inside = (
-            chain[-1] < sk.n_joints and chain[-1] in sk.dof_joint
-        )  # a toe joint; a joint that turns nothing marks the tip
+        # a toe joint inside the foot; a joint that turns nothing only marks the tip, as an End Site does
+        inside = chain[-1] < sk.n_joints and chain[-1] in sk.dof_joint
         thickness = TOE_HEIGHT * span if inside else 0.0  # module notes: Sole
         soles, sole = _soles(sk, chain, kin, height, thickness)
         sites += soles
