@@ -7,6 +7,7 @@ benchmarks' own forward kinematics (judging/rigs.py), in metres: the cleaned joi
 where they lie on the other rig, and the sunk body is lifted out of the floor on both."""
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -272,8 +273,6 @@ def test_a_clip_on_a_rig_resting_lying_down_cleans_as_the_standing_rig(tmp_path,
 def _end_sites_as_joints(text: str) -> str:
     """BVH `text` with every End Site written as a joint of its own without channels, as some
     exporters write a chain's tip."""
-    import re
-
     count = iter(range(1, 1000))
 
     def joint(m) -> str:
