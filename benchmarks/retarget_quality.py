@@ -237,7 +237,7 @@ def onto_rig(source_path: Path, folder: Path, scale: str = SCALE) -> dict:
     floor = deik["floor"]["height"]
     mm = 1000.0 if size < 10 else 10.0  # the rig's unit: metres or centimetres
     figures = judge(source, rig_pairing(source, read_bvh_file(out), floor), WRISTS, mm)
-    own = source_floor(bvh_transforms(source)[0], source.frame_time, size)
+    own = source_floor(source, bvh_transforms(source)[0], size)
     return {**figures, "floor_stated_mm_from_judge": (floor - own) * mm, "wall_s": wall, "deik": deik["summary"]}
 
 

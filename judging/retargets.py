@@ -14,10 +14,11 @@ own estimate of the source's floor decides what rests):
   slower than REST_SPEED statures/s or REST_RATIO x the mean point, within REST_BAND statures
   of its own lowest resting height, which lies within REST_NEAR statures of the floor, for
   REST_TIME s; the stature is the source's standing height, the floor the lower quartile of
-  its slow lowest point) is a contact; its target point (through the joint map) must not
-  slide: `sliding_max_mm_per_frame` over all of them, `sliding_worst_point`;
+  its body's slow lowest point, a root that only carries the body not counted: source_floor)
+  is a contact; its target point (through the joint map) must not slide:
+  `sliding_max_mm_per_frame` over all of them, `sliding_worst_point`;
 - `penetration_max_mm`: the deepest point of the body (every link origin and mapped point of a
-  robot, every joint and site of a BVH) below the floor;
+  robot, every joint and site of a BVH but its carrier chain) below the floor;
 - `step_excess_max`: the largest DOF step between two frames over its allowance, max(velocity
   limit x frame time, STEP_ALLOWANCE x the source's largest joint turn per frame) (<= 1 meets
   it), with `step_excess_count` the (frame, DOF) pairs over it, and `wrap_count` the steps of a
@@ -205,12 +206,27 @@ def _slow(points: np.ndarray, frame_time: float, size: float) -> np.ndarray:
     return speed <= np.maximum(REST_SPEED * size, REST_RATIO * centre)[:, None]
 
 
-def source_floor(points: np.ndarray, frame_time: float, size: float) -> float:
-    """The height the source rests on: the lower quartile, over the frames its lowest point is
-    slow, of that point's height."""
-    lowest = points[..., 1].argmin(axis=1)
-    slow = _slow(points, frame_time, size)[np.arange(len(points)), lowest]
-    heights = points[np.arange(len(points)), lowest, 1]
+def carrier_chain(bvh: Bvh) -> list[int]:
+    """The nodes above the body that only carry it: the root and the nodes below it down to
+    the first with more than one child (a "Reference" joint on the ground above the hips);
+    none when the root itself branches."""
+    chain, node = [], 0
+    while True:
+        children = [k for k, parent in enumerate(bvh.parents) if parent == node]
+        if len(children) != 1:
+            return chain
+        chain.append(node)
+        node = children[0]
+
+
+def source_floor(source: Bvh, positions: np.ndarray, size: float) -> float:
+    """The height `source` rests on, its node positions (N, P, 3) given: the lower quartile,
+    over the frames its body's lowest point is slow, of that point's height (the carrier chain
+    is no body)."""
+    body = np.delete(positions, carrier_chain(source), axis=1)
+    lowest = body[..., 1].argmin(axis=1)
+    slow = _slow(body, source.frame_time, size)[np.arange(len(body)), lowest]
+    heights = body[np.arange(len(body)), lowest, 1]
     return float(np.percentile(heights[slow] if slow.any() else heights, 25))
 
 
@@ -247,7 +263,8 @@ def _depth(parents: list[int], k: int) -> int:
 class Pairing:
     """How the source's points become the target's: `source` (K,) source node names, their
     target positions `target` (N, K, 3) in the target's world, the target's `body` (N, B, 3)
-    (every link origin and mapped point of a robot, every joint and site of a BVH), the
+    (every link origin and mapped point of a robot, every joint and site of a BVH but its
+    carrier chain), the
     target's rest positions `rest` (K, 3) and rest `rest_body` (B, 3), `pelvis` the source name
     of the target's root point, `floor` the target's floor height, `rotation` (3, 3) source
     axes to target axes; `same_world` for a target in the source's world (the same rig), else
@@ -304,7 +321,9 @@ def rig_pairing(source: Bvh, out: Bvh, floor: float) -> Pairing:
     """Pairing of a same-rig retarget: every node to itself, the floor the source's."""
     positions = bvh_transforms(out)[0]
     rest = bvh_transforms(replace(out, frames=np.zeros((1, out.frames.shape[1]))))[0][0]
-    return Pairing(list(out.names), positions, positions, rest, rest, out.names[0], floor, np.eye(3), True)
+    carriers = carrier_chain(out)
+    body, rest_body = np.delete(positions, carriers, axis=1), np.delete(rest, carriers, axis=0)
+    return Pairing(list(out.names), positions, body, rest, rest_body, out.names[0], floor, np.eye(3), True)
 
 
 def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: dict | None = None) -> dict:
@@ -314,7 +333,7 @@ def judge(source: Bvh, pairing: Pairing, wrists: list[str], mm: float, steps: di
     a BVH)."""
     positions = bvh_transforms(source)[0]
     size = stature(source)
-    floor = source_floor(positions, source.frame_time, size)
+    floor = source_floor(source, positions, size)
     index = [source.names.index(name) for name in pairing.source]
     resting = rest_mask(positions, source.frame_time, floor, size)[:, index]
     # the scaled source: the target's limb lengths on the source's directions

@@ -4,6 +4,8 @@ is written inside them as the same rotation, limb-scaled key points carry the ta
 lengths, and shared clips land on both bodies with small key-point errors, planted contacts,
 no limit violation and nothing deep in the floor (all checked by the NumPy FK)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -261,3 +263,27 @@ def test_scaling_a_rig_rooted_on_the_floor_raises_its_hips_and_keeps_its_feet_on
     assert np.median(ratio) == pytest.approx(1.15, abs=0.02)
     feet = [source.skeleton.frame_index(n) for n in source.skeleton.frame_names if n.startswith("foot")]
     assert (after[:, feet] @ up).min() >= floor - 0.1  # centimetres: 1 mm
+
+
+def test_the_floor_of_a_rig_rooted_on_the_floor_is_where_its_feet_rest(tmp_path):
+    """The studio rig's Reference joint, on the ground under the hips, carries the body and is
+    none of it: counted as a point the body rests on, it set the floor 0 where the feet of the
+    walk (raised 2 cm here) rest at 2 cm, and the retarget kept the feet 2 cm over the floor
+    it reported."""
+    from benchmarks import retarget_quality as quality
+    from judging.retargets import read_bvh_file, write_bvh_file
+    from judging.rigs import format_rig
+    from judging.walk import procedural_walk
+
+    rig = procedural_walk().rig
+    frames = rig.frames.copy()
+    frames[:, 1] += 0.02  # the root's Yposition: metres
+    plain, studio = tmp_path / "walk.bvh", tmp_path / "studio.bvh"
+    plain.write_text(format_rig(replace(rig, frames=frames)))
+    write_bvh_file(studio, quality.source_case(read_bvh_file(plain), "studio"))
+    floors = []
+    for path in (plain, studio):
+        clip = deik.read_bvh(path)
+        floors.append(rest_floor(clip, kp.stature(clip.skeleton)))
+    assert 0.015 < floors[0] < 0.03  # raised 2 cm: its toe tips rest at 0
+    assert floors[1] == pytest.approx(100.0 * floors[0], abs=0.1)  # centimetres: 1 mm

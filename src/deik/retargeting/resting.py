@@ -30,7 +30,7 @@ import numpy as np
 
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps, speeds
 from deik.io.trajectory import Motion
-from deik.model.capsules import on_joints
+from deik.model.capsules import off_body
 from deik.model.kinematics import forward_kinematics
 
 REST_SPEED = 0.1  # statures per second (0.17 m/s on a person)
@@ -52,7 +52,7 @@ def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float)
 def rest_floor(clip: Motion, size: float) -> float:
     """The height (along up, length units) `clip` rests on (module notes); `size` its stature."""
     sk = clip.skeleton
-    body = ~on_joints(sk, sk.helpers)  # a rig's helper bones are no body
+    body = ~off_body(sk)  # a Reference joint on the ground above the hips and a rig's helper bones are no body
     p = forward_kinematics(sk, clip.frames).p_world_frame[:, body]
     heights = p @ sk.up
     low = p[np.arange(len(p)), heights.argmin(axis=1)]

@@ -27,7 +27,11 @@ clip finds the displacement from those poses that
 Each iteration solves the block-banded normal equations (clips.spacetime.spacetime_step) with
 the DOFs at a limit that the step pushes outwards held, cuts the step into the limits, and keeps
 it only when the whole clip's cost falls (the damping then falls; else it rises and the step is
-tried again shorter). Rotations free over a whole turn (a free root's) are unwrapped over the
+tried again shorter). The pass ends after a round of REPLANT iterations that moved the poses
+but lowered the whole cost and the held rows' cost (contacts, floor, capsules, steps) by less
+than their CONVERGED shares, or after ITERATIONS: the held rows go on falling well after the
+key points settle (a fixed 30 left the contacts of robots it was not tuned on sliding 1.4-7.9
+mm a frame, docs/decisions.md). Rotations free over a whole turn (a free root's) are unwrapped over the
 frames and never cut.
 """
 
@@ -49,8 +53,9 @@ from deik.retargeting.ik import Targets, targets_at
 
 HELD_WEIGHT = 1e7  # contacts, floor, capsules and steps: their squared error in size units, against the spring
 KEYPOINT_WEIGHT = 1e3  # key points: 1e4 met them 1.2-3.9 mm closer (jump, crawl) but slid the jump's feet 2 mm/frame
-ITERATIONS = 30
+ITERATIONS = 150  # at most; the pass stops sooner where a round of REPLANT iterations gains little (CONVERGED)
 REPLANT = 5  # iterations between plantings
+CONVERGED = (1e-4, 1e-2)  # a round's least fall of the whole cost and of the held rows' cost, as a share of each
 DAMPING = (1e-6, 1.0, 1e8)  # least, first and most damping (weighted DOF units squared)
 CAPSULE_MARGIN = 1e-4  # of the size: how far apart a collision row pushes two capsules
 EASE_SECONDS = 0.15  # how long a key point's target takes to join its plant, and to leave it
@@ -192,14 +197,26 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
         cost += spring_energy((q - base) * weights, FADE, stiffness)
         return cost, errors, rows, row_weights, steps
 
+    def costs(state):
+        """(whole cost, the held rows' cost) of a `measured` state."""
+        cost, errors, _, row_weights, steps = state
+        held = errors.shape[1] - 3 * len(points)
+        return cost, (row_weights[:, :held] * errors[:, :held] ** 2).sum() + (steps[0] * steps[1] ** 2).sum()
+
     q = base.copy()
     plants = plants_at(q)
     cost, errors, rows, row_weights, steps = measured(q, plants)
     damping = DAMPING[1]
+    round_start, moved = costs((cost, errors, rows, row_weights, steps)), False
     for k in range(ITERATIONS):
-        if k and k % REPLANT == 0 and contacts is not None:
-            plants = plants_at(q)
-            cost, errors, rows, row_weights, steps = measured(q, plants)
+        if k and k % REPLANT == 0:
+            now = costs((cost, errors, rows, row_weights, steps))
+            if moved and all(a >= (1.0 - least) * b for a, b, least in zip(now, round_start, CONVERGED)):
+                break
+            if contacts is not None:
+                plants = plants_at(q)
+                cost, errors, rows, row_weights, steps = measured(q, plants)
+            round_start, moved = costs((cost, errors, rows, row_weights, steps)), False
         x = (q - base) * weights
         step = spacetime_step((rows, errors, row_weights), x, movable, FADE, damping, stiffness, steps) * scale
         held = ((q <= lower) & (step < 0)) | ((q >= upper) & (step > 0))
@@ -210,6 +227,7 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
         measured_trial = measured(trial, plants)
         if measured_trial[0] < cost:
             q, (cost, errors, rows, row_weights, steps) = trial, measured_trial
+            moved = True
             damping = max(damping / 3.0, DAMPING[0])
         else:
             damping = min(damping * 8.0, DAMPING[2])
