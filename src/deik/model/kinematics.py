@@ -49,12 +49,13 @@ def forward_kinematics(skeleton: Skeleton, angles: ArrayLike) -> Kinematics:
     p = np.empty((N, J, 3))
     m = skeleton.motions
     value = q[:, m.source] * m.scale + m.bias
+    turns = axis_angle_matrix(m.axis, value)  # (N, M, 3, 3): every motion's, used by the rotations
     for k in range(J):
         R_local = np.broadcast_to(skeleton.joint_rotation[k], (N, 3, 3))
         p_local = np.broadcast_to(skeleton.offsets[k], (N, 3))
         for n in range(m.joint_start[k], m.joint_start[k + 1]):
             if m.kind[n] == ROTATE:
-                R_local = R_local @ axis_angle_matrix(m.axis[n], value[:, n])
+                R_local = R_local @ turns[:, n]
             else:
                 p_local = p_local + (R_local @ m.axis[n]) * value[:, n, None]
         parent = skeleton.parents[k]

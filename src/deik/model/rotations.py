@@ -24,18 +24,18 @@ def wrap_rotations(values: ArrayLike, rotation: np.ndarray) -> np.ndarray:
 
 
 def axis_angle_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotation matrices about unit `axis` (3,) by `angle` (*batch,) radians -> (*batch, 3, 3)."""
+    """Rotation matrices about unit `axis` (3,) or (*batch, 3) by `angle` (*batch,) radians
+    (the two broadcast against each other) -> (*batch, 3, 3)."""
     axis = np.asarray(axis, dtype=np.float64)
     angle = np.asarray(angle, dtype=np.float64)
-    x, y, z = axis
+    x, y, z = axis[..., 0], axis[..., 1], axis[..., 2]
     c, s = np.cos(angle), np.sin(angle)
     t = 1.0 - c
-    rows = [
-        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-    ]
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+    out = np.empty(np.broadcast_shapes(axis.shape[:-1], angle.shape) + (3, 3))
+    out[..., 0, 0], out[..., 0, 1], out[..., 0, 2] = t * x * x + c, t * x * y - s * z, t * x * z + s * y
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = t * x * y + s * z, t * y * y + c, t * y * z - s * x
+    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = t * x * z - s * y, t * y * z + s * x, t * z * z + c
+    return out
 
 
 def upright(up: np.ndarray) -> np.ndarray:

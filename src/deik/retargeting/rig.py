@@ -96,12 +96,10 @@ def _carrier(skeleton: Skeleton, name: str) -> int:
     return f if f < skeleton.n_joints else int(skeleton.site_joint[f - skeleton.n_joints])
 
 
-def _torso_targets(target: Skeleton, poses: np.ndarray, torso: str, R_torso: np.ndarray) -> np.ndarray:
-    """(n, 2, 3) where the torso's two orientation points belong at orientations `R_torso`
-    (n, 3, 3), measured from the torso's origin at `poses` (n, D)."""
+def _torso_targets(target: Skeleton, poses: np.ndarray, torso: str, turned: np.ndarray) -> np.ndarray:
+    """(n, 2, 3) where the torso's two orientation points belong when the torso is `turned`
+    (n, 3, 3) from its standing rest, measured from the torso's origin at `poses` (n, D)."""
     origin = forward_kinematics(target, poses).position(torso)
-    R_rest = rest_standing(target).rotation(torso)
-    turned = R_torso @ R_rest.T  # the turn from rest: its first two columns carry the points
     return origin[:, None] + TORSO_ARM * target.reach * np.swapaxes(turned[:, :, :2], 1, 2)
 
 
@@ -149,10 +147,11 @@ def retarget_rig(
     points, wanted = list(names), targets
     if joint_map.torso:
         R_torso = kp.mapped_rotations(source, joint_map.torso[0], target, joint_map.torso[1], rotation)
+        turned = R_torso @ rest_standing(target).rotation(joint_map.torso[1]).T  # the turns from rest
         points += list(TORSO_SITES)
 
         def wanted(q, frames):  # the torso's points are measured from its origin at the pose
-            torso = _torso_targets(target, q, joint_map.torso[1], R_torso[frames])
+            torso = _torso_targets(target, q, joint_map.torso[1], turned[frames])
             return np.concatenate([targets[frames], torso], axis=1)
 
     body = [name for name in target.frame_names if name not in TORSO_SITES]
