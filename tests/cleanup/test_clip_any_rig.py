@@ -310,3 +310,37 @@ def test_end_sites_written_as_joints_without_channels_stand_on_the_same_soles(tm
     assert judged[1]["sliding_mm_per_frame"] <= max(1.0, judged[0]["sliding_mm_per_frame"]), judged[1]
     assert judged[1]["depth_mm"] <= max(2.0, judged[0]["depth_mm"]), judged[1]
     assert judged[1]["steps_matched"] == judged[0]["steps_matched"] and judged[1]["misses_listed"], judged[1]
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("name", ["walk", "kick"])
+def test_a_leg_that_ends_at_its_ankle_stands_on_a_foot_drawn_from_the_body(tmp_path, name):
+    """The shared clip without the End Sites below its ankles: no foot was found, the ankle took
+    a hand's radius, and the kick's feet went 26 mm through the floor and slid 3.6 mm a frame in
+    frames called met. Now the foot is drawn from the body's proportions (cleanup/bare_ankles.py):
+    pointing where the End Site pointed, in the ankle's frame, its sole within a centimetre of
+    that foot's; judged independently (the capture's own foot boxes), the feet slide at most 1
+    mm a frame, go no more than 2 mm under the floor, and every frame missed is listed."""
+    from helpers import shared_path
+    from judging.cases import source_case
+
+    plain = source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh"))
+    ankles = ("LeftAnkle_end", "RightAnkle_end")
+    rig = dataclasses.replace(plain.rig, sites=tuple(site for site in plain.rig.sites if site[0] not in ankles))
+    bare = dataclasses.replace(plain, name=f"{name}_bare", rig=rig)  # judged against its own capture
+    bodies = [body_of(parse_bvh(format_rig(case.rig), f"{case.name}.bvh")) for case in (plain, bare)]
+    assert [foot.chain for foot in bodies[1].feet] == [(foot.ankle,) for foot in bodies[0].feet]
+    for drawn, foot in zip(bodies[1].feet, bodies[0].feet):
+        offsets = [
+            [body.skeleton.site_offset[body.skeleton.frame_index(site) - body.skeleton.n_joints] for site in sites]
+            for body, sites in ((bodies[1], (drawn.heel, drawn.toe)), (bodies[0], (foot.heel, foot.toe)))
+        ]
+        (heel, toe), (heel_end, toe_end) = offsets
+        up = bodies[0].skeleton.up  # the ankle's frame is the world's at rest on this rig
+        ahead, ahead_end = (t - h - ((t - h) @ up) * up for t, h in ((toe, heel), (toe_end, heel_end)))
+        cosine = ahead @ ahead_end / np.linalg.norm(ahead) / np.linalg.norm(ahead_end)
+        assert cosine > np.cos(np.radians(5.0))
+        assert abs(heel @ up - heel_end @ up) < 0.01  # metres
+    judged = _judged(bare, tmp_path)
+    assert judged["sliding_mm_per_frame"] <= 1.0 and judged["depth_mm"] <= 2.0, judged
+    assert judged["misses_listed"], judged

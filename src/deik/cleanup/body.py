@@ -33,7 +33,8 @@ ends in a joint with channels (a rig written without End Sites: the toe joint, i
 TOE_HEIGHT x span below it,
 where the ball of a foot carries its toe joint (about 0.9 % of stature over the floor), and its
 toes reach TOE_REACH of the ankle-to-toe-joint length beyond it (the ball of the foot lies at
-about 0.7 of the way from the ankle to the toe tip).
+about 0.7 of the way from the ankle to the toe tip). A leg that ends at its ankle (a chain of
+one joint with channels) stands on a foot drawn from the body's proportions (bare_ankles.py).
 On it lie the foot's sole sites, fixed in the ankle's frame (the toe's in the frame carrying the
 toe tip): its heel, HEEL_BACK of the ankle-to-toe length behind the ankle, its toe under the toe
 tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either side.
@@ -61,6 +62,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from deik.cleanup.bare_ankles import FOOT_LENGTH, foot_direction, left_out_sole
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
@@ -313,8 +315,8 @@ def _foot_chains(skeleton: Skeleton, p: np.ndarray, part: np.ndarray, span: floa
         while f >= 0 and part[f] and height[f] <= height[tip] + FOOT_CHAIN * span and f < skeleton.n_joints:
             chain.insert(0, f)
             f = int(start[f])
-        if len(chain) < 2:
-            continue
+        if len(chain) < 2 and not (tip < skeleton.n_joints and tip in skeleton.dof_joint):
+            continue  # one point alone is a foot only where the leg ends at its ankle (bare_ankles.py)
         ankle = chain[0]  # one foot per ankle: the tip farthest from it along the ground
         if ankle not in chains or _along_ground(p, ankle, tip, skeleton.up) > _along_ground(
             p, ankle, chains[ankle][-1], skeleton.up
@@ -332,21 +334,13 @@ def _free_name(taken: set[str], name: str) -> str:
     return out
 
 
-def _soles(skeleton: Skeleton, chain, kin, height, thickness: float) -> tuple[list, float]:
-    """(sites [(name, frame name, offset in its frame)], sole height) of the foot `chain` in
-    the standing kinematics `kin` (one pose), its sole `thickness` below the chain's lowest
-    point (length units)."""
+def _soles(skeleton: Skeleton, chain, kin, heel: np.ndarray, toe: np.ndarray) -> list:
+    """Sites [(name, frame name, offset in its frame)] of the foot `chain` in the standing
+    kinematics `kin` (one pose), its `heel` and `toe` (3,) on the sole (_sole_points)."""
     up = skeleton.up
-    p = kin.p_world_frame[0]
-    ankle, tip = chain[0], chain[-1]
-    sole = height[list(chain)].min() - thickness
-    on_sole = lambda x: x + (sole - x @ up) * up  # noqa: E731
-    heel_base, toe = on_sole(p[ankle]), on_sole(p[tip])
-    forward = toe - heel_base
-    toe = toe + (TOE_REACH * forward if thickness > 0 else 0.0)  # the toes beyond a toe joint
-    heel = heel_base - HEEL_BACK * forward
-    length = np.linalg.norm(toe - heel)
-    side = np.cross(up, forward / max(np.linalg.norm(forward), 1e-300)) * SOLE_WIDTH * length
+    forward = toe - heel
+    side = np.cross(up, forward / max(np.linalg.norm(forward), 1e-300)) * SOLE_WIDTH * np.linalg.norm(forward)
+    ankle = chain[0]
     carrier = chain[-2] if chain[-1] >= skeleton.n_joints else chain[-1]  # the joint that carries the tip
     names = skeleton.frame_names
     taken = set(names)
@@ -359,9 +353,36 @@ def _soles(skeleton: Skeleton, chain, kin, height, thickness: float) -> tuple[li
         ("toe_left", toe + side, carrier),
         ("toe_right", toe - side, carrier),
     ):
-        R, origin = kin.R_world_frame[0, frame], p[frame]
+        R, origin = kin.R_world_frame[0, frame], kin.p_world_frame[0, frame]
         sites.append((_free_name(taken, f"{names[ankle]}_{name}"), names[frame], R.T @ (point - origin)))
-    return sites, sole
+    return sites
+
+
+def _sole_points(skeleton: Skeleton, chain, kin, motion: Kinematics, span: float, stature: float):
+    """(sole height along up, heel (3,), toe tip (3,) on the sole) of the foot `chain` (frame
+    indices, top first) in the standing kinematics `kin` (module notes: Sole); a leg that ends
+    at its ankle takes a foot from the body's proportions, pointing where the knee bends over
+    the clip's kinematics `motion` (bare_ankles.py); None when that knee never bends."""
+    up, p = skeleton.up, kin.p_world_frame[0]
+    ankle, tip = chain[0], chain[-1]
+    inside = False
+    if len(chain) == 1:
+        start = bone_starts(skeleton)
+        knee = int(start[ankle])
+        rest = forward_kinematics(skeleton, np.where(skeleton.dof_kind == ROTATE, 0.0, skeleton.reference)[None])
+        direction = foot_direction(motion, rest, (int(start[knee]), knee, ankle), body_root(skeleton))
+        if direction is None:
+            return None
+        sole, forward = left_out_sole(kin, ankle, up, stature, direction)
+        forward = forward * FOOT_LENGTH * stature / (1.0 + HEEL_BACK)  # from the ankle to the toe tip
+    else:
+        # a toe joint inside the foot; a joint that turns nothing only marks the tip, as an End Site does
+        inside = tip < skeleton.n_joints and tip in skeleton.dof_joint
+        sole = (p[list(chain)] @ up).min() - (TOE_HEIGHT * span if inside else 0.0)
+        forward = (p[tip] - p[ankle]) - ((p[tip] - p[ankle]) @ up) * up
+    base = p[ankle] + (sole - p[ankle] @ up) * up  # under the ankle, on the sole
+    toe = base + forward * (1.0 + (TOE_REACH if inside else 0.0))  # the toes reach beyond a toe joint
+    return sole, base - HEEL_BACK * forward, toe
 
 
 def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -> np.ndarray:
@@ -382,19 +403,22 @@ def body_of(clip: Motion) -> Body:
     off = ~part[: sk.n_joints]
     start = bone_starts(sk)
     poses = clip.frames if clip.n_frames else sk.reference[None]
-    p = forward_kinematics(sk, poses).p_world_frame
+    motion = forward_kinematics(sk, poses)
+    p = motion.p_world_frame
     length = np.where(start >= 0, np.median(np.linalg.norm(p - p[:, np.maximum(start, 0)], axis=-1), axis=0), 0.0)
     if not np.any(length > 0):
         raise InputError(f"{clip.source or 'the clip'}: every bone has zero length: there is no body to clean")
     span = _tree_span(sk, length, part) or sk.reach
     standing, kin = _standing(clip, part, span)
     height = kin.p_world_frame[0] @ sk.up
+    stature = float(np.ptp(height[part]))  # the standing kinematics', which may be a turned rest pose
     feet, sites, foot_radius = [], [], {}
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        # a toe joint inside the foot; a joint that turns nothing only marks the tip, as an End Site does
-        inside = chain[-1] < sk.n_joints and chain[-1] in sk.dof_joint
-        thickness = TOE_HEIGHT * span if inside else 0.0  # module notes: Sole
-        soles, sole = _soles(sk, chain, kin, height, thickness)
+        shape = _sole_points(sk, chain, kin, motion, span, stature)
+        if shape is None:
+            continue
+        sole, heel, toe = shape
+        soles = _soles(sk, chain, kin, heel, toe)
         sites += soles
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
@@ -403,7 +427,6 @@ def body_of(clip: Motion) -> Body:
     # point: its bones and mass are the other's, and it is as thick as the other is there
     seat = seat_anchors(sk)
     seated_start = np.where(start >= 0, seat[np.maximum(start, 0)], -1)
-    stature = float(np.ptp(height[part]))  # the standing kinematics', which may be a turned rest pose
     joint_radius = np.where(off, 0.0, default_radii(sk, standing, seated=True, height=stature))
     own = _thinnest(sk, joint_radius, seated_start)
     own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
