@@ -1,6 +1,6 @@
 """A foot the file leaves out: a leg that ends at its ankle (a joint with channels, no End Site or
 toe below it) still stands on a foot, and cleanup/body.py gives it one from the body's
-proportions, pointing where the knee bends.
+proportions, pointing ahead of the rest pose on the side the knee bends to.
 
 - Size: the ankle lies ANKLE_HEIGHT of the stature above the sole and the foot is FOOT_LENGTH of
   it long (Drillis & Contini's segment lengths: 0.039 and 0.152 of a person's height), its heel

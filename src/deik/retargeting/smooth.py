@@ -31,8 +31,8 @@ tried again shorter). The pass ends after a round of REPLANT iterations that mov
 but lowered the whole cost and the held rows' cost (contacts, floor, capsules, steps) by less
 than their CONVERGED shares, or after ITERATIONS: the held rows go on falling well after the
 key points settle (a fixed 30 left the contacts of robots it was not tuned on sliding 1.4-7.9
-mm a frame, docs/decisions.md). Rotations free over a whole turn (a free root's) are unwrapped over the
-frames and never cut.
+mm a frame, docs/decisions.md). Rotations free over a whole turn (a free root's) are unwrapped
+over the frames and never cut.
 """
 
 from __future__ import annotations
