@@ -344,3 +344,21 @@ def test_a_leg_that_ends_at_its_ankle_stands_on_a_foot_drawn_from_the_body(tmp_p
     judged = _judged(bare, tmp_path)
     assert judged["sliding_mm_per_frame"] <= 1.0 and judged["depth_mm"] <= 2.0, judged
     assert judged["misses_listed"], judged
+
+
+@pytest.mark.shared_data
+def test_a_leg_that_ends_at_its_ankle_and_never_bends_gets_no_drawn_foot():
+    """Where the knee never bends, nothing tells which way the foot the file leaves out points:
+    no foot is drawn rather than one pointing anywhere (cleanup/bare_ankles.py)."""
+    from helpers import shared_path
+    from judging.cases import source_case
+
+    rig = source_case(shared_path("humanoid", "humanoid3d_walk.bvh")).rig
+    sites = tuple(site for site in rig.sites if site[0] not in ("LeftAnkle_end", "RightAnkle_end"))
+    frames = rig.frames.copy()
+    knees = [k for k, (joint, _) in enumerate(rig.columns) if rig.names[joint] in ("LeftKnee", "RightKnee")]
+    frames[:, knees] = 0.0
+    bent = dataclasses.replace(rig, sites=sites)
+    straight = dataclasses.replace(bent, frames=frames)
+    assert len(body_of(parse_bvh(format_rig(bent), "bent.bvh")).feet) == 2
+    assert body_of(parse_bvh(format_rig(straight), "straight.bvh")).feet == ()

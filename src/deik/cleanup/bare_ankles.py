@@ -28,7 +28,7 @@ BENT = 0.01  # of the leg's length: the least mean bend of the knee that tells w
 def foot_direction(motion: Kinematics, rest: Kinematics, leg: tuple[int, int, int], pelvis: int) -> np.ndarray | None:
     """(3,) the unit direction, in the ankle's frame, in which the foot of `leg` (hip, knee,
     ankle frame indices) points (module notes), from the clip's kinematics `motion` and the
-    rig's rest pose `rest` (one pose), `pelvis` the joint the hips hang from; None when the
+    rig's rest pose `rest` (one pose: body.median_pose), `pelvis` the joint the hips hang from; None when the
     knee never bends."""
     hip, knee, ankle = leg
     p, R = motion.p_world_frame, motion.R_world_frame
@@ -43,7 +43,7 @@ def foot_direction(motion: Kinematics, rest: Kinematics, leg: tuple[int, int, in
     q = rest.p_world_frame[0]
     ahead = np.cross(q[ankle] - q[hip], q[hip] - q[pelvis])  # square to the leg and the hips
     if np.linalg.norm(ahead) < 1e-9 * np.linalg.norm(q[ankle] - q[hip]) ** 2:
-        ahead = rest.R_world_frame[0, ankle] @ total  # a hip on the pelvis: the knee's bend alone
+        return total / np.linalg.norm(total)  # a hip on the pelvis: the knee's bend alone
     ahead = rest.R_world_frame[0, ankle].T @ ahead
     ahead = ahead * np.sign(ahead @ total)
     return ahead / np.linalg.norm(ahead)

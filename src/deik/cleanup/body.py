@@ -358,19 +358,19 @@ def _soles(skeleton: Skeleton, chain, kin, heel: np.ndarray, toe: np.ndarray) ->
     return sites
 
 
-def _sole_points(skeleton: Skeleton, chain, kin, motion: Kinematics, span: float, stature: float):
+def _sole_points(skeleton: Skeleton, chain, kin, clip_kin: tuple[Kinematics, Kinematics], span: float, stature: float):
     """(sole height along up, heel (3,), toe tip (3,) on the sole) of the foot `chain` (frame
     indices, top first) in the standing kinematics `kin` (module notes: Sole); a leg that ends
-    at its ankle takes a foot from the body's proportions, pointing where the knee bends over
-    the clip's kinematics `motion` (bare_ankles.py); None when that knee never bends."""
+    at its ankle takes a foot from the body's proportions, from `clip_kin`: the clip's
+    kinematics and its rest pose's (median_pose) (bare_ankles.py); None when its knee never
+    bends."""
     up, p = skeleton.up, kin.p_world_frame[0]
     ankle, tip = chain[0], chain[-1]
     inside = False
     if len(chain) == 1:
         start = bone_starts(skeleton)
         knee = int(start[ankle])
-        rest = forward_kinematics(skeleton, np.where(skeleton.dof_kind == ROTATE, 0.0, skeleton.reference)[None])
-        direction = foot_direction(motion, rest, (int(start[knee]), knee, ankle), body_root(skeleton))
+        direction = foot_direction(*clip_kin, (int(start[knee]), knee, ankle), body_root(skeleton))
         if direction is None:
             return None
         sole, forward = left_out_sole(kin, ankle, up, stature, direction)
@@ -413,8 +413,9 @@ def body_of(clip: Motion) -> Body:
     height = kin.p_world_frame[0] @ sk.up
     stature = float(np.ptp(height[part]))  # the standing kinematics', which may be a turned rest pose
     feet, sites, foot_radius = [], [], {}
+    rest = forward_kinematics(sk, median_pose(clip)[None])
     for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        shape = _sole_points(sk, chain, kin, motion, span, stature)
+        shape = _sole_points(sk, chain, kin, (motion, rest), span, stature)
         if shape is None:
             continue
         sole, heel, toe = shape
