@@ -10,8 +10,9 @@ proportions, pointing ahead of the rest pose on the side the knee bends to.
   in every frame the knee's offset from the line between the hip and the ankle points ahead.
   Read in the ankle's own frame (the file's ankle rotations turn the foot it left out), those
   offsets, summed (a straight leg adds nothing), tell which of the two square directions is
-  ahead. A leg that never bends (less than BENT of its length, on average over the frames)
-  tells none: no foot is drawn.
+  ahead; where the two do not agree (the knee bends more sideways than ahead, or the hip sits on
+  the pelvis), the knee's bend alone is the direction. A leg that never bends (less than BENT
+  of its length, on average over the frames) tells none: no foot is drawn.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from deik.model.kinematics import Kinematics
 ANKLE_HEIGHT = 0.039  # of the stature
 FOOT_LENGTH = 0.152  # of the stature, heel to toe tip
 BENT = 0.01  # of the leg's length: the least mean bend of the knee that tells where the foot points
+ALONG = 0.5  # the least cosine between the knee's bend and the rest pose's ahead for the two to agree
 
 
 def foot_direction(motion: Kinematics, rest: Kinematics, leg: tuple[int, int, int], pelvis: int) -> np.ndarray | None:
@@ -42,11 +44,11 @@ def foot_direction(motion: Kinematics, rest: Kinematics, leg: tuple[int, int, in
         return None
     q = rest.p_world_frame[0]
     ahead = np.cross(q[ankle] - q[hip], q[hip] - q[pelvis])  # square to the leg and the hips
-    if np.linalg.norm(ahead) < 1e-9 * np.linalg.norm(q[ankle] - q[hip]) ** 2:
-        return total / np.linalg.norm(total)  # a hip on the pelvis: the knee's bend alone
     ahead = rest.R_world_frame[0, ankle].T @ ahead
-    ahead = ahead * np.sign(ahead @ total)
-    return ahead / np.linalg.norm(ahead)
+    cosine = ahead @ total / max(np.linalg.norm(ahead) * np.linalg.norm(total), 1e-300)
+    if abs(cosine) < ALONG:  # a hip on the pelvis, or a knee bending sideways: its bend alone
+        return total / np.linalg.norm(total)
+    return ahead * np.sign(cosine) / np.linalg.norm(ahead)
 
 
 def left_out_sole(
