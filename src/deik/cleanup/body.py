@@ -6,7 +6,8 @@ as its median over the capture (2.14 m on the shared humanoid, 1.6 m tall). Ever
 threshold and tolerance of deik.cleanup is a share of it, never a DOF limit or a unit. Joints
 above the body that only carry it (deik.model.capsules.carrier_joints: a `Reference` joint on the
 ground) are not part of it, nor are helpers hanging from them that the clip never moves (a game
-rig's IK target bones: with_helpers marks them on the skeleton).
+rig's IK target bones) or a hand's fingers it never moves (with_helpers marks both on the
+skeleton: deik.model.capsules.helper_joints); such a hand is an end of the body.
 
 Standing pose: the rig's rest pose (rotations 0, translations at their median over the capture:
 a T-pose or a body standing with its arms down) unless it stands less than STANDING as tall as
@@ -291,10 +292,11 @@ def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, 
 
 
 def _ends(skeleton: Skeleton, part: np.ndarray) -> np.ndarray:
-    """(F,) bool: body frames no bone leaves."""
+    """(F,) bool: body frames no bone of the body leaves (a hand whose still fingers are no
+    part of it, model.capsules.still_digits, is an end)."""
     start = bone_starts(skeleton)
     leaves = np.ones(skeleton.n_frames, bool)
-    leaves[start[start >= 0]] = False
+    leaves[start[(start >= 0) & part]] = False
     return leaves & part
 
 
@@ -428,9 +430,10 @@ def body_of(clip: Motion) -> Body:
     # point: its bones and mass are the other's, and it is as thick as the other is there
     seat = seat_anchors(sk)
     seated_start = np.where(start >= 0, seat[np.maximum(start, 0)], -1)
-    joint_radius = np.where(off, 0.0, default_radii(sk, standing, seated=True, height=stature))
+    ends = _ends(sk, part)
+    joint_radius = np.where(off | ends[: sk.n_joints], 0.0, default_radii(sk, standing, seated=True, height=stature))
     own = _thinnest(sk, joint_radius, seated_start)
-    own = np.where(_ends(sk, part), np.maximum(own, PALM * length), own)
+    own = np.where(ends, np.maximum(own, PALM * length), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])
     limb_top = (np.bincount(seated_start[seated_start >= 0], minlength=sk.n_frames) == 1) & (frame_radius > 0)
     own = np.where(limb_top, np.maximum(own, TOP * frame_radius), own)

@@ -53,7 +53,7 @@ from deik.cleanup.metrics import point_motion
 from deik.cleanup.plants import lifted_heights, rigid_pairs
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
-from deik.model.capsules import body_reach, body_root, carrier_joints, joined_to_parents
+from deik.model.capsules import body_reach, body_root, carrier_joints, joined_to_parents, off_body
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -113,9 +113,11 @@ def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray)
     A correction that must bend somewhere (a heel stopping where a contact starts) then bends
     the leg, not the hips that carry the arms, no channel takes it all (both the points' and the
     channels' accelerations stay low), and the body keeps its path through the world unless the
-    legs cannot reach. The carriers' own frames are no part of the body and do not count."""
+    legs cannot reach. What is no part of the body (carriers, helpers: model.capsules.off_body) does
+    not count: 40 still finger points stiffened a game rig's arms."""
     carriers = carrier_joints(skeleton)
-    body_frames = [name for f, name in enumerate(skeleton.frame_names) if f >= skeleton.n_joints or not carriers[f]]
+    off = off_body(skeleton)
+    body_frames = [name for f, name in enumerate(skeleton.frame_names) if not off[f]]
     _, jac = position_jacobian(skeleton, poses, body_frames)
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / body_reach(skeleton) ** 2

@@ -23,6 +23,7 @@ from deik.model.skeleton import Skeleton
 # length unit; masses count only as fractions of the total.
 BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
 MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
+DIGITS, DIGIT_REACH = 3, 0.25  # still branches of one joint, of the reach: a hand's fingers (still_digits)
 
 
 def bone_starts(skeleton: Skeleton) -> np.ndarray:
@@ -88,13 +89,10 @@ def off_body(skeleton: Skeleton) -> np.ndarray:
     return on_joints(skeleton, carrier_joints(skeleton) | skeleton.helpers)
 
 
-def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
-    """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: branches that never move
-    against their parents (every DOF in them keeps one value through the clip) hanging from the
-    joints that carry the body (carrier_joints, counting such branches as no children) and
-    starting where the carrier is (no offset from it), as a game rig's IK target roots do.
-    (A body's own still branch, such as the legs of a seated clip, starts a bone away from its
-    parent.) No helpers when the clip has fewer than two frames or nothing in it moves."""
+def still_branches(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """(J,) bool: the joints that, with every joint below them, never move against their
+    parents over `frames` (N, D) (every DOF keeps one value through the clip); none when the
+    clip has fewer than two frames."""
     frames = np.asarray(frames, float)
     J = skeleton.n_joints
     if len(frames) < 2:
@@ -103,14 +101,59 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     still = np.array([fixed[skeleton.joint_dof_start[j] : skeleton.joint_dof_start[j + 1]].all() for j in range(J)])
     for j in range(J - 1, 0, -1):  # children after parents: reversed is bottom-up
         still[skeleton.parents[j]] &= still[j]
+    return still
+
+
+def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+    """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: branches that never move
+    against their parents (still_branches) hanging from the joints that carry the body
+    (carrier_joints, counting such branches as no children) and starting where the carrier is
+    (no offset from it), as a game rig's IK target roots do, and a hand's still digits
+    (still_digits). (A body's own still branch, such as the legs of a seated clip, starts a
+    bone away from its parent.) No helpers when the clip has fewer than two frames or nothing
+    in it moves."""
+    J = skeleton.n_joints
+    still = still_branches(skeleton, frames)
     on_parent = np.linalg.norm(skeleton.offsets, axis=1) <= 1e-9 * max(1.0, skeleton.reach)
     tops = still & on_parent & (np.arange(J) > 0)
-    if still[0] or not tops.any():
+    if still[0]:
         return np.zeros(J, bool)
-    carriers = carrier_joints(replace(skeleton, helpers=tops))
+    out = still_digits(skeleton, still)
+    if tops.any():
+        carriers = carrier_joints(replace(skeleton, helpers=tops))
+        for j in range(1, J):
+            out[j] |= out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and tops[j])
+    return out
+
+
+def still_digits(skeleton: Skeleton, still: np.ndarray) -> np.ndarray:
+    """(J,) bool: the joints of the digits a capture never moves: DIGITS or more branches that
+    are `still` (J,) bool (still_branches) hanging from one joint, each reaching at most
+    DIGIT_REACH x skeleton.reach from it in the reference pose (a hand's five fingers, left as
+    a rig posed them by a capture without finger motion). They carry no weight and the capture
+    says nothing of them: where the capture lays a hand on the floor they hang through it as the
+    rig curled them, and counted as the body they sank it 116 mm under its floor (the shared
+    get-up, fingers added: refused as if the file's up were another) or planted every finger
+    joint as a contact of its own (a fist 60 mm through the floor). The hand they hang from
+    stays the body's end, as large as a palm (cleanup/body.py)."""
+    J = skeleton.n_joints
+    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
+    below = [[j] for j in range(J)]  # every joint's branch, itself first
+    for j in range(J - 1, 0, -1):
+        below[skeleton.parents[j]] += below[j]
+    frames_of = np.concatenate([np.arange(J), skeleton.site_joint])
     out = np.zeros(J, bool)
-    for j in range(1, J):
-        out[j] = out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and tops[j])
+    for hub in range(J):
+        short = []
+        for child in np.flatnonzero(skeleton.parents == hub):
+            if child == 0 or not still[child]:
+                continue
+            inside = np.isin(frames_of, below[child])
+            if np.linalg.norm(p[inside] - p[hub], axis=-1).max() <= DIGIT_REACH * skeleton.reach:
+                short.append(child)
+        if len(short) >= DIGITS:
+            for child in short:
+                out[below[child]] = True
     return out
 
 

@@ -1,0 +1,102 @@
+"""A hand's fingers that the capture never moves (a game rig's, filled in by a capture without
+finger data: judging/cases.py, digits) are no part of the body the clip fix keeps on the floor
+(model.capsules.still_digits): the hand they hang from is the body's end, as thick as a palm,
+and the clip cleans as it does on the rig without them. Judged by the benchmarks' own
+kinematics and body (judging/rigs.py, judging/clips.py)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import deik
+from deik.cleanup.body import body_of, with_helpers
+from judging.cases import CANON, digits
+from judging.rigs import format_rig, parse_rig, world_frames
+from judging.walk import procedural_walk
+
+
+def _written(case, tmp_path):
+    path = tmp_path / f"{case.name}.bvh"
+    path.write_text(format_rig(case.rig))
+    return path
+
+
+def _cleaned(case, tmp_path) -> tuple[dict, object]:
+    """(the report, the cleaned rig) of `case` cleaned by the default command's API."""
+    result = deik.clean_clip(deik.read_bvh(_written(case, tmp_path)), deik.CleanOptions())
+    out = tmp_path / f"{case.name}_out.bvh"
+    deik.write_bvh(out, result.clip)
+    return result.report, parse_rig(out.read_text(), case.rig.position_mode)
+
+
+def _canonical(case, rig) -> np.ndarray:
+    """(N, 13, 3) world positions of the canonical joints, metres."""
+    columns = [rig.names.index(case.names[name]) for name in CANON]
+    return world_frames(rig)[1][:, columns] / case.unit
+
+
+def test_still_fingers_are_no_part_of_the_body_and_the_hand_is_its_end(tmp_path):
+    walk = procedural_walk()
+    fingered = digits(walk)
+    plain_body = body_of(with_helpers(deik.read_bvh(_written(walk, tmp_path))))
+    body = body_of(with_helpers(deik.read_bvh(_written(fingered, tmp_path))))
+    names = body.skeleton.frame_names
+    fingers = [f for f, name in enumerate(names) if "_finger" in name]
+    assert len(fingers) == 2 * (15 + 5)  # three joints and a tip on each of five fingers, two hands
+    assert not body.part[fingers].any()
+    assert body.span == pytest.approx(plain_body.span, rel=1e-9)  # the fingers lengthen nothing
+    for side in ("RightElbow", "LeftElbow"):
+        hand = plain_body.skeleton.frame_names.index(f"{walk.names[side]}_end")
+        wrist = names.index(f"{fingered.names[side]}_wrist")
+        assert body.radius[wrist] == pytest.approx(plain_body.radius[hand], rel=1e-9)  # a palm, not a finger
+    contacts = body.contact_points()
+    assert not any("_finger" in name for name in contacts)
+
+
+def test_a_walk_with_still_fingers_cleans_as_without_them(tmp_path):
+    walk = procedural_walk()
+    fingered = digits(walk)
+    _, plain = _cleaned(walk, tmp_path)
+    _, out = _cleaned(fingered, tmp_path)
+    gap = np.linalg.norm(_canonical(fingered, out) - _canonical(walk, plain), axis=-1)
+    assert gap.max() <= 5e-4, f"{gap.max() * 1000:.2f} mm apart in frame {np.argmax(gap.max(axis=1))}"
+    mine = [k for k, (j, _) in enumerate(fingered.rig.columns) if "_finger" in fingered.rig.names[j]]
+    np.testing.assert_allclose(out.frames[:, mine], fingered.rig.frames[:, mine], atol=1e-6)  # left as they were
+
+
+def test_still_arms_and_head_are_no_digits(tmp_path):
+    """Three still branches of the chest (arms and head that a leg-only capture never moves)
+    reach far beyond a hand's: they stay the body."""
+    walk = procedural_walk()
+    rig = walk.rig
+    upper = {walk.names[name] for name in ("Neck", "RightShoulder", "RightElbow", "LeftShoulder", "LeftElbow")}
+    frames = rig.frames.copy()
+    frozen = [k for k, (j, _) in enumerate(rig.columns) if rig.names[j] in upper]
+    frames[:, frozen] = frames[0, frozen]
+    still = dataclasses.replace(walk, name="walk_still_arms", rig=dataclasses.replace(rig, frames=frames))
+    clip = deik.read_bvh(_written(still, tmp_path))
+    assert with_helpers(clip) is clip
+
+
+@pytest.mark.shared_data
+def test_a_get_up_with_still_fingers_on_the_floor_is_cleaned_as_without_them(tmp_path):
+    """The shared get-up lays its hands on the floor, so fingers hung from them go through it:
+    taken for the body, they sank it 116 mm under its floor in 63 % of the frames and the clip
+    was refused as if its file's up were X. Judged independently, it cleans as the get-up
+    without fingers does (its sliding and depth within 0.5 mm a frame and 2 mm)."""
+    from helpers import shared_path
+    from judging.cases import source_case
+    from judging.clips import judge
+
+    plain = source_case(shared_path("humanoid", "humanoid3d_getup_facedown.bvh"))
+    measures = []
+    for case in (plain, digits(plain)):
+        report, out = _cleaned(case, tmp_path)
+        assert report["floor"]["height"] == 0.0
+        unmet = ~np.array(report["met_per_frame"], bool)
+        measures.append(judge(case, case.rig, out, unmet))
+    without, with_fingers = measures
+    assert with_fingers["depth_mm"] <= without["depth_mm"] + 2.0, measures
+    assert with_fingers["sliding_mm_per_frame"] <= without["sliding_mm_per_frame"] + 0.5, measures
+    assert with_fingers["misses_listed"], with_fingers
