@@ -75,7 +75,7 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
 }  # fmt: skip
 CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
 STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
-DIGITS = ("run", "jump", "punch", "dance_a")  # and fingers and toes
+DIGITS = ("run", "jump", "punch", "dance_a", "getup_facedown", "crawl")  # fingers and toes (the last two: hands down)
 LAID = ("walk", "kick", "crawl")  # and a rest pose lying down
 HIFPS = ("walk", "run", "kick", "punch")  # and 120 fps (the 30 fps clips)
 SHAKY = ("walk", "run", "kick", "jump", "dance_a")  # and noisy at 60 fps or more
