@@ -384,7 +384,7 @@ SETTINGS = {
     r".*? the body 12 mm under the\s+floor\), six on a game rig's hands and feet .*? none of which the capture "
     r"moves; the get-up and the\s+crawl lay those hands on the floor\), three on a rig that\s+rests lying .*? "
     r"every frame, as an FBX export of a Z-up scene writes it\), "
-    r"four captured at 120 fps\s+\(`_120fps`\) and five with capture noise at 60 fps or more \(`_120fps_noisy`, and "
+    r"four captured at 120 fps\s+\(`_120fps`\), five with capture noise at 60 fps or more \(`_120fps_noisy`, and "
     r"`_noisy` for\s+the clips captured at 60 fps\)": "the hard cases' transforms (judging/cases.py)",
     r"A capture that shakes at 45 fps or more is low-passed before the fix\s+\(a 6 Hz Gaussian": "when and how "
     "deik low-passes a capture (deik.cleanup.noise: WIDEST_FRAME, LOW_PASS)",
@@ -397,7 +397,7 @@ SETTINGS = {
     "touching (deik.cleanup.bone_points.TIE)",
     r"The targets: sliding at most 1 mm per frame .*? accelerating past 1\.1x its own capture peak": "issue 27's "
     "targets (benchmarks.clip_targets.TARGETS)",
-    r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_120fps_noisy \|(?: [^|]* \|){5}": "the table of "
+    r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_digits_noisy \|(?: [^|]* \|){5}": "the table of "
     "benchmarks/results/clip_targets.json, checked row for row by tests/benchmarks/test_bench_clip_targets.py",
     r"above the 200 MB we aimed at": "issue 19's target (benchmarks.wheel_install.MAX_MEGABYTES)",
     r"about 10 minutes on 2 cores": "measured by tests/cli/test_readme_claims.py::"

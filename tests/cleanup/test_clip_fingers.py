@@ -1,7 +1,9 @@
 """A hand's fingers that the capture never moves (a game rig's, filled in by a capture without
 finger data: judging/cases.py, digits) are no part of the body the clip fix keeps on the floor
 (model.capsules.still_digits): the hand they hang from is the body's end, as thick as a palm,
-and the clip cleans as it does on the rig without them. Judged by the benchmarks' own
+and the clip cleans as it does on the rig without them. Capture noise on their channels
+(a fraction of a degree) does not make them move (model.capsules.STILL_TURN), nor a toe joint
+the fix may then bend (cleanup.coherence.hinge_channels). Judged by the benchmarks' own
 kinematics and body (judging/rigs.py, judging/clips.py)."""
 
 import dataclasses
@@ -11,6 +13,7 @@ import pytest
 
 import deik
 from deik.cleanup.body import body_of, with_helpers
+from deik.cleanup.coherence import hinge_channels
 from judging.cases import CANON, digits
 from judging.rigs import format_rig, parse_rig, world_frames
 from judging.walk import procedural_walk
@@ -100,3 +103,51 @@ def test_a_get_up_with_still_fingers_on_the_floor_is_cleaned_as_without_them(tmp
     assert with_fingers["depth_mm"] <= without["depth_mm"] + 2.0, measures
     assert with_fingers["sliding_mm_per_frame"] <= without["sliding_mm_per_frame"] + 0.5, measures
     assert with_fingers["misses_listed"], with_fingers
+
+
+def _shaken(case, degrees: float, seed: int = 0):
+    """`case` with white noise of `degrees` on the rotation channels of its wrists, fingers and
+    toes (the joints the digits transform adds), as a capture solver leaves them."""
+    rig = case.rig
+    rng = np.random.default_rng(seed)
+    frames = rig.frames.copy()
+    tags = ("_finger", "_wrist", "_toe")
+    added = [
+        k for k, (j, c) in enumerate(rig.columns) if c.endswith("rotation") and any(t in rig.names[j] for t in tags)
+    ]
+    frames[:, added] += rng.normal(0.0, degrees, (len(frames), len(added)))
+    return dataclasses.replace(case, name=case.name + "_shaken", rig=dataclasses.replace(rig, frames=frames))
+
+
+def test_fingers_and_toes_the_capture_s_noise_shakes_are_still(tmp_path):
+    """0.2 degrees of noise on every channel of the fingers, wrists and toes: the fingers are no
+    part of the body and the toe and wrist joints are held as captured, as without the noise
+    (the fix bent a shaken toe 80 degrees to stand on it, the kick 44 mm under the floor)."""
+    fingered = digits(procedural_walk())
+    shaken = _shaken(fingered, 0.2)
+    clip = with_helpers(deik.read_bvh(_written(shaken, tmp_path)))
+    body = body_of(clip)
+    names = body.skeleton.frame_names
+    assert not any(body.part[f] for f, name in enumerate(names) if "_finger" in name)
+    held = hinge_channels(clip)
+    for name in ("_toe", "_wrist"):
+        dofs = [d for d, joint in enumerate(clip.skeleton.dof_joint) if name in clip.skeleton.joint_names[joint]]
+        assert dofs and held[dofs].all(), name
+    # a toe that the capture bends further than its noise is the fix's to turn
+    bent = _shaken(fingered, 3.0)
+    clip = with_helpers(deik.read_bvh(_written(bent, tmp_path)))
+    toe = [d for d, joint in enumerate(clip.skeleton.dof_joint) if "_toe" in clip.skeleton.joint_names[joint]]
+    assert not hinge_channels(clip)[toe].any()
+
+
+@pytest.mark.shared_data
+def test_a_get_up_with_shaken_fingers_on_the_floor_is_cleaned_not_refused(tmp_path):
+    """The get-up with fingers and capture noise (0.2 degrees on every channel, the body 12 mm
+    lower: judging/cases.py, noisy): the shaken fingers passed for moving ones, sank the body
+    under its floor, and the clip was refused as if its up were X."""
+    from helpers import shared_path
+    from judging.cases import noisy, source_case
+
+    case = noisy(digits(source_case(shared_path("humanoid", "humanoid3d_getup_facedown.bvh"))))
+    report, _ = _cleaned(case, tmp_path)
+    assert report["floor"]["height"] == 0.0

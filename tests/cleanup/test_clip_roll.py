@@ -85,6 +85,9 @@ def test_a_resting_run_ends_before_the_frames_a_lift_off_moves_into_at_more_than
     # slower than `step`, or without positions, nothing goes
     assert (rest_runs(mask, dt, positions, 4 * step)[:, 0] == mask[:, 0]).all()
     assert (rest_runs(mask, dt)[:, 0] == mask[:, 0]).all()
+    # a run to the clip's last frame keeps it: a step into it may be noise, and what follows unknown
+    mask[22:] = True
+    assert rest_runs(mask, dt, positions, step)[-1, 0]
 
 
 def swivelling_walk():

@@ -24,7 +24,7 @@ from deik.cleanup.banded import solve_spd_band
 from deik.cleanup.spacetime import spring_bands
 from deik.io.motion import held_translations
 from deik.io.trajectory import Motion
-from deik.model.capsules import body_reach
+from deik.model.capsules import STILL_TURN, body_reach
 from deik.model.joints import ROTATE, TRANSLATE
 from deik.model.skeleton import Skeleton
 from deik.objectives.goals import Comfort, Floor, Goal, Position
@@ -54,20 +54,22 @@ def hinge_channels(clip: Motion) -> np.ndarray:
     """(D,) bool: the rotation DOFs the fix keeps as captured. Those that stay exactly 0 in every
     frame while another DOF of their joint moves (the X and Y channels of a knee that bends about
     Z): the performance uses the joint as a hinge, so the fix keeps it one. And every rotation of
-    a joint below the root that the capture never turns while other joints move (a toe, a
-    finger, a wrist the performance leaves still): turning it would add an articulation the
-    performance never had (a toe bent to stand on while the capture's foot lands flat). A
+    a joint below the root that the capture never turns, to within STILL_TURN on each channel
+    (its noise), while other joints move (a toe, a finger, a wrist the performance leaves
+    still): turning it would add an articulation the performance never had (a toe bent to
+    stand on while the capture's foot lands flat; a shaken toe bent 80 degrees). A
     translation that stays 0 is no hinge: a root on the ground (a `Reference` joint at height
     0, a walk along one axis) must still lift or shift the body it carries."""
     sk = clip.skeleton
     frames = clip.frames
+    rotate = sk.dof_kind == ROTATE
     zero = (frames == 0.0).all(axis=0)
-    moving = np.ptp(frames, axis=0) > 0 if len(frames) else np.zeros(sk.n_dofs, bool)
+    span = np.ptp(frames, axis=0) if len(frames) else np.zeros(sk.n_dofs)
+    moving = span > 0
     joint_moves = np.zeros(sk.n_joints, bool)
     np.logical_or.at(joint_moves, sk.dof_joint, moving)
-    rotate = sk.dof_kind == ROTATE
     turned = np.zeros(sk.n_joints, bool)
-    np.logical_or.at(turned, sk.dof_joint, moving & rotate)
+    np.logical_or.at(turned, sk.dof_joint, (span > STILL_TURN) & rotate)  # a toe the capture's noise shakes is still
     still = ~turned[sk.dof_joint] & (sk.parents[sk.dof_joint] >= 0) & turned.any()
     return (zero & joint_moves[sk.dof_joint] | still) & rotate
 

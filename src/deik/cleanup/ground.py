@@ -41,7 +41,8 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   into them from the frame before: a lift-off. A speed is a central difference, which averages
   a lift-off's first fast step with the slow one before it, and a plant held in that frame
   stops the toe there and lets it jump when it is let go (10 mm in a frame on the shared walk),
-  a jolt the fix then takes back, floor lift and all. A landing keeps its first frame: the
+  a jolt the fix then takes back, floor lift and all; a run to the clip's last frame keeps it.
+  A landing keeps its first frame: the
   point arrives there and stays; the smoothing, which averages a landing's last fast steps into
   it, would begin the rest as many frames late as it reaches, so a run begins sooner while the
   point moves at most resting speed into it, unsmoothed (_landed). A plant holds a point still along the ground only
@@ -250,13 +251,16 @@ def rest_runs(
 
 def _lifting_off(mask: np.ndarray, moves: np.ndarray, most: int) -> np.ndarray:
     """`mask` (N, K) with each run's last frames dropped, at most `most` of them, while the point
-    `moves` (N-1, K) bool (row n: from frame n to n+1) into that frame from the one before."""
+    `moves` (N-1, K) bool (row n: from frame n to n+1) into that frame from the one before; but
+    a run to the clip's last frame: what follows it is unknown, a step into it may be noise, and
+    a last frame left unplanted was free to any repair (the shared kick with noise and a game
+    rig's toes: the toe jumped 20 mm there)."""
     mask = np.array(mask, bool)
     for k in range(mask.shape[1]):
         edges = np.flatnonzero(np.diff(np.concatenate([[0], mask[:, k].astype(np.int8), [0]])))
         for start, stop in zip(edges[::2], edges[1::2]):
             end = stop
-            while end - start > 1 and stop - end < most and moves[end - 2, k]:
+            while stop < len(mask) and end - start > 1 and stop - end < most and moves[end - 2, k]:
                 end -= 1
             mask[end:stop, k] = False
     return mask

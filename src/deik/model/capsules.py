@@ -24,6 +24,7 @@ from deik.model.skeleton import Skeleton
 BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
 MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
 DIGITS, DIGIT_REACH = 3, 0.25  # still branches of one joint, of the reach: a hand's fingers (still_digits)
+STILL_TURN = np.radians(2.0)  # a rotation channel turning less over a clip is still: capture noise
 
 
 def bone_starts(skeleton: Skeleton) -> np.ndarray:
@@ -89,15 +90,16 @@ def off_body(skeleton: Skeleton) -> np.ndarray:
     return on_joints(skeleton, carrier_joints(skeleton) | skeleton.helpers)
 
 
-def still_branches(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
+def still_branches(skeleton: Skeleton, frames: np.ndarray, turn: float = 0.0) -> np.ndarray:
     """(J,) bool: the joints that, with every joint below them, never move against their
-    parents over `frames` (N, D) (every DOF keeps one value through the clip); none when the
-    clip has fewer than two frames."""
+    parents over `frames` (N, D) (every DOF keeps one value through the clip, a rotation to
+    within `turn` radians: capture noise); none when the clip has fewer than two frames."""
     frames = np.asarray(frames, float)
     J = skeleton.n_joints
     if len(frames) < 2:
         return np.zeros(J, bool)
-    fixed = np.ptp(frames, axis=0) <= 1e-9 * np.maximum(1.0, np.abs(frames).max(axis=0))
+    within = np.where(skeleton.dof_kind == ROTATE, turn, 0.0)
+    fixed = np.ptp(frames, axis=0) <= np.maximum(within, 1e-9 * np.maximum(1.0, np.abs(frames).max(axis=0)))
     still = np.array([fixed[skeleton.joint_dof_start[j] : skeleton.joint_dof_start[j + 1]].all() for j in range(J)])
     for j in range(J - 1, 0, -1):  # children after parents: reversed is bottom-up
         still[skeleton.parents[j]] &= still[j]
@@ -118,7 +120,7 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     tops = still & on_parent & (np.arange(J) > 0)
     if still[0]:
         return np.zeros(J, bool)
-    out = still_digits(skeleton, still)
+    out = still_digits(skeleton, still_branches(skeleton, frames, STILL_TURN))
     if tops.any():
         carriers = carrier_joints(replace(skeleton, helpers=tops))
         for j in range(1, J):
@@ -128,7 +130,7 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
 
 def still_digits(skeleton: Skeleton, still: np.ndarray) -> np.ndarray:
     """(J,) bool: the joints of the digits a capture never moves: DIGITS or more branches that
-    are `still` (J,) bool (still_branches) hanging from one joint, each reaching at most
+    are `still` (J,) bool (still_branches, its noise aside: STILL_TURN) hanging from one joint, each reaching at most
     DIGIT_REACH x skeleton.reach from it in the reference pose (a hand's five fingers, left as
     a rig posed them by a capture without finger motion). They carry no weight and the capture
     says nothing of them: where the capture lays a hand on the floor they hang through it as the
