@@ -44,6 +44,8 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   fingers and a thumb of three joints each, curled 15 degrees, and each foot's toe tip hangs from
   a toe joint 70 % of the way from the ankle; none of them moves (a capture that leaves fingers
   and toes still). The toes change no point the judge measures, the fingers lengthen the body.
+  Every clip also gets its digits with the noisy transform (`_digits_noisy`): a capture solver
+  shakes the joints it has no data for as it shakes the rest.
 """
 
 from __future__ import annotations
@@ -437,7 +439,8 @@ TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fa
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
-    in LAID, its 120 fps copy if in HIFPS and its noisy copy at 60 fps or more if in SHAKY."""
+    in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, and its
+    digits with noise (fingers and toes the capture only shakes)."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -450,4 +453,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [laid(base)] if base.name in LAID else []
         out += [hifps(base)] if base.name in HIFPS else []
         out += [shaky(base)] if base.name in SHAKY else []
+        out += [noisy(digits(base))]
     return out
