@@ -130,14 +130,14 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
 
 def still_digits(skeleton: Skeleton, still: np.ndarray) -> np.ndarray:
     """(J,) bool: the joints of the digits a capture never moves: DIGITS or more branches that
-    are `still` (J,) bool (still_branches, its noise aside: STILL_TURN) hanging from one joint, each reaching at most
-    DIGIT_REACH x skeleton.reach from it in the reference pose (a hand's five fingers, left as
-    a rig posed them by a capture without finger motion). They carry no weight and the capture
-    says nothing of them: where the capture lays a hand on the floor they hang through it as the
-    rig curled them, and counted as the body they sank it 116 mm under its floor (the shared
-    get-up, fingers added: refused as if the file's up were another) or planted every finger
-    joint as a contact of its own (a fist 60 mm through the floor). The hand they hang from
-    stays the body's end, as large as a palm (cleanup/body.py)."""
+    are `still` (J,) bool (still_branches, to within STILL_TURN: its noise) hanging from one
+    joint, each reaching at most DIGIT_REACH x skeleton.reach from it in the reference pose (a
+    hand's five fingers, left as a rig posed them by a capture without finger motion). They
+    carry no weight and the capture says nothing of them: where it lays a hand on the floor they
+    hang through it as the rig curled them, and counted as the body they sank it 116 mm under
+    its floor (the shared get-up, fingers added: refused as if the file's up were another) or
+    planted every finger joint as a contact of its own (a fist 60 mm through the floor). The
+    hand they hang from stays the body's end, as large as a palm (cleanup/body.py)."""
     J = skeleton.n_joints
     p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
     below = [[j] for j in range(J)]  # every joint's branch, itself first
