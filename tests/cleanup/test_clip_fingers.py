@@ -15,14 +15,9 @@ import deik
 from deik.cleanup.body import body_of, with_helpers
 from deik.cleanup.coherence import hinge_channels
 from judging.cases import CANON, digits
-from judging.rigs import format_rig, parse_rig, world_frames
+from judging.rigs import parse_rig, world_frames
 from judging.walk import procedural_walk
-
-
-def _written(case, tmp_path):
-    path = tmp_path / f"{case.name}.bvh"
-    path.write_text(format_rig(case.rig))
-    return path
+from tests.cleanup.test_clip_any_rig import _written
 
 
 def _cleaned(case, tmp_path) -> tuple[dict, object]:
