@@ -45,7 +45,12 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   a toe joint 70 % of the way from the ankle; none of them moves (a capture that leaves fingers
   and toes still). The toes change no point the judge measures, the fingers lengthen the body.
   Every clip also gets its digits with the noisy transform (`_digits_noisy`): a capture solver
-  shakes the joints it has no data for as it shakes the rest.
+  shakes the joints it has no data for as it shakes the rest. Case.names gains RightToe and
+  LeftToe, the toe joints, on which the judge hangs the part of the foot box beyond them.
+- toes: the digits rig whose toes the capture bends: each toe joint's Xrotation channel plus
+  TOE_BEND sin(2 pi TOE_HERTZ t + phase) degrees (5 degrees at 0.7 Hz, the feet a radian out of
+  phase), as a capture with toe markers bends them; every clip gets it, without and with the
+  noisy transform (`_toes`, `_toes_noisy`).
 """
 
 from __future__ import annotations
@@ -337,6 +342,7 @@ def laid(case: Case) -> Case:
 FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, (0.048, 0.03, 0.022)),
            (0.03, (0.04, 0.025, 0.02)), (0.04, (0.03, 0.03, 0.025)))  # fmt: skip
 PALM, TOE, CURL = 0.08, 0.7, 15.0  # metres from the wrist to the knuckles; the toe joint's share; degrees
+TOE_BEND, TOE_HERTZ = 5.0, 0.7  # degrees, cycles per second: the toes transform
 CHANNELS = ("Zrotation", "Xrotation", "Yrotation")  # of every joint a transform adds
 
 
@@ -413,7 +419,25 @@ def digits(case: Case) -> Case:
         else:
             sites.append((name, j, offset))
     rig = _built(rig, nodes, sites)
-    return dataclasses.replace(case, name=case.name + "_digits", rig=rig, description="still fingers, wrists and toes")
+    ankles = {case.names[f"{side}Ankle"]: side for side in ("Right", "Left")}
+    toes = {f"{ankles[name[:-4]]}Toe": name for name in rig.names if name.endswith("_toe") and name[:-4] in ankles}
+    names = {**case.names, **toes}
+    description = "still fingers, wrists and toes"
+    return dataclasses.replace(case, name=case.name + "_digits", rig=rig, names=names, description=description)
+
+
+def toes(case: Case) -> Case:
+    """The toes transform (module notes)."""
+    case = digits(case)
+    rig = case.rig
+    frames = rig.frames.copy()
+    t = np.arange(len(frames)) * rig.frame_time
+    for side, phase in (("Right", 0.0), ("Left", 1.0)):
+        joint = rig.names.index(case.names[f"{side}Toe"])
+        column = rig.columns.index((joint, "Xrotation"))
+        frames[:, column] += TOE_BEND * np.sin(2.0 * np.pi * TOE_HERTZ * t + phase)
+    rig = dataclasses.replace(rig, frames=frames)
+    return dataclasses.replace(case, name=case.name[: -len("_digits")] + "_toes", rig=rig, description="bending toes")
 
 
 def seats(case: Case) -> Case:
@@ -433,14 +457,15 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky}  # fmt: skip
+              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky, "toes": toes}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
-    in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, and its
-    digits with noise (fingers and toes the capture only shakes)."""
+    in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, its
+    digits with noise (fingers and toes the capture only shakes), and its toes, without and with
+    noise."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -453,5 +478,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [laid(base)] if base.name in LAID else []
         out += [hifps(base)] if base.name in HIFPS else []
         out += [shaky(base)] if base.name in SHAKY else []
-        out += [noisy(digits(base))]
+        out += [noisy(digits(base)), toes(base), noisy(toes(base))]
     return out

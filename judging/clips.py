@@ -5,7 +5,10 @@ Body: the DeepMimic humanoid's collision shapes (the source model of the shared 
 `humanoid_deepmimic_source.urdf` at its 0.25 scale), attached to the canonical joints a case
 names, turned with a joint whose frame the case turned (Case.turns) and scaled by its length
 unit and bone scales: spheres for the pelvis, chest, head and
-hands, capsules for the thighs, shins, upper arms and forearms, a box for each foot.
+hands, capsules for the thighs, shins, upper arms and forearms, a box for each foot. A foot
+with toes (a case whose names give a RightToe or LeftToe joint: judging/cases.py, digits) has
+its box cut across at the toe joint, the part beyond it turning with the toe, as a foot bends
+at its ball; a toe the rig keeps still leaves the box as one.
 
 Contact points: every sphere's centre, both ends of every capsule's axis, and the bottom of
 each foot box under its heel and under its toe; a point's clearance is how far below it the
@@ -16,8 +19,8 @@ averaged over three frames) at most SPEED, in runs of at least REST_SECONDS.
 Measures, in mm and the case's frames:
 - sliding: the largest horizontal step of a point between two frames of one of its resting runs
   in the capture (every point that rests in the capture, whatever a cleaner detects);
-- depth: the deepest any shape's surface goes below the floor (a box's corners, a capsule's ends,
-  a sphere's bottom);
+- depth: the deepest any shape's surface goes below the floor (a box's corners, and where it is
+  cut at a toe joint the corners of both parts there, a capsule's ends, a sphere's bottom);
 - peaks: per joint and End Site, its acceleration (second difference / dt^2) in each frame over
   its largest in the capture within PEAK_SECONDS of that frame (at least STILL): the worst ratio
   and its point (a pop in a quiet stretch counts, however hard that point moves elsewhere);
@@ -84,11 +87,40 @@ def contact_points(case: Case, rig: Rig) -> tuple[list[str], np.ndarray, np.ndar
     for joint, a, b, radius in CAPSULES:
         add(f"{joint} capsule top", joint, a, radius)
         add(f"{joint} capsule end", joint, b, radius)
-    (cx, cy, cz), (hx, hy, _) = FOOT_BOX
+    (cx, _, cz), (hx, _, _) = FOOT_BOX
     for side in ("Right", "Left"):
-        add(f"{side} heel", f"{side}Ankle", (cx - hx, cy - hy, cz), 0.0)
-        add(f"{side} toe", f"{side}Ankle", (cx + hx, cy - hy, cz), 0.0)
+        for end, x in (("heel", cx - hx), ("toe", cx + hx)):
+            names.append(f"{side} {end}")
+            points.append(_sole(case, rig, (R, p), side, (x, cz)) * s)
+            clear.append(0.0)
     return names, np.stack(points, axis=1), np.array(clear)
+
+
+def _ball(case: Case, rig: Rig, side: str) -> tuple[int, np.ndarray] | None:
+    """(the toe joint's index, its OFFSET in the foot's frame in the source's metres) of the foot
+    on `side` when the case's rig has one (Case.names' {side}Toe), else None."""
+    if f"{side}Toe" not in case.names:
+        return None
+    toe = rig.names.index(case.names[f"{side}Toe"])
+    scale = case.bone_scale.get(f"{side}Ankle", 1.0) * case.unit
+    return toe, case.turns.get(f"{side}Ankle", np.eye(3)) @ rig.offsets[toe] / scale
+
+
+def _sole(case: Case, rig: Rig, frames: tuple, side: str, spot: tuple[float, float], on_toe: bool | None = None):
+    """(N, 3) world position (length units) of the point of the foot box's bottom at `spot` (x
+    forward, z across, source metres in the ankle's frame) on `side`, world `frames` (R, p) of
+    `rig`: on the toe where the box reaches past the toe joint (module notes: a foot with toes),
+    or as `on_toe` says (the ball's edge is on both parts)."""
+    R, p = frames
+    (_, cy, _), (_, hy, _) = FOOT_BOX
+    local = np.array([spot[0], cy - hy, spot[1]])
+    joint = f"{side}Ankle"
+    scale = case.bone_scale.get(joint, 1.0) * case.unit
+    turn = case.turns.get(joint, np.eye(3))
+    ball = _ball(case, rig, side)
+    if ball is not None and (spot[0] > ball[1][0] if on_toe is None else on_toe):
+        return _world(R, p, ball[0], turn.T @ (local - ball[1]) * scale)
+    return _world(R, p, rig.names.index(case.names[joint]), turn.T @ local * scale)
 
 
 def deepest(case: Case, rig: Rig) -> np.ndarray:
@@ -96,17 +128,15 @@ def deepest(case: Case, rig: Rig) -> np.ndarray:
     (negative: above)."""
     names, points, clear = contact_points(case, rig)
     lowest = (points[..., 1] - clear).min(axis=1)
-    R, p = world_frames(rig)
-    (cx, cy, cz), (hx, hy, hz) = FOOT_BOX
+    frames = world_frames(rig)
+    (cx, _, cz), (hx, _, hz) = FOOT_BOX
     for side in ("Right", "Left"):
-        joint = f"{side}Ankle"
-        scale = case.bone_scale.get(joint, 1.0) * case.unit
-        j = rig.names.index(case.names[joint])
-        for sx in (-1, 1):
-            for sz in (-1, 1):
-                local = case.turns.get(joint, np.eye(3)).T @ np.array([cx + sx * hx, cy - hy, cz + sz * hz])
-                corner = _world(R, p, j, local * scale) / case.unit
-                lowest = np.minimum(lowest, corner[:, 1])
+        ball = _ball(case, rig, side)
+        spots = [(cx - hx, None), (cx + hx, None)] + ([] if ball is None else [(ball[1][0], False), (ball[1][0], True)])
+        for x, on_toe in spots:
+            for z in (cz - hz, cz + hz):
+                corner = _sole(case, rig, frames, side, (x, z), on_toe)
+                lowest = np.minimum(lowest, corner[:, 1] / case.unit)
     return -lowest
 
 

@@ -386,6 +386,7 @@ SETTINGS = {
     r"every frame, as an FBX export of a Z-up scene writes it\), "
     r"four captured at 120 fps\s+\(`_120fps`\), five with capture noise at 60 fps or more \(`_120fps_noisy`, and "
     r"`_noisy` for\s+the clips captured at 60 fps\)": "the hard cases' transforms (judging/cases.py)",
+    r"bends \(`_toes`, 5 degrees back and forth": "the toes transform (judging/cases.py: TOE_BEND)",
     r"A capture that shakes at 45 fps or more is low-passed before the fix\s+\(a 6 Hz Gaussian": "when and how "
     "deik low-passes a capture (deik.cleanup.noise: WIDEST_FRAME, LOW_PASS)",
     r"the walk, the run and the kick at 120 fps with capture noise": "the retarget hard cases "
@@ -397,7 +398,7 @@ SETTINGS = {
     "touching (deik.cleanup.bone_points.TIE)",
     r"The targets: sliding at most 1 mm per frame .*? accelerating past 1\.1x its own capture peak": "issue 27's "
     "targets (benchmarks.clip_targets.TARGETS)",
-    r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_digits_noisy \|(?: [^|]* \|){5}": "the table of "
+    r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_toes_noisy \|(?: [^|]* \|){5}": "the table of "
     "benchmarks/results/clip_targets.json, checked row for row by tests/benchmarks/test_bench_clip_targets.py",
     r"above the 200 MB we aimed at": "issue 19's target (benchmarks.wheel_install.MAX_MEGABYTES)",
     r"about 10 minutes on 2 cores": "measured by tests/cli/test_readme_claims.py::"

@@ -2,7 +2,7 @@
 does to the body: their joints keep their rotations (coherence.hinge_channels), a toe joint that
 cannot bend moves with its ankle (warmstart.rigid_bodies) and adds no floor row over the sole
 (ground.clearances); a foot that ends in a toe joint, as a rig without End Sites writes it,
-stands on a sole below and beyond that joint (body.TOE_HEIGHT, TOE_REACH). Judged on the
+stands on a sole below and beyond that joint (soles.TOE_HEIGHT, TOE_REACH). Judged on the
 procedural walk sunk under the floor with and without the digits transform (judging/cases.py),
 by the judge's own kinematics."""
 

@@ -1,10 +1,10 @@
 """A foot the file leaves out: a leg that ends at its ankle (a joint with channels, no End Site or
-toe below it) still stands on a foot, and cleanup/body.py gives it one from the body's
+toe below it) still stands on a foot, and cleanup/soles.py gives it one from the body's
 proportions, pointing ahead of the rest pose on the side the knee bends to.
 
 - Size: the ankle lies ANKLE_HEIGHT of the stature above the sole and the foot is FOOT_LENGTH of
   it long (Drillis & Contini's segment lengths: 0.039 and 0.152 of a person's height), its heel
-  HEEL_BACK of the ankle-to-toe length behind the ankle (body.py's sole, as for a drawn foot).
+  HEEL_BACK of the ankle-to-toe length behind the ankle (soles.py's sole, as for a drawn foot).
 - Direction: in a rig's rest pose (every rotation 0: a T- or A-pose) the feet point ahead,
   square to the leg and to the line from the pelvis to the hip, and the knee bends that way:
   in every frame the knee's offset from the line between the hip and the ankle points ahead.

@@ -24,21 +24,7 @@ that rests folded): on the shared walk with its rest pose laid down, the tallest
 strike tilted the soles laid through it and the fix slid 16 mm a frame; on the crawl, whose
 rest passed for standing beside its low frames, the soles lay on the hips and the body 98 mm
 under the floor was reported met. The body's height for its radii is that standing pose's
-extent along up. Feet: in that pose, the ends of
-the body within FOOT_END x span of its lowest point (toes, not hands), each with the chain of
-joints above it that lie within FOOT_CHAIN x span of that end (an ankle, a toe joint); the
-chain's top is the ankle. Sole: the ground plane through the foot's lowest point in that pose
-when the chain ends in an End Site (the toe tip, on the foot's surface) or in a joint without
-channels (an End Site written as a joint: it turns nothing, so it only marks the tip); when it
-ends in a joint with channels (a rig written without End Sites: the toe joint, inside the foot)
-TOE_HEIGHT x span below it,
-where the ball of a foot carries its toe joint (about 0.9 % of stature over the floor), and its
-toes reach TOE_REACH of the ankle-to-toe-joint length beyond it (the ball of the foot lies at
-about 0.7 of the way from the ankle to the toe tip). A leg that ends at its ankle (a chain of
-one joint with channels) stands on a foot drawn from the body's proportions (bare_ankles.py).
-On it lie the foot's sole sites, fixed in the ankle's frame (the toe's in the frame carrying the
-toe tip): its heel, HEEL_BACK of the ankle-to-toe length behind the ankle, its toe under the toe
-tip, and each flanked by two sites SOLE_WIDTH of the foot's length to either side.
+extent along up. Feet and their soles: cleanup/soles.py.
 
 Radius (how far the body's surface lies from a point): the capsule radius (default_radii, in the
 standing pose) of the thinnest bone with one that the point ends or starts (a shoulder is as
@@ -63,47 +49,31 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from deik.cleanup.bare_ankles import FOOT_LENGTH, foot_direction, left_out_sole
+from deik.cleanup.soles import Foot, body_ends, foot_chains, sole_points, sole_sites, toe_joint
 from deik.errors import InputError
 from deik.io.trajectory import Motion, Trajectory
 from deik.model.build import with_sites
-from deik.model.capsules import body_root, bone_starts, default_radii, helper_joints, off_body, seat_anchors
+from deik.model.capsules import (
+    STILL_TURN,
+    body_root,
+    bone_starts,
+    default_radii,
+    helper_joints,
+    off_body,
+    seat_anchors,
+    still_branches,
+)
 from deik.model.joints import ROTATE
 from deik.model.kinematics import Kinematics, forward_kinematics
 from deik.model.rotations import upright
 from deik.model.skeleton import Skeleton
 
 STANDING = 0.5
-FOOT_END = 0.12
-FOOT_CHAIN = 0.07
 LEGS = 0.2  # of the span: a body root standing on two feet lies at least this far above them
 UPRIGHT = 0.9  # of the rest pose's length along its own axes: a carried rest that stands this tall stands
-HEEL_BACK = 0.33
-SOLE_WIDTH = 0.25
-TOE_HEIGHT = 0.007  # of the span: a toe joint's centre over the sole (1.5 cm on the shared humanoid)
-TOE_REACH = 0.4  # of the ankle-to-toe-joint length: how far the toes reach beyond their joint
 TAPER = 0.6  # a limb segment's far end over its near end
 TOP = (3.0 / (1.0 + TAPER + TAPER**2)) ** 0.5  # its near end over its volume's cylinder: 1.24
 PALM = 0.165  # half a hand's breadth, of the forearm's length
-SOLE_SITES = ("heel", "heel_left", "heel_right", "toe", "toe_left", "toe_right")
-
-
-@dataclass(frozen=True)
-class Foot:
-    """One foot: `ankle` (the top joint of its chain), `chain` (its joints and tip, frame names,
-    top first), and the names of its sole sites in SOLE_SITES order."""
-
-    ankle: str
-    chain: tuple[str, ...]
-    soles: tuple[str, ...]
-
-    @property
-    def heel(self) -> str:
-        return self.soles[0]
-
-    @property
-    def toe(self) -> str:
-        return self.soles[3]
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,7 +202,7 @@ def _on_two_feet(kin: Kinematics, part: np.ndarray, span: float) -> Kinematics |
         turned = _stood_on(kin, axis)
         p = turned.p_world_frame[0]
         height = p[part] @ sk.up
-        if len(_foot_chains(sk, p, part, span)) == 2 and p[root] @ sk.up - height.min() >= LEGS * span:
+        if len(foot_chains(sk, p, part, span)) == 2 and p[root] @ sk.up - height.min() >= LEGS * span:
             if np.ptp(height) > tallest:
                 best, tallest = turned, float(np.ptp(height))
     return best
@@ -291,102 +261,6 @@ def _standing(clip: Motion, part: np.ndarray, span: float) -> tuple[np.ndarray, 
     return pose, forward_kinematics(sk, pose[None])
 
 
-def _ends(skeleton: Skeleton, part: np.ndarray) -> np.ndarray:
-    """(F,) bool: body frames no bone of the body leaves (a hand whose still fingers are no
-    part of it, model.capsules.still_digits, is an end)."""
-    start = bone_starts(skeleton)
-    leaves = np.ones(skeleton.n_frames, bool)
-    leaves[start[(start >= 0) & part]] = False
-    return leaves & part
-
-
-def _along_ground(p: np.ndarray, a: int, b: int, up: np.ndarray) -> float:
-    """The distance along the ground between frames a and b at positions p (F, 3)."""
-    delta = p[b] - p[a]
-    return float(np.linalg.norm(delta - (delta @ up) * up))
-
-
-def _foot_chains(skeleton: Skeleton, p: np.ndarray, part: np.ndarray, span: float) -> list[tuple[int, ...]]:
-    """Per foot, its chain (frame indices, top first, the tip last) in the standing positions p (F, 3)."""
-    start = bone_starts(skeleton)
-    height = p @ skeleton.up
-    lowest = height[part].min()
-    chains = {}
-    for tip in np.flatnonzero(_ends(skeleton, part) & (height <= lowest + FOOT_END * span)):
-        chain, f = [int(tip)], int(start[tip])
-        while f >= 0 and part[f] and height[f] <= height[tip] + FOOT_CHAIN * span and f < skeleton.n_joints:
-            chain.insert(0, f)
-            f = int(start[f])
-        if len(chain) < 2 and not (tip < skeleton.n_joints and tip in skeleton.dof_joint):
-            continue  # one point alone is a foot only where the leg ends at its ankle (bare_ankles.py)
-        ankle = chain[0]  # one foot per ankle: the tip farthest from it along the ground
-        if ankle not in chains or _along_ground(p, ankle, tip, skeleton.up) > _along_ground(
-            p, ankle, chains[ankle][-1], skeleton.up
-        ):
-            chains[ankle] = tuple(chain)
-    return list(chains.values())
-
-
-def _free_name(taken: set[str], name: str) -> str:
-    k = 2
-    out = name
-    while out in taken:
-        out, k = f"{name}{k}", k + 1
-    taken.add(out)
-    return out
-
-
-def _soles(skeleton: Skeleton, chain, kin, heel: np.ndarray, toe: np.ndarray) -> list:
-    """Sites [(name, frame name, offset in its frame)] of the foot `chain` in the standing
-    kinematics `kin` (one pose), its `heel` and `toe` (3,) on the sole (_sole_points)."""
-    up = skeleton.up
-    forward = toe - heel
-    side = np.cross(up, forward / max(np.linalg.norm(forward), 1e-300)) * SOLE_WIDTH * np.linalg.norm(forward)
-    ankle = chain[0]
-    carrier = chain[-2] if chain[-1] >= skeleton.n_joints else chain[-1]  # the joint that carries the tip
-    names = skeleton.frame_names
-    taken = set(names)
-    sites = []
-    for name, point, frame in (
-        ("heel", heel, ankle),
-        ("heel_left", heel + side, ankle),
-        ("heel_right", heel - side, ankle),
-        ("toe", toe, carrier),
-        ("toe_left", toe + side, carrier),
-        ("toe_right", toe - side, carrier),
-    ):
-        R, origin = kin.R_world_frame[0, frame], kin.p_world_frame[0, frame]
-        sites.append((_free_name(taken, f"{names[ankle]}_{name}"), names[frame], R.T @ (point - origin)))
-    return sites
-
-
-def _sole_points(skeleton: Skeleton, chain, kin, clip_kin: tuple[Kinematics, Kinematics], span: float, stature: float):
-    """(sole height along up, heel (3,), toe tip (3,) on the sole) of the foot `chain` (frame
-    indices, top first) in the standing kinematics `kin` (module notes: Sole); a leg that ends
-    at its ankle takes a foot from the body's proportions, from `clip_kin`: the clip's
-    kinematics and its rest pose's (median_pose) (bare_ankles.py); None when its knee never
-    bends."""
-    up, p = skeleton.up, kin.p_world_frame[0]
-    ankle, tip = chain[0], chain[-1]
-    inside = False
-    if len(chain) == 1:
-        start = bone_starts(skeleton)
-        knee = int(start[ankle])
-        direction = foot_direction(*clip_kin, (int(start[knee]), knee, ankle), body_root(skeleton))
-        if direction is None:
-            return None
-        sole, forward = left_out_sole(kin, ankle, up, stature, direction)
-        forward = forward * FOOT_LENGTH * stature / (1.0 + HEEL_BACK)  # from the ankle to the toe tip
-    else:
-        # a toe joint inside the foot; a joint that turns nothing only marks the tip, as an End Site does
-        inside = tip < skeleton.n_joints and tip in skeleton.dof_joint
-        sole = (p[list(chain)] @ up).min() - (TOE_HEIGHT * span if inside else 0.0)
-        forward = (p[tip] - p[ankle]) - ((p[tip] - p[ankle]) @ up) * up
-    base = p[ankle] + (sole - p[ankle] @ up) * up  # under the ankle, on the sole
-    toe = base + forward * (1.0 + (TOE_REACH if inside else 0.0))  # the toes reach beyond a toe joint
-    return sole, base - HEEL_BACK * forward, toe
-
-
 def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -> np.ndarray:
     """(F,) per joint and site the radius of the thinnest bone with a radius that ends or starts
     there (a bone's radius is its start joint's, `joint_radius` (J,)); 0 where none has one."""
@@ -416,12 +290,13 @@ def body_of(clip: Motion) -> Body:
     stature = float(np.ptp(height[part]))  # the standing kinematics', which may be a turned rest pose
     feet, sites, foot_radius = [], [], {}
     rest = forward_kinematics(sk, median_pose(clip)[None])
-    for chain in _foot_chains(sk, kin.p_world_frame[0], part, span):
-        shape = _sole_points(sk, chain, kin, (motion, rest), span, stature)
+    turning = ~still_branches(sk, clip.frames, STILL_TURN) & np.isin(np.arange(sk.n_joints), sk.dof_joint)
+    for chain in foot_chains(sk, kin.p_world_frame[0], part, span):
+        shape = sole_points(sk, chain, kin, (motion, rest), span, stature)
         if shape is None:
             continue
         sole, heel, toe = shape
-        soles = _soles(sk, chain, kin, heel, toe)
+        soles = sole_sites(sk, chain, kin, heel, toe, toe_joint(chain, turning))
         sites += soles
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
@@ -430,7 +305,7 @@ def body_of(clip: Motion) -> Body:
     # point: its bones and mass are the other's, and it is as thick as the other is there
     seat = seat_anchors(sk)
     seated_start = np.where(start >= 0, seat[np.maximum(start, 0)], -1)
-    ends = _ends(sk, part)
+    ends = body_ends(sk, part)
     joint_radius = np.where(off | ends[: sk.n_joints], 0.0, default_radii(sk, standing, seated=True, height=stature))
     own = _thinnest(sk, joint_radius, seated_start)
     own = np.where(ends, np.maximum(own, PALM * length), own)
