@@ -209,7 +209,7 @@ def plants_at_heights(clip: Motion, goals: ClipGoals, poses: np.ndarray) -> Clip
     if goals.floor is not None:
         heights = np.maximum(heights, goals.floor + contacts.clearance)
     moved = plants + (heights - plants @ up)[..., None] * up
-    pairs = rigid_pairs(site_positions(clip, contacts.sites), body_reach(clip.skeleton))
+    pairs = rigid_pairs(site_positions(clip, contacts.sites), body_reach(clip.skeleton), contacts.mask)
     moved = linked_at_heights(np.where(contacts.mask[..., None], moved, 0.0), contacts.mask, pairs, up)
     return replace(goals, plants=np.where(contacts.mask[..., None], moved, np.nan))
 

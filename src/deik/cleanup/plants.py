@@ -14,8 +14,9 @@ while its heel rests) plant the capture's move apart (_moved_plants): each rest'
 puts the plants of a creeping point farther apart than it moves across the gap, and the move
 between them is faster than the capture's (the shared punch's front toe moved 29 mm over two
 frames between its plants where the capture moves 19, and its rest before the move was lost).
-Plants of two rigidly linked sites (an ankle and its toe) are then placed relative to each
-other (_linked_plants), so both can be met at once: a whole foot that shuffles (heel and toe
+Plants of two rigidly linked sites (an ankle and its toe; a toe tip whose distance from the heel
+a bending toe changes by less than RIGID_TOLERANCE x reach: rigid_pairs) are then placed
+relative to each other (_linked_plants), so both can be met at once: a whole foot that shuffles (heel and toe
 across the same gap) is still held where it first rested, as a foot rolling from heel to toe.
 """
 
@@ -29,20 +30,26 @@ from deik.errors import InputError
 from deik.io.trajectory import Motion
 from deik.model.capsules import body_reach
 
-RIGID_TOLERANCE = 1e-6  # of reach: sites whose distance varies less are rigidly linked
+RIGID_TOLERANCE = 5e-3  # of reach: sites whose distance varies less are rigidly linked
 SNAP_FRACTION = 0.01  # of reach: a plant without clearance this close to the floor is put on it
 HANDOVER = 3  # frames: a plant starting this soon after a rigidly linked site's ends takes over from it
 
 
-def rigid_pairs(p: np.ndarray, reach: float) -> list[tuple[int, int, float]]:
-    """(s, t, distance) of the sites whose distance stays the same in every frame of
-    positions `p` (N, S, 3): an ankle and its toe, moved by no DOF between them."""
+def rigid_pairs(p: np.ndarray, reach: float, resting: np.ndarray) -> list[tuple[int, int, float]]:
+    """(s, t, distance) of the sites whose distance at positions `p` (N, S, 3) stays the same in
+    every frame, to within RIGID_TOLERANCE x `reach` (an ankle and its toe, moved by no DOF
+    between them or by a toe joint that bends a little), with their mean distance in the
+    frames both rest (`resting` (N, S) bool; in every frame where they never rest together),
+    where their plants must lie that far apart. At 1e-6 of reach, a toe the capture bends 5
+    degrees unlinked its heel, and the two plants, placed alone, could not both be met: the
+    shared dance on a rig whose toes bend so slid 6.7 mm a frame."""
     pairs = []
     for s in range(p.shape[1]):
         for t in range(s + 1, p.shape[1]):
             distance = np.linalg.norm(p[:, s] - p[:, t], axis=-1)
             if np.ptp(distance) <= RIGID_TOLERANCE * reach:
-                pairs.append((s, t, float(distance.mean())))
+                both = resting[:, s] & resting[:, t]
+                pairs.append((s, t, float(distance[both if both.any() else slice(None)].mean())))
     return pairs
 
 
@@ -215,7 +222,7 @@ def planted_targets(clip: Motion, contacts: Contacts, along: str = "median") -> 
         raise InputError(f"contacts cover {contacts.mask.shape[0]} frames, the clip has {clip.n_frames}")
     up = clip.skeleton.up
     p = site_positions(clip, contacts.sites)
-    pairs = rigid_pairs(p, body_reach(clip.skeleton))
+    pairs = rigid_pairs(p, body_reach(clip.skeleton), contacts.mask)
     floor = contacts.ground + contacts.clearance
     heights = lifted_heights(p @ up, contacts.mask, pairs, floor)
     plants = {}  # (site, start, stop) -> target (3,)

@@ -268,7 +268,7 @@ def roll_targets(
     resting = held_rows[2][:, soles]
     N, F = x0.shape[:2]
     level = np.max([np.broadcast_to(level, (N, F))[:, index] for level in floors], axis=0)
-    heights = lifted_heights(x0[:, index] @ up, resting, rigid_pairs(x0[:, index], reach), level)
+    heights = lifted_heights(x0[:, index] @ up, resting, rigid_pairs(x0[:, index], reach, resting), level)
     return index, heights, resting
 
 
