@@ -51,6 +51,10 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   TOE_BEND sin(2 pi TOE_HERTZ t + phase) degrees (5 degrees at 0.7 Hz, the feet a radian out of
   phase), as a capture with toe markers bends them; every clip gets it, without and with the
   noisy transform (`_toes`, `_toes_noisy`).
+- fingers: the digits rig whose fingers the capture moves, as a glove does: each finger joint's
+  Xrotation channel plus FINGER_BEND sin(2 pi FINGER_HERTZ t + phase) degrees (10 degrees at
+  0.5 Hz on the 15 degrees of curl, each joint a radian out of phase); the get-up and the crawl,
+  which lay those hands on the floor (`_fingers`).
 """
 
 from __future__ import annotations
@@ -83,6 +87,7 @@ EXTRAS = {  # the second transform of each shared clip, so that every one is tri
 CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch", "dance_a": "glitch"}  # a third
 STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
 DIGITS = ("run", "jump", "punch", "dance_a", "getup_facedown", "crawl")  # fingers and toes (the last two: hands down)
+FINGERED = ("getup_facedown", "crawl")  # and fingers the capture moves (hands down)
 LAID = ("walk", "kick", "crawl")  # and a rest pose lying down
 HIFPS = ("walk", "run", "kick", "punch")  # and 120 fps (the 30 fps clips)
 SHAKY = ("walk", "run", "kick", "jump", "dance_a")  # and noisy at 60 fps or more
@@ -343,6 +348,7 @@ FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, 
            (0.03, (0.04, 0.025, 0.02)), (0.04, (0.03, 0.03, 0.025)))  # fmt: skip
 PALM, TOE, CURL = 0.08, 0.7, 15.0  # metres from the wrist to the knuckles; the toe joint's share; degrees
 TOE_BEND, TOE_HERTZ = 5.0, 0.7  # degrees, cycles per second: the toes transform
+FINGER_BEND, FINGER_HERTZ = 10.0, 0.5  # degrees, cycles per second: the fingers transform
 CHANNELS = ("Zrotation", "Xrotation", "Yrotation")  # of every joint a transform adds
 
 
@@ -426,6 +432,20 @@ def digits(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_digits", rig=rig, names=names, description=description)
 
 
+def fingers(case: Case) -> Case:
+    """The fingers transform (module notes)."""
+    case = digits(case)
+    rig = case.rig
+    frames = rig.frames.copy()
+    t = np.arange(len(frames)) * rig.frame_time
+    bent = [k for k, (j, c) in enumerate(rig.columns) if "_finger" in rig.names[j] and c == "Xrotation"]
+    for phase, column in enumerate(bent):
+        frames[:, column] += FINGER_BEND * np.sin(2.0 * np.pi * FINGER_HERTZ * t + phase)
+    rig = dataclasses.replace(rig, frames=frames)
+    name = case.name[: -len("_digits")] + "_fingers"
+    return dataclasses.replace(case, name=name, rig=rig, description="moving fingers, still toes")
+
+
 def toes(case: Case) -> Case:
     """The toes transform (module notes)."""
     case = digits(case)
@@ -457,15 +477,16 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky, "toes": toes}  # fmt: skip
+              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky, "toes": toes,
+              "fingers": fingers}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
     in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, its
-    digits with noise (fingers and toes the capture only shakes), and its toes, without and with
-    noise."""
+    digits with noise (fingers and toes the capture only shakes), its moving fingers if in
+    FINGERED, and its toes, without and with noise."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -478,5 +499,6 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [laid(base)] if base.name in LAID else []
         out += [hifps(base)] if base.name in HIFPS else []
         out += [shaky(base)] if base.name in SHAKY else []
+        out += [fingers(base)] if base.name in FINGERED else []
         out += [noisy(digits(base)), toes(base), noisy(toes(base))]
     return out

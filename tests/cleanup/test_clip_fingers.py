@@ -1,10 +1,10 @@
-"""A hand's fingers that the capture never moves (a game rig's, filled in by a capture without
-finger data: judging/cases.py, digits) are no part of the body the clip fix keeps on the floor
-(model.capsules.still_digits): the hand they hang from is the body's end, as thick as a palm,
-and the clip cleans as it does on the rig without them. Capture noise on their channels
-(a fraction of a degree) does not make them move (model.capsules.STILL_TURN), nor a toe joint
-the fix may then bend (cleanup.coherence.hinge_channels). Judged by the benchmarks' own
-kinematics and body (judging/rigs.py, judging/clips.py)."""
+"""A hand's fingers, whether the capture moves them or not (a game rig's, filled in by a capture
+without finger data or moved by a glove: judging/cases.py, digits and fingers) are no part of
+the body the clip fix keeps on the floor (model.capsules.digit_joints): the hand they hang from
+is the body's end, as thick as a palm, and the clip cleans as it does on the rig without them.
+Capture noise on a toe's channels (a fraction of a degree) does not make it move
+(model.capsules.STILL_TURN), nor the fix bend it (cleanup.coherence.hinge_channels). Judged by
+the benchmarks' own kinematics and body (judging/rigs.py, judging/clips.py)."""
 
 import dataclasses
 
@@ -14,7 +14,8 @@ import pytest
 import deik
 from deik.cleanup.body import body_of, with_helpers
 from deik.cleanup.coherence import hinge_channels
-from judging.cases import CANON, digits
+from deik.model.capsules import digit_joints
+from judging.cases import CANON, digits, fingers, studio
 from judging.rigs import parse_rig, world_frames
 from judging.walk import procedural_walk
 from tests.cleanup.test_clip_any_rig import _written
@@ -146,3 +147,35 @@ def test_a_get_up_with_shaken_fingers_on_the_floor_is_cleaned_not_refused(tmp_pa
     case = noisy(digits(source_case(shared_path("humanoid", "humanoid3d_getup_facedown.bvh"))))
     report, _ = _cleaned(case, tmp_path)
     assert report["floor"]["height"] == 0.0
+
+
+def test_fingers_the_capture_moves_are_left_as_captured_and_no_part_of_the_body(tmp_path):
+    """Fingers a glove moves (10 degrees either way) on a hand that lies on the floor: as body
+    they sank the get-up under its floor and it was refused (tests below); left out, the walk
+    with them cleans as the walk, their channels as captured."""
+    walk = procedural_walk()
+    moved = fingers(walk)
+    clip = with_helpers(deik.read_bvh(_written(moved, tmp_path)))
+    body = body_of(clip)
+    names = body.skeleton.frame_names
+    finger_frames = [f for f, name in enumerate(names) if "_finger" in name]
+    assert len(finger_frames) == 40 and not body.part[finger_frames].any()
+    _, plain = _cleaned(walk, tmp_path)
+    _, out = _cleaned(moved, tmp_path)
+    gap = np.linalg.norm(_canonical(moved, out) - _canonical(walk, plain), axis=-1)
+    assert gap.max() <= 5e-4, f"{gap.max() * 1000:.2f} mm apart"
+    mine = [k for k, (j, _) in enumerate(moved.rig.columns) if "_finger" in moved.rig.names[j]]
+    bent = [k for k in mine if moved.rig.columns[k][1] == "Xrotation"]
+    assert np.ptp(moved.rig.frames[:, bent], axis=0).min() > 10.0  # they do move
+    np.testing.assert_allclose(out.frames[:, mine], moved.rig.frames[:, mine], atol=1e-6)
+
+
+def test_on_a_rig_with_position_channels_on_every_joint_only_the_fingers_are_digits(tmp_path):
+    """Digits are told by their bones' lengths from the body's root, not by the skeleton's reach,
+    which a `Reference` root and translation channels widen: measured so, the studio rig's arms
+    and head passed for a hand's digits."""
+    case = digits(studio(procedural_walk()))
+    sk = deik.read_bvh(_written(case, tmp_path)).skeleton
+    marked = {sk.joint_names[j] for j in np.flatnonzero(digit_joints(sk))}
+    assert marked == {name for name in sk.joint_names if "_finger" in name}
+    assert len(marked) == 30

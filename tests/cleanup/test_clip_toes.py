@@ -1,6 +1,6 @@
 """Toes the capture bends (a game rig's, judging/cases.py: toes): the foot gets sites under its
 ball on the foot's rigid part (cleanup/soles.py), the warm start leaves such short levers as
-captured (cleanup/warmstart.short_levers), and the judge's foot box bends with the toe
+captured (cleanup/body.short_levers), and the judge's foot box bends with the toe
 (judging/clips.py). Judged by the benchmarks' own kinematics and body."""
 
 import dataclasses
@@ -10,9 +10,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import deik
-from deik.cleanup.body import body_of, median_pose, with_helpers
+from deik.cleanup.body import body_of, on_body, short_levers, with_helpers
 from deik.cleanup.plants import rigid_pairs
-from deik.cleanup.warmstart import short_levers
 from deik.io.bvh import parse_bvh
 from deik.model.kinematics import forward_kinematics
 from helpers import shared_path
@@ -51,7 +50,7 @@ def test_the_warm_start_leaves_a_toe_as_captured_but_not_an_ankle():
     case = toes(sunk_walk())
     clip = with_helpers(parse_bvh(format_rig(case.rig), "toes.bvh"))
     body = body_of(clip)
-    short = short_levers(body, median_pose(clip))
+    short = short_levers(body, on_body(clip, body))
     sk = body.skeleton
     joints = {sk.joint_names[j] for j in sk.dof_joint[short]}
     assert {"RightAnkle_toe", "LeftAnkle_toe"} <= joints

@@ -74,6 +74,7 @@ UPRIGHT = 0.9  # of the rest pose's length along its own axes: a carried rest th
 TAPER = 0.6  # a limb segment's far end over its near end
 TOP = (3.0 / (1.0 + TAPER + TAPER**2)) ** 0.5  # its near end over its volume's cylinder: 1.24
 PALM = 0.165  # half a hand's breadth, of the forearm's length
+SHORT_LEVER = 0.05  # of the span: a joint carrying the body no farther is a short lever (short_levers)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,6 +130,22 @@ def with_helpers(clip: Motion) -> Motion:
     if on_helper.any() and mass[~on_helper].sum() > 0:  # their estimated share goes back to the body
         mass = np.where(on_helper, 0.0, mass) * (mass.sum() / mass[~on_helper].sum())
     return replace(clip, skeleton=replace(sk, helpers=helpers | sk.helpers, mass_value=mass))
+
+
+def short_levers(body: Body, motion: Motion) -> np.ndarray:
+    """(D,) bool: the DOFs of the joints of `body` whose part of the body reaches no farther than
+    SHORT_LEVER x span from them (a toe, a finger), by the median distances over `motion` (on
+    the body: on_body)."""
+    sk = body.skeleton
+    p = motion.kinematics.p_world_frame
+    start = bone_starts(sk)
+    reach = np.zeros(sk.n_frames)
+    for f in np.flatnonzero(body.part):
+        joint = start[f]
+        while joint >= 0:
+            reach[joint] = max(reach[joint], float(np.median(np.linalg.norm(p[:, f] - p[:, joint], axis=-1))))
+            joint = start[joint]
+    return ((reach <= SHORT_LEVER * body.span) & body.part)[sk.dof_joint]
 
 
 def median_pose(clip: Motion) -> np.ndarray:

@@ -36,7 +36,7 @@ from collections.abc import Callable
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
-from deik.cleanup.body import Body, body_of, median_pose, on_body
+from deik.cleanup.body import Body, body_of, on_body, short_levers
 from deik.cleanup.calm import calm
 from deik.cleanup.clip_goals import (
     FIDELITY_LEVEL,
@@ -54,7 +54,7 @@ from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
 from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
 from deik.cleanup.ground import clearances
 from deik.cleanup.warm_choice import Tried, chosen, far_frames
-from deik.cleanup.warmstart import Lifting, dof_weights, short_levers, warm_start
+from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
 from deik.errors import InputError
 from deik.io.motion import held_translations, message_prefix
 from deik.io.trajectory import Motion, Trajectory
@@ -366,7 +366,7 @@ def fix_clip(
     original = clip.poses()
     weights = dof_weights(clip)
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
-    movable = np.broadcast_to(~fixed_dofs & ~short_levers(body, median_pose(clip)), original.shape)
+    movable = np.broadcast_to(~fixed_dofs & ~short_levers(body, clip), original.shape)
     displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(clip, goals, weights, movable, body)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         fix_alone = displacement if reached is None else displacement - reached  # a reach drags no plant

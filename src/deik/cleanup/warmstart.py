@@ -37,9 +37,9 @@ them is lifted (whole_lifts), so the bone is carried up rather than turned. Thes
 push up: such a point is not held where it is (a point held still would fight the plants).
 fix_clip tries the warm start with and without it and keeps the better.
 
-Short levers: a joint whose part of the body reaches no farther than SHORT_LEVER x span from it
+Short levers: a joint whose part of the body reaches no farther than body.SHORT_LEVER x span from it
 (a toe, a finger: 2.9 and 4.6 % of it on the shared humanoid with toes and moving fingers; an
-ankle carries its heel and toe tip 7 % away) is left as captured (short_levers; DE may still
+ankle carries its heel and toe tip 7 % away) is left as captured (body.short_levers; DE may still
 turn it where a frame stays unmet). Such a joint moves its few points cheaply, so a step hands
 it what a leg should carry, and a step linear in its angle asks it for more than it can reach:
 a game rig whose toes the capture bends (judging/cases.py, toes, with noise) had a toe turned
@@ -54,7 +54,6 @@ from typing import NamedTuple
 import numpy as np
 
 from deik.cleanup.balance import horizontal_axes
-from deik.cleanup.body import Body
 from deik.cleanup.clip_goals import REACH_LEVEL
 from deik.cleanup.coherence import active_frames
 from deik.cleanup.contacts import running_max
@@ -62,7 +61,7 @@ from deik.cleanup.metrics import point_motion
 from deik.cleanup.plants import lifted_heights, rigid_pairs
 from deik.cleanup.spacetime import spacetime_step
 from deik.io.trajectory import Motion
-from deik.model.capsules import body_reach, body_root, bone_starts, carrier_joints, joined_to_parents, off_body
+from deik.model.capsules import body_reach, body_root, carrier_joints, joined_to_parents, off_body
 from deik.model.joints import ROTATE
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
@@ -88,24 +87,6 @@ FLOOR_MARGIN = 1e-4  # of reach: how far above the floor (and its clearance) a p
 FLOOR_HOLD = 30.0  # margins: a point this close to the floor is held where it is
 LIFT_SHARE = 0.05  # of a point's acceleration peak in the capture: the most a floor lift adds (floor_lifts)
 LIFT_WIDTHS = (1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 90, 128)  # half widths tried, frames
-SHORT_LEVER = 0.05  # of the span: a joint carrying the body no farther is left as captured (module notes)
-
-
-def short_levers(body: Body, pose: np.ndarray) -> np.ndarray:
-    """(D,) bool: the DOFs of `body`'s joints whose part of the body reaches no farther than
-    SHORT_LEVER x span from them in `pose` (D,) (a toe, a finger): the warm start does not turn
-    them (module notes: short levers)."""
-    sk = body.skeleton
-    p = forward_kinematics(sk, pose[None]).p_world_frame[0]
-    start = bone_starts(sk)
-    lever = np.zeros(sk.n_frames)
-    for f in np.flatnonzero(body.part):
-        joint = start[f]
-        while joint >= 0:
-            lever[joint] = max(lever[joint], float(np.linalg.norm(p[f] - p[joint])))
-            joint = start[joint]
-    short = (lever[: sk.n_joints] <= SHORT_LEVER * body.span) & body.part[: sk.n_joints]
-    return short[sk.dof_joint]
 
 
 def position_jacobian(

@@ -23,7 +23,7 @@ from deik.model.skeleton import Skeleton
 # length unit; masses count only as fractions of the total.
 BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
 MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
-DIGITS, DIGIT_REACH = 3, 0.25  # still branches of one joint, of the reach: a hand's fingers (still_digits)
+DIGITS, DIGIT_REACH = 3, 0.25  # branches of one joint, of the reach: a hand's fingers (digit_joints)
 STILL_TURN = np.radians(2.0)  # a rotation channel turning less over a clip is still: capture noise
 
 
@@ -110,17 +110,17 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: branches that never move
     against their parents (still_branches) hanging from the joints that carry the body
     (carrier_joints, counting such branches as no children) and starting where the carrier is
-    (no offset from it), as a game rig's IK target roots do, and a hand's still digits
-    (still_digits). (A body's own still branch, such as the legs of a seated clip, starts a
+    (no offset from it), as a game rig's IK target roots do, and a hand's digits
+    (digit_joints). (A body's own still branch, such as the legs of a seated clip, starts a
     bone away from its parent.) No helpers when the clip has fewer than two frames or nothing
     in it moves."""
     J = skeleton.n_joints
     still = still_branches(skeleton, frames)
     on_parent = np.linalg.norm(skeleton.offsets, axis=1) <= 1e-9 * max(1.0, skeleton.reach)
     tops = still & on_parent & (np.arange(J) > 0)
-    if still[0]:
+    if len(frames) < 2 or still[0]:
         return np.zeros(J, bool)
-    out = still_digits(skeleton, still_branches(skeleton, frames, STILL_TURN))
+    out = digit_joints(skeleton)
     if tops.any():
         carriers = carrier_joints(replace(skeleton, helpers=tops))
         for j in range(1, J):
@@ -128,30 +128,38 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     return out
 
 
-def still_digits(skeleton: Skeleton, still: np.ndarray) -> np.ndarray:
-    """(J,) bool: the joints of the digits a capture never moves: DIGITS or more branches that
-    are `still` (J,) bool (still_branches, to within STILL_TURN: its noise) hanging from one
-    joint, each reaching at most DIGIT_REACH x skeleton.reach from it in the reference pose (a
-    hand's five fingers, left as a rig posed them by a capture without finger motion). They
-    carry no weight and the capture says nothing of them: where it lays a hand on the floor they
-    hang through it as the rig curled them, and counted as the body they sank it 116 mm under
-    its floor (the shared get-up, fingers added: refused as if the file's up were another) or
-    planted every finger joint as a contact of its own (a fist 60 mm through the floor). The
-    hand they hang from stays the body's end, as large as a palm (cleanup/body.py)."""
+def digit_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: the joints of a hand's digits: DIGITS or more branches hanging from one joint,
+    each at most DIGIT_REACH x the body's longest path from its root (bone lengths, the OFFSETs,
+    from body_root) long from it (five fingers, whether the capture moves them or leaves them
+    as a rig posed them; an arm, a leg or a head is longer). They carry no weight and are not
+    what a body rests on: where a capture lays a hand on the floor they hang through it as the
+    rig or the glove curled them, and counted as the body they sank it 116 mm under its floor
+    (the shared get-up, fingers added: refused as if the file's up were another; fingers curled
+    15 degrees and moving 10 either way, the same) or planted every finger joint as a contact
+    of its own (a fist 60 mm through the floor). The hand they hang from stays the body's end,
+    as large as a palm (cleanup/body.py), and the fix leaves them as captured. Path lengths,
+    not the reference pose's distances or Skeleton.reach: a rig's translation channels widen
+    its reach (six channels on every joint: the arms passed for digits) and a rest pose may
+    fold an arm."""
     J = skeleton.n_joints
-    p = forward_kinematics(skeleton, skeleton.reference).p_world_frame
+    bone = np.linalg.norm(np.concatenate([skeleton.offsets, skeleton.site_offset]), axis=1)
+    start = bone_starts(skeleton)
+    depth = np.zeros(skeleton.n_frames)
+    for f in range(1, skeleton.n_frames):  # parents first: joints in order, then the sites
+        depth[f] = depth[start[f]] + bone[f]
     below = [[j] for j in range(J)]  # every joint's branch, itself first
     for j in range(J - 1, 0, -1):
         below[skeleton.parents[j]] += below[j]
     frames_of = np.concatenate([np.arange(J), skeleton.site_joint])
+    root = body_root(skeleton)
+    size = (depth[np.isin(frames_of, below[root])] - depth[root]).max()
     out = np.zeros(J, bool)
     for hub in range(J):
         short = []
         for child in np.flatnonzero(skeleton.parents == hub):
-            if child == 0 or not still[child]:
-                continue
             inside = np.isin(frames_of, below[child])
-            if np.linalg.norm(p[inside] - p[hub], axis=-1).max() <= DIGIT_REACH * skeleton.reach:
+            if child > 0 and (depth[inside] - depth[hub]).max() <= DIGIT_REACH * size:
                 short.append(child)
         if len(short) >= DIGITS:
             for child in short:
