@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import deik
 from deik.cleanup.body import body_of, on_body, short_levers, with_helpers
 from deik.cleanup.plants import rigid_pairs
 from deik.io.bvh import parse_bvh
@@ -17,8 +16,9 @@ from deik.model.kinematics import forward_kinematics
 from helpers import shared_path
 from judging.cases import digits, noisy, source_case, toes
 from judging.clips import contact_points, deepest, judge
-from judging.rigs import format_rig, parse_rig, world_frames
+from judging.rigs import format_rig, world_frames
 from tests.cleanup.test_clip_any_rig import sunk_walk
+from tests.cleanup.test_clip_fingers import _cleaned
 
 MM = 1e-3
 
@@ -88,15 +88,8 @@ def test_the_shared_kick_with_bending_toes_and_noise_keeps_its_toes_and_stays_ou
     # the warm start turned a toe 584 degrees and the fix left the foot 73 mm under the floor,
     # a toe 71 degrees from the capture, in frames it listed as unmet
     case = noisy(toes(source_case(shared_path("humanoid", "humanoid3d_kick.bvh"))))
-    path = tmp_path / f"{case.name}.bvh"
-    path.write_text(format_rig(case.rig))
-    cleaned = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
-    out = tmp_path / "out.bvh"
-    deik.write_bvh(out, cleaned.clip)
-    rig = parse_rig(out.read_text(), case.rig.position_mode)
-    unmet = np.zeros(len(rig.frames), bool)
-    unmet[cleaned.unmet_frames] = True
-    row = judge(case, case.rig, rig, unmet, case.truth)
+    report, rig = _cleaned(case, tmp_path)
+    row = judge(case, case.rig, rig, ~np.array(report["met_per_frame"], bool), case.truth)
     assert row["depth_mm"] <= 2.0, row
     assert row["peak_ratio"] <= 1.1, row
     assert row["steps_matched"] == row["steps"], row
@@ -132,12 +125,7 @@ def test_the_shared_kick_with_bending_toes_meets_its_plants_without_sliding(tmp_
     # the heel and the toe tip were unlinked (the toe bends), their plants placed alone could not
     # both be met: 18 of 47 frames unmet, the heel sliding 1.5 mm a frame
     case = toes(source_case(shared_path("humanoid", "humanoid3d_kick.bvh")))
-    path = tmp_path / f"{case.name}.bvh"
-    path.write_text(format_rig(case.rig))
-    cleaned = deik.clean_clip(deik.read_bvh(path), deik.CleanOptions())
-    out = tmp_path / "out.bvh"
-    deik.write_bvh(out, cleaned.clip)
-    rig = parse_rig(out.read_text(), case.rig.position_mode)
+    report, rig = _cleaned(case, tmp_path)
     row = judge(case, case.rig, rig)
     assert row["sliding_mm_per_frame"] <= 1.0 and row["depth_mm"] <= 2.0, row
-    assert len(cleaned.unmet_frames) <= 2, cleaned.unmet_frames
+    assert report["frames"] - report["frames_met"] <= 2, report["frames_met"]
