@@ -55,6 +55,10 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
   Xrotation channel plus FINGER_BEND sin(2 pi FINGER_HERTZ t + phase) degrees (10 degrees at
   0.5 Hz on the 15 degrees of curl, each joint a radian out of phase); the get-up and the crawl,
   which lay those hands on the floor (`_fingers`).
+- twists: a game rig's twist bones: two joints on each thigh, shin, upper arm and forearm, a
+  third and two thirds of the way down the bone, each with an End Site 5 % of the bone long
+  along it, turning about the bone 20 degrees either way at 0.4 Hz (a skinning rig's twist
+  bones, which an export writes with the rest); the walk, the crawl and the punch (`_twists`).
 """
 
 from __future__ import annotations
@@ -88,6 +92,7 @@ CUTS = {"walk": "bind", "run": "bind", "getup_facedown": "bind", "kick": "glitch
 STANDS = ("walk", "kick", "dance_a")  # and a stand (a fourth case)
 DIGITS = ("run", "jump", "punch", "dance_a", "getup_facedown", "crawl")  # fingers and toes (the last two: hands down)
 FINGERED = ("getup_facedown", "crawl")  # and fingers the capture moves (hands down)
+TWISTED = ("walk", "crawl", "punch")  # and twist bones on the limbs
 LAID = ("walk", "kick", "crawl")  # and a rest pose lying down
 HIFPS = ("walk", "run", "kick", "punch")  # and 120 fps (the 30 fps clips)
 SHAKY = ("walk", "run", "kick", "jump", "dance_a")  # and noisy at 60 fps or more
@@ -349,6 +354,8 @@ FINGERS = ((-0.03, (0.045, 0.03, 0.022)), (-0.01, (0.05, 0.032, 0.024)), (0.01, 
 PALM, TOE, CURL = 0.08, 0.7, 15.0  # metres from the wrist to the knuckles; the toe joint's share; degrees
 TOE_BEND, TOE_HERTZ = 5.0, 0.7  # degrees, cycles per second: the toes transform
 FINGER_BEND, FINGER_HERTZ = 10.0, 0.5  # degrees, cycles per second: the fingers transform
+TWIST_AT, TWIST_STUB = (0.33, 0.66), 0.05  # of the bone: where twist bones hang, their End Sites' length
+TWIST_TURN, TWIST_HERTZ = 20.0, 0.4  # degrees, cycles per second: how they turn about the bone
 CHANNELS = ("Zrotation", "Xrotation", "Yrotation")  # of every joint a transform adds
 
 
@@ -432,6 +439,27 @@ def digits(case: Case) -> Case:
     return dataclasses.replace(case, name=case.name + "_digits", rig=rig, names=names, description=description)
 
 
+def twists(case: Case) -> Case:
+    """The twists transform (module notes)."""
+    rig = case.rig
+    N = len(rig.frames)
+    nodes, sites = _nodes(rig), list(rig.sites)
+    t = np.arange(N) * rig.frame_time
+    for canon in (*LEFT_LEG[:2], *RIGHT_LEG[:2], *ARMS):
+        j = rig.names.index(case.names[canon])
+        child = next((node[2] for node in nodes if node[1] == j), None)
+        along = child if child is not None else next(offset for _, k, offset in rig.sites if k == j)
+        for k, share in enumerate(TWIST_AT):
+            angle = TWIST_TURN * np.sin(2.0 * np.pi * TWIST_HERTZ * t + k)
+            turn = Rotation.from_euler("y", angle[:, None], degrees=True).as_matrix()
+            nodes.append(
+                [f"{rig.names[j]}_twist{k}", j, along * share, CHANNELS, turn, np.broadcast_to(along * share, (N, 3))]
+            )
+            sites.append((f"{rig.names[j]}_twist{k}_end", len(nodes) - 1, along * TWIST_STUB))
+    rig = _built(rig, nodes, sites)
+    return dataclasses.replace(case, name=case.name + "_twists", rig=rig, description="twist bones on the limbs")
+
+
 def fingers(case: Case) -> Case:
     """The fingers transform (module notes)."""
     case = digits(case)
@@ -478,7 +506,7 @@ def seats(case: Case) -> Case:
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
               "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky, "toes": toes,
-              "fingers": fingers}  # fmt: skip
+              "fingers": fingers, "twists": twists}  # fmt: skip
 
 
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
@@ -486,7 +514,7 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
     in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, its
     digits with noise (fingers and toes the capture only shakes), its moving fingers if in
-    FINGERED, and its toes, without and with noise."""
+    FINGERED, its twist bones if in TWISTED, and its toes, without and with noise."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -500,5 +528,6 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [hifps(base)] if base.name in HIFPS else []
         out += [shaky(base)] if base.name in SHAKY else []
         out += [fingers(base)] if base.name in FINGERED else []
+        out += [twists(base)] if base.name in TWISTED else []
         out += [noisy(digits(base)), toes(base), noisy(toes(base))]
     return out

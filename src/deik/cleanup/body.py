@@ -327,7 +327,8 @@ def body_of(clip: Motion) -> Body:
     own = _thinnest(sk, joint_radius, seated_start)
     own = np.where(ends, np.maximum(own, PALM * length), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])
-    limb_top = (np.bincount(seated_start[seated_start >= 0], minlength=sk.n_frames) == 1) & (frame_radius > 0)
+    counted = seated_start[(seated_start >= 0) & part]  # the body's bones: a helper riding on a limb is none
+    limb_top = (np.bincount(counted, minlength=sk.n_frames) == 1) & (frame_radius > 0)
     own = np.where(limb_top, np.maximum(own, TOP * frame_radius), own)
     for f, value in foot_radius.items():
         own[f] = value

@@ -102,14 +102,14 @@ def position_jacobian(
 
 def dof_weights(clip: Motion) -> np.ndarray:
     """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
-    translation 1 / r, r the root-mean-square distance of the joints and sites from the body's
-    root (the hips, below any carrier: deik.model.capsules.body_root) over the clip: moving
-    the root counts like the root turn that moves the body as much. With 1 per length unit too
-    (metres as radians), lifting the whole body would be the cheap way to move a hand."""
+    translation 1 / r, r the root-mean-square distance of the body's joints and sites (no
+    carrier or helper: deik.model.capsules.off_body) from its root (the hips, below any
+    carrier: body_root) over the clip: moving the root counts like the root turn that moves
+    the body as much. With 1 per length unit too (metres as radians), lifting the whole body
+    would be the cheap way to move a hand."""
     sk = clip.skeleton
-    root = body_root(sk)
-    p = clip.kinematics.p_world_frame[:, root:]  # the carriers above the body come first
-    r = np.sqrt(((p - p[:, :1]) ** 2).sum(axis=-1).mean())
+    p = clip.kinematics.p_world_frame
+    r = np.sqrt(((p[:, ~off_body(sk)] - p[:, body_root(sk), None]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from deik.errors import FileFormatError, InputError
 from deik.io.files import FilePath, number_value, numbers_value, read_json
 from deik.model.anthropometry import DE_LEVA, DE_LEVA_TOTAL, LOWER_TRUNK, MIDDLE_TRUNK, UPPER_TRUNK
-from deik.model.capsules import carrier_joints, seat_anchors
+from deik.model.capsules import carrier_joints, rider_joints, seat_anchors
 from deik.model.joints import Segment
 from deik.model.skeleton import MAX_LENGTH, MAX_MASS, Skeleton
 from deik.suggest import did_you_mean
@@ -94,15 +94,18 @@ def bone_class(name: str) -> str | None:
 
 def _bone_ends(sk: Skeleton) -> np.ndarray:
     """(J, 3) end of each joint's bone in its frame: the mean of its children's and sites' origins
-    (its own origin when it has none). A joint sitting at its parent's origin (seat_anchors) has
-    no bone: its children and sites count for the joint it sits on, whose frame it shares at rest."""
-    anchor = seat_anchors(sk)
+    (its own origin when it has none), a twist bone riding on it aside (rider_joints). A joint
+    sitting at its parent's origin (seat_anchors) has no bone: its children and sites count for
+    the joint it sits on, whose frame it shares at rest."""
+    anchor, riding = seat_anchors(sk), rider_joints(sk)
     total, count = np.zeros((sk.n_joints, 3)), np.zeros(sk.n_joints)
     for k in range(1, sk.n_joints):
-        if anchor[k] == k:
+        if anchor[k] == k and not riding[k]:
             total[anchor[sk.parents[k]]] += sk.offsets[k]
             count[anchor[sk.parents[k]]] += 1
     for s, k in enumerate(sk.site_joint):
+        if riding[k]:
+            continue
         total[anchor[k]] += sk.site_offset[s]
         count[anchor[k]] += 1
     return total / np.maximum(count, 1)[:, None]
@@ -112,7 +115,8 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     """Estimate segment masses (kg) and COM offsets (length units) from bone lengths.
 
     Each joint's bone runs from its origin to the mean of its children's origins; joints that
-    carry the body without being part of it (deik.model.capsules.carrier_joints) get none. Classified
+    carry the body without being part of it (deik.model.capsules.carrier_joints) and twist
+    bones riding on a limb (rider_joints) get none. Classified
     bones share de Leva's fraction for their class (per side for limbs) by length, with the
     COM at de Leva's position along the bone; unclassified bones share the rest by length, COM
     at mid-bone. Returns (tuple of Segment with positive masses summing to total_mass,
@@ -121,7 +125,8 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass}")
     ends = _bone_ends(skeleton)
-    lengths = np.where(carrier_joints(skeleton), 0.0, np.linalg.norm(ends, axis=1))  # a carrier is no body part
+    bare = carrier_joints(skeleton) | rider_joints(skeleton)  # a carrier or a twist bone is no body part
+    lengths = np.where(bare, 0.0, np.linalg.norm(ends, axis=1))
     names = skeleton.joint_names
     classes = [bone_class(n) if lengths[k] > 0 else None for k, n in enumerate(names)]
     groups = defaultdict(list)  # (class, side) -> joints

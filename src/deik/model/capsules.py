@@ -25,6 +25,7 @@ BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
 MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
 DIGITS, DIGIT_REACH = 3, 0.25  # branches of one joint, of the reach: a hand's fingers (digit_joints)
 STILL_TURN = np.radians(2.0)  # a rotation channel turning less over a clip is still: capture noise
+RIDER_SPAN, RIDER_SPREAD = 0.05, 0.15  # of the bone a rider hangs on (rider_joints)
 
 
 def bone_starts(skeleton: Skeleton) -> np.ndarray:
@@ -110,21 +111,51 @@ def helper_joints(skeleton: Skeleton, frames: np.ndarray) -> np.ndarray:
     """(J,) bool: the helpers of a clip's `frames` (N, D) on `skeleton`: branches that never move
     against their parents (still_branches) hanging from the joints that carry the body
     (carrier_joints, counting such branches as no children) and starting where the carrier is
-    (no offset from it), as a game rig's IK target roots do, and a hand's digits
-    (digit_joints). (A body's own still branch, such as the legs of a seated clip, starts a
-    bone away from its parent.) No helpers when the clip has fewer than two frames or nothing
-    in it moves."""
+    (no offset from it), as a game rig's IK target roots do, a hand's digits (digit_joints)
+    and the twist and corrective bones riding on a limb (rider_joints). (A body's own still
+    branch, such as the legs of a seated clip, starts a bone away from its parent.) No helpers
+    when the clip has fewer than two frames or nothing in it moves."""
     J = skeleton.n_joints
     still = still_branches(skeleton, frames)
     on_parent = np.linalg.norm(skeleton.offsets, axis=1) <= 1e-9 * max(1.0, skeleton.reach)
     tops = still & on_parent & (np.arange(J) > 0)
     if len(frames) < 2 or still[0]:
         return np.zeros(J, bool)
-    out = digit_joints(skeleton)
+    out = digit_joints(skeleton) | rider_joints(skeleton)
     if tops.any():
         carriers = carrier_joints(replace(skeleton, helpers=tops))
         for j in range(1, J):
             out[j] |= out[skeleton.parents[j]] or (carriers[skeleton.parents[j]] and tops[j])
+    return out
+
+
+def rider_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: the joints of branches that ride on a bone of their parent: hung from partway
+    along it (their OFFSET within RIDER_SPREAD x the bone's length of the line from the parent
+    to the bone's end, between RIDER_SPAN of its length from either end) and reaching no
+    farther than RIDER_SPREAD x its length from there (bone lengths, the OFFSETs): a game rig's
+    twist and corrective bones (thigh_twist_01 a third of the way down the thigh). They carry
+    no weight of their own and lie inside the limb; counted as the body, each hub made the
+    thigh and shin look like stubs, the knee lost its taper and a twist joint on the thigh got
+    a radius of 9.7 cm: the shared crawl so rigged was left 91 mm under the floor."""
+    J = skeleton.n_joints
+    bone = np.linalg.norm(np.concatenate([skeleton.offsets, skeleton.site_offset]), axis=1)
+    start = bone_starts(skeleton)
+    reach = np.zeros(skeleton.n_frames)  # how far each joint's branch reaches along its bones
+    for f in range(skeleton.n_frames - 1, 0, -1):  # children after parents: reversed is bottom-up
+        if start[f] >= 0:
+            reach[start[f]] = max(reach[start[f]], reach[f] + bone[f])
+    ends = np.concatenate([skeleton.offsets, skeleton.site_offset])
+    out = np.zeros(J, bool)
+    for j in range(1, J):
+        siblings = [f for f in np.flatnonzero(start == start[j]) if f != j and bone[f] > 0]
+        for f in siblings:
+            along = ends[j] @ ends[f] / bone[f] ** 2
+            off = np.linalg.norm(ends[j] - along * ends[f])
+            inside = RIDER_SPAN <= along <= 1.0 - RIDER_SPAN and off <= RIDER_SPREAD * bone[f]
+            out[j] |= inside and reach[j] <= RIDER_SPREAD * bone[f]
+    for j in range(1, J):  # a rider's branch rides with it
+        out[j] |= out[skeleton.parents[j]]
     return out
 
 
