@@ -35,11 +35,15 @@ def _canonical(case, rig) -> np.ndarray:
     return world_frames(rig)[1][:, columns] / case.unit
 
 
+def bodies(cases, tmp_path) -> list:
+    """The Body (cleanup/body.py, helpers marked) of each of `cases` as written to a file."""
+    return [body_of(with_helpers(deik.read_bvh(_written(case, tmp_path)))) for case in cases]
+
+
 def test_still_fingers_are_no_part_of_the_body_and_the_hand_is_its_end(tmp_path):
     walk = procedural_walk()
     fingered = digits(walk)
-    plain_body = body_of(with_helpers(deik.read_bvh(_written(walk, tmp_path))))
-    body = body_of(with_helpers(deik.read_bvh(_written(fingered, tmp_path))))
+    plain_body, body = bodies((walk, fingered), tmp_path)
     names = body.skeleton.frame_names
     fingers = [f for f, name in enumerate(names) if "_finger" in name]
     assert len(fingers) == 2 * (15 + 5)  # three joints and a tip on each of five fingers, two hands

@@ -7,14 +7,13 @@ import numpy as np
 import pytest
 
 import deik
-from deik.cleanup.body import body_of, with_helpers
 from deik.model.capsules import rider_joints
 from helpers import shared_path
 from judging.cases import TRANSFORMS, source_case, twists
 from judging.clips import judge
 from judging.walk import procedural_walk
 from tests.cleanup.test_clip_any_rig import _written, sunk_walk
-from tests.cleanup.test_clip_fingers import _canonical, _cleaned
+from tests.cleanup.test_clip_fingers import _canonical, _cleaned, bodies
 
 
 def test_twist_bones_ride_on_their_limb_and_nothing_else_does(tmp_path):
@@ -34,8 +33,7 @@ def test_twist_bones_ride_on_their_limb_and_nothing_else_does(tmp_path):
 def test_a_walk_with_twist_bones_cleans_as_without_them_and_leaves_them_as_captured(tmp_path):
     walk = sunk_walk()
     twisted = twists(walk)
-    plain_body = body_of(with_helpers(deik.read_bvh(_written(walk, tmp_path))))
-    body = body_of(with_helpers(deik.read_bvh(_written(twisted, tmp_path))))
+    plain_body, body = bodies((walk, twisted), tmp_path)
     names = body.skeleton.frame_names
     assert not any(body.part[f] for f, name in enumerate(names) if "_twist" in name)
     for joint in ("RightHip", "RightKnee", "LeftShoulder", "LeftElbow"):  # a limb as thick, its top tapered
