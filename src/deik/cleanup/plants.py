@@ -16,8 +16,9 @@ between them is faster than the capture's (the shared punch's front toe moved 29
 frames between its plants where the capture moves 19, and its rest before the move was lost).
 Plants of two rigidly linked sites (an ankle and its toe; a toe tip whose distance from the heel
 a bending toe changes by less than RIGID_TOLERANCE x reach: rigid_pairs) are then placed
-relative to each other (_linked_plants), so both can be met at once: a whole foot that shuffles (heel and toe
-across the same gap) is still held where it first rested, as a foot rolling from heel to toe.
+relative to each other (_linked_plants), so both can be met at once: a whole foot that
+shuffles (heel and toe across the same gap) is still held where it first rested, as a foot
+rolling from heel to toe.
 """
 
 from __future__ import annotations

@@ -68,7 +68,7 @@ def _along_ground(p: np.ndarray, a: int, b: int, up: np.ndarray) -> float:
 
 def body_ends(skeleton: Skeleton, part: np.ndarray) -> np.ndarray:
     """(F,) bool: the frames of the body (`part` (F,) bool) that no bone of it leaves (a hand
-    whose still fingers are no part of it, model.capsules.still_digits, is an end)."""
+    whose fingers are no part of it, model.capsules.digit_joints, is an end)."""
     start = bone_starts(skeleton)
     leaves = np.ones(skeleton.n_frames, bool)
     leaves[start[(start >= 0) & part]] = False

@@ -23,7 +23,7 @@ from deik.model.skeleton import Skeleton
 # length unit; masses count only as fractions of the total.
 BODY_VOLUME = (70.0 / 1060.0) / 1.75**3
 MASSLESS_RADIUS = 0.1  # of the longest bone leaving the joint, on skeletons without masses
-DIGITS, DIGIT_REACH = 3, 0.25  # branches of one joint, of the reach: a hand's fingers (digit_joints)
+DIGITS, DIGIT_REACH = 3, 0.25  # branches of one joint, of the body's longest path: fingers (digit_joints)
 STILL_TURN = np.radians(2.0)  # a rotation channel turning less over a clip is still: capture noise
 RIDER_SPAN, RIDER_SPREAD = 0.05, 0.15  # of the bone a rider hangs on (rider_joints)
 
