@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import deik
+from deik.cleanup.body import with_helpers
 from deik.io.euler import tait_bryan_triples
 from deik.retargeting import keypoints as kp
 from deik.retargeting.capsule_overlaps import body_pairs, penetration_depths
@@ -287,3 +288,24 @@ def test_the_floor_of_a_rig_rooted_on_the_floor_is_where_its_feet_rest(tmp_path)
         floors.append(rest_floor(clip, kp.stature(clip.skeleton)))
     assert 0.015 < floors[0] < 0.03  # raised 2 cm: its toe tips rest at 0
     assert floors[1] == pytest.approx(100.0 * floors[0], abs=0.1)  # centimetres: 1 mm
+
+
+@pytest.mark.shared_data
+def test_a_source_s_still_fingers_change_none_of_its_contacts(tmp_path):
+    """The body's centre, whose speed tells a crawling hand at rest from one carried along, is
+    the body's (no helper: the 40 points of a game rig's fingers, judging/cases.py digits,
+    pulled it onto the hands and the crawl's contacts changed; its foot then popped 2.7 times
+    its source's speed on human.urdf)."""
+    from judging.cases import digits, source_case
+    from judging.rigs import format_rig
+
+    plain = source_case(shared_path("humanoid", "humanoid3d_crawl.bvh"))
+    found = []
+    for case in (plain, digits(plain)):
+        path = tmp_path / f"{case.name}.bvh"
+        path.write_text(format_rig(case.rig))
+        clip = with_helpers(deik.read_bvh(path))
+        size = kp.stature(clip.skeleton)
+        points = [case.names[name] for name in ("LeftKnee", "RightKnee", "LeftElbow", "RightElbow", "Hips")]
+        found.append(resting_contacts(clip, points, rest_floor(clip, size), size).mask)
+    assert found[0].any() and np.array_equal(found[0], found[1])

@@ -9,7 +9,8 @@ span of the skeleton at rest (keypoints.stature).
   joint rests a few centimetres above the floor, a toe tip on it; a one-frame dip through the
   floor does not count); a clip that never rests takes its lowest heights;
 - a point is slow in frame n when it moves slower than REST_SPEED statures per second, or
-  than REST_RATIO times the body's centre (the mean of its joints and sites): a cartwheel's
+  than REST_RATIO times the body's centre (the mean of its joints and sites, no helper or
+  carrier: a game rig's fingers pulled it onto the hands): a cartwheel's
   hands pivot on the palms at 0.3-1 m/s while the body turns over them at 1.5-2.5 m/s, and a
   crawling pelvis 17 cm over the floor moves with the body;
 - a point rests near the floor in frame n when it is slow, within REST_BAND statures of its
@@ -66,7 +67,7 @@ def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: fl
     everything = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
     p = everything[:, [clip.skeleton.frame_index(name) for name in points]]
     heights = p @ clip.skeleton.up - floor
-    slow = _slow(p, everything, clip.frame_time, size)
+    slow = _slow(p, everything[:, ~off_body(clip.skeleton)], clip.frame_time, size)  # the body's centre
     resting = np.full(len(points), np.inf)
     for s in np.flatnonzero(slow.any(axis=0)):
         resting[s] = np.percentile(heights[slow[:, s], s], RESTING_PERCENTILE)
