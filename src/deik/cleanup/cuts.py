@@ -7,7 +7,8 @@ poses that leap away and back. Measured across such a jump, every speed is wrong
 resting beside the jump looks as if it moves, so its rest is not found and it slides, and the
 smoothing stages pull the motion towards the bind pose.
 
-A step from frame n to n + 1 is a cut when the points of the body (every joint and site) move
+A step from frame n to n + 1 is a cut when the points of the body (every joint and site but its
+helpers and carriers: model.capsules.off_body; 40 finger points shifted the average) move
 in it at least CUT_SPAN x the body's span on average, and the motion changes abruptly at both of
 its frames: their accelerations (each point's second difference, averaged over the points) are
 at least CUT_RATIO times the typical acceleration around them, the median over the frames
@@ -37,6 +38,7 @@ import numpy as np
 from deik.cleanup.contacts import true_runs
 from deik.io.euler import continuous_angles
 from deik.io.trajectory import Motion
+from deik.model.capsules import off_body
 
 CUT_SPAN = 0.01  # of the span (2 cm on the shared humanoid): a cut moves the body's points this far on average
 CUT_RATIO = 6.0  # times the typical acceleration around its frames, at least
@@ -125,7 +127,7 @@ def cut_steps(p: np.ndarray, span: float, frame_time: float) -> np.ndarray:
 def find_cuts(clip: Motion, span: float) -> Cuts:
     """The Cuts of `clip`, whose body spans `span` length units (module notes)."""
     N = clip.n_frames
-    steps = cut_steps(clip.kinematics.p_world_frame, span, clip.frame_time)
+    steps = cut_steps(clip.kinematics.p_world_frame[:, ~off_body(clip.skeleton)], span, clip.frame_time)
     kept, bridged = np.zeros(N, bool), np.zeros(N, bool)
     starts = np.concatenate([[0], steps + 1, [N]])
     runs = list(zip(starts[:-1], starts[1:]))
