@@ -92,12 +92,12 @@ def bone_class(name: str) -> str | None:
     return next((cls for cls, words in KEYWORDS if any(w in lower for w in words)), None)
 
 
-def _bone_ends(sk: Skeleton) -> np.ndarray:
+def _bone_ends(sk: Skeleton, riding: np.ndarray) -> np.ndarray:
     """(J, 3) end of each joint's bone in its frame: the mean of its children's and sites' origins
-    (its own origin when it has none), a twist bone riding on it aside (rider_joints). A joint
-    sitting at its parent's origin (seat_anchors) has no bone: its children and sites count for
-    the joint it sits on, whose frame it shares at rest."""
-    anchor, riding = seat_anchors(sk), rider_joints(sk)
+    (its own origin when it has none), the `riding` (J,) bool twist bones aside (rider_joints).
+    A joint sitting at its parent's origin (seat_anchors) has no bone: its children and sites
+    count for the joint it sits on, whose frame it shares at rest."""
+    anchor = seat_anchors(sk)
     total, count = np.zeros((sk.n_joints, 3)), np.zeros(sk.n_joints)
     for k in range(1, sk.n_joints):
         if anchor[k] == k and not riding[k]:
@@ -124,8 +124,9 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass}")
-    ends = _bone_ends(skeleton)
-    bare = carrier_joints(skeleton) | rider_joints(skeleton)  # a carrier or a twist bone is no body part
+    riding = rider_joints(skeleton)
+    ends = _bone_ends(skeleton, riding)
+    bare = carrier_joints(skeleton) | riding  # a carrier or a twist bone is no body part
     lengths = np.where(bare, 0.0, np.linalg.norm(ends, axis=1))
     names = skeleton.joint_names
     classes = [bone_class(n) if lengths[k] > 0 else None for k, n in enumerate(names)]

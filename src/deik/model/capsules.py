@@ -56,6 +56,12 @@ def joined_to_parents(skeleton: Skeleton, joined: np.ndarray) -> np.ndarray:
     return label
 
 
+def frame_offsets(skeleton: Skeleton) -> np.ndarray:
+    """(F, 3) each joint's OFFSET then each site's, in its parent's frame: the bones as the file
+    draws them (a rig's translation channels aside)."""
+    return np.concatenate([skeleton.offsets, skeleton.site_offset])
+
+
 def bone_lengths(skeleton: Skeleton, pose: np.ndarray | None = None) -> np.ndarray:
     """(F,) each bone's length in `pose` (D,) (default the reference pose; 0 for the root)."""
     start = bone_starts(skeleton)
@@ -139,13 +145,13 @@ def rider_joints(skeleton: Skeleton) -> np.ndarray:
     thigh and shin look like stubs, the knee lost its taper and a twist joint on the thigh got
     a radius of 9.7 cm: the shared crawl so rigged was left 91 mm under the floor."""
     J = skeleton.n_joints
-    bone = np.linalg.norm(np.concatenate([skeleton.offsets, skeleton.site_offset]), axis=1)
+    ends = frame_offsets(skeleton)
+    bone = np.linalg.norm(ends, axis=1)
     start = bone_starts(skeleton)
     reach = np.zeros(skeleton.n_frames)  # how far each joint's branch reaches along its bones
     for f in range(skeleton.n_frames - 1, 0, -1):  # children after parents: reversed is bottom-up
         if start[f] >= 0:
             reach[start[f]] = max(reach[start[f]], reach[f] + bone[f])
-    ends = np.concatenate([skeleton.offsets, skeleton.site_offset])
     out = np.zeros(J, bool)
     for j in range(1, J):
         siblings = [f for f in np.flatnonzero(start == start[j]) if f != j and bone[f] > 0]
@@ -174,7 +180,7 @@ def digit_joints(skeleton: Skeleton) -> np.ndarray:
     its reach (six channels on every joint: the arms passed for digits) and a rest pose may
     fold an arm."""
     J = skeleton.n_joints
-    bone = np.linalg.norm(np.concatenate([skeleton.offsets, skeleton.site_offset]), axis=1)
+    bone = np.linalg.norm(frame_offsets(skeleton), axis=1)
     start = bone_starts(skeleton)
     depth = np.zeros(skeleton.n_frames)
     for f in range(1, skeleton.n_frames):  # parents first: joints in order, then the sites
