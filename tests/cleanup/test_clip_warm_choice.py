@@ -1,4 +1,4 @@
-"""Which warm start a clip fix keeps (fix._calmed_warm_start): of the floor lifted along
+"""Which warm start a clip fix keeps (warm_tries.calmed_warm_start): of the floor lifted along
 envelopes, lifted whole bone by bone, or the plain floor, the one with the most frames on the
 floor, then the most meeting every goal; never one that meets fewer frames than another and turns
 a joint more than FAR_DEGREES from the capture in FAR_SHARE more of the frames. One frame left

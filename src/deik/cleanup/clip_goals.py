@@ -16,7 +16,7 @@ leave [-pi, pi] stay continuous: frame n is solved near `pose(n) + d[n]`.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -30,6 +30,8 @@ from deik.model.capsules import body_reach
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.objectives import goals as g
+from deik.objectives.kinds import GAIN
+from deik.objectives.reference import raw_errors
 from deik.objectives.self_collision import SelfCollision
 from deik.solver.problem import Problem
 
@@ -291,3 +293,25 @@ def clip_problem(
             g.Comfort(weight=goals.coherence, level=FIDELITY_LEVEL, reference=smooth, joint_weights=weights)
         )
     return Problem(sk, goal_list)
+
+
+def goal_errors(problem: Problem, poses: np.ndarray) -> np.ndarray:
+    """(N, T) raw errors of `problem`'s goals at `poses` (N, D), NaN where a goal is not active
+    in that frame."""
+    raw = raw_errors(problem, poses, np.arange(len(poses)))
+    return np.where(problem.table.params[:, :, GAIN] > 0, raw, np.nan)
+
+
+def frames_within(problem: Problem, errors: np.ndarray, levels: Callable[[int], bool]) -> np.ndarray:
+    """(N,) frames whose goals on the priority `levels` chosen (levels(level) -> bool) all lie
+    within tolerance, of `errors` (N, T) as goal_errors."""
+    chosen = np.array([levels(goal.level) for goal in problem.goals], bool)
+    within = errors[:, chosen] <= problem.table.term_float[chosen, 3]
+    return np.all(np.isnan(errors[:, chosen]) | within, axis=1)
+
+
+def met_frames(problem: Problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(errors (N, T) as goal_errors, met (N,): every contact, floor, balance and reach goal of
+    the frame (the levels above fidelity) within tolerance) at `poses` (N, D)."""
+    errors = goal_errors(problem, poses)
+    return errors, frames_within(problem, errors, lambda level: level < FIDELITY_LEVEL)

@@ -15,14 +15,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from deik.cleanup.balance import BalanceTrack
-from deik.cleanup.bone_points import bone_points
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import PEAK_RATIO, PEAK_SECONDS, jolted_frames, peak_ratios, point_acceleration_ratios
-from deik.cleanup.ground import body_paths, clearances, detect_resting
 from deik.cleanup.metrics import large_deviations
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.summary import Grounding, ReachTrack, clip_report, per_frame_errors, row_max
-from deik.cleanup.verdict import frame_verdict
+from deik.cleanup.verdict import capture_grounding, frame_verdict
 from deik.io.trajectory import Motion
 
 if TYPE_CHECKING:  # clips.solver loads the solver; the report needs only the type
@@ -157,13 +155,9 @@ def dynamics_record(original: Motion, fixed: Motion, points: np.ndarray | None =
 
 def grounding(fix: ClipFix, height: float) -> Grounding:
     """The floor the report measures against: at `height`, each point's clearance as the fix kept
-    it (its radius), and every point of the body that rests in the capture (cleanup/ground.py),
-    planted or not, the points along its bones included (cleanup/bone_points.py)."""
-    body = fix.body
-    original = fix.on_body()[0]
-    paths = body_paths(original, body, split_at_cuts=True)
-    resting = detect_resting(original, body, height, paths=paths)
-    return Grounding(height, clearances(body), resting, bone_points(original, body, height, paths.seams))
+    it (its radius), and every point of the body that rests in the capture, planted or not
+    (verdict.capture_grounding)."""
+    return capture_grounding(fix.on_body()[0], fix.body, height)
 
 
 def _far(original, fixed, degrees: float) -> dict:

@@ -39,30 +39,28 @@ from deik.cleanup.balance import BalanceTrack
 from deik.cleanup.body import Body, body_of, on_body, short_levers
 from deik.cleanup.calm import calm
 from deik.cleanup.clip_goals import (
-    FIDELITY_LEVEL,
-    FLOOR_LEVEL,
     ClipGoals,
-    clip_balance,
     clip_problem,
     fixed_goals,
+    goal_errors,
     goal_names,
+    met_frames,
     plants_at_heights,
     plants_moved,
     sized_goals,
 )
 from deik.cleanup.coherence import ease, hinge_channels, searched_dofs
-from deik.cleanup.dynamics import jolted_frames, newly_jolted, widened
+from deik.cleanup.dynamics import newly_jolted, widened
 from deik.cleanup.ground import clearances
-from deik.cleanup.warm_choice import Tried, chosen, far_frames
-from deik.cleanup.warmstart import Lifting, dof_weights, warm_start
+from deik.cleanup.verdict import SLIDING_TOLERANCE
+from deik.cleanup.warm_tries import calmed_warm_start, captured, ease_frames, inside_limits, longest_slides
+from deik.cleanup.warmstart import dof_weights
 from deik.errors import InputError
 from deik.io.motion import held_translations, message_prefix
 from deik.io.trajectory import Motion, Trajectory
 from deik.memory import check_memory
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
-from deik.objectives.kinds import GAIN
-from deik.objectives.reference import raw_errors
 from deik.objectives.self_collision import SelfCollision
 from deik.solver.footprint import solve_bytes
 from deik.solver.seeding import poses_around
@@ -77,9 +75,6 @@ CLIP_SETTINGS = {"population": 24, "generations": 60, "patience": 20, **LOCAL}
 PASSES = 1
 BALANCE_SETTINGS = {"population": 48, "generations": 300, "patience": 60, **LOCAL}
 BALANCE_PASSES = 3
-EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal holds it
-GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
-GUARD_REACH = 2  # frames either side of a jolt whose balance is skipped
 SPREAD = (0.001, 0.05)  # radians (x reach for translations): the finest and widest seed
 MAX_PASSES = 1000  # a pass that repairs nothing leaves the next as hard: more is a typo
 
@@ -90,8 +85,10 @@ class ClipFix:
     channels continuous from frame to frame: Clip.with_continuous_channels), `original`,
     `labels` of the goals (problem.goal_names), their `tolerances` (T,) (-1: none) and raw
     errors `before`/`after` (N, T) in length units or radians (NaN where a goal does not
-    apply to a frame), `met` (N,) whether every floor, contact, balance and reach goal of each frame is within
-    tolerance, `passes`, `wall_time` seconds, `settings`, and `stages`: where the time went,
+    apply to a frame), `met` (N,) whether every floor, contact, balance and reach goal of each
+    frame is within tolerance and no planted point steps further than the verdict's sliding
+    tolerance from or to it (cleanup/verdict.py), `passes`, `wall_time` seconds, `settings`,
+    and `stages`: where the time went,
     one dict per stage (the warm start, then each DE pass with the frames it repaired, their
     generations, mean and max, pose evaluations: population x (generations + 1) summed over
     them, and the failed repairs refused because they would make a frame jolt); `balance` the
@@ -121,12 +118,6 @@ class ClipFix:
         return on_body(self.original, self.body), on_body(self.clip, self.body)
 
 
-def _errors(problem, poses) -> np.ndarray:
-    """(N, T) raw errors, NaN where the goal is not active in that frame."""
-    raw = raw_errors(problem, poses, np.arange(len(poses)))
-    return np.where(problem.table.params[:, :, GAIN] > 0, raw, np.nan)
-
-
 def _seeds(skeleton, poses: np.ndarray, searched: np.ndarray, count: int, seed: int) -> np.ndarray:
     """(N, count, D) whole populations around each frame's pose (a clip fix is a local
     search), spreads from fine to wide so DE can both polish and travel; DOFs not `searched`
@@ -153,28 +144,6 @@ def _time_left(settings: Settings, deadline: float) -> Settings:
     return dataclasses.replace(settings, time_limit=max(deadline - time.perf_counter(), 1e-3))
 
 
-def _inside(skeleton, original: np.ndarray, displacement: np.ndarray) -> np.ndarray:
-    """`displacement` (N, D) from `original` (N, D) cut back to the joint limits, except on
-    rotations free over a whole turn (they wrap)."""
-    inside = np.clip(original + displacement, skeleton.lower, skeleton.upper) - original
-    return np.where(skeleton.full_turns, displacement, inside)
-
-
-def _met(problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(errors (N, T) as _errors, met (N,): every contact, floor, balance and reach goal of the
-    frame (the levels above fidelity) within tolerance)."""
-    errors = _errors(problem, poses)
-    return errors, _within(problem, errors, lambda level: level < FIDELITY_LEVEL)
-
-
-def _within(problem, errors: np.ndarray, levels: Callable[[int], bool]) -> np.ndarray:
-    """(N,) frames whose goals on the priority `levels` chosen (levels(level) -> bool) all lie
-    within tolerance, of `errors` (N, T) as _errors."""
-    chosen = np.array([levels(goal.level) for goal in problem.goals], bool)
-    within = errors[:, chosen] <= problem.table.term_float[chosen, 3]
-    return np.all(np.isnan(errors[:, chosen]) | within, axis=1)
-
-
 def _pass_progress(progress, met: int, stage: str):
     """solve()'s progress callback during a DE pass: progress(met, "STAGE, generation G")."""
     return lambda generation, best: progress(met, f"{stage}, generation {generation}")
@@ -184,103 +153,6 @@ def _colliding(problem, errors: np.ndarray) -> np.ndarray:
     """(N,) frames whose self-collision goal (if any) misses its tolerance."""
     terms = [t for t, goal in enumerate(problem.goals) if isinstance(goal, SelfCollision)]
     return (errors[:, terms] > problem.table.term_float[terms, 3]).any(axis=1)
-
-
-def _warm_start(
-    clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body, lift: bool, roll: bool, whole=False
-):
-    """(displacement (N, D), the fixed goals, the balance track or None): the warm start of
-    `goals` on `body`, with or without floor `lift`s (each bone lifted `whole` or not) and the
-    feet's `roll` (warmstart.warm_start: the heel and toe of each of body.feet keep their
-    heights in the capture). With balance, the track is
-    planned on the motion with its contacts met (a first warm start without it), and where the
-    balanced warm start makes a frame jolt or turns a joint far from the capture
-    (cleanup/dynamics.py), balance cannot hold there: those frames and their neighbours are
-    skipped and the track planned again, up to GUARD_ROUNDS warm starts."""
-    sk, original, points = clip.skeleton, clip.poses(), body.points
-    soles = [name for foot in body.feet for name in (foot.heel, foot.toe)] if roll else []
-
-    def warm(plain: ClipGoals, track):
-        fixed = fixed_goals(clip, plain, weights, track)
-        fade = _ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lifting=Lifting(lift, whole, tuple(soles)))
-        return _inside(sk, original, d), fixed
-
-    if not goals.balance:
-        return *warm(goals, None), None
-    displacement, _ = warm(dataclasses.replace(goals, balance=False), None)
-    unbalanced = clip.frames + displacement
-    balance = clip_balance(clip, goals, frames=unbalanced)
-    for round_ in range(GUARD_ROUNDS):
-        displacement, fixed = warm(goals, balance)
-        jolted = jolted_frames(captured(clip, goals), clip.with_frames(clip.frames + displacement), points=points)
-        jolting = widened(jolted, GUARD_REACH) & balance.balanced
-        if round_ == GUARD_ROUNDS - 1 or not jolting.any():
-            break
-        balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
-    return displacement, fixed, balance
-
-
-def captured(clip: Motion, goals: ClipGoals) -> Motion:
-    """The capture whose peaks a fix of `clip` keeps within: goals.captured (on its body), or the clip."""
-    return clip if goals.captured is None else goals.captured
-
-
-def _calmed_warm_start(clip, goals: ClipGoals, weights: np.ndarray, movable: np.ndarray, body: Body):
-    """(displacement (N, D), taken back (N,) bool, the fixed goals, the balance track or None,
-    what the reach tracks add (N, D) or None): the warm start, calmed (cleanup/calm.py; DE
-    repairs what is taken back). With a floor it is tried with the floor lifted along smooth
-    envelopes and the feet rolling as captured, so lifted with each bone lifted whole
-    (warmstart.whole_lifts), and on the plain floor without either, and kept as
-    cleanup/warm_choice.py says (contacts judged along the ground, as the warm start holds
-    them: _judged): an envelope lets a landing foot slow down before the floor, and a bone
-    lifted whole lands without tipping, but on a body lying on the floor for long either can
-    ask more than the joints give without a jolt. Reach tracks are the user's motion: what
-    they add on the plain floor (the feet rolling if they do in the fix) is added, not
-    calmed, on top of the fix without them, so outside a reach's window the clip is the same as
-    without it (and an unreachable reach drags no planted foot: on the lifted floor it dragged
-    a toe 10 mm)."""
-    alone = goals.contacts or goals.balance or goals.floor is not None or goals.self_collision is not None
-    plain, outcomes = dataclasses.replace(goals, reach=()) if alone else None, {}
-    tried = ((True, False), (True, True), (False, False)) if goals.floor is not None else ((False, False),)
-    for lift, whole in tried if alone else ():
-        warm, fixed, balance = _warm_start(clip, plain, weights, movable, body, lift, lift, whole)
-        displacement, calmed = calm(clip, warm, body.points, captured=captured(clip, goals))
-        poses = wrap_rotations(clip.poses() + displacement, clip.skeleton.dof_kind == ROTATE)
-        problem = _judged(clip, plain, displacement, weights, fixed, balance)
-        errors, met = _met(problem, poses)
-        on_floor = _within(problem, errors, lambda level: level == FLOOR_LEVEL)
-        how = Tried(int(on_floor.sum()), int(met.sum()), int(calmed.sum()), far_frames(clip, displacement))
-        outcomes[lift, whole] = (how, (displacement, calmed, fixed, balance, None), warm)
-        if how.perfect(clip.n_frames):  # none can do better, and the first wins a tie
-            break
-    kept = chosen({key: outcome[0] for key, outcome in outcomes.items()}, clip.n_frames) if outcomes else (False, False)
-    best, lifted = outcomes.get(kept), kept[0]
-    if not goals.reach:
-        return best[1]
-    displacement, fixed, balance = _warm_start(clip, goals, weights, movable, body, False, lifted)
-    if not alone:  # reach tracks only: all of the change is theirs
-        return displacement, np.zeros(clip.n_frames, bool), fixed, balance, displacement
-    # what the reach adds on the plain floor, with the feet rolling as in the fix it is added to
-    base = outcomes[False, False][2] if not lifted else _warm_start(clip, plain, weights, movable, body, False, True)[0]
-    added = displacement - base
-    held, calmed = best[1][:2]
-    return held + added, calmed, fixed, balance, added
-
-
-def _judged(clip, goals: ClipGoals, displacement: np.ndarray, weights: np.ndarray, fixed, balance):
-    """The clip problem that judges a warm start's `displacement` (N, D) of `goals` (their
-    `fixed` goals, with `balance`'s track): its contacts at the heights the displacement gives
-    them (clip_goals.plants_at_heights), since a warm start holds them still along the ground only."""
-    if goals.contacts is None:
-        return clip_problem(clip, goals, displacement, weights, fixed)
-    judged = plants_at_heights(clip, goals, clip.poses() + displacement)
-    return clip_problem(clip, judged, displacement, weights, fixed_goals(clip, judged, weights, balance))
-
-
-def _ease_frames(clip) -> float:
-    """EASE_SECONDS in frames of `clip` (at least 2, at most its length: longer is the same)."""
-    return min(max(EASE_SECONDS / clip.frame_time, 2.0), max(clip.n_frames, 2))
 
 
 def _without_jolts(clip, displacement, found, repaired, searched, body, goals) -> tuple[np.ndarray, int]:
@@ -294,12 +166,12 @@ def _without_jolts(clip, displacement, found, repaired, searched, body, goals) -
     jolts (all of them when a new jolt lies beyond every repair's easing). `refused` counts them
     (they are listed unmet). Jolts are measured against the capture (captured(clip, goals))."""
     sk, original = clip.skeleton, clip.poses()
-    reach = int(np.ceil(_ease_frames(clip)))
+    reach = int(np.ceil(ease_frames(clip)))
     reference = captured(clip, goals)
 
     def taken(frames):
         change = np.where(frames[:, None] & searched, found - displacement, 0.0)
-        return _inside(sk, original, displacement + ease(change, searched, _ease_frames(clip)))
+        return inside_limits(sk, original, displacement + ease(change, searched, ease_frames(clip)))
 
     current = clip.with_frames(clip.frames + displacement)
     kept = repaired.copy()
@@ -367,12 +239,12 @@ def fix_clip(
     weights = dof_weights(clip)
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs & ~short_levers(body, clip), original.shape)
-    displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(clip, goals, weights, movable, body)
+    displacement, first_calmed, fixed_part, balance, reached = calmed_warm_start(clip, goals, weights, movable, body)
     if goals.contacts is not None:  # the warm start holds contacts along the ground: so does DE
         fix_alone = displacement if reached is None else displacement - reached  # a reach drags no plant
         fitted = plants_at_heights(clip, goals, original + fix_alone)
         if plants_moved(clip, goals, fitted):  # a foot tipped out of the floor: again, on plants it can meet
-            displacement, first_calmed, fixed_part, balance, reached = _calmed_warm_start(
+            displacement, first_calmed, fixed_part, balance, reached = calmed_warm_start(
                 clip, fitted, weights, movable, body
             )
             goals = fitted
@@ -386,7 +258,7 @@ def fix_clip(
         problem = clip_problem(clip, goals, displacement, weights, fixed_part)
         # wrapping rounds: a DOF at a limit short of a whole turn (a robot's) may land an ulp outside
         current = np.clip(wrap_rotations(original + displacement, rotation), sk.lower, sk.upper)
-        errors, met = _met(problem, current)
+        errors, met = met_frames(problem, current)
         unmet = ~met
         report(int(met.sum()), stages[-1]["stage"])
         if not unmet.any() or (deadline is not None and time.perf_counter() >= deadline):
@@ -428,14 +300,16 @@ def fix_clip(
         "clip fix of %d frames: %s", clip.n_frames, "; ".join(f"{s['stage']} {s['seconds']:.2f} s" for s in stages)
     )
     problem = clip_problem(clip, goals, displacement, weights, fixed_part)
-    after, met = _met(problem, wrap_rotations(original + displacement, rotation))
+    after, met = met_frames(problem, wrap_rotations(original + displacement, rotation))
+    if goals.contacts is not None:  # a plant that moves (a rolling heel's) may be met in two frames a step apart
+        met &= longest_slides(clip, displacement, (goals.contacts, None)) <= SLIDING_TOLERANCE * body.span
     report(int(met.sum()), "done")
     return ClipFix(
         clip=written.with_frames(written.frames + displacement).with_continuous_channels(),
         original=written,
         labels=tuple(goal_names(goals)),
         tolerances=problem.table.term_float[: len(problem.goals), 3].copy(),
-        before=_errors(problem, original),
+        before=goal_errors(problem, original),
         after=after,
         met=met,
         passes=len(stages) - 2,

@@ -218,12 +218,39 @@ def _averaged(skeleton: Skeleton, frames: np.ndarray, sigma: float) -> np.ndarra
     for triple in tait_bryan_triples(skeleton):
         axes = skeleton.dof_axis[triple]
         target = _nearest_rotations(gaussian(_triple_matrices(axes, frames[:, triple])[0], sigma, fit_ends=True))
-        for _ in range(STEPS):
-            R, jacobian = _triple_matrices(axes, out[:, triple])
-            M = np.swapaxes(R, -1, -2) @ target
-            turn = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
-            normal = np.swapaxes(jacobian, -1, -2) @ jacobian + DAMPING * np.eye(3)
-            out[:, triple] += np.linalg.solve(normal, (np.swapaxes(jacobian, -1, -2) @ turn[..., None]))[..., 0]
+        out[:, triple] = _moved_onto(axes, out[:, triple], target)
+    return out
+
+
+def smoothed_change(skeleton: Skeleton, frames: np.ndarray, change: np.ndarray, sigma: float) -> np.ndarray:
+    """(N, D) a `change` (N, D) of `frames` (N, D) averaged along the frames by a Gaussian of
+    `sigma` frames (ends held), whatever Euler values the frames are written in: every channel
+    as values, then each Tait-Bryan triple moved (damped steps, as _averaged) onto its frame's
+    rotation turned by the average of the turns the change makes there (in the joint's frame,
+    R^T R', projected onto rotations). So a twin of a rotation (other Euler values) changes as
+    the rotation does."""
+    out = frames + gaussian(change, sigma)
+    for triple in tait_bryan_triples(skeleton):
+        if not change[:, triple].any():  # a joint the change leaves alone (a still finger)
+            continue
+        axes = skeleton.dof_axis[triple]
+        before = _triple_matrices(axes, frames[:, triple])[0]
+        turn = np.swapaxes(before, -1, -2) @ _triple_matrices(axes, frames[:, triple] + change[:, triple])[0]
+        target = before @ _nearest_rotations(gaussian(turn, sigma))
+        out[:, triple] = _moved_onto(axes, frames[:, triple] + change[:, triple], target)
+    return out - frames
+
+
+def _moved_onto(axes: np.ndarray, angles: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(N, 3) the Tait-Bryan triple about `axes` (3, 3) at `angles` (N, 3) moved by STEPS damped
+    Gauss-Newton steps onto the rotations `target` (N, 3, 3) (_averaged's notes)."""
+    out = angles.copy()
+    for _ in range(STEPS):
+        R, jacobian = _triple_matrices(axes, out)
+        M = np.swapaxes(R, -1, -2) @ target
+        turn = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
+        normal = np.swapaxes(jacobian, -1, -2) @ jacobian + DAMPING * np.eye(3)
+        out += np.linalg.solve(normal, (np.swapaxes(jacobian, -1, -2) @ turn[..., None]))[..., 0]
     return out
 
 

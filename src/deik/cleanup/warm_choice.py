@@ -1,4 +1,4 @@
-"""Which warm start a clip fix keeps: fix._calmed_warm_start tries the floor lifted along smooth
+"""Which warm start a clip fix keeps: warm_tries.calmed_warm_start tries the floor lifted along smooth
 envelopes, lifted with each bone whole, and the plain floor, and keeps the one with the most
 frames on the floor (the highest priority), then the most frames meeting every goal, then the
 fewest taken back (the first tried on a tie); never one that meets fewer frames than another and
@@ -9,6 +9,15 @@ frames on the floor against the plain floor's 146, met 105 frames against 141 an
 past 30 degrees in 46 frames against none, and it was kept (a shoulder 95 degrees off, 92 frames
 met in the end against 117 without the hiccup). A crawl needs its ankles turned far to lift its
 toes out of the floor, in 12 % of its frames, and meets more frames so: that lift is kept.
+
+Each try is calmed by cutting its change back and, where that takes something back, by
+smoothing it first (cleanup/calm.py): smoothing keeps a lift that cutting drops, but blurs where
+a correction begins and ends. The smoothed calm is kept stretch by stretch, where it does
+better (smoothed_stretches; outside the frames either calm changed both are the warm start, so
+the stretches join without a seam), and a try so smoothed is kept only where it puts more
+frames on the floor than every try cut back: chosen like any other, a smoothed try cost the
+shared jump two of its seven steps (docs/decisions.md), the plain floor, which does not roll
+the feet, meeting the most frames smoothed while a resting toe drifted 10 mm up.
 """
 
 from __future__ import annotations
@@ -27,27 +36,58 @@ FAR_SHARE = 0.1  # of the frames (module notes)
 
 @dataclass(frozen=True)
 class Tried:
-    """How a warm start did, in frames of the clip: `on_floor` meeting their floor goals, `met`
-    meeting every goal above fidelity, `calmed` taken back (cleanup/calm.py), `far` turning a
-    joint more than FAR_DEGREES from the capture."""
+    """How a warm start did in each frame (N,) bool: `on_floor` meeting its floor goals, `met`
+    meeting every goal above fidelity with no resting point sliding, `calmed` taken back
+    (cleanup/calm.py), `far` turning a joint more than FAR_DEGREES from the capture; `slides`
+    (N,) the longest step of a resting point to or from each frame (length units); and whether
+    it was `smoothed` before cut back (module notes)."""
 
-    on_floor: int
-    met: int
-    calmed: int
-    far: int
+    on_floor: np.ndarray
+    met: np.ndarray
+    calmed: np.ndarray
+    far: np.ndarray
+    slides: np.ndarray
+    smoothed: bool = False
 
-    def perfect(self, n_frames: int) -> bool:
-        """Whether no other can do better on a clip of `n_frames`."""
-        return self.on_floor == self.met == n_frames and not self.calmed and not self.far
+    def counts(self) -> tuple[int, int, int, int]:
+        """(frames on the floor, met, calmed, far)."""
+        return tuple(int(np.sum(frames)) for frames in (self.on_floor, self.met, self.calmed, self.far))
+
+    def perfect(self) -> bool:
+        """Whether no other can do better."""
+        return bool(self.on_floor.all() and self.met.all() and not self.calmed.any() and not self.far.any())
 
 
-def far_frames(clip: Motion, displacement: np.ndarray) -> int:
-    """The frames of `clip` in which `displacement` (N, D) turns a joint more than FAR_DEGREES."""
-    return int((joint_angles(clip, clip.with_frames(clip.frames + displacement)) > FAR_DEGREES).any(axis=1).sum())
+def far_frames(clip: Motion, displacement: np.ndarray) -> np.ndarray:
+    """(N,) bool: the frames of `clip` in which `displacement` (N, D) turns a joint more than FAR_DEGREES."""
+    return (joint_angles(clip, clip.with_frames(clip.frames + displacement)) > FAR_DEGREES).any(axis=1)
 
 
-def chosen(tries: dict[Hashable, Tried], n_frames: int) -> Hashable:
+def smoothed_stretches(cut: Tried, smoothed: Tried, sliding: float) -> np.ndarray:
+    """(N,) bool: the stretches of frames (runs of frames either calms) in which the `smoothed`
+    calm of a warm start does better than the `cut` one (module notes): in no frame fewer of
+    its goals (the floor first, then the rest), in one frame more, and in none a resting point
+    stepping further than the cut one's furthest step there (or `sliding`, length units: the
+    verdict's sliding tolerance) and `sliding` more."""
+    rank = [2 * t.on_floor.astype(int) + t.met for t in (cut, smoothed)]
+    changed = np.concatenate([[False], cut.calmed | smoothed.calmed, [False]])
+    edges = np.flatnonzero(np.diff(changed.astype(np.int8)))
+    out = np.zeros(len(cut.met), bool)
+    for a, b in zip(edges[::2], edges[1::2]):
+        better = (rank[1][a:b] >= rank[0][a:b]).all() and (rank[1][a:b] > rank[0][a:b]).any()
+        out[a:b] = better and (smoothed.slides[a:b] <= np.maximum(cut.slides[a:b], sliding) + sliding).all()
+    return out
+
+
+def chosen(tries: dict[Hashable, Tried]) -> Hashable:
     """The key of the warm start kept of `tries` {key: Tried}, in the order tried (module notes)."""
-    more = FAR_SHARE * n_frames
-    kept = [key for key, t in tries.items() if not any(o.met > t.met and t.far - o.far > more for o in tries.values())]
-    return max(kept, key=lambda key: (tries[key].on_floor, tries[key].met, -tries[key].calmed))
+    counts = {key: t.counts() for key, t in tries.items()}
+    more = FAR_SHARE * len(next(iter(tries.values())).met)
+    exact = max((counts[key][0] for key, t in tries.items() if not t.smoothed), default=-1)
+    counts = {key: c for key, c in counts.items() if not tries[key].smoothed or c[0] > exact}
+    kept = [
+        k
+        for k, (_, met, _, far) in counts.items()
+        if not any(o[1] > met and far - o[3] > more for o in counts.values())
+    ]
+    return max(kept, key=lambda key: (counts[key][0], counts[key][1], -counts[key][2]))
