@@ -284,6 +284,11 @@ FIGURES = (
         lambda r: [_case(r, "run_120fps_noisy")["sliding_mm_per_frame"]],
     ),
     Figure(
+        r"the last frame of the noisy crawl with bending toes, a knee ([\d.]+) mm under the floor",
+        TARGETS,
+        lambda r: [_case(r, "crawl_toes_noisy")["depth_mm"]],
+    ),
+    Figure(
         r"on (\d+) of the (\d+) cases every frame\s+the judge finds missing is among those deik lists",
         TARGETS,
         lambda r: [_met(r, "listed"), len(r["cases"])],
