@@ -48,3 +48,31 @@ def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp
     written, kept = _retargeted(source, tmp_path, ["--quiet"])
     assert written["noise"]["low_pass_s"] is None
     assert kept["sliding_max_mm_per_frame"] > 15.0 and kept["speed_peak_ratio_max"] > 1.4, kept
+
+
+def test_a_foot_resting_from_the_first_frame_of_a_shaking_source_rests_there_too():
+    """A one-sided difference at a clip's end doubles the jitter of the point's speed: shaken by
+    +-4 mm a frame (alternating, so every central difference inside is 0), the first frame of
+    the procedural walk read 0.24 m/s and its stance foot was planted from the second frame
+    only. The ends take their neighbours' slowness (cleanup.ground.ends_as_neighbours)."""
+    import numpy as np
+
+    from deik.io.bvh import parse_bvh
+    from deik.retargeting.keypoints import stature
+    from deik.retargeting.resting import rest_floor, resting_contacts
+
+    clip = parse_bvh(format_rig(procedural_walk(seconds=1.0).rig), "walk.bvh")
+    sk = clip.skeleton
+    frames = clip.frames.copy()
+    shake = 0.004 * (-1.0) ** np.arange(len(frames))
+    for axis in ("X", "Z"):
+        frames[:, sk.dof_names.index(f"Hips.{axis}position")] += shake
+    shaken = clip.with_frames(frames)
+    size = stature(sk)
+    feet = ["RightAnkle_end", "LeftAnkle_end"]
+    still = resting_contacts(clip, feet, rest_floor(clip, size), size).mask
+    mask = resting_contacts(shaken, feet, rest_floor(shaken, size), size).mask
+    stance = int(np.argmax(still[0]))
+    assert still[0, stance] and still[1, stance]  # the foot rests from the first frame
+    assert mask[0, stance] and mask[1, stance]
+    assert (mask[-1] == mask[-2]).all()

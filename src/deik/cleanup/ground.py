@@ -139,7 +139,7 @@ def point_speeds(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS)
     return np.linalg.norm(_rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
 
 
-def _ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
+def ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
     """(N, K) `slow` with each end frame taking its neighbour's (module notes: Resting); as it
     is with fewer than 3 frames."""
     slow = np.array(slow, bool)
@@ -319,7 +319,7 @@ def detect_resting(
     limit = SPEED * body.span if speed is None else speed
     positions = paths.positions[:, index]
     slow = paths.slow[:, index] if speed is None else point_speeds(positions, clip.frame_time, paths.seams) <= limit
-    slow = _ends_as_neighbours(slow)
+    slow = ends_as_neighbours(slow)
     clear = body.radius[index]
     above = paths.heights[:, index] - floor - clear
     if given_band is None:  # the soles' band is measured from where the body rests, if above the floor

@@ -10,9 +10,12 @@ span of the skeleton at rest (keypoints.stature).
   floor does not count); a clip that never rests takes its lowest heights;
 - a point is slow in frame n when it moves slower than REST_SPEED statures per second, or
   than REST_RATIO times the body's centre (the mean of its joints and sites, no helper or
-  carrier: a game rig's fingers pulled it onto the hands): a cartwheel's
-  hands pivot on the palms at 0.3-1 m/s while the body turns over them at 1.5-2.5 m/s, and a
-  crawling pelvis 17 cm over the floor moves with the body;
+  carrier: a game rig's fingers pulled it onto the hands): a cartwheel's hands pivot on the
+  palms at 0.3-1 m/s while the body turns over them at 1.5-2.5 m/s, and a crawling pelvis 17 cm
+  over the floor moves with the body. A clip's first and last frames are as slow as their
+  neighbours (cleanup.ground.ends_as_neighbours: a one-sided difference there doubles a
+  capture's jitter, and the kick at 120 fps with noise left a resting toe unplanted in its
+  first frame, 2.7 mm from the second on human.urdf);
 - a point rests near the floor in frame n when it is slow, within REST_BAND statures of its
   own resting height (the RESTING_PERCENTILE-th percentile of its heights over the frames it
   is slow in: a one-frame dip does not lower it), and that resting height is within REST_NEAR
@@ -30,6 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps, speeds
+from deik.cleanup.ground import ends_as_neighbours
 from deik.io.trajectory import Motion
 from deik.model.capsules import off_body
 from deik.model.kinematics import forward_kinematics
@@ -47,7 +51,7 @@ def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float)
     """(N, S) bool: the points p (N, S, 3) slower than REST_SPEED x `size` per second or than
     REST_RATIO x the centre of `everything` (N, F, 3) (module notes)."""
     centre = speeds(everything.mean(axis=1, keepdims=True), frame_time)
-    return speeds(p, frame_time) <= np.maximum(REST_SPEED * size, REST_RATIO * centre)
+    return ends_as_neighbours(speeds(p, frame_time) <= np.maximum(REST_SPEED * size, REST_RATIO * centre))
 
 
 def rest_floor(clip: Motion, size: float) -> float:
