@@ -63,13 +63,13 @@ def calm(
     start = motion.frames if base is None else motion.frames + base
     captured = motion if captured is None else captured
 
-    def jolting(share, change=displacement):
+    def jolting(share, change):
         moved = motion.with_frames(start + share[:, None] * change)
         return jolted_frames(captured, moved, ratio, degrees=np.inf, points=points) & ~already
 
     already = np.zeros(N, bool)
     if base is not None or captured is not motion:
-        already = jolting(np.zeros(N))
+        already = jolting(np.zeros(N), displacement)
 
     length = min(max(EASE_SECONDS / motion.frame_time, 2.0), max(N, 2))
     averaged = np.zeros(N, bool)
