@@ -1,10 +1,10 @@
 """fix_clip(): fix every frame of a clip at once: a warm start, then DE repairs.
 
-1. Warm start (warmstart.py): space-time least squares meets every frame's contacts, floor
-   and reach targets and steers the centre of mass over the support (balance.py) with a
-   displacement from the capture that is smooth over the whole clip (spacetime.py): a
-   correction begins before its goal does and fades after it, nothing pops, and an idle arm
-   keeps its performance.
+1. Warm start (warmstart.py, tried and calmed three ways in warm_tries.py): space-time least
+   squares meets every frame's contacts, floor and reach targets and steers the centre of mass
+   over the support (balance.py) with a displacement from the capture that is smooth over the
+   whole clip (spacetime.py): a correction begins before its goal does and fades after it,
+   nothing pops, and an idle arm keeps its performance.
 2. DE passes repair the frames that still miss a floor, self-collision, contact, balance or
    reach goal (goals the warm start cannot all meet, such as balance over a single contact
    point, or self-collision, which lets a frame's repair move every DOF). Each pass is one
