@@ -133,8 +133,11 @@ def calmed_warm_start(clip: Motion, goals: ClipGoals, weights: np.ndarray, movab
                 continue
             start = (warm, fixed, balance)
             smoothed = calm(clip, warm, body.points, captured=reference, smooth=True)
-            better = smoothed_stretches(cut, rated(start, smoothed)[0], SLIDING_TOLERANCE * body.span)
-            if better.any():
+            every = rated(start, smoothed, smoothed=True)
+            better = smoothed_stretches(cut, every[0], SLIDING_TOLERANCE * body.span)
+            if (better | ~(taken | smoothed[1])).all():  # every stretch smoothed: that is the try
+                outcomes[lift, whole, True] = every
+            elif better.any():
                 mixed = (np.where(better[:, None], smoothed[0], cut_back), np.where(better, smoothed[1], taken))
                 outcomes[lift, whole, True] = rated(start, mixed, smoothed=True)
     tries = {key: outcome[0] for key, outcome in outcomes.items()}
