@@ -279,6 +279,19 @@ FIGURES = (
         lambda r: [_case(r, "jump")["depth_capture_mm"], _case(r, "jump")["depth_mm"]],
     ),
     Figure(
+        r"the kick and the punch on the game rigs with noise at\s+(\d+) fps slide at most ([\d.]+) mm a frame",
+        TARGETS,
+        lambda r: [
+            round(1.0 / _case(r, "kick_digits_noisy")["frame_time_s"]),
+            max(
+                _case(r, f"{clip}_{feet}_noisy")["sliding_mm_per_frame"]
+                for clip in ("kick", "punch")
+                for feet in ("digits", "toes")
+            ),
+        ],
+        "at most",
+    ),
+    Figure(
         r"the run at 120 fps keeps ([\d.]+) mm a frame at one landing",
         TARGETS,
         lambda r: [_case(r, "run_120fps_noisy")["sliding_mm_per_frame"]],

@@ -3,7 +3,16 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
 (cleanup/body.py), speeds spans per second, durations seconds: no unit, frame rate or name counts.
 
 - Slow: a point whose speed (of its path smoothed by a Gaussian of SMOOTH seconds) is at most
-  SPEED x span per second.
+  SPEED x span per second. In a capture that shakes (its points' noise at rest, read as
+  cleanup/noise.py reads it, above NOISY x span: at 30 fps a capture is not low-passed), the
+  shake adds to every speed, and a resting toe moved 10-20 mm a frame by it read fast in the
+  frames that hold its rest's ends or a short pivot: unplanted, they slid 2-20 mm a frame
+  (`python -m benchmarks.clip_targets`: the game rigs' kick and punch with noise). There a
+  point is also slow where its speed is at most resting speed plus NOISE_SPEED times the
+  deviation its own white noise gives that speed, and it moves along the ground over DRIFT_SECONDS
+  either side at most DRIFT x resting speed: the shake averages out over those frames and a
+  slide does not, so a foot sliding just under resting speed is not read as resting through
+  its noise (a punch's toe sliding 7 mm a frame, planted so, sank the body 10-25 mm).
 - Floor (detect_floor): the level the body rests on: the median, over the frames in which a
   point of the body is slow, of the lowest slow point's surface (its height less its radius:
   a sole's, a kneeling knee's, a lying back's). When that level lies within GROUND_PLANE x span
@@ -64,7 +73,7 @@ import numpy as np
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
 from deik.cleanup.cuts import cut_steps
-from deik.cleanup.noise import gaussian
+from deik.cleanup.noise import NOISY, gaussian, noise_levels
 from deik.errors import InputError
 from deik.io.motion import message_prefix
 from deik.io.trajectory import Motion
@@ -79,6 +88,9 @@ FLAT = 0.5  # sine of the steepest pitch of a foot standing on its sole (30 degr
 RISING = 0.1  # of resting speed: a sole rising faster is lifting (module notes: Resting)
 GAP = 0.05
 SHORTEST = 0.05
+NOISE_SPEED = 2.0  # deviations of a point's noise in its speed that a shaking rest may read (module notes: Slow)
+DRIFT = 0.7  # of resting speed: how fast a shaking rest may move along the ground over DRIFT_SECONDS either side
+DRIFT_SECONDS = 0.05
 NO_SEAMS = np.zeros(0, np.int64)
 
 
@@ -137,6 +149,30 @@ def point_speeds(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS)
     """(N, K) speed of points p (N, K, 3) along their smoothed paths, length units per second
     (_rates of `smoothed`, each run between `seams` on its own; 0 for a single frame)."""
     return np.linalg.norm(_rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
+
+
+def slow_through_noise(
+    positions: np.ndarray, frame_time: float, limit: float, span: float, up: np.ndarray, seams: np.ndarray = NO_SEAMS
+) -> np.ndarray:
+    """(N, K) bool: the frames in which points at `positions` (N, K, 3) are slow through their
+    capture noise (module notes: Slow; `limit` resting speed, length units per second; `span`
+    the body's; `up` (3,) the up axis; no speed spans the `seams`, a drift across one is a
+    jump); none where the capture does not shake."""
+    N, K = positions.shape[:2]
+    levels = noise_levels(positions, frame_time, limit)
+    read = levels[levels > 0]
+    if not read.size or np.median(read) <= NOISY * span:  # also under 5 frames: no noise is read
+        return np.zeros((N, K), bool)
+    impulse = np.zeros(2 * int(np.ceil(3 * SMOOTH / frame_time)) + 3)
+    impulse[len(impulse) // 2] = 1.0
+    gain = np.linalg.norm(_rates(smoothed(impulse, frame_time), frame_time))  # white noise's deviation in a speed
+    fast = point_speeds(positions, frame_time, seams) > limit + NOISE_SPEED * gain * levels
+    along = positions - (positions @ up)[..., None] * up
+    reach = max(1, int(np.ceil(DRIFT_SECONDS / frame_time)))
+    frames = np.arange(N)
+    before, after = np.maximum(frames - reach, 0), np.minimum(frames + reach, N - 1)
+    drift = np.linalg.norm(along[after] - along[before], axis=-1) / ((after - before)[:, None] * frame_time)
+    return ~fast & (drift <= DRIFT * limit)
 
 
 def ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
@@ -318,7 +354,12 @@ def detect_resting(
     given_band, band = band, BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
     positions = paths.positions[:, index]
-    slow = paths.slow[:, index] if speed is None else point_speeds(positions, clip.frame_time, paths.seams) <= limit
+    if speed is None:
+        slow = paths.slow[:, index] | slow_through_noise(
+            positions, clip.frame_time, limit, body.span, sk.up, paths.seams
+        )
+    else:
+        slow = point_speeds(positions, clip.frame_time, paths.seams) <= limit
     slow = ends_as_neighbours(slow)
     clear = body.radius[index]
     above = paths.heights[:, index] - floor - clear
