@@ -8,8 +8,9 @@ Each case is retargeted through the command line (`deik retarget`) and judged fr
 wrote (the trajectory CSV, the BVH). Hard cases (source_case, robot_case): a clip played
 backwards, sped up 2x, with its legs 15 % longer (its feet sink), with noise on every channel,
 and as another rig family (centimetres, a Reference root on the floor above the hips, position
-channels on every joint, other joint names, 30 fps), and the walk, run and kick at 120 fps with
-capture noise (judging/cases.py's `_120fps_noisy`, judged against the clip without the noise);
+channels on every joint, other joint names, 30 fps), the walk, run and kick at 120 fps with
+capture noise (judging/cases.py's `_120fps_noisy`, judged against the clip without the noise),
+and the walk and kick with that noise at 30 fps (its `_noisy`, judged so);
 robots made from human.urdf (another joint order, continuous shoulders and elbows, velocity
 limits halved). Writes retarget_quality.json
 and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
@@ -251,6 +252,7 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump"}
     runs += [{"clip": clip, "case": case, "target": "human.urdf"} for case, clip in hard.items()]
     runs += [{"clip": clip, "case": "120fps_noisy", "target": "human.urdf"} for clip in ("walk", "run", "kick")]
+    runs += [{"clip": clip, "case": "30fps_noisy", "target": "human.urdf"} for clip in ("walk", "kick")]
     runs += [
         {"clip": clip, "case": "as captured", "target": f"human.urdf, {case}"} for case, clip in hard_robots.items()
     ]
@@ -258,12 +260,16 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     return [r for r in runs if r["clip"] == "walk"] if quick else runs
 
 
+JUDGED_NOISY = {"120fps_noisy": "_120fps_noisy", "30fps_noisy": "_noisy"}  # run case: judging/cases.py's case
+
+
 def retarget_case(spec: dict, clips: dict, folder: Path) -> dict:
     """Make the case of `spec` in `folder`, retarget it and judge it."""
     original = clips[spec["clip"]]
     source_path, map_path, robot_path, wrists = original, URDF_MAP, HUMAN_URDF, WRISTS
-    if spec["case"] == "120fps_noisy":  # judging/cases.py's, judged against the clip without its noise
-        case = next(c for c in cases(original.parent, [spec["clip"]]) if c.name == f"{spec['clip']}_120fps_noisy")
+    if spec["case"] in JUDGED_NOISY:  # judging/cases.py's, judged against the clip without its noise
+        name = spec["clip"] + JUDGED_NOISY[spec["case"]]
+        case = next(c for c in cases(original.parent, [spec["clip"]]) if c.name == name)
         source_path, truth = folder / f"{case.name}.bvh", folder / f"{case.name}_truth.bvh"
         source_path.write_text(format_rig(case.rig))
         truth.write_text(format_rig(case.truth))

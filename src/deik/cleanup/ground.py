@@ -156,8 +156,8 @@ def slow_through_noise(
 ) -> np.ndarray:
     """(N, K) bool: the frames in which points at `positions` (N, K, 3) are slow through their
     capture noise (module notes: Slow; `limit` resting speed, length units per second; `span`
-    the body's; `up` (3,) the up axis; no speed spans the `seams`, a drift across one is a
-    jump); none where the capture does not shake."""
+    the body's size the NOISY share is of; `up` (3,) the up axis; no speed spans the `seams`, a
+    drift across one is a jump); none where the capture does not shake."""
     N, K = positions.shape[:2]
     levels = noise_levels(positions, frame_time, limit)
     read = levels[levels > 0]

@@ -15,7 +15,11 @@ span of the skeleton at rest (keypoints.stature).
   over the floor moves with the body. A clip's first and last frames are as slow as their
   neighbours (cleanup.ground.ends_as_neighbours: a one-sided difference there doubles a
   capture's jitter, and the kick at 120 fps with noise left a resting toe unplanted in its
-  first frame, 2.7 mm from the second on human.urdf);
+  first frame, 2.7 mm from the second on human.urdf), and a point is slow through its capture
+  noise where `deik clip` finds it so (cleanup.ground.slow_through_noise, resting speed
+  REST_SPEED statures per second and the noise share of the stature): a source shaking at 30 fps
+  is not low-passed, and its shake hid the last frame of the shared kick's first rest, where
+  the foot then stepped 6 mm on human.urdf;
 - a point rests near the floor in frame n when it is slow, within REST_BAND statures of its
   own resting height (the RESTING_PERCENTILE-th percentile of its heights over the frames it
   is slow in: a one-frame dip does not lower it), and that resting height is within REST_NEAR
@@ -33,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps, speeds
-from deik.cleanup.ground import ends_as_neighbours
+from deik.cleanup.ground import ends_as_neighbours, slow_through_noise
 from deik.io.trajectory import Motion
 from deik.model.capsules import off_body
 from deik.model.kinematics import forward_kinematics
@@ -47,11 +51,13 @@ FLOOR_PERCENTILE = 25.0
 REST_TIME = 0.08  # seconds: a shorter rest is a pause in a moving point (a crawling pelvis), not a contact
 
 
-def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float) -> np.ndarray:
+def _slow(p: np.ndarray, everything: np.ndarray, frame_time: float, size: float, up: np.ndarray) -> np.ndarray:
     """(N, S) bool: the points p (N, S, 3) slower than REST_SPEED x `size` per second or than
-    REST_RATIO x the centre of `everything` (N, F, 3) (module notes)."""
+    REST_RATIO x the centre of `everything` (N, F, 3), or slow through their capture noise
+    (module notes; `up` (3,) the up axis)."""
     centre = speeds(everything.mean(axis=1, keepdims=True), frame_time)
-    return ends_as_neighbours(speeds(p, frame_time) <= np.maximum(REST_SPEED * size, REST_RATIO * centre))
+    slow = speeds(p, frame_time) <= np.maximum(REST_SPEED * size, REST_RATIO * centre)
+    return ends_as_neighbours(slow | slow_through_noise(p, frame_time, REST_SPEED * size, size, up))
 
 
 def rest_floor(clip: Motion, size: float) -> float:
@@ -61,7 +67,7 @@ def rest_floor(clip: Motion, size: float) -> float:
     p = forward_kinematics(sk, clip.frames).p_world_frame[:, body]
     heights = p @ sk.up
     low = p[np.arange(len(p)), heights.argmin(axis=1)]
-    slow = _slow(low[:, None], p, clip.frame_time, size)[:, 0]
+    slow = _slow(low[:, None], p, clip.frame_time, size, sk.up)[:, 0]
     return float(np.percentile(heights.min(axis=1)[slow] if slow.any() else heights.min(axis=1), FLOOR_PERCENTILE))
 
 
@@ -71,7 +77,9 @@ def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: fl
     everything = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
     p = everything[:, [clip.skeleton.frame_index(name) for name in points]]
     heights = p @ clip.skeleton.up - floor
-    slow = _slow(p, everything[:, ~off_body(clip.skeleton)], clip.frame_time, size)  # the body's centre
+    slow = _slow(
+        p, everything[:, ~off_body(clip.skeleton)], clip.frame_time, size, clip.skeleton.up
+    )  # the body's centre
     resting = np.full(len(points), np.inf)
     for s in np.flatnonzero(slow.any(axis=0)):
         resting[s] = np.percentile(heights[slow[:, s], s], RESTING_PERCENTILE)
