@@ -121,3 +121,23 @@ def test_the_points_a_pop_is_measured_on_are_the_clips_own_joints_and_sites_of_t
     chosen = {name for name, on in zip(names, body.points) if on}
     assert chosen == {name for name, on in zip(names, body.part) if on and name in own}
     assert not chosen & set(body.sole_names) and "Reference" not in chosen
+
+
+def test_a_head_is_a_ball_holding_its_segment_s_volume():
+    """An end of the body whose segment is as wide as a ball of its volume as it is long (a
+    head; a forearm with its hand is not) is that ball around its end: lying on its back the
+    head's centre stays a ball's radius above the floor, where its volume as a cylinder along
+    the bone left it 16 mm lower (the DeepMimic humanoid's head sphere is 10.25 cm)."""
+    clip = read(procedural_walk())
+    body = body_of(clip)
+    names = body.skeleton.frame_names
+    radius = dict(zip(names, body.radius))
+    cylinder = dict(zip(names, body.bone_radius))  # each bone's volume as a cylinder along it
+    p = clip.kinematics
+    head = np.median(np.linalg.norm(p.position("Neck_end") - p.position("Neck"), axis=1))
+    volume = np.pi * cylinder["Neck_end"] ** 2 * head
+    ball = (3.0 * volume / (4.0 * np.pi)) ** (1.0 / 3.0)
+    assert 2.0 * ball >= head and radius["Neck_end"] == pytest.approx(ball, rel=1e-9)
+    assert radius["Neck_end"] > cylinder["Neck_end"] + 0.01
+    forearm = np.median(np.linalg.norm(p.position("RightElbow_end") - p.position("RightElbow"), axis=1))
+    assert radius["RightElbow_end"] == pytest.approx(max(PALM * forearm, cylinder["RightElbow_end"]), rel=1e-9)

@@ -39,7 +39,11 @@ along it, thinner than a limb where it is thickest and than a palm, so two point
 - an end of the body other than a foot (a hand, the head) is at least PALM x the length of the
   bone that ends there: an adult hand is about 4.8 % of stature broad across the knuckles (8-9
   cm at 1.75 m) and the forearm 14.6 % of it long (Drillis & Contini), so half the palm is
-  0.165 of the forearm (4.3 cm on the shared humanoid); a head keeps its own, larger radius.
+  0.165 of the forearm (4.3 cm on the shared humanoid); a head keeps its own, larger radius;
+- an end whose segment holds a ball as wide as the segment is long (a head, not a forearm with
+  its hand) is that ball around it: a head is round, and lying on its back its centre stays a
+  ball's radius above the floor (9.0 cm on the shared humanoid, whose DeepMimic head sphere is
+  10.25 cm), where its volume as a cylinder along the bone gave 7.4 cm.
 `bone_radius` keeps each bone's own cylinder radius: the surface along it (cleanup/bone_points.py).
 """
 
@@ -289,6 +293,15 @@ def _thinnest(skeleton: Skeleton, joint_radius: np.ndarray, start: np.ndarray) -
     return np.where(np.isfinite(thinnest), thinnest, 0.0)
 
 
+def _balls(joint_radius: np.ndarray, start: np.ndarray, length: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """(F,) at each end of the body (`ends` (F,) bool) whose segment, the bone from `start` (F,)
+    of `length` (F,) with the cylinder radius of its start joint (`joint_radius` (J,)), holds
+    a ball as wide as the bone is long, that ball's radius (module notes: a head); 0 elsewhere."""
+    cylinder = np.where(start >= 0, joint_radius[np.maximum(start, 0)], 0.0)
+    ball = (0.75 * cylinder**2 * length) ** (1.0 / 3.0)  # the same volume
+    return np.where(ends & (start >= 0) & (2.0 * ball >= length), ball, 0.0)
+
+
 def body_of(clip: Motion) -> Body:
     """The Body of `clip` (module notes)."""
     sk = clip.skeleton
@@ -325,7 +338,8 @@ def body_of(clip: Motion) -> Body:
     ends = body_ends(sk, part)
     joint_radius = np.where(off | ends[: sk.n_joints], 0.0, default_radii(sk, standing, seated=True, height=stature))
     own = _thinnest(sk, joint_radius, seated_start)
-    own = np.where(ends, np.maximum(own, PALM * length), own)
+    ball = _balls(joint_radius, seated_start, length, ends)
+    own = np.where(ends, np.maximum(own, np.maximum(PALM * length, ball)), own)
     frame_radius = np.concatenate([joint_radius, np.zeros(sk.n_frames - sk.n_joints)])
     counted = seated_start[(seated_start >= 0) & part]  # the body's bones: a helper riding on a limb is none
     limb_top = (np.bincount(counted, minlength=sk.n_frames) == 1) & (frame_radius > 0)
