@@ -78,7 +78,7 @@ def calm(
         if not jolts.any():
             break
         near = _cut(widened(jolts, 1), length)
-        gentler = smoothed_change(motion.skeleton, start, displacement, width / 2.0)
+        gentler = smoothed_change(motion.skeleton, start, displacement, width / 2.0, where=near > 0)
         displacement = displacement + near[:, None] * (gentler - displacement)
         averaged |= near > 0
     share = np.ones(N)

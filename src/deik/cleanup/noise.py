@@ -222,22 +222,27 @@ def _averaged(skeleton: Skeleton, frames: np.ndarray, sigma: float) -> np.ndarra
     return out
 
 
-def smoothed_change(skeleton: Skeleton, frames: np.ndarray, change: np.ndarray, sigma: float) -> np.ndarray:
+def smoothed_change(
+    skeleton: Skeleton, frames: np.ndarray, change: np.ndarray, sigma: float, where: np.ndarray | None = None
+) -> np.ndarray:
     """(N, D) a `change` (N, D) of `frames` (N, D) averaged along the frames by a Gaussian of
     `sigma` frames (ends held), whatever Euler values the frames are written in: every channel
     as values, then each Tait-Bryan triple moved (damped steps, as _averaged) onto its frame's
     rotation turned by the average of the turns the change makes there (in the joint's frame,
     R^T R', projected onto rotations). So a twin of a rotation (other Euler values) changes as
-    the rotation does."""
-    out = frames + gaussian(change, sigma)
+    the rotation does. Only the frames `where` (N,) bool (default all) are averaged; the others
+    keep `change`."""
+    where = np.ones(len(frames), bool) if where is None else where
+    out = frames + np.where(where[:, None], gaussian(change, sigma), change)
     for triple in tait_bryan_triples(skeleton):
         if not change[:, triple].any():  # a joint the change leaves alone (a still finger)
             continue
         axes = skeleton.dof_axis[triple]
         before = _triple_matrices(axes, frames[:, triple])[0]
         turn = np.swapaxes(before, -1, -2) @ _triple_matrices(axes, frames[:, triple] + change[:, triple])[0]
-        target = before @ _nearest_rotations(gaussian(turn, sigma))
-        out[:, triple] = _moved_onto(axes, frames[:, triple] + change[:, triple], target)
+        target = before[where] @ _nearest_rotations(gaussian(turn, sigma)[where])
+        rows = np.ix_(np.flatnonzero(where), triple)
+        out[rows] = _moved_onto(axes, frames[rows] + change[rows], target)
     return out - frames
 
 
