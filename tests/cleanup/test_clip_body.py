@@ -3,6 +3,8 @@ procedural walk (judging/walk.py) and its other rig families: the span as the lo
 path between two ends of the rig, the feet found without a name to go by, the soles flat on the
 rest pose's lowest point, the carrier joint above a studio rig's hips, the radii."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -141,3 +143,37 @@ def test_a_head_is_a_ball_holding_its_segment_s_volume():
     assert radius["Neck_end"] > cylinder["Neck_end"] + 0.01
     forearm = np.median(np.linalg.norm(p.position("RightElbow_end") - p.position("RightElbow"), axis=1))
     assert radius["RightElbow_end"] == pytest.approx(max(PALM * forearm, cylinder["RightElbow_end"]), rel=1e-9)
+
+
+def _lying_on_its_back(sunk: float):
+    """The procedural walk's rig lying still on its back (every rotation 0 but the root's, 90
+    degrees about its side axis) for a second, its lowest surface by the judge's DeepMimic
+    shapes `sunk` metres under the floor: a capture laid a little through the floor."""
+    from judging.clips import deepest
+
+    case = procedural_walk()
+    rig = case.rig
+    frames = np.zeros((30, len(rig.columns)))
+    frames[:, rig.columns.index((0, "Zrotation"))] = 90.0
+    laid = dataclasses.replace(rig, frames=frames)
+    frames[:, rig.columns.index((0, "Yposition"))] += deepest(case, laid).max() - sunk
+    return dataclasses.replace(case, name="lying", rig=dataclasses.replace(rig, frames=frames))
+
+
+def test_a_body_lying_on_its_back_is_kept_out_of_the_floor_by_its_chest(tmp_path):
+    """A chest is thicker than the joints that bound it: its centre, halfway from the chest
+    joint to its bones' ends, is a point of the body as thick as the chest's segment. The walk's
+    rig laid on its back 15 mm through the floor (the judge's chest sphere, 11 cm around a point
+    12 cm up the spine from the chest joint, deepest) comes out of it, the frames listed where
+    it does not; measured on its joints alone the body read 3 mm above the floor and was left
+    15 mm under it with every frame called met."""
+    from tests.cleanup.test_clip_any_rig import cleaned_and_judged
+
+    body = body_of(read(procedural_walk()))
+    assert body.centres == ("Chest_centre",)
+    sk = body.skeleton
+    centre = sk.frame_index("Chest_centre")
+    assert body.radius[centre] == pytest.approx(body.bone_radius[sk.frame_index("Neck")])
+    assert "Chest_centre" not in body.contact_points() and not body.points[centre]
+    report, measured = cleaned_and_judged(_lying_on_its_back(0.015), tmp_path)
+    assert measured["depth_mm"] <= 2.0 and measured["misses_listed"], measured

@@ -45,6 +45,17 @@ along it, thinner than a limb where it is thickest and than a palm, so two point
   ball's radius above the floor (9.0 cm on the shared humanoid, whose DeepMimic head sphere is
   10.25 cm), where its volume as a cylinder along the bone gave 7.4 cm.
 `bone_radius` keeps each bone's own cylinder radius: the surface along it (cleanup/bone_points.py).
+
+Trunk centres: a segment whose joint starts two or more bones of the body and whose cylinder is
+thicker than the joint's own radius (a chest: 12.2 cm against the 8.0 of the abdomen its joint
+also bounds, on the shared humanoid) gets a site at its centre, halfway from the joint to the
+mean of its bones' ends, as thick as the segment (`Body.centres`): lying on its back the body
+rests on its upper back, which neither the chest joint nor the neck represents, and measured on
+them alone a body laid 15 mm through the floor by the DeepMimic humanoid's chest sphere (11 cm,
+12 cm up the spine) read 3 mm above it. The floor keeps a centre out as any point of the body; it
+is no contact (planting the chest of the shared get-up, which lies on it face down for a few
+frames, took its forearms' lift back: 52 mm under the floor), no point a pop is measured on, and
+counts in no statistic of the body's points (`Body.own`) nor in the warm start's DOF weights.
 """
 
 from __future__ import annotations
@@ -83,11 +94,12 @@ SHORT_LEVER = 0.05  # of the span: a joint carrying the body no farther is a sho
 
 @dataclass(frozen=True, eq=False)
 class Body:
-    """The body of a clip (module notes): `skeleton` the clip's with the sole sites added (the
-    same DOFs), `span` (length units), `radius` (F,) per joint then site of `skeleton`, `part`
-    (F,) bool whether each is part of the body (carriers are not), `feet`, and `bone_radius` (F,)
-    the capsule radius of the bone that ends at each joint or site (its start joint's,
-    default_radii; 0 for the root and where a carrier starts it)."""
+    """The body of a clip (module notes): `skeleton` the clip's with the sole sites and trunk
+    centres added (the same DOFs), `span` (length units), `radius` (F,) per joint then site of
+    `skeleton`, `part` (F,) bool whether each is part of the body (carriers are not), `feet`,
+    `bone_radius` (F,) the capsule radius of the bone that ends at each joint or site (its start
+    joint's, default_radii; 0 for the root and where a carrier starts it), and `centres` the
+    trunk centres' site names."""
 
     skeleton: Skeleton
     span: float
@@ -95,22 +107,30 @@ class Body:
     part: np.ndarray
     feet: tuple[Foot, ...]
     bone_radius: np.ndarray
+    centres: tuple[str, ...] = ()
 
     @property
     def sole_names(self) -> tuple[str, ...]:
         return tuple(name for foot in self.feet for name in foot.soles)
 
     @property
+    def own(self) -> np.ndarray:
+        """(F,) bool: the part of the body that is the clip's own joints and sites or sole sites,
+        the trunk centres aside (statistics over the body's points leave them out)."""
+        return self.part & ~np.isin(self.skeleton.frame_names, self.centres)
+
+    @property
     def points(self) -> np.ndarray:
         """(F,) bool: the clip's own joints and sites that are part of the body, the points
-        whose accelerations the no-new-pops rule compares (the sole sites ride on the feet)."""
-        soles = set(self.sole_names)
-        return self.part & np.array([name not in soles for name in self.skeleton.frame_names], bool)
+        whose accelerations the no-new-pops rule compares (the sole sites and trunk centres
+        ride on the clip's own)."""
+        added = set(self.sole_names) | set(self.centres)
+        return self.part & np.array([name not in added for name in self.skeleton.frame_names], bool)
 
     def contact_points(self) -> tuple[str, ...]:
         """Every point that may rest on the floor: the heel and toe of each foot, and every other
-        joint and site of the body but the feet's chains and flanking sole sites."""
-        feet = {name for foot in self.feet for name in foot.chain + foot.soles}
+        joint and site of the body but the feet's chains, flanking sole sites and trunk centres."""
+        feet = {name for foot in self.feet for name in foot.chain + foot.soles} | set(self.centres)
         own = [name for f, name in enumerate(self.skeleton.frame_names) if self.part[f] and name not in feet]
         return tuple([name for foot in self.feet for name in (foot.heel, foot.toe)] + own)
 
@@ -302,6 +322,27 @@ def _balls(joint_radius: np.ndarray, start: np.ndarray, length: np.ndarray, ends
     return np.where(ends & (start >= 0) & (2.0 * ball >= length), ball, 0.0)
 
 
+def _trunk_centres(skeleton: Skeleton, kin: Kinematics, radii: tuple, start: np.ndarray, part: np.ndarray) -> list:
+    """[(name, joint name, offset (3,) in its frame, radius)]: a site at the centre of each
+    segment of the body whose joint starts two or more of its bones (`start` (F,) each frame's
+    bone's start joint, `part` (F,) bool) and whose cylinder (radii[0] (J,)) is thicker than
+    the joint's own radius (radii[1] (F,)): halfway from the joint to the mean of the bones'
+    ends in the standing kinematics `kin` (module notes: a chest)."""
+    joint_radius, own = radii
+    p, R = kin.p_world_frame[0], kin.R_world_frame[0]
+    out = []
+    for j in range(skeleton.n_joints):
+        children = np.flatnonzero((start == j) & part)
+        if len(children) < 2 or joint_radius[j] <= own[j] * (1.0 + 1e-9):
+            continue
+        offset = R[j].T @ (0.5 * (p[children].mean(axis=0) - p[j]))
+        name = f"{skeleton.frame_names[j]}_centre"
+        while name in skeleton.frame_names:
+            name += "_"
+        out.append((name, skeleton.frame_names[j], offset, float(joint_radius[j])))
+    return out
+
+
 def body_of(clip: Motion) -> Body:
     """The Body of `clip` (module notes)."""
     sk = clip.skeleton
@@ -330,7 +371,6 @@ def body_of(clip: Motion) -> Body:
         sites += soles
         feet.append(Foot(sk.frame_names[chain[0]], tuple(sk.frame_names[f] for f in chain), tuple(s[0] for s in soles)))
         foot_radius.update({f: height[f] - sole for f in chain})
-    body = with_sites(sk, sites)
     # a joint sitting on another (a zero OFFSET: the CMU rigs' LHipJoint at the Hips) is that
     # point: its bones and mass are the other's, and it is as thick as the other is there
     seat = seat_anchors(sk)
@@ -346,8 +386,11 @@ def body_of(clip: Motion) -> Body:
     own = np.where(limb_top, np.maximum(own, TOP * frame_radius), own)
     for f, value in foot_radius.items():
         own[f] = value
-    radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites))])
+    centres = _trunk_centres(sk, kin, (joint_radius, own), seated_start, part)
+    body = with_sites(sk, sites + [centre[:3] for centre in centres])
+    radius = np.concatenate([np.where(part, own, 0.0), np.zeros(len(sites)), [centre[3] for centre in centres]])
     body_start = bone_starts(body)
     bone_radius = np.where(body_start >= 0, joint_radius[seat[np.maximum(body_start, 0)]], 0.0)
-    part = np.concatenate([part, np.ones(len(sites), bool)])
-    return Body(body, float(span), radius, part, tuple(feet), bone_radius)
+    part = np.concatenate([part, np.ones(len(sites) + len(centres), bool)])
+    names = tuple(centre[0] for centre in centres)
+    return Body(body, float(span), radius, part, tuple(feet), bone_radius, names)

@@ -255,7 +255,7 @@ def without_shake(clip: Clip, body: Body) -> tuple[Clip, Noise, Trajectory, Path
     wherever nothing is planted or tracked."""
     motion = on_body(clip, body)
     paths = body_paths(motion, body)
-    noise = capture_noise(paths.positions[:, body.part], body.span, clip.frame_time, SPEED * body.span)
+    noise = capture_noise(paths.positions[:, body.own], body.span, clip.frame_time, SPEED * body.span)
     if noise.low_pass is None:
         return clip, noise, motion, paths
     clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))

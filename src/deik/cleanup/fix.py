@@ -236,7 +236,7 @@ def fix_clip(
     sk = clip.skeleton
     rotation = sk.dof_kind == ROTATE
     original = clip.poses()
-    weights = dof_weights(clip)
+    weights = dof_weights(clip, body.own)
     fixed_dofs = hinge_channels(clip) | held_translations(sk, clip.frames)
     movable = np.broadcast_to(~fixed_dofs & ~short_levers(body, clip), original.shape)
     displacement, first_calmed, fixed_part, balance, reached = calmed_warm_start(clip, goals, weights, movable, body)

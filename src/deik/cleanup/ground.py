@@ -203,7 +203,7 @@ def body_paths(clip: Motion, body: Body, split_at_cuts: bool = False) -> Paths:
     them (docs/decisions.md: planting both sides of a seam apart twisted the motion)."""
     sk = body.skeleton
     p = forward_kinematics(sk, clip.frames).p_world_frame
-    seams = cut_steps(p[:, body.part], body.span, clip.frame_time) if split_at_cuts else NO_SEAMS
+    seams = cut_steps(p[:, body.own], body.span, clip.frame_time) if split_at_cuts else NO_SEAMS
     slow = point_speeds(p, clip.frame_time, seams) <= SPEED * body.span
     return Paths(p, p @ sk.up, slow, seams)
 

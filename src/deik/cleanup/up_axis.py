@@ -144,7 +144,7 @@ def off_support(body: Body, paths: Paths, floor: float) -> float:
     when nothing rests."""
     up = body.skeleton.up
     resting = paths.slow & body.part & (surface_heights(body, paths) <= floor + BAND * body.span)
-    offset = paths.positions - paths.positions[:, body.part].mean(axis=1, keepdims=True)
+    offset = paths.positions - paths.positions[:, body.own].mean(axis=1, keepdims=True)
     along = np.linalg.norm(offset - (offset @ up)[..., None] * up, axis=-1)
     away = np.where(resting, along, np.inf).min(axis=1)[resting.any(axis=1)]
     return float(np.median(away)) / body.span if away.size else np.inf

@@ -64,7 +64,8 @@ def _warm_start(
     def warm(plain: ClipGoals, track):
         fixed = fixed_goals(clip, plain, weights, track)
         fade = ease_frames(clip)
-        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lifting=Lifting(lift, whole, tuple(soles)))
+        lifting = Lifting(lift, whole, tuple(soles), body.centres)
+        d = warm_start(sk, original, fixed, movable, weights, fade=fade, lifting=lifting)
         return inside_limits(sk, original, d), fixed
 
     if not goals.balance:

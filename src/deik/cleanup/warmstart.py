@@ -100,20 +100,23 @@ def position_jacobian(
     return point_jacobians(skeleton, poses, frames)
 
 
-def dof_weights(clip: Motion) -> np.ndarray:
+def dof_weights(clip: Motion, counted: np.ndarray | None = None) -> np.ndarray:
     """(D,) what a unit change of each DOF costs: 1 per radian, and per length unit of a
     translation 1 / r, r the root-mean-square distance of the body's joints and sites (no
-    carrier or helper: deik.model.capsules.off_body) from its root (the hips, below any
-    carrier: body_root) over the clip: moving the root counts like the root turn that moves
-    the body as much. With 1 per length unit too (metres as radians), lifting the whole body
-    would be the cheap way to move a hand."""
+    carrier or helper: deik.model.capsules.off_body; or the frames `counted` (F,) bool) from
+    its root (the hips, below any carrier: body_root) over the clip: moving the root counts
+    like the root turn that moves the body as much. With 1 per length unit too (metres as
+    radians), lifting the whole body would be the cheap way to move a hand."""
     sk = clip.skeleton
     p = clip.kinematics.p_world_frame
-    r = np.sqrt(((p[:, ~off_body(sk)] - p[:, body_root(sk), None]) ** 2).sum(axis=-1).mean())
+    counted = ~off_body(sk) if counted is None else counted
+    r = np.sqrt(((p[:, counted] - p[:, body_root(sk), None]) ** 2).sum(axis=-1).mean())
     return np.where(sk.dof_kind == ROTATE, 1.0, 1.0 / r if r > 0 else 1.0)
 
 
-def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def motion_stiffness(
+    skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray, surface: tuple[str, ...] = ()
+) -> np.ndarray:
     """(D,) how stiff each DOF's spring is (cleanup/spacetime.py): 1 + BODY_STIFFNESS x the sum
     over every joint and site of its squared speed per unit of the weighted DOF (dof_weights),
     in reach units (body_reach), averaged over `poses` (N, D), and ROOT_STIFFNESS times that for
@@ -122,10 +125,11 @@ def motion_stiffness(skeleton: Skeleton, poses: np.ndarray, weights: np.ndarray)
     the leg, not the hips that carry the arms, no channel takes it all (both the points' and the
     channels' accelerations stay low), and the body keeps its path through the world unless the
     legs cannot reach. What is no part of the body (carriers, helpers: model.capsules.off_body) does
-    not count: 40 still finger points stiffened a game rig's arms."""
+    not count: 40 still finger points stiffened a game rig's arms; nor do the `surface` sites
+    (cleanup/body.py's trunk centres), points of the surface, not of the motion."""
     carriers = carrier_joints(skeleton)
     off = off_body(skeleton)
-    body_frames = [name for f, name in enumerate(skeleton.frame_names) if not off[f]]
+    body_frames = [name for f, name in enumerate(skeleton.frame_names) if not off[f] and name not in surface]
     _, jac = position_jacobian(skeleton, poses, body_frames)
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     body = (jac**2).sum(axis=(1, 2)).mean(axis=0) * scale**2 / body_reach(skeleton) ** 2
@@ -287,11 +291,13 @@ class Lifting(NamedTuple):
     """How a warm start keeps the body above a Floor: `lift` a point that sinks in the capture
     along a smooth envelope of its depth (else only in the frames it sinks), lift each bone
     `whole`, and keep the joints or sites `soles` (each foot's heel and toe) at their capture
-    heights while in contact (the feet's roll)."""
+    heights while in contact (the feet's roll); the `surface` sites (trunk centres) are kept
+    above it as any point, but count in no DOF's stiffness."""
 
     lift: bool = True
     whole: bool = False
     soles: tuple[str, ...] = ()
+    surface: tuple[str, ...] = ()
 
 
 LIFTING = Lifting()  # points lifted along envelopes, bones not whole, no soles
@@ -323,7 +329,7 @@ def warm_start(
     `lifting.soles` (each foot's heel and toe) keep their height in the capture while in contact
     (module notes: the feet's roll). With `lift` and `whole`, a body is lifted whole (module
     notes). Limits are not applied here (fix_clip does)."""
-    lift, whole, soles = lifting
+    lift, whole, soles = lifting.lift, lifting.whole, lifting.soles
     held = [goal for goal in goals if isinstance(goal, Position) and goal.level < REACH_LEVEL]
     reach = [goal for goal in goals if isinstance(goal, Position) and goal.level == REACH_LEVEL]
     balance = [goal for goal in goals if isinstance(goal, ComOverSupport)]
@@ -340,7 +346,7 @@ def warm_start(
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     size = body_reach(skeleton)
     longest = LONGEST_STEP * size
-    stiffness = motion_stiffness(skeleton, original, weights)
+    stiffness = motion_stiffness(skeleton, original, weights, lifting.surface)
     margin = FLOOR_MARGIN * size
     x0 = forward_kinematics(skeleton, original).p_world_frame if floors else None
     holds = [FLOOR_HOLD] * len(floors)
