@@ -91,3 +91,8 @@ def test_a_smoothed_stretch_is_kept_where_it_loses_no_goal_and_slides_no_further
     np.testing.assert_array_equal(kept, [0, 1, 1, 1, 0, 0, 0, 0, 0, 0])
     # a stretch no better anywhere is not kept
     assert not smoothed_stretches(cut, cut, sliding=1.0).any()
+    # a step up to twice the cut one's (at least the tolerance) plus the tolerance: 2.5 where the
+    # cut one steps 1 is kept (the get-up at 120 fps gained 36 frames on the floor so), 3.5 is not
+    for step, keep in ((2.5, True), (3.5, False)):
+        stepping = _tried([1] * 10, [1, 0, 1, 0, 1, 0, 1, 1, 1, 1], [0, step, 1, 1, 0, 0, 0, 0, 0, 0], calmed)
+        assert smoothed_stretches(cut, stepping, sliding=1.0)[1] == keep
