@@ -124,14 +124,13 @@ class Body:
         """(F,) bool: the clip's own joints and sites that are part of the body, the points
         whose accelerations the no-new-pops rule compares (the sole sites and trunk centres
         ride on the clip's own)."""
-        added = set(self.sole_names) | set(self.centres)
-        return self.part & np.array([name not in added for name in self.skeleton.frame_names], bool)
+        return self.own & ~np.isin(self.skeleton.frame_names, self.sole_names)
 
     def contact_points(self) -> tuple[str, ...]:
         """Every point that may rest on the floor: the heel and toe of each foot, and every other
         joint and site of the body but the feet's chains, flanking sole sites and trunk centres."""
-        feet = {name for foot in self.feet for name in foot.chain + foot.soles} | set(self.centres)
-        own = [name for f, name in enumerate(self.skeleton.frame_names) if self.part[f] and name not in feet]
+        feet = {name for foot in self.feet for name in foot.chain + foot.soles}
+        own = [name for f, name in enumerate(self.skeleton.frame_names) if self.own[f] and name not in feet]
         return tuple([name for foot in self.feet for name in (foot.heel, foot.toe)] + own)
 
 

@@ -59,8 +59,8 @@ def _bones(body: Body) -> tuple[np.ndarray, np.ndarray]:
     start = bone_starts(body.skeleton)
     names = body.skeleton.frame_names
     feet = {name for foot in body.feet for name in foot.chain + foot.soles}
-    soles = set(body.sole_names) | set(body.centres)
-    ends = [f for f in range(len(start)) if start[f] >= 0 and body.part[f] and body.part[start[f]]]
+    soles = set(body.sole_names)
+    ends = [f for f in range(len(start)) if start[f] >= 0 and body.own[f] and body.part[start[f]]]
     ends = [f for f in ends if names[f] not in soles and not (names[f] in feet and names[start[f]] in feet)]
     ends = np.array(ends, np.int64)
     return start[ends], ends
