@@ -12,7 +12,7 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
   deviation its own white noise gives that speed, and it moves along the ground over DRIFT_SECONDS
   either side at most DRIFT x resting speed: the shake averages out over those frames and a
   slide does not, so a foot sliding just under resting speed is not read as resting through
-  its noise (a punch's toe sliding 7 mm a frame, planted so, sank the body 10-25 mm).
+  its noise (a punch's toe sliding 7 mm a frame, planted so, sank the body 10-16 mm).
 - Floor (detect_floor): the level the body rests on: the median, over the frames in which a
   point of the body is slow, of the lowest slow point's surface (its height less its radius:
   a sole's, a kneeling knee's, a lying back's). When that level lies within GROUND_PLANE x span
