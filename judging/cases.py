@@ -262,16 +262,17 @@ def _lowered(case: Case, frames: np.ndarray, metres: float) -> np.ndarray:
     return out
 
 
-def noisy(case: Case, seed: int = 0) -> Case:
-    """The noisy transform (module notes)."""
+def noisy(case: Case, seed: int = 0, degrees: float = 0.2) -> Case:
+    """The noisy transform (module notes); `degrees` other than 0.2 scales the noise of every
+    channel (the root's millimetre with it)."""
     rig = case.rig
     rng = np.random.default_rng(seed)
     frames = rig.frames.copy()
     for k, (j, channel) in enumerate(rig.columns):
         if channel.endswith("rotation"):
-            frames[:, k] += rng.normal(0.0, 0.2, len(frames))
+            frames[:, k] += rng.normal(0.0, degrees, len(frames))
         elif j == 0:
-            frames[:, k] += rng.normal(0.0, 0.001 * case.unit, len(frames))
+            frames[:, k] += rng.normal(0.0, 0.001 * case.unit * degrees / 0.2, len(frames))
     noisy_rig = dataclasses.replace(rig, frames=_lowered(case, frames, SUNK))
     description = "noise, 12 mm under the floor"
     return dataclasses.replace(case, name=case.name + "_noisy", rig=noisy_rig, description=description, truth=rig)

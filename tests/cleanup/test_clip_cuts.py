@@ -269,7 +269,7 @@ def test_a_point_resting_on_both_sides_of_a_seam_reads_slow_beside_it():
     heel: 0.35-7.4 m/s at a raw 0.02): each run between seams is smoothed and differentiated on
     its own, and a contact over a seam is two, planted apart."""
     from deik.cleanup.contacts import Contacts
-    from deik.cleanup.ground import point_speeds
+    from deik.cleanup.speeds import point_speeds
 
     p = np.zeros((20, 1, 3))
     p[10:] = [0.75, 0.0, 0.0]  # still, then a leap between takes, then still

@@ -31,6 +31,7 @@ import numpy as np
 
 from deik.cleanup import ground
 from deik.cleanup.body import TAPER, TOP, Body
+from deik.cleanup.speeds import NO_SEAMS, point_speeds, smoothed
 from deik.io.trajectory import Motion
 from deik.model.capsules import bone_starts
 
@@ -78,7 +79,7 @@ def _radii(body: Body, start: np.ndarray, end: np.ndarray, bone: np.ndarray, sha
     return np.where(limb, np.maximum(frustum, capsule), capsule)
 
 
-def bone_points(capture: Motion, body: Body, floor: float, seams: np.ndarray = ground.NO_SEAMS) -> BonePoints:
+def bone_points(capture: Motion, body: Body, floor: float, seams: np.ndarray = NO_SEAMS) -> BonePoints:
     """The BonePoints of `capture` (on body.skeleton) over the floor at height `floor` (module
     notes), speeds read between the `seams` (ground.Paths.seams) only."""
     start, end = _bones(body)
@@ -96,7 +97,7 @@ def bone_points(capture: Motion, body: Body, floor: float, seams: np.ndarray = g
     surface = x @ up - floor - radius
     lowest = np.minimum(p[:, points.start] @ up, p[:, points.end] @ up) - floor - radius
     low = (surface <= band) & (surface <= np.maximum(lowest, 0.0) + TIE * body.span)
-    slow = ground.point_speeds(x, capture.frame_time, seams) <= ground.SPEED * body.span
+    slow = point_speeds(x, capture.frame_time, seams) <= ground.SPEED * body.span
     step = ground.SPEED * body.span * capture.frame_time
-    rest = ground.rest_runs(low & slow, capture.frame_time, ground.smoothed(x, capture.frame_time, seams), step)
+    rest = ground.rest_runs(low & slow, capture.frame_time, smoothed(x, capture.frame_time, seams), step)
     return BonePoints(points.start, points.end, share, rest)

@@ -260,7 +260,7 @@ def without_shake(clip: Clip, body: Body) -> tuple[Clip, Noise, Trajectory, Path
         return clip, noise, motion, paths
     clip = clip.with_frames(low_passed(clip.skeleton, clip.frames, noise.low_pass, clip.frame_time))
     motion = on_body(clip, body)
-    return clip, noise, motion, body_paths(motion, body)
+    return clip, noise, motion, replace(body_paths(motion, body), captured=paths.positions)
 
 
 def plan_clean(clip: Motion | FilePath, options: CleanOptions | None = None) -> CleanPlan:

@@ -2,17 +2,9 @@
 touches, and which points rest in which frames. Sizes are shares of the body's span
 (cleanup/body.py), speeds spans per second, durations seconds: no unit, frame rate or name counts.
 
-- Slow: a point whose speed (of its path smoothed by a Gaussian of SMOOTH seconds) is at most
-  SPEED x span per second. In a capture that shakes (its points' noise at rest, read as
-  cleanup/noise.py reads it, above NOISY x span: at 30 fps a capture is not low-passed), the
-  shake adds to every speed, and a resting toe moved 10-20 mm a frame by it read fast in the
-  frames that hold its rest's ends or a short pivot: unplanted, they slid 2-20 mm a frame
-  (`python -m benchmarks.clip_targets`: the game rigs' kick and punch with noise). There a
-  point is also slow where its speed is at most resting speed plus NOISE_SPEED times the
-  deviation its own white noise gives that speed, and it moves along the ground over DRIFT_SECONDS
-  either side at most DRIFT x resting speed: the shake averages out over those frames and a
-  slide does not, so a foot sliding just under resting speed is not read as resting through
-  its noise (a punch's toe sliding 7 mm a frame, planted so, sank the body 10-16 mm).
+- Slow: a point whose speed (of its path smoothed by a Gaussian of SMOOTH seconds,
+  cleanup/speeds.py) is at most SPEED x span per second. In a capture that shakes, a point is
+  also slow where it rests through its noise (cleanup/shaking.py), read on the capture as given.
 - Floor (detect_floor): the level the body rests on: the median, over the frames in which a
   point of the body is slow, of the lowest slow point's surface (its height less its radius:
   a sole's, a kneeling knee's, a lying back's). When that level lies within GROUND_PLANE x span
@@ -73,14 +65,14 @@ import numpy as np
 from deik.cleanup.body import Body, body_of, on_body
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps
 from deik.cleanup.cuts import cut_steps
-from deik.cleanup.noise import NOISY, gaussian, noise_levels
+from deik.cleanup.shaking import held_through_noise, slow_through_noise
+from deik.cleanup.speeds import NO_SEAMS, SMOOTH, point_speeds, rates, smoothed
 from deik.errors import InputError
 from deik.io.motion import message_prefix
 from deik.io.trajectory import Motion
 from deik.model.kinematics import forward_kinematics
 
 SPEED = 0.1
-SMOOTH = 0.02
 GROUND_PLANE = 0.04
 BAND = 0.02
 SOLE_BAND = 0.01  # of the span: the band of a sole standing on its sole (module notes)
@@ -88,10 +80,6 @@ FLAT = 0.5  # sine of the steepest pitch of a foot standing on its sole (30 degr
 RISING = 0.1  # of resting speed: a sole rising faster is lifting (module notes: Resting)
 GAP = 0.05
 SHORTEST = 0.05
-NOISE_SPEED = 2.0  # deviations of a point's noise in its speed that a shaking rest may read (module notes: Slow)
-DRIFT = 0.7  # of resting speed: how fast a shaking rest may move along the ground over DRIFT_SECONDS either side
-DRIFT_SECONDS = 0.05
-NO_SEAMS = np.zeros(0, np.int64)
 
 
 @dataclass(frozen=True)
@@ -121,60 +109,6 @@ class FloorChoice:
         return {"height": self.height, "how": self.how, "resting_contacts_height": self.resting}
 
 
-def _segments(n: int, seams: np.ndarray) -> list[slice]:
-    """The runs of `n` frames between the `seams` (steps where the pose jumps, cleanup/cuts.py)."""
-    edges = [0, *(int(k) + 1 for k in seams), n]
-    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-
-
-def smoothed(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
-    """p (N, ...) smoothed along the frames by a Gaussian of SMOOTH seconds (ends held), each run
-    between `seams` on its own: a jump between takes is no motion to average in."""
-    runs = _segments(len(p), seams)
-    parts = [gaussian(p[run], SMOOTH / frame_time) if run.stop - run.start >= 3 else p[run] for run in runs]
-    return np.concatenate(parts) if parts else np.asarray(p, float)
-
-
-def _rates(values: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
-    """values (N, ...) differentiated along the frames (central differences, one-sided at the
-    ends of each run between `seams`; 0 for a run of one frame), per second."""
-    out = np.zeros(np.shape(values), float)
-    for run in _segments(len(values), seams):
-        if run.stop - run.start >= 2:
-            out[run] = np.gradient(values[run], frame_time, axis=0)
-    return out
-
-
-def point_speeds(p: np.ndarray, frame_time: float, seams: np.ndarray = NO_SEAMS) -> np.ndarray:
-    """(N, K) speed of points p (N, K, 3) along their smoothed paths, length units per second
-    (_rates of `smoothed`, each run between `seams` on its own; 0 for a single frame)."""
-    return np.linalg.norm(_rates(smoothed(p, frame_time, seams), frame_time, seams), axis=-1)
-
-
-def slow_through_noise(
-    positions: np.ndarray, frame_time: float, limit: float, span: float, up: np.ndarray, seams: np.ndarray = NO_SEAMS
-) -> np.ndarray:
-    """(N, K) bool: the frames in which points at `positions` (N, K, 3) are slow through their
-    capture noise (module notes: Slow; `limit` resting speed, length units per second; `span`
-    the body's size the NOISY share is of; `up` (3,) the up axis; no speed spans the `seams`, a
-    drift across one is a jump); none where the capture does not shake."""
-    N, K = positions.shape[:2]
-    levels = noise_levels(positions, frame_time, limit)
-    read = levels[levels > 0]
-    if not read.size or np.median(read) <= NOISY * span:  # also under 5 frames: no noise is read
-        return np.zeros((N, K), bool)
-    impulse = np.zeros(2 * int(np.ceil(3 * SMOOTH / frame_time)) + 3)
-    impulse[len(impulse) // 2] = 1.0
-    gain = np.linalg.norm(_rates(smoothed(impulse, frame_time), frame_time))  # white noise's deviation in a speed
-    fast = point_speeds(positions, frame_time, seams) > limit + NOISE_SPEED * gain * levels
-    along = positions - (positions @ up)[..., None] * up
-    reach = max(1, int(np.ceil(DRIFT_SECONDS / frame_time)))
-    frames = np.arange(N)
-    before, after = np.maximum(frames - reach, 0), np.minimum(frames + reach, N - 1)
-    drift = np.linalg.norm(along[after] - along[before], axis=-1) / ((after - before)[:, None] * frame_time)
-    return ~fast & (drift <= DRIFT * limit)
-
-
 def ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
     """(N, K) `slow` with each end frame taking its neighbour's (module notes: Resting); as it
     is with fewer than 3 frames."""
@@ -188,12 +122,15 @@ def ends_as_neighbours(slow: np.ndarray) -> np.ndarray:
 class Paths:
     """The body's points over a clip: `heights` (N, F) along up and `slow` (N, F) bool, for every
     joint and site of body.skeleton; `positions` (N, F, 3); `seams` (C,) the steps n (frame n to
-    n + 1) where the pose jumps (cleanup/cuts.py: two takes in one file), which no speed spans."""
+    n + 1) where the pose jumps (cleanup/cuts.py: two takes in one file), which no speed spans;
+    `captured` (N, F, 3) the positions as captured where the clip was low-passed (None: as
+    `positions`), where its shake is read (cleanup/shaking.py)."""
 
     positions: np.ndarray
     heights: np.ndarray
     slow: np.ndarray
     seams: np.ndarray
+    captured: np.ndarray | None = None
 
 
 def body_paths(clip: Motion, body: Body, split_at_cuts: bool = False) -> Paths:
@@ -354,6 +291,7 @@ def detect_resting(
     given_band, band = band, BAND * body.span if band is None else band
     limit = SPEED * body.span if speed is None else speed
     positions = paths.positions[:, index]
+    captured = positions if paths.captured is None else paths.captured[:, index]
     if speed is None:
         slow = paths.slow[:, index] | slow_through_noise(
             positions, clip.frame_time, limit, body.span, sk.up, paths.seams
@@ -374,6 +312,8 @@ def detect_resting(
     steps = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
     reach = round(SMOOTH / clip.frame_time)  # frames the smoothing reaches: 2 at 90 and 120 fps, 1 at 60
     rest = _landed(rest, low, steps <= limit * clip.frame_time, reach if reach >= 2 else 0)
+    if speed is None:
+        rest = held_through_noise(rest, captured, low, clip.frame_time, limit, body.span, sk.up)
     keep = rest.any(axis=0) if drop_idle else np.ones(len(points), bool)
     kept = tuple(str(name) for name in np.array(points)[keep])
     return Contacts(kept, rest[:, keep], True, band, limit, floor, clear[keep], tuple(paths.seams))
@@ -393,7 +333,7 @@ def _standing_soles(body: Body, paths: Paths, points: tuple[str, ...], frame_tim
         for sole in (foot.heel, foot.toe):
             if sole in points and len(paths.heights) > 1:
                 height = smoothed(paths.heights[:, sk.frame_index(sole)], frame_time, paths.seams)
-                rising = _rates(height, frame_time, paths.seams) > RISING * SPEED * body.span
+                rising = rates(height, frame_time, paths.seams) > RISING * SPEED * body.span
                 standing[:, points.index(sole)] = flat & rising
     return standing
 

@@ -16,7 +16,7 @@ span of the skeleton at rest (keypoints.stature).
   neighbours (cleanup.ground.ends_as_neighbours: a one-sided difference there doubles a
   capture's jitter, and the kick at 120 fps with noise left a resting toe unplanted in its
   first frame, 2.7 mm from the second on human.urdf), and a point is slow through its capture
-  noise where `deik clip` finds it so (cleanup.ground.slow_through_noise, resting speed
+  noise where `deik clip` finds it so (cleanup.shaking.slow_through_noise, resting speed
   REST_SPEED statures per second and the noise share of the stature): a source shaking at 30 fps
   is not low-passed, and its shake hid the last frame of the shared kick's first rest, where
   the foot then stepped 6 mm on human.urdf;
@@ -37,7 +37,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from deik.cleanup.contacts import Contacts, drop_short, fill_gaps, speeds
-from deik.cleanup.ground import ends_as_neighbours, slow_through_noise
+from deik.cleanup.ground import ends_as_neighbours
+from deik.cleanup.shaking import slow_through_noise
 from deik.io.trajectory import Motion
 from deik.model.capsules import off_body
 from deik.model.kinematics import forward_kinematics
