@@ -29,9 +29,9 @@ def _retargeted(source, folder, argv_extra=()):
 def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp_path, capsys, monkeypatch):
     """The procedural walk at 120 fps with 0.2 degrees of noise on every channel, 1 mm on the
     root and 12 mm under the floor, onto longer legs: kept as captured (the low-pass turned off
-    here), its resting feet slide over 15 mm a frame and a point's top speed is over 1.4x its
-    scaled source's; low-passed first, the summary says so and they slide under 5 mm with no
-    point faster than 1.1x."""
+    here), a point's top speed is over 1.4x its scaled source's (its resting feet slid over 15 mm
+    a frame too until rests carried on through the shake, cleanup/shaking.py); low-passed first,
+    the summary says so, the feet slide under 5 mm and no point is faster than 1.1x."""
     import deik.cleanup.clean as clean_module
     from deik.cleanup.noise import Noise
 
@@ -49,7 +49,7 @@ def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp
     monkeypatch.setattr(clean_module, "capture_noise", lambda *args: Noise(shown(*args).level, None))
     written, kept = _retargeted(source, tmp_path, ["--quiet"])
     assert written["noise"]["low_pass_s"] is None
-    assert kept["sliding_max_mm_per_frame"] > 15.0 and kept["speed_peak_ratio_max"] > 1.4, kept
+    assert kept["speed_peak_ratio_max"] > 1.4, kept
 
 
 def test_a_foot_resting_from_the_first_frame_of_a_shaking_source_rests_there_too():
@@ -84,9 +84,10 @@ def test_a_source_shaking_at_30_fps_rests_where_it_would_without_the_shake():
     """The procedural walk at 30 fps with 0.2 degrees of noise on every channel and 1 mm on the
     root (not low-passed: the filter is under a frame wide there), six draws of the noise: the
     retarget's rest detection finds at least 95 % of the frames its feet rest in without the
-    noise, and at most two more. On plain speeds the shake hid up to 17 % of them (one draw
-    83 %, three under 95 %), rests' ends it then left to follow the shake (cleanup.ground's
-    slow_through_noise, as `deik clip` reads rests)."""
+    noise, and beyond them only frames at a rest's ends, at most two at each (a rest carried on
+    through the shake, cleanup/shaking.py). On plain speeds the shake hid up to 17 % of them
+    (one draw 83 %, three under 95 %), rests' ends it then left to follow the shake
+    (cleanup.shaking's slow_through_noise, as `deik clip` reads rests)."""
 
     from deik.io.bvh import parse_bvh
     from deik.retargeting.keypoints import stature
@@ -100,21 +101,29 @@ def test_a_source_shaking_at_30_fps_rests_where_it_would_without_the_shake():
         still = resting_contacts(clean, feet, rest_floor(clean, size), size).mask
         found = resting_contacts(shaken, feet, rest_floor(shaken, size), size).mask
         assert (found & still).sum() >= 0.95 * still.sum(), seed
-        assert (found & ~still).sum() <= 2, seed
+        near = still.copy()
+        for shift in (1, 2):
+            near[shift:] |= still[:-shift]
+            near[:-shift] |= still[shift:]
+        assert not (found & ~near).any(), seed
 
 
 @pytest.mark.shared_data
-def test_the_shared_kick_shaking_at_30_fps_keeps_its_resting_feet_still_on_a_robot(tmp_path):
-    """judging/cases.py's kick_noisy (0.2 degrees on every channel, 1 mm on the root, 12 mm under
-    the floor, 30 fps) onto human.urdf, judged against the kick without the noise: the noise hid
-    the last frame of the kicking foot's first rest and it stepped 6 mm a frame there; now its
-    resting points slide under a millimetre a frame."""
+@pytest.mark.parametrize("name, seed", [("kick", 0), ("kick", 1), ("kick", 2), ("punch", 2), ("punch", 11)])
+def test_the_shared_kick_shaking_at_30_fps_keeps_its_resting_feet_still_on_a_robot(tmp_path, name, seed):
+    """judging/cases.py's noisy transform (0.2 degrees on every channel, 1 mm on the root, 12 mm
+    under the floor, 30 fps) of the kick and the punch, with its own draw of the noise (seed 0)
+    and others, onto human.urdf, judged against the clip without the noise: the noise hid the
+    last frame of the kicking foot's first rest and it stepped 6 mm a frame there; with the other
+    draws a rest's first or last frame read fast and the foot stepped 17-24 mm a frame (until a
+    rest carried on through its edges: cleanup/shaking.py); now every resting point slides under
+    a millimetre a frame."""
     from benchmarks.retarget_quality import HUMAN_URDF, URDF_MAP, WRISTS, onto_robot
     from helpers import shared_path
     from judging.cases import source_case
 
-    case = noisy(source_case(shared_path("humanoid", "humanoid3d_kick.bvh")))
-    source, truth = tmp_path / "kick_noisy.bvh", tmp_path / "kick.bvh"
+    case = noisy(source_case(shared_path("humanoid", f"humanoid3d_{name}.bvh")), seed=seed)
+    source, truth = tmp_path / f"{name}_noisy.bvh", tmp_path / f"{name}.bvh"
     source.write_text(format_rig(case.rig))
     truth.write_text(format_rig(case.truth))
     measured = onto_robot(source, HUMAN_URDF, URDF_MAP, tmp_path, WRISTS, truth)
