@@ -4,7 +4,8 @@ touches, and which points rest in which frames. Sizes are shares of the body's s
 
 - Slow: a point whose speed (of its path smoothed by a Gaussian of SMOOTH seconds,
   cleanup/speeds.py) is at most SPEED x span per second. In a capture that shakes, a point is
-  also slow where it rests through its noise (cleanup/shaking.py), read on the capture as given.
+  also slow through its noise, and a rest carries on through its edges (cleanup/shaking.py):
+  the first read on the motion the fix sees, the second on the capture as given (Paths.captured).
 - Floor (detect_floor): the level the body rests on: the median, over the frames in which a
   point of the body is slow, of the lowest slow point's surface (its height less its radius:
   a sole's, a kneeling knee's, a lying back's). When that level lies within GROUND_PLANE x span

@@ -4,8 +4,9 @@ Speeds are length units per second, times seconds, `limit` the resting speed (cl
 
 A capture shakes when the median, over the points read, of their noise at rest
 (noise.noise_levels) is above noise.NOISY x span (shaking_levels). At 30 fps a capture is not
-low-passed (noise.py), and a low-pass leaves a shake of its own, so the rests are read on the
-capture as given.
+low-passed (noise.py); at 45 fps or more it is, and the filtered motion no longer shakes that
+much, so `deik clip` reads a rest's edges (held_through_noise) on the capture as given, where the
+shake shows, and `deik retarget` on its source as it reads it.
 
 - Slow through noise (slow_through_noise): the shake adds to every speed, and a resting toe moved
   10-20 mm a frame by it read fast in the frames that hold its rest's ends or a short pivot:
