@@ -19,9 +19,9 @@ shake shows, and `deik retarget` on its source as it reads it.
   so, sank the body 10-16 mm).
 - Edges held through noise (held_through_noise): a single frame's shake can still be a few of its
   deviations, and where it falls on the first or last frame of a rest that frame reads fast: left
-  unplanted it keeps the shake, a slide of 10-20 mm in a frame in which the foot stood (the kick,
-  the punch and the walk with other draws of the same noise slid 9-18 mm a frame there,
-  unlisted: tests/cleanup/test_clip_shaking.py). So a rest carries on, at either end, through up
+  unplanted it keeps the shake, a slide of several millimetres in a frame in which the foot stood
+  (the walk, kick, punch and dance with other draws of the same noise slid 4.7-14.5 mm a frame
+  there, unlisted: tests/cleanup/test_clip_shaking.py). So a rest carries on, at either end, through up
   to DRIFT_SECONDS of frames in which the point is near the floor (the resting band), lies in
   height within HELD deviations of its noise in height of where it rested in the frames of the
   rest nearest that end (their mean, whose own noise the bound counts), and either drifts slowly
@@ -33,10 +33,10 @@ shake shows, and `deik retarget` on its source as it reads it.
   deviations are read along the ground and in height apart, each at least the median of the
   body's points (a point's own, read from the few frames it rests in, fell to half its noise on
   made-up paths): a foot's shake is mostly along the ground (a turn of the leg swings it), and
-  read together they halved it. HELD is the 99.5 % bound of a point resting through its noise
-  (3.5 deviations over the three coordinates); DRIFT_SECONDS is the most a rest is carried on,
-  2 frames at 30 fps, 3 at 60, 6 at 120: at 30 fps one frame left the probe of 84 noisy cases
-  below (docs/decisions.md) sliding past 5 mm a frame in 18 of them against 11.
+  read together they halved it. At HELD = 3.5 deviations a frame resting through white noise
+  passes both bounds 99.7 % of the time; DRIFT_SECONDS is the most a rest is carried on, 2 frames
+  at 30 fps, 3 at 60, 6 at 120 (one frame at 30 fps left more cases of `python -m
+  benchmarks.noise_draws` sliding past 5 mm a frame: docs/decisions.md).
 """
 
 from __future__ import annotations
