@@ -36,13 +36,26 @@ shake shows, and `deik retarget` on its source as it reads it.
   read together they halved it. At HELD = 3.5 deviations a frame resting through white noise
   passes both bounds 99.7 % of the time; DRIFT_SECONDS is the most a rest is carried on, 2 frames
   at 30 fps, 3 at 60, 6 at 120 (one frame at 30 fps left more cases of `python -m
-  benchmarks.noise_draws` sliding past 5 mm a frame: docs/decisions.md).
+  benchmarks.noise_draws` sliding past 5 mm a frame: docs/decisions.md). At the clip's first and
+  last frames a rest is carried on as far as they lie within 2 x DRIFT_SECONDS: a speed there is
+  read on fewer frames and the shake weighs more, and a foot resting from the first frame of the
+  punch shaken by 0.35 degrees read fast for three frames and kept a 31 mm step of the shake.
+- Gaps bridged through noise: where the shake hides a few frames inside a rest, the frames either
+  side are still carried on only if they lie within the bound, and one frame past it leaves the
+  gap (the punch with toes and another draw of the noise, whose toe rested from frame 31 on: its
+  frames 32 and 33, 4.3 and 4.4 deviations from where it rested, kept a step of 18.9 mm). So two
+  runs of a point at most DRIFT_SECONDS apart, the frames between them near the floor, are one
+  rest when where the point rested before the gap and after it (the means of each side's frames
+  nearest the gap) lie apart by no more than resting speed moves it between them, give or take
+  HELD deviations of the two means' noise, and in height within HELD of those deviations: a
+  point that went somewhere in the gap (a shuffle, a pivot) keeps its two rests.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from deik.cleanup.contacts import true_runs
 from deik.cleanup.noise import NOISY, noise_levels
 from deik.cleanup.speeds import NO_SEAMS, SMOOTH, point_speeds, rates, smoothed
 
@@ -95,16 +108,18 @@ def _at_least_typical(levels: np.ndarray) -> np.ndarray:
     return np.maximum(levels, np.median(read)) if read.size else levels
 
 
-def _in_deviations(positions: np.ndarray, frame_time: float, limit: float, up: np.ndarray) -> np.ndarray:
+def _in_deviations(
+    positions: np.ndarray, frame_time: float, limit: float, up: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(N, K, 3) points at `positions` (N, K, 3) in a frame of two directions along the ground and
     `up`, each coordinate over the point's noise along the ground or in height (inf where a noise
-    is not read)."""
+    is not read), and (K,) that noise along the ground (length units)."""
     basis = np.column_stack([np.linalg.svd(np.eye(3) - np.outer(up, up))[0][:, :2], up])
     coordinates = positions @ basis
     along, height = (_at_least_typical(noise_levels(c, frame_time, limit)) for c in np.split(coordinates, [2], axis=-1))
     scale = np.stack([along, along, height], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(scale > 0, coordinates / scale, np.inf)
+        return np.where(scale > 0, coordinates / scale, np.inf), along
 
 
 def _carried(off: np.ndarray, calm: np.ndarray, bound: float) -> int:
@@ -125,26 +140,62 @@ def held_through_noise(
     up: np.ndarray,
 ) -> np.ndarray:
     """`rest` (N, K) with each run carried on through the frames at its ends in which the points at
-    `positions` (N, K, 3), as captured, rest through their noise (module notes: edges held
-    through noise); `low` (N, K) whether each is near the floor; as it is where the capture does
-    not shake (`span` the body's size, `up` (3,) the up axis)."""
+    `positions` (N, K, 3), as captured, rest through their noise, and the short gaps between runs
+    they rest through bridged (module notes: edges held, gaps bridged through noise); `low`
+    (N, K) whether each is near the floor; as it is where the capture does not shake (`span` the
+    body's size, `up` (3,) the up axis)."""
     rest = np.array(rest, bool)
     if shaking_levels(positions, frame_time, limit, span) is None:
         return rest
-    scaled = np.where(low[..., None], _in_deviations(positions, frame_time, limit, up), np.inf)
+    scaled, along = _in_deviations(positions, frame_time, limit, up)
+    scaled = np.where(low[..., None], scaled, np.inf)
     calm = low & (drift_speeds(positions, frame_time, up) <= DRIFT * limit)
     most = max(1, int(np.ceil(DRIFT_SECONDS / frame_time)))
     for k in range(rest.shape[1]):
-        runs = np.flatnonzero(np.diff(np.concatenate([[0], rest[:, k].astype(np.int8), [0]])))
-        for start, stop in zip(runs[::2], runs[1::2]):
-            w = min(most + 1, stop - start)
-            bound = HELD * np.sqrt(1.0 + 1.0 / w)  # a frame's noise and that of the mean of w frames
-            before = np.arange(start - 1, max(start - most, 0) - 1, -1)
-            after = np.arange(stop, min(stop + most, len(rest)))
-            with np.errstate(invalid="ignore"):
-                landed = scaled[before, k] - scaled[start : start + w, k].mean(axis=0)
-                lifted = scaled[after, k] - scaled[stop - w : stop, k].mean(axis=0)
-            first = start - _carried(landed, calm[before, k], bound)
-            end = stop + _carried(lifted, calm[after, k], bound)
+        for start, stop in true_runs(rest[:, k]):
+            first, end = _carried_edges(scaled[:, k], calm[:, k], (start, stop), most)
             rest[first:end, k] = True
+        step = limit * frame_time / along[k] if along[k] > 0 else np.inf
+        runs = true_runs(rest[:, k])
+        for sooner, later in zip(runs, runs[1:]):
+            if _bridged(scaled[:, k], sooner, later, step, most):
+                rest[sooner[1] : later[0], k] = True
     return rest
+
+
+def _carried_edges(scaled: np.ndarray, calm: np.ndarray, run: tuple[int, int], most: int) -> tuple[int, int]:
+    """(first, stop) of the rest `run` (start, stop) of a point carried on at either end (module
+    notes: edges held through noise), `scaled` (N, 3) its points in deviations of its noise
+    (_in_deviations, inf where not near the floor), `calm` (N,) where it drifts slowly; at most
+    `most` frames, or to the clip's edge where that lies within 2 x `most`."""
+    start, stop = run
+    n = len(scaled)
+    w = min(most + 1, stop - start)
+    bound = HELD * np.sqrt(1.0 + 1.0 / w)  # a frame's noise and that of the mean of w frames
+    before = np.arange(start - 1, start - (start if start <= 2 * most else most) - 1, -1)
+    after = np.arange(stop, stop + (n - stop if n - stop <= 2 * most else most))
+    with np.errstate(invalid="ignore"):
+        landed = scaled[before] - scaled[start : start + w].mean(axis=0)
+        lifted = scaled[after] - scaled[stop - w : stop].mean(axis=0)
+    return start - _carried(landed, calm[before], bound), stop + _carried(lifted, calm[after], bound)
+
+
+def _bridged(scaled: np.ndarray, sooner: tuple[int, int], later: tuple[int, int], step: float, most: int) -> bool:
+    """Whether a point rests on through the gap between its runs `sooner` and `later` (start,
+    stop) (module notes: gaps bridged through noise): `scaled` (N, 3) its points in deviations of
+    its noise (_in_deviations, inf where not near the floor), `step` resting speed's move in a
+    frame in those deviations; at most `most` frames apart, each side read on its `most` + 1
+    frames nearest the gap."""
+    gap = later[0] - sooner[1]
+    a, b = (
+        scaled[max(sooner[0], sooner[1] - most - 1) : sooner[1]],
+        scaled[later[0] : min(later[1], later[0] + most + 1)],
+    )
+    if gap > most or not np.isfinite(scaled[sooner[1] : later[0]]).all():
+        return False
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return False
+    moved = b.mean(axis=0) - a.mean(axis=0)
+    apart = (len(a) + len(b)) / 2.0 + gap  # frames between the two means' middles
+    noise = HELD * np.sqrt(1.0 / len(a) + 1.0 / len(b))
+    return bool(np.linalg.norm(moved[:2]) <= step * apart + noise and abs(moved[2]) <= noise)
