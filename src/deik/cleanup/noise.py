@@ -140,17 +140,26 @@ def capture_noise(p: np.ndarray, span: float, frame_time: float, speed: float) -
     the captured frames of a clip resampled up (module notes), else on the points whose fourth
     differences are those of white noise against their second (median sizes sqrt(70) :
     sqrt(6)), not the much smaller share a smooth motion gives."""
-    levels = noise_levels(p, frame_time, speed)
-    if not levels.any() and len(p) >= 5:
-        levels = _between_captured_frames(p)
-        if levels is None:
-            fourth, second = (np.median(np.abs(np.diff(p, k, axis=0)), axis=(0, 2)) for k in (4, 2))
-            white = fourth >= WHITE * second  # what the motion adds to fourth differences is far less
-            levels = np.where(white, fourth / FOURTH, 0.0)
+    levels = read_noise(p, frame_time, speed)
     read = levels[levels > 0]
     level = float(np.median(read)) if read.size else 0.0
     noisy = level > NOISY * span and LOW_PASS / frame_time >= WIDEST_FRAME
     return Noise(level, LOW_PASS if noisy else None)
+
+
+def read_noise(p: np.ndarray, frame_time: float, speed: float) -> np.ndarray:
+    """(K,) the noise of each point of p (N, K, 3) (or (N, K, D): a point's D coordinates),
+    length units: noise_levels, or where no point is quiet long enough to read it there, over
+    all frames as capture_noise says; 0 for a point whose noise is not read."""
+    levels = noise_levels(p, frame_time, speed)
+    if levels.any() or len(p) < 5:
+        return levels
+    levels = _between_captured_frames(p)
+    if levels is None:
+        fourth, second = (np.median(np.abs(np.diff(p, k, axis=0)), axis=(0, 2)) for k in (4, 2))
+        white = fourth >= WHITE * second  # what the motion adds to fourth differences is far less
+        levels = np.where(white, fourth / FOURTH, 0.0)
+    return levels
 
 
 def _between_captured_frames(p: np.ndarray) -> np.ndarray | None:

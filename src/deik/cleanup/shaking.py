@@ -2,8 +2,13 @@
 motion captured cleanly shows, the shake hides where they rest, and these rules find them again.
 Speeds are length units per second, times seconds, `limit` the resting speed (cleanup/ground.py).
 
-A capture shakes when the median, over the points read, of their noise at rest
-(noise.noise_levels) is above noise.NOISY x span (shaking_levels). At 30 fps a capture is not
+A capture shakes when the median, over the points read, of their noise is above noise.NOISY x
+span (shaking_levels). The noise is read at rest, or, where the frames are dense enough to be
+low-passed and no point rests long enough, over all frames (noise.read_noise: a run's feet at
+120 fps rest 0.07 s). At lower rates a smooth motion's fourth differences are not small beside
+its second, and read over all frames a clean kick played twice as fast at 30 fps read as shaking,
+and a punch shaken by 1 degree on every channel as shaking far more than it does: their retargets
+onto human.urdf then planted false rests (the punch slid 11 mm a frame, 0.02 before). At 30 fps a capture is not
 low-passed (noise.py); at 45 fps or more it is, and the filtered motion no longer shakes that
 much, so `deik clip` reads a rest's edges (held_through_noise) on the capture as given, where the
 shake shows, and `deik retarget` on its source as it reads it.
@@ -56,7 +61,7 @@ from __future__ import annotations
 import numpy as np
 
 from deik.cleanup.contacts import true_runs
-from deik.cleanup.noise import NOISY, noise_levels
+from deik.cleanup.noise import LOW_PASS, NOISY, WIDEST_FRAME, noise_levels, read_noise
 from deik.cleanup.speeds import NO_SEAMS, SMOOTH, point_speeds, rates, smoothed
 
 NOISE_SPEED = 2.0  # deviations of a point's noise in its speed that a shaking rest may read
@@ -65,11 +70,18 @@ DRIFT_SECONDS = 0.05
 HELD = 3.5  # deviations of a point's noise: how far a shaking rest's edge may lie from where it rested
 
 
+def _noise(positions: np.ndarray, frame_time: float, limit: float) -> np.ndarray:
+    """(K,) the noise of each point at `positions` (N, K, D) (module notes): noise.read_noise
+    where the frames are dense enough to be low-passed, else read at rest only (noise_levels)."""
+    dense = LOW_PASS / frame_time >= WIDEST_FRAME
+    return read_noise(positions, frame_time, limit) if dense else noise_levels(positions, frame_time, limit)
+
+
 def shaking_levels(positions: np.ndarray, frame_time: float, limit: float, span: float) -> np.ndarray | None:
-    """(K,) the capture noise of each point at `positions` (N, K, 3) (noise.noise_levels, length
+    """(K,) the capture noise of each point at `positions` (N, K, 3) (_noise, length
     units) where the capture shakes (the median of those read above NOISY x `span`, the body's
     size); None where it does not, and under 5 frames."""
-    levels = noise_levels(positions, frame_time, limit)
+    levels = _noise(positions, frame_time, limit)
     read = levels[levels > 0]
     return levels if read.size and np.median(read) > NOISY * span else None
 
@@ -116,7 +128,7 @@ def _in_deviations(
     is not read), and (K,) that noise along the ground (length units)."""
     basis = np.column_stack([np.linalg.svd(np.eye(3) - np.outer(up, up))[0][:, :2], up])
     coordinates = positions @ basis
-    along, height = (_at_least_typical(noise_levels(c, frame_time, limit)) for c in np.split(coordinates, [2], axis=-1))
+    along, height = (_at_least_typical(_noise(c, frame_time, limit)) for c in np.split(coordinates, [2], axis=-1))
     scale = np.stack([along, along, height], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(scale > 0, coordinates / scale, np.inf), along
