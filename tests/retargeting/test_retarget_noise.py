@@ -31,7 +31,8 @@ def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp
     root and 12 mm under the floor, onto longer legs: kept as captured (the low-pass turned off
     here), a point's top speed is over 1.4x its scaled source's (its resting feet slid over 15 mm
     a frame too until rests carried on through the shake, cleanup/shaking.py); low-passed first,
-    the summary says so, the feet slide under 5 mm and no point is faster than 1.1x."""
+    the summary says so, the feet slide under 1 mm a frame (2.8 with their rests' edges read on
+    the filtered source, which no longer shows the shake) and no point is faster than 1.1x."""
     import deik.cleanup.clean as clean_module
     from deik.cleanup.noise import Noise
 
@@ -41,7 +42,7 @@ def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp
     (tmp_path / "truth.bvh").write_text(format_rig(case.truth))
     written, measured = _retargeted(source, tmp_path, ["--quiet"])
     assert written["noise"]["low_pass_s"] == LOW_PASS
-    assert measured["sliding_max_mm_per_frame"] < 5.0, measured
+    assert measured["sliding_max_mm_per_frame"] <= 1.0, measured
     assert measured["speed_peak_ratio_max"] < 1.1, measured
     assert main(["retarget", str(source), "--scale", "LeftHip=1.1,RightHip=1.1", "--out", str(tmp_path / "o.bvh")]) == 0
     assert "capture noise 0.00256 m at rest: low-passed by Gaussians of up to 22 ms" in capsys.readouterr().out
@@ -50,6 +51,19 @@ def test_a_source_shaking_at_120_fps_is_low_passed_and_its_feet_stay_planted(tmp
     written, kept = _retargeted(source, tmp_path, ["--quiet"])
     assert written["noise"]["low_pass_s"] is None
     assert kept["speed_peak_ratio_max"] > 1.4, kept
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_other_draws_of_a_source_shaking_at_120_fps_keep_their_feet_planted(tmp_path, seed):
+    """The procedural walk at 120 fps with other draws of that noise, onto longer legs: resting
+    points slide under 1 mm a frame (2.3 and 2.0 with the rests' edges read on the filtered
+    source)."""
+    case = noisy(procedural_walk(fps=120.0), seed=seed)
+    source = tmp_path / "shaking.bvh"
+    source.write_text(format_rig(case.rig))
+    (tmp_path / "truth.bvh").write_text(format_rig(case.truth))
+    _, measured = _retargeted(source, tmp_path, ["--quiet"])
+    assert measured["sliding_max_mm_per_frame"] <= 1.0, measured
 
 
 def test_a_foot_resting_from_the_first_frame_of_a_shaking_source_rests_there_too():

@@ -11,7 +11,7 @@ and a punch shaken by 1 degree on every channel as shaking far more than it does
 onto human.urdf then planted false rests (the punch slid 11 mm a frame, 0.02 before). At 30 fps a capture is not
 low-passed (noise.py); at 45 fps or more it is, and the filtered motion no longer shakes that
 much, so `deik clip` reads a rest's edges (held_through_noise) on the capture as given, where the
-shake shows, and `deik retarget` on its source as it reads it.
+shake shows, and `deik retarget` likewise on its source as given.
 
 - Slow through noise (slow_through_noise): the shake adds to every speed, and a resting toe moved
   10-20 mm a frame by it read fast in the frames that hold its rest's ends or a short pivot:

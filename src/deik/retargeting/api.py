@@ -104,12 +104,13 @@ def retarget(
     cuts = find_cuts(clip, body.span)
     stood = cuts.stand_in(clip)
     quiet, noise = without_shake(stood, body if stood is clip else body_of(stood))[:2]
-    result = _retarget(quiet, to, scale, joint_map, up, velocity, progress)
+    captured = None if quiet is stood else stood
+    result = _retarget((quiet, captured), to, scale, joint_map, up, velocity, progress)
     return replace(result, report=result.report | {"cuts": cuts.record(), "noise": noise.record()})
 
 
 def _retarget(
-    clip: Clip,
+    source: tuple[Clip, Clip | None],
     to: str | Clip | Skeleton | FilePath | None,
     scale: dict[str, float] | None,
     joint_map: JointMap | FilePath | None,
@@ -117,17 +118,20 @@ def _retarget(
     velocity: dict[str, float] | None,
     progress: Progress | None,
 ) -> Retarget:
-    """deik.retarget of `clip` (cut to its frames, its jumps stood in for) with the same arguments."""
+    """deik.retarget of `source` (the clip cut to its frames, its jumps stood in for, low-passed
+    where it shakes; and as it was before that low-pass, None where it was not) with the same
+    arguments."""
+    clip, captured = source
     if joint_map is None:
         if (to is None) == (scale is None):
             raise InputError("give either a target rig (--to TARGET.bvh) or --scale JOINT=FACTOR, not both or neither")
         if scale is not None:
             if not isinstance(scale, Mapping):
                 raise InputError(f"scale: give {{joint: factor}}, e.g. {{'LeftHip': 1.1}}, got {scale!r:.60}")
-            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress)
+            return retarget_proportions(clip, scaled_bones(clip.skeleton, dict(scale)), progress, captured)
         target = replace(_target(to, None)[0], up=clip.skeleton.up)  # the same rig: the source's up
         check_same_rig(clip.skeleton, target, str(getattr(to, "source", to)))
-        return retarget_proportions(clip, target, progress)
+        return retarget_proportions(clip, target, progress, captured)
     if to is None or scale is not None:
         raise InputError("a joint map retargets onto another skeleton: give --to TARGET with it, and no --scale")
     joint_map = joint_map if isinstance(joint_map, JointMap) else read_map(joint_map)
@@ -137,7 +141,7 @@ def _retarget(
         velocity = read_velocity_limits(to)
     elif velocity is not None:
         _check_velocity(velocity, target)
-    result = retarget_rig(clip, target, joint_map, hinges=hinges, velocity=velocity, progress=progress)
+    result = retarget_rig(clip, target, joint_map, hinges, velocity, progress, captured)
     return Retarget(
         result.motion,
         _bvh_clip(result, target_clip),

@@ -106,9 +106,12 @@ def _room_to_travel(target: Skeleton, frames: np.ndarray) -> Skeleton:
     return replace(target, lower=lower, upper=upper)
 
 
-def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None = None) -> Retarget:
+def retarget_proportions(
+    clip: Clip, target: Skeleton, progress: Progress | None = None, captured: Clip | None = None
+) -> Retarget:
     """Retarget `clip` onto `target`, the same rig with other bone lengths (see the module
-    notes); `progress(frames, stage)` is called after the space-time pass."""
+    notes); `progress(frames, stage)` is called after the space-time pass; `captured` the clip
+    as given where `clip` is it low-passed (settle.Settling)."""
     began = time.perf_counter()
     sk = clip.skeleton
     target = replace(target, helpers=sk.helpers)  # the same rig: the same joints
@@ -138,6 +141,7 @@ def retarget_proportions(clip: Clip, target: Skeleton, progress: Progress | None
         velocity={},
         began=began,
         scaled=scaled,
+        captured=captured,
     )
     motion, contacts, report = settle(settling)
     if progress is not None:

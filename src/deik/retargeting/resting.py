@@ -22,7 +22,11 @@ span of the skeleton at rest (keypoints.stature).
   the foot then stepped 6 mm on human.urdf; and a rest carries on through the frames at its ends
   that lie where it rested within the noise, as `deik clip`'s do (cleanup.shaking.held_through_noise:
   the kick and the punch at 30 fps with other draws of their noise stepped 17-24 mm a frame there
-  on human.urdf, tests/retargeting/test_retarget_noise.py);
+  on human.urdf, tests/retargeting/test_retarget_noise.py), read on the source as given where it
+  was low-passed (`captured`): the filtered source no longer shows the shake, and read on it the
+  walk and the kick at 120 fps with noise slid 5.0 and 2.6 mm a frame on human.urdf where the
+  filtered heel landed a frame late and the ankle lifted early (`python -m
+  benchmarks.retarget_quality`, 0.012 and 0.019 now);
 - a point rests near the floor in frame n when it is slow, within REST_BAND statures of its
   own resting height (the RESTING_PERCENTILE-th percentile of its heights over the frames it
   is slow in: a one-frame dip does not lower it), and that resting height is within REST_NEAR
@@ -75,11 +79,16 @@ def rest_floor(clip: Motion, size: float) -> float:
     return float(np.percentile(heights.min(axis=1)[slow] if slow.any() else heights.min(axis=1), FLOOR_PERCENTILE))
 
 
-def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: float) -> Contacts:
+def resting_contacts(
+    clip: Motion, points: Sequence[str], floor: float, size: float, captured: Motion | None = None
+) -> Contacts:
     """Contacts of the joints and sites `points` of `clip` with the floor at height `floor`:
-    each point in the frames it rests near the floor (module notes), `size` the stature."""
+    each point in the frames it rests near the floor (module notes), `size` the stature;
+    `captured` the clip as given where `clip` is it low-passed (None: `clip`), on which the
+    rests' edges are read through the shake."""
     everything = forward_kinematics(clip.skeleton, clip.frames).p_world_frame
-    p = everything[:, [clip.skeleton.frame_index(name) for name in points]]
+    index = [clip.skeleton.frame_index(name) for name in points]
+    p = everything[:, index]
     heights = p @ clip.skeleton.up - floor
     slow = _slow(
         p, everything[:, ~off_body(clip.skeleton)], clip.frame_time, size, clip.skeleton.up
@@ -90,7 +99,8 @@ def resting_contacts(clip: Motion, points: Sequence[str], floor: float, size: fl
     near = resting <= REST_NEAR * size
     low = near & (heights <= resting + REST_BAND * size)
     mask = drop_short(fill_gaps(slow & low))
-    mask = held_through_noise(mask, p, low, clip.frame_time, REST_SPEED * size, size, clip.skeleton.up)
+    shaken = p if captured is None else forward_kinematics(captured.skeleton, captured.frames).p_world_frame[:, index]
+    mask = held_through_noise(mask, shaken, low, clip.frame_time, REST_SPEED * size, size, clip.skeleton.up)
     found = Contacts(tuple(points), mask, True, REST_BAND * size, REST_SPEED * size, floor)
     shortest = REST_TIME / clip.frame_time
     for s in range(len(points)):

@@ -110,12 +110,14 @@ def retarget_rig(
     hinges: np.ndarray | None = None,
     velocity: dict | None = None,
     progress: Progress | None = None,
+    captured: Clip | None = None,
 ) -> Retarget:
     """Retarget the clip `source` onto `target` through `joint_map` (see the module notes).
     `hinges` (D,) bool of the target's DOFs to keep at 0 (a BVH rig's hinge channels, from
     clips.coherence.hinge_channels of its own clip), default none; `velocity` {DOF name: limit}
     (rad/s or length units/s, a URDF's) bounds each DOF's step between frames (settle.py);
-    `progress(frames, stage)` is called after each IK pass and the space-time pass."""
+    `progress(frames, stage)` is called after each IK pass and the space-time pass; `captured`
+    the clip as given where `source` is it low-passed (settle.Settling)."""
     began = time.perf_counter()
     check_map(joint_map, source.skeleton, target)
     # a map's rotation is written for a source with +Y up, the BVH convention: one read with
@@ -189,6 +191,7 @@ def retarget_rig(
         velocity=velocity or {},
         steering=TORSO_SITES,
         began=began,
+        captured=captured,
     )
     motion, contacts, report = settle(settling)
     progress(len(poses), "contacts, the floor, self-collision and velocity limits, all frames at once")

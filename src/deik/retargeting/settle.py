@@ -53,7 +53,9 @@ class Settling:
     their `weights` (dof_weights); the frames of the `body`; `velocity` {DOF name: limit,
     rad/s or length units/s} (a URDF's); `steering` the sites dropped from the output's
     skeleton; `began` the wall clock (time.perf_counter) the retarget started at; `scaled` the
-    source's angles on the target (a same-rig retarget: the report's joint angle deviation)."""
+    source's angles on the target (a same-rig retarget: the report's joint angle deviation);
+    `captured` the source as given where it was low-passed (None: `source`), on which its rests'
+    edges are read through its shake (resting.resting_contacts)."""
 
     source: Clip
     floor: float
@@ -71,6 +73,7 @@ class Settling:
     steering: Sequence[str] = ()
     began: float = 0.0
     scaled: Clip | None = None
+    captured: Clip | None = None
 
 
 def largest_turn(clip: Clip) -> float:
@@ -108,7 +111,7 @@ def target_contacts(settling: Settling, size: float) -> Contacts | None:
     """The source's resting points (resting.resting_contacts) on the target frames they map
     to, on the target's floor; None when no mapped point rests."""
     sources = list(settling.points)
-    found = resting_contacts(settling.source, sources, settling.floor, size)
+    found = resting_contacts(settling.source, sources, settling.floor, size, settling.captured)
     keep = [s for s, name in enumerate(sources) if found.mask[:, s].any()]
     seen, columns = set(), []
     for s in keep:  # two source points onto one target frame: the first one's contacts
