@@ -16,6 +16,8 @@ Transforms (each keeps the motion physically the same unless it says otherwise):
 - fast: every other frame at the same frame time (twice the speed).
 - hifps: the same motion at 120 frames per second (slerp between the frames), every name and
   channel as it is.
+- pal: the same motion at 50 frames per second (slerp), as many European studios capture: a
+  rate no shared clip has, neither a multiple of 30 nor of 60.
 - limbs: the left leg's bones 8 % longer and the right leg's 4 % shorter, the arms 10 % longer,
   the root raised by the mean change of the legs: one foot sinks through the floor, the other
   floats, the feet slide.
@@ -150,9 +152,9 @@ def encode(rig: Rig, rotations: np.ndarray, translations: np.ndarray, frame_time
 
 def resample(rotations: np.ndarray, translations: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations (N, J, 3, 3) and translations (N, J, 3) at `factor` times the frame rate:
-    slerp and linear interpolation (factor < 1 keeps every 1/factor-th frame)."""
+    slerp and linear interpolation (a factor 1/k keeps every k-th frame)."""
     N, J = translations.shape[:2]
-    if factor < 1:
+    if factor < 1 and abs(1 / factor - round(1 / factor)) < 1e-3:  # a frame time written to 6 digits
         step = int(round(1 / factor))
         return rotations[::step], translations[::step]
     times = np.arange(N)
@@ -224,6 +226,13 @@ def hifps(case: Case) -> Case:
     rotations, translations = resample(*joint_values(case.rig), round(case.rig.frame_time * 120))
     rig = encode(case.rig, rotations, translations, 1 / 120)
     return dataclasses.replace(case, name=case.name + "_120fps", rig=rig, description="captured at 120 fps")
+
+
+def pal(case: Case) -> Case:
+    """The pal transform (module notes)."""
+    rotations, translations = resample(*joint_values(case.rig), case.rig.frame_time * 50)
+    rig = encode(case.rig, rotations, translations, 1 / 50)
+    return dataclasses.replace(case, name=case.name + "_50fps", rig=rig, description="captured at 50 fps")
 
 
 def fast(case: Case) -> Case:
@@ -506,7 +515,7 @@ def seats(case: Case) -> Case:
 
 TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fast, "limbs": limbs, "noisy": noisy,
               "bind": bind, "glitch": glitch, "stand": stand, "digits": digits, "tpose": tpose,
-              "laid": laid, "seats": seats, "hifps": hifps, "shaky": shaky, "toes": toes,
+              "laid": laid, "seats": seats, "hifps": hifps, "pal": pal, "shaky": shaky, "toes": toes,
               "fingers": fingers, "twists": twists}  # fmt: skip
 
 
@@ -515,7 +524,8 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
     in LAID, its 120 fps copy if in HIFPS, its noisy copy at 60 fps or more if in SHAKY, its
     digits with noise (fingers and toes the capture only shakes), its moving fingers if in
-    FINGERED, its twist bones if in TWISTED, and its toes, without and with noise."""
+    FINGERED, its twist bones if in TWISTED, its toes, without and with noise, and its copy at
+    50 fps."""
     out = []
     for path in sorted(folder.glob("humanoid3d_*.bvh")):
         base = source_case(path)
@@ -530,5 +540,5 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
         out += [shaky(base)] if base.name in SHAKY else []
         out += [fingers(base)] if base.name in FINGERED else []
         out += [twists(base)] if base.name in TWISTED else []
-        out += [noisy(digits(base)), toes(base), noisy(toes(base))]
+        out += [noisy(digits(base)), toes(base), noisy(toes(base)), pal(base)]
     return out
