@@ -6,12 +6,13 @@ A capture shakes when the median, over the points read, of their noise is above 
 span (shaking_levels). The noise is read at rest, or, where the frames are dense enough to be
 low-passed and no point rests long enough, over all frames (noise.read_noise: a run's feet at
 120 fps rest 0.07 s). At lower rates a smooth motion's fourth differences are not small beside
-its second, and read over all frames a clean kick played twice as fast at 30 fps read as shaking,
-and a punch shaken by 1 degree on every channel as shaking far more than it does: their retargets
-onto human.urdf then planted false rests (the punch slid 11 mm a frame, 0.02 before). At 30 fps a capture is not
-low-passed (noise.py); at 45 fps or more it is, and the filtered motion no longer shakes that
-much, so `deik clip` reads a rest's edges (held_through_noise) on the capture as given, where the
-shake shows, and `deik retarget` likewise on its source as given.
+its second: read over all frames, a clean kick played twice as fast at 30 fps read as shaking,
+and a punch shaken by 1 degree on every channel as shaking far more than it does, and their
+retargets onto human.urdf planted false rests (the punch slid 11 mm a frame, 0.02 before).
+
+At 30 fps a capture is not low-passed (noise.py); at 45 fps or more it is, and the filtered
+motion no longer shakes that much, so `deik clip` reads a rest's edges (held_through_noise) on
+the capture as given, where the shake shows, and `deik retarget` likewise on its source as given.
 
 - Slow through noise (slow_through_noise): the shake adds to every speed, and a resting toe moved
   10-20 mm a frame by it read fast in the frames that hold its rest's ends or a short pivot:
@@ -47,8 +48,9 @@ shake shows, and `deik retarget` likewise on its source as given.
   punch shaken by 0.35 degrees read fast for three frames and kept a 31 mm step of the shake.
 - Gaps bridged through noise: where the shake hides a few frames inside a rest, the frames either
   side are still carried on only if they lie within the bound, and one frame past it leaves the
-  gap (the punch with toes and another draw of the noise, whose toe rested from frame 31 on: its
-  frames 32 and 33, 4.3 and 4.4 deviations from where it rested, kept a step of 18.9 mm). So two
+  gap (the punch on the game rig with digits and its 13th draw of the noise, whose toe rested
+  from frame 31 on: its frames 32 and 33, 4.3 and 4.4 deviations from where it rested, kept a
+  step of 18.9 mm). So two
   runs of a point at most DRIFT_SECONDS apart, the frames between them near the floor, are one
   rest when where the point rested before the gap and after it (the means of each side's frames
   nearest the gap) lie apart by no more than resting speed moves it between them, give or take
