@@ -143,8 +143,14 @@ def capture_noise(p: np.ndarray, span: float, frame_time: float, speed: float) -
     levels = read_noise(p, frame_time, speed)
     read = levels[levels > 0]
     level = float(np.median(read)) if read.size else 0.0
-    noisy = level > NOISY * span and LOW_PASS / frame_time >= WIDEST_FRAME
+    noisy = level > NOISY * span and low_passed_rate(frame_time)
     return Noise(level, LOW_PASS if noisy else None)
+
+
+def low_passed_rate(frame_time: float) -> bool:
+    """Whether frames `frame_time` seconds apart are dense enough for a shaking capture to be
+    low-passed: the filter spans WIDEST_FRAME frames or more (45 fps and up)."""
+    return LOW_PASS / frame_time >= WIDEST_FRAME
 
 
 def read_noise(p: np.ndarray, frame_time: float, speed: float) -> np.ndarray:

@@ -63,7 +63,7 @@ from __future__ import annotations
 import numpy as np
 
 from deik.cleanup.contacts import true_runs
-from deik.cleanup.noise import LOW_PASS, NOISY, WIDEST_FRAME, noise_levels, read_noise
+from deik.cleanup.noise import NOISY, low_passed_rate, noise_levels, read_noise
 from deik.cleanup.speeds import NO_SEAMS, SMOOTH, point_speeds, rates, smoothed
 
 NOISE_SPEED = 2.0  # deviations of a point's noise in its speed that a shaking rest may read
@@ -75,8 +75,8 @@ HELD = 3.5  # deviations of a point's noise: how far a shaking rest's edge may l
 def _noise(positions: np.ndarray, frame_time: float, limit: float) -> np.ndarray:
     """(K,) the noise of each point at `positions` (N, K, D) (module notes): noise.read_noise
     where the frames are dense enough to be low-passed, else read at rest only (noise_levels)."""
-    dense = LOW_PASS / frame_time >= WIDEST_FRAME
-    return read_noise(positions, frame_time, limit) if dense else noise_levels(positions, frame_time, limit)
+    read = read_noise if low_passed_rate(frame_time) else noise_levels
+    return read(positions, frame_time, limit)
 
 
 def shaking_levels(positions: np.ndarray, frame_time: float, limit: float, span: float) -> np.ndarray | None:
@@ -201,14 +201,10 @@ def _bridged(scaled: np.ndarray, sooner: tuple[int, int], later: tuple[int, int]
     frame in those deviations; at most `most` frames apart, each side read on its `most` + 1
     frames nearest the gap."""
     gap = later[0] - sooner[1]
-    a, b = (
-        scaled[max(sooner[0], sooner[1] - most - 1) : sooner[1]],
-        scaled[later[0] : min(later[1], later[0] + most + 1)],
-    )
-    if gap > most or not np.isfinite(scaled[sooner[1] : later[0]]).all():
+    first, end = max(sooner[0], sooner[1] - most - 1), min(later[1], later[0] + most + 1)
+    if gap > most or not np.isfinite(scaled[first:end]).all():  # both sides and the gap near the floor
         return False
-    if not (np.isfinite(a).all() and np.isfinite(b).all()):
-        return False
+    a, b = scaled[first : sooner[1]], scaled[later[0] : end]
     moved = b.mean(axis=0) - a.mean(axis=0)
     apart = (len(a) + len(b)) / 2.0 + gap  # frames between the two means' middles
     noise = HELD * np.sqrt(1.0 / len(a) + 1.0 / len(b))
