@@ -16,6 +16,7 @@ import pytest
 
 import deik
 from deik.cli.app import main
+from deik.io.atomic import JOURNAL, PARTIAL
 from helpers import ROOT, shared_path
 
 CLIPS = ("humanoid3d_run.bvh", "humanoid3d_walk.bvh")
@@ -107,6 +108,12 @@ def test_a_folder_retargeted_onto_the_urdf_human_gives_trajectories_and_views(tm
     assert "2 clips: 2 done" in capsys.readouterr().out
 
 
+def _sidecars(folder):
+    """The finished clips' sidecars in `folder`, sorted: not a temporary file still being written
+    (deik.io.atomic: `.deik-partial-...NAME.deik.json` matches the sidecars' pattern too)."""
+    return sorted(p.name for p in folder.glob(".*.deik.json") if not p.name.startswith((PARTIAL, JOURNAL)))
+
+
 @pytest.mark.shared_data
 @pytest.mark.skipif(sys.platform == "win32", reason="kills a process group")
 def test_a_run_killed_mid_way_resumes_where_it_stopped(tmp_path):
@@ -115,11 +122,11 @@ def test_a_run_killed_mid_way_resumes_where_it_stopped(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     run = subprocess.Popen(command + ["--quiet"], env=env, start_new_session=True, stdout=subprocess.DEVNULL)
     deadline = time.monotonic() + 300
-    while not list(out.glob(".*.deik.json")) and run.poll() is None and time.monotonic() < deadline:
+    while not _sidecars(out) and run.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
     os.killpg(run.pid, signal.SIGKILL)  # the run and its worker, mid-way through the library
     run.wait()
-    finished = sorted(p.name for p in out.glob(".*.deik.json"))
+    finished = _sidecars(out)
     assert 1 <= len(finished) < 4, finished
     for path in out.glob("*.bvh"):  # what is there is whole: no output is ever half-written
         assert deik.read_bvh(path).n_frames == 39
