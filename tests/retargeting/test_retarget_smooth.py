@@ -14,7 +14,7 @@ from deik.cleanup.dynamics import jolted_points, point_peak_ratios
 from deik.cleanup.warmstart import dof_weights, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.capsules import bone_starts
-from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, penetration_depths
+from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, parting_sides, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
 from deik.retargeting.smooth import MotionGoals, eased_offsets, smooth_motion
@@ -50,6 +50,54 @@ def test_crossing_capsules_are_pushed_apart_across_both_bones():
     errors, rows = collision_rows(x, jac, pairs, 0.01)
     assert errors[0, 0] == pytest.approx(0.31)
     assert np.abs(rows[0, 0]) == pytest.approx([0.0, 0.0, 1.0])  # along z, across both
+
+
+def _crossing(heights) -> tuple[np.ndarray, BonePairs]:
+    """Positions (N, 4, 3) of bone 1 along x and bone 3 along z through x = 0.5, at `heights`
+    (N,) along y, and the pair of them (radii 0.1 each)."""
+    N = len(heights)
+    x = np.zeros((N, 4, 3))
+    x[:, 1] = [1.0, 0.0, 0.0]
+    x[:, 2] = np.c_[np.full(N, 0.5), heights, np.full(N, -1.0)]
+    x[:, 3] = np.c_[np.full(N, 0.5), heights, np.full(N, 1.0)]
+    return x, BonePairs(np.array([1]), np.array([3]), np.array([-1, 0, -1, 2]), np.array([0.2]))
+
+
+def test_a_lasting_deep_overlap_is_parted_to_one_side():
+    """Bone 3 lies 1 cm above or below bone 1 in turn for eight frames, 19 cm inside its
+    capsule: the closest points' line flips every frame, the side the pair is parted to does
+    not; two frames that close are a pass and keep their own side (none given)."""
+    wobble = [0.3, 0.3] + [0.01, -0.01] * 4 + [0.3, 0.3, -0.01, 0.01, -0.3]
+    x, pairs = _crossing(np.array(wobble))
+    gap = pairs.closest(x)[2][:, 0]
+    assert (gap[2:9, 1] * gap[3:10, 1] < 0).all()  # the raw direction flips frame by frame
+    sides = parting_sides(x, pairs, 0.001, shortest=4)[:, 0]
+    assert np.abs(sides[2:10, 1]) == pytest.approx(np.ones(8))
+    assert (np.sign(sides[2:10, 1]) == np.sign(sides[2, 1])).all()
+    assert (sides[:2] == 0).all() and (sides[10:] == 0).all()
+
+
+def test_collision_rows_part_a_pair_to_its_side_through_the_other_capsule():
+    """Where the given side disagrees with the closest points' line, the row asks the pair to
+    move the other way by its radii, the margin and the distance it lies on the wrong side; a
+    pair close for a frame between frames apart is parted to the side it came from."""
+    x, pairs = _crossing(np.array([0.3, 0.3] + [0.01, -0.01] * 4 + [0.3, 0.3]))
+    jac = np.zeros((len(x), 4, 3, 3))
+    jac[:, 2:] = np.eye(3)  # the second bone moves along x, y, z
+    sides = parting_sides(x, pairs, 0.001, shortest=4)
+    errors, rows = collision_rows(x, jac, pairs, 0.001, sides)
+    up = sides[2, 0, 1]  # the run's side along y: the first bone below (-1) or above (+1) the second
+    for n in range(2, 10):
+        wrong = np.sign(x[n, 1, 1] - x[n, 2, 1]) != np.sign(up)
+        assert errors[n, 0] == pytest.approx(0.2 + 0.001 + (0.01 if wrong else -0.01))
+        assert rows[n, 0] == pytest.approx([0.0, -up, 0.0])  # moving the second bone away from that side
+    # passing: apart above, a frame 1 cm below, apart above again
+    x, pairs = _crossing(np.array([0.3, 0.3, -0.01, 0.3, 0.3]))
+    jac = np.zeros((len(x), 4, 3, 3))
+    jac[:, 2:] = np.eye(3)
+    errors, rows = collision_rows(x, jac, pairs, 0.001)
+    assert errors[2, 0] == pytest.approx(0.2 + 0.001 + 0.01)  # back up through the first bone
+    assert rows[2, 0] == pytest.approx([0.0, 1.0, 0.0])
 
 
 def test_penetration_depths_match_points_sampled_along_the_bones():

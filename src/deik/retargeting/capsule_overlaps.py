@@ -1,5 +1,6 @@
 """Self-collision in a retarget: how deep the target's bone capsules overlap, frame by frame,
-and the least-squares rows that push overlapping capsules apart in the space-time pass.
+and the least-squares rows that push overlapping capsules apart in the space-time pass, each
+pair to one side over the frames it is close in (parting_sides, approach_sides).
 
 The capsules and the pairs tested are deik.SelfCollision's (objectives/self_collision.py: radii
 from the segment masses, bones within two links and pairs overlapping at rest left out),
@@ -14,11 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.cleanup.contacts import true_runs
 from deik.model.capsules import bone_starts
 from deik.model.geometry import segments_closest
 from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.objectives.self_collision import SelfCollision
+
+SIDE_FRAMES = 2  # a lasting overlap's side is averaged over this many frames either side (parting_sides)
 
 
 @dataclass(frozen=True)
@@ -58,31 +62,107 @@ def penetration_depths(skeleton: Skeleton, poses: np.ndarray, pairs: BonePairs) 
 
 
 def _separating(gap, distance, a0, a1, b0, b1) -> np.ndarray:
-    """(k, 3) unit directions that part each pair: along the gap between the closest points, or,
-    where the segments cross (no gap to follow), across both of them (a zero row when they are
-    also parallel: one point of each on the other)."""
+    """(..., 3) unit directions that part each pair: along the gap (..., 3) between the closest
+    points, or, where the segments cross (no gap to follow), across both of them (a zero row
+    when they are also parallel: one point of each on the other)."""
     across = np.cross(a1 - a0, b1 - b0)
     across = across / np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), 1e-300)
-    crossing = distance[:, None] < 1e-12
-    return np.where(crossing, across, gap / np.where(crossing, 1.0, distance[:, None]))
+    crossing = distance[..., None] < 1e-12
+    return np.where(crossing, across, gap / np.where(crossing, 1.0, distance[..., None]))
 
 
-def collision_rows(x: np.ndarray, jac: np.ndarray, pairs: BonePairs, margin: float) -> tuple[np.ndarray, np.ndarray]:
+def collision_rows(
+    x: np.ndarray, jac: np.ndarray, pairs: BonePairs, margin: float, sides: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, M), rows (N, M, D)): one row per pair closer than its radii + 2 `margin` in
     a frame (M the most in any frame; frames with fewer get zero rows), asking the distance
-    between the closest points to grow to radii + `margin`, along the line between them. x
-    (N, F, 3) every frame's position and jac (N, F, 3, D) its Jacobian (position_jacobian)."""
+    between the closest points to grow to radii + `margin`, along the line between them, turned
+    to the pair's side (the distance counted along it, negative where the pair lies the other
+    way): `sides` (N, P, 3) where it gives one (parting_sides), else the side of the frames
+    around the run of frames it is that close in (approach_sides). x (N, F, 3) every frame's
+    position and jac (N, F, 3, D) its Jacobian (position_jacobian)."""
     N, D = jac.shape[0], jac.shape[-1]
     s, t, gap, distance = pairs.closest(x)
     near = distance < pairs.reach + 2 * margin
+    normal = _normals(pairs, x, gap, distance, near.any(axis=0))
+    given = np.zeros(near.shape, bool) if sides is None else np.abs(sides).sum(axis=-1) > 0
+    reference = approach_sides(normal, near & ~given)
+    if sides is not None:
+        reference = np.where(given[..., None], sides, reference)
+    flip = (np.einsum("npc,npc->np", normal, reference) < 0.0) & near
+    normal = np.where(flip[..., None], -normal, normal)
+    distance = np.where(flip, -distance, distance)
     M = int(near.sum(axis=1).max(initial=0))
     errors, rows = np.zeros((N, M)), np.zeros((N, M, D))
     for n in np.flatnonzero(near.any(axis=1)):
         k = np.flatnonzero(near[n])
         a, b = pairs.a[k], pairs.b[k]
-        normal = _separating(gap[n, k], distance[n, k], x[n, pairs.starts[a]], x[n, a], x[n, pairs.starts[b]], x[n, b])
         on_a = (1 - s[n, k])[:, None, None] * jac[n, pairs.starts[a]] + s[n, k][:, None, None] * jac[n, a]
         on_b = (1 - t[n, k])[:, None, None] * jac[n, pairs.starts[b]] + t[n, k][:, None, None] * jac[n, b]
-        rows[n, : len(k)] = np.einsum("kc,kcd->kd", normal, on_a - on_b)
+        rows[n, : len(k)] = np.einsum("kc,kcd->kd", normal[n, k], on_a - on_b)
         errors[n, : len(k)] = pairs.reach[k] + margin - distance[n, k]
     return errors, rows
+
+
+def approach_sides(normal: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """(N, P, 3) for each run of frames a pair is `near` (N, P) in, the parting direction
+    `normal` (N, P, 3) of the frame before the run over its first half and of the frame after
+    it over its second (either where the run reaches the clip's end; zero where both do, and
+    outside the runs): the sides the pair came from and goes to."""
+    N = len(normal)
+    out = np.zeros(normal.shape)
+    for k in np.flatnonzero(near.any(axis=0)):
+        for first, stop in true_runs(near[:, k]):
+            before, after = (first - 1 if first > 0 else None), (stop if stop < N else None)
+            if before is None and after is None:
+                continue
+            middle = (first + stop) // 2
+            out[first:middle, k] = normal[before if before is not None else after, k]
+            out[middle:stop, k] = normal[after if after is not None else before, k]
+    return out
+
+
+def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int) -> np.ndarray:
+    """(N, P, 3) the side each pair is parted to in each frame of positions x (N, F, 3) (zero
+    where it lies farther apart than its radii + 2 `margin`, or is that close for fewer than
+    `shortest` frames): over each longer run of frames a pair is that close in, the direction
+    that parts it in each frame, turned where it would point more than a right angle away from
+    the frame's neighbour's, outwards from the run's frame farthest apart, then averaged over
+    SIDE_FRAMES frames either side (_averaged). Deep in a lasting
+    overlap the closest points' line flips from frame to frame: a hand 10 cm inside a shin for
+    some 0.3 s in the per-frame IK (the get-up from lying face up onto human.urdf) was parted
+    one way in some frames and the other way in the next, and flicked between them at 12 m/s."""
+    _, _, gap, distance = pairs.closest(x)
+    near = distance < pairs.reach + 2 * margin
+    normal = _normals(pairs, x, gap, distance, near.any(axis=0))
+    sides = np.zeros(normal.shape)
+    for k in np.flatnonzero(near.any(axis=0)):
+        for first, stop in true_runs(near[:, k]):
+            if stop - first < shortest:
+                continue
+            sides[first:stop, k] = normal[first:stop, k]
+            apart = first + int(np.argmax(distance[first:stop, k]))
+            order = [(n, n - 1) for n in range(apart + 1, stop)] + [(n, n + 1) for n in range(apart - 1, first - 1, -1)]
+            for n, neighbour in order:
+                if sides[n, k] @ sides[neighbour, k] < 0.0:
+                    sides[n, k] = -sides[n, k]
+            sides[first:stop, k] = _averaged(sides[first:stop, k], SIDE_FRAMES)
+    return sides
+
+
+def _averaged(directions: np.ndarray, reach: int) -> np.ndarray:
+    """(n, 3) unit `directions` (n, 3) each averaged with those up to `reach` frames either side
+    (within the n), so that no frame's side stands apart from its neighbours'."""
+    padded = np.pad(directions, ((reach, reach), (0, 0)))
+    summed = sum(padded[j : j + len(directions)] for j in range(2 * reach + 1))
+    return summed / np.maximum(np.linalg.norm(summed, axis=-1, keepdims=True), 1e-300)
+
+
+def _normals(pairs: BonePairs, x: np.ndarray, gap: np.ndarray, distance: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """(N, P, 3) _separating's direction for the pairs `used` (P,) in every frame (zero for the others)."""
+    normal = np.zeros(gap.shape)
+    k = np.flatnonzero(used)
+    a, b = pairs.a[k], pairs.b[k]
+    ends = (x[:, pairs.starts[a]], x[:, a], x[:, pairs.starts[b]], x[:, b])
+    normal[:, k] = _separating(gap[:, k], distance[:, k], *ends)
+    return normal

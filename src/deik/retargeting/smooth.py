@@ -7,7 +7,11 @@ clip finds the displacement from those poses that
   planted again every REPLANT iterations, so plants that the target's limits cannot all meet
   at once move to where it can),
 - keeps every joint and site of the body above the floor (clips.warmstart.floor_rows) and the
-  body's bone capsules apart (collision.py),
+  body's bone capsules apart (capsule_overlaps.py), each pair to one side over the frames it
+  is close in: where the per-frame IK holds it close for SIDE_SECONDS or more, the side the IK
+  shows, kept from frame to frame (deep in an overlap the closest points' line flips, and the
+  get-up from lying face up onto human.urdf flicked a hand between the two sides at 12 m/s),
+  else the side it came from and the side it leaves to,
 - keeps the key points and orientation points near their targets, counted KEYPOINT_WEIGHT /
   HELD_WEIGHT as much as the rows above, so a point the body cannot reach while its feet stay
   planted is given up first; a key point that is also a contact site has its plant as target
@@ -48,7 +52,7 @@ from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
 from deik.model.skeleton import Skeleton
-from deik.retargeting.capsule_overlaps import BonePairs, collision_rows
+from deik.retargeting.capsule_overlaps import BonePairs, collision_rows, parting_sides
 from deik.retargeting.ik import Targets, targets_at
 
 HELD_WEIGHT = 1e7  # contacts, floor, capsules and steps: their squared error in size units, against the spring
@@ -58,6 +62,7 @@ REPLANT = 5  # iterations between plantings
 CONVERGED = (1e-4, 1e-2)  # a round's least fall of the whole cost and of the held rows' cost, as a share of each
 DAMPING = (1e-6, 1.0, 1e8)  # least, first and most damping (weighted DOF units squared)
 CAPSULE_MARGIN = 1e-4  # of the size: how far apart a collision row pushes two capsules
+SIDE_SECONDS = 0.1  # an overlap the per-frame IK holds this long keeps one side (parting_sides)
 EASE_SECONDS = 0.15  # how long a key point's target takes to join its plant, and to leave it
 STEP_MARGIN = 0.95  # a step row asks a DOF's step down to this share of its largest step
 STEP_WEIGHT = (
@@ -157,6 +162,9 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     planted_keys = [(s, goals.names.index(name)) for s, name in enumerate(contacts.sites if contacts else ())
                     if name in goals.names]  # fmt: skip
     ease_frames = EASE_SECONDS / goals.frame_time
+    ik_points = position_jacobian(skeleton, base, frames)[0]
+    lasting = max(2, round(SIDE_SECONDS / goals.frame_time))
+    sides = parting_sides(ik_points, goals.pairs, CAPSULE_MARGIN * goals.size, lasting)
 
     def plants_at(q):
         """(plants (N, S, 3), what to add to the key points' targets (N, K, 3))."""
@@ -183,7 +191,7 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
         )
         held_errors.append(error)
         held_rows.append(rows)
-        error, rows = collision_rows(x, jac, goals.pairs, CAPSULE_MARGIN * goals.size)
+        error, rows = collision_rows(x, jac, goals.pairs, CAPSULE_MARGIN * goals.size, sides)
         held_errors.append(error)
         held_rows.append(rows)
         held = np.concatenate(held_errors, axis=1)
