@@ -51,6 +51,7 @@ from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows, motion_stiffness, position_jacobian
 from deik.io.trajectory import Trajectory
+from deik.model.kinematics import forward_kinematics
 from deik.model.skeleton import Skeleton
 from deik.retargeting.capsule_overlaps import BonePairs, collision_rows, parting_sides
 from deik.retargeting.ik import Targets, targets_at
@@ -162,8 +163,8 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     planted_keys = [(s, goals.names.index(name)) for s, name in enumerate(contacts.sites if contacts else ())
                     if name in goals.names]  # fmt: skip
     ease_frames = EASE_SECONDS / goals.frame_time
-    ik_points = position_jacobian(skeleton, base, frames)[0]
     lasting = max(2, round(SIDE_SECONDS / goals.frame_time))
+    ik_points = forward_kinematics(skeleton, base).p_world_frame
     sides = parting_sides(ik_points, goals.pairs, CAPSULE_MARGIN * goals.size, lasting)
 
     def plants_at(q):
