@@ -85,10 +85,9 @@ def collision_rows(
     s, t, gap, distance = pairs.closest(x)
     near = distance < pairs.reach + 2 * margin
     normal = _normals(pairs, x, gap, distance, near.any(axis=0))
-    given = np.zeros(near.shape, bool) if sides is None else np.abs(sides).sum(axis=-1) > 0
-    reference = approach_sides(normal, near & ~given)
-    if sides is not None:
-        reference = np.where(given[..., None], sides, reference)
+    sides = np.zeros(normal.shape) if sides is None else sides
+    given = (sides != 0).any(axis=-1)
+    reference = np.where(given[..., None], sides, approach_sides(normal, near & ~given))
     flip = (np.einsum("npc,npc->np", normal, reference) < 0.0) & near
     normal = np.where(flip[..., None], -normal, normal)
     distance = np.where(flip, -distance, distance)
@@ -128,10 +127,10 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
     `shortest` frames): over each longer run of frames a pair is that close in, the direction
     that parts it in each frame, turned where it would point more than a right angle away from
     the frame's neighbour's, outwards from the run's frame farthest apart, then averaged over
-    SIDE_FRAMES frames either side (_averaged). Deep in a lasting
-    overlap the closest points' line flips from frame to frame: a hand 10 cm inside a shin for
-    some 0.3 s in the per-frame IK (the get-up from lying face up onto human.urdf) was parted
-    one way in some frames and the other way in the next, and flicked between them at 12 m/s."""
+    SIDE_FRAMES frames either side (_averaged). Deep in a lasting overlap the closest points'
+    line flips from frame to frame: a hand 10 cm inside a shin for some 0.3 s in the per-frame
+    IK (the get-up from lying face up onto human.urdf) was parted one way in some frames and
+    the other way in the next, and flicked between them at 12 m/s."""
     _, _, gap, distance = pairs.closest(x)
     near = distance < pairs.reach + 2 * margin
     normal = _normals(pairs, x, gap, distance, near.any(axis=0))
@@ -142,9 +141,10 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
                 continue
             sides[first:stop, k] = normal[first:stop, k]
             apart = first + int(np.argmax(distance[first:stop, k]))
-            order = [(n, n - 1) for n in range(apart + 1, stop)] + [(n, n + 1) for n in range(apart - 1, first - 1, -1)]
-            for n, neighbour in order:
-                if sides[n, k] @ sides[neighbour, k] < 0.0:
+            for n, step in [(n, -1) for n in range(apart + 1, stop)] + [
+                (n, 1) for n in range(apart - 1, first - 1, -1)
+            ]:
+                if sides[n, k] @ sides[n + step, k] < 0.0:  # turned by its neighbour nearer the farthest-apart frame
                     sides[n, k] = -sides[n, k]
             sides[first:stop, k] = _averaged(sides[first:stop, k], SIDE_FRAMES)
     return sides
