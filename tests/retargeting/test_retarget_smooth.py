@@ -17,7 +17,7 @@ from deik.model.capsules import bone_starts
 from deik.retargeting.capsule_overlaps import BonePairs, body_pairs, collision_rows, parting_sides, penetration_depths
 from deik.retargeting.ik import KeypointGoals, rebasin, solve_keypoints
 from deik.retargeting.measures import retarget_report
-from deik.retargeting.smooth import MotionGoals, eased_offsets, smooth_motion
+from deik.retargeting.smooth import MotionGoals, eased_offsets, smooth_motion, spring_reference
 
 POINTS = ("head", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_toe_tip", "right_toe_tip")
 POINTS += ("left_knee", "right_knee", "chest", "pelvis")
@@ -311,6 +311,49 @@ def test_the_space_time_pass_keeps_each_step_within_its_largest():
     assert np.abs(np.diff(free[:, twist])).max() > 0.5  # without the rows the snap stays
     assert np.abs(np.diff(found[:, 6:], axis=0)).max() < 0.05 * 1.05  # each step within its largest (row margin 5 %)
     assert (found >= h.lower - 1e-12).all() and (found <= h.upper + 1e-12).all()
+
+
+def test_a_basin_jump_is_averaged_in_the_spring_reference_and_a_fast_turn_is_not():
+    n = np.arange(30.0)
+    first = np.stack([0.3 * np.sin(n / 5.0), 0.3 * n], axis=1)  # the second DOF turns fast throughout
+    first[12:18, 0] += 1.0  # the first swaps basin for six frames
+    largest = np.array([0.1, 0.1])
+    found = spring_reference(first, largest, np.full(2, -np.inf), np.full(2, np.inf))
+    np.testing.assert_allclose(found[:4], first[:4])  # further than 3 + 3 frames from a jump
+    np.testing.assert_allclose(found[26:], first[26:])
+    np.testing.assert_allclose(found[:, 1], first[:, 1], atol=1e-9)  # an even turn is no jump, and averages to itself
+    for k in (11, 17):  # the steps into and out of the swap are spread over the frames around them
+        assert abs(found[k + 1, 0] - found[k, 0]) < 0.5 * abs(first[k + 1, 0] - first[k, 0])
+    plain = first.copy()
+    plain[12:18, 0] -= 1.0
+    np.testing.assert_array_equal(spring_reference(plain, largest, np.full(2, -np.inf), np.full(2, np.inf)), plain)
+    # within the limits it is given
+    clipped = spring_reference(first, largest, np.full(2, -0.2), np.full(2, 0.9))
+    assert (clipped >= -0.2).all() and (clipped <= 0.9).all()
+
+
+def test_the_space_time_pass_does_not_zigzag_through_a_basin_jump():
+    """A wrist twist the key points leave free swaps to another basin for six frames and back:
+    measured from the jump itself, the pass held it and let it through only as steps at the
+    largest, back and forth (four such zigzags before spring_reference)."""
+    h = deik.humanoid()
+    truth, _, _ = _clip(h)
+    twist = h.dof_names.index("left_wrist.Zrotation")
+    jumpy = truth.copy()
+    jumpy[20:26, twist] = np.clip(jumpy[20:26, twist] + 0.6, h.lower[twist], h.upper[twist])
+    targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
+    weights = dof_weights(Trajectory(h, truth, DT))
+    largest = np.full(h.n_dofs, np.inf)
+    largest[6:] = 0.05
+    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
+    goals = MotionGoals(h, POINTS, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
+    found = smooth_motion(replace(goals, largest_step=largest), jumpy)
+    steps = np.diff(found[:, 6:], axis=0)
+    at_largest = np.abs(steps) > 0.9 * 0.05
+    zigzags = at_largest[1:] & at_largest[:-1] & (np.sign(steps[1:]) != np.sign(steps[:-1]))
+    assert not zigzags.any()
+    assert np.abs(steps).max() < 0.05 * 1.05  # each step still within its largest
+    assert _measured(h, found, POINTS, targets)[1] < 1e-3  # metres: the key points met
 
 
 def test_eased_offsets_take_the_plant_inside_a_contact_and_fade_outside():

@@ -35,9 +35,9 @@ ROUNDS = 25
 CUT = 0.2
 
 
-def _cut(taken: np.ndarray, length: float) -> np.ndarray:
-    """(N,) how much of a cut each frame takes: 1 on `taken` (N,) frames, falling as a smoothstep
-    to 0 over `length` frames from them."""
+def eased_share(taken: np.ndarray, length: float) -> np.ndarray:
+    """(N,) 1 on `taken` (N,) frames, falling as a smoothstep to 0 over `length` frames from them
+    (how much of a cut, or of any change, each frame takes)."""
     frames = np.arange(len(taken))
     nearest = np.abs(frames[:, None] - np.flatnonzero(taken)[None, :]).min(axis=1)
     x = np.clip(nearest / (length + 1.0), 0.0, 1.0)
@@ -77,7 +77,7 @@ def calm(
         jolts = jolting(np.ones(N), displacement)
         if not jolts.any():
             break
-        near = _cut(widened(jolts, 1), length)
+        near = eased_share(widened(jolts, 1), length)
         gentler = smoothed_change(motion.skeleton, start, displacement, width / 2.0, where=near > 0)
         displacement = displacement + near[:, None] * (gentler - displacement)
         averaged |= near > 0
@@ -86,7 +86,7 @@ def calm(
         jolts = jolting(share, displacement)
         if not jolts.any():
             return share[:, None] * displacement, (share < 1.0) | averaged
-        share = share * (1.0 - CUT * _cut(widened(jolts, 1), length))
+        share = share * (1.0 - CUT * eased_share(widened(jolts, 1), length))
     if jolting(share, displacement).any():
         return np.zeros_like(displacement), np.ones(N, bool)
     return share[:, None] * displacement, (share < 1.0) | averaged

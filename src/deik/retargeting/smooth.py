@@ -23,7 +23,15 @@ clip finds the displacement from those poses that
 - against the spring energy of the displacement (cleanup/spacetime.py: each DOF's stiffness by
   how much of the body it moves, clips.warmstart.motion_stiffness): a correction that a contact
   needs starts before the contact does and fades after it, so the motion keeps the per-frame
-  IK's velocities and accelerations instead of jumping where a contact starts or ends;
+  IK's velocities and accelerations instead of jumping where a contact starts or ends. Where
+  the per-frame IK jumps between basins (spring_reference: a DOF stepping past its largest step
+  and JUMP_RATIO times its steps either side, a shoulder's Euler angles swapping for their twin
+  in one frame), the displacement is measured from the IK's poses averaged over the frames
+  around the jump (a Gaussian of one frame, within JUMP_FRAMES of it, eased back over as many
+  more): measured from the jump itself, the spring held the pass to it, and the step rows below
+  let it through only as a zigzag at the largest step (the shared dance onto human.urdf swung
+  its pelvis and lumbar joints 0.27 rad a frame back and forth, its neck at 2.5 times its scaled
+  source's top speed);
 - keeps every DOF's step between two frames within its largest step (a robot's velocity limit
   times the frame time; settle.step_limits): a row per DOF and pair of frames whose step goes past STEP_MARGIN of
   it, counted as the held rows are, so a joint that would swing round in a frame (a shoulder
@@ -46,7 +54,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from deik.cleanup.calm import eased_share
 from deik.cleanup.contacts import Contacts, true_runs
+from deik.cleanup.dynamics import widened
+from deik.cleanup.noise import gaussian
 from deik.cleanup.plants import planted_targets
 from deik.cleanup.spacetime import spacetime_step, spring_energy
 from deik.cleanup.warmstart import FADE, FLOOR_MARGIN, floor_levels, floor_rows, motion_stiffness, position_jacobian
@@ -66,6 +77,8 @@ CAPSULE_MARGIN = 1e-4  # of the size: how far apart a collision row pushes two c
 SIDE_SECONDS = 0.1  # an overlap the per-frame IK holds this long keeps one side (parting_sides)
 EASE_SECONDS = 0.15  # how long a key point's target takes to join its plant, and to leave it
 STEP_MARGIN = 0.95  # a step row asks a DOF's step down to this share of its largest step
+JUMP_RATIO = 2.0  # a basin jump: a step past the largest this many times the DOF's steps either side
+JUMP_FRAMES = 3  # frames either side of a basin jump averaged in the spring's reference, and eased back over
 STEP_WEIGHT = (
     0.1 * HELD_WEIGHT
 )  # per weighted DOF unit squared: a tenth of a radian turns a limb's end by a tenth of its length
@@ -104,6 +117,27 @@ def step_rows(q: np.ndarray, largest: np.ndarray, weights: np.ndarray) -> tuple[
     over = np.abs(delta) > allowed
     errors = np.where(over, np.sign(delta) * np.where(over, allowed, 0.0) - delta, 0.0) * weights
     return over * STEP_WEIGHT, errors
+
+
+def spring_reference(first: np.ndarray, largest: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """(N, D) the poses the space-time pass's spring measures its displacement from: the
+    per-frame IK's `first` (N, D), but within JUMP_FRAMES of a basin jump (a DOF's step past
+    STEP_MARGIN x its `largest` (D,) and JUMP_RATIO times its steps either side) averaged over
+    the frames (a Gaussian of one frame), eased back to `first` over JUMP_FRAMES more (module
+    notes); within `lower` and `upper` (D,)."""
+    if len(first) < 3:
+        return np.array(first, float)
+    steps = np.abs(np.diff(first, axis=0))
+    none = np.zeros((1, steps.shape[1]))
+    beside = np.maximum(np.concatenate([none, steps[:-1]]), np.concatenate([steps[1:], none]))
+    jumps = ((steps > STEP_MARGIN * largest) & (steps > JUMP_RATIO * beside)).any(axis=1)
+    if not jumps.any():
+        return np.array(first, float)
+    at = np.zeros(len(first), bool)
+    at[:-1] |= jumps
+    at[1:] |= jumps
+    share = eased_share(widened(at, JUMP_FRAMES), JUMP_FRAMES)[:, None]
+    return np.clip(first + share * (gaussian(first, 1.0, fit_ends=True) - first), lower, upper)
 
 
 def eased_offsets(mask: np.ndarray, gaps: np.ndarray, frames: float) -> np.ndarray:
@@ -145,10 +179,12 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     skeleton, contacts, weights = goals.skeleton, goals.contacts, goals.weights
     N, D = first.shape
     full_turn = skeleton.full_turns
-    base = np.array(first, float)
-    base[:, full_turn] = np.unwrap(base[:, full_turn], axis=0)
+    unwrapped = np.array(first, float)
+    unwrapped[:, full_turn] = np.unwrap(unwrapped[:, full_turn], axis=0)
     lower = np.where(full_turn, -np.inf, skeleton.lower)
     upper = np.where(full_turn, np.inf, skeleton.upper)
+    largest = np.full(D, np.inf) if goals.largest_step is None else np.asarray(goals.largest_step, float)
+    base = spring_reference(unwrapped, largest, lower, upper)
     frames = list(skeleton.frame_names)
     points = [frames.index(name) for name in goals.names]
     floor_points = [frames.index(name) for name in goals.body]
@@ -157,7 +193,6 @@ def smooth_motion(goals: MotionGoals, first: np.ndarray) -> np.ndarray:
     scale = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), 0.0)
     stiffness = motion_stiffness(skeleton, base, weights)
     movable = np.broadcast_to(np.asarray(goals.searched, bool), (N, D))
-    largest = np.full(D, np.inf) if goals.largest_step is None else np.asarray(goals.largest_step, float)
     size2 = goals.size**2
 
     planted_keys = [(s, goals.names.index(name)) for s, name in enumerate(contacts.sites if contacts else ())
