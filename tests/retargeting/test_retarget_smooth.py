@@ -294,19 +294,29 @@ def test_the_report_gives_each_frame_s_deepest_capsule_overlap_in_mm():
     assert report["summary"]["keypoint_velocity_peak_ratio"] == pytest.approx(1.0)  # on its targets
 
 
+def _untouched_goals(h, truth) -> MotionGoals:
+    """MotionGoals on the humanoid: the POINTS on `truth`'s positions, no contacts, no capsule pairs."""
+    targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
+    weights = dof_weights(Trajectory(h, truth, DT))
+    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
+    return MotionGoals(h, POINTS, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
+
+
+def _largest_steps(h) -> np.ndarray:
+    """(D,) 0.05 radians a frame for every joint but the root, whose steps are free."""
+    largest = np.full(h.n_dofs, np.inf)
+    largest[6:] = 0.05
+    return largest
+
+
 def test_the_space_time_pass_keeps_each_step_within_its_largest():
     h = deik.humanoid()
     truth, _, _ = _clip(h)
     twist = h.dof_names.index("left_wrist.Zrotation")
     jumpy = truth.copy()
     jumpy[20:, twist] = np.clip(jumpy[20:, twist] + 0.6, h.lower[twist], h.upper[twist])  # a wrist snaps round
-    targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
-    weights = dof_weights(Trajectory(h, truth, DT))
-    largest = np.full(h.n_dofs, np.inf)
-    largest[6:] = 0.05  # radians per frame for every joint but the root
-    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    goals = MotionGoals(h, POINTS, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
-    found = smooth_motion(replace(goals, largest_step=largest), jumpy)
+    goals = _untouched_goals(h, truth)
+    found = smooth_motion(replace(goals, largest_step=_largest_steps(h)), jumpy)
     free = smooth_motion(goals, jumpy)
     assert np.abs(np.diff(free[:, twist])).max() > 0.5  # without the rows the snap stays
     assert np.abs(np.diff(found[:, 6:], axis=0)).max() < 0.05 * 1.05  # each step within its largest (row margin 5 %)
@@ -341,19 +351,14 @@ def test_the_space_time_pass_does_not_zigzag_through_a_basin_jump():
     twist = h.dof_names.index("left_wrist.Zrotation")
     jumpy = truth.copy()
     jumpy[20:26, twist] = np.clip(jumpy[20:26, twist] + 0.6, h.lower[twist], h.upper[twist])
-    targets = np.stack([deik.forward_kinematics(h, truth).position(name) for name in POINTS], axis=1)
-    weights = dof_weights(Trajectory(h, truth, DT))
-    largest = np.full(h.n_dofs, np.inf)
-    largest[6:] = 0.05
-    pairs = BonePairs(np.zeros(0, int), np.zeros(0, int), bone_starts(h), np.zeros(0))
-    goals = MotionGoals(h, POINTS, targets, None, np.ones(h.n_dofs, bool), weights, h.frame_names, pairs, DT, h.reach)
-    found = smooth_motion(replace(goals, largest_step=largest), jumpy)
+    goals = _untouched_goals(h, truth)
+    found = smooth_motion(replace(goals, largest_step=_largest_steps(h)), jumpy)
     steps = np.diff(found[:, 6:], axis=0)
     at_largest = np.abs(steps) > 0.9 * 0.05
     zigzags = at_largest[1:] & at_largest[:-1] & (np.sign(steps[1:]) != np.sign(steps[:-1]))
     assert not zigzags.any()
     assert np.abs(steps).max() < 0.05 * 1.05  # each step still within its largest
-    assert _measured(h, found, POINTS, targets)[1] < 1e-3  # metres: the key points met
+    assert _measured(h, found, POINTS, goals.targets)[1] < 1e-3  # metres: the key points met
 
 
 def test_eased_offsets_take_the_plant_inside_a_contact_and_fade_outside():
