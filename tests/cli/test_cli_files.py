@@ -93,10 +93,12 @@ def test_info_on_every_shared_file(shared_data, capsys):
         assert "mass:" in text
 
 
-def test_info_refuses_the_pybullet_only_source_with_its_line(shared_data, capsys):
-    assert main(["info", str(shared_data / "humanoid" / "humanoid_deepmimic_source.urdf")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "joint type 'spherical' is not supported" in err and ".urdf:" in err
+def test_info_lists_the_ball_joints_of_the_pybullet_source(shared_data, capsys):
+    assert main(["info", "--quiet", str(shared_data / "humanoid" / "humanoid_deepmimic_source.urdf")]) == 0
+    out = capsys.readouterr().out
+    assert "13 joints, 28 DOFs" in out
+    for joint in ("chest", "neck", "right_hip", "left_ankle", "right_shoulder"):
+        assert all(f"{joint}.{axis}rotation" in out for axis in "ZXY")
 
 
 @pytest.mark.parametrize(

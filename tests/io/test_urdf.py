@@ -7,7 +7,7 @@ import yourdfpy
 
 import deik
 from deik.errors import FileFormatError
-from deik.io.urdf import read_urdf
+from deik.io.urdf import read_urdf, read_velocity_limits
 
 ROBOTS = {"panda": (0, 0, 1), "kuka_iiwa": (0, 0, 1), "human": (0, 1, 0)}
 
@@ -157,12 +157,83 @@ def test_unknown_base_suggests_close_names(shared_data):
         read_urdf(shared_data / "robots" / "panda.urdf", base="panda_lnk3")
 
 
-def test_pybullet_only_source_is_refused_with_the_joint_and_line(shared_data):
-    path = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"
-    with pytest.raises(
-        FileFormatError, match=r"humanoid_deepmimic_source\.urdf:\d+: joint 'chest': joint type 'spherical'"
-    ):
-        read_urdf(path)
+# Two ball joints (pybullet's `spherical`) in a chain, one with a velocity limit, under a turned origin.
+BALLS = """<?xml version="1.0"?>
+<robot name="balls">
+  <link name="base"/><link name="upper"><inertial><mass value="2"/></inertial></link><link name="lower"/>
+  <link name="hand"/>
+  <joint name="shoulder" type="spherical"><parent link="base"/><child link="upper"/>
+    <origin xyz="0.1 0.2 0.3" rpy="0.4 -0.5 0.6"/><limit effort="10" velocity="2"/></joint>
+  <joint name="elbow" type="spherical"><parent link="upper"/><child link="lower"/>
+    <origin xyz="0 -0.3 0" rpy="0 0 0.2"/></joint>
+  <joint name="wrist" type="fixed"><parent link="lower"/><child link="hand"/><origin xyz="0 -0.25 0.05"/></joint>
+</robot>
+"""
+
+
+def _as_revolutes(text: str) -> str:
+    """The URDF `text` with every spherical joint written as three continuous joints about Z, X
+    and Y (JOINT_Z, JOINT_X, JOINT_Y) through two massless links: what deik documents a ball to be.
+    Shapes are dropped (yourdfpy has no pybullet <capsule>)."""
+    from lxml import etree
+
+    root = etree.fromstring(text.encode())
+    for shape in list(root.iter("visual", "collision")):
+        shape.getparent().remove(shape)
+    for ball in root.findall("joint[@type='spherical']"):
+        name, parent, child = ball.get("name"), ball.find("parent").get("link"), ball.find("child").get("link")
+        origin = ball.find("origin")
+        links = [parent, f"{name}_z_link", f"{name}_x_link", child]
+        for k, axis in enumerate("ZXY"):
+            joint = etree.SubElement(root, "joint", name=f"{name}_{axis}", type="continuous")
+            etree.SubElement(joint, "parent", link=links[k])
+            etree.SubElement(joint, "child", link=links[k + 1])
+            if k == 0 and origin is not None:
+                joint.append(origin)
+            etree.SubElement(joint, "axis", xyz={"X": "1 0 0", "Y": "0 1 0", "Z": "0 0 1"}[axis])
+            if k < 2:
+                etree.SubElement(root, "link", name=links[k + 1])
+        root.remove(ball)
+    return etree.tostring(root).decode()
+
+
+def _check_balls_against_yourdfpy(path, tmp_path, up=(0, 0, 1), poses=20):
+    """FK of random poses of the robot at `path`, read by deik, against yourdfpy's of its balls
+    written as three revolute joints each (`_as_revolutes`)."""
+    sk = read_urdf(path, up=up)
+    revolutes = tmp_path / "revolutes.urdf"
+    revolutes.write_text(_as_revolutes(path.read_bytes().rstrip(b"\0").decode()))
+    reference = _yourdfpy(revolutes)
+    q = np.random.default_rng(11).uniform(sk.lower, sk.upper, (poses, sk.n_dofs))
+    kin = deik.forward_kinematics(sk, q)
+    names = [name.replace(".", "_").replace("rotation", "") for name in sk.dof_names]
+    for pose, R, p in zip(q, kin.R_world_frame, kin.p_world_frame):
+        reference.update_cfg(dict(zip(names, pose)))
+        for link in sk.frame_names:
+            T = reference.get_transform(link, reference.base_link)
+            np.testing.assert_allclose(p[sk.frame_index(link)], T[:3, 3], atol=1e-9, err_msg=link)
+            np.testing.assert_allclose(R[sk.frame_index(link)], T[:3, :3], atol=1e-9, err_msg=link)
+    return sk
+
+
+def test_ball_joints_are_three_rotations_z_x_y(tmp_path):
+    path = tmp_path / "balls.urdf"
+    path.write_text(BALLS)
+    sk = _check_balls_against_yourdfpy(path, tmp_path)
+    axes = [f"{joint}.{axis}rotation" for joint in ("shoulder", "elbow") for axis in "ZXY"]
+    assert sk.dof_names == tuple(axes) and sk.full_turns.all()
+    np.testing.assert_array_equal(sk.lower, -np.pi)
+    np.testing.assert_array_equal(sk.upper, np.pi)
+    assert read_velocity_limits(path) == {name: 2.0 for name in axes[:3]}
+
+
+def test_the_pybullet_source_of_the_shared_clips_reads_with_its_balls(shared_data, tmp_path):
+    """The DeepMimic humanoid (eight ball joints), its trailing NUL byte as pybullet ships it."""
+    source = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"
+    padded = tmp_path / "humanoid.urdf"
+    padded.write_bytes(source.read_bytes() + b"\0")
+    sk = _check_balls_against_yourdfpy(padded, tmp_path, up=(0, 1, 0), poses=5)
+    assert sk.n_dofs == 8 * 3 + 4
 
 
 def _robot(joint_xml: str, links: str = '<link name="a"/><link name="b"/>') -> str:
@@ -182,8 +253,30 @@ BAD_FILES = {
     "unknown type": (_robot(GOOD_JOINT.replace("revolute", "ball")), r"bad\.urdf:4: joint 'j': joint type 'ball'"),
     "floating": (
         _robot(GOOD_JOINT.replace("revolute", "floating")),
-        r"joint 'j': joint type 'floating' is not supported",
+        r"joint 'j': a floating joint frees the robot's base.*--base b ",
     ),
+    "planar": (_robot(GOOD_JOINT.replace("revolute", "planar")), r"joint 'j': joint type 'planar' is not supported"),
+    "ball with a cone": (
+        _robot(GOOD_JOINT.replace("revolute", "spherical")),
+        r"bad\.urdf:4: joint 'j': a spherical joint's <limit lower upper> bounds a cone",
+    ),
+    "ball mimic": (
+        _robot(GOOD_JOINT.replace("revolute", "spherical").replace("<limit", '<mimic joint="x"/><limit')),
+        r"joint 'j': a spherical joint cannot mimic another joint",
+    ),
+    "mimic of a ball": (
+        _robot(
+            '<joint name="j" type="spherical"><parent link="a"/><child link="b"/></joint>'
+            '<joint name="k" type="revolute"><parent link="b"/><child link="c"/><mimic joint="j"/></joint>',
+            '<link name="a"/><link name="b"/><link name="c"/>',
+        ),
+        r"joint 'k': mimics 'j', a spherical joint",
+    ),
+    "xacro": (
+        _robot(GOOD_JOINT.replace('xyz="0 0 1"', 'xyz="$(arg x) 0 1"')),
+        r"bad\.urdf:5: joint 'j': <origin xyz=.*holds a xacro expression; expand it first",
+    ),
+    "NUL inside": (_robot(GOOD_JOINT).replace("<robot", "<robot\0"), r"bad\.urdf: not a text URDF \(XML\) file"),
     "missing limits": (
         _robot(GOOD_JOINT.replace('<limit lower="-1" upper="1"/>', "")),
         r"bad\.urdf:4: joint 'j': a revolute joint needs <limit lower=\.\.\. upper=\.\.\.>",

@@ -100,6 +100,29 @@ def test_cr_only_line_endings_give_the_right_line(tmp_path):
         _read(tmp_path, text)
 
 
+@pytest.mark.parametrize(
+    "form,change",
+    [
+        ("NUL padding", lambda t: t + "\0\0\0"),
+        ("blank lines first", lambda t: "\n\n  \n" + t),
+        ("byte-order mark", lambda t: "\ufeff" + t),
+        ("version 0.0", lambda t: t.replace('version="1.0"', "version='0.0' encoding='utf-8'")),
+        ("version 1.1 after blank lines", lambda t: "\n " + t.replace('version="1.0"', 'version="1.1"')),
+    ],
+)
+def test_what_other_urdf_readers_take_is_read_with_its_lines(tmp_path, form, change):
+    """pybullet's and ROS's readers take these; deik reads the robot alike, and an error names
+    the line the file has (blank lines before the declaration count)."""
+    reference = _read(tmp_path, _robot(), "plain.urdf")
+    skeleton = _read(tmp_path, change(_robot()), "other.urdf")
+    np.testing.assert_array_equal(skeleton.offsets, reference.offsets)
+    np.testing.assert_array_equal(skeleton.mass_offset, reference.mass_offset)
+    bad = change(_joint('upper="1"', 'upper="1_000"'))
+    line = 8 + bad[: bad.index("<?xml")].count("\n")
+    with pytest.raises(FileFormatError, match=rf"bad\.urdf:{line}: joint 'j': <limit upper"):
+        _read(tmp_path, bad)
+
+
 def test_cr_only_and_crlf_files_read_like_lf_files(tmp_path):
     reference = _read(tmp_path, _robot(), "lf.urdf")
     for name, ending in (("cr.urdf", "\r"), ("crlf.urdf", "\r\n")):
@@ -165,7 +188,7 @@ def test_joint_types_outside_the_selected_chain_do_not_matter(tmp_path):
     extra = '<joint name="f" type="floating"><parent link="a"/><child link="c"/></joint>'
     path = tmp_path / "robot.urdf"
     path.write_text(_robot(JOINT + extra, LINKS + '<link name="c"/>'))
-    with pytest.raises(FileFormatError, match="joint 'f': joint type 'floating' is not supported"):
+    with pytest.raises(FileFormatError, match="joint 'f': a floating joint frees the robot's base"):
         read_urdf(path)
     assert read_urdf(path, tip="b").dof_names == ("j",)
 

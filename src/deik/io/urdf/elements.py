@@ -1,14 +1,14 @@
 """URDF `<link>` and `<joint>` elements as checked values: `read_link`, `read_joint`.
 
 Numbers must be plain decimals (`-1.5`, `2e-3`, `.5`): `1_000`, `0x10`, `nan`, `inf` and empty
-text are refused, although Python's float() takes some of them, and so is a number too large
-for a 64-bit float. A vector holds exactly 3 numbers. Defaults are the URDF spec's: no
-`<origin>` is the identity, no `<axis>` is 1 0 0, a mimic's multiplier is 1 and its offset 0,
-a link without `<inertial>` or `<mass>` has no mass. An element read once (`<origin>`,
-`<limit>`, ...) may appear once. Lengths, angles of an origin, axes and mimic offsets lie within
-+-1e6 (deik.model.skeleton.MAX_LENGTH) and mimic multipliers too: beyond, poses lose all
-precision. Errors name the file, the line of the element at fault, the
-link or joint, and the fix. Units are the file's: metres, kilograms, radians.
+text are refused, although Python's float() takes some of them, and so is a number too large for
+a 64-bit float. A vector holds exactly 3 numbers; a xacro expression (`$(arg x)`) is named as
+one. Defaults are the URDF spec's: no `<origin>` is the identity, no `<axis>` is 1 0 0, a
+mimic's multiplier is 1 and its offset 0, a link without `<inertial>` or `<mass>` has no mass.
+An element read once (`<origin>`, `<limit>`, ...) may appear once. Lengths, angles of an origin,
+axes and mimic offsets lie within +-1e6 (deik.model.skeleton.MAX_LENGTH) and mimic multipliers
+too: beyond, poses lose all precision. Errors name the file, the line of the element at fault,
+the link or joint, and the fix. Units are the file's: metres, kilograms, radians.
 """
 
 from __future__ import annotations
@@ -146,6 +146,8 @@ class _Checked:
         if text is None:
             return default
         shown = f'<{at.tag} {attribute}="{text}">'
+        if "$(" in text or "${" in text:
+            self.fail(f"{shown} holds a xacro expression; expand it first: xacro ROBOT.urdf.xacro > ROBOT.urdf", at)
         words = WORD.findall(text)
         if len(words) != count:
             needed = "one number" if count == 1 else f"{count} numbers separated by spaces"

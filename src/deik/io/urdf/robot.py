@@ -2,7 +2,11 @@
 
 Links become frames. A link reached through a moving joint (revolute, continuous, prismatic,
 or one that mimics another) is a skeleton joint named after the link, with one DOF named after
-the URDF joint; the base link is the root joint, fixed in the world. A link reached through a
+the URDF joint; the base link is the root joint, fixed in the world. A spherical joint (a ball,
+as pybullet writes one) is three rotations about the frame's Z, X and Y axes in that order (the
+BVH order, R = Rz Rx Ry; its DOFs JOINT.Zrotation, JOINT.Xrotation, JOINT.Yrotation), each over
+a whole turn; its `<limit>`, a cone in pybullet, bounds no angle of them, and is refused. A link
+reached through a
 fixed joint is merged into its nearest moving ancestor and kept as a `Site` (tool frames such as
 `panda_hand_tcp`), so fixed joints cost the kernels nothing. Inertial masses become segments
 at their inertial origins. Continuous joints get [-pi, pi], which covers every angle; mimic
@@ -30,11 +34,13 @@ from deik.model.build import build_skeleton
 from deik.model.geometry import unit_up
 from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
 from deik.model.orientations import rpy_matrix
+from deik.model.rotations import AXES
 from deik.model.skeleton import Skeleton
 from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
-SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
+SPHERICAL = "ZXY"  # a ball joint's rotation axes, in order
+SUPPORTED = ("revolute", "continuous", "prismatic", "spherical", "fixed")
 
 
 @dataclass(frozen=True)
@@ -73,14 +79,36 @@ def read_velocity_limits(path: FilePath) -> dict[str, float]:
     gives one (rad/s for a rotation, m/s for a translation); FileFormatError as read_urdf."""
     source = str(path)
     joints = [read_joint(element, source) for element in read_xml(path).iterchildren("joint")]
-    return {joint.name: joint.velocity for joint in joints if joint.velocity is not None}
+    return {name: joint.velocity for joint in joints if joint.velocity is not None for name in _dof_names(joint)}
+
+
+def _dof_names(joint: UrdfJoint) -> tuple[str, ...]:
+    """The names of the DOFs `joint` moves: its own name, or one per axis of a ball joint."""
+    if joint.type == "spherical":
+        return tuple(f"{joint.name}.{axis}rotation" for axis in SPHERICAL)
+    return (joint.name,)
 
 
 def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
     """Refuse unsupported joint types, zero axes, bad mimic sources and missing or inverted limits."""
     fail = tree.failure(joint.name)
+    if joint.type == "floating":
+        fail(
+            "a floating joint frees the robot's base, and deik fixes a URDF robot's base in the world: "
+            f"read it from the child link with --base {joint.child} (`deik retarget` gives it a floating root)"
+        )
     if joint.type not in SUPPORTED:
         fail(f"joint type {joint.type!r} is not supported; deik reads {', '.join(SUPPORTED)} (and mimic) joints")
+    if joint.type == "spherical":
+        if joint.mimic is not None:
+            fail("a spherical joint cannot mimic another joint; mimic joints have one axis")
+        if joint.lower is not None or joint.upper is not None:
+            fail(
+                "a spherical joint's <limit lower upper> bounds a cone (pybullet's swing), not its three angles, "
+                "which deik keeps within a whole turn: remove the limits, or write the ball as three revolute "
+                "joints with limits of their own"
+            )
+        return
     if joint.type in MOVING and np.linalg.norm(joint.axis) < 1e-12:
         fail(f"axis {joint.axis} must be a non-zero vector")
     if joint.mimic is not None:
@@ -98,6 +126,16 @@ def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
             fail(f"a {joint.type} joint needs <limit lower=... upper=...>; add them (or make it continuous)")
         if joint.lower > joint.upper:
             fail(f"lower limit {joint.lower} is above upper limit {joint.upper}; swap them")
+
+
+def _dofs(joint: UrdfJoint) -> tuple[Dof, ...]:
+    """The DOFs of moving `joint`: one, or three for a ball joint (module notes)."""
+    if joint.type == "spherical":
+        return tuple(
+            Dof(ROTATE, AXES[axis], -math.pi, math.pi, 0.0, joint.type, name)
+            for axis, name in zip(SPHERICAL, _dof_names(joint))
+        )
+    return (_dof(joint),)
 
 
 def _dof(joint: UrdfJoint) -> Dof:
@@ -129,13 +167,13 @@ def _build(tree: LinkTree, links: list[str], up, name: str):
         parent = frames[joint.parent]
         R = parent.R @ R_origin
         p = parent.p + parent.R @ joint.xyz
-        if joint.type in MOVING:
+        if joint.type != "fixed":
             if joint.mimic is not None and tree.joint_child(joint.mimic.joint) not in selected:
                 tree.failure(joint.name)(
                     f"mimics {joint.mimic.joint!r}, which is outside the selected chain; "
                     "choose a base and tip that include it"
                 )
-            joints.append(Joint(link, parent.carrier, tuple(p), (_dof(joint),), rotation=_rows(R), label=joint.name))
+            joints.append(Joint(link, parent.carrier, tuple(p), _dofs(joint), rotation=_rows(R), label=joint.name))
             frames[link] = _Rigid(link, np.eye(3), np.zeros(3))
         else:
             sites.append(Site(link, parent.carrier, tuple(p), _rows(R)))
