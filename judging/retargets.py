@@ -3,6 +3,9 @@ calls it): nothing here uses deik's report code, its forward kinematics or its c
 
 Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, the floating
 root (ROOT.X/Y/Zposition, ROOT.Z/X/Yrotation, intrinsic, in the root link's axes) applied on top;
+a ball joint (pybullet's `spherical`, which yourdfpy does not read) as the three continuous
+joints JOINT.Zrotation, JOINT.Xrotation, JOINT.Yrotation that docs/formats.md says it is, its
+shapes dropped (pybullet's <capsule> is no URDF shape);
 BVH files are read, written and posed by judging/rigs.py, the clip judge's own (a
 joint's local transform is its OFFSET plus its position channels, then its rotation channels
 in file order, intrinsic).
@@ -137,13 +140,46 @@ class Robot:
 
 
 def read_robot(path: Path) -> Robot:
-    """The robot at `path` (yourdfpy, no meshes)."""
+    """The robot at `path` (yourdfpy, no meshes; ball joints as the module notes say)."""
+    import io
+
     import yourdfpy
 
-    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
+    text = balls_as_revolutes(Path(path).read_bytes().rstrip(b"\0"))
+    urdf = yourdfpy.URDF.load(io.BytesIO(text), load_meshes=False, build_collision_scene_graph=False)
     velocity = {j.name: (j.limit.velocity if j.limit is not None else None) for j in urdf.robot.joints}
     continuous = {j.name: j.type == "continuous" for j in urdf.robot.joints}
     return Robot(urdf, velocity, continuous)
+
+
+def balls_as_revolutes(text: bytes) -> bytes:
+    """URDF `text` with every spherical joint J written as continuous joints J.Zrotation,
+    J.Xrotation, J.Yrotation (in that order, through two massless links), the first at J's
+    origin, each with J's <limit velocity>; without a ball, `text` unchanged."""
+    from lxml import etree
+
+    root = etree.fromstring(text)
+    balls = root.findall("joint[@type='spherical']")
+    if not balls:
+        return text
+    for shape in list(root.iter("visual", "collision")):
+        shape.getparent().remove(shape)
+    for ball in balls:
+        name, limit, origin = ball.get("name"), ball.find("limit"), ball.find("origin")
+        ends = [ball.find("parent").get("link"), f"{name}.z", f"{name}.x", ball.find("child").get("link")]
+        for k, axis in enumerate("ZXY"):
+            joint = etree.SubElement(root, "joint", name=f"{name}.{axis}rotation", type="continuous")
+            etree.SubElement(joint, "parent", link=ends[k])
+            etree.SubElement(joint, "child", link=ends[k + 1])
+            if k == 0 and origin is not None:
+                joint.append(origin)
+            etree.SubElement(joint, "axis", xyz={"X": "1 0 0", "Y": "0 1 0", "Z": "0 0 1"}[axis])
+            if limit is not None and limit.get("velocity"):
+                etree.SubElement(joint, "limit", effort="0", velocity=limit.get("velocity"))
+            if k < 2:
+                etree.SubElement(root, "link", name=ends[k + 1])
+        root.remove(ball)
+    return etree.tostring(root)
 
 
 def read_trajectory_csv(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -159,7 +195,7 @@ def robot_links(robot: Robot, names: list[str], values: np.ndarray) -> dict[str,
     `names`: the six ROOT.* DOFs place the base link (X, Y, Z translation, then intrinsic
     rotations about Z, X, Y), the others are the URDF's joints."""
     urdf = robot.urdf
-    root = [k for k, n in enumerate(names) if n.split(".")[-1] in ROOT_CHANNELS]
+    root = [k for k, n in enumerate(names) if _is_root(robot, n)]
     by_channel = {names[k].split(".")[-1]: k for k in root}
     joints = [(k, n) for k, n in enumerate(names) if k not in root]
     out = {link: np.zeros((len(values), 4, 4)) for link in urdf.link_map}
@@ -176,6 +212,12 @@ def robot_links(robot: Robot, names: list[str], values: np.ndarray) -> dict[str,
 
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+
+
+def _is_root(robot: Robot, name: str) -> bool:
+    """Whether DOF `name` is one of the floating root's, ROOT.CHANNEL with ROOT the base link (a
+    ball joint's JOINT.Zrotation is not)."""
+    return name in {f"{robot.urdf.base_link}.{channel}" for channel in ROOT_CHANNELS}
 
 
 # --- the judge --------------------------------------------------------------------------------
@@ -286,7 +328,7 @@ def robot_pairing(robot: Robot, csv_path: Path, joint_map: dict) -> tuple[Pairin
     through `joint_map` (the parsed TOML)."""
     names, times, values = read_trajectory_csv(csv_path)
     links = robot_links(robot, names, values)
-    moving = [n for n in names if n.split(".")[-1] not in ROOT_CHANNELS]
+    moving = [n for n in names if not _is_root(robot, n)]
     rest_links = robot_links(robot, moving, np.zeros((1, len(moving))))
 
     def place(transforms, target, offset):
@@ -400,8 +442,7 @@ def step_figures(source: Bvh, steps: dict) -> dict:
     turn = STEP_ALLOWANCE * largest_turn(source) * dt / source.frame_time if len(values) > 1 else 0.0
     allowance, rotation = np.zeros(len(names)), np.zeros(len(names), bool)
     for d, name in enumerate(names):
-        channel = name.split(".")[-1]
-        rotation[d] = channel.endswith("rotation") if channel in ROOT_CHANNELS else True
+        rotation[d] = name.endswith("rotation") if _is_root(robot, name) else True
         limit = robot.velocity.get(name)
         allowance[d] = max(turn, (limit or 0.0) * dt) if rotation[d] else np.inf
     delta = np.abs(np.diff(values, axis=0))

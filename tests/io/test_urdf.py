@@ -171,44 +171,19 @@ BALLS = """<?xml version="1.0"?>
 """
 
 
-def _as_revolutes(text: str) -> str:
-    """The URDF `text` with every spherical joint written as three continuous joints about Z, X
-    and Y (JOINT_Z, JOINT_X, JOINT_Y) through two massless links: what deik documents a ball to be.
-    Shapes are dropped (yourdfpy has no pybullet <capsule>)."""
-    from lxml import etree
-
-    root = etree.fromstring(text.encode())
-    for shape in list(root.iter("visual", "collision")):
-        shape.getparent().remove(shape)
-    for ball in root.findall("joint[@type='spherical']"):
-        name, parent, child = ball.get("name"), ball.find("parent").get("link"), ball.find("child").get("link")
-        origin = ball.find("origin")
-        links = [parent, f"{name}_z_link", f"{name}_x_link", child]
-        for k, axis in enumerate("ZXY"):
-            joint = etree.SubElement(root, "joint", name=f"{name}_{axis}", type="continuous")
-            etree.SubElement(joint, "parent", link=links[k])
-            etree.SubElement(joint, "child", link=links[k + 1])
-            if k == 0 and origin is not None:
-                joint.append(origin)
-            etree.SubElement(joint, "axis", xyz={"X": "1 0 0", "Y": "0 1 0", "Z": "0 0 1"}[axis])
-            if k < 2:
-                etree.SubElement(root, "link", name=links[k + 1])
-        root.remove(ball)
-    return etree.tostring(root).decode()
-
-
 def _check_balls_against_yourdfpy(path, tmp_path, up=(0, 0, 1), poses=20):
     """FK of random poses of the robot at `path`, read by deik, against yourdfpy's of its balls
-    written as three revolute joints each (`_as_revolutes`)."""
+    written as three revolute joints each, by the retarget judge's own reading of a ball."""
+    from judging.retargets import balls_as_revolutes
+
     sk = read_urdf(path, up=up)
     revolutes = tmp_path / "revolutes.urdf"
-    revolutes.write_text(_as_revolutes(path.read_bytes().rstrip(b"\0").decode()))
+    revolutes.write_bytes(balls_as_revolutes(path.read_bytes().rstrip(b"\0")))
     reference = _yourdfpy(revolutes)
     q = np.random.default_rng(11).uniform(sk.lower, sk.upper, (poses, sk.n_dofs))
     kin = deik.forward_kinematics(sk, q)
-    names = [name.replace(".", "_").replace("rotation", "") for name in sk.dof_names]
     for pose, R, p in zip(q, kin.R_world_frame, kin.p_world_frame):
-        reference.update_cfg(dict(zip(names, pose)))
+        reference.update_cfg(dict(zip(sk.dof_names, pose)))
         for link in sk.frame_names:
             T = reference.get_transform(link, reference.base_link)
             np.testing.assert_allclose(p[sk.frame_index(link)], T[:3, 3], atol=1e-9, err_msg=link)
