@@ -202,6 +202,27 @@ def test_ball_joints_are_three_rotations_z_x_y(tmp_path):
     assert read_velocity_limits(path) == {name: 2.0 for name in axes[:3]}
 
 
+def test_a_robot_held_free_by_a_floating_joint_stands_on_the_link_it_frees(tmp_path):
+    """world --floating--> pelvis: read from the pelvis, as with --base pelvis; a floating joint
+    anywhere else is refused naming the --base that reads past it."""
+    free = BUILT.replace(
+        '<link name="base">',
+        '<link name="world"/><joint name="free" type="floating"><parent link="world"/><child link="base"/>'
+        '<origin xyz="1 2 3"/></joint><link name="base">',
+    )
+    path, fixed = tmp_path / "free.urdf", tmp_path / "fixed.urdf"
+    path.write_text(free)
+    fixed.write_text(BUILT)
+    sk, reference = read_urdf(path), read_urdf(fixed)
+    assert sk.joint_names == reference.joint_names and sk.dof_names == reference.dof_names
+    q = np.random.default_rng(2).uniform(sk.lower, sk.upper, (5, sk.n_dofs))
+    np.testing.assert_allclose(
+        deik.forward_kinematics(sk, q).p_world_frame, deik.forward_kinematics(reference, q).p_world_frame
+    )
+    with pytest.raises(FileFormatError, match=r"joint 'free': a floating joint frees the robot's base.*--base base"):
+        read_urdf(path, base="world")
+
+
 def test_the_pybullet_source_of_the_shared_clips_reads_with_its_balls(shared_data, tmp_path):
     """The DeepMimic humanoid (eight ball joints), its trailing NUL byte as pybullet ships it."""
     source = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"
@@ -226,9 +247,12 @@ BAD_FILES = {
     "truncated": (_robot(GOOD_JOINT)[:-20], r"bad\.urdf:\d+: not well-formed XML"),
     "not a robot": ('<?xml version="1.0"?>\n<scene/>\n', r"bad\.urdf:2: the top element is <scene>"),
     "unknown type": (_robot(GOOD_JOINT.replace("revolute", "ball")), r"bad\.urdf:4: joint 'j': joint type 'ball'"),
-    "floating": (
-        _robot(GOOD_JOINT.replace("revolute", "floating")),
-        r"joint 'j': a floating joint frees the robot's base.*--base b ",
+    "floating below the root": (
+        _robot(
+            GOOD_JOINT + '<joint name="k" type="floating"><parent link="b"/><child link="c"/></joint>',
+            '<link name="a"/><link name="b"/><link name="c"/>',
+        ),
+        r"bad\.urdf:5: joint 'k': a floating joint frees the robot's base.*--base c ",
     ),
     "planar": (_robot(GOOD_JOINT.replace("revolute", "planar")), r"joint 'j': joint type 'planar' is not supported"),
     "ball with a cone": (

@@ -2,7 +2,9 @@
 
 Links become frames. A link reached through a moving joint (revolute, continuous, prismatic,
 or one that mimics another) is a skeleton joint named after the link, with one DOF named after
-the URDF joint; the base link is the root joint, fixed in the world. A spherical joint (a ball,
+the URDF joint; the base link is the root joint, fixed in the world (by default the root link,
+or its one child where a floating joint joins them: a `world` link holding the robot free, the
+freedom `deik retarget` gives any robot with its floating root). A spherical joint (a ball,
 as pybullet writes one) is three rotations about the frame's Z, X and Y axes in that order (the
 BVH order, R = Rz Rx Ry; its DOFs JOINT.Zrotation, JOINT.Xrotation, JOINT.Yrotation), each over
 a whole turn; its `<limit>`, a cone in pybullet, bounds no angle of them, and is refused. A link
@@ -63,7 +65,7 @@ def read_urdf(
     links = [read_link(element, source) for element in root.iterchildren("link")]
     joints = [read_joint(element, source) for element in root.iterchildren("joint")]
     tree = LinkTree(links, joints, source)
-    selected = tree.select(base, tip)
+    selected = tree.select(_below_a_floating_root(tree) if base is None else base, tip)
     for name in selected[1:]:
         _check_joint(tree, tree.joint_of[name])
     try:
@@ -87,6 +89,15 @@ def _dof_names(joint: UrdfJoint) -> tuple[str, ...]:
     if joint.type == "spherical":
         return tuple(f"{joint.name}.{axis}rotation" for axis in SPHERICAL)
     return (joint.name,)
+
+
+def _below_a_floating_root(tree: LinkTree) -> str | None:
+    """The root link's one child when a floating joint joins them (a `world` link holding the
+    robot free, as simulators write it): the base deik fixes in the world; else None (the root)."""
+    children = tree.children[tree.root]
+    if len(children) == 1 and tree.joint_of[children[0]].type == "floating":
+        return children[0]
+    return None
 
 
 def _check_joint(tree: LinkTree, joint: UrdfJoint) -> None:
