@@ -101,5 +101,20 @@ def test_goal_names_follow_the_goals_clip_problem_poses():
 def test_the_length_unit_is_guessed_from_the_size_and_checked():
     assert guess_unit(stage(FOOT).skeleton) == "m"
     assert guess_unit(stage(FOOT, 100.0).skeleton) == "cm"
-    with pytest.raises(ValueError, match="unknown length unit 'ft'; use one of m, cm, mm, in"):
+    with pytest.raises(ValueError, match="unknown length unit 'ft'; use one of m, cm, mm, in, cmu"):
         metres_per_unit("ft")
+
+
+@pytest.mark.parametrize("unit", ["m", "cmu", "cm", "mm"])
+@pytest.mark.parametrize("stature", [1.1, 1.75, 2.1])
+def test_a_person_from_a_child_to_a_tall_adult_is_read_in_the_unit_they_were_written_in(unit, stature):
+    """The built-in humanoid (1.75 m) made `stature` tall and written in `unit`, "cmu" the CMU
+    database's 1/0.45 inch: the guess takes it back to its unit."""
+    import dataclasses
+
+    import deik
+
+    h = deik.humanoid()
+    scale = stature / 1.75 / metres_per_unit(unit)
+    person = dataclasses.replace(h, offsets=h.offsets * scale, site_offset=h.site_offset * scale)
+    assert guess_unit(person) == unit

@@ -1,6 +1,8 @@
 """What pictures mark: the tree's bones, root and tips, the labels kept apart, the length unit,
 and the goals' target points, checked against the skeletons' own definitions."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -57,6 +59,10 @@ def test_length_units_by_source():
     assert length_unit(robot_arm())[0] == "length units"
     assert length_unit(deik.humanoid(), "bvh")[0] == "m"  # 1.75 m tall: guessed as metres
     assert length_unit(deik.humanoid(), "bvh", given="cm") == ("cm", "given")
+    h, scale = deik.humanoid(), 0.45 / 0.0254  # metres to the CMU database's unit
+    cmu = dataclasses.replace(h, offsets=h.offsets * scale, site_offset=h.site_offset * scale)
+    unit, source = length_unit(cmu, "bvh")
+    assert unit == "cmu" and "the CMU database's 1/0.45 inch" in source
 
 
 def test_goal_targets_are_the_goals_points():

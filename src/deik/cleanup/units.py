@@ -4,8 +4,12 @@ the body's own (cleanup/body.py).
 
 A person spans about 2 m from one end of the body to another (cleanup/body.py, `span`; about
 1 m from the root to the farthest joint or end site, skeleton `span` below): a body spanning
-under 20 units is read as metres, under 2000 as centimetres, else as millimetres (inches, 80
-units for a person, read as centimetres: give them).
+under 8 units (a person is 1.7-3.4 by either measure of span) is read as metres; under 70 as
+"cmu", the unit of the CMU motion-capture database's BVH files (its skeletons are measured in
+1/0.45 inch, 5.644 cm, and a person spans 30-60 of them: read as centimetres, a 39-unit walk was
+a 39 cm doll whose gravity, in its units, was 5.6 times too strong); under 1000 as centimetres
+(a body up to 10 m), else as millimetres (a child of 1.1 m spans 1,760 of them). Inches, 100
+units for a person, are read as centimetres: give them.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import numpy as np
 from deik.errors import InputError
 from deik.model.skeleton import Skeleton
 
-METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "cmu": 0.0254 / 0.45}
 
 
 def span(skeleton: Skeleton) -> float:
@@ -28,12 +32,12 @@ def span(skeleton: Skeleton) -> float:
 
 
 def unit_of_span(size: float) -> str:
-    """The unit "m", "cm" or "mm" of a body spanning `size` units from end to end (module notes)."""
-    return "m" if size < 20 else "cm" if size < 2000 else "mm"
+    """The unit "m", "cmu", "cm" or "mm" of a body spanning `size` units from end to end (module notes)."""
+    return "m" if size < 8 else "cmu" if size < 70 else "cm" if size < 1000 else "mm"
 
 
 def guess_unit(skeleton: Skeleton) -> str:
-    """The unit "m", "cm" or "mm" of `skeleton` by its span from the root (twice that from end
+    """The unit "m", "cmu", "cm" or "mm" of `skeleton` by its span from the root (twice that from end
     to end; module notes)."""
     return unit_of_span(2.0 * span(skeleton))
 

@@ -118,7 +118,8 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
     in Python). URDF lengths are metres, unless the robot spans URDF_METRES_AT_MOST units or more
     from end to end, as one written in centimetres or millimetres does (a CAD export): then, as
     for a BVH file, which does not say, the unit is read from the body's size (a person some 1.7
-    units tall is in metres, 170 in centimetres: deik.cleanup.units.guess_unit) and said so.
+    units tall is in metres, 30 in the CMU database's unit, 170 in centimetres:
+    deik.cleanup.units.guess_unit) and said so.
     The built-in humanoid is in metres; the paper's chains count link lengths; any other
     skeleton's unit is its own ("length units")."""
     from deik.cleanup.units import guess_unit, span
@@ -131,7 +132,9 @@ def length_unit(skeleton: Skeleton, kind: str | None = None, given: str | None =
             return "m", "URDF"
         return guess_unit(skeleton), f"read from the robot's size, {size:.4g} units (a URDF in metres spans less)"
     if kind == "bvh":
-        return guess_unit(skeleton), "read from the body's size (a BVH file does not state its unit)"
+        unit = guess_unit(skeleton)
+        cmu = ", the CMU database's 1/0.45 inch" if unit == "cmu" else ""
+        return unit, f"read from the body's size (a BVH file does not state its unit){cmu}"
     if kind in ("builtin", None) and skeleton.name == "humanoid":
         return "m", "built-in"
     if kind in ("builtin", None) and skeleton.name.startswith("chain"):
