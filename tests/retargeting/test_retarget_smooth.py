@@ -100,6 +100,23 @@ def test_collision_rows_part_a_pair_to_its_side_through_the_other_capsule():
     assert rows[2, 0] == pytest.approx([0.0, 1.0, 0.0])
 
 
+def test_a_pair_passing_to_the_other_side_is_parted_along_its_own_line():
+    """Above, three frames near that cross below off the run's middle, then below: each frame
+    is parted the way it lies (no row pulls a frame back through the other bone), where a pair
+    that leaves to the side it came from is still held to that side."""
+    x, pairs = _crossing(np.array([0.3, 0.05, -0.02, -0.05, -0.08, -0.3]))
+    jac = np.zeros((len(x), 4, 3, 3))
+    jac[:, 2:] = np.eye(3)
+    errors, rows = collision_rows(x, jac, pairs, 0.001)
+    for n in range(1, 5):
+        below = np.sign(x[n, 2, 1] - x[n, 1, 1])  # the second bone's side of the first along y
+        assert errors[n, 0] == pytest.approx(0.2 + 0.001 - abs(x[n, 2, 1]))
+        assert rows[n, 0] == pytest.approx([0.0, below, 0.0])
+    x, pairs = _crossing(np.array([0.3, 0.05, -0.02, -0.05, 0.3]))  # back above: held above throughout
+    errors, rows = collision_rows(x, jac[:5], pairs, 0.001)
+    assert errors[3, 0] == pytest.approx(0.2 + 0.001 + 0.05) and rows[3, 0] == pytest.approx([0.0, 1.0, 0.0])
+
+
 def test_penetration_depths_match_points_sampled_along_the_bones():
     h = deik.humanoid()
     rng = np.random.default_rng(3)

@@ -107,7 +107,13 @@ def approach_sides(normal: np.ndarray, near: np.ndarray) -> np.ndarray:
     """(N, P, 3) for each run of frames a pair is `near` (N, P) in, the parting direction
     `normal` (N, P, 3) of the frame before the run over its first half and of the frame after
     it over its second (either where the run reaches the clip's end; zero where both do, and
-    outside the runs): the sides the pair came from and goes to."""
+    outside the runs): the sides the pair came from and goes to. A pair that goes to the other
+    side from the one it came from (the two directions more than a right angle apart: a
+    sprinter's swing shin passing the standing one) gets no side (zero): it is parted along its
+    closest points' line as it lies in each frame, and so passes round. Held to the side it came
+    from over half the run and to the other over the rest, it could not pass, and jumped there
+    at the run's middle: a CMU sprint onto `human.urdf` put its swing foot 0.4 m from its
+    target in one frame and moved its knee at 3.9 times the source's top speed."""
     N = len(normal)
     out = np.zeros(normal.shape)
     for k in np.flatnonzero(near.any(axis=0)):
@@ -115,9 +121,13 @@ def approach_sides(normal: np.ndarray, near: np.ndarray) -> np.ndarray:
             before, after = (first - 1 if first > 0 else None), (stop if stop < N else None)
             if before is None and after is None:
                 continue
+            came = normal[before if before is not None else after, k]
+            goes = normal[after if after is not None else before, k]
+            if came @ goes < 0.0:
+                continue
             middle = (first + stop) // 2
-            out[first:middle, k] = normal[before if before is not None else after, k]
-            out[middle:stop, k] = normal[after if after is not None else before, k]
+            out[first:middle, k] = came
+            out[middle:stop, k] = goes
     return out
 
 
