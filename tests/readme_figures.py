@@ -417,6 +417,7 @@ FIGURES += tuple(
 # Numbers beside a command that are not measurements: {pattern: why}. Every number a pattern's
 # match covers counts as explained.
 SETTINGS = {
+    r"the CMU database's 1/0\.45 inch": "the CMU database's length unit (deik.cleanup.units.METRES)",
     r"cases still slide more than 5 mm a frame": "the noise_draws benchmark's count of large slides "
     "(benchmarks/noise_draws.py)",
     r"accelerate past 1\.1 times its own peak in the capture \(within 2 s of that frame\)": "the calm stage's "
