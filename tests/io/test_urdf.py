@@ -223,6 +223,23 @@ def test_a_robot_held_free_by_a_floating_joint_stands_on_the_link_it_frees(tmp_p
         read_urdf(path, base="world")
 
 
+def test_a_revolute_joint_limited_at_1e16_turns_freely(tmp_path):
+    """Gazebo's SDF exports write +-1e16 for a joint that turns freely: continuous, [-pi, pi], and
+    placed as yourdfpy places it; a prismatic joint so limited is still refused."""
+    path = tmp_path / "rotor.urdf"
+    path.write_text(_robot(GOOD_JOINT.replace('lower="-1" upper="1"', 'lower="-1e+16" upper="1e+16"')))
+    sk = read_urdf(path)
+    assert sk.lower[0] == -np.pi and sk.upper[0] == np.pi and sk.full_turns[0]
+    reference = _yourdfpy(path)
+    for q in np.random.default_rng(5).uniform(-np.pi, np.pi, 6):
+        reference.update_cfg({"j": q})
+        T = reference.get_transform("b", reference.base_link)
+        np.testing.assert_allclose(deik.forward_kinematics(sk, [q]).rotation("b"), T[:3, :3], atol=1e-12)
+    path.write_text(path.read_text().replace("revolute", "prismatic"))
+    with pytest.raises(FileFormatError, match=r"beyond \+-1e\+06"):
+        read_urdf(path)
+
+
 def test_the_pybullet_source_of_the_shared_clips_reads_with_its_balls(shared_data, tmp_path):
     """The DeepMimic humanoid (eight ball joints), its trailing NUL byte as pybullet ships it."""
     source = shared_data / "humanoid" / "humanoid_deepmimic_source.urdf"

@@ -12,7 +12,9 @@ reached through a
 fixed joint is merged into its nearest moving ancestor and kept as a `Site` (tool frames such as
 `panda_hand_tcp`), so fixed joints cost the kernels nothing. Inertial masses become segments
 at their inertial origins. Continuous joints get [-pi, pi], which covers every angle; mimic
-joints follow their source and their own limits are not enforced. Geometry (`<visual>`,
+joints follow their source and their own limits are not enforced; a revolute joint whose limits
+lie beyond +-1e6 radians over more than a whole turn (Gazebo's SDF exports write +-1e16 for a
+joint that turns freely) is continuous too. Geometry (`<visual>`,
 `<collision>`) is never read, so no mesh is loaded. Every value of the file is checked
 (`urdf_elements`); the joint types and limits only on the selected links, so an unsupported
 joint elsewhere in the robot does not matter. Units are the file's: metres, kilograms, radians.
@@ -37,7 +39,7 @@ from deik.model.geometry import unit_up
 from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
 from deik.model.orientations import rpy_matrix
 from deik.model.rotations import AXES
-from deik.model.skeleton import Skeleton
+from deik.model.skeleton import MAX_LIMIT, Skeleton
 from deik.suggest import did_you_mean
 
 MOVING = {"revolute": ROTATE, "continuous": ROTATE, "prismatic": TRANSLATE}
@@ -149,6 +151,15 @@ def _dofs(joint: UrdfJoint) -> tuple[Dof, ...]:
     return (_dof(joint),)
 
 
+def _turns_freely(joint: UrdfJoint) -> bool:
+    """Whether revolute `joint`'s limits lie beyond +-MAX_LIMIT radians, over more than a whole
+    turn: how Gazebo's SDF exports write a joint that turns freely (+-1e16), which is continuous."""
+    if joint.type != "revolute":
+        return False
+    bound = max(abs(joint.lower), abs(joint.upper))
+    return bound > MAX_LIMIT and joint.upper - joint.lower >= 2 * math.pi
+
+
 def _dof(joint: UrdfJoint) -> Dof:
     kind = MOVING[joint.type]
     axis = tuple(joint.axis / np.linalg.norm(joint.axis))
@@ -160,7 +171,7 @@ def _dof(joint: UrdfJoint) -> Dof:
             label=joint.type,
             mimic=(joint.mimic.joint, joint.mimic.multiplier, joint.mimic.offset),
         )
-    if joint.type == "continuous":
+    if joint.type == "continuous" or _turns_freely(joint):
         return Dof(kind, axis, -math.pi, math.pi, 0.0, joint.type, joint.name)
     reference = min(max(0.0, joint.lower), joint.upper)
     return Dof(kind, axis, joint.lower, joint.upper, reference, joint.type, joint.name)
