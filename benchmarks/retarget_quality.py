@@ -12,7 +12,7 @@ channels on every joint, other joint names, 30 fps), the walk, run and kick at 1
 capture noise (judging/cases.py's `_120fps_noisy`, judged against the clip without the noise),
 and the walk and kick with that noise at 30 fps (its `_noisy`, judged so);
 robots made from human.urdf (another joint order, continuous shoulders and elbows, velocity
-limits halved). Writes retarget_quality.json
+limits halved, standing on +Z). Writes retarget_quality.json
 and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
 deik's own summary; --quick runs the walk alone.
 """
@@ -52,6 +52,7 @@ from judging.rigs import format_rig
 
 ROOT = Path(__file__).resolve().parents[1]
 HUMAN_URDF = shared_data("robots", "human.urdf")
+Z_UP_BASE = "z_up_base"  # the root robot_case "z_up" adds
 URDF_MAP = ROOT / "examples" / "maps" / "shared_bvh_to_human_urdf.toml"
 
 
@@ -149,8 +150,8 @@ def studio_map(joint_map: dict) -> dict:
 
 def robot_case(urdf_text: str, case: str) -> str:
     """human.urdf's text made harder: "reordered" (its joints in reverse file order: another
-    DOF order), "continuous" (shoulders' first and elbows' second joints continuous) or
-    "slow" (every velocity limit halved)."""
+    DOF order), "continuous" (shoulders' first and elbows' second joints continuous), "slow"
+    (every velocity limit halved) or "z_up" (standing on +Z, as most robots are modelled)."""
     joints = re.findall(r"<joint\b.*?</joint>", urdf_text, flags=re.S)
     if case == "reordered":
         body = urdf_text
@@ -168,7 +169,21 @@ def robot_case(urdf_text: str, case: str) -> str:
         return out
     if case == "slow":
         return re.sub(r'velocity="([^"]+)"', lambda m: f'velocity="{float(m[1]) / 2:g}"', urdf_text)
+    if case == "z_up":  # its root link under a new one, turned a quarter about X: it stands on +Z
+        root = tomllib.loads(URDF_MAP.read_text())["pelvis"]["target"]
+        stand = (
+            f'<link name="{Z_UP_BASE}"/><joint name="z_up" type="fixed"><parent link="{Z_UP_BASE}"/>'
+            f'<child link="{root}"/><origin rpy="{np.pi / 2!r} 0 0"/></joint>'
+        )
+        return urdf_text.replace("</robot>", stand + "\n</robot>")
     raise ValueError(f"unknown case {case!r}")
+
+
+def z_up_map(joint_map: dict) -> dict:
+    """`joint_map` (human.urdf's) for the robot of robot_case "z_up": up +Z, the source's +Y
+    turned onto it (its X kept), the pelvis on the new root."""
+    pelvis = {**joint_map["pelvis"], "target": Z_UP_BASE}
+    return {**joint_map, "up": [0, 0, 1], "rotation": [[1, 0, 0], [0, 0, -1], [0, 1, 0]], "pelvis": pelvis}
 
 
 def toml_text(joint_map: dict) -> str:
@@ -249,7 +264,7 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     runs = [{"clip": name, "case": "as captured", "target": "human.urdf"} for name in by_name]
     runs += [{"clip": name, "case": "as captured", "target": "same rig, scaled"} for name in by_name]
     hard = {"backwards": "crawl", "sped_up": "kick", "long_legs": "walk", "noisy": "punch", "studio": "walk"}
-    hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump"}
+    hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump", "z_up": "crawl"}
     runs += [{"clip": clip, "case": case, "target": "human.urdf"} for case, clip in hard.items()]
     runs += [{"clip": clip, "case": "120fps_noisy", "target": "human.urdf"} for clip in ("walk", "run", "kick")]
     runs += [{"clip": clip, "case": "30fps_noisy", "target": "human.urdf"} for clip in ("walk", "kick")]
@@ -284,8 +299,12 @@ def retarget_case(spec: dict, clips: dict, folder: Path) -> dict:
     if spec["target"] == "same rig, scaled":
         return onto_rig(source_path, folder)
     if ", " in spec["target"]:
-        robot_path = folder / f"human_{spec['target'].split(', ')[1]}.urdf"
-        robot_path.write_text(robot_case(HUMAN_URDF.read_text(), spec["target"].split(", ")[1]))
+        robot = spec["target"].split(", ")[1]
+        robot_path = folder / f"human_{robot}.urdf"
+        robot_path.write_text(robot_case(HUMAN_URDF.read_text(), robot))
+        if robot == "z_up":
+            map_path = folder / "z_up_map.toml"
+            map_path.write_text(toml_text(z_up_map(tomllib.loads(URDF_MAP.read_text()))))
     return onto_robot(source_path, robot_path, map_path, folder, wrists)
 
 

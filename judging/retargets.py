@@ -1,7 +1,8 @@
 """The independent judge of retargets (benchmarks/retarget_quality.py runs it, tests/retargeting
 calls it): nothing here uses deik's report code, its forward kinematics or its contact detection.
 
-Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, the floating
+Robots are read by yourdfpy (the tests' extra) and posed by its own transforms, turned so that the
+map's up (default +Y) is +Y, along which every height here is read, the floating
 root (ROOT.X/Y/Zposition, ROOT.Z/X/Yrotation, intrinsic, in the root link's axes) applied on top;
 a ball joint (pybullet's `spherical`, which yourdfpy does not read) as the three continuous
 joints JOINT.Zrotation, JOINT.Xrotation, JOINT.Yrotation that docs/formats.md says it is, its
@@ -335,11 +336,12 @@ def robot_pairing(robot: Robot, csv_path: Path, joint_map: dict) -> tuple[Pairin
         return np.einsum("nij,j->ni", transforms[target], np.append(offset, 1.0))[:, :3]
 
     points = [(source, *_map_point(value)) for source, value in joint_map["points"].items()]
-    target = np.stack([place(links, t, o) for _, t, o in points], axis=1)
-    rest = np.stack([place(rest_links, t, o)[0] for _, t, o in points])
-    origins = np.stack([links[link][:, :3, 3] for link in robot.urdf.link_map], axis=1)
-    rest_origins = np.stack([rest_links[link][0, :3, 3] for link in robot.urdf.link_map])
-    rotation = np.array(joint_map.get("rotation", np.eye(3)), float)
+    upright = _upright(joint_map.get("up", [0.0, 1.0, 0.0]))
+    target = np.stack([place(links, t, o) for _, t, o in points], axis=1) @ upright.T
+    rest = np.stack([place(rest_links, t, o)[0] for _, t, o in points]) @ upright.T
+    origins = np.stack([links[link][:, :3, 3] for link in robot.urdf.link_map], axis=1) @ upright.T
+    rest_origins = np.stack([rest_links[link][0, :3, 3] for link in robot.urdf.link_map]) @ upright.T
+    rotation = upright @ np.array(joint_map.get("rotation", np.eye(3)), float)
     pairing = Pairing(
         source=[p[0] for p in points],
         target=target,
@@ -351,6 +353,15 @@ def robot_pairing(robot: Robot, csv_path: Path, joint_map: dict) -> tuple[Pairin
         rotation=rotation,
     )
     return pairing, names, values, float(np.median(np.diff(times))) if len(times) > 1 else 1.0
+
+
+def _upright(up) -> np.ndarray:
+    """(3, 3) the shortest turn taking the target's `up` (the map's, default +Y) onto +Y, the up
+    every measure here reads heights along (a robot standing on +Z is turned about X)."""
+    up = np.asarray(up, float) / np.linalg.norm(up)
+    if up @ [0.0, 1.0, 0.0] < -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])
+    return Rotation.align_vectors([[0.0, 1.0, 0.0]], [up])[0].as_matrix()
 
 
 def _map_point(value) -> tuple[str, np.ndarray]:

@@ -179,6 +179,24 @@ def test_robots_with_another_joint_order_and_continuous_joints(tmp_path):
 
 
 @pytest.mark.shared_data
+def test_a_robot_standing_on_z_retargets_as_the_same_robot_on_y(tmp_path):
+    """human.urdf stood on +Z (a root turned a quarter about X, as most robots are modelled) and
+    its map saying so: the crawl's hands and knees rest and are held, judged along +Z, with key
+    points as near as on the robot standing on +Y."""
+    source = _cut(shared_path("humanoid", "humanoid3d_crawl.bvh"), (60, 120), tmp_path)
+    robot, joint_map = tmp_path / "human_z_up.urdf", tmp_path / "z_up.toml"
+    robot.write_text(quality.robot_case(shared_path("robots", "human.urdf").read_text(), "z_up"))
+    joint_map.write_text(quality.toml_text(quality.z_up_map(tomllib.loads(URDF_MAP.read_text()))))
+    (tmp_path / "y").mkdir(), (tmp_path / "z").mkdir()
+    upright = _onto_robot(source, shared_path("robots", "human.urdf"), URDF_MAP, tmp_path / "y")[0]
+    standing = _onto_robot(source, robot, joint_map, tmp_path / "z")[0]
+    _assert_playable(standing)
+    assert {"LeftKnee", "RightKnee"} & set(standing["resting_points"])
+    assert standing["resting_points"] == upright["resting_points"]
+    assert standing["keypoint_error_mean_mm"] == pytest.approx(upright["keypoint_error_mean_mm"], abs=1.0)
+
+
+@pytest.mark.shared_data
 @pytest.mark.parametrize("clip,frames", [("crawl", (60, 120)), ("dance_a", (0, 60))])
 def test_a_robot_of_ball_joints_four_times_as_tall(tmp_path, clip, frames):
     """The model the shared clips were captured for, pybullet's DeepMimic humanoid: eight ball
