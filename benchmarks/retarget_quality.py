@@ -3,6 +3,7 @@ clip and hard cases made from them, onto human.urdf (and robots made from it) an
 rig with other proportions.
 
     python -m benchmarks.retarget_quality [--quick] [--clips DIR] [--out DIR] [--only TEXT]
+    python -m benchmarks.retarget_quality --robot ROBOT.urdf --map MAP.toml --out DIR   # any robot
 
 Each case is retargeted through the command line (`deik retarget`) and judged from the files it
 wrote (the trajectory CSV, the BVH). Hard cases (source_case, robot_case): a clip played
@@ -14,7 +15,8 @@ and the walk and kick with that noise at 30 fps (its `_noisy`, judged so);
 robots made from human.urdf (another joint order, continuous shoulders and elbows, velocity
 limits halved, standing on +Z). Writes retarget_quality.json
 and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
-deik's own summary; --quick runs the walk alone.
+deik's own summary; --quick runs the walk alone. With --robot and --map, every clip as captured
+onto that robot instead (a robot standing on +Z says so in its map's `up`).
 """
 
 from __future__ import annotations
@@ -341,12 +343,19 @@ def main(argv: list[str] | None = None) -> dict:
     p = parser(__doc__)
     p.add_argument("--clips", type=Path, help="folder of clips (default the shared ones)")
     p.add_argument("--only", help="run only the plan entries whose clip, case or target contains this text")
+    p.add_argument("--robot", type=Path, help="instead of the plan, every clip as captured onto this URDF (with --map)")
+    p.add_argument("--map", type=Path, help="the joint map from the clips' rig onto --robot")
     run = start("retarget_quality", p, argv)
     args = run.args
+    if (args.robot is None) != (args.map is None):
+        raise SystemExit("retarget_quality: give --robot FILE.urdf and --map MAP.toml together")
     args.clips = args.clips or need("humanoid")
     need("robots", "human.urdf")
     clips = {c.stem.removeprefix("humanoid3d_"): c for c in sorted(args.clips.glob("*.bvh"))}
     specs = plan(list(clips.values()), args.quick)
+    if args.robot:
+        specs = [{"clip": name, "case": "as captured", "target": args.robot.name} for name in clips]
+        specs = specs[:1] if args.quick else specs
     if args.only:
         specs = [s for s in specs if any(args.only in s[k] for k in ("clip", "case", "target"))]
     rows = []
@@ -355,7 +364,10 @@ def main(argv: list[str] | None = None) -> dict:
             folder = Path(tmp) / f"{spec['clip']}_{len(rows)}"
             folder.mkdir()
             try:
-                row = {**spec, **retarget_case(spec, clips, folder)}
+                if args.robot:
+                    row = {**spec, **onto_robot(clips[spec["clip"]], args.robot, args.map, folder, WRISTS)}
+                else:
+                    row = {**spec, **retarget_case(spec, clips, folder)}
             except Exception as error:  # a failed run is a row of the table, not the end of the benchmark
                 row = {**spec, "failed": f"{type(error).__name__}: {error}"}
             rows.append(row)
