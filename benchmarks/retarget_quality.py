@@ -349,6 +349,9 @@ def main(argv: list[str] | None = None) -> dict:
     args = run.args
     if (args.robot is None) != (args.map is None):
         raise SystemExit("retarget_quality: give --robot FILE.urdf and --map MAP.toml together")
+    for option, path in (("--robot", args.robot), ("--map", args.map)):
+        if path is not None and not path.is_file():
+            raise SystemExit(f"retarget_quality: {option} {path}: no such file")
     args.clips = args.clips or need("humanoid")
     need("robots", "human.urdf")
     clips = {c.stem.removeprefix("humanoid3d_"): c for c in sorted(args.clips.glob("*.bvh"))}

@@ -25,6 +25,8 @@ def test_a_robot_and_its_map_take_the_clips(tmp_path, capsys):
     )
 
 
-def test_a_robot_without_its_map_is_refused(tmp_path):
+def test_a_robot_without_its_map_or_file_is_refused(tmp_path):
     with pytest.raises(SystemExit, match="give --robot FILE.urdf and --map MAP.toml together"):
         quality.main(["--robot", "robot.urdf", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="--robot robot.urdf: no such file"):
+        quality.main(["--robot", "robot.urdf", "--map", str(quality.URDF_MAP), "--out", str(tmp_path)])
