@@ -8,15 +8,16 @@ rig with other proportions.
 Each case is retargeted through the command line (`deik retarget`) and judged from the files it
 wrote (the trajectory CSV, the BVH). Hard cases (source_case, robot_case): a clip played
 backwards, sped up 2x, with its legs 15 % longer (its feet sink), with noise on every channel,
-and as another rig family (centimetres, a Reference root on the floor above the hips, position
-channels on every joint, other joint names, 30 fps), the walk, run and kick at 120 fps with
-capture noise (judging/cases.py's `_120fps_noisy`, judged against the clip without the noise),
-and the walk and kick with that noise at 30 fps (its `_noisy`, judged so);
-robots made from human.urdf (another joint order, continuous shoulders and elbows, velocity
-limits halved, standing on +Z). Writes retarget_quality.json
-and retarget_quality.md under --out (benchmarks/harness.py), each run's judge figures beside
-deik's own summary; --quick runs the walk alone. With --robot and --map, every clip as captured
-onto that robot instead (a robot standing on +Z says so in its map's `up`).
+with its feet crossing the midline (both hips turned in 8 degrees), and as another rig family
+(centimetres, a Reference root on the floor above the hips, position channels on every joint,
+other joint names, 30 fps), the walk, run and kick at 120 fps with capture noise
+(judging/cases.py's `_120fps_noisy`, judged against the clip without the noise), and the walk
+and kick with that noise at 30 fps (its `_noisy`, judged so); robots made from human.urdf
+(another joint order, continuous shoulders and elbows, velocity limits halved, standing on +Z).
+Writes retarget_quality.json and retarget_quality.md under --out (benchmarks/harness.py), each
+run's judge figures beside deik's own summary; --quick runs the walk alone. With --robot and
+--map, every clip as captured onto that robot instead (a robot standing on +Z says so in its
+map's `up`).
 """
 
 from __future__ import annotations
@@ -76,12 +77,15 @@ STUDIO_NAMES = {  # the shared rig's joints as another studio names them
     "LeftElbow": "lowerarm_l",
 }
 LEG_NODES = ("RightKnee", "RightAnkle", "RightAnkle_end", "LeftKnee", "LeftAnkle", "LeftAnkle_end")
+CROSSING_DEGREES = 8.0  # the feet 3 cm past the midline
 
 
 def source_case(bvh: Bvh, case: str, seed: int = 0) -> Bvh:
     """`bvh` made harder (module notes): "backwards", "sped_up" (every other frame), "long_legs"
     (thighs, shins and feet 15 % longer, the root's path kept: the feet sink), "noisy" (1 degree
-    on every rotation channel, 3 mm on the root's position) or "studio" (studio_rig)."""
+    on every rotation channel, 3 mm on the root's position), "studio" (studio_rig) or
+    "crossing" (both hips turned in by CROSSING_DEGREES about the forward axis: the feet land
+    across the midline, a catwalk's crossing steps, and the legs pass through each other)."""
     if case == "backwards":
         return replace(bvh, frames=bvh.frames[::-1].copy())
     if case == "sped_up":
@@ -100,6 +104,12 @@ def source_case(bvh: Bvh, case: str, seed: int = 0) -> Bvh:
         return replace(bvh, frames=frames)
     if case == "studio":
         return studio_rig(bvh, seed)
+    if case == "crossing":
+        frames = bvh.frames.copy()
+        for hip, inwards in (("RightHip", 1.0), ("LeftHip", -1.0)):  # +X turns the right leg in
+            p = bvh.names.index(hip)
+            frames[:, dict(zip(bvh.channels[p], bvh.columns(p)))["Xrotation"]] += inwards * CROSSING_DEGREES
+        return replace(bvh, frames=frames)
     raise ValueError(f"unknown case {case!r}")
 
 
@@ -266,6 +276,7 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     runs = [{"clip": name, "case": "as captured", "target": "human.urdf"} for name in by_name]
     runs += [{"clip": name, "case": "as captured", "target": "same rig, scaled"} for name in by_name]
     hard = {"backwards": "crawl", "sped_up": "kick", "long_legs": "walk", "noisy": "punch", "studio": "walk"}
+    hard |= {"crossing": "walk"}
     hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump", "z_up": "crawl"}
     runs += [{"clip": clip, "case": case, "target": "human.urdf"} for case, clip in hard.items()]
     runs += [{"clip": clip, "case": "120fps_noisy", "target": "human.urdf"} for clip in ("walk", "run", "kick")]

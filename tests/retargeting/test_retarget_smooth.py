@@ -77,6 +77,16 @@ def test_a_lasting_deep_overlap_is_parted_to_one_side():
     assert (sides[:2] == 0).all() and (sides[10:] == 0).all()
 
 
+def test_a_lasting_overlap_that_passes_through_gets_no_side():
+    """Above before it, below after it, six frames close: no side, so each frame is parted the
+    way it lies (collision_rows); the same run coming back above keeps one side."""
+    x, pairs = _crossing(np.array([0.3, 0.3, 0.05, 0.02, 0.01, -0.01, -0.02, -0.05, -0.3, -0.3]))
+    assert (parting_sides(x, pairs, 0.001, shortest=4) == 0).all()
+    x, pairs = _crossing(np.array([0.3, 0.3, 0.05, 0.02, 0.01, -0.01, -0.02, -0.05, 0.3, 0.3]))
+    sides = parting_sides(x, pairs, 0.001, shortest=4)[:, 0]
+    assert (np.abs(sides[2:8, 1]) > 0.9).all() and (np.sign(sides[2:8, 1]) == np.sign(sides[2, 1])).all()
+
+
 def test_collision_rows_part_a_pair_to_its_side_through_the_other_capsule():
     """Where the given side disagrees with the closest points' line, the row asks the pair to
     move the other way by its radii, the margin and the distance it lies on the wrong side; a

@@ -140,7 +140,11 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
     SIDE_FRAMES frames either side (_averaged). Deep in a lasting overlap the closest points'
     line flips from frame to frame: a hand 10 cm inside a shin for some 0.3 s in the per-frame
     IK (the get-up from lying face up onto human.urdf) was parted one way in some frames and
-    the other way in the next, and flicked between them at 12 m/s."""
+    the other way in the next, and flicked between them at 12 m/s. A run whose frames before and
+    after it part the pair opposite ways passes through (a walk's swing shin crossing the
+    standing one where the feet cross the midline) and gets no side, as approach_sides gives
+    none: held to the side of its farthest-apart frame, the swing foot of the shared walk with
+    both hips turned in 8 degrees jumped 0.6 m to the far side of the other in one frame."""
     _, _, gap, distance = pairs.closest(x)
     near = distance < pairs.reach + 2 * margin
     normal = _normals(pairs, x, gap, distance, near.any(axis=0))
@@ -148,6 +152,8 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
     for k in np.flatnonzero(near.any(axis=0)):
         for first, stop in true_runs(near[:, k]):
             if stop - first < shortest:
+                continue
+            if 0 < first and stop < len(x) and normal[first - 1, k] @ normal[stop, k] < 0.0:
                 continue
             sides[first:stop, k] = normal[first:stop, k]
             apart = first + int(np.argmax(distance[first:stop, k]))
