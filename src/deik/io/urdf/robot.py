@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -36,9 +36,8 @@ from deik.io.urdf.safe_xml import read_xml
 from deik.io.urdf.tree import LinkTree
 from deik.model.build import build_skeleton
 from deik.model.geometry import unit_up
-from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site
+from deik.model.joints import ROTATE, TRANSLATE, Dof, Joint, Segment, Site, euler
 from deik.model.orientations import rpy_matrix
-from deik.model.rotations import AXES
 from deik.model.skeleton import MAX_LIMIT, Skeleton
 from deik.suggest import did_you_mean
 
@@ -145,8 +144,7 @@ def _dofs(joint: UrdfJoint) -> tuple[Dof, ...]:
     """The DOFs of moving `joint`: one, or three for a ball joint (module notes)."""
     if joint.type == "spherical":
         return tuple(
-            Dof(ROTATE, AXES[axis], -math.pi, math.pi, 0.0, joint.type, name)
-            for axis, name in zip(SPHERICAL, _dof_names(joint))
+            replace(dof, label=joint.type, name=name) for dof, name in zip(euler(SPHERICAL), _dof_names(joint))
         )
     return (_dof(joint),)
 
