@@ -123,7 +123,7 @@ def approach_sides(normal: np.ndarray, near: np.ndarray) -> np.ndarray:
                 continue
             came = normal[before if before is not None else after, k]
             goes = normal[after if after is not None else before, k]
-            if came @ goes < 0.0:
+            if _passes_through(came, goes):
                 continue
             middle = (first + stop) // 2
             out[first:middle, k] = came
@@ -153,7 +153,7 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
         for first, stop in true_runs(near[:, k]):
             if stop - first < shortest:
                 continue
-            if 0 < first and stop < len(x) and normal[first - 1, k] @ normal[stop, k] < 0.0:
+            if 0 < first and stop < len(x) and _passes_through(normal[first - 1, k], normal[stop, k]):
                 continue
             sides[first:stop, k] = normal[first:stop, k]
             apart = first + int(np.argmax(distance[first:stop, k]))
@@ -164,6 +164,13 @@ def parting_sides(x: np.ndarray, pairs: BonePairs, margin: float, shortest: int)
                     sides[n, k] = -sides[n, k]
             sides[first:stop, k] = _averaged(sides[first:stop, k], SIDE_FRAMES)
     return sides
+
+
+def _passes_through(came: np.ndarray, goes: np.ndarray) -> bool:
+    """Whether a pair parted along `came` (3,) before a run of frames close and along `goes` (3,)
+    after it went to the other side (the two more than a right angle apart): such a run gets no
+    side (approach_sides, parting_sides)."""
+    return bool(came @ goes < 0.0)
 
 
 def _averaged(directions: np.ndarray, reach: int) -> np.ndarray:
