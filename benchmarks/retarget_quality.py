@@ -275,8 +275,10 @@ def plan(clips: list[Path], quick: bool) -> list[dict]:
     by_name = {c.stem.removeprefix("humanoid3d_"): c for c in clips}
     runs = [{"clip": name, "case": "as captured", "target": "human.urdf"} for name in by_name]
     runs += [{"clip": name, "case": "as captured", "target": "same rig, scaled"} for name in by_name]
-    hard = {"backwards": "crawl", "sped_up": "kick", "long_legs": "walk", "noisy": "punch", "studio": "walk"}
-    hard |= {"crossing": "walk"}
+    hard = {
+        "backwards": "crawl", "sped_up": "kick", "long_legs": "walk", "noisy": "punch", "studio": "walk",
+        "crossing": "walk",
+    }  # fmt: skip
     hard_robots = {"reordered": "kick", "continuous": "dance_a", "slow": "jump", "z_up": "crawl"}
     runs += [{"clip": clip, "case": case, "target": "human.urdf"} for case, clip in hard.items()]
     runs += [{"clip": clip, "case": "120fps_noisy", "target": "human.urdf"} for clip in ("walk", "run", "kick")]
