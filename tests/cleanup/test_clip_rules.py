@@ -58,17 +58,35 @@ def test_position_channels_below_the_first_translating_joint_keep_the_capture_s_
     assert np.abs(result.frames[:, moved] - case.rig.frames[:, moved]).max() > 0  # the root carries the fix
 
 
-@pytest.mark.parametrize("scale", [1e-3, 100.0])
-def test_a_clip_in_any_unit_is_fixed_to_the_same_angles(scale, tmp_path):
-    """Every size and tolerance follows the body: the walk in millimetres of a metre or in
-    centimetres comes back with the rotation channels it has in metres."""
-    walk = procedural_walk()
+def _scaled(walk, scale: float):
+    """The case `walk` with every length (offsets, sites, position channels) times `scale`."""
     rig = walk.rig
     frames = rig.frames.copy()
     frames[:, [k for k, (_, c) in enumerate(rig.columns) if c.endswith("position")]] *= scale
     sites = tuple((name, j, offset * scale) for name, j, offset in rig.sites)
     rig = dataclasses.replace(rig, offsets=rig.offsets * scale, sites=sites, frames=frames)
-    scaled = dataclasses.replace(walk, rig=rig)
+    return dataclasses.replace(walk, rig=rig)
+
+
+def test_a_walk_in_the_cmu_database_s_unit_is_reported_and_weighed_in_it(tmp_path, monkeypatch):
+    """A person in 1/0.45 inch (a CMU BVH) is read as "cmu": the report's lengths in it, and
+    gravity, for --balance, 9.81 m/s^2 in those units (docs/clips.md, Units)."""
+    import deik.cleanup.clean as clean
+
+    passed = {}
+    goals = clean.ClipGoals
+    monkeypatch.setattr(clean, "ClipGoals", lambda *a, **k: passed.update(k) or goals(*a, **k))
+    report, _ = cleaned(_scaled(procedural_walk(), 0.45 / 0.0254), tmp_path)
+    assert report["length_unit"] == "cmu" and report["metres_per_length_unit"] == pytest.approx(0.0254 / 0.45)
+    assert passed["gravity"] == pytest.approx(9.81 * 0.45 / 0.0254)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 100.0])
+def test_a_clip_in_any_unit_is_fixed_to_the_same_angles(scale, tmp_path):
+    """Every size and tolerance follows the body: the walk in millimetres of a metre or in
+    centimetres comes back with the rotation channels it has in metres."""
+    walk = procedural_walk()
+    scaled = _scaled(walk, scale)
     results = []
     for k, case in enumerate((walk, scaled)):
         folder = tmp_path / str(k)
