@@ -2,8 +2,9 @@
 export; the format says metres): `deik info` names the unit it reads from the robot's size, and
 `deik solve` reports in it and meets a distance within 1 mm by default, where 0.001 length units
 (1 micrometre) left float32 short of converging; checked by deik's float64 forward kinematics
-of the answer against the target, in millimetres. A goal on a link that --tip cut away is named
-as such, with the flag that keeps it."""
+of the answer against the target, in millimetres; a BVH walk in centimetres or the CMU
+database's unit alike. A goal on a link that --tip cut away is named as such, with the flag that
+keeps it."""
 
 import json
 import re
@@ -61,3 +62,26 @@ def test_a_goal_on_a_link_the_tip_cut_away_names_the_flag_that_keeps_it(tmp_path
     err = capsys.readouterr().err.strip()
     expected = f"deik: error: 'tcp' is a link of {path} but not on the chain --tip quill keeps: add --tip tcp"
     assert err.splitlines() == [expected]
+
+
+@pytest.mark.parametrize("scale, unit, tolerance", [(100.0, "cm", 0.1), (0.45 / 0.0254, "cmu", 0.001 * 0.45 / 0.0254)])
+def test_a_bvh_walk_in_centimetres_or_cmu_solves_to_a_millimetre_by_default(tmp_path, capsys, scale, unit, tolerance):
+    """The BVH counterpart (docs/conventions.md, Tolerances): the procedural walk written in
+    centimetres or the CMU database's unit, a hand moved to another frame's place, is met within
+    1 mm in the unit the body's size says, checked by deik's float64 forward kinematics."""
+    from judging.rigs import format_rig
+    from judging.walk import procedural_walk
+    from tests.cleanup.test_clip_rules import _scaled
+
+    path = tmp_path / "walk.bvh"
+    path.write_text(format_rig(_scaled(procedural_walk(), scale).rig))
+    clip = deik.read_bvh(path)
+    target = deik.forward_kinematics(clip.skeleton, clip.pose(12)).position("LeftElbow_end")
+    out = tmp_path / "pose.json"
+    argv = ["solve", str(path), "--frame", "4", "--reach", "LeftElbow_end", *map(str, target), "--seed", "1"]
+    assert main([*argv, "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert re.search(rf"position LeftElbow_end .* {unit} +{tolerance:.6g} {unit} +yes", printed), printed
+    answer = np.array(json.loads(out.read_text())["angles"], float).reshape(-1)
+    reached = deik.forward_kinematics(clip.skeleton, answer).position("LeftElbow_end")
+    assert np.linalg.norm(reached - target) <= tolerance
