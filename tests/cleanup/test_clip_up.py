@@ -22,6 +22,7 @@ from deik.cleanup.body import body_of, on_body
 from deik.cleanup.ground import body_paths, detect_floor
 from deik.cleanup.up_axis import OFF_SUPPORT_GIVEN, floor_it_rests_on, off_support, sunk_share
 from deik.cli import main
+from judging.cases import limbs
 from judging.clips import judge
 from judging.rigs import format_rig, parse_rig, pose_points
 from tests.cleanup.test_clip_any_rig import sunk_walk
@@ -197,6 +198,31 @@ def test_a_walk_played_in_place_at_its_height_is_lifted_onto_the_ground_plane(tm
     figures = judge(walk, in_place, parse_rig(out.read_text()))
     assert figures["depth_capture_mm"] > 10 and figures["depth_mm"] <= 2.0, figures
     assert figures["peak_ratio"] <= 1.1, figures
+
+
+def test_a_body_that_moves_over_the_ground_plane_and_dips_through_it_is_lifted_onto_it(tmp_path, capsys):
+    """Nothing rests (an in-place walk, its left leg 8 % longer and its right 4 % shorter, the
+    judge's limbs case) and the body dips 15 cm in a few frames: the lowest surface of a typical
+    frame lies near the ground plane, its lowest 5 % far under it. The floor is the ground plane
+    (it was that 5th percentile, the body's own dip, and every frame under the plane was met)."""
+    walk = limbs(sunk_walk())
+    rig = walk.rig
+    frames = rig.frames.copy()
+    held = [rig.columns.index((0, f"{a}position")) for a in "XZ"]
+    frames[:, held] = frames[:1, held]
+    t = np.arange(len(frames))
+    frames[:, rig.columns.index((0, "Yposition"))] -= 0.15 * np.exp(-0.5 * ((t - len(t) / 2) / 2.0) ** 2)
+    in_place = dataclasses.replace(rig, frames=frames)
+    path = tmp_path / "dips.bvh"
+    path.write_text(format_rig(in_place))
+    out, json_path = tmp_path / "out.bvh", tmp_path / "out.json"
+    assert main(["clip", str(path), "--out", str(out), "--json", str(json_path), "--quiet"]) == 0
+    record = json.loads(json_path.read_text())
+    assert record["floor"]["how"] == "ground plane, lowest points" and record["floor"]["height"] == 0.0
+    figures = judge(dataclasses.replace(walk, rig=in_place), in_place, parse_rig(out.read_text()))
+    assert figures["depth_capture_mm"] > 100, figures
+    unmet = ~np.array(record["met_per_frame"], bool)
+    assert figures["depth_mm"] <= 2.0 or unmet.any(), figures
 
 
 def test_a_problem_file_gives_a_bvh_its_up(walks, tmp_path):
