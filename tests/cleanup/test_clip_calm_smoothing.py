@@ -7,7 +7,7 @@ import numpy as np
 from deik.cleanup.calm import calm
 from deik.cleanup.dynamics import jolted_frames
 from deik.cleanup.noise import gaussian, smoothed_change
-from deik.cleanup.warm_choice import Tried, smoothed_stretches
+from deik.cleanup.warm_choice import Tried, chosen, smoothed_stretches
 from deik.io.bvh import parse_bvh
 from deik.io.euler import tait_bryan_triples
 from deik.model.kinematics import forward_kinematics
@@ -96,3 +96,19 @@ def test_a_smoothed_stretch_is_kept_where_it_loses_no_goal_and_slides_no_further
     for step, keep in ((2.5, True), (3.5, False)):
         stepping = _tried([1] * 10, [1, 0, 1, 0, 1, 0, 1, 1, 1, 1], [0, step, 1, 1, 0, 0, 0, 0, 0, 0], calmed)
         assert smoothed_stretches(cut, stepping, sliding=1.0)[1] == keep
+
+
+def test_a_try_that_sinks_frames_deep_in_the_floor_is_not_kept_for_more_frames_on_it():
+    """A warm start whose calm took a lift back sinks frames deep in the floor (the shared
+    get-up with bending toes: 25 frames 58 mm under): more frames just on the floor elsewhere
+    do not buy it over a try whose misses lie just under it."""
+    n = 10
+    shallow = _tried([1, 1, 1, 0, 0, 0, 1, 1, 1, 1], [1] * n, [0] * n, [0] * n)
+    deep = _tried([1, 1, 1, 1, 1, 0, 0, 1, 1, 1], [1] * n, [0] * n, [0] * n)
+    sunk = np.zeros(n, bool)
+    sunk[5:7] = True
+    deep = Tried(deep.on_floor, deep.met, deep.calmed, deep.far, deep.slides, sunk=sunk)
+    assert chosen({"shallow": shallow, "deep": deep}) == "shallow"
+    # with nothing deep, the most frames on the floor wins, as before
+    level = Tried(deep.on_floor, deep.met, deep.calmed, deep.far, deep.slides, sunk=np.zeros(n, bool))
+    assert chosen({"shallow": shallow, "level": level}) == "level"

@@ -1,7 +1,8 @@
 """Which warm start a clip fix keeps: warm_tries.calmed_warm_start tries the floor lifted along smooth
-envelopes, lifted with each bone whole, and the plain floor, and keeps the one with the most
-frames on the floor (the highest priority), then the most frames meeting every goal, then the
-fewest taken back (the first tried on a tie); never one that meets fewer frames than another and
+envelopes, lifted with each bone whole, and the plain floor, and keeps the one with the fewest
+frames deep in the floor (its points more than DEEP x the body's span under it in all), then the
+most frames on the floor (the highest priority), then the most frames meeting every goal, then
+the fewest taken back (the first tried on a tie); never one that meets fewer frames than another and
 turns a joint more than FAR_DEGREES from the capture in FAR_SHARE more of the clip's frames. A
 lift that buys frames on the floor by turning the body away from the performance is no fix: with
 one frame of the shared get-up left out (a capture hiccup), lifting each bone whole put 155
@@ -9,6 +10,10 @@ frames on the floor against the plain floor's 146, met 105 frames against 141 an
 past 30 degrees in 46 frames against none, and it was kept (a shoulder 95 degrees off, 92 frames
 met in the end against 117 without the hiccup). A crawl needs its ankles turned far to lift its
 toes out of the floor, in 12 % of its frames, and meets more frames so: that lift is kept.
+A frame just under the floor and one deep in it both miss the floor, but only the second is a
+body sunk through it: counted alike, the shared get-up with bending toes kept a lift whose
+calm took it back in 25 frames, 58 mm under the floor, for one frame more on it than the plain
+floor, whose deepest was 6 mm (docs/decisions.md).
 
 Each try is calmed by cutting its change back and, where that takes something back, by
 smoothing it first (cleanup/calm.py): smoothing keeps a lift that cutting drops, but blurs where
@@ -35,6 +40,7 @@ from deik.cleanup.metrics import joint_angles
 from deik.io.trajectory import Motion
 
 FAR_SHARE = 0.1  # of the frames (module notes)
+DEEP = 0.005  # of the body's span: summed depth under the floor that sinks a frame (1.1 cm on the shared humanoid)
 SLIDE_GROWTH = 2.0  # times the cut calm's furthest step a smoothed stretch may step (module notes)
 
 
@@ -43,8 +49,9 @@ class Tried:
     """How a warm start did in each frame (N,) bool: `on_floor` meeting its floor goals, `met`
     meeting every goal above fidelity with no resting point sliding, `calmed` taken back
     (cleanup/calm.py), `far` turning a joint more than FAR_DEGREES from the capture; `slides`
-    (N,) the longest step of a resting point to or from each frame (length units); and whether
-    it was `smoothed` before cut back (module notes)."""
+    (N,) the longest step of a resting point to or from each frame (length units); whether it
+    was `smoothed` before cut back (module notes); `sunk` (N,) bool the frames deep in the floor
+    (DEEP; None: none)."""
 
     on_floor: np.ndarray
     met: np.ndarray
@@ -52,10 +59,15 @@ class Tried:
     far: np.ndarray
     slides: np.ndarray
     smoothed: bool = False
+    sunk: np.ndarray | None = None
 
     def counts(self) -> tuple[int, int, int, int]:
         """(frames on the floor, met, calmed, far)."""
         return tuple(int(np.sum(frames)) for frames in (self.on_floor, self.met, self.calmed, self.far))
+
+    def sunk_count(self) -> int:
+        """Frames deep in the floor."""
+        return 0 if self.sunk is None else int(np.sum(self.sunk))
 
     def perfect(self) -> bool:
         """Whether no other can do better."""
@@ -95,4 +107,4 @@ def chosen(tries: dict[Hashable, Tried]) -> Hashable:
         for k, (_, met, _, far) in counts.items()
         if not any(o[1] > met and far - o[3] > more for o in counts.values())
     ]
-    return max(kept, key=lambda key: (counts[key][0], counts[key][1], -counts[key][2]))
+    return max(kept, key=lambda key: (-tries[key].sunk_count(), counts[key][0], counts[key][1], -counts[key][2]))

@@ -28,12 +28,14 @@ from deik.cleanup.clip_goals import (
 from deik.cleanup.contacts import Contacts
 from deik.cleanup.dynamics import jolted_frames, widened
 from deik.cleanup.verdict import SLIDING_TOLERANCE, capture_grounding, resting_slides
-from deik.cleanup.warm_choice import Tried, chosen, far_frames, smoothed_stretches
+from deik.cleanup.warm_choice import DEEP, Tried, chosen, far_frames, smoothed_stretches
 from deik.cleanup.warmstart import Lifting, warm_start
 from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
+from deik.objectives.goals import Floor
+from deik.solver.problem import Problem
 
 EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal holds it
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
@@ -83,6 +85,14 @@ def _warm_start(
     return displacement, fixed, balance
 
 
+def floor_depths(problem: Problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) how deep under the floor the body goes in each frame, summed over its points
+    (length units; the Floor goal's error among `errors` (N, T), clip_goals.goal_errors), 0
+    without a floor."""
+    columns = [t for t, goal in enumerate(problem.goals) if isinstance(goal, Floor)]
+    return np.nan_to_num(errors[:, columns]).max(axis=1, initial=0.0)
+
+
 def captured(clip: Motion, goals: ClipGoals) -> Motion:
     """The capture whose peaks a fix of `clip` keeps within: goals.captured (on its body), or the clip."""
     return clip if goals.captured is None else goals.captured
@@ -118,7 +128,8 @@ def calmed_warm_start(clip: Motion, goals: ClipGoals, weights: np.ndarray, movab
         on_floor = frames_within(problem, errors, lambda level: level == FLOOR_LEVEL)
         slides = longest_slides(clip, displacement, rests)
         met &= slides <= SLIDING_TOLERANCE * body.span
-        how = Tried(on_floor, met, taken, far_frames(clip, displacement), slides, smoothed)
+        sunk = floor_depths(problem, errors) > DEEP * body.span
+        how = Tried(on_floor, met, taken, far_frames(clip, displacement), slides, smoothed, sunk)
         return how, (displacement, taken, *warm[1:], None), warm[0]
 
     reference, rests = captured(clip, goals), _rests(clip, goals, body)
