@@ -1,11 +1,15 @@
 """`deik clip IN --out OUT` with no other flags, on clips nobody tuned it for, judged independently.
 
     PYTHONPATH=src python -m benchmarks.clip_targets [--clips walk run ...] [--out benchmarks/results]
+        [--folder DIR] [--transforms limbs fast ...]
 
 Cases (judging/cases.py): every shared humanoid clip as it is, on another rig family
 (centimetres, a root above the hips, six channels on every joint, other joint names, 30 fps) and
 with one more transform each (joints named J00.. at 120 fps, backwards, twice the speed, limbs
-scaled, noise and the body 12 mm under the floor). Each is cleaned by the default command in
+scaled, noise and the body 12 mm under the floor); with --folder, the humanoid3d_*.bvh clips of
+another folder on the same rig (the DeepMimic family: pybullet_data's motions converted), and
+with --transforms, each clip as it is and with each transform named (judging/cases.py,
+TRANSFORMS) instead. Each is cleaned by the default command in
 this process (deik.cli.app.main) and measured by judging/clips.py, which shares no code
 with deik: its own BVH reader and kinematics, the DeepMimic collision shapes as the body, its
 own contact detector, the floor at height 0.
@@ -33,7 +37,7 @@ import numpy as np
 
 from benchmarks.data import need
 from benchmarks.harness import md_table, parser, start
-from judging.cases import cases
+from judging.cases import TRANSFORMS, cases, source_case
 from judging.clips import judge
 from judging.rigs import format_rig, parse_rig
 
@@ -53,6 +57,16 @@ def clean(case, folder: Path) -> tuple[dict, object, float, int]:
     if status != 0 or not out.is_file():
         return {}, None, seconds, status
     return json.loads(report.read_text()), parse_rig(out.read_text(), case.rig.position_mode), seconds, status
+
+
+def chosen_cases(folder: Path, names: list[str] | None, transforms: list[str] | None) -> list:
+    """judging.cases of `folder` (its clips `names`), or with `transforms` each clip as it is and
+    with each of those transforms."""
+    if not transforms:
+        return cases(folder, names)
+    bases = [source_case(path) for path in sorted(folder.glob("humanoid3d_*.bvh"))]
+    bases = [base for base in bases if not names or base.name in names]
+    return [case for base in bases for case in [base] + [TRANSFORMS[name](base) for name in transforms]]
 
 
 def verdicts(row: dict) -> dict:
@@ -136,11 +150,15 @@ def main(argv=None) -> dict:
     """Clean and judge every case; write the JSON and markdown; print the table."""
     p = parser(__doc__)
     p.add_argument("--clips", nargs="+", metavar="NAME", help="shared clips by name (walk, run, ...; default all)")
+    p.add_argument("--folder", type=Path, help="humanoid3d_*.bvh clips of the shared rig elsewhere")
+    p.add_argument("--transforms", nargs="+", choices=sorted(TRANSFORMS), help="each clip as it is and so transformed")
     run = start("clip_targets", p, argv)
-    folder = need("humanoid")
+    folder = run.args.folder or need("humanoid")
+    if not any(folder.glob("humanoid3d_*.bvh")):
+        raise SystemExit(f"--folder {folder}: no humanoid3d_*.bvh clips in it")
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
-        for case in cases(folder, run.args.clips):
+        for case in chosen_cases(folder, run.args.clips, run.args.transforms):
             row = run_case(case, Path(scratch))
             rows.append(row)
             print(f"{case.name}: {row['verdicts']}", flush=True)

@@ -3,8 +3,12 @@ counts its text states are checked with the README's other figures, tests/readme
 
 import json
 
-from benchmarks.clip_targets import readme_table
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from benchmarks.clip_targets import chosen_cases, readme_table
 from helpers import ROOT
+from judging.deepmimic import JOINTS, bvh_text
 
 README = (ROOT / "README.md").read_text()
 RESULTS = json.loads((ROOT / "benchmarks" / "results" / "clip_targets.json").read_text())
@@ -68,3 +72,34 @@ def test_a_clip_on_a_rig_with_twist_bones_measures_as_its_clip():
         for key, within in (("sliding_mm_per_frame", 0.05), ("depth_mm", 0.5), ("travel_m", 0.01)):
             assert abs(cases[name][key] - own[key]) <= within, (name, key)
         assert cases[name]["verdicts"] == own["verdicts"], name
+
+
+def test_transforms_name_each_clip_as_it_is_and_so_transformed(shared_data):
+    """`--transforms limbs fast`: each clip of the folder, then the same clip so transformed, in
+    the folder's order (benchmarks/results/clip_probe: the DeepMimic family's other clips)."""
+    chosen = chosen_cases(shared_data / "humanoid", ["walk", "kick"], ["limbs", "fast"])
+    assert [case.name for case in chosen] == ["kick", "kick_limbs", "kick_fast", "walk", "walk_limbs", "walk_fast"]
+    assert chosen[1].bone_scale["LeftKnee"] != 1.0 and len(chosen[2].rig.frames) < len(chosen[0].rig.frames)
+
+
+def test_a_deepmimic_motion_becomes_the_shared_clip_it_was_made_from(shared_data):
+    """The shared crawl written back as a DeepMimic motion (its Euler channels as quaternions
+    w, x, y, z by SciPy, its knees' and elbows' Z angle in radians) converts to the clip again."""
+    text = (shared_data / "humanoid" / "humanoid3d_crawl.bvh").read_text()
+    hierarchy, motion = text.split("MOTION")
+    lines = motion.strip().splitlines()
+    frame_time, values = float(lines[1].split()[-1]), np.array([line.split() for line in lines[2:]], float)
+    order = [line.split()[1] for line in hierarchy.splitlines() if line.strip().startswith("JOINT")]
+    start = {name: 6 + 3 * k for k, name in enumerate(order)}
+
+    def quaternion(degrees):
+        x, y, z, w = Rotation.from_euler("ZXY", degrees, degrees=True).as_quat().T
+        return np.c_[w, x, y, z]
+
+    parts = [np.full((len(values), 1), frame_time), values[:, :3], quaternion(values[:, 3:6])]
+    for name, count in JOINTS:
+        angles = values[:, start[name] : start[name] + 3]
+        parts.append(quaternion(angles) if count == 4 else np.radians(angles[:, :1]))
+    again = bvh_text({"Frames": np.hstack(parts).tolist()}, hierarchy, order)
+    back = np.array([line.split() for line in again.split("MOTION")[1].strip().splitlines()[2:]], float)
+    np.testing.assert_allclose(back, values, atol=2e-6)
