@@ -125,6 +125,7 @@ def _span(values: list[float]) -> list[float]:
 
 
 TARGETS = "benchmarks/results/clip_targets.json"
+PROBE = "benchmarks/results/clip_probe/clip_targets.json"
 DRAWS = "benchmarks/results/noise_draws.json"
 BALANCE = "deik clip ../shared/data/humanoid/humanoid3d_walk.bvh --balance"
 
@@ -261,6 +262,18 @@ FIGURES = (
             sum(all(case["verdicts"].values()) for case in r["cases"]),
             len(r["cases"]),
         ],
+    ),
+    Figure(
+        r"target holds on all (\d+) cases, sliding on (\d+), depth on (\d+) and the listing of misses on (\d+); "
+        r"(\d+) meet every target \(`benchmarks/results/clip_probe/`\)",
+        PROBE,
+        lambda r: [
+            len(r["cases"]),
+            _met(r, "sliding"),
+            _met(r, "depth"),
+            _met(r, "listed"),
+            sum(all(case["verdicts"].values()) for case in r["cases"]),
+        ],  # fmt: skip
     ),
     Figure(
         r"Each `_digits` case measures as its clip does: its sliding within ([\d.]+) mm a frame of the clip's, "
@@ -445,6 +458,8 @@ SETTINGS = {
     r"The targets: sliding at most 1 mm per frame .*? accelerating past 1\.1x its own capture peak": "issue 27's "
     "targets (benchmarks.clip_targets.TARGETS)",
     r"and every one at 50 fps \(`_50fps`": "the pal transform (judging/cases.py)",
+    r"with bending toes and at 50 fps, the acceleration": "the transforms of the DeepMimic family's run "
+    "(benchmarks/results/clip_probe: --transforms ... toes pal)",
     r"\| case \| sliding mm/frame \| under the floor mm \|.*?\| walk_50fps \|(?: [^|]* \|){5}": "the table of "
     "benchmarks/results/clip_targets.json, checked row for row by tests/benchmarks/test_bench_clip_targets.py",
     r"above the 200 MB we aimed at": "issue 19's target (benchmarks.wheel_install.MAX_MEGABYTES)",
