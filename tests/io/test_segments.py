@@ -14,6 +14,7 @@ import deik
 from deik.errors import FileFormatError
 from deik.io.bvh import parse_bvh, read_bvh
 from deik.io.segments import (
+    BONE_CLASSES,
     NOMINAL_MASS,
     bone_class,
     bone_side,
@@ -271,3 +272,34 @@ def test_a_skeleton_without_bones_puts_all_mass_at_the_root():
     assert clip.skeleton.total_mass == pytest.approx(NOMINAL_MASS)
     assert "no bone has a length" in clip.mass_source
     assert np.isfinite(forward_kinematics(clip.skeleton, clip.frames).p_world_com).all()
+
+
+@pytest.mark.parametrize("hands", [False, True])
+def test_a_forearm_that_ends_at_the_hand_carries_the_hand(hands):
+    """An arm whose forearm bone ends at an End Site for the hand (the shared humanoid's) has the
+    hand's de Leva mass on the forearm, its COM where the two together balance, the hand at the
+    bone's end; with a hand bone each keeps its own."""
+    joints = [Joint("Hips", None, dofs=euler("ZXY")), Joint("Chest", "Hips", (0, 0.5, 0))]
+    sites = []
+    for side, z in (("Left", 0.2), ("Right", -0.2)):
+        joints += [
+            Joint(f"{side}Shoulder", "Chest", (0, 0.0, z)),
+            Joint(f"{side}Elbow", f"{side}Shoulder", (0, -0.3, 0)),
+        ]
+        if hands:
+            joints.append(Joint(f"{side}Hand", f"{side}Elbow", (0, -0.25, 0)))
+            sites.append(Site(f"{side}Hand_end", f"{side}Hand", (0, -0.1, 0)))
+        else:
+            sites.append(Site(f"{side}Elbow_end", f"{side}Elbow", (0, -0.3, 0)))
+    segments, description = estimate_segments(build_skeleton(joints, sites))
+    mass = {s.joint: s.mass for s in segments}
+    forearm, hand, upper = (BONE_CLASSES[c][0] for c in ("forearm", "hand", "upper_arm"))
+    elbow = next(s for s in segments if s.joint == "LeftElbow")
+    if hands:
+        assert mass["LeftElbow"] / mass["LeftShoulder"] == pytest.approx(forearm / upper)
+        assert "on the forearms" not in description
+        return
+    assert mass["LeftElbow"] / mass["LeftShoulder"] == pytest.approx((forearm + hand) / upper)
+    share = (forearm * BONE_CLASSES["forearm"][1] + hand) / (forearm + hand)
+    assert elbow.com_offset == pytest.approx((0, -0.3 * share, 0))
+    assert "the hands' mass on the forearms" in description

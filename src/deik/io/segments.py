@@ -56,6 +56,9 @@ BONE_CLASSES = {
         )
     },
 }
+# A limb bone whose end segment has no bone of its own (a rig whose forearm ends at an End Site
+# for the hand) carries that segment's mass too, at its end.
+ENDS = {"forearm": "hand", "shank": "foot"}
 # First match wins, so "forearm" is tested before "arm" and "upleg" before "leg".
 KEYWORDS = (
     ("hand", ("hand", "wrist", "finger", "thumb")),
@@ -118,8 +121,9 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     carry the body without being part of it (deik.model.capsules.carrier_joints) and twist
     bones riding on a limb (rider_joints) get none. Classified
     bones share de Leva's fraction for their class (per side for limbs) by length, with the
-    COM at de Leva's position along the bone; unclassified bones share the rest by length, COM
-    at mid-bone. Returns (tuple of Segment with positive masses summing to total_mass,
+    COM at de Leva's position along the bone; a forearm or shank whose side has no hand or foot
+    bone carries that end's fraction too, at the bone's end (ENDS); unclassified bones share
+    the rest by length, COM at mid-bone. Returns (tuple of Segment with positive masses summing to total_mass,
     description of what was done).
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
@@ -135,8 +139,16 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
         if cls is not None:
             groups[(cls, bone_side(names[k]) if BONE_CLASSES[cls][2] else "")].append(k)
     share = np.zeros(skeleton.n_joints)
-    for (cls, _), members in groups.items():
-        share[members] = BONE_CLASSES[cls][0] * lengths[members] / lengths[members].sum()
+    along = [BONE_CLASSES[c][1] if c else 0.5 for c in classes]  # COM fraction along each bone
+    for (cls, side), members in groups.items():
+        fraction = BONE_CLASSES[cls][0]
+        end = ENDS.get(cls)
+        if end is not None and (end, side) not in groups:  # the limb's bone ends at its hand or foot
+            held = BONE_CLASSES[end][0]
+            for k in members:  # the end's mass at the bone's end
+                along[k] = (fraction * along[k] + held) / (fraction + held)
+            fraction += held
+        share[members] = fraction * lengths[members] / lengths[members].sum()
     unclassified = [k for k, cls in enumerate(classes) if cls is None and lengths[k] > 0]
     rest = max(1.0 - share.sum(), 0.0)
     if unclassified:
@@ -149,7 +161,6 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
         )
     scale = 1.0 / share.sum()
     share *= scale
-    along = [BONE_CLASSES[c][1] if c else 0.5 for c in classes]  # COM fraction along each bone
     segments = tuple(
         Segment(
             names[k],
@@ -166,6 +177,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     notes = ["estimated from bone lengths with de Leva (1996) mass fractions", f"classified bones: {found}"]
     if missing:
         notes.append(f"no {', '.join(missing)} bones")
+    notes += [f"the {end}s' mass on the {limb}s" for limb, end in ENDS.items() if counts[limb] and not counts[end]]
     if unclassified:
         notes.append(
             f"{len(unclassified)} unclassified bones share the remaining {share[unclassified].sum():.1%} by length"
