@@ -35,7 +35,7 @@ along it, thinner than a limb where it is thickest and than a palm, so two point
   is at least TOP x that bone's radius: a limb tapers, and a frustum whose far end is TAPER
   (0.6: ankle over calf, wrist over forearm girth) of its near end holds the cylinder's volume
   with its near end 1.24 times as thick (a knee 4.7 cm against the shin's 3.8 cm on the shared
-  humanoid, an elbow 3.6 against 2.9);
+  humanoid, an elbow 4.25 against its forearm and hand's 3.43);
 - an end of the body other than a foot (a hand, the head) is at least PALM x the length of the
   bone that ends there: an adult hand is about 4.8 % of stature broad across the knuckles (8-9
   cm at 1.75 m) and the forearm 14.6 % of it long (Drillis & Contini), so half the palm is
