@@ -37,7 +37,7 @@ import numpy as np
 
 from benchmarks.data import need
 from benchmarks.harness import md_table, parser, start
-from judging.cases import TRANSFORMS, cases, source_case
+from judging.cases import TRANSFORMS, cases, source_cases
 from judging.clips import judge
 from judging.rigs import format_rig, parse_rig
 
@@ -64,9 +64,7 @@ def chosen_cases(folder: Path, names: list[str] | None, transforms: list[str] | 
     with each of those transforms."""
     if not transforms:
         return cases(folder, names)
-    bases = [source_case(path) for path in sorted(folder.glob("humanoid3d_*.bvh"))]
-    bases = [base for base in bases if not names or base.name in names]
-    return [case for base in bases for case in [base] + [TRANSFORMS[name](base) for name in transforms]]
+    return [case for base in source_cases(folder, names) for case in [base] + [TRANSFORMS[t](base) for t in transforms]]
 
 
 def verdicts(row: dict) -> dict:

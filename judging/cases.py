@@ -519,6 +519,13 @@ TRANSFORMS = {"studio": studio, "anon": anon, "backwards": backwards, "fast": fa
               "fingers": fingers, "twists": twists}  # fmt: skip
 
 
+def source_cases(folder: Path, names: list[str] | None = None) -> list[Case]:
+    """The humanoid3d_*.bvh clips of `folder` as they are (source_case), in name order; only
+    those `names` when given."""
+    bases = [source_case(path) for path in sorted(folder.glob("humanoid3d_*.bvh"))]
+    return [base for base in bases if not names or base.name in names]
+
+
 def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     """Every shared clip in `folder` (or those `names`), its studio rig, its EXTRAS transform,
     its CUTS transform, if any, its stand if in STANDS, its digits if in DIGITS, its laid rest if
@@ -527,10 +534,7 @@ def cases(folder: Path, names: list[str] | None = None) -> list[Case]:
     FINGERED, its twist bones if in TWISTED, its toes, without and with noise, and its copy at
     50 fps."""
     out = []
-    for path in sorted(folder.glob("humanoid3d_*.bvh")):
-        base = source_case(path)
-        if names and base.name not in names:
-            continue
+    for base in source_cases(folder, names):
         out += [base, studio(base), TRANSFORMS[EXTRAS.get(base.name, "noisy")](base)]
         out += [TRANSFORMS[CUTS[base.name]](base)] if base.name in CUTS else []
         out += [stand(base)] if base.name in STANDS else []

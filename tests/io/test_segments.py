@@ -223,7 +223,8 @@ def test_bones_are_classified_by_name(name, side, cls):
 def test_estimate_on_the_pybullet_humanoid_is_within_5_cm_of_the_true_com():
     """The pybullet model's masses do not come from de Leva's tables, so the estimate cannot match
     them exactly: it puts more mass high in the trunk and head, which moves the COM up, nearly
-    all of the difference vertical. 5 cm bounds it on all three clips."""
+    all of the difference vertical: its largest error on each clip lies between 3.4 and 4.5 cm
+    (docs/formats.md)."""
     for name in ("walk", "run", "jump"):
         clip = read_bvh(shared(f"humanoid3d_{name}.bvh"))
         truth = json.loads(shared(f"humanoid3d_{name}.segments.json").read_text())
@@ -231,7 +232,7 @@ def test_estimate_on_the_pybullet_humanoid_is_within_5_cm_of_the_true_com():
         assert (segments > 0).all() and segments.sum() == pytest.approx(NOMINAL_MASS, rel=1e-12)
         com = forward_kinematics(clip.skeleton, clip.frames).p_world_com
         error = np.linalg.norm(com - truth["pybullet_reference"]["com"], axis=1)
-        assert error.max() < 0.05, (name, error.max())
+        assert 0.0335 <= error.max() < 0.0455, (name, error.max())
         assert "no hand bones" in clip.mass_source and "70 kg nominal" in clip.mass_source
 
 
@@ -302,4 +303,20 @@ def test_a_forearm_that_ends_at_the_hand_carries_the_hand(hands):
     assert mass["LeftElbow"] / mass["LeftShoulder"] == pytest.approx((forearm + hand) / upper)
     share = (forearm * BONE_CLASSES["forearm"][1] + hand) / (forearm + hand)
     assert elbow.com_offset == pytest.approx((0, -0.3 * share, 0))
+    assert "the hands' mass on the forearms" in description
+
+
+def test_only_the_side_without_a_hand_carries_one():
+    """A left hand bone and none on the right: the right forearm carries the hand, the left
+    keeps its own share, and the description says the hands' mass went onto forearms."""
+    joints = [Joint("Hips", None, dofs=euler("ZXY")), Joint("Chest", "Hips", (0, 0.5, 0))]
+    sites = [Site("RightElbow_end", "RightElbow", (0, -0.3, 0)), Site("LeftHand_end", "LeftHand", (0, -0.1, 0))]
+    for side, z in (("Left", 0.2), ("Right", -0.2)):
+        joints.append(Joint(f"{side}Shoulder", "Chest", (0, 0.0, z)))
+        joints.append(Joint(f"{side}Elbow", f"{side}Shoulder", (0, -0.3, 0)))
+    joints.append(Joint("LeftHand", "LeftElbow", (0, -0.3, 0)))
+    segments, description = estimate_segments(build_skeleton(joints, sites))
+    mass = {s.joint: s.mass for s in segments}
+    forearm, hand = BONE_CLASSES["forearm"][0], BONE_CLASSES["hand"][0]
+    assert mass["RightElbow"] / mass["LeftElbow"] == pytest.approx((forearm + hand) / forearm)
     assert "the hands' mass on the forearms" in description

@@ -310,6 +310,14 @@ def frames_within(problem: Problem, errors: np.ndarray, levels: Callable[[int], 
     return np.all(np.isnan(errors[:, chosen]) | within, axis=1)
 
 
+def floor_depths(problem: Problem, errors: np.ndarray) -> np.ndarray:
+    """(N,) how deep under the floor the body goes in each frame, summed over its points
+    (length units: the Floor goal's error among `errors` (N, T) as goal_errors), 0 without a
+    floor."""
+    columns = [t for t, goal in enumerate(problem.goals) if isinstance(goal, g.Floor)]
+    return np.nan_to_num(errors[:, columns]).max(axis=1, initial=0.0)
+
+
 def met_frames(problem: Problem, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(errors (N, T) as goal_errors, met (N,): every contact, floor, balance and reach goal of
     the frame (the levels above fidelity) within tolerance) at `poses` (N, D)."""

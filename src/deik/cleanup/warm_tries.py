@@ -21,6 +21,7 @@ from deik.cleanup.clip_goals import (
     clip_balance,
     clip_problem,
     fixed_goals,
+    floor_depths,
     frames_within,
     met_frames,
     plants_at_heights,
@@ -34,8 +35,6 @@ from deik.io.trajectory import Motion
 from deik.model.joints import ROTATE
 from deik.model.rotations import wrap_rotations
 from deik.model.skeleton import Skeleton
-from deik.objectives.goals import Floor
-from deik.solver.problem import Problem
 
 EASE_SECONDS = 0.25  # how long a displacement takes to decay where no goal holds it
 GUARD_ROUNDS = 4  # balanced warm starts: the first, then those skipping balance where it made frames jolt
@@ -83,14 +82,6 @@ def _warm_start(
             break
         balance = clip_balance(clip, goals, skip=balance.skipped | jolting, frames=unbalanced)
     return displacement, fixed, balance
-
-
-def floor_depths(problem: Problem, errors: np.ndarray) -> np.ndarray:
-    """(N,) how deep under the floor the body goes in each frame, summed over its points
-    (length units; the Floor goal's error among `errors` (N, T), clip_goals.goal_errors), 0
-    without a floor."""
-    columns = [t for t, goal in enumerate(problem.goals) if isinstance(goal, Floor)]
-    return np.nan_to_num(errors[:, columns]).max(axis=1, initial=0.0)
 
 
 def captured(clip: Motion, goals: ClipGoals) -> Motion:

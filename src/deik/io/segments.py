@@ -140,6 +140,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
             groups[(cls, bone_side(names[k]) if BONE_CLASSES[cls][2] else "")].append(k)
     share = np.zeros(skeleton.n_joints)
     along = [BONE_CLASSES[c][1] if c else 0.5 for c in classes]  # COM fraction along each bone
+    carried = {}  # limb class -> the end class it carries on some side
     for (cls, side), members in groups.items():
         fraction = BONE_CLASSES[cls][0]
         end = ENDS.get(cls)
@@ -148,6 +149,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
             for k in members:  # the end's mass at the bone's end
                 along[k] = (fraction * along[k] + held) / (fraction + held)
             fraction += held
+            carried[cls] = end
         share[members] = fraction * lengths[members] / lengths[members].sum()
     unclassified = [k for k, cls in enumerate(classes) if cls is None and lengths[k] > 0]
     rest = max(1.0 - share.sum(), 0.0)
@@ -177,7 +179,7 @@ def estimate_segments(skeleton: Skeleton, total_mass: float = NOMINAL_MASS) -> t
     notes = ["estimated from bone lengths with de Leva (1996) mass fractions", f"classified bones: {found}"]
     if missing:
         notes.append(f"no {', '.join(missing)} bones")
-    notes += [f"the {end}s' mass on the {limb}s" for limb, end in ENDS.items() if counts[limb] and not counts[end]]
+    notes += [f"the {end}s' mass on the {limb}s" for limb, end in carried.items()]
     if unclassified:
         notes.append(
             f"{len(unclassified)} unclassified bones share the remaining {share[unclassified].sum():.1%} by length"
